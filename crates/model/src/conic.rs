@@ -1,0 +1,499 @@
+//! The constant-angle conic prism scanner of seed 004 (CZMIL-like), with refraction through the
+//! prism and at the water surface.
+//!
+//! The seed's formula images are missing; these conventions (SPEC §3) reproduce its Table 4:
+//! - emitter direction in S: `l1 = [sin φls cos θls, sin φls sin θls, cos φls]`, fixed in S;
+//! - prism normals along the propagation direction: top `p1 = [sin θf, 0, cos θf]`, bottom
+//!   `p2 = [0, 0, 1]`, both turned by `Rz(θaz) · Rx(θfsx) Ry(θfsy) Rz(θfsz)`;
+//! - vector Snell law `t = η l + (cos θt − η cos θi) n`, `cos θi = n·l`, `η = n_in / n_out`:
+//!   `l2 = t(l1, p1, na/nf)`, `l3 = t(l2, p2, nf/na)`, `l4 = t(l3, p3, na/nw)`;
+//! - `p3` is `[0, 0, 1]` in S (`scanner-frame`, the paper's model) or the local vertical in N
+//!   (`level`, physically right: attitude then changes the incidence angle);
+//! - ranges `ρ1 = c Δt1 / 2`, `ρ2 = c Δt2 / (2 nw)` with `c` the speed of light in air;
+//!   `X_S = ρ1 l3 + ρ2 l4`, then boresight, lever arm and attitude as for the linear scanner.
+
+use crate::error::{Error, Result};
+use crate::frames::{Attitude, Mounting};
+use crate::georeferencer::{Georeferencer, gnss_offset_ned};
+use crate::rotation::{rot_x, rot_y, rot_z, rotation_zyx};
+use crate::scalar::{Scalar, c};
+use crate::source::Source;
+use nalgebra::{SVector, Vector3};
+
+/// Speed of light in air used by seed 004, m/s.
+pub const SPEED_OF_LIGHT_AIR_M_PER_S: f64 = 299_552_816.0;
+
+/// Number of parameters of the conic model.
+pub const CONIC_N: usize = 21;
+
+/// Where the water-surface normal `p3` is fixed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Refraction {
+    /// `p3 = [0, 0, 1]` in the scanner frame: seed 004's model (reproduces its Table 4).
+    #[default]
+    ScannerFrame,
+    /// `p3` = local vertical in N: roll and pitch change the incidence angle, as they physically do.
+    Level,
+}
+
+impl Refraction {
+    /// `"scanner-frame"` or `"level"`, as in the sensor file and JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Refraction::ScannerFrame => "scanner-frame",
+            Refraction::Level => "level",
+        }
+    }
+
+    /// Parse `"scanner-frame"` or `"level"`.
+    pub fn from_name(name: &str) -> Option<Refraction> {
+        match name {
+            "scanner-frame" => Some(Refraction::ScannerFrame),
+            "level" => Some(Refraction::Level),
+            _ => None,
+        }
+    }
+}
+
+/// Seed 004's defaults: prism 1.461, air 1.0003, water 1.33.
+pub const DEFAULT_N_PRISM: f64 = 1.461;
+/// Default refraction index of air.
+pub const DEFAULT_N_AIR: f64 = 1.0003;
+/// Default refraction index of sea water.
+pub const DEFAULT_N_WATER: f64 = 1.33;
+
+/// Constants of a conic prism scanner (checked by [`ConicScanner::new`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConicScanner {
+    prism_slope_rad: f64,
+    n_prism: f64,
+    n_air: f64,
+    n_water: f64,
+    refraction: Refraction,
+}
+
+/// Refract direction `l` (unit) through a surface with unit normal `n` pointing along the propagation
+/// direction, `eta = n_in / n_out` (vector Snell law, Glassner 1989, seed 004 ref. 14):
+/// `t = η l + (cos θt − η cos θi) n`, `cos θi = n·l`, `cos θt = √(1 − η² (1 − cos² θi))`.
+/// Returns NaN components on total internal reflection.
+pub fn refract<D: Scalar>(l: &Vector3<D>, n: &Vector3<D>, eta: D) -> Vector3<D> {
+    let cos_i = n.dot(l);
+    let cos_t = (c::<D>(1.0) - eta * eta * (c::<D>(1.0) - cos_i * cos_i)).sqrt();
+    l * eta + n * (cos_t - eta * cos_i)
+}
+
+impl ConicScanner {
+    /// Check and build from the prism slope θf (rad) and the three refraction indices.
+    pub fn new(
+        prism_slope_rad: f64,
+        n_prism: f64,
+        n_air: f64,
+        n_water: f64,
+        refraction: Refraction,
+    ) -> Result<ConicScanner> {
+        check_index("n_prism", n_prism, false)?;
+        check_index("n_air", n_air, true)?;
+        check_index("n_water", n_water, false)?;
+        let s = ConicScanner {
+            prism_slope_rad,
+            n_prism,
+            n_air,
+            n_water,
+            refraction,
+        };
+        let ok = prism_slope_rad.is_finite()
+            && prism_slope_rad > 0.0
+            && prism_slope_rad < std::f64::consts::FRAC_PI_2
+            && s.exit_angle_rad().is_finite();
+        if !ok {
+            return Err(Error::InvalidPrismSlope {
+                prism_slope_deg: prism_slope_rad.to_degrees(),
+            });
+        }
+        Ok(s)
+    }
+
+    /// Build from the wanted exit angle (angle of the beam leaving the prism from the S Z axis), solving
+    /// for the prism slope. Seed 004: 20° ⇒ θf = 39.16°.
+    pub fn from_exit_angle(
+        exit_angle_rad: f64,
+        n_prism: f64,
+        n_air: f64,
+        n_water: f64,
+        refraction: Refraction,
+    ) -> Result<ConicScanner> {
+        check_index("n_prism", n_prism, false)?;
+        check_index("n_air", n_air, true)?;
+        let exit = |slope: f64| nominal_exit_angle(slope, n_prism, n_air);
+        // The exit angle grows monotonically with the slope up to total internal reflection.
+        let (mut lo, mut hi) = (0.0_f64, std::f64::consts::FRAC_PI_2);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if exit(mid).is_finite() {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let max = exit(lo);
+        if !(exit_angle_rad.is_finite() && exit_angle_rad > 0.0 && exit_angle_rad < max) {
+            return Err(Error::UnreachableExitAngle {
+                exit_angle_deg: exit_angle_rad.to_degrees(),
+                max_deg: max.to_degrees(),
+            });
+        }
+        let (mut a, mut b) = (0.0, lo);
+        for _ in 0..200 {
+            let mid = 0.5 * (a + b);
+            if exit(mid) < exit_angle_rad {
+                a = mid;
+            } else {
+                b = mid;
+            }
+        }
+        ConicScanner::new(0.5 * (a + b), n_prism, n_air, n_water, refraction)
+    }
+
+    /// Prism top-surface slope θf, rad.
+    pub fn prism_slope_rad(&self) -> f64 {
+        self.prism_slope_rad
+    }
+    /// Refraction index of the prism.
+    pub fn n_prism(&self) -> f64 {
+        self.n_prism
+    }
+    /// Refraction index of air.
+    pub fn n_air(&self) -> f64 {
+        self.n_air
+    }
+    /// Refraction index of water.
+    pub fn n_water(&self) -> f64 {
+        self.n_water
+    }
+    /// Water-surface refraction mode.
+    pub fn refraction(&self) -> Refraction {
+        self.refraction
+    }
+
+    /// Nominal exit angle (beam leaving the prism vs S Z axis), rad.
+    pub fn exit_angle_rad(&self) -> f64 {
+        nominal_exit_angle(self.prism_slope_rad, self.n_prism, self.n_air)
+    }
+
+    /// Air range from the two-way air travel time: `ρ1 = c Δt1 / 2`, m.
+    pub fn range_air_m(&self, time_air_s: f64) -> f64 {
+        SPEED_OF_LIGHT_AIR_M_PER_S * time_air_s / 2.0
+    }
+    /// Water range from the two-way water travel time: `ρ2 = c Δt2 / (2 nw)`, m.
+    pub fn range_water_m(&self, time_water_s: f64) -> f64 {
+        SPEED_OF_LIGHT_AIR_M_PER_S * time_water_s / (2.0 * self.n_water)
+    }
+    /// Inverse of [`ConicScanner::range_air_m`], s.
+    pub fn time_air_s(&self, range_air_m: f64) -> f64 {
+        2.0 * range_air_m / SPEED_OF_LIGHT_AIR_M_PER_S
+    }
+    /// Inverse of [`ConicScanner::range_water_m`], s.
+    pub fn time_water_s(&self, range_water_m: f64) -> f64 {
+        2.0 * self.n_water * range_water_m / SPEED_OF_LIGHT_AIR_M_PER_S
+    }
+
+    /// Beam directions in S: `(l3, l4)`, in air after the prism and in water after the surface, for
+    /// the parameter vector `p` (see [`Georeferencer::SOURCES`] for the order).
+    pub fn beam_directions<D: Scalar>(&self, p: &SVector<D, CONIC_N>) -> (Vector3<D>, Vector3<D>) {
+        let (o, l) = (D::zero(), D::one());
+        let turn = rot_z(p[16]) * rot_x(p[13]) * rot_y(p[14]) * rot_z(p[15]);
+        let (st, ct) = p[12].sin_cos();
+        let p1 = turn * Vector3::new(st, o, ct);
+        let p2 = turn * Vector3::new(o, o, l);
+        let (sz, cz) = p[17].sin_cos();
+        let (sa, ca) = p[18].sin_cos();
+        let l1 = Vector3::new(sz * ca, sz * sa, cz);
+        let (na, nf, nw) = (c::<D>(self.n_air), c::<D>(self.n_prism), c::<D>(self.n_water));
+        let l2 = refract(&l1, &p1, na / nf);
+        let l3 = refract(&l2, &p2, nf / na);
+        let p3 = match self.refraction {
+            Refraction::ScannerFrame => Vector3::new(o, o, l),
+            Refraction::Level => {
+                // Local vertical (N down) expressed in S: (R_N R_M)ᵀ [0, 0, 1].
+                let r = rotation_zyx(p[3], p[4], p[5]) * rotation_zyx(p[6], p[7], p[8]);
+                r.transpose() * Vector3::new(o, o, l)
+            }
+        };
+        let l4 = refract(&l3, &p3, na / nw);
+        (l3, l4)
+    }
+
+    /// Air and water ranges (m) that put the footprint on a level water surface `height_m` below the
+    /// GNSS/INS reference point and a level bottom `depth_m` below that surface.
+    pub fn ranges_for_height_depth(
+        &self,
+        attitude: &Attitude,
+        mounting: &Mounting,
+        azimuth_rad: f64,
+        height_m: f64,
+        depth_m: f64,
+    ) -> Result<(f64, f64)> {
+        if !(height_m.is_finite() && height_m > 0.0) {
+            return Err(Error::NotPositive {
+                name: "height_m",
+                value: height_m,
+            });
+        }
+        if !(depth_m.is_finite() && depth_m >= 0.0) {
+            return Err(Error::NotPositive {
+                name: "depth_m",
+                value: depth_m,
+            });
+        }
+        let obs = ConicObservation {
+            azimuth_rad,
+            time_air_s: 0.0,
+            time_water_s: 0.0,
+        };
+        let p = self.parameters(attitude, mounting, &obs);
+        let (l3, l4) = self.beam_directions(&p);
+        let r = rotation_zyx(attitude.roll_rad, attitude.pitch_rad, attitude.heading_rad)
+            * rotation_zyx(
+                mounting.boresight_roll_rad,
+                mounting.boresight_pitch_rad,
+                mounting.boresight_yaw_rad,
+            );
+        let r_n = rotation_zyx(attitude.roll_rad, attitude.pitch_rad, attitude.heading_rad);
+        let origin_down = (r_n * mounting.lever_arm_m).z;
+        let rho1 = range_to_level(height_m - origin_down, &(r * l3), height_m)?;
+        let rho2 = if depth_m == 0.0 {
+            0.0
+        } else {
+            range_to_level(depth_m, &(r * l4), depth_m)?
+        };
+        Ok((rho1, rho2))
+    }
+}
+
+fn check_index(name: &'static str, value: f64, allow_one: bool) -> Result<()> {
+    let ok = value.is_finite() && (value > 1.0 || (allow_one && value == 1.0));
+    if ok {
+        Ok(())
+    } else {
+        Err(Error::InvalidRefractionIndex { name, value })
+    }
+}
+
+fn nominal_exit_angle(slope: f64, n_prism: f64, n_air: f64) -> f64 {
+    let l1 = Vector3::new(0.0, 0.0, 1.0);
+    let p1 = Vector3::new(slope.sin(), 0.0, slope.cos());
+    let l2 = refract(&l1, &p1, n_air / n_prism);
+    let l3 = refract(&l2, &Vector3::z(), n_prism / n_air);
+    l3.z.clamp(-1.0, 1.0).acos()
+}
+
+/// Distance along unit direction `dir` (NED) to a level surface `drop_m` below the start;
+/// `height_m` is only for the error message.
+pub(crate) fn range_to_level(drop_m: f64, dir: &Vector3<f64>, height_m: f64) -> Result<f64> {
+    let dir = dir.normalize();
+    if dir.z <= 1e-9 || drop_m <= 0.0 {
+        return Err(Error::BeamMissesSurface {
+            height_m,
+            elevation_deg: (-dir.z).clamp(-1.0, 1.0).asin().to_degrees(),
+        });
+    }
+    Ok(drop_m / dir.z)
+}
+
+/// Raw observation of one conic-scanner pulse.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConicObservation {
+    /// Scan azimuth θaz of the prism, rad (0 = forward, positive towards the right wing).
+    pub azimuth_rad: f64,
+    /// Two-way travel time in air Δt1, s.
+    pub time_air_s: f64,
+    /// Two-way travel time in water Δt2, s (0 for a topographic or water-surface return).
+    pub time_water_s: f64,
+}
+
+impl Georeferencer<CONIC_N> for ConicScanner {
+    type Observation = ConicObservation;
+
+    const SOURCES: [Source; CONIC_N] = [
+        Source::GnssNorth,
+        Source::GnssEast,
+        Source::GnssUp,
+        Source::Roll,
+        Source::Pitch,
+        Source::Heading,
+        Source::BoresightRoll,
+        Source::BoresightPitch,
+        Source::BoresightYaw,
+        Source::LeverX,
+        Source::LeverY,
+        Source::LeverZ,
+        Source::PrismSlope,
+        Source::PrismX,
+        Source::PrismY,
+        Source::PrismZ,
+        Source::ScanAzimuth,
+        Source::EmitterZenith,
+        Source::EmitterAzimuth,
+        Source::TimeAir,
+        Source::TimeWater,
+    ];
+
+    fn parameters(
+        &self,
+        a: &Attitude,
+        m: &Mounting,
+        o: &ConicObservation,
+    ) -> SVector<f64, CONIC_N> {
+        SVector::from([
+            0.0,
+            0.0,
+            0.0,
+            a.roll_rad,
+            a.pitch_rad,
+            a.heading_rad,
+            m.boresight_roll_rad,
+            m.boresight_pitch_rad,
+            m.boresight_yaw_rad,
+            m.lever_arm_m.x,
+            m.lever_arm_m.y,
+            m.lever_arm_m.z,
+            self.prism_slope_rad,
+            0.0,
+            0.0,
+            0.0,
+            o.azimuth_rad,
+            0.0,
+            0.0,
+            o.time_air_s,
+            o.time_water_s,
+        ])
+    }
+
+    fn footprint_ned<D: Scalar>(&self, p: &SVector<D, CONIC_N>) -> Vector3<D> {
+        let (l3, l4) = self.beam_directions(p);
+        let speed = c::<D>(SPEED_OF_LIGHT_AIR_M_PER_S);
+        let rho1 = speed * p[19] * c::<D>(0.5);
+        let rho2 = speed * p[20] / (c::<D>(2.0 * self.n_water));
+        let x_s = l3 * rho1 + l4 * rho2;
+        let r_n = rotation_zyx(p[3], p[4], p[5]);
+        let r_m = rotation_zyx(p[6], p[7], p[8]);
+        let lever = Vector3::new(p[9], p[10], p[11]);
+        gnss_offset_ned(p[0], p[1], p[2]) + r_n * (r_m * x_s + lever)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    fn czmil(mode: Refraction) -> ConicScanner {
+        ConicScanner::from_exit_angle(
+            20f64.to_radians(),
+            DEFAULT_N_PRISM,
+            DEFAULT_N_AIR,
+            DEFAULT_N_WATER,
+            mode,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn exit_angle_20_deg_gives_prism_slope_39_16_deg() {
+        let s = czmil(Refraction::ScannerFrame);
+        // Seed 004 §1.1: 39.16°; to more digits from the closed form
+        // θ4 = asin(nf/na · sin(θf − asin(na/nf · sin θf))).
+        assert_relative_eq!(s.prism_slope_rad().to_degrees(), 39.1603, epsilon = 5e-5);
+        let tf = s.prism_slope_rad();
+        let closed = (DEFAULT_N_PRISM / DEFAULT_N_AIR
+            * (tf - (DEFAULT_N_AIR / DEFAULT_N_PRISM * tf.sin()).asin()).sin())
+        .asin();
+        assert_relative_eq!(closed.to_degrees(), 20.0, epsilon = 1e-9);
+    }
+
+    #[test]
+    fn refraction_keeps_unit_length_and_obeys_snell() {
+        let l = Vector3::new(0.3, -0.2, 0.9).normalize();
+        let n = Vector3::new(0.1, 0.05, 1.0).normalize();
+        let eta = 1.0003 / 1.33;
+        let t = refract(&l, &n, eta);
+        assert_relative_eq!(t.norm(), 1.0, epsilon = 1e-14);
+        let sin_i = l.cross(&n).norm();
+        let sin_t = t.cross(&n).norm();
+        assert_relative_eq!(sin_i * 1.0003, sin_t * 1.33, epsilon = 1e-14);
+        // Incident ray, normal and refracted ray are coplanar.
+        assert_relative_eq!(l.cross(&n).dot(&t), 0.0, epsilon = 1e-15);
+    }
+
+    #[test]
+    fn circle_on_level_water_at_level_flight() {
+        let s = czmil(Refraction::ScannerFrame);
+        for az in [0.0f64, 45.0, 90.0, 200.0] {
+            let (r1, _) = s
+                .ranges_for_height_depth(
+                    &Attitude::default(),
+                    &Mounting::default(),
+                    az.to_radians(),
+                    400.0,
+                    0.0,
+                )
+                .unwrap();
+            let obs = ConicObservation {
+                azimuth_rad: az.to_radians(),
+                time_air_s: s.time_air_s(r1),
+                time_water_s: 0.0,
+            };
+            let f = s.footprint_ned(&s.parameters(
+                &Attitude::default(),
+                &Mounting::default(),
+                &obs,
+            ));
+            assert_relative_eq!(f.z, 400.0, epsilon = 1e-9);
+            let radius = (f.x * f.x + f.y * f.y).sqrt();
+            assert_relative_eq!(radius, 400.0 * 20f64.to_radians().tan(), epsilon = 1e-6);
+            // Azimuth 0 looks forward, 90° to the right wing.
+            assert_relative_eq!(f.y.atan2(f.x).to_degrees().rem_euclid(360.0), az, epsilon = 1e-6);
+        }
+    }
+
+    #[test]
+    fn modes_agree_at_level_attitude_and_differ_with_roll() {
+        let sf = czmil(Refraction::ScannerFrame);
+        let lv = czmil(Refraction::Level);
+        let obs = ConicObservation {
+            azimuth_rad: 0.3,
+            time_air_s: sf.time_air_s(425.7),
+            time_water_s: sf.time_water_s(51.7),
+        };
+        let m = Mounting::default();
+        let a0 = Attitude::default();
+        assert_relative_eq!(
+            sf.footprint_ned(&sf.parameters(&a0, &m, &obs)),
+            lv.footprint_ned(&lv.parameters(&a0, &m, &obs)),
+            epsilon = 1e-9
+        );
+        let a1 = Attitude::from_degrees(5.0, 0.0, 0.0);
+        let d = sf.footprint_ned(&sf.parameters(&a1, &m, &obs))
+            - lv.footprint_ned(&lv.parameters(&a1, &m, &obs));
+        assert!(d.norm() > 0.1, "5° roll must change the in-water path: {d}");
+    }
+
+    #[test]
+    fn bad_indices_and_slopes_are_refused() {
+        assert!(matches!(
+            ConicScanner::new(0.6, 1.461, 1.0003, 0.9, Refraction::Level),
+            Err(Error::InvalidRefractionIndex { name: "n_water", .. })
+        ));
+        assert!(ConicScanner::new(1.55, 1.461, 1.0003, 1.33, Refraction::Level).is_err());
+        assert!(matches!(
+            ConicScanner::from_exit_angle(
+                90.5f64.to_radians(),
+                1.461,
+                1.0003,
+                1.33,
+                Refraction::Level
+            ),
+            Err(Error::UnreachableExitAngle { .. })
+        ));
+    }
+}

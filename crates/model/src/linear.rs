@@ -1,0 +1,157 @@
+//! The linear (oscillating-mirror) scanner of seed 000.
+//!
+//! Seed 000 eq. (2): `P = P0 + R_N (R_M S + ΔP)` with `S = [0, ρ sin θ, ρ cos θ]` (θ > 0 to the
+//! right wing), `R_N = Rz(H) Ry(P) Rx(R)` and `R_M = Rz(Δγ) Ry(Δβ) Rx(Δα)`.
+
+use crate::error::{Error, Result};
+use crate::frames::{Attitude, Mounting};
+use crate::georeferencer::{Georeferencer, gnss_offset_ned};
+use crate::rotation::rotation_zyx;
+use crate::scalar::Scalar;
+use crate::source::Source;
+use nalgebra::{SVector, Vector3};
+
+/// Number of parameters of the linear model.
+pub const LINEAR_N: usize = 14;
+
+/// The linear scanner model; it has no constants of its own.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct LinearScanner;
+
+/// Raw observation of one linear-scanner pulse.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinearObservation {
+    /// Slant range ρ, m.
+    pub range_m: f64,
+    /// Instantaneous scan angle θ, rad, positive towards the right wing (+Y of S).
+    pub scan_angle_rad: f64,
+}
+
+/// Pulse vector in the scanner frame: `S = [0, ρ sin θ, ρ cos θ]` (seed 000).
+pub fn scanner_vector<D: Scalar>(range_m: D, scan_angle_rad: D) -> Vector3<D> {
+    let (s, c) = scan_angle_rad.sin_cos();
+    Vector3::new(D::zero(), range_m * s, range_m * c)
+}
+
+impl Georeferencer<LINEAR_N> for LinearScanner {
+    type Observation = LinearObservation;
+
+    const SOURCES: [Source; LINEAR_N] = [
+        Source::GnssNorth,
+        Source::GnssEast,
+        Source::GnssUp,
+        Source::Roll,
+        Source::Pitch,
+        Source::Heading,
+        Source::BoresightRoll,
+        Source::BoresightPitch,
+        Source::BoresightYaw,
+        Source::LeverX,
+        Source::LeverY,
+        Source::LeverZ,
+        Source::Range,
+        Source::ScanAngle,
+    ];
+
+    fn parameters(
+        &self,
+        a: &Attitude,
+        m: &Mounting,
+        o: &LinearObservation,
+    ) -> SVector<f64, LINEAR_N> {
+        SVector::from([
+            0.0,
+            0.0,
+            0.0,
+            a.roll_rad,
+            a.pitch_rad,
+            a.heading_rad,
+            m.boresight_roll_rad,
+            m.boresight_pitch_rad,
+            m.boresight_yaw_rad,
+            m.lever_arm_m.x,
+            m.lever_arm_m.y,
+            m.lever_arm_m.z,
+            o.range_m,
+            o.scan_angle_rad,
+        ])
+    }
+
+    fn footprint_ned<D: Scalar>(&self, p: &SVector<D, LINEAR_N>) -> Vector3<D> {
+        let r_n = rotation_zyx(p[3], p[4], p[5]);
+        let r_m = rotation_zyx(p[6], p[7], p[8]);
+        let lever = Vector3::new(p[9], p[10], p[11]);
+        let s = scanner_vector(p[12], p[13]);
+        gnss_offset_ned(p[0], p[1], p[2]) + r_n * (r_m * s + lever)
+    }
+}
+
+/// The range at which a pulse at `scan_angle_rad` meets level ground `height_m` below the GNSS/INS
+/// reference point, for the given attitude and mounting.
+pub fn linear_range_for_height(
+    attitude: &Attitude,
+    mounting: &Mounting,
+    scan_angle_rad: f64,
+    height_m: f64,
+) -> Result<f64> {
+    if !(height_m.is_finite() && height_m > 0.0) {
+        return Err(Error::NotPositive {
+            name: "height_m",
+            value: height_m,
+        });
+    }
+    let r_n = rotation_zyx(attitude.roll_rad, attitude.pitch_rad, attitude.heading_rad);
+    let r_m = rotation_zyx(
+        mounting.boresight_roll_rad,
+        mounting.boresight_pitch_rad,
+        mounting.boresight_yaw_rad,
+    );
+    let origin_down = (r_n * mounting.lever_arm_m).z;
+    let dir = r_n * r_m * scanner_vector(1.0, scan_angle_rad);
+    crate::conic::range_to_level(height_m - origin_down, &dir, height_m)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn seed000_footprint_at_level_flight() {
+        let theta = 30f64.to_radians();
+        let obs = LinearObservation {
+            range_m: 80.0 / theta.cos(),
+            scan_angle_rad: theta,
+        };
+        let p = LinearScanner.parameters(&Attitude::default(), &Mounting::default(), &obs);
+        let f = LinearScanner.footprint_ned(&p);
+        assert_relative_eq!(f, Vector3::new(0.0, 46.188_021_535, 80.0), epsilon = 1e-8);
+    }
+
+    #[test]
+    fn range_for_height_inverts_footprint() {
+        let att = Attitude::from_degrees(3.0, 3.0, 4.0);
+        let m = Mounting {
+            boresight_roll_rad: 0.01,
+            boresight_pitch_rad: -0.02,
+            boresight_yaw_rad: 0.03,
+            lever_arm_m: Vector3::new(0.3, -0.2, 0.5),
+        };
+        let theta = -0.4;
+        let rho = linear_range_for_height(&att, &m, theta, 1000.0).unwrap();
+        let obs = LinearObservation {
+            range_m: rho,
+            scan_angle_rad: theta,
+        };
+        let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&att, &m, &obs));
+        assert_relative_eq!(f.z, 1000.0, epsilon = 1e-9);
+    }
+
+    #[test]
+    fn range_for_height_refuses_a_beam_above_the_horizon() {
+        let att = Attitude::from_degrees(-80.0, 0.0, 0.0);
+        let e = linear_range_for_height(&att, &Mounting::default(), 30f64.to_radians(), 100.0)
+            .unwrap_err();
+        assert!(matches!(e, Error::BeamMissesSurface { .. }), "{e}");
+    }
+}

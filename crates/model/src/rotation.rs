@@ -1,0 +1,99 @@
+//! Elementary rotations and the attitude / boresight matrices of SPEC §3.
+//!
+//! All rotations are active (they rotate vectors) and right-handed. Attitude and boresight use the
+//! same order, `R = Rz(yaw) · Ry(pitch) · Rx(roll)`, which is exactly seed 000's printed
+//! `R_N = R(H) · R(P) · R(R)`.
+
+use crate::scalar::{Scalar, c};
+use nalgebra::{Matrix3, Vector3};
+
+/// Rotation about X by `a` radians.
+pub fn rot_x<D: Scalar>(a: D) -> Matrix3<D> {
+    let (s, co) = a.sin_cos();
+    let (o, l) = (c::<D>(0.0), c::<D>(1.0));
+    Matrix3::new(l, o, o, o, co, -s, o, s, co)
+}
+
+/// Rotation about Y by `a` radians.
+pub fn rot_y<D: Scalar>(a: D) -> Matrix3<D> {
+    let (s, co) = a.sin_cos();
+    let (o, l) = (c::<D>(0.0), c::<D>(1.0));
+    Matrix3::new(co, o, s, o, l, o, -s, o, co)
+}
+
+/// Rotation about Z by `a` radians.
+pub fn rot_z<D: Scalar>(a: D) -> Matrix3<D> {
+    let (s, co) = a.sin_cos();
+    let (o, l) = (c::<D>(0.0), c::<D>(1.0));
+    Matrix3::new(co, -s, o, s, co, o, o, o, l)
+}
+
+/// `Rz(yaw) · Ry(pitch) · Rx(roll)`, angles in radians.
+///
+/// As the platform attitude this is seed 000's `R_N` (body B → navigation N, NED); as the boresight it
+/// is `R_M` (scanner S → body B), whose small-angle form is seed 000's
+/// `[[1, −Δγ, Δβ], [Δγ, 1, −Δα], [−Δβ, Δα, 1]]` with Δα = roll, Δβ = pitch, Δγ = yaw.
+pub fn rotation_zyx<D: Scalar>(roll: D, pitch: D, yaw: D) -> Matrix3<D> {
+    rot_z(yaw) * rot_y(pitch) * rot_x(roll)
+}
+
+/// Roll, pitch and yaw (radians) of a rotation matrix built as [`rotation_zyx`]; the inverse of it
+/// away from pitch = ±90°.
+pub fn zyx_angles(r: &Matrix3<f64>) -> Vector3<f64> {
+    let roll = r[(2, 1)].atan2(r[(2, 2)]);
+    let pitch = (-r[(2, 0)]).clamp(-1.0, 1.0).asin();
+    let yaw = r[(1, 0)].atan2(r[(0, 0)]);
+    Vector3::new(roll, pitch, yaw)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    /// Seed 000's printed R_N, evaluated element by element from its symbolic form.
+    fn seed000_printed(h: f64, p: f64, r: f64) -> Matrix3<f64> {
+        let (ch, sh, cp, sp, cr, sr) = (h.cos(), h.sin(), p.cos(), p.sin(), r.cos(), r.sin());
+        Matrix3::new(
+            ch * cp,
+            ch * sp * sr - sh * cr,
+            sh * sr + ch * sp * cr,
+            sh * cp,
+            ch * cr + sh * sp * sr,
+            sh * sp * cr - ch * sr,
+            -sp,
+            cp * sr,
+            cp * cr,
+        )
+    }
+
+    #[test]
+    fn attitude_matrix_equals_seed000_printed_matrix() {
+        let (h, p, r) = (4f64.to_radians(), 3f64.to_radians(), 3f64.to_radians());
+        let ours = rotation_zyx(r, p, h);
+        let paper = seed000_printed(h, p, r);
+        for i in 0..3 {
+            for j in 0..3 {
+                assert_relative_eq!(ours[(i, j)], paper[(i, j)], epsilon = 1e-15);
+            }
+        }
+        // A few numbers written out, so a sign slip in both forms cannot hide.
+        assert_relative_eq!(ours[(0, 0)], 0.997_564_050 * 0.998_629_535, epsilon = 1e-9);
+        assert_relative_eq!(ours[(2, 0)], -0.052_335_956, epsilon = 1e-9);
+    }
+
+    #[test]
+    fn small_angle_boresight_matches_seed000_form() {
+        let (a, b, g) = (1e-4, -2e-4, 3e-4);
+        let r = rotation_zyx(a, b, g);
+        let small = Matrix3::new(1.0, -g, b, g, 1.0, -a, -b, a, 1.0);
+        assert!((r - small).amax() < 1e-7, "second-order terms only");
+    }
+
+    #[test]
+    fn angles_round_trip() {
+        let r = rotation_zyx(0.1, -0.2, 2.9);
+        let a = zyx_angles(&r);
+        assert_relative_eq!(a, Vector3::new(0.1, -0.2, 2.9), epsilon = 1e-14);
+    }
+}

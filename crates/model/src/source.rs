@@ -1,0 +1,168 @@
+//! The named error sources of SPEC §4 and their units.
+
+use std::fmt;
+
+/// Physical kind of a source's value; decides the SI unit and the unit suffix of config keys.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Unit {
+    /// Lengths: SI metres, config `_m`.
+    Metre,
+    /// Angles: SI radians, config `_deg` (degrees at the edges).
+    Radian,
+    /// Times: SI seconds, config `_ns` (nanoseconds at the edges).
+    Second,
+}
+
+impl Unit {
+    /// The SI unit symbol used in JSON (`"m"`, `"rad"`, `"s"`).
+    pub fn si_symbol(self) -> &'static str {
+        match self {
+            Unit::Metre => "m",
+            Unit::Radian => "rad",
+            Unit::Second => "s",
+        }
+    }
+
+    /// The suffix a config key or flag carries for this unit (`_m`, `_deg`, `_ns`).
+    pub fn config_suffix(self) -> &'static str {
+        match self {
+            Unit::Metre => "_m",
+            Unit::Radian => "_deg",
+            Unit::Second => "_ns",
+        }
+    }
+
+    /// Factor from the config unit (m, degrees, nanoseconds) to SI (m, rad, s).
+    pub fn config_to_si(self) -> f64 {
+        match self {
+            Unit::Metre => 1.0,
+            Unit::Radian => std::f64::consts::PI / 180.0,
+            Unit::Second => 1e-9,
+        }
+    }
+}
+
+macro_rules! sources {
+    ($( $(#[$doc:meta])* $variant:ident = $name:literal, $unit:ident; )*) => {
+        /// One error source. Its snake_case [`Source::name`] is used in TOML `[sigma]` keys (with a
+        /// unit suffix), in JSON and in reports (SPEC §4).
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        pub enum Source {
+            $( $(#[$doc])* $variant, )*
+        }
+
+        impl Source {
+            /// Every source, in a fixed order.
+            pub const ALL: &'static [Source] = &[$(Source::$variant),*];
+
+            /// The snake_case name of SPEC §4.
+            pub fn name(self) -> &'static str {
+                match self { $(Source::$variant => $name,)* }
+            }
+
+            /// The physical kind of the source's value.
+            pub fn unit(self) -> Unit {
+                match self { $(Source::$variant => Unit::$unit,)* }
+            }
+        }
+    };
+}
+
+sources! {
+    /// GNSS/INS reference point position error, north (m). Seed 000 X0, seed 004 ΔxG.
+    GnssNorth = "gnss_north", Metre;
+    /// GNSS/INS reference point position error, east (m). Seed 000 Y0, seed 004 ΔyG.
+    GnssEast = "gnss_east", Metre;
+    /// GNSS/INS reference point position error, up (m). Seed 000 Z0, seed 004 ΔzG.
+    GnssUp = "gnss_up", Metre;
+    /// Platform roll (rad). Seed 000 R, seed 004 ω.
+    Roll = "roll", Radian;
+    /// Platform pitch (rad). Seed 000 P, seed 004 ψ.
+    Pitch = "pitch", Radian;
+    /// Platform heading (rad). Seed 000 H, seed 004 κ.
+    Heading = "heading", Radian;
+    /// Boresight roll, about scanner X (rad). Seed 000 Δα, seed 004 θrol.
+    BoresightRoll = "boresight_roll", Radian;
+    /// Boresight pitch, about scanner Y (rad). Seed 000 Δβ, seed 004 θpit.
+    BoresightPitch = "boresight_pitch", Radian;
+    /// Boresight yaw, about scanner Z (rad). Seed 000 Δγ, seed 004 θhea.
+    BoresightYaw = "boresight_yaw", Radian;
+    /// Lever arm, body X (m). Seed 000 Δx, seed 004 Δxil.
+    LeverX = "lever_x", Metre;
+    /// Lever arm, body Y (m). Seed 000 Δy, seed 004 Δyil.
+    LeverY = "lever_y", Metre;
+    /// Lever arm, body Z (m). Seed 000 Δz, seed 004 Δzil.
+    LeverZ = "lever_z", Metre;
+    /// Laser range (m). Seed 000 ρ.
+    Range = "range", Metre;
+    /// Instantaneous scan angle (rad), positive to the right wing. Seed 000 θ.
+    ScanAngle = "scan_angle", Radian;
+    /// Prism top-surface slope (rad). Seed 004 θf.
+    PrismSlope = "prism_slope", Radian;
+    /// Prism-to-scanner mounting angle about X (rad). Seed 004 θfsx.
+    PrismX = "prism_x", Radian;
+    /// Prism-to-scanner mounting angle about Y (rad). Seed 004 θfsy.
+    PrismY = "prism_y", Radian;
+    /// Prism-to-scanner mounting angle about Z (rad). Seed 004 θfsz.
+    PrismZ = "prism_z", Radian;
+    /// Scan azimuth of the rotating prism (rad). Seed 004 θaz.
+    ScanAzimuth = "scan_azimuth", Radian;
+    /// Emitter zenith angle in the scanner frame (rad). Seed 004 φls.
+    EmitterZenith = "emitter_zenith", Radian;
+    /// Emitter azimuth angle in the scanner frame (rad). Seed 004 θls.
+    EmitterAzimuth = "emitter_azimuth", Radian;
+    /// Two-way travel time in air (s). Seed 004 Δt1.
+    TimeAir = "time_air", Second;
+    /// Two-way travel time in water (s). Seed 004 Δt2.
+    TimeWater = "time_water", Second;
+}
+
+impl Source {
+    /// Number of sources.
+    pub const COUNT: usize = Source::ALL.len();
+
+    /// Look a source up by its snake_case name.
+    pub fn from_name(name: &str) -> Option<Source> {
+        Source::ALL.iter().copied().find(|s| s.name() == name)
+    }
+
+    /// The config key of this source: name plus unit suffix, e.g. `boresight_roll_deg`.
+    pub fn config_key(self) -> String {
+        format!("{}{}", self.name(), self.unit().config_suffix())
+    }
+
+    /// Parse a config key (`range_m`, `heading_deg`, `time_water_ns`); `None` when the name is
+    /// unknown or the suffix is not this source's unit.
+    pub fn from_config_key(key: &str) -> Option<Source> {
+        Source::ALL.iter().copied().find(|s| s.config_key() == key)
+    }
+
+    /// Index in [`Source::ALL`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
+}
+
+impl fmt::Display for Source {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_and_keys_round_trip() {
+        assert_eq!(Source::COUNT, 23);
+        for (i, s) in Source::ALL.iter().enumerate() {
+            assert_eq!(s.index(), i);
+            assert_eq!(Source::from_name(s.name()), Some(*s));
+            assert_eq!(Source::from_config_key(&s.config_key()), Some(*s));
+        }
+        assert_eq!(Source::BoresightRoll.config_key(), "boresight_roll_deg");
+        assert_eq!(Source::TimeWater.config_key(), "time_water_ns");
+        assert_eq!(Source::from_config_key("range_deg"), None);
+    }
+}
