@@ -1,0 +1,357 @@
+//! One observation geometry (attitude plus the scanner's own observation) and its full evaluation:
+//! footprint, budget, and optionally the effect of systematic errors.
+
+use crate::axes::{Axes, Displacement};
+use crate::bias::{BiasEffect, Biases, bias_effect};
+use crate::budget::{SourceTerm, budget};
+use crate::error::{Error, Result};
+use crate::montecarlo::{MonteCarlo, monte_carlo};
+use lidarqa_model::{
+    Attitude, ConicObservation, ConicScanner, Georeferencer, LinearObservation, LinearScanner,
+    Refraction, Scanner, Sensor, linear_range_for_height, rotation_zyx,
+};
+use nalgebra::{SVector, Vector3};
+use serde::Serialize;
+
+/// How the linear scanner's range is given.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LinearRange {
+    /// Slant range ρ, m.
+    Range(f64),
+    /// Height of the GNSS/INS reference point above level ground, m; ρ follows from the ray.
+    Height(f64),
+}
+
+/// How the conic scanner's ranges are given.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ConicRanges {
+    /// Air range ρ1 and water range ρ2, m.
+    Ranges {
+        /// ρ1, m.
+        air_m: f64,
+        /// ρ2, m.
+        water_m: f64,
+    },
+    /// Height above the water surface and water depth, m; the ranges follow from the rays.
+    HeightDepth {
+        /// Height of the GNSS/INS reference point above the (level) water surface, m.
+        height_m: f64,
+        /// Depth of the (level) bottom below the surface, m.
+        depth_m: f64,
+    },
+}
+
+/// One observation geometry.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Geometry {
+    /// Linear scanner.
+    Linear {
+        /// Platform attitude.
+        attitude: Attitude,
+        /// Scan angle θ, rad, positive to the right wing.
+        scan_angle_rad: f64,
+        /// Range or height.
+        range: LinearRange,
+    },
+    /// Conic scanner.
+    Conic {
+        /// Platform attitude.
+        attitude: Attitude,
+        /// Scan azimuth θaz, rad.
+        azimuth_rad: f64,
+        /// Ranges or height and depth.
+        ranges: ConicRanges,
+    },
+}
+
+impl Geometry {
+    /// The platform attitude of either kind.
+    pub fn attitude(&self) -> Attitude {
+        match self {
+            Geometry::Linear { attitude, .. } | Geometry::Conic { attitude, .. } => *attitude,
+        }
+    }
+
+    /// The same geometry with another attitude.
+    pub fn with_attitude(mut self, a: Attitude) -> Geometry {
+        match &mut self {
+            Geometry::Linear { attitude, .. } | Geometry::Conic { attitude, .. } => *attitude = a,
+        }
+        self
+    }
+}
+
+/// Geometry facts reported beside the budget (SPEC §6 `geometry`), in display units.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum GeometryFacts {
+    /// Linear scanner.
+    Linear {
+        /// Scan angle, degrees.
+        scan_angle_deg: f64,
+        /// Slant range, m.
+        range_m: f64,
+        /// Height of the GNSS/INS reference point above the footprint, m.
+        height_m: f64,
+    },
+    /// Conic scanner.
+    Conic {
+        /// Scan azimuth, degrees.
+        azimuth_deg: f64,
+        /// Prism slope θf, degrees.
+        prism_slope_deg: f64,
+        /// Incidence angle of the beam on the water surface, degrees.
+        exit_angle_deg: f64,
+        /// Angle of the refracted beam from the surface normal, degrees.
+        water_angle_deg: f64,
+        /// Air range ρ1, m.
+        range_air_m: f64,
+        /// Water range ρ2, m.
+        range_water_m: f64,
+        /// Two-way air travel time Δt1, ns.
+        time_air_ns: f64,
+        /// Two-way water travel time Δt2, ns.
+        time_water_ns: f64,
+        /// Height of the GNSS/INS reference point above the water surface, m.
+        height_m: f64,
+        /// Depth of the footprint below the water surface, m.
+        depth_m: f64,
+    },
+}
+
+/// Footprint relative to the GNSS/INS reference point, m.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Footprint {
+    /// North, m.
+    pub north: f64,
+    /// East, m.
+    pub east: f64,
+    /// Up, m (negative below the sensor).
+    pub up: f64,
+}
+
+/// Everything `lidarqa budget` reports for one geometry (its JSON is SPEC §6's contract).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Evaluation {
+    /// `"linear"` or `"conic"`.
+    pub scanner: &'static str,
+    /// `"scanner-frame"`, `"level"`, or null for the linear scanner.
+    pub refraction: Option<&'static str>,
+    /// The footprint relative to the GNSS/INS reference point.
+    pub footprint: Footprint,
+    /// Geometry facts.
+    pub geometry: GeometryFacts,
+    /// Every source of the model with its effect.
+    pub sources: Vec<SourceTerm>,
+    /// Total propagated uncertainty (1σ), m.
+    pub total: Axes,
+    /// Exact displacement caused by the requested biases (lidar − true), m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bias: Option<Displacement>,
+    /// The same to first order (`J · b`), m.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bias_first_order: Option<Displacement>,
+}
+
+/// A resolved geometry: the model and its nominal parameter vector.
+enum Resolved<'a> {
+    Linear(SVector<f64, 14>, GeometryFacts),
+    Conic(&'a ConicScanner, SVector<f64, 21>, GeometryFacts),
+}
+
+fn resolve<'a>(sensor: &'a Sensor, geometry: &Geometry) -> Result<Resolved<'a>> {
+    let m = &sensor.mounting;
+    match (&sensor.scanner, geometry) {
+        (
+            Scanner::Linear,
+            Geometry::Linear {
+                attitude,
+                scan_angle_rad,
+                range,
+            },
+        ) => {
+            finite("scan_angle_deg", *scan_angle_rad)?;
+            let range_m = match *range {
+                LinearRange::Range(r) => {
+                    if !(r.is_finite() && r > 0.0) {
+                        return Err(lidarqa_model::Error::NotPositive {
+                            name: "range_m",
+                            value: r,
+                        }
+                        .into());
+                    }
+                    r
+                }
+                LinearRange::Height(h) => linear_range_for_height(attitude, m, *scan_angle_rad, h)?,
+            };
+            let obs = LinearObservation {
+                range_m,
+                scan_angle_rad: *scan_angle_rad,
+            };
+            let p = LinearScanner.parameters(attitude, m, &obs);
+            let f = LinearScanner.footprint_ned(&p);
+            let facts = GeometryFacts::Linear {
+                scan_angle_deg: scan_angle_rad.to_degrees(),
+                range_m,
+                height_m: f.z,
+            };
+            Ok(Resolved::Linear(p, facts))
+        }
+        (
+            Scanner::Conic(c),
+            Geometry::Conic {
+                attitude,
+                azimuth_rad,
+                ranges,
+            },
+        ) => {
+            finite("azimuth_deg", *azimuth_rad)?;
+            let (air_m, water_m) = match *ranges {
+                ConicRanges::Ranges { air_m, water_m } => {
+                    if !(air_m.is_finite() && air_m > 0.0) {
+                        return Err(lidarqa_model::Error::NotPositive {
+                            name: "range_air_m",
+                            value: air_m,
+                        }
+                        .into());
+                    }
+                    if !(water_m.is_finite() && water_m >= 0.0) {
+                        return Err(lidarqa_model::Error::NotPositive {
+                            name: "range_water_m",
+                            value: water_m,
+                        }
+                        .into());
+                    }
+                    (air_m, water_m)
+                }
+                ConicRanges::HeightDepth { height_m, depth_m } => {
+                    c.ranges_for_height_depth(attitude, m, *azimuth_rad, height_m, depth_m)?
+                }
+            };
+            let obs = ConicObservation {
+                azimuth_rad: *azimuth_rad,
+                time_air_s: c.time_air_s(air_m),
+                time_water_s: c.time_water_s(water_m),
+            };
+            let p = c.parameters(attitude, m, &obs);
+            let (l3, l4) = c.beam_directions(&p);
+            let r_sn = rotation_zyx(attitude.roll_rad, attitude.pitch_rad, attitude.heading_rad)
+                * rotation_zyx(
+                    m.boresight_roll_rad,
+                    m.boresight_pitch_rad,
+                    m.boresight_yaw_rad,
+                );
+            let normal_s = match c.refraction() {
+                Refraction::ScannerFrame => Vector3::z(),
+                Refraction::Level => r_sn.transpose() * Vector3::z(),
+            };
+            let angle = |v: &Vector3<f64>| v.dot(&normal_s).clamp(-1.0, 1.0).acos().to_degrees();
+            let f = c.footprint_ned(&p);
+            if !f.iter().all(|v| v.is_finite()) {
+                return Err(Error::NotFinite { what: "footprint" });
+            }
+            let surface_down = f.z - water_m * (r_sn * l4).z;
+            let facts = GeometryFacts::Conic {
+                azimuth_deg: azimuth_rad.to_degrees(),
+                prism_slope_deg: c.prism_slope_rad().to_degrees(),
+                exit_angle_deg: angle(&l3),
+                water_angle_deg: angle(&l4),
+                range_air_m: air_m,
+                range_water_m: water_m,
+                time_air_ns: obs.time_air_s * 1e9,
+                time_water_ns: obs.time_water_s * 1e9,
+                height_m: surface_down,
+                depth_m: f.z - surface_down,
+            };
+            Ok(Resolved::Conic(c, p, facts))
+        }
+        (s, _) => Err(Error::Geometry(format!(
+            "the sensor has a {} scanner but the geometry is for the other kind (use {})",
+            s.kind(),
+            match s {
+                Scanner::Linear => "--scan-angle with --range or --height",
+                Scanner::Conic(_) => "--azimuth with --range-air/--range-water or --height/--depth",
+            }
+        ))),
+    }
+}
+
+fn finite(name: &'static str, v: f64) -> Result<()> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(lidarqa_model::Error::NotFinite { name, value: v }.into())
+    }
+}
+
+fn evaluate_with<G: Georeferencer<N>, const N: usize>(
+    g: &G,
+    p: &SVector<f64, N>,
+    sensor: &Sensor,
+    facts: GeometryFacts,
+    refraction: Option<&'static str>,
+    heading_rad: f64,
+    biases: Option<&Biases>,
+) -> Result<Evaluation> {
+    let cov = sensor.covariance(&G::SOURCES);
+    let b = budget(g, p, &cov)?;
+    let effect: Option<BiasEffect> = biases
+        .map(|bs| bias_effect(g, p, bs, heading_rad))
+        .transpose()?;
+    Ok(Evaluation {
+        scanner: sensor.scanner.kind(),
+        refraction,
+        footprint: Footprint {
+            north: b.footprint_ned.x,
+            east: b.footprint_ned.y,
+            up: -b.footprint_ned.z,
+        },
+        geometry: facts,
+        sources: b.sources,
+        total: b.total,
+        bias: effect.map(|e| e.exact),
+        bias_first_order: effect.map(|e| e.first_order),
+    })
+}
+
+/// Evaluate the budget (and the effect of `biases`, if given) of `sensor` at `geometry`.
+pub fn evaluate(
+    sensor: &Sensor,
+    geometry: &Geometry,
+    biases: Option<&Biases>,
+) -> Result<Evaluation> {
+    let heading = geometry.attitude().heading_rad;
+    match resolve(sensor, geometry)? {
+        Resolved::Linear(p, facts) => {
+            evaluate_with(&LinearScanner, &p, sensor, facts, None, heading, biases)
+        }
+        Resolved::Conic(c, p, facts) => evaluate_with(
+            c,
+            &p,
+            sensor,
+            facts,
+            Some(c.refraction().name()),
+            heading,
+            biases,
+        ),
+    }
+}
+
+/// Monte Carlo cross-check of [`evaluate`]'s totals at `geometry`.
+pub fn evaluate_monte_carlo(
+    sensor: &Sensor,
+    geometry: &Geometry,
+    samples: usize,
+    seed: u64,
+) -> Result<MonteCarlo> {
+    match resolve(sensor, geometry)? {
+        Resolved::Linear(p, _) => {
+            let cov = sensor.covariance(&LinearScanner::SOURCES);
+            monte_carlo(&LinearScanner, &p, &cov, samples, seed)
+        }
+        Resolved::Conic(c, p, _) => {
+            let cov = sensor.covariance(&ConicScanner::SOURCES);
+            monte_carlo(c, &p, &cov, samples, seed)
+        }
+    }
+}
