@@ -1,0 +1,34 @@
+//! Output helpers shared by the subcommands: `--format`, JSON to stdout, fixed-width tables.
+
+use std::io::Write;
+
+/// `--format`: a table for people (default) or JSON for programs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum OutputFormat {
+    /// Aligned text for people.
+    #[default]
+    Table,
+    /// One JSON object, stable field names (SPEC §6).
+    Json,
+}
+
+/// Print one JSON value (pretty) to stdout.
+pub fn print_json(value: &impl serde::Serialize) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    serde_json::to_writer_pretty(&mut out, value)?;
+    writeln!(out)?;
+    Ok(())
+}
+
+/// Print text to stdout (errors such as a closed pipe are returned, not panicked on).
+pub fn print_text(text: &str) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes())?;
+    out.flush()?;
+    Ok(())
+}
+
+/// Metres as centimetres with two decimals, right-aligned in `width`.
+pub fn cm(v: f64, width: usize) -> String {
+    format!("{:>width$.2}", v * 100.0)
+}

@@ -1,0 +1,66 @@
+//! `lidarqa`: the command-line tool. Argument parsing and wiring only; the work is in the library
+//! crates (SPEC §2).
+
+mod cmd;
+mod format;
+
+use clap::Parser;
+use std::process::ExitCode;
+
+/// lidarqa: how accurate airborne LiDAR points should be, how accurate they are, and how to make them
+/// more accurate.
+#[derive(Debug, Parser)]
+#[command(name = "lidarqa", version, about, long_about = None, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: cmd::Command,
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return usage_error(e),
+    };
+    match cmd::run(cli.command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // A closed pipe (`lidarqa budget … | head`) is not a failure.
+            if e.chain().any(|c| {
+                c.downcast_ref::<std::io::Error>()
+                    .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+            }) {
+                return ExitCode::SUCCESS;
+            }
+            eprintln!("lidarqa: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// clap's own errors: help and version go to stdout with exit 0; a usage error becomes one line and
+/// exit code 1 (SPEC §6; clap's default would be 2 and several lines).
+fn usage_error(e: clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    match e.kind() {
+        ErrorKind::DisplayHelp
+        | ErrorKind::DisplayVersion
+        | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            let _ = e.print();
+            ExitCode::SUCCESS
+        }
+        _ => {
+            // The first paragraph of clap's message, folded onto one line.
+            let text = e.to_string();
+            let first: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .skip_while(|l| l.is_empty())
+                .take_while(|l| !l.is_empty())
+                .collect();
+            let first = first.join(" ");
+            let first = first.trim_start_matches("error: ");
+            eprintln!("lidarqa: {first} (see --help)");
+            ExitCode::from(1)
+        }
+    }
+}
