@@ -100,7 +100,15 @@ fn sweep_and_bias_json() {
 
 #[test]
 fn monte_carlo_flag_agrees_with_the_linear_totals() {
-    let v = json(&["budget", "--preset", "seed000", "--monte-carlo", "20000", "--seed", "3"]);
+    let v = json(&[
+        "budget",
+        "--preset",
+        "seed000",
+        "--monte-carlo",
+        "20000",
+        "--seed",
+        "3",
+    ]);
     let lin = v["total"]["up"].as_f64().unwrap();
     let mc = v["monte_carlo"]["sigma"]["up"].as_f64().unwrap();
     assert!((mc / lin - 1.0).abs() < 0.03, "{mc} vs {lin}");
@@ -137,7 +145,13 @@ fn bad_input_is_one_line_and_exit_1() {
     let dir = tempfile::tempdir().unwrap();
     let missing = dir.path().join("nope.toml");
     fails_with(
-        &["budget", "--sensor", missing.to_str().unwrap(), "--range", "100"],
+        &[
+            "budget",
+            "--sensor",
+            missing.to_str().unwrap(),
+            "--range",
+            "100",
+        ],
         "nope.toml",
     );
     let unknown = dir.path().join("unknown.toml");
@@ -147,25 +161,55 @@ fn bad_input_is_one_line_and_exit_1() {
     )
     .unwrap();
     fails_with(
-        &["budget", "--sensor", unknown.to_str().unwrap(), "--range", "100"],
+        &[
+            "budget",
+            "--sensor",
+            unknown.to_str().unwrap(),
+            "--range",
+            "100",
+        ],
         "unknown.toml: key `sigma.wind_speed_m`",
     );
     let negative = dir.path().join("negative.toml");
-    std::fs::write(&negative, "[scanner]\ntype = \"linear\"\n[sigma]\nrange_m = -0.01\n").unwrap();
+    std::fs::write(
+        &negative,
+        "[scanner]\ntype = \"linear\"\n[sigma]\nrange_m = -0.01\n",
+    )
+    .unwrap();
     fails_with(
-        &["budget", "--sensor", negative.to_str().unwrap(), "--range", "100"],
+        &[
+            "budget",
+            "--sensor",
+            negative.to_str().unwrap(),
+            "--range",
+            "100",
+        ],
         "key `sigma.range_m`: must be a finite number >= 0, got -0.01",
     );
     // A beam that cannot reach the ground: 80° of roll to the left with a right-looking scan.
     fails_with(
-        &["budget", "--preset", "seed000", "--roll", "-80", "--height", "100"],
+        &[
+            "budget", "--preset", "seed000", "--roll", "-80", "--height", "100",
+        ],
         "cannot reach the surface",
     );
-    fails_with(&["budget", "--preset", "seed000", "--range", "abc"], "'abc'");
-    fails_with(&["budget", "--preset", "seed000", "--range", "-5"], "range_m");
+    fails_with(
+        &["budget", "--preset", "seed000", "--range", "abc"],
+        "'abc'",
+    );
+    fails_with(
+        &["budget", "--preset", "seed000", "--range", "-5"],
+        "range_m",
+    );
     fails_with(&["budget", "--preset", "nope"], "unknown preset 'nope'");
-    fails_with(&["budget", "--preset", "czmil", "--sweep", "tilt=0:1:1"], "unknown variable 'tilt'");
-    fails_with(&["budget", "--preset", "seed000", "--bias", "range_deg=1"], "unknown key 'range_deg'");
+    fails_with(
+        &["budget", "--preset", "czmil", "--sweep", "tilt=0:1:1"],
+        "unknown variable 'tilt'",
+    );
+    fails_with(
+        &["budget", "--preset", "seed000", "--bias", "range_deg=1"],
+        "unknown key 'range_deg'",
+    );
     fails_with(
         &["budget", "--preset", "seed000", "--bias", "time_water_ns=1"],
         "this scanner does not have",

@@ -1,1 +1,46 @@
-//! placeholder
+//! lidarqa-io: every file lidarqa reads or writes, and the projections between them.
+//!
+//! - LAS 1.2–1.4 / LAZ in chunks, LAS 1.4 out with extra-bytes dimensions and the CRS carried over
+//!   ([`LasReader`], [`LasWriter`]);
+//! - SBET and SMRMSG trajectories ([`read_sbet`], [`read_smrmsg`]);
+//! - control points, targets and tie picks as CSV ([`ControlPoints`], [`Targets`], [`TiePicks`]);
+//! - the sensor file of SPEC §5 ([`read_sensor`]);
+//! - WGS84 geodetic ↔ ECEF ↔ NED and UTM ([`UtmZone`]); GPS time bases ([`LasTimeConverter`]);
+//! - atomic outputs: a temporary file beside the target, renamed when complete ([`AtomicFile`]).
+//!
+//! Every error names the file and, where there is one, the line, record or key at fault.
+
+mod sensor;
+pub use sensor::{parse_sensor, read_sensor, sensor_to_toml};
+
+mod atomic;
+mod csv;
+mod error;
+mod geodesy;
+mod gpstime;
+mod pointcloud;
+mod sbet;
+
+pub use atomic::{AtomicFile, check_not_an_input};
+pub use csv::{
+    ControlPoint, ControlPoints, HasExtra, PointTable, Target, Targets, TiePick, TiePicks,
+};
+pub use error::{Error, Result};
+pub use geodesy::{
+    Ellipsoid, Geodetic, Hemisphere, Projected, TransverseMercator, UtmDatum, UtmZone,
+    ecef_from_ned, ecef_to_geodetic, geodetic_to_ecef, ned_from_ecef,
+};
+pub use gpstime::{
+    ADJUSTED_GPS_OFFSET_S, CivilDate, GpsWeekTime, LasTimeBase, LasTimeConverter,
+    SECONDS_PER_WEEK_S, adjusted_standard_to_week, gps_week_of_date, gps_week_start,
+    week_to_adjusted_standard,
+};
+pub use pointcloud::{
+    ExtraDim, LasCrs, LasInfo, LasPoint, LasReader, LasWriteOptions, LasWriter, PointChunk, RawVlr,
+    epsg_from_wkt,
+};
+pub use sbet::{
+    F64Record, RAD_PER_ARCMIN, RecordReader, RecordWriter, SbetPose, SbetReader, SbetWriter,
+    SmrmsgReader, SmrmsgSigma, SmrmsgWriter, raw as sbet_raw, read_sbet, read_smrmsg,
+    write_records_to_path,
+};

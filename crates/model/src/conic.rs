@@ -208,7 +208,11 @@ impl ConicScanner {
         let (sz, cz) = p[17].sin_cos();
         let (sa, ca) = p[18].sin_cos();
         let l1 = Vector3::new(sz * ca, sz * sa, cz);
-        let (na, nf, nw) = (c::<D>(self.n_air), c::<D>(self.n_prism), c::<D>(self.n_water));
+        let (na, nf, nw) = (
+            c::<D>(self.n_air),
+            c::<D>(self.n_prism),
+            c::<D>(self.n_water),
+        );
         let l2 = refract(&l1, &p1, na / nf);
         let l3 = refract(&l2, &p2, nf / na);
         let p3 = match self.refraction {
@@ -443,16 +447,17 @@ mod tests {
                 time_air_s: s.time_air_s(r1),
                 time_water_s: 0.0,
             };
-            let f = s.footprint_ned(&s.parameters(
-                &Attitude::default(),
-                &Mounting::default(),
-                &obs,
-            ));
+            let f =
+                s.footprint_ned(&s.parameters(&Attitude::default(), &Mounting::default(), &obs));
             assert_relative_eq!(f.z, 400.0, epsilon = 1e-9);
             let radius = (f.x * f.x + f.y * f.y).sqrt();
             assert_relative_eq!(radius, 400.0 * 20f64.to_radians().tan(), epsilon = 1e-6);
             // Azimuth 0 looks forward, 90° to the right wing.
-            assert_relative_eq!(f.y.atan2(f.x).to_degrees().rem_euclid(360.0), az, epsilon = 1e-6);
+            assert_relative_eq!(
+                f.y.atan2(f.x).to_degrees().rem_euclid(360.0),
+                az,
+                epsilon = 1e-6
+            );
         }
     }
 
@@ -482,7 +487,10 @@ mod tests {
     fn bad_indices_and_slopes_are_refused() {
         assert!(matches!(
             ConicScanner::new(0.6, 1.461, 1.0003, 0.9, Refraction::Level),
-            Err(Error::InvalidRefractionIndex { name: "n_water", .. })
+            Err(Error::InvalidRefractionIndex {
+                name: "n_water",
+                ..
+            })
         ));
         assert!(ConicScanner::new(1.55, 1.461, 1.0003, 1.33, Refraction::Level).is_err());
         assert!(matches!(

@@ -21,7 +21,9 @@ pub enum Error {
         value: f64,
     },
     /// The requested prism exit angle cannot be produced by any prism slope.
-    #[error("no prism slope gives an exit angle of {exit_angle_deg} deg (reachable: 0 to {max_deg:.3} deg)")]
+    #[error(
+        "no prism slope gives an exit angle of {exit_angle_deg} deg (reachable: 0 to {max_deg:.3} deg)"
+    )]
     UnreachableExitAngle {
         /// Requested exit angle, degrees.
         exit_angle_deg: f64,
@@ -29,7 +31,9 @@ pub enum Error {
         max_deg: f64,
     },
     /// A prism slope outside (0°, 90°) or beyond total internal reflection.
-    #[error("prism slope {prism_slope_deg} deg is not usable (must be in (0, 90) deg without total internal reflection)")]
+    #[error(
+        "prism slope {prism_slope_deg} deg is not usable (must be in (0, 90) deg without total internal reflection)"
+    )]
     InvalidPrismSlope {
         /// The slope given, degrees.
         prism_slope_deg: f64,
@@ -38,7 +42,9 @@ pub enum Error {
     #[error("correlation matrix: {0}")]
     InvalidCorrelation(String),
     /// The beam never reaches the level surface below the sensor (it points up or sideways).
-    #[error("the beam cannot reach the surface {height_m} m below the sensor: it points {elevation_deg:.3} deg above the horizon")]
+    #[error(
+        "the beam cannot reach the surface {height_m} m below the sensor: it points {elevation_deg:.3} deg above the horizon"
+    )]
     BeamMissesSurface {
         /// Height above the surface, metres.
         height_m: f64,

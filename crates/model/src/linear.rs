@@ -9,7 +9,8 @@ use crate::georeferencer::{Georeferencer, gnss_offset_ned};
 use crate::rotation::rotation_zyx;
 use crate::scalar::Scalar;
 use crate::source::Source;
-use nalgebra::{SVector, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector2, Vector3};
+use num_dual::{DualSVec64, jacobian};
 
 /// Number of parameters of the linear model.
 pub const LINEAR_N: usize = 14;
@@ -84,6 +85,47 @@ impl Georeferencer<LINEAR_N> for LinearScanner {
         let s = scanner_vector(p[12], p[13]);
         gnss_offset_ned(p[0], p[1], p[2]) + r_n * (r_m * s + lever)
     }
+
+    /// The same Jacobian as the default, composed by the chain rule from the Jacobians of the three
+    /// stages (`R_N`, `R_M`, `S`), each taken with dual numbers of 3 or 2 directions instead of 14:
+    /// the per-point TPU's kernel, several times cheaper (see the tpu `budget` benchmark).
+    fn footprint_jacobian(
+        &self,
+        p: &SVector<f64, LINEAR_N>,
+    ) -> (Vector3<f64>, SMatrix<f64, 3, LINEAR_N>) {
+        let (r_n, d_r_n) = rotation_with_partials(p[3], p[4], p[5]);
+        let (r_m, d_r_m) = rotation_with_partials(p[6], p[7], p[8]);
+        let (s, d_s) = jacobian(
+            |q: SVector<DualSVec64<2>, 2>| scanner_vector(q[0], q[1]),
+            &Vector2::new(p[12], p[13]),
+        );
+        let lever = Vector3::new(p[9], p[10], p[11]);
+        let body = r_m * s + lever;
+        let f = gnss_offset_ned(p[0], p[1], p[2]) + r_n * body;
+        let r_ns = r_n * r_m;
+        let mut j = SMatrix::<f64, 3, LINEAR_N>::zeros();
+        j[(0, 0)] = 1.0;
+        j[(1, 1)] = 1.0;
+        j[(2, 2)] = -1.0;
+        for k in 0..3 {
+            j.set_column(3 + k, &(d_r_n[k] * body));
+            j.set_column(6 + k, &(r_n * (d_r_m[k] * s)));
+            j.set_column(9 + k, &r_n.column(k).into_owned());
+        }
+        j.set_column(12, &(r_ns * d_s.column(0)));
+        j.set_column(13, &(r_ns * d_s.column(1)));
+        (f, j)
+    }
+}
+
+/// `Rz(yaw) Ry(pitch) Rx(roll)` and its partials with respect to roll, pitch and yaw, from one pass
+/// of [`rotation_zyx`] with 3-direction dual numbers.
+fn rotation_with_partials(roll: f64, pitch: f64, yaw: f64) -> (Matrix3<f64>, [Matrix3<f64>; 3]) {
+    let d = |x: f64, i: usize| DualSVec64::<3>::from_re(x).derivative(i);
+    let r = rotation_zyx(d(roll, 0), d(pitch, 1), d(yaw, 2));
+    let value = r.map(|e| e.re);
+    let partial = |k: usize| r.map(|e| e.eps.unwrap_generic(nalgebra::U3, nalgebra::U1)[k]);
+    (value, [partial(0), partial(1), partial(2)])
 }
 
 /// The range at which a pulse at `scan_angle_rad` meets level ground `height_m` below the GNSS/INS
@@ -126,6 +168,29 @@ mod tests {
         let p = LinearScanner.parameters(&Attitude::default(), &Mounting::default(), &obs);
         let f = LinearScanner.footprint_ned(&p);
         assert_relative_eq!(f, Vector3::new(0.0, 46.188_021_535, 80.0), epsilon = 1e-8);
+    }
+
+    #[test]
+    fn staged_jacobian_equals_one_pass_dual_jacobian() {
+        let att = Attitude::from_degrees(2.5, -1.5, 123.0);
+        let m = Mounting {
+            boresight_roll_rad: 0.01,
+            boresight_pitch_rad: -0.02,
+            boresight_yaw_rad: 0.03,
+            lever_arm_m: Vector3::new(0.3, -0.2, 0.5),
+        };
+        let obs = LinearObservation {
+            range_m: 812.0,
+            scan_angle_rad: -0.31,
+        };
+        let p = LinearScanner.parameters(&att, &m, &obs);
+        let (f1, j1) = jacobian(
+            |q: SVector<DualSVec64<LINEAR_N>, LINEAR_N>| LinearScanner.footprint_ned(&q),
+            &p,
+        );
+        let (f2, j2) = LinearScanner.footprint_jacobian(&p);
+        assert_relative_eq!(f1, f2, epsilon = 1e-9);
+        assert_relative_eq!(j1, j2, epsilon = 1e-9);
     }
 
     #[test]

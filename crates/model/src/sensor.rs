@@ -122,10 +122,7 @@ impl Correlation {
                     ));
                 }
                 if (v - matrix[(j, i)]).abs() > 1e-9 {
-                    return bad(format!(
-                        "not symmetric at ({}, {})",
-                        sources[i], sources[j]
-                    ));
+                    return bad(format!("not symmetric at ({}, {})", sources[i], sources[j]));
                 }
             }
         }

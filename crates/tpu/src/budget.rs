@@ -7,7 +7,6 @@ use crate::axes::Axes;
 use crate::error::{Error, Result};
 use lidarqa_model::{Georeferencer, Source};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
-use num_dual::{DualSVec64, jacobian};
 use serde::Serialize;
 
 /// One source's share of the budget.
@@ -54,7 +53,7 @@ pub fn footprint_jacobian<G: Georeferencer<N>, const N: usize>(
     g: &G,
     p: &SVector<f64, N>,
 ) -> (Vector3<f64>, SMatrix<f64, 3, N>) {
-    jacobian(|q: SVector<DualSVec64<N>, N>| g.footprint_ned(&q), p)
+    g.footprint_jacobian(p)
 }
 
 /// `J Σ Jᵀ`: the NED covariance (m²) of the footprint from the parameter covariance.

@@ -29,7 +29,12 @@ Units: angles in degrees, lengths in metres; the table shows σ in cm, JSON in m
 pub struct BudgetArgs {
     /// Built-in sensor and geometry: `seed000` (seed 000 Table 1, linear) or `czmil` (seed 004
     /// Table 3, conic).
-    #[arg(long, value_name = "NAME", conflicts_with = "sensor", required_unless_present = "sensor")]
+    #[arg(
+        long,
+        value_name = "NAME",
+        conflicts_with = "sensor",
+        required_unless_present = "sensor"
+    )]
     preset: Option<String>,
     /// Sensor file (TOML, SPEC §5).
     #[arg(long, value_name = "FILE")]
@@ -50,7 +55,12 @@ pub struct BudgetArgs {
     #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     scan_angle: Option<f64>,
     /// Linear scanner: slant range, metres.
-    #[arg(long, value_name = "M", conflicts_with = "height", allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_name = "M",
+        conflicts_with = "height",
+        allow_negative_numbers = true
+    )]
     range: Option<f64>,
     /// Height above level ground (or above the water surface for the conic scanner), metres; the
     /// ranges follow from the ray geometry, attitude included.
@@ -63,10 +73,20 @@ pub struct BudgetArgs {
     #[arg(long, value_name = "M", requires = "range_water", conflicts_with_all = ["height", "depth"], allow_negative_numbers = true)]
     range_air: Option<f64>,
     /// Conic scanner: range in water ρ2, metres.
-    #[arg(long, value_name = "M", requires = "range_air", allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_name = "M",
+        requires = "range_air",
+        allow_negative_numbers = true
+    )]
     range_water: Option<f64>,
     /// Conic scanner: water depth below the surface, metres (with --height).
-    #[arg(long, value_name = "M", requires = "height", allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_name = "M",
+        requires = "height",
+        allow_negative_numbers = true
+    )]
     depth: Option<f64>,
     /// Sweep one variable, NAME=START:STOP:STEP (degrees or metres): scan-angle, azimuth, height,
     /// depth, range, range-air, range-water, roll, pitch, heading.
@@ -130,7 +150,11 @@ impl TryFrom<BudgetArgs> for Plan {
                 let preset = Preset::from_name(name).with_context(|| {
                     format!("--preset: unknown preset '{name}' (one of seed000, czmil)")
                 })?;
-                (format!("preset {name}"), preset.sensor(), Some(preset.geometry()))
+                (
+                    format!("preset {name}"),
+                    preset.sensor(),
+                    Some(preset.geometry()),
+                )
             }
             (None, Some(path)) => (
                 format!("sensor {}", path.display()),
@@ -154,7 +178,9 @@ impl TryFrom<BudgetArgs> for Plan {
                     ("--depth", a.depth.is_some()),
                 ] {
                     if given {
-                        bail!("{flag} is for a conic scanner; this sensor is linear (use --scan-angle with --range or --height)");
+                        bail!(
+                            "{flag} is for a conic scanner; this sensor is linear (use --scan-angle with --range or --height)"
+                        );
                     }
                 }
                 let (base_scan, base_range) = match preset_geometry {
@@ -179,7 +205,9 @@ impl TryFrom<BudgetArgs> for Plan {
             }
             Scanner::Conic(_) => {
                 if a.scan_angle.is_some() || a.range.is_some() {
-                    bail!("--scan-angle and --range are for a linear scanner; this sensor is conic (use --azimuth with --range-air/--range-water or --height/--depth)");
+                    bail!(
+                        "--scan-angle and --range are for a linear scanner; this sensor is conic (use --azimuth with --range-air/--range-water or --height/--depth)"
+                    );
                 }
                 let (base_az, base_ranges) = match preset_geometry {
                     Some(Geometry::Conic {
@@ -231,8 +259,9 @@ impl TryFrom<BudgetArgs> for Plan {
 pub fn run(args: BudgetArgs) -> Result<()> {
     if args.print_sensor {
         let name = args.preset.as_deref().unwrap_or_default();
-        let preset = Preset::from_name(name)
-            .with_context(|| format!("--preset: unknown preset '{name}' (one of seed000, czmil)"))?;
+        let preset = Preset::from_name(name).with_context(|| {
+            format!("--preset: unknown preset '{name}' (one of seed000, czmil)")
+        })?;
         return print_text(&lidarqa_io::sensor_to_toml(&preset.sensor()));
     }
     let plan = Plan::try_from(args)?;
@@ -311,9 +340,9 @@ fn geometry_line(e: &Evaluation) -> String {
             scan_angle_deg,
             range_m,
             height_m,
-        } => format!(
-            "scan angle {scan_angle_deg:.3}°, range {range_m:.3} m, height {height_m:.3} m"
-        ),
+        } => {
+            format!("scan angle {scan_angle_deg:.3}°, range {range_m:.3} m, height {height_m:.3} m")
+        }
         GeometryFacts::Conic {
             azimuth_deg,
             prism_slope_deg,
@@ -463,7 +492,11 @@ fn sweep_table(label: &str, sweep: &Sweep, points: &[(f64, Evaluation)]) -> Stri
 fn trim_number(v: f64) -> String {
     let s = format!("{v:.6}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s.is_empty() { "0".into() } else { s.to_string() }
+    if s.is_empty() {
+        "0".into()
+    } else {
+        s.to_string()
+    }
 }
 
 #[cfg(test)]
@@ -484,7 +517,15 @@ mod tests {
 
     #[test]
     fn scan_angle_flag_is_degrees_and_overrides_the_preset() {
-        let p = plan(&["--preset", "seed000", "--scan-angle", "-12.5", "--height", "500"]).unwrap();
+        let p = plan(&[
+            "--preset",
+            "seed000",
+            "--scan-angle",
+            "-12.5",
+            "--height",
+            "500",
+        ])
+        .unwrap();
         match p.geometry {
             Geometry::Linear {
                 scan_angle_rad,
@@ -516,15 +557,22 @@ mod tests {
         assert!((b.get(Source::BoresightRoll) - 0.1f64.to_radians()).abs() < 1e-18);
         assert_eq!(b.get(Source::LeverX), -0.05);
         assert!((b.get(Source::TimeWater) - 1e-9).abs() < 1e-24);
-        let e = parse_biases("boresight_roll=0.1").err().unwrap().to_string();
+        let e = parse_biases("boresight_roll=0.1")
+            .err()
+            .unwrap()
+            .to_string();
         assert!(e.contains("unknown key 'boresight_roll'"), "{e}");
     }
 
     #[test]
     fn flags_of_the_other_scanner_are_refused() {
-        let e = plan(&["--preset", "czmil", "--scan-angle", "10"]).err().unwrap();
+        let e = plan(&["--preset", "czmil", "--scan-angle", "10"])
+            .err()
+            .unwrap();
         assert!(e.to_string().contains("linear scanner"), "{e}");
-        let e = plan(&["--preset", "seed000", "--azimuth", "10"]).err().unwrap();
+        let e = plan(&["--preset", "seed000", "--azimuth", "10"])
+            .err()
+            .unwrap();
         assert!(e.to_string().contains("conic scanner"), "{e}");
     }
 }

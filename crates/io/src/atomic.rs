@@ -1,0 +1,321 @@
+//! Atomic output files (SPEC §7: "outputs are atomic").
+//!
+//! [`AtomicFile`] writes to a hidden temporary file in the target's own directory and renames it
+//! over the target in [`AtomicFile::commit`]. The temporary file lives beside the target (not in
+//! `/tmp`) because a rename is only atomic within one file system. If the `AtomicFile` is dropped
+//! without a commit (an error, a panic, Ctrl-C unwinding), the temporary file is removed and the
+//! target is untouched, so a failed run never leaves a partial output behind. The temporary file
+//! is created and removed by the `tempfile` crate (`NamedTempFile`), which also picks an unused
+//! name.
+//!
+//! An output that resolves to one of the run's inputs is refused up front: the rename would
+//! replace the input with a half-derived copy of itself.
+
+use crate::error::{Error, Result};
+use std::fs::File;
+use std::io::{Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+/// A file being written that appears at its target path only when [`commit`](Self::commit)ted.
+///
+/// # Example
+///
+/// ```
+/// use std::io::Write;
+/// use lidarqa_io::AtomicFile;
+///
+/// let dir = tempfile::tempdir().unwrap();
+/// let target = dir.path().join("out.csv");
+/// let mut file = AtomicFile::create(&target, &[] as &[&std::path::Path]).unwrap();
+/// writeln!(file, "id,x,y,z").unwrap();
+/// assert!(!target.exists()); // nothing visible yet
+/// file.commit().unwrap();
+/// assert_eq!(std::fs::read_to_string(&target).unwrap(), "id,x,y,z\n");
+/// ```
+#[derive(Debug)]
+pub struct AtomicFile {
+    target: PathBuf,
+    temp: tempfile::NamedTempFile,
+}
+
+impl AtomicFile {
+    /// Starts writing `target`, refusing if it resolves to any of `inputs`.
+    ///
+    /// The comparison canonicalises both sides (symbolic links, `..`, relative paths), and for a
+    /// target that already exists also compares the files themselves, so `./a.las`, `a.las`
+    /// and a link to it are all recognised as the same file.
+    ///
+    /// # Errors
+    /// [`Error::OutputIsInput`] naming the input; [`Error::Io`] naming the target when its
+    /// directory does not exist or is not writable.
+    pub fn create<P: AsRef<Path>>(target: impl AsRef<Path>, inputs: &[P]) -> Result<Self> {
+        let target = target.as_ref();
+        check_not_an_input(target, inputs)?;
+        let dir = match target.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let name = target
+            .file_name()
+            .ok_or_else(|| {
+                Error::io(
+                    target,
+                    std::io::Error::new(
+                        std::io::ErrorKind::InvalidInput,
+                        "output path has no file name",
+                    ),
+                )
+            })?
+            .to_string_lossy()
+            .into_owned();
+        // Hidden, recognisable name: `.out.laz.XXXXXX.tmp`.
+        let temp = tempfile::Builder::new()
+            .prefix(&format!(".{name}."))
+            .suffix(".tmp")
+            .tempfile_in(&dir)
+            .map_err(|e| Error::io(target, e))?;
+        Ok(AtomicFile {
+            target: target.to_path_buf(),
+            temp,
+        })
+    }
+
+    /// The path the file will have after [`commit`](Self::commit).
+    pub fn target(&self) -> &Path {
+        &self.target
+    }
+
+    /// The hidden temporary file being written now.
+    pub fn temp_path(&self) -> &Path {
+        self.temp.path()
+    }
+
+    /// Flushes the data to disk and renames the temporary file over the target.
+    ///
+    /// On Unix the file gets mode 0644 (or the existing target's mode), not the 0600 of a
+    /// temporary file, so that outputs are readable like any other file the user writes.
+    ///
+    /// # Errors
+    /// [`Error::Io`] naming the target; the temporary file is then removed.
+    pub fn commit(self) -> Result<()> {
+        let AtomicFile { target, temp } = self;
+        temp.as_file()
+            .sync_all()
+            .map_err(|e| Error::io(&target, e))?;
+        set_output_permissions(temp.path(), &target).map_err(|e| Error::io(&target, e))?;
+        temp.persist(&target)
+            .map_err(|e| Error::io(&target, e.error))?;
+        Ok(())
+    }
+
+    fn file(&mut self) -> &mut File {
+        self.temp.as_file_mut()
+    }
+}
+
+impl Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.file().write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file().flush()
+    }
+}
+
+impl Seek for AtomicFile {
+    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+        self.file().seek(pos)
+    }
+}
+
+#[cfg(unix)]
+fn set_output_permissions(temp: &Path, target: &Path) -> std::io::Result<()> {
+    use std::os::unix::fs::PermissionsExt;
+    let mode = match std::fs::metadata(target) {
+        Ok(m) => m.permissions().mode() & 0o7777,
+        Err(_) => 0o644,
+    };
+    std::fs::set_permissions(temp, std::fs::Permissions::from_mode(mode))
+}
+
+#[cfg(not(unix))]
+fn set_output_permissions(_temp: &Path, _target: &Path) -> std::io::Result<()> {
+    Ok(())
+}
+
+/// Resolves `path` as far as it exists: the canonical parent directory joined with the file name
+/// (the output usually does not exist yet, and `canonicalize` needs an existing path).
+fn resolve(path: &Path) -> PathBuf {
+    if let Ok(p) = path.canonicalize() {
+        return p;
+    }
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    match (parent.canonicalize(), path.file_name()) {
+        (Ok(dir), Some(name)) => dir.join(name),
+        _ => std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf()),
+    }
+}
+
+/// Refuses an output path that is one of the inputs.
+///
+/// # Errors
+/// [`Error::OutputIsInput`] naming the output and the input it equals.
+pub fn check_not_an_input<P: AsRef<Path>>(output: impl AsRef<Path>, inputs: &[P]) -> Result<()> {
+    let output = output.as_ref();
+    let resolved = resolve(output);
+    for input in inputs {
+        let input = input.as_ref();
+        if resolve(input) == resolved || same_file(output, input) {
+            return Err(Error::OutputIsInput {
+                path: output.to_path_buf(),
+                input: input.to_path_buf(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Hard links are different paths to one file; compare device and inode where we can.
+#[cfg(unix)]
+fn same_file(a: &Path, b: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+        _ => false,
+    }
+}
+
+#[cfg(not(unix))]
+fn same_file(_a: &Path, _b: &Path) -> bool {
+    false
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn entries(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn temp_file_is_hidden_and_beside_the_target() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("out.laz");
+        let f = AtomicFile::create(&target, &[] as &[&Path]).unwrap();
+        assert_eq!(f.temp_path().parent(), Some(dir.path()));
+        let name = f.temp_path().file_name().unwrap().to_string_lossy();
+        assert!(name.starts_with(".out.laz."), "{name}");
+        assert!(name.ends_with(".tmp"), "{name}");
+    }
+
+    #[test]
+    fn drop_without_commit_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("out.txt");
+        {
+            let mut f = AtomicFile::create(&target, &[] as &[&Path]).unwrap();
+            f.write_all(b"partial").unwrap();
+            assert_eq!(entries(dir.path()).len(), 1);
+        }
+        assert!(entries(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn drop_without_commit_keeps_existing_target() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("out.txt");
+        std::fs::write(&target, "old").unwrap();
+        {
+            let mut f = AtomicFile::create(&target, &[] as &[&Path]).unwrap();
+            f.write_all(b"new and partial").unwrap();
+        }
+        assert_eq!(std::fs::read_to_string(&target).unwrap(), "old");
+        assert_eq!(entries(dir.path()), vec!["out.txt".to_string()]);
+    }
+
+    #[test]
+    fn commit_replaces_target() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("out.txt");
+        std::fs::write(&target, "old").unwrap();
+        let mut f = AtomicFile::create(&target, &[] as &[&Path]).unwrap();
+        f.write_all(b"new").unwrap();
+        f.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&target).unwrap(), "new");
+        assert_eq!(entries(dir.path()), vec!["out.txt".to_string()]);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn committed_file_is_world_readable() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("out.txt");
+        AtomicFile::create(&target, &[] as &[&Path])
+            .unwrap()
+            .commit()
+            .unwrap();
+        let mode = std::fs::metadata(&target).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o644);
+    }
+
+    #[test]
+    fn refuses_output_equal_to_input_through_another_spelling() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("strip.las");
+        std::fs::write(&input, "las").unwrap();
+        std::fs::create_dir(dir.path().join("sub")).unwrap();
+        let other_spelling = dir.path().join("sub").join("..").join("strip.las");
+        let err = AtomicFile::create(&other_spelling, &[&input]).unwrap_err();
+        match &err {
+            Error::OutputIsInput { path, input: i } => {
+                assert_eq!(path, &other_spelling);
+                assert_eq!(i, &input);
+            }
+            other => panic!("unexpected {other:?}"),
+        }
+        assert!(err.to_string().contains("strip.las"));
+        assert_eq!(std::fs::read_to_string(&input).unwrap(), "las");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn refuses_output_that_is_a_symlink_to_an_input() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("in.las");
+        std::fs::write(&input, "las").unwrap();
+        let link = dir.path().join("link.las");
+        std::os::unix::fs::symlink(&input, &link).unwrap();
+        assert!(matches!(
+            AtomicFile::create(&link, &[&input]),
+            Err(Error::OutputIsInput { .. })
+        ));
+    }
+
+    #[test]
+    fn accepts_a_different_output() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("in.las");
+        std::fs::write(&input, "las").unwrap();
+        assert!(AtomicFile::create(dir.path().join("out.las"), &[&input]).is_ok());
+    }
+
+    #[test]
+    fn missing_directory_is_an_io_error_naming_the_target() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("nope").join("out.las");
+        let err = AtomicFile::create(&target, &[] as &[&Path]).unwrap_err();
+        assert!(matches!(err, Error::Io { .. }));
+        assert!(err.to_string().contains("nope"));
+    }
+}

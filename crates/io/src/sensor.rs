@@ -1,0 +1,486 @@
+//! The sensor file of SPEC §5 (TOML): read into a checked [`lidarqa_model::Sensor`], and written
+//! back (for `--print-sensor` and the simulator's nominal sensor).
+//!
+//! Every key carries its unit; unknown keys, a unit suffix that does not fit the source
+//! (`range_deg`), a negative σ or a source the scanner does not have are errors that name the key and
+//! the file, never silently ignored.
+
+use crate::error::{Error, Result};
+use lidarqa_model::{
+    ConicScanner, Correlation, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER, Mounting,
+    Refraction, Scanner, Sensor, Sigmas, Source,
+};
+use nalgebra::{DMatrix, Vector3};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The sensor file as written on disk (units in the key names).
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct SensorFile {
+    scanner: ScannerSection,
+    #[serde(default)]
+    mounting: MountingSection,
+    #[serde(default)]
+    sigma: BTreeMap<String, f64>,
+    covariance: Option<CovarianceSection>,
+}
+
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct ScannerSection {
+    #[serde(rename = "type")]
+    kind: String,
+    exit_angle_deg: Option<f64>,
+    prism_slope_deg: Option<f64>,
+    n_prism: Option<f64>,
+    n_air: Option<f64>,
+    n_water: Option<f64>,
+    refraction: Option<String>,
+}
+
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct MountingSection {
+    #[serde(default)]
+    boresight_roll_deg: f64,
+    #[serde(default)]
+    boresight_pitch_deg: f64,
+    #[serde(default)]
+    boresight_yaw_deg: f64,
+    #[serde(default)]
+    lever_arm_m: [f64; 3],
+}
+
+/// Correlations between sources; the σ stay in `[sigma]`, so the matrix is unitless.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct CovarianceSection {
+    sources: Vec<String>,
+    correlation: Vec<Vec<f64>>,
+}
+
+/// Sources that only the conic scanner has.
+const CONIC_ONLY: [Source; 9] = [
+    Source::PrismSlope,
+    Source::PrismX,
+    Source::PrismY,
+    Source::PrismZ,
+    Source::ScanAzimuth,
+    Source::EmitterZenith,
+    Source::EmitterAzimuth,
+    Source::TimeAir,
+    Source::TimeWater,
+];
+
+/// Sources that only the linear scanner has.
+const LINEAR_ONLY: [Source; 2] = [Source::Range, Source::ScanAngle];
+
+/// Read and check a sensor file.
+pub fn read_sensor(path: &Path) -> Result<Sensor> {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse_sensor(&text, path)
+}
+
+fn config_error(path: &Path, key: Option<&str>, message: impl Into<String>) -> Error {
+    Error::Config {
+        path: path.to_path_buf(),
+        key: key.map(str::to_string),
+        message: message.into(),
+    }
+}
+
+/// One line from a TOML error: "line N: message".
+pub(crate) fn toml_error(path: &Path, text: &str, e: &toml::de::Error) -> Error {
+    let line = e
+        .span()
+        .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+    let message = e.message().replace('\n', " ");
+    let message = match line {
+        Some(l) => format!("line {l}: {message}"),
+        None => message,
+    };
+    config_error(path, None, message)
+}
+
+/// Parse and check the text of a sensor file; `path` names the file in errors.
+pub fn parse_sensor(text: &str, path: &Path) -> Result<Sensor> {
+    let file: SensorFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+    let err = |key: &str, msg: String| config_error(path, Some(key), msg);
+    let finite = |key: &str, v: f64| {
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(err(key, format!("must be a finite number, got {v}")))
+        }
+    };
+
+    let s = &file.scanner;
+    let scanner = match s.kind.as_str() {
+        "linear" => {
+            for (key, given) in [
+                ("exit_angle_deg", s.exit_angle_deg.is_some()),
+                ("prism_slope_deg", s.prism_slope_deg.is_some()),
+                ("n_prism", s.n_prism.is_some()),
+                ("n_air", s.n_air.is_some()),
+                ("n_water", s.n_water.is_some()),
+                ("refraction", s.refraction.is_some()),
+            ] {
+                if given {
+                    return Err(err(
+                        &format!("scanner.{key}"),
+                        "applies to a conic scanner only".into(),
+                    ));
+                }
+            }
+            Scanner::Linear
+        }
+        "conic" => {
+            let refraction = match &s.refraction {
+                None => Refraction::ScannerFrame,
+                Some(name) => Refraction::from_name(name).ok_or_else(|| {
+                    err(
+                        "scanner.refraction",
+                        format!("'{name}' is not one of scanner-frame, level"),
+                    )
+                })?,
+            };
+            let n_prism = s.n_prism.unwrap_or(DEFAULT_N_PRISM);
+            let n_air = s.n_air.unwrap_or(DEFAULT_N_AIR);
+            let n_water = s.n_water.unwrap_or(DEFAULT_N_WATER);
+            let built = match (s.exit_angle_deg, s.prism_slope_deg) {
+                (Some(_), Some(_)) => {
+                    return Err(err(
+                        "scanner.exit_angle_deg",
+                        "give exit_angle_deg or prism_slope_deg, not both".into(),
+                    ));
+                }
+                (Some(exit), None) => ConicScanner::from_exit_angle(
+                    finite("scanner.exit_angle_deg", exit)?.to_radians(),
+                    n_prism,
+                    n_air,
+                    n_water,
+                    refraction,
+                ),
+                (None, Some(slope)) => ConicScanner::new(
+                    finite("scanner.prism_slope_deg", slope)?.to_radians(),
+                    n_prism,
+                    n_air,
+                    n_water,
+                    refraction,
+                ),
+                (None, None) => ConicScanner::from_exit_angle(
+                    20f64.to_radians(),
+                    n_prism,
+                    n_air,
+                    n_water,
+                    refraction,
+                ),
+            };
+            Scanner::Conic(built.map_err(|e| err("scanner", e.to_string()))?)
+        }
+        other => {
+            return Err(err(
+                "scanner.type",
+                format!("'{other}' is not one of linear, conic"),
+            ));
+        }
+    };
+
+    let m = &file.mounting;
+    let lever = m.lever_arm_m;
+    for (i, v) in lever.iter().enumerate() {
+        finite(&format!("mounting.lever_arm_m[{i}]"), *v)?;
+    }
+    let mounting = Mounting {
+        boresight_roll_rad: finite("mounting.boresight_roll_deg", m.boresight_roll_deg)?
+            .to_radians(),
+        boresight_pitch_rad: finite("mounting.boresight_pitch_deg", m.boresight_pitch_deg)?
+            .to_radians(),
+        boresight_yaw_rad: finite("mounting.boresight_yaw_deg", m.boresight_yaw_deg)?.to_radians(),
+        lever_arm_m: Vector3::new(lever[0], lever[1], lever[2]),
+    };
+
+    let mut sigma = Sigmas::zero();
+    for (key, value) in &file.sigma {
+        let dotted = format!("sigma.{key}");
+        let source = source_for_key(key).map_err(|m| err(&dotted, m))?;
+        let not_here: &[Source] = match scanner {
+            Scanner::Linear => &CONIC_ONLY,
+            Scanner::Conic(_) => &LINEAR_ONLY,
+        };
+        if not_here.contains(&source) {
+            return Err(err(
+                &dotted,
+                format!("a {} scanner has no {} source", scanner.kind(), source),
+            ));
+        }
+        sigma
+            .set(source, value * source.unit().config_to_si())
+            .map_err(|_| {
+                err(
+                    &dotted,
+                    format!("must be a finite number >= 0, got {value}"),
+                )
+            })?;
+    }
+
+    let correlation = match &file.covariance {
+        None => None,
+        Some(c) => {
+            let mut sources = Vec::with_capacity(c.sources.len());
+            for name in &c.sources {
+                sources.push(Source::from_name(name).ok_or_else(|| {
+                    err(
+                        "covariance.sources",
+                        format!("unknown source '{name}' (a name of SPEC §4 without unit)"),
+                    )
+                })?);
+            }
+            let n = sources.len();
+            if c.correlation.len() != n || c.correlation.iter().any(|r| r.len() != n) {
+                return Err(err(
+                    "covariance.correlation",
+                    format!("must be a {n}x{n} matrix, one row per source"),
+                ));
+            }
+            let matrix = DMatrix::from_fn(n, n, |i, j| c.correlation[i][j]);
+            Some(
+                Correlation::new(sources, matrix)
+                    .map_err(|e| err("covariance.correlation", e.to_string()))?,
+            )
+        }
+    };
+
+    Ok(Sensor {
+        scanner,
+        mounting,
+        sigma,
+        correlation,
+    })
+}
+
+/// The source of a `[sigma]` key, or why it is not one.
+fn source_for_key(key: &str) -> std::result::Result<Source, String> {
+    if let Some(s) = Source::from_config_key(key) {
+        return Ok(s);
+    }
+    // A known source with the wrong unit suffix gets a pointed message.
+    for s in Source::ALL {
+        if let Some(rest) = key.strip_prefix(s.name())
+            && rest.starts_with('_')
+            && !Source::ALL
+                .iter()
+                .any(|o| o.name().len() > s.name().len() && key.starts_with(o.name()))
+        {
+            return Err(format!(
+                "wrong unit for {}: write {} (in {})",
+                s.name(),
+                s.config_key(),
+                match s.unit() {
+                    lidarqa_model::Unit::Metre => "metres",
+                    lidarqa_model::Unit::Radian => "degrees",
+                    lidarqa_model::Unit::Second => "nanoseconds",
+                }
+            ));
+        }
+    }
+    Err(
+        "unknown source (keys are a SPEC §4 name with its unit: range_m, heading_deg, time_water_ns, …)"
+            .into(),
+    )
+}
+
+/// Write a sensor as a sensor file (SPEC §5), with a comment header.
+pub fn sensor_to_toml(sensor: &Sensor) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "# lidarqa sensor file (SPEC §5). Every key carries its unit; a missing [sigma] key means 0."
+    );
+    let _ = writeln!(out, "\n[scanner]");
+    match &sensor.scanner {
+        Scanner::Linear => {
+            let _ = writeln!(out, "type = \"linear\"");
+        }
+        Scanner::Conic(c) => {
+            let _ = writeln!(out, "type = \"conic\"");
+            let _ = writeln!(
+                out,
+                "prism_slope_deg = {}   # exit angle {:.4} deg",
+                c.prism_slope_rad().to_degrees(),
+                c.exit_angle_rad().to_degrees()
+            );
+            let _ = writeln!(out, "n_prism = {}", c.n_prism());
+            let _ = writeln!(out, "n_air = {}", c.n_air());
+            let _ = writeln!(out, "n_water = {}", c.n_water());
+            let _ = writeln!(
+                out,
+                "refraction = \"{}\"   # or \"{}\"",
+                c.refraction().name(),
+                match c.refraction() {
+                    Refraction::ScannerFrame => "level",
+                    Refraction::Level => "scanner-frame",
+                }
+            );
+        }
+    }
+    let m = &sensor.mounting;
+    let _ = writeln!(out, "\n[mounting]");
+    let _ = writeln!(
+        out,
+        "boresight_roll_deg = {}",
+        m.boresight_roll_rad.to_degrees()
+    );
+    let _ = writeln!(
+        out,
+        "boresight_pitch_deg = {}",
+        m.boresight_pitch_rad.to_degrees()
+    );
+    let _ = writeln!(
+        out,
+        "boresight_yaw_deg = {}",
+        m.boresight_yaw_rad.to_degrees()
+    );
+    let _ = writeln!(
+        out,
+        "lever_arm_m = [{}, {}, {}]",
+        m.lever_arm_m.x, m.lever_arm_m.y, m.lever_arm_m.z
+    );
+    let _ = writeln!(out, "\n[sigma]   # 1-sigma");
+    for (s, v) in sensor.sigma.nonzero() {
+        let shown = v / s.unit().config_to_si();
+        // Round to 12 significant digits so 0.008° does not print as 0.007999999999999998.
+        let _ = writeln!(out, "{} = {}", s.config_key(), format_sig(shown));
+    }
+    if let Some(c) = &sensor.correlation {
+        let _ = writeln!(out, "\n[covariance]");
+        let names: Vec<String> = c.sources().iter().map(|s| format!("\"{s}\"")).collect();
+        let _ = writeln!(out, "sources = [{}]", names.join(", "));
+        let _ = writeln!(out, "correlation = [");
+        for i in 0..c.sources().len() {
+            let row: Vec<String> = (0..c.sources().len())
+                .map(|j| format_sig(c.matrix()[(i, j)]))
+                .collect();
+            let _ = writeln!(out, "  [{}],", row.join(", "));
+        }
+        let _ = writeln!(out, "]");
+    }
+    out
+}
+
+fn format_sig(v: f64) -> String {
+    let s = format!("{v:.12e}");
+    let parsed: f64 = s.parse().unwrap_or(v);
+    let plain = format!("{parsed}");
+    if plain.contains('.') || plain.contains('e') {
+        plain
+    } else {
+        format!("{plain}.0")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const EXAMPLE: &str = r#"
+[scanner]
+type = "linear"
+
+[mounting]
+boresight_roll_deg = 0.01
+lever_arm_m = [0.1, -0.2, 0.3]
+
+[sigma]
+range_m = 0.005
+scan_angle_deg = 0.0028
+heading_deg = 0.008
+gnss_up_m = 0.10
+"#;
+
+    fn parse(text: &str) -> Result<Sensor> {
+        parse_sensor(text, Path::new("sensor.toml"))
+    }
+
+    #[test]
+    fn reads_spec_example_in_si() {
+        let s = parse(EXAMPLE).unwrap();
+        assert_eq!(s.scanner, Scanner::Linear);
+        assert!((s.sigma.get(Source::ScanAngle) - 0.0028f64.to_radians()).abs() < 1e-18);
+        assert_eq!(s.sigma.get(Source::Range), 0.005);
+        assert_eq!(s.sigma.get(Source::LeverX), 0.0);
+        assert!((s.mounting.boresight_roll_rad - 0.01f64.to_radians()).abs() < 1e-18);
+        assert_eq!(s.mounting.lever_arm_m.y, -0.2);
+    }
+
+    #[test]
+    fn round_trips_through_toml() {
+        let s = parse(EXAMPLE).unwrap();
+        let again = parse(&sensor_to_toml(&s)).unwrap();
+        for src in Source::ALL {
+            assert!((s.sigma.get(*src) - again.sigma.get(*src)).abs() <= 1e-15 * s.sigma.get(*src));
+        }
+        assert_eq!(s.mounting, again.mounting);
+        let conic = r#"
+[scanner]
+type = "conic"
+exit_angle_deg = 20.0
+refraction = "level"
+[sigma]
+time_water_ns = 0.9
+[covariance]
+sources = ["roll", "pitch"]
+correlation = [[1.0, 0.3], [0.3, 1.0]]
+"#;
+        let c = parse(conic).unwrap();
+        let again = parse(&sensor_to_toml(&c)).unwrap();
+        assert_eq!(c.scanner.kind(), again.scanner.kind());
+        assert_eq!(c.correlation, again.correlation);
+        assert!((again.sigma.get(Source::TimeWater) - 0.9e-9).abs() < 1e-21);
+    }
+
+    #[test]
+    fn errors_name_the_file_and_key() {
+        let cases = [
+            (
+                "[scanner]\ntype = \"linear\"\n[sigma]\nrange_deg = 1\n",
+                "sensor.toml: key `sigma.range_deg`: wrong unit for range: write range_m (in metres)",
+            ),
+            (
+                "[scanner]\ntype = \"linear\"\n[sigma]\nwind_m = 1\n",
+                "sensor.toml: key `sigma.wind_m`: unknown source",
+            ),
+            (
+                "[scanner]\ntype = \"linear\"\n[sigma]\nrange_m = -0.1\n",
+                "sensor.toml: key `sigma.range_m`: must be a finite number >= 0, got -0.1",
+            ),
+            (
+                "[scanner]\ntype = \"linear\"\nspeed = 3\n",
+                "sensor.toml: line 3: unknown field `speed`",
+            ),
+            (
+                "[scanner]\ntype = \"linear\"\n[sigma]\ntime_water_ns = 1\n",
+                "sensor.toml: key `sigma.time_water_ns`: a linear scanner has no time_water source",
+            ),
+            (
+                "[scanner]\ntype = \"conic\"\nn_water = 0.9\n",
+                "sensor.toml: key `scanner`: refraction index n_water must be a finite number > 1, got 0.9",
+            ),
+            (
+                "[scanner]\ntype = \"helical\"\n",
+                "sensor.toml: key `scanner.type`: 'helical' is not one of linear, conic",
+            ),
+        ];
+        for (text, want) in cases {
+            let got = parse(text).unwrap_err().to_string();
+            assert!(got.starts_with(want), "got: {got}\nwant: {want}");
+            assert!(!got.contains('\n'), "one line: {got}");
+        }
+    }
+}

@@ -1,0 +1,341 @@
+//! LAS/LAZ round trips through lidarqa's reader and writer: every version lidarqa writes, LAS
+//! and LAZ, coordinates, GPS times, flags, extra-bytes values and CRS VLRs.
+
+use lidarqa_io::LasTimeBase;
+use lidarqa_io::{
+    Error, LasPoint, LasReader, LasWriteOptions, LasWriter, PointChunk, RawVlr, epsg_from_wkt,
+};
+use std::path::{Path, PathBuf};
+
+const EXTRA: &[(&str, &str)] = &[
+    ("sigma_north", "1-sigma north TPU (m)"),
+    ("sigma_east", "1-sigma east TPU (m)"),
+    ("sigma_up", "1-sigma up TPU (m)"),
+    ("total_thu", "THU at 95% (m)"),
+];
+
+/// A GeoKey directory (VLR 34735) with GTModelTypeGeoKey = 1 (projected) and
+/// ProjectedCSTypeGeoKey (3072) = `epsg`: header (1, 1, 0, 2 keys) then two 4×u16 entries.
+fn geokeys(epsg: u16) -> RawVlr {
+    let words: [u16; 12] = [1, 1, 0, 2, 1024, 0, 1, 1, 3072, 0, 1, epsg];
+    RawVlr {
+        user_id: "LASF_Projection".into(),
+        record_id: 34735,
+        description: "GeoKeyDirectoryTag".into(),
+        data: words.iter().flat_map(|w| w.to_le_bytes()).collect(),
+    }
+}
+
+fn wkt_vlr(epsg: u32) -> RawVlr {
+    let wkt = format!(
+        "PROJCS[\"WGS 84 / UTM zone 33N\",GEOGCS[\"WGS 84\",DATUM[\"WGS_1984\",SPHEROID[\"WGS 84\",\
+         6378137,298.257223563,AUTHORITY[\"EPSG\",\"7030\"]],AUTHORITY[\"EPSG\",\"6326\"]],\
+         AUTHORITY[\"EPSG\",\"4326\"]],PROJECTION[\"Transverse_Mercator\"],UNIT[\"metre\",1],\
+         AUTHORITY[\"EPSG\",\"{epsg}\"]]\0"
+    );
+    RawVlr {
+        user_id: "LASF_Projection".into(),
+        record_id: 2112,
+        description: "OGC WKT".into(),
+        data: wkt.into_bytes(),
+    }
+}
+
+/// Points with values that exercise the record: UTM-size coordinates on the 1 mm grid, GPS
+/// times with microseconds, every flag, and scan angles that the legacy formats store as whole
+/// degrees.
+fn points(format: u8) -> Vec<(LasPoint, Vec<f32>)> {
+    let extended = format >= 6;
+    (0..25u16)
+        .map(|i| {
+            let f = f64::from(i);
+            let p = LasPoint {
+                x: 500_123.456 + f * 1.001,
+                y: 4_982_950.123 - f * 0.5,
+                z: 101.25 + f * 0.01,
+                gps_time_s: Some(330_560_000.123_456 + f * 1e-3),
+                intensity: 1000 + i,
+                return_number: 1 + (i % 3) as u8,
+                number_of_returns: 3,
+                classification: [1u8, 2, 9][usize::from(i % 3)],
+                scan_angle_deg: if extended {
+                    -14.994 + f32::from(i) * 1.2
+                } else {
+                    -15.0 + f32::from(i)
+                },
+                point_source_id: 7,
+                user_data: i as u8,
+                scan_direction_positive: i % 2 == 0,
+                edge_of_flight_line: i == 24,
+                synthetic: i == 1,
+                key_point: i == 2,
+                withheld: i == 3,
+                overlap: extended && i == 4,
+                scanner_channel: if extended { (i % 4) as u8 } else { 0 },
+                rgb: matches!(format, 2 | 3 | 5 | 7 | 8 | 10).then_some([i, 2 * i, 3 * i]),
+                nir: matches!(format, 8 | 10).then_some(4 * i),
+            };
+            let extra = vec![
+                0.01 * f32::from(i),
+                0.02,
+                0.03 + f32::from(i) * 1e-4,
+                1.7308 * 0.05,
+            ];
+            (p, extra)
+        })
+        .collect()
+}
+
+fn options(minor: u8, format: u8, crs: Vec<RawVlr>) -> LasWriteOptions {
+    LasWriteOptions {
+        version_minor: minor,
+        point_format: format,
+        scale: [0.001, 0.001, 0.001],
+        offset: [500_000.0, 4_982_000.0, 0.0],
+        time_base: LasTimeBase::AdjustedStandard,
+        crs_vlrs: crs,
+        extra_dims: EXTRA
+            .iter()
+            .map(|(n, d)| (n.to_string(), d.to_string()))
+            .collect(),
+        file_source_id: 7,
+    }
+}
+
+fn write(path: &Path, opts: &LasWriteOptions, pts: &[(LasPoint, Vec<f32>)]) {
+    let mut w = LasWriter::create(path, opts, &[] as &[&Path]).unwrap();
+    for (p, e) in pts {
+        w.write_point(p, e).unwrap();
+    }
+    assert_eq!(w.finish().unwrap(), pts.len() as u64);
+}
+
+/// Reads in chunks of 7 (so the last chunk is partial) and compares everything.
+fn check(path: &Path, minor: u8, format: u8, pts: &[(LasPoint, Vec<f32>)], epsg: u32) {
+    let mut r = LasReader::from_path(path).unwrap();
+    let info = r.info().clone();
+    assert_eq!(info.version, (1, minor));
+    assert_eq!(info.point_format, format);
+    assert_eq!(
+        info.compressed,
+        path.extension().unwrap().eq_ignore_ascii_case("laz")
+    );
+    assert_eq!(info.point_count, pts.len() as u64);
+    assert!(info.has_gps_time);
+    assert_eq!(info.time_base, LasTimeBase::AdjustedStandard);
+    assert_eq!(info.scale, [0.001; 3]);
+    assert_eq!(info.offset, [500_000.0, 4_982_000.0, 0.0]);
+    assert_eq!(info.crs.epsg, Some(epsg));
+    assert!(info.creation_date.is_some());
+    let names: Vec<&str> = info.extra_dims.iter().map(|d| d.name.as_str()).collect();
+    assert_eq!(names, EXTRA.iter().map(|(n, _)| *n).collect::<Vec<_>>());
+    assert_eq!(info.extra_dims[3].description, "THU at 95% (m)");
+    assert!((info.min[0] - 500_123.456).abs() < 1e-9);
+    assert!((info.max[0] - (500_123.456 + 24.0 * 1.001)).abs() < 1e-6);
+
+    let mut chunk = PointChunk::new();
+    let mut k = 0;
+    let mut sizes = Vec::new();
+    while r.fill(&mut chunk, 7).unwrap() > 0 {
+        sizes.push(chunk.len());
+        for (i, got) in chunk.points.iter().enumerate() {
+            let (want, extra) = &pts[k];
+            // Coordinates were on the 1 mm grid: they come back to well under a micrometre.
+            assert!((got.x - want.x).abs() < 1e-6, "x {} vs {}", got.x, want.x);
+            assert!((got.y - want.y).abs() < 1e-6);
+            assert!((got.z - want.z).abs() < 1e-6);
+            assert_eq!(got.gps_time_s, want.gps_time_s, "gps time is stored as f64");
+            let mut want_cmp = want.clone();
+            want_cmp.x = got.x;
+            want_cmp.y = got.y;
+            want_cmp.z = got.z;
+            // Formats 6–10 store the nearest 0.006° step: within half a step (+ f32 rounding).
+            assert!(
+                (got.scan_angle_deg - want.scan_angle_deg).abs() <= 0.003 + 1e-5,
+                "scan angle {} vs {}",
+                got.scan_angle_deg,
+                want.scan_angle_deg
+            );
+            want_cmp.scan_angle_deg = got.scan_angle_deg;
+            assert_eq!(got, &want_cmp);
+            for (j, (name, _)) in EXTRA.iter().enumerate() {
+                assert_eq!(chunk.extra(i, name), Some(f64::from(extra[j])), "{name}");
+            }
+            k += 1;
+        }
+    }
+    assert_eq!(sizes, vec![7, 7, 7, 4]);
+    assert_eq!(k, pts.len());
+    // The CRS VLRs came through byte for byte.
+    assert!(!info.crs.vlrs.is_empty());
+}
+
+macro_rules! roundtrip {
+    ($name:ident, $minor:expr, $format:expr, $ext:expr, $crs:expr, $epsg:expr) => {
+        #[test]
+        fn $name() {
+            let dir = tempfile::tempdir().unwrap();
+            let path: PathBuf = dir.path().join(concat!(stringify!($name), ".", $ext));
+            let pts = points($format);
+            let crs: Vec<RawVlr> = $crs;
+            write(&path, &options($minor, $format, crs.clone()), &pts);
+            check(&path, $minor, $format, &pts, $epsg);
+            let r = LasReader::from_path(&path).unwrap();
+            assert_eq!(r.info().crs.vlrs, crs);
+        }
+    };
+}
+
+roundtrip!(las_1_2_format_1, 2, 1, "las", vec![geokeys(32632)], 32632);
+roundtrip!(laz_1_2_format_3, 2, 3, "laz", vec![geokeys(32632)], 32632);
+roundtrip!(las_1_3_format_1, 3, 1, "las", vec![geokeys(32717)], 32717);
+roundtrip!(laz_1_3_format_1, 3, 1, "laz", vec![geokeys(32717)], 32717);
+roundtrip!(las_1_4_format_6, 4, 6, "las", vec![wkt_vlr(32633)], 32633);
+roundtrip!(laz_1_4_format_6, 4, 6, "laz", vec![wkt_vlr(32633)], 32633);
+roundtrip!(las_1_4_format_8, 4, 8, "las", vec![wkt_vlr(32633)], 32633);
+roundtrip!(laz_1_4_format_7, 4, 7, "LAZ", vec![wkt_vlr(32633)], 32633);
+
+/// SPEC §7: the output of a file follows its input: LAS 1.4, the input's format when it has GPS
+/// time, its scale/offset and CRS.
+#[test]
+fn output_for_input_carries_crs_and_transform() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("in.las");
+    let pts = points(1);
+    let mut opts = options(2, 1, vec![geokeys(32632)]);
+    opts.extra_dims.clear();
+    let plain: Vec<_> = pts.iter().map(|(p, _)| (p.clone(), vec![])).collect();
+    write(&input, &opts, &plain);
+    let info = LasReader::from_path(&input).unwrap().info().clone();
+    assert!(info.extra_dims.is_empty());
+    assert_eq!(info.utm_zone().unwrap().epsg(), Some(32632));
+
+    let out_opts = LasWriteOptions::for_input(&info, EXTRA);
+    assert_eq!((out_opts.version_minor, out_opts.point_format), (4, 1));
+    let output = dir.path().join("out.laz");
+    // Refuses to write over the input.
+    assert!(matches!(
+        LasWriter::create(&input, &out_opts, &[&input]),
+        Err(Error::OutputIsInput { .. })
+    ));
+    write(&output, &out_opts, &pts);
+    let out = LasReader::from_path(&output).unwrap().info().clone();
+    assert_eq!(out.crs.vlrs, info.crs.vlrs);
+    assert_eq!(out.crs.epsg, Some(32632));
+    assert_eq!((out.version, out.point_format), ((1, 4), 1));
+
+    // Without GPS time in the input, the output is format 6.
+    let mut no_time = info.clone();
+    no_time.has_gps_time = false;
+    no_time.point_format = 0;
+    assert_eq!(LasWriteOptions::for_input(&no_time, &[]).point_format, 6);
+}
+
+#[test]
+fn writer_rejects_points_that_do_not_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.las");
+    let opts = options(4, 6, vec![]);
+    let mut w = LasWriter::create(&path, &opts, &[] as &[&Path]).unwrap();
+    let (mut p, extra) = points(6).remove(0);
+    let e = w.write_point(&p, &extra[..2]).unwrap_err().to_string();
+    assert!(
+        e.contains("bad.las: point 0: 2 extra-bytes values for 4 dimensions"),
+        "{e}"
+    );
+    p.gps_time_s = None;
+    let e = w.write_point(&p, &extra).unwrap_err().to_string();
+    assert!(e.contains("needs a GPS time"), "{e}");
+    p.gps_time_s = Some(1.0);
+    p.x = 1e12; // beyond i32 at 1 mm
+    assert!(matches!(
+        w.write_point(&p, &extra),
+        Err(Error::LasPoint { index: 0, .. })
+    ));
+    // The writer is still usable and nothing is visible until finish.
+    p.x = 500_000.0;
+    w.write_point(&p, &extra).unwrap();
+    assert!(!path.exists());
+    assert_eq!(w.finish().unwrap(), 1);
+    assert!(path.exists());
+}
+
+#[test]
+fn dropped_writer_leaves_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("partial.laz");
+    {
+        let mut w = LasWriter::create(&path, &options(4, 6, vec![]), &[] as &[&Path]).unwrap();
+        let (p, e) = points(6).remove(0);
+        w.write_point(&p, &e).unwrap();
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+#[test]
+fn bad_options_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("x.las");
+    let mut o = options(4, 4, vec![]);
+    assert!(LasWriter::create(&path, &o, &[] as &[&Path]).is_err());
+    o.point_format = 6;
+    o.version_minor = 1;
+    assert!(LasWriter::create(&path, &o, &[] as &[&Path]).is_err());
+    o.version_minor = 4;
+    o.extra_dims.push(("sigma_up".into(), String::new()));
+    let e = LasWriter::create(&path, &o, &[] as &[&Path])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("`sigma_up` given twice"), "{e}");
+    o.extra_dims.pop();
+    o.extra_dims
+        .push(("a_name_that_is_longer_than_32_bytes".into(), String::new()));
+    assert!(LasWriter::create(&path, &o, &[] as &[&Path]).is_err());
+    assert!(!path.exists());
+}
+
+#[test]
+fn reading_garbage_names_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("garbage.las");
+    std::fs::write(&path, b"not a las file at all").unwrap();
+    let e = LasReader::from_path(&path).err().unwrap().to_string();
+    assert!(e.contains("garbage.las"), "{e}");
+    let e = LasReader::from_path(dir.path().join("missing.las"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("missing.las"), "{e}");
+}
+
+#[test]
+fn truncated_las_is_an_error_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.las");
+    write(&path, &options(4, 6, vec![]), &points(6));
+    let bytes = std::fs::read(&path).unwrap();
+    let cut = dir.path().join("cut.las");
+    std::fs::write(&cut, &bytes[..bytes.len() - 50]).unwrap();
+    let mut r = LasReader::from_path(&cut).unwrap();
+    let mut chunk = PointChunk::new();
+    let e = r.fill(&mut chunk, 1000).unwrap_err().to_string();
+    assert!(
+        e.starts_with(&format!("{}: point 0:", cut.display())),
+        "{e}"
+    );
+}
+
+#[test]
+fn epsg_from_wkt_takes_the_horizontal_crs() {
+    let w = String::from_utf8(wkt_vlr(32633).data).unwrap();
+    assert_eq!(epsg_from_wkt(&w), Some(32633));
+    let compound = format!(
+        "COMPD_CS[\"x\",{},VERT_CS[\"NAVD88\",AUTHORITY[\"EPSG\",\"5703\"]],AUTHORITY[\"EPSG\",\"9999\"]]",
+        w.trim_end_matches('\0')
+    );
+    assert_eq!(epsg_from_wkt(&compound), Some(32633));
+    let wkt2 = "PROJCRS[\"WGS 84 / UTM zone 17S\",BASEGEOGCRS[\"WGS 84\",ID[\"EPSG\",4326]],\
+                CONVERSION[\"UTM zone 17S\",ID[\"EPSG\",16117]],ID[\"EPSG\",32717]]";
+    assert_eq!(epsg_from_wkt(wkt2), Some(32717));
+    assert_eq!(epsg_from_wkt("LOCAL_CS[\"x\"]"), None);
+}
