@@ -44,7 +44,7 @@ pub use georeferencer::Georeferencer;
 pub use linear::{
     LINEAR_N, LinearObservation, LinearScanner, linear_range_for_height, scanner_vector,
 };
-pub use rotation::{rot_x, rot_y, rot_z, rotation_zyx, zyx_angles};
+pub use rotation::{rot_x, rot_y, rot_z, rotation_zyx, rotation_zyx_with_partials, zyx_angles};
 pub use scalar::Scalar;
 pub use sensor::{Correlation, Scanner, Sensor, Sigmas};
 pub use source::{Source, Unit};

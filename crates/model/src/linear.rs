@@ -6,10 +6,10 @@
 use crate::error::{Error, Result};
 use crate::frames::{Attitude, Mounting};
 use crate::georeferencer::{Georeferencer, gnss_offset_ned};
-use crate::rotation::rotation_zyx;
+use crate::rotation::{rotation_zyx, rotation_zyx_with_partials};
 use crate::scalar::Scalar;
 use crate::source::Source;
-use nalgebra::{Matrix3, SMatrix, SVector, Vector2, Vector3};
+use nalgebra::{SMatrix, SVector, Vector2, Vector3};
 use num_dual::{DualSVec64, jacobian};
 
 /// Number of parameters of the linear model.
@@ -87,14 +87,15 @@ impl Georeferencer<LINEAR_N> for LinearScanner {
     }
 
     /// The same Jacobian as the default, composed by the chain rule from the Jacobians of the three
-    /// stages (`R_N`, `R_M`, `S`), each taken with dual numbers of 3 or 2 directions instead of 14:
-    /// the per-point TPU's kernel, several times cheaper (see the tpu `budget` benchmark).
+    /// stages: `R_N` and `R_M` from [`rotation_zyx_with_partials`], `S` from a 2-direction dual
+    /// pass. It is the per-point TPU's kernel, many times cheaper than one 14-direction dual pass
+    /// (see the tpu `budget` benchmark); a test checks it against that pass.
     fn footprint_jacobian(
         &self,
         p: &SVector<f64, LINEAR_N>,
     ) -> (Vector3<f64>, SMatrix<f64, 3, LINEAR_N>) {
-        let (r_n, d_r_n) = rotation_with_partials(p[3], p[4], p[5]);
-        let (r_m, d_r_m) = rotation_with_partials(p[6], p[7], p[8]);
+        let (r_n, d_r_n) = rotation_zyx_with_partials(p[3], p[4], p[5]);
+        let (r_m, d_r_m) = rotation_zyx_with_partials(p[6], p[7], p[8]);
         let (s, d_s) = jacobian(
             |q: SVector<DualSVec64<2>, 2>| scanner_vector(q[0], q[1]),
             &Vector2::new(p[12], p[13]),
@@ -116,16 +117,6 @@ impl Georeferencer<LINEAR_N> for LinearScanner {
         j.set_column(13, &(r_ns * d_s.column(1)));
         (f, j)
     }
-}
-
-/// `Rz(yaw) Ry(pitch) Rx(roll)` and its partials with respect to roll, pitch and yaw, from one pass
-/// of [`rotation_zyx`] with 3-direction dual numbers.
-fn rotation_with_partials(roll: f64, pitch: f64, yaw: f64) -> (Matrix3<f64>, [Matrix3<f64>; 3]) {
-    let d = |x: f64, i: usize| DualSVec64::<3>::from_re(x).derivative(i);
-    let r = rotation_zyx(d(roll, 0), d(pitch, 1), d(yaw, 2));
-    let value = r.map(|e| e.re);
-    let partial = |k: usize| r.map(|e| e.eps.unwrap_generic(nalgebra::U3, nalgebra::U1)[k]);
-    (value, [partial(0), partial(1), partial(2)])
 }
 
 /// The range at which a pulse at `scan_angle_rad` meets level ground `height_m` below the GNSS/INS

@@ -37,6 +37,25 @@ pub fn rotation_zyx<D: Scalar>(roll: D, pitch: D, yaw: D) -> Matrix3<D> {
     rot_z(yaw) * rot_y(pitch) * rot_x(roll)
 }
 
+/// [`rotation_zyx`] and its partial derivatives with respect to roll, pitch and yaw.
+///
+/// From the generator identity `d/dφ R_axis(φ) = R_axis(φ) · [e_axis]×`:
+/// `∂R/∂roll = Rz Ry Rx [e_x]×`, `∂R/∂pitch = Rz Ry [e_y]× Rx`, `∂R/∂yaw = [e_z]× Rz Ry Rx`.
+/// A handful of 3×3 products instead of a dual-number pass; the tests check it against num-dual.
+pub fn rotation_zyx_with_partials(
+    roll: f64,
+    pitch: f64,
+    yaw: f64,
+) -> (Matrix3<f64>, [Matrix3<f64>; 3]) {
+    let (rx, ry, rz) = (rot_x(roll), rot_y(pitch), rot_z(yaw));
+    let kx = Vector3::<f64>::x().cross_matrix();
+    let ky = Vector3::<f64>::y().cross_matrix();
+    let kz = Vector3::<f64>::z().cross_matrix();
+    let rzy = rz * ry;
+    let r = rzy * rx;
+    (r, [r * kx, rzy * ky * rx, kz * r])
+}
+
 /// Roll, pitch and yaw (radians) of a rotation matrix built as [`rotation_zyx`]; the inverse of it
 /// away from pitch = ±90°.
 pub fn zyx_angles(r: &Matrix3<f64>) -> Vector3<f64> {
@@ -88,6 +107,24 @@ mod tests {
         let r = rotation_zyx(a, b, g);
         let small = Matrix3::new(1.0, -g, b, g, 1.0, -a, -b, a, 1.0);
         assert!((r - small).amax() < 1e-7, "second-order terms only");
+    }
+
+    #[test]
+    fn partials_match_dual_numbers() {
+        use num_dual::DualSVec64;
+        let (roll, pitch, yaw) = (0.3, -0.7, 2.1);
+        let d = |x: f64, i: usize| DualSVec64::<3>::from_re(x).derivative(i);
+        let dual = rotation_zyx(d(roll, 0), d(pitch, 1), d(yaw, 2));
+        let (r, partials) = rotation_zyx_with_partials(roll, pitch, yaw);
+        for i in 0..3 {
+            for j in 0..3 {
+                assert_relative_eq!(r[(i, j)], dual[(i, j)].re, epsilon = 1e-15);
+                let eps = dual[(i, j)].eps.unwrap_generic(nalgebra::U3, nalgebra::U1);
+                for (k, p) in partials.iter().enumerate() {
+                    assert_relative_eq!(p[(i, j)], eps[k], epsilon = 1e-15);
+                }
+            }
+        }
     }
 
     #[test]
