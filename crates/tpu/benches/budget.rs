@@ -4,7 +4,7 @@
 //! read (issue aim: ≤ 5×, ≥ 2 million points per second per core).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use lidarqa_model::{Attitude, Georeferencer, LinearObservation, LinearScanner, Mounting, Source};
+use lidarqa_model::{Attitude, Georeferencer, LinearObservation, LinearScanner, Mounting};
 use lidarqa_tpu::{Preset, footprint_jacobian, propagate_covariance};
 use nalgebra::SVector;
 use std::hint::black_box;

@@ -24,6 +24,29 @@ pub enum Error {
     /// A geometry flag that does not fit the scanner.
     #[error("{0}")]
     Geometry(String),
+    /// A trajectory that cannot be interpolated: fewer than two poses, a time going back, a
+    /// non-finite value (`index` is the pose at fault).
+    #[error("trajectory pose {index}: {message}")]
+    InvalidTrajectory {
+        /// Zero-based index of the pose at fault.
+        index: usize,
+        /// What is wrong, lowercase.
+        message: String,
+    },
+    /// A time outside the trajectory's time span (no extrapolation).
+    #[error("time {time_s} s is outside the trajectory span [{start_s}, {end_s}] s")]
+    OutsideTrajectory {
+        /// The time asked for, GPS seconds of week.
+        time_s: f64,
+        /// First pose time, s.
+        start_s: f64,
+        /// Last pose time, s.
+        end_s: f64,
+    },
+    /// A point from which no raw observation can be recovered (it coincides with the scanner
+    /// origin, or lies behind or off the scanner's beam geometry).
+    #[error("cannot recover the raw observation: {0}")]
+    Recovery(String),
 }
 
 /// Result with the lidarqa-tpu [`Error`].
