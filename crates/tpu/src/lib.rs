@@ -5,7 +5,12 @@
 //!   ([`budget`]), the Jacobian exact from dual numbers;
 //! - the exact and first-order displacement that systematic errors cause ([`bias_effect`]);
 //! - sweeps over scan angle, azimuth, height, depth ([`Sweep`]);
-//! - a seeded Monte Carlo cross-check ([`monte_carlo`]).
+//! - a seeded Monte Carlo cross-check ([`monte_carlo`]);
+//! - for the per-point TPU of a real survey: trajectory interpolation ([`Trajectory`], slerp of
+//!   the attitude), raw-observation recovery from a georeferenced point ([`Recoverer`]),
+//!   per-point propagation with the trajectory's own σ and an `incidence` term
+//!   ([`PointPropagator`]) and plane-fit surface normals ([`plane_normals`]). File handling is
+//!   in lidarqa-pipeline.
 //!
 //! ```
 //! use lidarqa_tpu::{evaluate, Preset};
@@ -27,8 +32,12 @@ mod budget;
 mod error;
 mod geometry;
 mod montecarlo;
+mod normals;
+mod point;
 mod presets;
+mod recover;
 mod sweep;
+mod trajectory;
 
 pub use axes::{Axes, Displacement};
 pub use bias::{BiasEffect, Biases, bias_effect};
@@ -39,5 +48,9 @@ pub use geometry::{
     evaluate_monte_carlo,
 };
 pub use montecarlo::{MonteCarlo, monte_carlo};
+pub use normals::{MIN_NEIGHBOURS, fit_normal, incidence_angle, plane_normals};
+pub use point::{Incidence, MAX_INCIDENCE_RAD, PointPropagator, PointUncertainty};
 pub use presets::Preset;
+pub use recover::{ConicRecovery, LinearRecovery, Recoverer, nominal_l3};
 pub use sweep::{MAX_SWEEP_POINTS, Sweep, SweepVariable};
+pub use trajectory::{Pose, PoseAt, PoseSigma, Trajectory, TrajectorySigmas, ecef_from_ned};

@@ -1,0 +1,257 @@
+//! Per-point TPU: the budget of [`crate::budget`] at every point's own geometry, with the
+//! trajectory's σ (SMRMSG) in place of the sensor file's, and an extra `incidence` source.
+//!
+//! For one point with parameters `p` (its recovered observation and interpolated attitude):
+//!
+//! - `J` is the model's exact Jacobian ([`Georeferencer::footprint_jacobian`]), never a
+//!   hand-derived partial;
+//! - `Σ_ij = ρ_ij σ_i σ_j` with the sensor file's correlations `ρ` and σ from the sensor file,
+//!   except `gnss_north/east/up` and `roll/pitch/heading`, which come from the trajectory's
+//!   [`PoseSigma`] when one is given;
+//! - `C = J Σ Jᵀ + σ_inc² u uᵀ` (NED at P0, m²), where the **incidence** term models the spread
+//!   of the range over a footprint on a sloped surface: `σ_inc = ρ · γ/2 · tan α` along the unit
+//!   beam `u`, with γ the full beam divergence and α the angle between the beam and the surface
+//!   normal (capped at [`MAX_INCIDENCE_RAD`], where `tan α` would blow up at grazing incidence).
+//!
+//! `incidence` is not one of lidarqa-model's [`Source`]s (it has no parameter in the
+//! georeferencing function); it is reported by that name beside them.
+
+use crate::error::{Error, Result};
+use crate::trajectory::PoseSigma;
+use lidarqa_model::{Georeferencer, Sensor, Source};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+
+/// The largest incidence angle used in the incidence term, rad (85°: tan = 11.4).
+pub const MAX_INCIDENCE_RAD: f64 = 85.0 * std::f64::consts::PI / 180.0;
+
+/// Geometry of the incidence term at one point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Incidence {
+    /// Range from the scanner to the point (air range for the conic scanner), m.
+    pub range_m: f64,
+    /// Unit beam direction in N at P0.
+    pub beam_ned: Vector3<f64>,
+    /// Angle between the beam and the local surface normal, rad, in [0, π/2].
+    pub incidence_rad: f64,
+}
+
+/// The propagated uncertainty of one point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointUncertainty<const N: usize> {
+    /// Footprint − P0, NED at P0, m.
+    pub footprint_ned: Vector3<f64>,
+    /// Total covariance, NED at P0, m².
+    pub covariance_ned: Matrix3<f64>,
+    /// Each model source's own variance `|J_i|² σ_i²` (summed over the three axes), m², in
+    /// `G::SOURCES` order.
+    pub source_variance_m2: SVector<f64, N>,
+    /// The incidence term's variance `σ_inc²`, m² (0 without beam divergence or normal).
+    pub incidence_variance_m2: f64,
+}
+
+/// A sensor prepared for per-point propagation with the model `G`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointPropagator<G, const N: usize> {
+    model: G,
+    sigma: SVector<f64, N>,
+    correlation: SMatrix<f64, N, N>,
+    /// Indices in `G::SOURCES` of gnss_north, gnss_east, gnss_up, roll, pitch, heading.
+    trajectory_index: [Option<usize>; 6],
+    beam_divergence_rad: Option<f64>,
+}
+
+const TRAJECTORY_SOURCES: [Source; 6] = [
+    Source::GnssNorth,
+    Source::GnssEast,
+    Source::GnssUp,
+    Source::Roll,
+    Source::Pitch,
+    Source::Heading,
+];
+
+impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
+    /// Prepares σ and correlations of `sensor` for `model`; `beam_divergence_rad` is the full
+    /// beam divergence γ (none: no incidence term).
+    ///
+    /// # Errors
+    /// [`Error::Geometry`] for a negative or non-finite beam divergence.
+    pub fn new(model: G, sensor: &Sensor, beam_divergence_rad: Option<f64>) -> Result<Self> {
+        if let Some(g) = beam_divergence_rad
+            && !(g.is_finite() && g >= 0.0)
+        {
+            return Err(Error::Geometry(format!(
+                "beam divergence must be a finite number >= 0, got {g} rad"
+            )));
+        }
+        let sigma = SVector::from_fn(|i, _| sensor.sigma.get(G::SOURCES[i]));
+        let correlation = SMatrix::from_fn(|i, j| {
+            let (a, b) = (G::SOURCES[i], G::SOURCES[j]);
+            match &sensor.correlation {
+                Some(c) => c.between(a, b),
+                None => f64::from(u8::from(a == b)),
+            }
+        });
+        let trajectory_index = TRAJECTORY_SOURCES.map(|s| G::SOURCES.iter().position(|x| *x == s));
+        Ok(PointPropagator {
+            model,
+            sigma,
+            correlation,
+            trajectory_index,
+            beam_divergence_rad,
+        })
+    }
+
+    /// The model.
+    pub fn model(&self) -> &G {
+        &self.model
+    }
+
+    /// Whether an incidence term is computed (a beam divergence was given).
+    pub fn has_incidence(&self) -> bool {
+        self.beam_divergence_rad.is_some()
+    }
+
+    /// The parameter covariance (SI² in `G::SOURCES` order) with the trajectory σ, if given.
+    pub fn covariance(&self, trajectory: Option<&PoseSigma>) -> SMatrix<f64, N, N> {
+        let mut sigma = self.sigma;
+        if let Some(t) = trajectory {
+            let values = [
+                t.north_m,
+                t.east_m,
+                t.down_m,
+                t.roll_rad,
+                t.pitch_rad,
+                t.heading_rad,
+            ];
+            for (idx, v) in self.trajectory_index.iter().zip(values) {
+                if let Some(i) = idx {
+                    sigma[*i] = v;
+                }
+            }
+        }
+        SMatrix::from_fn(|i, j| self.correlation[(i, j)] * sigma[i] * sigma[j])
+    }
+
+    /// σ of the incidence term, m: `ρ · γ/2 · tan(min(α, 85°))`; 0 without a beam divergence.
+    pub fn incidence_sigma_m(&self, incidence: &Incidence) -> f64 {
+        match self.beam_divergence_rad {
+            Some(g) => {
+                incidence.range_m * g / 2.0 * incidence.incidence_rad.min(MAX_INCIDENCE_RAD).tan()
+            }
+            None => 0.0,
+        }
+    }
+
+    /// The point's uncertainty at parameters `p`.
+    ///
+    /// # Errors
+    /// [`Error::NotFinite`] when the footprint or its Jacobian is not finite there.
+    pub fn propagate(
+        &self,
+        p: &SVector<f64, N>,
+        trajectory: Option<&PoseSigma>,
+        incidence: Option<&Incidence>,
+    ) -> Result<PointUncertainty<N>> {
+        let (footprint_ned, j) = self.model.footprint_jacobian(p);
+        if !(footprint_ned.iter().all(|v| v.is_finite()) && j.iter().all(|v| v.is_finite())) {
+            return Err(Error::NotFinite {
+                what: "footprint or its Jacobian",
+            });
+        }
+        let cov = self.covariance(trajectory);
+        let mut covariance_ned = crate::budget::propagate_covariance(&j, &cov);
+        let source_variance_m2 = SVector::from_fn(|i, _| j.column(i).norm_squared() * cov[(i, i)]);
+        let mut incidence_variance_m2 = 0.0;
+        if let Some(inc) = incidence {
+            let s = self.incidence_sigma_m(inc);
+            if s.is_finite() && s > 0.0 {
+                incidence_variance_m2 = s * s;
+                covariance_ned += inc.beam_ned * inc.beam_ned.transpose() * (s * s);
+            }
+        }
+        Ok(PointUncertainty {
+            footprint_ned,
+            covariance_ned,
+            source_variance_m2,
+            incidence_variance_m2,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Preset, budget};
+    use approx::assert_relative_eq;
+    use lidarqa_model::{Attitude, LinearObservation, LinearScanner, Mounting};
+
+    fn params() -> SVector<f64, 14> {
+        LinearScanner.parameters(
+            &Attitude::from_degrees(1.0, 2.0, 33.0),
+            &Mounting::default(),
+            &LinearObservation {
+                range_m: 600.0,
+                scan_angle_rad: 0.3,
+            },
+        )
+    }
+
+    #[test]
+    fn without_extras_it_is_the_budget() {
+        let sensor = Preset::Seed000.sensor();
+        let pp = PointPropagator::new(LinearScanner, &sensor, None).unwrap();
+        let p = params();
+        let u = pp.propagate(&p, None, None).unwrap();
+        let b = budget(
+            &LinearScanner,
+            &p,
+            &sensor.covariance(&LinearScanner::SOURCES),
+        )
+        .unwrap();
+        assert_relative_eq!(u.covariance_ned, b.covariance_ned, epsilon = 1e-15);
+        let sum: f64 = u.source_variance_m2.sum();
+        assert_relative_eq!(sum, b.covariance_ned.trace(), epsilon = 1e-12);
+    }
+
+    #[test]
+    fn trajectory_sigma_replaces_gnss_and_attitude() {
+        let sensor = Preset::Seed000.sensor();
+        let pp = PointPropagator::new(LinearScanner, &sensor, None).unwrap();
+        let t = PoseSigma {
+            north_m: 0.01,
+            east_m: 0.02,
+            down_m: 0.03,
+            roll_rad: 1e-5,
+            pitch_rad: 2e-5,
+            heading_rad: 3e-5,
+            ..PoseSigma::default()
+        };
+        let c = pp.covariance(Some(&t));
+        assert_relative_eq!(c[(0, 0)], 1e-4);
+        assert_relative_eq!(c[(2, 2)], 9e-4);
+        assert_relative_eq!(c[(5, 5)], 9e-10);
+        // Range keeps the sensor file's 5 mm.
+        assert_relative_eq!(c[(12, 12)], 0.005 * 0.005);
+    }
+
+    #[test]
+    fn incidence_term_is_along_the_beam() {
+        let sensor = lidarqa_model::Sensor {
+            sigma: lidarqa_model::Sigmas::zero(),
+            ..Preset::Seed000.sensor()
+        };
+        let pp = PointPropagator::new(LinearScanner, &sensor, Some(0.5e-3)).unwrap();
+        let beam = Vector3::new(0.0, 0.6, 0.8);
+        let inc = Incidence {
+            range_m: 1000.0,
+            beam_ned: beam,
+            incidence_rad: 45f64.to_radians(),
+        };
+        let u = pp.propagate(&params(), None, Some(&inc)).unwrap();
+        // 1000 m · 0.25 mrad · tan 45° = 0.25 m along the beam.
+        assert_relative_eq!(u.incidence_variance_m2, 0.0625, epsilon = 1e-12);
+        assert_relative_eq!(u.covariance_ned[(1, 1)], 0.0625 * 0.36, epsilon = 1e-12);
+        assert_relative_eq!(u.covariance_ned[(2, 2)], 0.0625 * 0.64, epsilon = 1e-12);
+        assert_eq!(u.covariance_ned[(0, 0)], 0.0);
+    }
+}

@@ -1,0 +1,234 @@
+//! Raw-observation recovery: from a georeferenced point and the trajectory at its time back to
+//! the scanner's own observation (range and scan angle, or azimuth and air range).
+//!
+//! Inverting seed 000 eq. (2) `P = P0 + R_N (R_M S + ΔP)` with the N-frame vector taken
+//! rigorously through ECEF (SPEC §3):
+//!
+//! `S = R_Mᵀ (R_Nᵀ C_NE (P − P0) − ΔP)`
+//!
+//! with `C_NE` the ECEF → NED rotation at P0. For the linear scanner `S = [0, ρ sin θ, ρ cos θ]`,
+//! so `ρ = |S|`, `θ = atan2(S_y, S_z)`, and `S_x` (which should be ~0) is returned as a quality
+//! figure: a timing offset, a wrong trajectory or a wrong boresight shows up there first.
+//!
+//! For the conic scanner a topographic or water-surface return is `S = ρ1 · l3(θaz)`; with the
+//! nominal prism and emitter angles (all 0, as [`Georeferencer::parameters`] sets them)
+//! `l3(θaz) = Rz(θaz) · l3(0)`, so `ρ1 = |S|`, `θaz = atan2(S_y, S_x) − atan2(l3(0)_y, l3(0)_x)`,
+//! and the distance of `S` from the nominal cone is the quality figure. Bathymetric soundings
+//! (the in-water leg after the water-surface intersection) are not recovered here.
+
+use crate::error::{Error, Result};
+use crate::trajectory::PoseAt;
+use lidarqa_model::{
+    Attitude, ConicObservation, ConicScanner, Georeferencer, Mounting, rotation_zyx,
+};
+use nalgebra::{Matrix3, Vector3};
+
+/// The mounting, prepared once for many recoveries.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Recoverer {
+    /// `R_M`, scanner S → body B.
+    r_m: Matrix3<f64>,
+    /// Lever arm ΔP in B, m.
+    lever_m: Vector3<f64>,
+}
+
+/// A linear-scanner observation recovered from a point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinearRecovery {
+    /// Slant range ρ = |S|, m.
+    pub range_m: f64,
+    /// Scan angle θ = atan2(S_y, S_z), rad, positive towards the right wing.
+    pub scan_angle_rad: f64,
+    /// `S_x`, m: the component out of the scan plane (0 for a perfect model).
+    pub out_of_plane_m: f64,
+    /// Unit beam direction (scanner origin → point) in N at P0.
+    pub beam_ned: Vector3<f64>,
+}
+
+/// A conic-scanner observation recovered from a topographic / water-surface point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConicRecovery {
+    /// The observation: azimuth, two-way air travel time, water time 0.
+    pub observation: ConicObservation,
+    /// Air range ρ1 = |S|, m.
+    pub range_air_m: f64,
+    /// Distance of `S` from the nominal cone at the recovered azimuth, m (0 for a perfect model).
+    pub off_cone_m: f64,
+    /// Unit beam direction (scanner origin → point) in N at P0.
+    pub beam_ned: Vector3<f64>,
+}
+
+impl Recoverer {
+    /// Prepares `R_M` and ΔP from the nominal mounting.
+    pub fn new(mounting: &Mounting) -> Recoverer {
+        Recoverer {
+            r_m: rotation_zyx(
+                mounting.boresight_roll_rad,
+                mounting.boresight_pitch_rad,
+                mounting.boresight_yaw_rad,
+            ),
+            lever_m: mounting.lever_arm_m,
+        }
+    }
+
+    /// `S = R_Mᵀ (R_Nᵀ C_NE (P − P0) − ΔP)`, scanner frame, metres; and the beam (scanner
+    /// origin → point) in N.
+    pub fn scanner_vector(
+        &self,
+        pose: &PoseAt,
+        point_ecef_m: &Vector3<f64>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let ned = pose.ecef_to_ned * (point_ecef_m - pose.position_ecef_m);
+        let body = pose.body_to_ned.transpose() * ned - self.lever_m;
+        let s = self.r_m.transpose() * body;
+        // Origin → point in N is R_N R_M S.
+        (s, pose.body_to_ned * (self.r_m * s))
+    }
+
+    /// Range and scan angle of a linear-scanner point.
+    ///
+    /// # Errors
+    /// [`Error::Recovery`] when the point is at the scanner origin or not finite.
+    pub fn linear(&self, pose: &PoseAt, point_ecef_m: &Vector3<f64>) -> Result<LinearRecovery> {
+        let (s, beam) = self.scanner_vector(pose, point_ecef_m);
+        let range_m = s.norm();
+        if !(range_m.is_finite() && range_m > 0.0) {
+            return Err(Error::Recovery(format!("range {range_m} m")));
+        }
+        Ok(LinearRecovery {
+            range_m,
+            scan_angle_rad: s.y.atan2(s.z),
+            out_of_plane_m: s.x,
+            beam_ned: beam / range_m,
+        })
+    }
+
+    /// Azimuth and air range of a conic-scanner topographic / water-surface point.
+    ///
+    /// # Errors
+    /// [`Error::Recovery`] when the point is at the scanner origin or not finite.
+    pub fn conic(
+        &self,
+        scanner: &ConicScanner,
+        pose: &PoseAt,
+        point_ecef_m: &Vector3<f64>,
+    ) -> Result<ConicRecovery> {
+        let (s, beam) = self.scanner_vector(pose, point_ecef_m);
+        let range_air_m = s.norm();
+        if !(range_air_m.is_finite() && range_air_m > 0.0) {
+            return Err(Error::Recovery(format!("air range {range_air_m} m")));
+        }
+        let l3_0 = nominal_l3(scanner, 0.0);
+        let azimuth_rad = s.y.atan2(s.x) - l3_0.y.atan2(l3_0.x);
+        let nominal = lidarqa_model::rot_z(azimuth_rad) * l3_0 * range_air_m;
+        Ok(ConicRecovery {
+            observation: ConicObservation {
+                azimuth_rad,
+                time_air_s: scanner.time_air_s(range_air_m),
+                time_water_s: 0.0,
+            },
+            range_air_m,
+            off_cone_m: (s - nominal).norm(),
+            beam_ned: beam / range_air_m,
+        })
+    }
+}
+
+/// The air-leg direction l3 in S at azimuth `azimuth_rad` with nominal prism and emitter angles.
+pub fn nominal_l3(scanner: &ConicScanner, azimuth_rad: f64) -> Vector3<f64> {
+    let obs = ConicObservation {
+        azimuth_rad,
+        time_air_s: 0.0,
+        time_water_s: 0.0,
+    };
+    let p = scanner.parameters(&Attitude::default(), &Mounting::default(), &obs);
+    scanner.beam_directions(&p).0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::trajectory::{Pose, Trajectory, ecef_from_ned};
+    use approx::assert_relative_eq;
+    use lidarqa_model::{LinearObservation, LinearScanner, Refraction};
+
+    fn pose_and_mounting() -> (PoseAt, Mounting) {
+        let (lat, lon) = (0.81_f64, 0.27_f64);
+        let p0 = Vector3::new(4_100_000.0, 1_150_000.0, 4_700_000.0);
+        let poses = [
+            Pose {
+                time_s: 0.0,
+                position_ecef_m: p0,
+                latitude_rad: lat,
+                longitude_rad: lon,
+                attitude: Attitude::from_degrees(2.0, -1.5, 123.0),
+            },
+            Pose {
+                time_s: 1.0,
+                position_ecef_m: p0,
+                latitude_rad: lat,
+                longitude_rad: lon,
+                attitude: Attitude::from_degrees(2.0, -1.5, 123.0),
+            },
+        ];
+        let m = Mounting {
+            boresight_roll_rad: 0.01,
+            boresight_pitch_rad: -0.02,
+            boresight_yaw_rad: 0.03,
+            lever_arm_m: Vector3::new(0.3, -0.2, 0.5),
+        };
+        (Trajectory::new(&poses).unwrap().at(0.5).unwrap(), m)
+    }
+
+    #[test]
+    fn linear_round_trip_through_the_model() {
+        let (pose, m) = pose_and_mounting();
+        let obs = LinearObservation {
+            range_m: 612.345,
+            scan_angle_rad: -0.4321,
+        };
+        let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&pose.attitude, &m, &obs));
+        let point = pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f;
+        let r = Recoverer::new(&m).linear(&pose, &point).unwrap();
+        assert_relative_eq!(r.range_m, 612.345, epsilon = 1e-8);
+        assert_relative_eq!(r.scan_angle_rad, -0.4321, epsilon = 1e-12);
+        assert!(r.out_of_plane_m.abs() < 1e-8);
+        assert_relative_eq!(r.beam_ned.norm(), 1.0, epsilon = 1e-12);
+    }
+
+    #[test]
+    fn conic_round_trip_through_the_model() {
+        let (pose, m) = pose_and_mounting();
+        let s = ConicScanner::from_exit_angle(
+            20f64.to_radians(),
+            lidarqa_model::DEFAULT_N_PRISM,
+            lidarqa_model::DEFAULT_N_AIR,
+            lidarqa_model::DEFAULT_N_WATER,
+            Refraction::ScannerFrame,
+        )
+        .unwrap();
+        for az in [0.3_f64, 2.0, -2.5] {
+            let obs = ConicObservation {
+                azimuth_rad: az,
+                time_air_s: s.time_air_s(425.7),
+                time_water_s: 0.0,
+            };
+            let f = s.footprint_ned(&s.parameters(&pose.attitude, &m, &obs));
+            let point =
+                pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f;
+            let r = Recoverer::new(&m).conic(&s, &pose, &point).unwrap();
+            assert_relative_eq!(r.range_air_m, 425.7, epsilon = 1e-8);
+            let d = (r.observation.azimuth_rad - az).rem_euclid(2.0 * std::f64::consts::PI);
+            // ECEF coordinates of ~6e6 m round at ~1e-9 m: ~1e-12 rad at 425 m.
+            assert!(d.min(2.0 * std::f64::consts::PI - d) < 1e-10, "{az}: {d}");
+            assert!(r.off_cone_m < 1e-8);
+        }
+    }
+
+    #[test]
+    fn point_at_origin_is_refused() {
+        let (pose, _) = pose_and_mounting();
+        let r = Recoverer::new(&Mounting::default());
+        assert!(r.linear(&pose, &pose.position_ecef_m).is_err());
+    }
+}

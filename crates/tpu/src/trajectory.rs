@@ -1,0 +1,413 @@
+//! A trajectory (time-sorted GNSS/INS poses) and its interpolation at a pulse time, plus the
+//! trajectory's own 1-σ (from an SMRMSG file) interpolated the same way.
+//!
+//! Positions are ECEF metres; attitude is the SPEC §3 `R_N = Rz(heading) Ry(pitch) Rx(roll)`
+//! (body B → local North-East-Down N at the pose). Between two poses:
+//!
+//! - **position**: linear in ECEF. At the usual 200 Hz an aircraft's acceleration `a` gives an
+//!   error of at most `a Δt² / 8` (≈ 3 µm at 1 m/s²), so a cubic Hermite on velocities would
+//!   change nothing measurable;
+//! - **latitude / longitude** of the N frame: linear (longitude through the ±180° seam);
+//! - **attitude**: the body → ECEF rotations `C_EN(φ, λ) · R_N` of the two poses are
+//!   interpolated by slerp (constant angular rate along the shortest arc), then expressed in the
+//!   N frame at the interpolated position. Interpolating roll, pitch and heading one by one would
+//!   jump across ±180° of heading and is not a rotation interpolation at all; going through
+//!   ECEF also keeps the slow turn of the N frame with position out of the attitude.
+//!
+//! A time outside `[first, last]` is an error ([`Error::OutsideTrajectory`]), never an
+//! extrapolation.
+
+use crate::error::{Error, Result};
+use lidarqa_model::{Attitude, rotation_zyx, zyx_angles};
+use nalgebra::{Matrix3, Rotation3, Unit, UnitQuaternion, Vector3};
+use std::f64::consts::PI;
+
+/// One trajectory pose, SI units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pose {
+    /// GPS seconds of week, s.
+    pub time_s: f64,
+    /// GNSS/INS reference point P0, ECEF metres.
+    pub position_ecef_m: Vector3<f64>,
+    /// Geodetic latitude of P0, rad (defines the N frame).
+    pub latitude_rad: f64,
+    /// Longitude of P0, rad, east positive.
+    pub longitude_rad: f64,
+    /// Roll, pitch and **true** heading, rad (SPEC §3).
+    pub attitude: Attitude,
+}
+
+/// The rotation taking a local North-East-Down vector at (φ, λ) to ECEF: `v_ecef = C v_ned`.
+///
+/// Columns: N = (−sin φ cos λ, −sin φ sin λ, cos φ), E = (−sin λ, cos λ, 0),
+/// D = (−cos φ cos λ, −cos φ sin λ, −sin φ) — the same matrix as lidarqa-io's `ecef_from_ned`
+/// (this crate depends on lidarqa-model only).
+pub fn ecef_from_ned(latitude_rad: f64, longitude_rad: f64) -> Matrix3<f64> {
+    let (sp, cp) = latitude_rad.sin_cos();
+    let (sl, cl) = longitude_rad.sin_cos();
+    Matrix3::new(
+        -sp * cl,
+        -sl,
+        -cp * cl,
+        -sp * sl,
+        cl,
+        -cp * sl,
+        cp,
+        0.0,
+        -sp,
+    )
+}
+
+/// The trajectory state at one time: what recovery and propagation need, computed once.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseAt {
+    /// The time, GPS seconds of week.
+    pub time_s: f64,
+    /// P0, ECEF metres.
+    pub position_ecef_m: Vector3<f64>,
+    /// Latitude of P0, rad.
+    pub latitude_rad: f64,
+    /// Longitude of P0, rad.
+    pub longitude_rad: f64,
+    /// `R_N`: body → N at P0.
+    pub body_to_ned: Matrix3<f64>,
+    /// ECEF → N at P0 (`C_EN ᵀ`).
+    pub ecef_to_ned: Matrix3<f64>,
+    /// Roll, pitch, true heading of `R_N`, rad (heading in (−π, π]).
+    pub attitude: Attitude,
+}
+
+/// Time-sorted poses, ready for interpolation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Trajectory {
+    times_s: Vec<f64>,
+    positions_ecef_m: Vec<Vector3<f64>>,
+    lat_lon_rad: Vec<[f64; 2]>,
+    body_to_ecef: Vec<UnitQuaternion<f64>>,
+}
+
+fn wrap_pi(a: f64) -> f64 {
+    let w = (a + PI).rem_euclid(2.0 * PI) - PI;
+    if w == -PI { PI } else { w }
+}
+
+/// `a · (b/a)^w` along the shortest arc, the rotation angle from `atan2` so that small angles
+/// keep full precision (nalgebra's `angle()` uses `acos`, good only to ~1e-8 rad).
+fn slerp(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>, w: f64) -> UnitQuaternion<f64> {
+    let d = a.inverse() * b;
+    let (mut s, mut v) = (d.w, d.imag());
+    if s < 0.0 {
+        s = -s;
+        v = -v;
+    }
+    let n = v.norm();
+    if n == 0.0 {
+        return *a;
+    }
+    let angle = 2.0 * n.atan2(s);
+    a * UnitQuaternion::from_axis_angle(&Unit::new_unchecked(v / n), angle * w)
+}
+
+impl Trajectory {
+    /// Checks and prepares the poses: at least two, times finite and non-decreasing, every value
+    /// finite.
+    ///
+    /// # Errors
+    /// [`Error::InvalidTrajectory`] naming the pose at fault.
+    pub fn new(poses: &[Pose]) -> Result<Trajectory> {
+        if poses.len() < 2 {
+            return Err(Error::InvalidTrajectory {
+                index: poses.len(),
+                message: format!("{} poses; interpolation needs at least 2", poses.len()),
+            });
+        }
+        let mut t = Trajectory {
+            times_s: Vec::with_capacity(poses.len()),
+            positions_ecef_m: Vec::with_capacity(poses.len()),
+            lat_lon_rad: Vec::with_capacity(poses.len()),
+            body_to_ecef: Vec::with_capacity(poses.len()),
+        };
+        for (i, p) in poses.iter().enumerate() {
+            let a = &p.attitude;
+            let finite = [
+                p.time_s,
+                p.latitude_rad,
+                p.longitude_rad,
+                a.roll_rad,
+                a.pitch_rad,
+                a.heading_rad,
+            ]
+            .iter()
+            .chain(p.position_ecef_m.iter())
+            .all(|v| v.is_finite());
+            if !finite {
+                return Err(Error::InvalidTrajectory {
+                    index: i,
+                    message: "a value is not finite".into(),
+                });
+            }
+            if let Some(prev) = t.times_s.last()
+                && p.time_s < *prev
+            {
+                return Err(Error::InvalidTrajectory {
+                    index: i,
+                    message: format!("time {} s is earlier than the previous {prev} s", p.time_s),
+                });
+            }
+            let r = ecef_from_ned(p.latitude_rad, p.longitude_rad)
+                * rotation_zyx(a.roll_rad, a.pitch_rad, a.heading_rad);
+            t.times_s.push(p.time_s);
+            t.positions_ecef_m.push(p.position_ecef_m);
+            t.lat_lon_rad.push([p.latitude_rad, p.longitude_rad]);
+            t.body_to_ecef.push(UnitQuaternion::from_rotation_matrix(
+                &Rotation3::from_matrix_unchecked(r),
+            ));
+        }
+        Ok(t)
+    }
+
+    /// Number of poses.
+    pub fn len(&self) -> usize {
+        self.times_s.len()
+    }
+
+    /// Always false: a trajectory has at least two poses.
+    pub fn is_empty(&self) -> bool {
+        self.times_s.is_empty()
+    }
+
+    /// First and last pose time, GPS seconds of week.
+    pub fn span_s(&self) -> (f64, f64) {
+        (self.times_s[0], self.times_s[self.times_s.len() - 1])
+    }
+
+    /// The interpolated state at `time_s` (see the module docs).
+    ///
+    /// # Errors
+    /// [`Error::OutsideTrajectory`] when `time_s` is not finite or outside the span.
+    pub fn at(&self, time_s: f64) -> Result<PoseAt> {
+        let (start_s, end_s) = self.span_s();
+        if !(time_s >= start_s && time_s <= end_s) {
+            return Err(Error::OutsideTrajectory {
+                time_s,
+                start_s,
+                end_s,
+            });
+        }
+        let n = self.times_s.len();
+        let i = self
+            .times_s
+            .partition_point(|&x| x <= time_s)
+            .saturating_sub(1)
+            .min(n - 2);
+        let (t0, t1) = (self.times_s[i], self.times_s[i + 1]);
+        let w = if t1 > t0 {
+            (time_s - t0) / (t1 - t0)
+        } else {
+            0.0
+        };
+        let position_ecef_m = self.positions_ecef_m[i].lerp(&self.positions_ecef_m[i + 1], w);
+        let [la0, lo0] = self.lat_lon_rad[i];
+        let [la1, lo1] = self.lat_lon_rad[i + 1];
+        let latitude_rad = la0 + w * (la1 - la0);
+        let longitude_rad = wrap_pi(lo0 + w * wrap_pi(lo1 - lo0));
+        let q = slerp(&self.body_to_ecef[i], &self.body_to_ecef[i + 1], w);
+        let ecef_to_ned = ecef_from_ned(latitude_rad, longitude_rad).transpose();
+        let body_to_ned = ecef_to_ned * q.to_rotation_matrix().into_inner();
+        let a = zyx_angles(&body_to_ned);
+        Ok(PoseAt {
+            time_s,
+            position_ecef_m,
+            latitude_rad,
+            longitude_rad,
+            body_to_ned,
+            ecef_to_ned,
+            attitude: Attitude {
+                roll_rad: a.x,
+                pitch_rad: a.y,
+                heading_rad: a.z,
+            },
+        })
+    }
+}
+
+/// The trajectory's own 1-σ at one time (an SMRMSG record in SI units).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PoseSigma {
+    /// GPS seconds of week, s.
+    pub time_s: f64,
+    /// σ of the north position, m (replaces the sensor file's `gnss_north`).
+    pub north_m: f64,
+    /// σ of the east position, m (replaces `gnss_east`).
+    pub east_m: f64,
+    /// σ of the down position, m (replaces `gnss_up`: same magnitude).
+    pub down_m: f64,
+    /// σ of roll, rad (replaces `roll`).
+    pub roll_rad: f64,
+    /// σ of pitch, rad (replaces `pitch`).
+    pub pitch_rad: f64,
+    /// σ of heading, rad (replaces `heading`).
+    pub heading_rad: f64,
+}
+
+/// Time-sorted trajectory σ, linearly interpolated. SMRMSG files are often written at 1 Hz and
+/// may start or end a little inside the SBET: a time beyond either end takes the nearest
+/// record's σ (a σ changes slowly; the pose itself is never extrapolated).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrajectorySigmas {
+    records: Vec<PoseSigma>,
+}
+
+impl TrajectorySigmas {
+    /// Checks the records: at least one, times non-decreasing, σ finite and ≥ 0.
+    ///
+    /// # Errors
+    /// [`Error::InvalidTrajectory`] naming the record at fault.
+    pub fn new(records: Vec<PoseSigma>) -> Result<TrajectorySigmas> {
+        if records.is_empty() {
+            return Err(Error::InvalidTrajectory {
+                index: 0,
+                message: "no trajectory sigma records".into(),
+            });
+        }
+        for (i, r) in records.iter().enumerate() {
+            let ok = r.time_s.is_finite()
+                && [
+                    r.north_m,
+                    r.east_m,
+                    r.down_m,
+                    r.roll_rad,
+                    r.pitch_rad,
+                    r.heading_rad,
+                ]
+                .iter()
+                .all(|v| v.is_finite() && *v >= 0.0);
+            if !ok {
+                return Err(Error::InvalidTrajectory {
+                    index: i,
+                    message: "a sigma is negative or not finite".into(),
+                });
+            }
+            if i > 0 && r.time_s < records[i - 1].time_s {
+                return Err(Error::InvalidTrajectory {
+                    index: i,
+                    message: "sigma record time goes back".into(),
+                });
+            }
+        }
+        Ok(TrajectorySigmas { records })
+    }
+
+    /// σ at `time_s` (linear between records, the nearest record beyond either end).
+    pub fn at(&self, time_s: f64) -> PoseSigma {
+        let r = &self.records;
+        let i = r.partition_point(|x| x.time_s <= time_s);
+        if i == 0 {
+            return PoseSigma { time_s, ..r[0] };
+        }
+        if i == r.len() {
+            return PoseSigma {
+                time_s,
+                ..r[r.len() - 1]
+            };
+        }
+        let (a, b) = (&r[i - 1], &r[i]);
+        let w = if b.time_s > a.time_s {
+            (time_s - a.time_s) / (b.time_s - a.time_s)
+        } else {
+            0.0
+        };
+        let l = |x: f64, y: f64| x + w * (y - x);
+        PoseSigma {
+            time_s,
+            north_m: l(a.north_m, b.north_m),
+            east_m: l(a.east_m, b.east_m),
+            down_m: l(a.down_m, b.down_m),
+            roll_rad: l(a.roll_rad, b.roll_rad),
+            pitch_rad: l(a.pitch_rad, b.pitch_rad),
+            heading_rad: l(a.heading_rad, b.heading_rad),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    fn pose(t: f64, heading_deg: f64) -> Pose {
+        Pose {
+            time_s: t,
+            position_ecef_m: Vector3::new(4_000_000.0 + 60.0 * t, 1_000_000.0, 4_800_000.0),
+            latitude_rad: 0.8,
+            longitude_rad: 0.25,
+            attitude: Attitude::from_degrees(1.0, -2.0, heading_deg),
+        }
+    }
+
+    #[test]
+    fn heading_interpolates_across_180_degrees() {
+        let t = Trajectory::new(&[pose(0.0, 179.0), pose(1.0, -179.0)]).unwrap();
+        let mid = t.at(0.5).unwrap();
+        // 180°, not 0° as per-angle linear interpolation would give.
+        assert_relative_eq!(mid.attitude.heading_rad.abs(), PI, epsilon = 1e-3);
+        assert_relative_eq!(mid.attitude.roll_rad, 1f64.to_radians(), epsilon = 1e-4);
+        assert_relative_eq!(mid.position_ecef_m.x, 4_000_030.0, epsilon = 1e-9);
+    }
+
+    #[test]
+    fn nodes_are_reproduced_and_outside_is_refused() {
+        let t = Trajectory::new(&[pose(0.0, 10.0), pose(0.005, 10.01), pose(0.01, 10.02)]).unwrap();
+        let a = t.at(0.005).unwrap();
+        assert_relative_eq!(
+            a.attitude.heading_rad,
+            10.01f64.to_radians(),
+            epsilon = 1e-12
+        );
+        assert_relative_eq!(a.attitude.pitch_rad, (-2f64).to_radians(), epsilon = 1e-12);
+        let e = t.at(0.0101).unwrap_err();
+        assert!(matches!(e, Error::OutsideTrajectory { .. }), "{e}");
+        assert!(t.at(f64::NAN).is_err());
+    }
+
+    #[test]
+    fn slerp_has_constant_rate_for_a_pure_heading_turn() {
+        let t = Trajectory::new(&[pose(0.0, 10.0), pose(1.0, 30.0)]).unwrap();
+        for w in [0.1, 0.25, 0.7] {
+            let h = t.at(w).unwrap().attitude.heading_rad.to_degrees();
+            // Roll and pitch are body-fixed here, so a heading change is a rotation about N's
+            // down axis: exactly linear in time.
+            assert_relative_eq!(h, 10.0 + 20.0 * w, epsilon = 1e-9);
+        }
+    }
+
+    #[test]
+    fn bad_poses_are_named() {
+        let e = Trajectory::new(&[pose(1.0, 0.0), pose(0.5, 0.0)]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "trajectory pose 1: time 0.5 s is earlier than the previous 1 s"
+        );
+        assert!(Trajectory::new(&[pose(1.0, 0.0)]).is_err());
+    }
+
+    #[test]
+    fn sigmas_interpolate_and_clamp() {
+        let s = TrajectorySigmas::new(vec![
+            PoseSigma {
+                time_s: 10.0,
+                north_m: 0.02,
+                ..PoseSigma::default()
+            },
+            PoseSigma {
+                time_s: 11.0,
+                north_m: 0.04,
+                ..PoseSigma::default()
+            },
+        ])
+        .unwrap();
+        assert_relative_eq!(s.at(10.25).north_m, 0.025, epsilon = 1e-15);
+        assert_eq!(s.at(5.0).north_m, 0.02);
+        assert_eq!(s.at(50.0).north_m, 0.04);
+    }
+}
