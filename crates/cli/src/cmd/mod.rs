@@ -2,6 +2,9 @@
 //! prints.
 
 mod budget;
+mod report;
+mod simulate;
+mod tpu;
 
 use clap::Subcommand;
 
@@ -11,11 +14,23 @@ pub enum Command {
     /// Error budget of one observation geometry, or a sweep over one variable.
     #[command(after_help = budget::AFTER_HELP)]
     Budget(budget::BudgetArgs),
+    /// Simulate a survey with known truth: strips, trajectory, control, truth.json, sensor.toml.
+    #[command(after_help = simulate::AFTER_HELP)]
+    Simulate(simulate::SimulateArgs),
+    /// Per-point TPU of a LAS/LAZ strip (or a directory of tiles) with its trajectory.
+    #[command(after_help = tpu::AFTER_HELP)]
+    Tpu(tpu::TpuArgs),
+    /// HTML report from the JSON products in a directory (one offline file, inline SVG plots).
+    #[command(after_help = report::AFTER_HELP)]
+    Report(report::ReportArgs),
 }
 
 /// Run a parsed subcommand.
 pub fn run(command: Command) -> anyhow::Result<()> {
     match command {
         Command::Budget(args) => budget::run(args),
+        Command::Simulate(args) => simulate::run(&args),
+        Command::Tpu(args) => tpu::run(args),
+        Command::Report(args) => report::run(args),
     }
 }

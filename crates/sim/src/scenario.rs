@@ -1,0 +1,1087 @@
+//! Scenarios: the TOML layout ([`ScenarioFile`]) and its checked form ([`Scenario`]).
+//!
+//! Every key carries its unit in its name (`_m`, `_deg`, `_hz`, `_s`, `_m_per_s`, `_mrad`,
+//! `_ppm`, `_percent`); unknown keys are refused by serde (`deny_unknown_fields`), and the
+//! checked form converts to SI once, so the simulator never sees a degree.
+
+use crate::error::{Error, Result};
+use crate::scene::Scene;
+use lidarqa_io::UtmZone;
+use lidarqa_model::{
+    ConicScanner, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER, Mounting, Refraction, Scanner,
+    Sensor, Sigmas, Source,
+};
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// The names of the built-in scenarios, for [`Scenario::builtin`].
+pub const BUILTIN_NAMES: [&str; 3] = ["demo", "calibration", "bathymetry"];
+
+/// The commented TOML source of a built-in scenario (what `lidarqa simulate --scenario NAME
+/// --print` prints), or `None` for an unknown name.
+pub fn builtin_toml(name: &str) -> Option<&'static str> {
+    match name {
+        "demo" => Some(include_str!("builtin/demo.toml")),
+        "calibration" => Some(include_str!("builtin/calibration.toml")),
+        "bathymetry" => Some(include_str!("builtin/bathymetry.toml")),
+        _ => None,
+    }
+}
+
+/// A scenario as written in TOML (unchecked; see [`Scenario::from_file`]).
+///
+/// Local coordinates are metres of easting / northing from (`origin_easting_m`,
+/// `origin_northing_m`) in the UTM zone of `epsg`: grid metres, not ground metres.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScenarioFile {
+    /// A short name, copied into the truth file.
+    pub name: String,
+    /// Seed of every random draw (ChaCha8 streams derived from it).
+    pub seed: u64,
+    /// EPSG code of the UTM zone of the output coordinates (WGS 84 326zz / 327zz, NAD83 269zz).
+    pub epsg: u32,
+    /// Easting of the local origin, m.
+    pub origin_easting_m: f64,
+    /// Northing of the local origin, m.
+    pub origin_northing_m: f64,
+    /// GPS week of the survey (for LAS adjusted standard GPS time; trajectory times are seconds
+    /// of this week).
+    pub gps_week: u32,
+    /// The nominal sensor, laid out as a sensor file (SPEC §5).
+    pub sensor: SensorFile,
+    /// Scanner settings (rates and angles).
+    pub scanner: ScannerSettingsFile,
+    /// Random and injected systematic errors.
+    #[serde(default)]
+    pub errors: ErrorsFile,
+    /// Platform motion and trajectory sampling.
+    #[serde(default)]
+    pub motion: MotionFile,
+    /// Flight lines, one strip each.
+    pub lines: Vec<LineFile>,
+    /// The analytic scene.
+    pub scene: SceneFile,
+}
+
+/// The `[sensor]` table: exactly the layout of a SPEC §5 sensor file (`[scanner]`, `[mounting]`,
+/// `[sigma]`), so that [`Scenario::sensor_toml_string`] is the file a user of the simulated
+/// survey would have.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorFile {
+    /// Scanner type and constants.
+    pub scanner: SensorScannerFile,
+    /// Nominal mounting, applied when georeferencing.
+    #[serde(default)]
+    pub mounting: MountingFile,
+    /// 1-sigma of each source by SPEC §4/§5 key (`range_m`, `heading_deg`, ...); missing = 0.
+    #[serde(default)]
+    pub sigma: BTreeMap<String, f64>,
+}
+
+/// `[sensor.scanner]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorScannerFile {
+    /// `"linear"` or `"conic"`.
+    #[serde(rename = "type")]
+    pub kind: String,
+    /// Conic: angle of the beam leaving the prism from the scanner Z axis, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exit_angle_deg: Option<f64>,
+    /// Conic: prism top-surface slope, degrees (instead of `exit_angle_deg`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prism_slope_deg: Option<f64>,
+    /// Conic: refraction index of the prism (default 1.461).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub n_prism: Option<f64>,
+    /// Conic: refraction index of air (default 1.0003).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub n_air: Option<f64>,
+    /// Conic: refraction index of water (default 1.33).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub n_water: Option<f64>,
+    /// Conic: `"scanner-frame"` or `"level"` water-surface refraction in the georeferencing.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refraction: Option<String>,
+}
+
+/// `[sensor.mounting]` and the injected part of `[errors]`: boresight in degrees, lever arm in
+/// metres (body frame X forward, Y right, Z down).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MountingFile {
+    /// Boresight roll (about scanner X), degrees.
+    #[serde(default)]
+    pub boresight_roll_deg: f64,
+    /// Boresight pitch (about scanner Y), degrees.
+    #[serde(default)]
+    pub boresight_pitch_deg: f64,
+    /// Boresight yaw (about scanner Z), degrees.
+    #[serde(default)]
+    pub boresight_yaw_deg: f64,
+    /// Lever arm `[x, y, z]`, body frame, metres.
+    #[serde(default)]
+    pub lever_arm_m: [f64; 3],
+}
+
+impl MountingFile {
+    fn to_mounting(self) -> Mounting {
+        Mounting {
+            boresight_roll_rad: self.boresight_roll_deg.to_radians(),
+            boresight_pitch_rad: self.boresight_pitch_deg.to_radians(),
+            boresight_yaw_rad: self.boresight_yaw_deg.to_radians(),
+            lever_arm_m: Vector3::from(self.lever_arm_m),
+        }
+    }
+}
+
+/// `[scanner]`: how the scanner is driven.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScannerSettingsFile {
+    /// Pulse repetition rate, Hz.
+    pub pulse_rate_hz: f64,
+    /// Linear: mirror oscillation frequency (full left-right-left cycles per second; two scan
+    /// lines per cycle), Hz. Conic: prism rotations per second, Hz.
+    pub scan_frequency_hz: f64,
+    /// Linear: half field of view, degrees (the mirror sweeps ±this). Ignored by the conic scanner.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field_of_view_deg: Option<f64>,
+    /// Linear: `"triangle"` (constant angular speed, the default) or `"sine"` (resonant mirror).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scan_wave: Option<String>,
+    /// Full-angle beam divergence, milliradians (footprint diameter = range × divergence); gives
+    /// mixed pixels at target edges. Default 0.5.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub beam_divergence_mrad: Option<f64>,
+}
+
+/// `[errors]`: what differs between the truth and what the sensor reports.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ErrorsFile {
+    /// Draw the random errors of `[sensor.sigma]` (GNSS and attitude as Gauss–Markov processes,
+    /// range / scan angle / scan azimuth / travel times white per pulse).
+    #[serde(default = "yes")]
+    pub random: bool,
+    /// Also draw one constant boresight / lever-arm error per run from their σ (added to the true
+    /// mounting and reported in the truth).
+    #[serde(default)]
+    pub random_mounting: bool,
+    /// Correlation time of the first-order Gauss–Markov GNSS position errors, s.
+    #[serde(default = "default_gnss_tau")]
+    pub gnss_correlation_time_s: f64,
+    /// Correlation time of the first-order Gauss–Markov attitude errors, s.
+    #[serde(default = "default_attitude_tau")]
+    pub attitude_correlation_time_s: f64,
+    /// Injected mounting error: true mounting = nominal + this.
+    #[serde(default)]
+    pub boresight_roll_deg: f64,
+    /// Injected boresight pitch error, degrees.
+    #[serde(default)]
+    pub boresight_pitch_deg: f64,
+    /// Injected boresight yaw error, degrees.
+    #[serde(default)]
+    pub boresight_yaw_deg: f64,
+    /// Injected lever-arm error `[x, y, z]`, body frame, m.
+    #[serde(default)]
+    pub lever_arm_m: [f64; 3],
+    /// Injected range offset: measured range = true + this, m (conic: added to the air range).
+    #[serde(default)]
+    pub range_offset_m: f64,
+    /// Injected scan-angle scale error (linear only): measured θ = true θ · (1 + ppm·10⁻⁶).
+    #[serde(default)]
+    pub scan_angle_scale_ppm: f64,
+    /// Relative 1-sigma noise of the intensity, percent.
+    #[serde(default = "default_intensity_noise")]
+    pub intensity_noise_percent: f64,
+}
+
+fn yes() -> bool {
+    true
+}
+fn default_gnss_tau() -> f64 {
+    100.0
+}
+fn default_attitude_tau() -> f64 {
+    20.0
+}
+fn default_intensity_noise() -> f64 {
+    3.0
+}
+
+impl Default for ErrorsFile {
+    fn default() -> Self {
+        ErrorsFile {
+            random: true,
+            random_mounting: false,
+            gnss_correlation_time_s: default_gnss_tau(),
+            attitude_correlation_time_s: default_attitude_tau(),
+            boresight_roll_deg: 0.0,
+            boresight_pitch_deg: 0.0,
+            boresight_yaw_deg: 0.0,
+            lever_arm_m: [0.0; 3],
+            range_offset_m: 0.0,
+            scan_angle_scale_ppm: 0.0,
+            intensity_noise_percent: default_intensity_noise(),
+        }
+    }
+}
+
+/// `[motion]`: platform attitude motion (sinusoidal oscillation plus a seeded random walk) and
+/// trajectory sampling.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotionFile {
+    /// Trajectory (SBET) record rate, Hz.
+    #[serde(default = "default_traj_rate")]
+    pub trajectory_rate_hz: f64,
+    /// Roll oscillation amplitude, degrees.
+    #[serde(default = "default_roll_amp")]
+    pub roll_amplitude_deg: f64,
+    /// Pitch oscillation amplitude, degrees.
+    #[serde(default = "default_pitch_amp")]
+    pub pitch_amplitude_deg: f64,
+    /// Heading oscillation amplitude (about the track), degrees.
+    #[serde(default = "default_heading_amp")]
+    pub heading_amplitude_deg: f64,
+    /// Roll oscillation period, s.
+    #[serde(default = "default_roll_period")]
+    pub roll_period_s: f64,
+    /// Pitch oscillation period, s.
+    #[serde(default = "default_pitch_period")]
+    pub pitch_period_s: f64,
+    /// Heading oscillation period, s.
+    #[serde(default = "default_heading_period")]
+    pub heading_period_s: f64,
+    /// Random-walk intensity of each attitude angle, degrees per √s.
+    #[serde(default = "default_rw")]
+    pub random_walk_deg_per_sqrt_s: f64,
+    /// Mean pitch (nose up) of the platform in flight, degrees.
+    #[serde(default)]
+    pub mean_pitch_deg: f64,
+}
+
+fn default_traj_rate() -> f64 {
+    200.0
+}
+fn default_roll_amp() -> f64 {
+    1.0
+}
+fn default_pitch_amp() -> f64 {
+    0.5
+}
+fn default_heading_amp() -> f64 {
+    0.5
+}
+fn default_roll_period() -> f64 {
+    7.0
+}
+fn default_pitch_period() -> f64 {
+    11.0
+}
+fn default_heading_period() -> f64 {
+    17.0
+}
+fn default_rw() -> f64 {
+    0.02
+}
+
+impl Default for MotionFile {
+    fn default() -> Self {
+        MotionFile {
+            trajectory_rate_hz: default_traj_rate(),
+            roll_amplitude_deg: default_roll_amp(),
+            pitch_amplitude_deg: default_pitch_amp(),
+            heading_amplitude_deg: default_heading_amp(),
+            roll_period_s: default_roll_period(),
+            pitch_period_s: default_pitch_period(),
+            heading_period_s: default_heading_period(),
+            random_walk_deg_per_sqrt_s: default_rw(),
+            mean_pitch_deg: 0.0,
+        }
+    }
+}
+
+/// `[[lines]]`: one flight line, flown from `start_m` to `end_m` at constant speed and height.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LineFile {
+    /// Strip id, written as the LAS point source ID (1..=65535, unique).
+    pub id: u16,
+    /// Start, local easting / northing, m.
+    pub start_m: [f64; 2],
+    /// End, local easting / northing, m.
+    pub end_m: [f64; 2],
+    /// Height of the GNSS/INS reference point above the scene's ground height, m.
+    pub height_m: f64,
+    /// Ground speed, m/s.
+    pub speed_m_per_s: f64,
+    /// GPS seconds of week at the start of the line, s.
+    pub start_time_s: f64,
+}
+
+/// `[scene]`: the analytic scene, in local grid coordinates and ellipsoidal heights.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// Minimum corner (local easting, northing), m.
+    pub min_m: [f64; 2],
+    /// Maximum corner (local easting, northing), m.
+    pub max_m: [f64; 2],
+    /// Ellipsoidal height of the undisturbed ground, m.
+    pub ground_height_m: f64,
+    /// Amplitude of the gentle terrain relief, m.
+    #[serde(default)]
+    pub relief_m: f64,
+    /// Wavelength of the relief, m.
+    #[serde(default = "default_relief_wavelength")]
+    pub relief_wavelength_m: f64,
+    /// 1-sigma of the surveyed control-point coordinates, horizontal, m (seed 000: 5 mm).
+    #[serde(default = "default_control_h")]
+    pub control_sigma_horizontal_m: f64,
+    /// 1-sigma of the surveyed control-point coordinates, vertical, m (seed 000: 2 cm).
+    #[serde(default = "default_control_v")]
+    pub control_sigma_vertical_m: f64,
+    /// Flat paved areas with painted markings.
+    #[serde(default)]
+    pub paved: Vec<PavedFile>,
+    /// Buildings with gable roofs.
+    #[serde(default)]
+    pub buildings: Vec<BuildingFile>,
+    /// Circular high-reflectivity targets.
+    #[serde(default)]
+    pub targets: Vec<TargetFile>,
+    /// An optional water body with a sloping bottom.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub water: Option<WaterFile>,
+}
+
+fn default_relief_wavelength() -> f64 {
+    400.0
+}
+fn default_control_h() -> f64 {
+    0.005
+}
+fn default_control_v() -> f64 {
+    0.02
+}
+
+/// `[[scene.paved]]`: a flat rectangle (its height is the terrain's at its centre) blended into
+/// the terrain over `blend_m`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PavedFile {
+    /// Centre, local easting / northing, m.
+    pub center_m: [f64; 2],
+    /// `[length, width]`, m; the length runs along `azimuth_deg`.
+    pub size_m: [f64; 2],
+    /// Grid bearing of the length axis, degrees clockwise from grid north.
+    #[serde(default)]
+    pub azimuth_deg: f64,
+    /// `"zebra"` (a 4 m crossing of 0.5 m stripes across the middle, plus edge lines),
+    /// `"centre-line"` (3 m dashes, 0.15 m wide, plus edge lines) or `"none"`.
+    #[serde(default = "default_markings")]
+    pub markings: String,
+}
+
+fn default_markings() -> String {
+    "zebra".into()
+}
+
+/// `[[scene.buildings]]`: a rectangular building with a symmetric gable roof.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BuildingFile {
+    /// Centre, local easting / northing, m.
+    pub center_m: [f64; 2],
+    /// `[length, width]`, m; the ridge runs along the length.
+    pub size_m: [f64; 2],
+    /// Grid bearing of the ridge, degrees clockwise from grid north.
+    #[serde(default)]
+    pub azimuth_deg: f64,
+    /// Eave height above the ground at the centre, m.
+    pub eave_height_m: f64,
+    /// Roof slope, degrees.
+    pub roof_slope_deg: f64,
+}
+
+/// `[[scene.targets]]`: a horizontal circular plate of high reflectivity (seed 000: radius
+/// 0.8 m, 0.5 m above the ground).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TargetFile {
+    /// Target id (control-point id).
+    pub id: String,
+    /// Centre, local easting / northing, m.
+    pub center_m: [f64; 2],
+    /// Radius, m.
+    #[serde(default = "default_target_radius")]
+    pub radius_m: f64,
+    /// Height of the plate above the ground at its centre, m.
+    #[serde(default = "default_target_height")]
+    pub height_above_ground_m: f64,
+}
+
+fn default_target_radius() -> f64 {
+    0.8
+}
+fn default_target_height() -> f64 {
+    0.5
+}
+
+/// `[scene.water]`: a basin cut into the terrain inside a rectangle, filled to `level_m`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WaterFile {
+    /// Minimum corner of the basin, local m.
+    pub min_m: [f64; 2],
+    /// Maximum corner of the basin, local m.
+    pub max_m: [f64; 2],
+    /// Water level relative to the ground height, m (negative: below the surrounding ground).
+    pub level_m: f64,
+    /// Depth of the basin cut below the ground at its west edge, m.
+    pub shore_depth_m: f64,
+    /// Depth of the basin cut at its east edge, m (the bottom slopes linearly between).
+    pub max_depth_m: f64,
+    /// Width of the smooth bank around the basin, m.
+    #[serde(default = "default_bank")]
+    pub bank_width_m: f64,
+    /// Amplitude of the surface waves, m (0 = flat).
+    #[serde(default)]
+    pub wave_amplitude_m: f64,
+    /// Wavelength of the surface waves, m.
+    #[serde(default = "default_wave_length")]
+    pub wave_length_m: f64,
+    /// Grid bearing the waves travel towards, degrees.
+    #[serde(default)]
+    pub wave_azimuth_deg: f64,
+}
+
+fn default_bank() -> f64 {
+    20.0
+}
+fn default_wave_length() -> f64 {
+    8.0
+}
+
+/// How a linear scanner's mirror moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ScanWave {
+    /// Constant angular speed between the turning points (zigzag on the ground).
+    Triangle,
+    /// Sinusoidal (resonant mirror): denser at the swath edges.
+    Sine,
+}
+
+/// Checked scanner drive settings, SI.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ScanPattern {
+    /// Oscillating mirror: θ(t) = fov · wave(f t).
+    Linear {
+        /// Half field of view, rad.
+        field_of_view_rad: f64,
+        /// Mirror oscillation frequency, Hz.
+        frequency_hz: f64,
+        /// Wave form.
+        wave: ScanWave,
+    },
+    /// Rotating prism: θaz(t) = 2π f t (mod 2π).
+    Conic {
+        /// Rotations per second, Hz.
+        rotation_hz: f64,
+    },
+}
+
+/// A checked flight line, SI.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Line {
+    /// Strip id (LAS point source ID).
+    pub id: u16,
+    /// Start, local easting / northing, m.
+    pub start_m: [f64; 2],
+    /// End, local easting / northing, m.
+    pub end_m: [f64; 2],
+    /// Ellipsoidal height of the GNSS/INS reference point, m.
+    pub height_m: f64,
+    /// Ground speed, m/s.
+    pub speed_m_per_s: f64,
+    /// GPS seconds of week at the start, s.
+    pub start_time_s: f64,
+}
+
+impl Line {
+    /// Grid length of the line, m.
+    pub fn length_m(&self) -> f64 {
+        (self.end_m[0] - self.start_m[0]).hypot(self.end_m[1] - self.start_m[1])
+    }
+    /// Flight time along the line, s.
+    pub fn duration_s(&self) -> f64 {
+        self.length_m() / self.speed_m_per_s
+    }
+}
+
+/// Checked error settings, SI.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ErrorModel {
+    /// Draw random errors at the sensor's σ.
+    pub random: bool,
+    /// Draw one constant mounting error per run from the boresight / lever σ.
+    pub random_mounting: bool,
+    /// GNSS Gauss–Markov correlation time, s.
+    pub gnss_correlation_time_s: f64,
+    /// Attitude Gauss–Markov correlation time, s.
+    pub attitude_correlation_time_s: f64,
+    /// Injected mounting error (added to the nominal), rad and m.
+    pub injected_mounting: Mounting,
+    /// Injected range offset, m.
+    pub range_offset_m: f64,
+    /// Injected scan-angle scale error, dimensionless (ppm · 10⁻⁶).
+    pub scan_angle_scale: f64,
+    /// Relative intensity noise, dimensionless.
+    pub intensity_noise: f64,
+}
+
+/// Checked platform motion, SI.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Motion {
+    /// Trajectory record rate, Hz.
+    pub trajectory_rate_hz: f64,
+    /// Oscillation amplitudes (roll, pitch, heading), rad.
+    pub amplitude_rad: [f64; 3],
+    /// Oscillation periods (roll, pitch, heading), s.
+    pub period_s: [f64; 3],
+    /// Random walk intensity, rad/√s.
+    pub random_walk_rad_per_sqrt_s: f64,
+    /// Mean pitch, rad.
+    pub mean_pitch_rad: f64,
+}
+
+/// A checked scenario: every value validated and converted to SI, ready to simulate.
+#[derive(Debug, Clone)]
+pub struct Scenario {
+    file: ScenarioFile,
+    zone: UtmZone,
+    sensor: Sensor,
+    pattern: ScanPattern,
+    pulse_rate_hz: f64,
+    beam_divergence_rad: f64,
+    errors: ErrorModel,
+    motion: Motion,
+    lines: Vec<Line>,
+    scene: Scene,
+}
+
+fn invalid(key: impl Into<String>, value: impl std::fmt::Display, reason: &str) -> Error {
+    Error::InvalidValue {
+        key: key.into(),
+        value: value.to_string(),
+        reason: reason.into(),
+    }
+}
+
+pub(crate) fn positive(key: &str, v: f64) -> Result<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(invalid(key, v, "must be a finite number > 0"))
+    }
+}
+
+pub(crate) fn non_negative(key: &str, v: f64) -> Result<f64> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(invalid(key, v, "must be a finite number >= 0"))
+    }
+}
+
+pub(crate) fn finite(key: &str, v: f64) -> Result<f64> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(invalid(key, v, "must be a finite number"))
+    }
+}
+
+fn fmt2(v: [f64; 2]) -> String {
+    format!("[{}, {}]", v[0], v[1])
+}
+
+impl Scenario {
+    /// Parse and check a scenario from TOML text.
+    ///
+    /// # Errors
+    /// [`Error::Parse`] naming an unknown, missing or mistyped key; otherwise as
+    /// [`Scenario::from_file`].
+    pub fn from_toml_str(text: &str) -> Result<Scenario> {
+        let file: ScenarioFile = toml::from_str(text).map_err(|e| Error::Parse(e.to_string()))?;
+        Scenario::from_file(file)
+    }
+
+    /// A built-in scenario: `demo` (linear scanner, targets, markings, buildings, injected
+    /// boresight and lever-arm errors), `calibration` (seed 001: two crossing pairs of strips at
+    /// 300 m and 500 m, flown in opposite directions, over road markings and gable roofs) or
+    /// `bathymetry` (seed 004: conic prism scanner over a lake with a sloping bottom).
+    ///
+    /// # Errors
+    /// [`Error::UnknownBuiltin`] for another name.
+    pub fn builtin(name: &str) -> Result<Scenario> {
+        let text = builtin_toml(name).ok_or_else(|| Error::UnknownBuiltin {
+            name: name.into(),
+            known: BUILTIN_NAMES.join(", "),
+        })?;
+        Scenario::from_toml_str(text)
+    }
+
+    /// Check a scenario file and convert it to SI.
+    ///
+    /// # Errors
+    /// [`Error::InvalidValue`] naming the key and value (zero-length line, pulse rate 0, unknown
+    /// sigma key, ...), [`Error::OutsideScene`] for an object outside the scene,
+    /// [`Error::Model`] / [`Error::Projection`] when the model or the projection refuses a value.
+    pub fn from_file(file: ScenarioFile) -> Result<Scenario> {
+        let zone = UtmZone::from_epsg(file.epsg).map_err(|source| Error::Projection {
+            key: "epsg".into(),
+            source,
+        })?;
+        if !(file.origin_easting_m.is_finite()
+            && (100_000.0..=900_000.0).contains(&file.origin_easting_m))
+        {
+            return Err(invalid(
+                "origin_easting_m",
+                file.origin_easting_m,
+                "must be a UTM easting between 100000 and 900000 m",
+            ));
+        }
+        if !(file.origin_northing_m.is_finite()
+            && (0.0..=10_000_000.0).contains(&file.origin_northing_m))
+        {
+            return Err(invalid(
+                "origin_northing_m",
+                file.origin_northing_m,
+                "must be a UTM northing between 0 and 10000000 m",
+            ));
+        }
+        let sensor = check_sensor(&file.sensor)?;
+        let s = &file.scanner;
+        let pulse_rate_hz = positive("scanner.pulse_rate_hz", s.pulse_rate_hz)?;
+        let freq = positive("scanner.scan_frequency_hz", s.scan_frequency_hz)?;
+        let beam_divergence_rad = non_negative(
+            "scanner.beam_divergence_mrad",
+            s.beam_divergence_mrad.unwrap_or(0.5),
+        )? * 1e-3;
+        let pattern = match sensor.scanner {
+            Scanner::Linear => {
+                let fov = s.field_of_view_deg.ok_or_else(|| {
+                    invalid(
+                        "scanner.field_of_view_deg",
+                        "(missing)",
+                        "the linear scanner needs its half field of view",
+                    )
+                })?;
+                if !(fov.is_finite() && fov > 0.0 && fov <= 75.0) {
+                    return Err(invalid(
+                        "scanner.field_of_view_deg",
+                        fov,
+                        "must be in (0, 75] degrees",
+                    ));
+                }
+                let wave = match s.scan_wave.as_deref().unwrap_or("triangle") {
+                    "triangle" => ScanWave::Triangle,
+                    "sine" => ScanWave::Sine,
+                    other => {
+                        return Err(invalid(
+                            "scanner.scan_wave",
+                            format!("{other:?}"),
+                            "must be \"triangle\" or \"sine\"",
+                        ));
+                    }
+                };
+                ScanPattern::Linear {
+                    field_of_view_rad: fov.to_radians(),
+                    frequency_hz: freq,
+                    wave,
+                }
+            }
+            Scanner::Conic(_) => ScanPattern::Conic { rotation_hz: freq },
+        };
+        let errors = check_errors(&file.errors, &sensor)?;
+        let motion = check_motion(&file.motion)?;
+        let scene = Scene::from_file(&file.scene)?;
+        let lines = check_lines(&file.lines, file.scene.ground_height_m)?;
+        Ok(Scenario {
+            file,
+            zone,
+            sensor,
+            pattern,
+            pulse_rate_hz,
+            beam_divergence_rad,
+            errors,
+            motion,
+            lines,
+            scene,
+        })
+    }
+
+    /// The scenario as TOML text (no comments), which [`Scenario::from_toml_str`] reads back.
+    pub fn to_toml_string(&self) -> String {
+        // Serialising plain structs of numbers, strings and tables cannot fail.
+        toml::to_string_pretty(&self.file).unwrap_or_default()
+    }
+
+    /// The nominal sensor as a SPEC §5 sensor file (`[scanner]`, `[mounting]`, `[sigma]`): the
+    /// `sensor.toml` a user of the simulated survey would have.
+    pub fn sensor_toml_string(&self) -> String {
+        toml::to_string_pretty(&self.file.sensor).unwrap_or_default()
+    }
+
+    /// The unchecked file form (clone and edit it, then [`Scenario::from_file`] again).
+    pub fn file(&self) -> &ScenarioFile {
+        &self.file
+    }
+
+    /// The same scenario with another seed.
+    #[must_use]
+    pub fn with_seed(mut self, seed: u64) -> Scenario {
+        self.file.seed = seed;
+        self
+    }
+
+    /// The scenario's name.
+    pub fn name(&self) -> &str {
+        &self.file.name
+    }
+    /// Seed of every random draw.
+    pub fn seed(&self) -> u64 {
+        self.file.seed
+    }
+    /// EPSG code of the output CRS.
+    pub fn epsg(&self) -> u32 {
+        self.file.epsg
+    }
+    /// GPS week of the survey.
+    pub fn gps_week(&self) -> u32 {
+        self.file.gps_week
+    }
+    /// The UTM zone of the output coordinates.
+    pub fn zone(&self) -> &UtmZone {
+        &self.zone
+    }
+    /// Local origin (easting, northing), m.
+    pub fn origin_m(&self) -> [f64; 2] {
+        [self.file.origin_easting_m, self.file.origin_northing_m]
+    }
+    /// The nominal sensor (what georeferencing uses).
+    pub fn sensor(&self) -> &Sensor {
+        &self.sensor
+    }
+    /// Scanner drive pattern.
+    pub fn pattern(&self) -> ScanPattern {
+        self.pattern
+    }
+    /// Pulse rate, Hz.
+    pub fn pulse_rate_hz(&self) -> f64 {
+        self.pulse_rate_hz
+    }
+    /// Full-angle beam divergence, rad.
+    pub fn beam_divergence_rad(&self) -> f64 {
+        self.beam_divergence_rad
+    }
+    /// Error settings.
+    pub fn errors(&self) -> &ErrorModel {
+        &self.errors
+    }
+    /// Platform motion.
+    pub fn motion(&self) -> &Motion {
+        &self.motion
+    }
+    /// Flight lines.
+    pub fn lines(&self) -> &[Line] {
+        &self.lines
+    }
+    /// The analytic scene.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+    /// Number of pulses the scenario fires (all strips).
+    pub fn pulse_count(&self) -> u64 {
+        self.lines
+            .iter()
+            .map(|l| (l.duration_s() * self.pulse_rate_hz).floor() as u64)
+            .sum()
+    }
+}
+
+fn check_sensor(f: &SensorFile) -> Result<Sensor> {
+    let k = &f.scanner;
+    let scanner = match k.kind.as_str() {
+        "linear" => {
+            let extra = [
+                ("exit_angle_deg", k.exit_angle_deg.is_some()),
+                ("prism_slope_deg", k.prism_slope_deg.is_some()),
+                ("n_prism", k.n_prism.is_some()),
+                ("n_air", k.n_air.is_some()),
+                ("n_water", k.n_water.is_some()),
+                ("refraction", k.refraction.is_some()),
+            ];
+            if let Some((name, _)) = extra.iter().find(|(_, set)| *set) {
+                return Err(invalid(
+                    format!("sensor.scanner.{name}"),
+                    "(set)",
+                    "applies to the conic scanner only",
+                ));
+            }
+            Scanner::Linear
+        }
+        "conic" => {
+            let refraction = match k.refraction.as_deref() {
+                None => Refraction::default(),
+                Some(r) => Refraction::from_name(r).ok_or_else(|| {
+                    invalid(
+                        "sensor.scanner.refraction",
+                        format!("{r:?}"),
+                        "must be \"scanner-frame\" or \"level\"",
+                    )
+                })?,
+            };
+            let n_prism = k.n_prism.unwrap_or(DEFAULT_N_PRISM);
+            let n_air = k.n_air.unwrap_or(DEFAULT_N_AIR);
+            let n_water = k.n_water.unwrap_or(DEFAULT_N_WATER);
+            let model = |key: &str, e| Error::Model {
+                key: format!("sensor.scanner.{key}"),
+                source: e,
+            };
+            let conic = match (k.exit_angle_deg, k.prism_slope_deg) {
+                (Some(_), Some(_)) => {
+                    return Err(invalid(
+                        "sensor.scanner.prism_slope_deg",
+                        "(set)",
+                        "give exit_angle_deg or prism_slope_deg, not both",
+                    ));
+                }
+                (Some(exit), None) => ConicScanner::from_exit_angle(
+                    exit.to_radians(),
+                    n_prism,
+                    n_air,
+                    n_water,
+                    refraction,
+                )
+                .map_err(|e| model("exit_angle_deg", e))?,
+                (None, slope) => ConicScanner::new(
+                    slope.unwrap_or(39.1603).to_radians(),
+                    n_prism,
+                    n_air,
+                    n_water,
+                    refraction,
+                )
+                .map_err(|e| model("prism_slope_deg", e))?,
+            };
+            Scanner::Conic(conic)
+        }
+        other => {
+            return Err(invalid(
+                "sensor.scanner.type",
+                format!("{other:?}"),
+                "must be \"linear\" or \"conic\"",
+            ));
+        }
+    };
+    let m = &f.mounting;
+    for (key, v) in [
+        ("boresight_roll_deg", m.boresight_roll_deg),
+        ("boresight_pitch_deg", m.boresight_pitch_deg),
+        ("boresight_yaw_deg", m.boresight_yaw_deg),
+        ("lever_arm_m[0]", m.lever_arm_m[0]),
+        ("lever_arm_m[1]", m.lever_arm_m[1]),
+        ("lever_arm_m[2]", m.lever_arm_m[2]),
+    ] {
+        finite(&format!("sensor.mounting.{key}"), v)?;
+    }
+    let mut sigma = Sigmas::zero();
+    for (key, &v) in &f.sigma {
+        let source = Source::from_config_key(key).ok_or_else(|| {
+            invalid(
+                format!("sensor.sigma.{key}"),
+                v,
+                "unknown sigma key (SPEC §4 name plus unit suffix, e.g. range_m, heading_deg, time_water_ns)",
+            )
+        })?;
+        sigma
+            .set(source, v * source.unit().config_to_si())
+            .map_err(|e| Error::Model {
+                key: format!("sensor.sigma.{key}"),
+                source: e,
+            })?;
+    }
+    Ok(Sensor {
+        scanner,
+        mounting: m.to_mounting(),
+        sigma,
+        correlation: None,
+    })
+}
+
+fn check_errors(f: &ErrorsFile, sensor: &Sensor) -> Result<ErrorModel> {
+    let gnss_tau = positive("errors.gnss_correlation_time_s", f.gnss_correlation_time_s)?;
+    let att_tau = positive(
+        "errors.attitude_correlation_time_s",
+        f.attitude_correlation_time_s,
+    )?;
+    for (key, v) in [
+        ("boresight_roll_deg", f.boresight_roll_deg),
+        ("boresight_pitch_deg", f.boresight_pitch_deg),
+        ("boresight_yaw_deg", f.boresight_yaw_deg),
+        ("lever_arm_m[0]", f.lever_arm_m[0]),
+        ("lever_arm_m[1]", f.lever_arm_m[1]),
+        ("lever_arm_m[2]", f.lever_arm_m[2]),
+        ("range_offset_m", f.range_offset_m),
+        ("scan_angle_scale_ppm", f.scan_angle_scale_ppm),
+    ] {
+        finite(&format!("errors.{key}"), v)?;
+    }
+    if f.scan_angle_scale_ppm != 0.0 && !matches!(sensor.scanner, Scanner::Linear) {
+        return Err(invalid(
+            "errors.scan_angle_scale_ppm",
+            f.scan_angle_scale_ppm,
+            "applies to the linear scanner only",
+        ));
+    }
+    if f.scan_angle_scale_ppm.abs() > 1e5 {
+        return Err(invalid(
+            "errors.scan_angle_scale_ppm",
+            f.scan_angle_scale_ppm,
+            "must be within ±100000 ppm",
+        ));
+    }
+    let noise = non_negative("errors.intensity_noise_percent", f.intensity_noise_percent)?;
+    let injected = MountingFile {
+        boresight_roll_deg: f.boresight_roll_deg,
+        boresight_pitch_deg: f.boresight_pitch_deg,
+        boresight_yaw_deg: f.boresight_yaw_deg,
+        lever_arm_m: f.lever_arm_m,
+    };
+    Ok(ErrorModel {
+        random: f.random,
+        random_mounting: f.random_mounting,
+        gnss_correlation_time_s: gnss_tau,
+        attitude_correlation_time_s: att_tau,
+        injected_mounting: injected.to_mounting(),
+        range_offset_m: f.range_offset_m,
+        scan_angle_scale: f.scan_angle_scale_ppm * 1e-6,
+        intensity_noise: noise / 100.0,
+    })
+}
+
+fn check_motion(f: &MotionFile) -> Result<Motion> {
+    let rate = positive("motion.trajectory_rate_hz", f.trajectory_rate_hz)?;
+    let amp = [
+        non_negative("motion.roll_amplitude_deg", f.roll_amplitude_deg)?,
+        non_negative("motion.pitch_amplitude_deg", f.pitch_amplitude_deg)?,
+        non_negative("motion.heading_amplitude_deg", f.heading_amplitude_deg)?,
+    ];
+    for (key, v) in [
+        ("motion.roll_amplitude_deg", amp[0]),
+        ("motion.pitch_amplitude_deg", amp[1]),
+    ] {
+        if v > 20.0 {
+            return Err(invalid(key, v, "must be at most 20 degrees"));
+        }
+    }
+    let period = [
+        positive("motion.roll_period_s", f.roll_period_s)?,
+        positive("motion.pitch_period_s", f.pitch_period_s)?,
+        positive("motion.heading_period_s", f.heading_period_s)?,
+    ];
+    let rw = non_negative(
+        "motion.random_walk_deg_per_sqrt_s",
+        f.random_walk_deg_per_sqrt_s,
+    )?;
+    let mean_pitch = finite("motion.mean_pitch_deg", f.mean_pitch_deg)?;
+    if mean_pitch.abs() > 20.0 {
+        return Err(invalid(
+            "motion.mean_pitch_deg",
+            mean_pitch,
+            "must be within ±20 degrees",
+        ));
+    }
+    Ok(Motion {
+        trajectory_rate_hz: rate,
+        amplitude_rad: amp.map(f64::to_radians),
+        period_s: period,
+        random_walk_rad_per_sqrt_s: rw.to_radians(),
+        mean_pitch_rad: mean_pitch.to_radians(),
+    })
+}
+
+fn check_lines(lines: &[LineFile], ground_height_m: f64) -> Result<Vec<Line>> {
+    if lines.is_empty() {
+        return Err(invalid(
+            "lines",
+            "[]",
+            "a scenario needs at least one flight line",
+        ));
+    }
+    let mut out = Vec::with_capacity(lines.len());
+    for (i, l) in lines.iter().enumerate() {
+        let key = |k: &str| format!("lines[{i}].{k}");
+        if l.id == 0 {
+            return Err(invalid(key("id"), 0, "strip ids start at 1"));
+        }
+        if lines[..i].iter().any(|o| o.id == l.id) {
+            return Err(invalid(key("id"), l.id, "another line has the same id"));
+        }
+        for (k, v) in [("start_m", l.start_m), ("end_m", l.end_m)] {
+            if !(v[0].is_finite() && v[1].is_finite()) {
+                return Err(invalid(key(k), fmt2(v), "must be finite"));
+            }
+        }
+        let len = (l.end_m[0] - l.start_m[0]).hypot(l.end_m[1] - l.start_m[1]);
+        if len < 1.0 {
+            return Err(invalid(
+                key("end_m"),
+                fmt2(l.end_m),
+                &format!(
+                    "zero-length flight line: start_m = {} and end_m are {len:.3} m apart (at least 1 m needed)",
+                    fmt2(l.start_m)
+                ),
+            ));
+        }
+        let h = positive(&key("height_m"), l.height_m)?;
+        let v = positive(&key("speed_m_per_s"), l.speed_m_per_s)?;
+        if !(l.start_time_s.is_finite()
+            && l.start_time_s >= 0.0
+            && l.start_time_s + len / v < lidarqa_io::SECONDS_PER_WEEK_S)
+        {
+            return Err(invalid(
+                key("start_time_s"),
+                l.start_time_s,
+                "the line must start and end within the GPS week (0 to 604800 s)",
+            ));
+        }
+        let end = l.start_time_s + len / v;
+        if let Some((j, _)) = out.iter().enumerate().find(|(_, o): &(usize, &Line)| {
+            l.start_time_s < o.start_time_s + o.duration_s() && o.start_time_s < end
+        }) {
+            return Err(invalid(
+                key("start_time_s"),
+                l.start_time_s,
+                &format!(
+                    "the line overlaps lines[{j}] in time (one aircraft flies one line at a time)"
+                ),
+            ));
+        }
+        out.push(Line {
+            id: l.id,
+            start_m: l.start_m,
+            end_m: l.end_m,
+            height_m: ground_height_m + h,
+            speed_m_per_s: v,
+            start_time_s: l.start_time_s,
+        });
+    }
+    Ok(out)
+}

@@ -1,0 +1,606 @@
+//! The simulation kernel.
+//!
+//! For every pulse (SPEC §3, issue "survey simulator with known truth"):
+//! 1. the **true** ray is cast from the true trajectory, the true mounting (nominal + injected
+//!    errors) and the true scan angle / azimuth into the scene, giving the true range;
+//! 2. the **measured** observations are made from it: range + offset + white noise, scan angle ·
+//!    (1 + scale) + white noise (conic: azimuth + noise, travel times + noise);
+//! 3. the point is **georeferenced** from the measured trajectory (true + Gauss–Markov GNSS and
+//!    attitude errors), the NOMINAL mounting and the measured observations with lidarqa-model's
+//!    `footprint_ned`, then NED → ECEF → geodetic → UTM (through the local quadratic map of
+//!    `geo.rs`, accurate to 5·10⁻⁵ m).
+//!
+//! So every injected error shows in the coordinates exactly as it would in real data.
+//!
+//! Determinism: each strip is cut into chunks of a fixed number of pulses; chunk `c` of strip `s`
+//! draws from its own ChaCha8 stream `(seed, stream = purpose · 2⁵⁶ + s · 2³² + c)`, and chunks are
+//! concatenated in order, so the output does not depend on the number of threads.
+
+use crate::error::{Error, Result};
+use crate::output::{
+    ControlPoint, InjectedErrors, MountingParameters, Observation, PointTruth, RandomErrors,
+    SimPoint, Strip, StripTruth, Survey, TargetTruth, TrajectoryRecord, Truth,
+};
+use crate::scenario::{Line, ScanPattern, ScanWave, Scenario};
+use crate::scene::{
+    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, REFLECTIVITY_BED, WATER_ATTENUATION_PER_M,
+};
+use crate::trajectory::{self, Pose, StripTrajectory, trajectory_sigmas};
+use lidarqa_model::{
+    Attitude, ConicObservation, ConicScanner, Georeferencer, LinearObservation, LinearScanner,
+    Mounting, SPEED_OF_LIGHT_AIR_M_PER_S, Scanner, Source, refract, rotation_zyx, scanner_vector,
+};
+use nalgebra::{Matrix3, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+use rayon::prelude::*;
+use std::f64::consts::PI;
+
+/// Options of a run that do not change the survey itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SimOptions {
+    /// Keep the per-point truth ([`Strip::truth`]): ~100 bytes more per point.
+    pub keep_truth: bool,
+    /// Pulses per chunk (the unit of parallel work and of RNG streams). Changing it changes the
+    /// random draws; the thread count never does.
+    pub chunk_pulses: usize,
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        SimOptions {
+            keep_truth: false,
+            chunk_pulses: 1 << 15,
+        }
+    }
+}
+
+const PURPOSE_PULSES: u64 = 0;
+const PURPOSE_TRAJECTORY: u64 = 1;
+const PURPOSE_MOUNTING: u64 = 2;
+const PURPOSE_CONTROL: u64 = 3;
+
+/// The RNG of one purpose / strip / chunk: ChaCha8 (portable, seekable), keyed by the seed.
+fn stream(seed: u64, purpose: u64, strip: usize, chunk: usize) -> ChaCha8Rng {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(
+        (purpose << 56) | ((strip as u64 & 0xff_ffff) << 32) | (chunk as u64 & 0xffff_ffff),
+    );
+    rng
+}
+
+#[inline]
+fn normal(rng: &mut ChaCha8Rng) -> f64 {
+    rng.sample(StandardNormal)
+}
+
+/// `σ · N(0, 1)`, drawing nothing when σ = 0 (so switched-off errors are exactly zero).
+#[inline]
+fn draw(rng: &mut ChaCha8Rng, sigma: f64) -> f64 {
+    if sigma > 0.0 {
+        sigma * normal(rng)
+    } else {
+        0.0
+    }
+}
+
+/// Simulate the whole survey.
+///
+/// # Errors
+/// [`Error::Trace`] if a pulse cannot be traced (a beam above the horizon).
+///
+/// # Example
+/// ```
+/// use lidarqa_sim::{Scenario, SimOptions, simulate};
+/// let mut file = Scenario::builtin("demo").unwrap().file().clone();
+/// file.lines.truncate(1);
+/// file.lines[0].end_m = [file.lines[0].start_m[0] + 20.0, file.lines[0].start_m[1]];
+/// let survey = simulate(&Scenario::from_file(file).unwrap(), &SimOptions::default()).unwrap();
+/// assert!(survey.point_count() > 1000);
+/// ```
+pub fn simulate(scenario: &Scenario, options: &SimOptions) -> Result<Survey> {
+    simulate_with_progress(scenario, options, &|_| {})
+}
+
+/// [`simulate`], calling `progress(n)` after every chunk of `n` pulses (from worker threads).
+///
+/// # Errors
+/// As [`simulate`].
+pub fn simulate_with_progress(
+    scenario: &Scenario,
+    options: &SimOptions,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Survey> {
+    let seed = scenario.seed();
+    let sensor = scenario.sensor();
+    let errors = scenario.errors();
+    // The true mounting: nominal + injected + (optionally) one draw from the mounting σ.
+    let drawn = if errors.random_mounting {
+        let mut rng = stream(seed, PURPOSE_MOUNTING, 0, 0);
+        let mut d = |s: Source| sensor.sigma.get(s) * normal(&mut rng);
+        Mounting {
+            boresight_roll_rad: d(Source::BoresightRoll),
+            boresight_pitch_rad: d(Source::BoresightPitch),
+            boresight_yaw_rad: d(Source::BoresightYaw),
+            lever_arm_m: Vector3::new(d(Source::LeverX), d(Source::LeverY), d(Source::LeverZ)),
+        }
+    } else {
+        Mounting::default()
+    };
+    let nominal = sensor.mounting;
+    let inj = errors.injected_mounting;
+    let true_mounting = Mounting {
+        boresight_roll_rad: nominal.boresight_roll_rad
+            + inj.boresight_roll_rad
+            + drawn.boresight_roll_rad,
+        boresight_pitch_rad: nominal.boresight_pitch_rad
+            + inj.boresight_pitch_rad
+            + drawn.boresight_pitch_rad,
+        boresight_yaw_rad: nominal.boresight_yaw_rad
+            + inj.boresight_yaw_rad
+            + drawn.boresight_yaw_rad,
+        lever_arm_m: nominal.lever_arm_m + inj.lever_arm_m + drawn.lever_arm_m,
+    };
+
+    let strips: Vec<Strip> = scenario
+        .lines()
+        .par_iter()
+        .enumerate()
+        .map(|(index, line)| {
+            simulate_strip(scenario, options, &true_mounting, index, line, progress)
+        })
+        .collect::<Result<_>>()?;
+
+    let origin = scenario.origin_m();
+    let scene = scenario.scene();
+    let mut rng = stream(seed, PURPOSE_CONTROL, 0, 0);
+    let [sh, sv] = scene.control_sigma_m;
+    let control = scene
+        .targets
+        .iter()
+        .map(|t| ControlPoint {
+            id: t.id.clone(),
+            easting_m: origin[0] + t.center_m[0] + sh * normal(&mut rng),
+            northing_m: origin[1] + t.center_m[1] + sh * normal(&mut rng),
+            height_m: t.height_m + sv * normal(&mut rng),
+            sigma_horizontal_m: sh,
+            sigma_vertical_m: sv,
+            radius_m: t.radius_m,
+        })
+        .collect();
+    let sigma_keys = Source::ALL
+        .iter()
+        .filter(|s| sensor.sigma.get(**s) > 0.0)
+        .map(|s| {
+            (
+                s.config_key(),
+                sensor.sigma.get(*s) / s.unit().config_to_si(),
+            )
+        })
+        .collect();
+    let truth = Truth {
+        scenario: scenario.name().to_string(),
+        seed,
+        epsg: scenario.epsg(),
+        gps_week: scenario.gps_week(),
+        origin_m: origin,
+        mounting: MountingParameters::from(&true_mounting),
+        nominal_mounting: MountingParameters::from(&nominal),
+        injected: InjectedErrors {
+            mounting: MountingParameters::from(&inj),
+            random_mounting: MountingParameters::from(&drawn),
+            range_offset_m: errors.range_offset_m,
+            scan_angle_scale_ppm: errors.scan_angle_scale * 1e6,
+        },
+        random: RandomErrors {
+            enabled: errors.random,
+            gnss_correlation_time_s: errors.gnss_correlation_time_s,
+            attitude_correlation_time_s: errors.attitude_correlation_time_s,
+            sigma: sigma_keys,
+        },
+        targets: scene
+            .targets
+            .iter()
+            .map(|t| TargetTruth {
+                id: t.id.clone(),
+                easting_m: origin[0] + t.center_m[0],
+                northing_m: origin[1] + t.center_m[1],
+                height_m: t.height_m,
+                radius_m: t.radius_m,
+            })
+            .collect(),
+        strips: strips
+            .iter()
+            .zip(scenario.lines())
+            .map(|(s, l)| StripTruth {
+                id: s.id,
+                pulses: s.pulses,
+                points: s.points.len() as u64,
+                time_span_s: [
+                    s.trajectory.first().map_or(0.0, |r| r.time_s),
+                    s.trajectory.last().map_or(0.0, |r| r.time_s),
+                ],
+                height_m: l.height_m,
+            })
+            .collect(),
+        scene: scenario.file().scene.clone(),
+    };
+    let trajectory_sigma_si = if errors.random {
+        trajectory_sigmas(&sensor.sigma)
+    } else {
+        [0.0; 6]
+    };
+    Ok(Survey {
+        strips,
+        control,
+        truth,
+        true_mounting,
+        trajectory_sigma_si,
+    })
+}
+
+fn record(p: &Pose) -> TrajectoryRecord {
+    TrajectoryRecord {
+        time_s: p.time_s,
+        latitude_rad: p.position.latitude_rad,
+        longitude_rad: p.position.longitude_rad,
+        height_m: p.position.height_m,
+        velocity_north_m_per_s: p.velocity_ned_m_per_s[0],
+        velocity_east_m_per_s: p.velocity_ned_m_per_s[1],
+        velocity_down_m_per_s: p.velocity_ned_m_per_s[2],
+        roll_rad: p.roll_rad,
+        pitch_rad: p.pitch_rad,
+        heading_rad: (p.heading_rad + PI).rem_euclid(2.0 * PI) - PI,
+    }
+}
+
+/// Per-strip constants of the kernel.
+struct Kernel<'a> {
+    scenario: &'a Scenario,
+    traj: &'a StripTrajectory,
+    strip_id: u16,
+    origin: [f64; 2],
+    true_mounting: Mounting,
+    r_m_true: Matrix3<f64>,
+    nominal: Mounting,
+    conic: Option<ConicScanner>,
+    /// White per-pulse σ: range (m) or time air (s), scan angle or azimuth (rad), time water (s).
+    sigma: [f64; 3],
+    keep_truth: bool,
+}
+
+fn simulate_strip(
+    scenario: &Scenario,
+    options: &SimOptions,
+    true_mounting: &Mounting,
+    index: usize,
+    line: &Line,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Strip> {
+    let sensor = scenario.sensor();
+    let mut rng = stream(scenario.seed(), PURPOSE_TRAJECTORY, index, 0);
+    let traj = trajectory::build(
+        scenario.zone(),
+        scenario.origin_m(),
+        line,
+        scenario.motion(),
+        scenario.errors(),
+        &sensor.sigma,
+        &mut rng,
+    );
+    let random = scenario.errors().random;
+    let sig = |s: Source| if random { sensor.sigma.get(s) } else { 0.0 };
+    let (conic, sigma) = match &sensor.scanner {
+        Scanner::Linear => (None, [sig(Source::Range), sig(Source::ScanAngle), 0.0]),
+        Scanner::Conic(c) => (
+            Some(*c),
+            [
+                sig(Source::TimeAir),
+                sig(Source::ScanAzimuth),
+                sig(Source::TimeWater),
+            ],
+        ),
+    };
+    let kernel = Kernel {
+        scenario,
+        traj: &traj,
+        strip_id: line.id,
+        origin: scenario.origin_m(),
+        true_mounting: *true_mounting,
+        r_m_true: rotation_zyx(
+            true_mounting.boresight_roll_rad,
+            true_mounting.boresight_pitch_rad,
+            true_mounting.boresight_yaw_rad,
+        ),
+        nominal: sensor.mounting,
+        conic,
+        sigma,
+        keep_truth: options.keep_truth,
+    };
+    let pulses = (line.duration_s() * scenario.pulse_rate_hz()).floor() as u64;
+    let chunk = options.chunk_pulses.max(1) as u64;
+    let n_chunks = pulses.div_ceil(chunk);
+    let chunks: Vec<(Vec<SimPoint>, Vec<PointTruth>)> = (0..n_chunks)
+        .into_par_iter()
+        .map(|c| {
+            let mut rng = stream(scenario.seed(), PURPOSE_PULSES, index, c as usize);
+            let (start, end) = (c * chunk, ((c + 1) * chunk).min(pulses));
+            let cap = (end - start) as usize;
+            let mut points = Vec::with_capacity(cap + cap / 8);
+            let mut truth = Vec::with_capacity(if options.keep_truth { cap } else { 0 });
+            for i in start..end {
+                kernel.pulse(i, &mut rng, &mut points, &mut truth)?;
+            }
+            progress(end - start);
+            Ok((points, truth))
+        })
+        .collect::<Result<_>>()?;
+    let n_points = chunks.iter().map(|c| c.0.len()).sum();
+    let mut points = Vec::with_capacity(n_points);
+    let mut truth = Vec::with_capacity(if options.keep_truth { n_points } else { 0 });
+    for (p, t) in chunks {
+        points.extend(p);
+        truth.extend(t);
+    }
+    Ok(Strip {
+        id: line.id,
+        points,
+        truth,
+        trajectory: traj.measured.iter().map(record).collect(),
+        true_trajectory: traj.truth.iter().map(record).collect(),
+        pulses,
+    })
+}
+
+#[inline]
+fn lerp_attitude(a: &Pose, b: &Pose, f: f64) -> Attitude {
+    Attitude {
+        roll_rad: a.roll_rad + f * (b.roll_rad - a.roll_rad),
+        pitch_rad: a.pitch_rad + f * (b.pitch_rad - a.pitch_rad),
+        heading_rad: a.heading_rad + f * (b.heading_rad - a.heading_rad),
+    }
+}
+
+#[inline]
+fn lerp_frame(fr: &[trajectory::Frame; 2], f: f64) -> (Vector3<f64>, Matrix3<f64>) {
+    (
+        fr[0].offset + (fr[1].offset - fr[0].offset) * f,
+        fr[0].rotation + (fr[1].rotation - fr[0].rotation) * f,
+    )
+}
+
+impl Kernel<'_> {
+    fn intensity(
+        &self,
+        reflectivity: f64,
+        cos_incidence: f64,
+        range_m: f64,
+        rng: &mut ChaCha8Rng,
+    ) -> u16 {
+        let noise = self.scenario.errors().intensity_noise;
+        let n = if noise > 0.0 {
+            1.0 + noise * normal(rng)
+        } else {
+            1.0
+        };
+        let r = 400.0 / range_m;
+        let i = 0.8 * reflectivity * cos_incidence.abs().max(0.02) * r * r * n;
+        (i.clamp(0.0, 1.0) * 65535.0).round().max(1.0) as u16
+    }
+
+    fn pulse(
+        &self,
+        i: u64,
+        rng: &mut ChaCha8Rng,
+        points: &mut Vec<SimPoint>,
+        truth: &mut Vec<PointTruth>,
+    ) -> Result<()> {
+        let sc = self.scenario;
+        let tau = i as f64 / sc.pulse_rate_hz();
+        let t = self.traj.t0_s + tau;
+        let x = tau * self.traj.rate_hz;
+        let k = (x.floor() as usize).min(self.traj.segments.len() - 1);
+        let f = x - k as f64;
+        let seg = &self.traj.segments[k];
+        let map = &self.traj.maps[seg.map as usize];
+        let att_true = lerp_attitude(&self.traj.truth[k], &self.traj.truth[k + 1], f);
+        let (p_true, c_true) = lerp_frame(&seg.truth, f);
+        let m_true =
+            c_true * rotation_zyx(att_true.roll_rad, att_true.pitch_rad, att_true.heading_rad);
+        let origin = p_true + m_true * self.true_mounting.lever_arm_m;
+        let att_meas = lerp_attitude(&self.traj.measured[k], &self.traj.measured[k + 1], f);
+        let (p_meas, c_meas) = lerp_frame(&seg.measured, f);
+        let phase = tau
+            * match sc.pattern() {
+                ScanPattern::Linear { frequency_hz, .. } => frequency_hz,
+                ScanPattern::Conic { rotation_hz } => rotation_hz,
+            };
+        let fail = |reason: &str| Error::Trace {
+            strip: self.strip_id,
+            gps_time_s: t,
+            reason: reason.into(),
+        };
+        let divergence = sc.beam_divergence_rad();
+        let errors = sc.errors();
+        let [s0, s1, s2] = self.sigma;
+
+        let to_point = |v: &Vector3<f64>| map.eval(v);
+        let mut emit = |local: Vector3<f64>,
+                        hit_pos: [f64; 3],
+                        intensity: u16,
+                        scan_angle_deg: f64,
+                        ret: (u8, u8),
+                        class: u8,
+                        true_obs: Observation,
+                        obs: Observation| {
+            points.push(SimPoint {
+                easting_m: self.origin[0] + local.x,
+                northing_m: self.origin[1] + local.y,
+                height_m: local.z,
+                gps_time_s: t,
+                intensity,
+                scan_angle_deg: scan_angle_deg as f32,
+                return_number: ret.0,
+                number_of_returns: ret.1,
+                classification: class,
+                point_source_id: self.strip_id,
+            });
+            if self.keep_truth {
+                truth.push(PointTruth {
+                    easting_m: self.origin[0] + hit_pos[0],
+                    northing_m: self.origin[1] + hit_pos[1],
+                    height_m: hit_pos[2],
+                    true_observation: true_obs,
+                    observation: obs,
+                });
+            }
+        };
+
+        match (&self.conic, sc.pattern()) {
+            (
+                None,
+                ScanPattern::Linear {
+                    field_of_view_rad,
+                    wave,
+                    ..
+                },
+            ) => {
+                let u = match wave {
+                    // Triangle wave in [−1, 1], 0 at τ = 0.
+                    ScanWave::Triangle => 4.0 * ((phase + 0.25).fract() - 0.5).abs() - 1.0,
+                    ScanWave::Sine => (2.0 * PI * phase).sin(),
+                };
+                let theta = field_of_view_rad * u;
+                let dir = m_true * (self.r_m_true * scanner_vector(1.0, theta));
+                let curve = map.curve(&origin, &dir);
+                let hit = sc
+                    .scene()
+                    .trace(&curve, divergence)
+                    .ok_or_else(|| fail("the beam does not reach the ground"))?;
+                let true_obs = LinearObservation {
+                    range_m: hit.range_m,
+                    scan_angle_rad: theta,
+                };
+                let obs = LinearObservation {
+                    range_m: hit.range_m + errors.range_offset_m + draw(rng, s0),
+                    scan_angle_rad: theta * (1.0 + errors.scan_angle_scale) + draw(rng, s1),
+                };
+                let p = LinearScanner.parameters(&att_meas, &self.nominal, &obs);
+                let v = p_meas + c_meas * LinearScanner.footprint_ned(&p);
+                let cos_inc = cos_incidence(&curve.direction(hit.range_m), &hit.normal);
+                let intensity = self.intensity(hit.reflectivity, cos_inc, hit.range_m, rng);
+                emit(
+                    to_point(&v),
+                    hit.position,
+                    intensity,
+                    obs.scan_angle_rad.to_degrees(),
+                    (1, 1),
+                    hit.class,
+                    Observation::Linear(true_obs),
+                    Observation::Linear(obs),
+                );
+            }
+            (Some(conic), ScanPattern::Conic { .. }) => {
+                let az = 2.0 * PI * phase.fract();
+                let q = ConicObservation {
+                    azimuth_rad: az,
+                    time_air_s: 0.0,
+                    time_water_s: 0.0,
+                };
+                let params = conic.parameters(&att_true, &self.true_mounting, &q);
+                let (l3, _) = conic.beam_directions(&params);
+                let dir = m_true * (self.r_m_true * l3);
+                let curve = map.curve(&origin, &dir);
+                let hit = sc
+                    .scene()
+                    .trace(&curve, divergence)
+                    .ok_or_else(|| fail("the beam does not reach the ground"))?;
+                let c = SPEED_OF_LIGHT_AIR_M_PER_S;
+                let scan_deg = l3.y.atan2(l3.z).to_degrees();
+                let air_noise = draw(rng, s0);
+                let az_noise = draw(rng, s1);
+                let time_air = 2.0 * hit.range_m / c;
+                let measure = |time_water_true: f64, water_noise: f64| {
+                    let true_obs = ConicObservation {
+                        azimuth_rad: az,
+                        time_air_s: time_air,
+                        time_water_s: time_water_true,
+                    };
+                    let obs = ConicObservation {
+                        azimuth_rad: az + az_noise,
+                        time_air_s: 2.0 * (hit.range_m + errors.range_offset_m) / c + air_noise,
+                        time_water_s: time_water_true + water_noise,
+                    };
+                    let p = conic.parameters(&att_meas, &self.nominal, &obs);
+                    (true_obs, obs, p_meas + c_meas * conic.footprint_ned(&p))
+                };
+                let cos_inc = cos_incidence(&curve.direction(hit.range_m), &hit.normal);
+                let intensity = self.intensity(hit.reflectivity, cos_inc, hit.range_m, rng);
+                if hit.class != CLASS_WATER_SURFACE {
+                    let (to, o, v) = measure(0.0, 0.0);
+                    emit(
+                        to_point(&v),
+                        hit.position,
+                        intensity,
+                        scan_deg,
+                        (1, 1),
+                        hit.class,
+                        Observation::Conic(to),
+                        Observation::Conic(o),
+                    );
+                    return Ok(());
+                }
+                // Refraction at the real surface: its normal in the map's NED frame is the
+                // gradient of h − wave(x, y) with respect to the NED offset.
+                let v_s = origin + dir * hit.range_m;
+                let jac = map.jacobian(&v_s);
+                let n = hit.normal;
+                let grad = jac.row(2) * n[2] + jac.row(0) * n[0] + jac.row(1) * n[1];
+                let down = -grad.transpose().normalize();
+                let l_w = refract(&dir, &down, conic.n_air() / conic.n_water());
+                let water_curve = map.curve(&v_s, &l_w);
+                let bottom = sc.scene().trace_ground(&water_curve);
+                let (to, o, v) = measure(0.0, 0.0);
+                let n_ret = if bottom.is_some() { 2 } else { 1 };
+                emit(
+                    to_point(&v),
+                    hit.position,
+                    intensity,
+                    scan_deg,
+                    (1, n_ret),
+                    CLASS_WATER_SURFACE,
+                    Observation::Conic(to),
+                    Observation::Conic(o),
+                );
+                if let Some(b) = bottom {
+                    let tw = 2.0 * conic.n_water() * b.range_m / c;
+                    let water_noise = draw(rng, s2);
+                    let (to, o, v) = measure(tw, water_noise);
+                    let refl =
+                        REFLECTIVITY_BED * (-2.0 * WATER_ATTENUATION_PER_M * b.range_m).exp();
+                    let cos_b = cos_incidence(&water_curve.direction(b.range_m), &b.normal);
+                    let intensity = self.intensity(refl, cos_b, hit.range_m + b.range_m, rng);
+                    emit(
+                        to_point(&v),
+                        b.position,
+                        intensity,
+                        scan_deg,
+                        (2, 2),
+                        CLASS_BATHYMETRY,
+                        Observation::Conic(to),
+                        Observation::Conic(o),
+                    );
+                }
+            }
+            _ => return Err(fail("scanner type and scan pattern disagree")),
+        }
+        Ok(())
+    }
+}
+
+#[inline]
+fn cos_incidence(dir: &[f64; 3], normal: &[f64; 3]) -> f64 {
+    let n = (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
+    ((dir[0] * normal[0] + dir[1] * normal[1] + dir[2] * normal[2]) / n).abs()
+}

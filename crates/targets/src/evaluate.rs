@@ -1,0 +1,846 @@
+//! Accuracy statistics of measured points against control (SPEC §6 `evaluate`).
+//!
+//! Residual = lidar − control, per point, in north (= y), east (= x) and up (= z), projected
+//! metres. Over the n matched points:
+//!
+//! * `rmse.north`, `rmse.east`, `rmse.up` = √(Σ d²/n) per axis;
+//! * `rmse.horizontal` = √(Σ (dN² + dE²)/n) = √(RMSE_N² + RMSE_E²): seed 000 formula (7) and
+//!   ASPRS Ed. 2 RMSE_H;
+//! * `rmse.vertical` = `rmse.up`: seed 000 formula (8) when Z is the target's mean Z;
+//! * `rmse.three_d` = √(RMSE_H² + RMSE_V²) (ASPRS Ed. 2 RMSE_3D);
+//! * `mean`, `std` (sample standard deviation, n − 1; 0 for n = 1), `max_abs` (largest |d| per
+//!   axis, and the largest single horizontal and 3-D residual).
+//!
+//! Seed 000's Table 2 gives residuals for four targets. Formula (7) on them is 17.56 cm
+//! (RMSE_N 11.23 cm, RMSE_E 13.50 cm). The paper prints 21.66 cm = √(13.8² + 16.7²): the two
+//! largest per-axis residuals, both of QZ04, i.e. the largest single horizontal residual
+//! (`max_abs.horizontal`), not formula (7) (SPEC §3).
+//!
+//! # ASPRS Positional Accuracy Standards, Edition 2 (2023)
+//!
+//! * RMSE_H = √(RMSE_x² + RMSE_y²), RMSE_V, RMSE_3D = √(RMSE_H² + RMSE_V²);
+//! * the checkpoints' own survey accuracy is added in quadrature:
+//!   RMSE_H = √(RMSE_H,measured² + RMSE_H,checkpoints²), likewise RMSE_V, where the
+//!   checkpoints' RMSE is √(mean σ²) of the `sigma_h` / `sigma_v` given in the control file
+//!   (e.g. RMSE_V 1.00 cm measured with 2.0 cm checkpoints ⇒ 2.24 cm);
+//! * at least 30 checkpoints for a product accuracy assessment (fewer is flagged, the figures
+//!   are still reported);
+//! * the mean error should not exceed 25 % of the target RMSE. lidarqa applies it to |mean up|
+//!   against the vertical class and to the length of the mean horizontal vector against the
+//!   horizontal class; without a class it uses the tested RMSE as the target (and says so);
+//! * a compliance statement modelled on the standard's wording.
+//!
+//! # NSSDA (FGDC-STD-007.3-1998) 95 % figures
+//!
+//! Horizontal: 1.7308 × RMSE_r when RMSE_x = RMSE_y; 2.4477 × 0.5 × (RMSE_x + RMSE_y) when
+//! 0.6 < RMSE_min/RMSE_max < 1; below 0.6, where the NSSDA approximation is not valid, the exact
+//! 95 % radius of the bivariate normal with those σ (numerical). Vertical: 1.9600 × RMSE_z.
+//!
+//! # Vertical checkpoints against a TIN (NVA)
+//!
+//! [`evaluate_vertical_tin`] triangulates the ground points (Delaunay, `spade`), interpolates the
+//! TIN linearly at each checkpoint's XY, and takes residual = TIN − control. Checkpoints outside
+//! the TIN's convex hull are listed in `outside_tin`, not dropped.
+
+use std::f64::consts::TAU;
+
+use serde::Serialize;
+use spade::{DelaunayTriangulation, FloatTriangulation, HasPosition, Point2, Triangulation};
+
+use crate::extract::{ControlPoint, TargetResult, validate_control};
+use crate::{Error, Result};
+
+/// Minimum number of checkpoints for an ASPRS Ed. 2 product accuracy assessment.
+pub const ASPRS_MIN_CHECKPOINTS: usize = 30;
+/// NSSDA factor: 95 % circular error = 1.7308 × RMSE_r (RMSE_x = RMSE_y).
+pub const NSSDA_HORIZONTAL_FACTOR: f64 = 1.7308;
+/// NSSDA factor of the approximation 2.4477 × 0.5 × (RMSE_x + RMSE_y).
+pub const NSSDA_HORIZONTAL_APPROX_FACTOR: f64 = 2.4477;
+/// NSSDA factor: 95 % vertical accuracy = 1.9600 × RMSE_z.
+pub const NSSDA_VERTICAL_FACTOR: f64 = 1.9600;
+
+/// A measured point (a target centre or any well-defined point) to compare with control.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MeasuredPoint {
+    /// Id, matching a control point's id.
+    pub id: String,
+    /// Easting (projected m).
+    pub x: f64,
+    /// Northing (projected m).
+    pub y: f64,
+    /// Height (m, up).
+    pub z: f64,
+}
+
+impl MeasuredPoint {
+    /// A measured point.
+    #[must_use]
+    pub fn new(id: impl Into<String>, x: f64, y: f64, z: f64) -> Self {
+        Self {
+            id: id.into(),
+            x,
+            y,
+            z,
+        }
+    }
+}
+
+impl From<&TargetResult> for MeasuredPoint {
+    fn from(t: &TargetResult) -> Self {
+        Self {
+            id: t.id.clone(),
+            x: t.centre.x,
+            y: t.centre.y,
+            z: t.centre.z,
+        }
+    }
+}
+
+/// Per-axis values (m): north (= y), east (= x), up (= z).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+pub struct Axes {
+    /// North component (m).
+    pub north: f64,
+    /// East component (m).
+    pub east: f64,
+    /// Up component (m).
+    pub up: f64,
+}
+
+/// Per-axis and combined values (m), SPEC §3: horizontal = √(north² + east²),
+/// vertical = up, three_d = √(horizontal² + vertical²).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+pub struct Components {
+    /// North (m).
+    pub north: f64,
+    /// East (m).
+    pub east: f64,
+    /// Up (m).
+    pub up: f64,
+    /// Horizontal (m).
+    pub horizontal: f64,
+    /// Vertical (m).
+    pub vertical: f64,
+    /// Three-dimensional (m).
+    pub three_d: f64,
+}
+
+impl Components {
+    /// Builds the combined values from north, east, up (m).
+    #[must_use]
+    pub fn from_axes(north: f64, east: f64, up: f64) -> Self {
+        let horizontal = north.hypot(east);
+        Self {
+            north,
+            east,
+            up,
+            horizontal,
+            vertical: up.abs(),
+            three_d: horizontal.hypot(up),
+        }
+    }
+}
+
+/// A position (projected m).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Position {
+    /// Easting (m).
+    pub x: f64,
+    /// Northing (m).
+    pub y: f64,
+    /// Height (m).
+    pub z: f64,
+}
+
+/// One point's residual.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PointResidual {
+    /// The id.
+    pub id: String,
+    /// Lidar − control (m).
+    pub residual: Axes,
+    /// √(north² + east²) of the residual (m).
+    pub horizontal: f64,
+    /// √(north² + east² + up²) of the residual (m).
+    pub three_d: f64,
+    /// The measured (lidar) position.
+    pub lidar: Position,
+    /// The control position.
+    pub control: Position,
+}
+
+/// Options of [`evaluate`] and [`evaluate_vertical_tin`].
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+pub struct EvaluateOptions {
+    /// ASPRS horizontal accuracy class to test against: its RMSE_H (m). `None`: report only.
+    pub horizontal_class_m: Option<f64>,
+    /// ASPRS vertical accuracy class to test against: its RMSE_V (m). `None`: report only.
+    pub vertical_class_m: Option<f64>,
+}
+
+/// One component (horizontal or vertical) of the ASPRS Ed. 2 assessment.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AsprsComponent {
+    /// RMSE of the lidar against the checkpoints (m).
+    pub measured_rmse_m: f64,
+    /// √(mean σ²) of the checkpoints' own survey accuracy (m), over those that give one; `None`
+    /// when none does.
+    pub checkpoint_rmse_m: Option<f64>,
+    /// Checkpoints without a σ for this component.
+    pub checkpoints_without_sigma: usize,
+    /// Product RMSE = √(measured² + checkpoint²) (m).
+    pub rmse_m: f64,
+    /// The accuracy class tested against (its RMSE, m), if any.
+    pub class_m: Option<f64>,
+    /// Whether `rmse_m` ≤ `class_m`.
+    pub meets_class: Option<bool>,
+    /// Mean error (m): |mean up| or the length of the mean horizontal vector.
+    pub mean_error_m: f64,
+    /// 25 % of the class RMSE, or of `rmse_m` when no class is given (m).
+    pub mean_error_limit_m: f64,
+    /// Whether `mean_error_m` ≤ `mean_error_limit_m`.
+    pub mean_error_ok: bool,
+}
+
+/// ASPRS Positional Accuracy Standards, Edition 2 (2023) assessment.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Asprs {
+    /// `"2 (2023)"`.
+    pub edition: &'static str,
+    /// Checkpoints used.
+    pub n_checkpoints: usize,
+    /// 30.
+    pub min_checkpoints: usize,
+    /// `n_checkpoints ≥ 30`.
+    pub sufficient_checkpoints: bool,
+    /// Horizontal component (`None` for vertical-only checkpoints).
+    pub horizontal: Option<AsprsComponent>,
+    /// Vertical component.
+    pub vertical: AsprsComponent,
+    /// RMSE_3D = √(RMSE_H² + RMSE_V²) with checkpoint accuracy included (m); `None` without
+    /// a horizontal component.
+    pub rmse_3d_m: Option<f64>,
+    /// The compliance statement.
+    pub statement: String,
+    /// Everything that limits the assessment (few checkpoints, missing σ, mean error).
+    pub warnings: Vec<String>,
+}
+
+/// NSSDA 95 % accuracy figures.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Nssda {
+    /// Horizontal accuracy at 95 % (m); `None` for vertical-only checkpoints.
+    pub horizontal_95_m: Option<f64>,
+    /// Which formula gave it.
+    pub horizontal_method: Option<&'static str>,
+    /// RMSE_min / RMSE_max of the two horizontal axes.
+    pub rmse_ratio: Option<f64>,
+    /// Vertical accuracy at 95 % = 1.9600 × RMSE_z (m).
+    pub vertical_95_m: f64,
+}
+
+/// The result of [`evaluate`]; field names are SPEC §6's `evaluate` JSON.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Evaluation {
+    /// Points compared.
+    pub n: usize,
+    /// RMSE (m); `horizontal` is seed 000 formula (7), `vertical` formula (8).
+    pub rmse: Components,
+    /// Mean residual (m).
+    pub mean: Axes,
+    /// Sample standard deviation of the residuals (m).
+    pub std: Axes,
+    /// Largest |residual| per axis, and the largest horizontal / 3-D residual (m).
+    pub max_abs: Components,
+    /// ASPRS Ed. 2 assessment.
+    pub asprs: Asprs,
+    /// NSSDA 95 % figures.
+    pub nssda: Nssda,
+    /// The predicted (TPU) σ for comparison, filled by the caller; `None` here.
+    pub predicted: Option<Components>,
+    /// Per-point residuals, in the order of the measured points.
+    pub points: Vec<PointResidual>,
+    /// Measured ids with no control point.
+    pub unmatched_targets: Vec<String>,
+    /// Control ids with no measured point.
+    pub missing_control: Vec<String>,
+}
+
+fn rms(v: impl Iterator<Item = f64>) -> f64 {
+    let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x * x, n + 1));
+    if n == 0 { 0.0 } else { (s / n as f64).sqrt() }
+}
+
+fn mean_std(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n;
+    let s = if v.len() < 2 {
+        0.0
+    } else {
+        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+    };
+    (m, s)
+}
+
+/// NSSDA horizontal 95 % accuracy (m) from the per-axis RMSE (m), and the formula used.
+///
+/// # Example
+/// ```
+/// use lidarqa_targets::nssda_horizontal;
+/// let (a, _) = nssda_horizontal(0.1, 0.1);
+/// assert!((a - 1.7308 * 0.1 * 2f64.sqrt()).abs() < 1e-12);
+/// ```
+#[must_use]
+pub fn nssda_horizontal(rmse_x: f64, rmse_y: f64) -> (f64, &'static str) {
+    let (lo, hi) = if rmse_x <= rmse_y {
+        (rmse_x, rmse_y)
+    } else {
+        (rmse_y, rmse_x)
+    };
+    if hi == 0.0 || lo / hi >= 1.0 - 1e-9 {
+        (
+            NSSDA_HORIZONTAL_FACTOR * rmse_x.hypot(rmse_y),
+            "1.7308 × RMSE_r",
+        )
+    } else if lo / hi > 0.6 {
+        (
+            NSSDA_HORIZONTAL_APPROX_FACTOR * 0.5 * (rmse_x + rmse_y),
+            "2.4477 × 0.5 × (RMSE_x + RMSE_y)",
+        )
+    } else {
+        (
+            circular_error_95(rmse_x, rmse_y),
+            "exact 95 % radius of the bivariate normal (ratio <= 0.6)",
+        )
+    }
+}
+
+/// Probability that a bivariate normal (independent, σx, σy > 0) falls within radius r:
+/// P = 1/(2π σx σy) ∫₀^{2π} (1 − exp(−r² q/2)) / q dθ, q = cos²θ/σx² + sin²θ/σy².
+fn circular_probability(r: f64, sx: f64, sy: f64) -> f64 {
+    // Periodic and smooth: the trapezoid rule converges geometrically.
+    let k = 720;
+    let mut s = 0.0;
+    for i in 0..k {
+        let t = TAU * i as f64 / k as f64;
+        let q = (t.cos() / sx).powi(2) + (t.sin() / sy).powi(2);
+        s += (1.0 - (-0.5 * r * r * q).exp()) / q;
+    }
+    s / k as f64 / (sx * sy)
+}
+
+fn circular_error_95(sx: f64, sy: f64) -> f64 {
+    let lo = sx.min(sy);
+    let hi = sx.max(sy);
+    if lo == 0.0 {
+        return NSSDA_VERTICAL_FACTOR * hi;
+    }
+    let (mut a, mut b) = (0.0, 3.0 * hi);
+    for _ in 0..100 {
+        let m = 0.5 * (a + b);
+        if circular_probability(m, sx, sy) < 0.95 {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    0.5 * (a + b)
+}
+
+/// NSSDA vertical 95 % accuracy = 1.9600 × RMSE_z (m).
+#[must_use]
+pub fn nssda_vertical(rmse_z: f64) -> f64 {
+    NSSDA_VERTICAL_FACTOR * rmse_z
+}
+
+/// ASPRS Ed. 2: product RMSE with the checkpoints' own accuracy in quadrature (m):
+/// √(measured² + checkpoints²).
+///
+/// # Example
+/// ```
+/// // RMSE_V 1.00 cm measured against 2.0 cm checkpoints ⇒ 2.24 cm.
+/// let v = lidarqa_targets::asprs_combined_rmse(0.0100, 0.020);
+/// assert!((v - 0.02236).abs() < 1e-5);
+/// ```
+#[must_use]
+pub fn asprs_combined_rmse(measured_m: f64, checkpoints_m: f64) -> f64 {
+    measured_m.hypot(checkpoints_m)
+}
+
+fn cm(v: f64) -> String {
+    format!("{:.1} cm", v * 100.0)
+}
+
+fn component(
+    measured_rmse_m: f64,
+    sigmas: &[Option<f64>],
+    class_m: Option<f64>,
+    mean_error_m: f64,
+) -> AsprsComponent {
+    let given: Vec<f64> = sigmas.iter().flatten().copied().collect();
+    let checkpoint_rmse_m = (!given.is_empty()).then(|| rms(given.iter().copied()));
+    let rmse_m = asprs_combined_rmse(measured_rmse_m, checkpoint_rmse_m.unwrap_or(0.0));
+    let mean_error_limit_m = 0.25 * class_m.unwrap_or(rmse_m);
+    AsprsComponent {
+        measured_rmse_m,
+        checkpoint_rmse_m,
+        checkpoints_without_sigma: sigmas.len() - given.len(),
+        rmse_m,
+        class_m,
+        meets_class: class_m.map(|c| rmse_m <= c),
+        mean_error_m,
+        mean_error_limit_m,
+        mean_error_ok: mean_error_m <= mean_error_limit_m,
+    }
+}
+
+const STANDARD: &str =
+    "ASPRS Positional Accuracy Standards for Digital Geospatial Data, Edition 2 (2023)";
+
+fn statement_part(c: &AsprsComponent, kind: &str, symbol: &str, what: &str) -> String {
+    match (c.class_m, c.meets_class) {
+        (Some(class), Some(true)) => format!(
+            "This data set was tested to meet {STANDARD} for a {} {symbol} {kind} accuracy class. The tested {what} was found to be {symbol} = {}.",
+            cm(class),
+            cm(c.rmse_m)
+        ),
+        (Some(class), _) => format!(
+            "This data set was tested against {STANDARD} for a {} {symbol} {kind} accuracy class and does not meet it: the tested {what} was found to be {symbol} = {}.",
+            cm(class),
+            cm(c.rmse_m)
+        ),
+        _ => format!(
+            "This data set was tested following {STANDARD} (no accuracy class given): the tested {what} was found to be {symbol} = {}.",
+            cm(c.rmse_m)
+        ),
+    }
+}
+
+fn warnings_for(c: &AsprsComponent, name: &str, warnings: &mut Vec<String>) {
+    if c.checkpoints_without_sigma > 0 {
+        warnings.push(format!(
+            "{} checkpoints give no {name} survey accuracy; it is taken as 0 for them",
+            c.checkpoints_without_sigma
+        ));
+    }
+    if !c.mean_error_ok {
+        let basis = if c.class_m.is_some() {
+            "the class RMSE"
+        } else {
+            "the tested RMSE (no class given)"
+        };
+        warnings.push(format!(
+            "{name} mean error {} exceeds 25 % of {basis} ({}): look for a systematic error",
+            cm(c.mean_error_m),
+            cm(c.mean_error_limit_m)
+        ));
+    }
+}
+
+fn asprs(n: usize, horizontal: Option<AsprsComponent>, vertical: AsprsComponent) -> Asprs {
+    let mut statement = String::new();
+    let mut warnings = Vec::new();
+    if let Some(h) = &horizontal {
+        statement.push_str(&statement_part(
+            h,
+            "horizontal positional",
+            "RMSE_H",
+            "horizontal positional accuracy",
+        ));
+        statement.push(' ');
+        warnings_for(h, "horizontal", &mut warnings);
+    }
+    statement.push_str(&statement_part(
+        &vertical,
+        "vertical",
+        "RMSE_V",
+        "non-vegetated vertical accuracy (NVA)",
+    ));
+    warnings_for(&vertical, "vertical", &mut warnings);
+    let rmse_3d_m = horizontal.as_ref().map(|h| h.rmse_m.hypot(vertical.rmse_m));
+    if let Some(r3) = rmse_3d_m {
+        statement.push_str(&format!(
+            " The three-dimensional positional accuracy was found to be RMSE_3D = {}.",
+            cm(r3)
+        ));
+    }
+    let sufficient = n >= ASPRS_MIN_CHECKPOINTS;
+    if !sufficient {
+        statement.push_str(&format!(
+            " Only {n} checkpoints were used; Edition 2 requires at least {ASPRS_MIN_CHECKPOINTS}, so this is not a compliant product accuracy assessment."
+        ));
+        warnings.push(format!(
+            "{n} checkpoints, fewer than the {ASPRS_MIN_CHECKPOINTS} that ASPRS Ed. 2 requires"
+        ));
+    }
+    Asprs {
+        edition: "2 (2023)",
+        n_checkpoints: n,
+        min_checkpoints: ASPRS_MIN_CHECKPOINTS,
+        sufficient_checkpoints: sufficient,
+        horizontal,
+        vertical,
+        rmse_3d_m,
+        statement,
+        warnings,
+    }
+}
+
+fn check_class(key: &'static str, v: Option<f64>) -> Result<()> {
+    match v {
+        Some(c) if !(c > 0.0 && c.is_finite()) => Err(Error::InvalidConfig {
+            key,
+            value: c,
+            reason: "an accuracy class RMSE must be finite and > 0",
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// Compares measured points with control by id: residual = lidar − control (m).
+///
+/// # Errors
+/// Bad control ([`validate_control`]), [`Error::DuplicateTargetId`], [`Error::NonFinite`],
+/// [`Error::InvalidConfig`] for a class ≤ 0, [`Error::NoCommonIds`] when no id matches.
+///
+/// # Example
+/// ```
+/// use lidarqa_targets::{evaluate, ControlPoint, EvaluateOptions, MeasuredPoint};
+/// let control = [ControlPoint::new("a", 0.0, 0.0, 0.0), ControlPoint::new("b", 10.0, 0.0, 0.0)];
+/// let lidar = [MeasuredPoint::new("a", 0.03, 0.04, 0.1), MeasuredPoint::new("b", 10.03, 0.04, -0.1)];
+/// let e = evaluate(&lidar, &control, &EvaluateOptions::default()).unwrap();
+/// assert!((e.rmse.horizontal - 0.05).abs() < 1e-12); // √(0.03² + 0.04²)
+/// assert!((e.rmse.vertical - 0.1).abs() < 1e-12);
+/// assert!(!e.asprs.sufficient_checkpoints); // 2 < 30
+/// ```
+pub fn evaluate(
+    measured: &[MeasuredPoint],
+    control: &[ControlPoint],
+    options: &EvaluateOptions,
+) -> Result<Evaluation> {
+    validate_control(control)?;
+    check_class("horizontal_class_m", options.horizontal_class_m)?;
+    check_class("vertical_class_m", options.vertical_class_m)?;
+    let mut ids: Vec<&str> = measured.iter().map(|m| m.id.as_str()).collect();
+    ids.sort_unstable();
+    for w in ids.windows(2) {
+        if w[0] == w[1] {
+            return Err(Error::DuplicateTargetId {
+                id: w[0].to_string(),
+            });
+        }
+    }
+    for (index, m) in measured.iter().enumerate() {
+        for (what, value) in [("target x", m.x), ("target y", m.y), ("target z", m.z)] {
+            if !value.is_finite() {
+                return Err(Error::NonFinite { what, index, value });
+            }
+        }
+    }
+    let mut points = Vec::new();
+    let mut used = Vec::new();
+    let mut unmatched_targets = Vec::new();
+    for m in measured {
+        let Some(c) = control.iter().find(|c| c.id == m.id) else {
+            unmatched_targets.push(m.id.clone());
+            continue;
+        };
+        let residual = Axes {
+            north: m.y - c.y,
+            east: m.x - c.x,
+            up: m.z - c.z,
+        };
+        let horizontal = residual.north.hypot(residual.east);
+        points.push(PointResidual {
+            id: m.id.clone(),
+            residual,
+            horizontal,
+            three_d: horizontal.hypot(residual.up),
+            lidar: Position {
+                x: m.x,
+                y: m.y,
+                z: m.z,
+            },
+            control: Position {
+                x: c.x,
+                y: c.y,
+                z: c.z,
+            },
+        });
+        used.push(c);
+    }
+    if points.is_empty() {
+        return Err(Error::NoCommonIds {
+            targets: measured.len(),
+            control: control.len(),
+        });
+    }
+    let missing_control = control
+        .iter()
+        .filter(|c| !measured.iter().any(|m| m.id == c.id))
+        .map(|c| c.id.clone())
+        .collect();
+    let n = points.len();
+    let dn: Vec<f64> = points.iter().map(|p| p.residual.north).collect();
+    let de: Vec<f64> = points.iter().map(|p| p.residual.east).collect();
+    let du: Vec<f64> = points.iter().map(|p| p.residual.up).collect();
+    let rmse = Components::from_axes(
+        rms(dn.iter().copied()),
+        rms(de.iter().copied()),
+        rms(du.iter().copied()),
+    );
+    let (mn, sn) = mean_std(&dn);
+    let (me, se) = mean_std(&de);
+    let (mu, su) = mean_std(&du);
+    let maxabs = |v: &[f64]| v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    let max_abs = Components {
+        north: maxabs(&dn),
+        east: maxabs(&de),
+        up: maxabs(&du),
+        horizontal: points.iter().fold(0.0f64, |a, p| a.max(p.horizontal)),
+        vertical: maxabs(&du),
+        three_d: points.iter().fold(0.0f64, |a, p| a.max(p.three_d)),
+    };
+    let sig_h: Vec<Option<f64>> = used.iter().map(|c| c.sigma_h_m).collect();
+    let sig_v: Vec<Option<f64>> = used.iter().map(|c| c.sigma_v_m).collect();
+    let h = component(
+        rmse.horizontal,
+        &sig_h,
+        options.horizontal_class_m,
+        mn.hypot(me),
+    );
+    let v = component(rmse.vertical, &sig_v, options.vertical_class_m, mu.abs());
+    let (h95, method) = nssda_horizontal(rmse.east, rmse.north);
+    let (lo, hi) = (rmse.east.min(rmse.north), rmse.east.max(rmse.north));
+    let nssda = Nssda {
+        horizontal_95_m: Some(h95),
+        horizontal_method: Some(method),
+        rmse_ratio: Some(if hi > 0.0 { lo / hi } else { 1.0 }),
+        vertical_95_m: nssda_vertical(rmse.vertical),
+    };
+    Ok(Evaluation {
+        n,
+        rmse,
+        mean: Axes {
+            north: mn,
+            east: me,
+            up: mu,
+        },
+        std: Axes {
+            north: sn,
+            east: se,
+            up: su,
+        },
+        max_abs,
+        asprs: asprs(n, Some(h), v),
+        nssda,
+        predicted: None,
+        points,
+        unmatched_targets,
+        missing_control,
+    })
+}
+
+/// One vertical checkpoint against the TIN.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VerticalResidual {
+    /// Checkpoint id.
+    pub id: String,
+    /// Checkpoint easting (m).
+    pub x: f64,
+    /// Checkpoint northing (m).
+    pub y: f64,
+    /// Surveyed height (m).
+    pub control_z: f64,
+    /// TIN height at (x, y) (m).
+    pub tin_z: f64,
+    /// TIN − control (m).
+    pub up: f64,
+}
+
+/// The result of [`evaluate_vertical_tin`] (NVA).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct VerticalEvaluation {
+    /// Checkpoints inside the TIN.
+    pub n: usize,
+    /// RMSE of the up residuals (m).
+    pub rmse_v_m: f64,
+    /// Mean up residual (m).
+    pub mean_up_m: f64,
+    /// Sample standard deviation of the up residuals (m).
+    pub std_up_m: f64,
+    /// Largest |up residual| (m).
+    pub max_abs_up_m: f64,
+    /// ASPRS Ed. 2 (vertical only).
+    pub asprs: Asprs,
+    /// NSSDA (vertical only).
+    pub nssda: Nssda,
+    /// Per-checkpoint residuals.
+    pub points: Vec<VerticalResidual>,
+    /// Checkpoints outside the TIN's convex hull (not evaluated).
+    pub outside_tin: Vec<String>,
+}
+
+#[derive(Clone, Copy)]
+struct GroundVertex {
+    p: Point2<f64>,
+    z: f64,
+}
+
+impl HasPosition for GroundVertex {
+    type Scalar = f64;
+    fn position(&self) -> Point2<f64> {
+        self.p
+    }
+}
+
+/// Vertical accuracy of a ground surface (NVA): Delaunay TIN of `ground` points (projected m,
+/// `[x, y, z]`), linear interpolation at each checkpoint, residual = TIN − control (m).
+///
+/// # Errors
+/// Bad checkpoints ([`validate_control`]), [`Error::NonFinite`] ground coordinates,
+/// [`Error::TooFewGroundPoints`], [`Error::Tin`], [`Error::NoCheckpointInsideTin`].
+///
+/// # Example
+/// ```
+/// use lidarqa_targets::{evaluate_vertical_tin, ControlPoint, EvaluateOptions};
+/// // Ground plane z = 100 + 0.1·x; a checkpoint at (5, 5) surveyed at 100.45 m.
+/// let ground: Vec<[f64; 3]> = [[0.0, 0.0], [10.0, 0.0], [0.0, 10.0], [10.0, 10.0]]
+///     .iter()
+///     .map(|p| [p[0], p[1], 100.0 + 0.1 * p[0]])
+///     .collect();
+/// let cp = [ControlPoint::new("v1", 5.0, 5.0, 100.45)];
+/// let v = evaluate_vertical_tin(&ground, &cp, &EvaluateOptions::default()).unwrap();
+/// assert!((v.points[0].up - 0.05).abs() < 1e-9); // 100.5 − 100.45
+/// ```
+pub fn evaluate_vertical_tin(
+    ground: &[[f64; 3]],
+    checkpoints: &[ControlPoint],
+    options: &EvaluateOptions,
+) -> Result<VerticalEvaluation> {
+    validate_control(checkpoints)?;
+    check_class("vertical_class_m", options.vertical_class_m)?;
+    if ground.len() < 3 {
+        return Err(Error::TooFewGroundPoints { n: ground.len() });
+    }
+    for (index, g) in ground.iter().enumerate() {
+        for (k, what) in ["ground x", "ground y", "ground z"].into_iter().enumerate() {
+            if !g[k].is_finite() {
+                return Err(Error::NonFinite {
+                    what,
+                    index,
+                    value: g[k],
+                });
+            }
+        }
+    }
+    // Local origin: spade works in f64 but projected coordinates (~10⁶ m) waste 20 bits.
+    let (ox, oy) = (ground[0][0], ground[0][1]);
+    let vertices: Vec<GroundVertex> = ground
+        .iter()
+        .map(|g| GroundVertex {
+            p: Point2::new(g[0] - ox, g[1] - oy),
+            z: g[2],
+        })
+        .collect();
+    let tin: DelaunayTriangulation<GroundVertex> = DelaunayTriangulation::bulk_load(vertices)
+        .map_err(|e| Error::Tin(format!("{e:?}").to_lowercase()))?;
+    if tin.num_inner_faces() == 0 {
+        return Err(Error::TooFewGroundPoints { n: ground.len() });
+    }
+    let interp = tin.barycentric();
+    let mut points = Vec::new();
+    let mut outside_tin = Vec::new();
+    let mut sig_v = Vec::new();
+    for c in checkpoints {
+        match interp.interpolate(|v| v.data().z, Point2::new(c.x - ox, c.y - oy)) {
+            Some(tin_z) => {
+                points.push(VerticalResidual {
+                    id: c.id.clone(),
+                    x: c.x,
+                    y: c.y,
+                    control_z: c.z,
+                    tin_z,
+                    up: tin_z - c.z,
+                });
+                sig_v.push(c.sigma_v_m);
+            }
+            None => outside_tin.push(c.id.clone()),
+        }
+    }
+    if points.is_empty() {
+        return Err(Error::NoCheckpointInsideTin {
+            checkpoints: checkpoints.len(),
+            ground: ground.len(),
+        });
+    }
+    let du: Vec<f64> = points.iter().map(|p| p.up).collect();
+    let rmse_v_m = rms(du.iter().copied());
+    let (mean_up_m, std_up_m) = mean_std(&du);
+    let v = component(rmse_v_m, &sig_v, options.vertical_class_m, mean_up_m.abs());
+    let n = points.len();
+    Ok(VerticalEvaluation {
+        n,
+        rmse_v_m,
+        mean_up_m,
+        std_up_m,
+        max_abs_up_m: du.iter().fold(0.0f64, |a, x| a.max(x.abs())),
+        asprs: asprs(n, None, v),
+        nssda: Nssda {
+            horizontal_95_m: None,
+            horizontal_method: None,
+            rmse_ratio: None,
+            vertical_95_m: nssda_vertical(rmse_v_m),
+        },
+        points,
+        outside_tin,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nssda_branches() {
+        // Equal axes: 1.7308 × √2 σ = 2.4477 σ (the two NSSDA forms agree there).
+        let (a, m) = nssda_horizontal(0.05, 0.05);
+        assert!((a - 1.7308 * 0.05 * 2f64.sqrt()).abs() < 1e-12 && m.starts_with("1.7308"));
+        assert!((a - 2.4477 * 0.05).abs() < 1e-5);
+        // Ratio 0.8: the approximation.
+        let (a, m) = nssda_horizontal(0.08, 0.10);
+        assert!((a - 2.4477 * 0.09).abs() < 1e-12 && m.starts_with("2.4477"));
+        // Ratio 0.5: exact; the approximation would give 2.4477 × 0.075 = 0.1836 m. The exact
+        // value for σ = (0.05, 0.10) m lies between 1.96 × 0.10 (1-D) and the approximation.
+        let (a, m) = nssda_horizontal(0.05, 0.10);
+        assert!(m.starts_with("exact"));
+        assert!(a > 0.196 && a < 0.2448, "{a}");
+        // The exact solver reproduces 2.4477 σ for a circular distribution
+        // (√(−2 ln 0.05) = 2.447747).
+        assert!((circular_error_95(1.0, 1.0) - 2.447747).abs() < 1e-5);
+        assert!((nssda_vertical(0.1) - 0.196).abs() < 1e-12);
+    }
+
+    #[test]
+    fn tin_outside_is_listed() {
+        let ground = [[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]];
+        let cps = [
+            ControlPoint::new("in", 0.2, 0.2, 0.9),
+            ControlPoint::new("out", 5.0, 5.0, 1.0),
+        ];
+        let v = evaluate_vertical_tin(&ground, &cps, &EvaluateOptions::default()).unwrap();
+        assert_eq!(v.n, 1);
+        assert_eq!(v.outside_tin, vec!["out".to_string()]);
+        assert!((v.rmse_v_m - 0.1).abs() < 1e-12);
+        let e = evaluate_vertical_tin(&ground, &cps[1..], &EvaluateOptions::default()).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "none of the 1 checkpoints lies inside the tin of 3 ground points"
+        );
+        let collinear = [[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [2.0, 0.0, 1.0]];
+        assert!(matches!(
+            evaluate_vertical_tin(&collinear, &cps, &EvaluateOptions::default()),
+            Err(Error::TooFewGroundPoints { n: 3 })
+        ));
+    }
+}
