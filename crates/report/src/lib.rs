@@ -1,0 +1,58 @@
+//! lidarqa-report: one self-contained HTML report from the JSON products of a run.
+//!
+//! [`Report::from_dir`] reads the products present in a directory, [`Report::to_html`] makes one
+//! HTML document that a QA engineer can hand to a client: no network, no script, no external file;
+//! the CSS is inline and the plots are inline SVG drawn with plotters. **A section appears only
+//! for the products present**, so the report also works on a partial run.
+//!
+//! | file | product | section |
+//! |---|---|---|
+//! | [`BUDGET_FILE`] `budget.json` | [`Budget`] (SPEC §6) | bar chart of the budget per source, totals |
+//! | [`SWEEP_FILE_PREFIX`]`*.json` | [`Sweep`] (SPEC §6 `--sweep`) | totals vs the swept variable; bias curves |
+//! | [`TPU_SUMMARY_FILE`] `tpu_summary.json` | [`TpuSummary`] | σ histograms, map of σ, statistics |
+//! | [`EVALUATE_BEFORE_FILE`], [`EVALUATE_AFTER_FILE`] | [`Evaluation`] (SPEC §6) | residual vectors, predicted vs measured, ASPRS / NSSDA |
+//! | [`CALIBRATION_FILE`] (+ [`CALIBRATION_ITERATIONS_FILE`], [`TRUTH_FILE`]) | [`Calibration`] (SPEC §8) | mounting ± σ (vs truth), correlations, convergence |
+//! | [`OVERLAP_BEFORE_FILE`], [`OVERLAP_AFTER_FILE`] | [`Overlap`] | dz maps and height profiles before / after |
+//! | [`IHO_FILE`] `iho.json` | [`Iho`] | IHO S-44 table |
+//!
+//! A product that is present but malformed does not stop the report: its section is skipped,
+//! the error (naming the file and the key) is shown in the report's inputs table and returned
+//! by [`Report::skipped`]. Unknown JSON keys are ignored, so producers can add fields.
+//!
+//! ```
+//! use lidarqa_report::{Report, BUDGET_FILE};
+//!
+//! let dir = tempfile::tempdir().unwrap();
+//! std::fs::write(
+//!     dir.path().join(BUDGET_FILE),
+//!     r#"{"scanner": "linear", "sources": [
+//!          {"name": "gnss_up", "sigma": 0.1, "unit": "m", "north": 0, "east": 0, "up": 0.1,
+//!           "horizontal": 0, "vertical": 0.1, "three_d": 0.1}],
+//!         "total": {"north": 0, "east": 0, "up": 0.1, "horizontal": 0, "vertical": 0.1, "three_d": 0.1}}"#,
+//! ).unwrap();
+//! let report = Report::from_dir(dir.path()).unwrap();
+//! let html = report.to_html();
+//! assert!(html.contains(r#"<svg id="plot-budget""#));
+//! assert!(!html.contains("sec-calibration")); // no calibration.json, no section
+//! assert!(!html.contains("http://") && !html.contains("<script"));
+//! report.write(dir.path().join("report.html")).unwrap();
+//! ```
+
+mod error;
+mod html;
+mod plot;
+mod products;
+mod report;
+
+pub use error::{Error, Result};
+pub use products::{
+    Asprs, AsprsComponent, BUDGET_FILE, Budget, BudgetSource, CALIBRATION_FILE,
+    CALIBRATION_ITERATIONS_FILE, Calibration, CalibrationIterations, CalibrationTie, Components,
+    Displacement, DzGrid, EVALUATE_AFTER_FILE, EVALUATE_BEFORE_FILE, Evaluation, GridGeometry,
+    Histogram, IHO_FILE, Id, Iho, IhoDepthBand, IhoOrder, Iteration, Neu, Nssda,
+    OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE, Ordered, Overlap, OverlapPair, PartialComponents,
+    Product, Profile, ProfileStrip, REPORT_FILE, ResidualPoint, SWEEP_FILE_PREFIX, SigmaGrid,
+    Stats, Sweep, SweepPoint, TPU_SUMMARY_FILE, TRUTH_FILE, TiePosition, TpuHistograms, TpuSigmas,
+    TpuSummary, Truth, Xyz, sweep_file_name,
+};
+pub use report::{Products, Report, read_product};

@@ -1,0 +1,898 @@
+//! The JSON products a run writes, their file names, and serde mirrors of their contracts.
+//!
+//! Every struct here *reads* a product (unknown keys are ignored, so a producer may add fields
+//! without breaking the report) and can write it back (`Serialize`), which the tests use to
+//! make fixtures. Lengths are metres and angles degrees unless a field says otherwise; the report
+//! converts to centimetres for display.
+//!
+//! Where a producer exists its JSON is the contract (SPEC §6 `budget` and `evaluate`, SPEC §8
+//! `calibration.json`, the simulator's `truth.json`). Where it does not exist yet
+//! (`tpu_summary.json`, `calibration_iterations.json`, `overlap_*.json`, `iho.json`), the struct
+//! here *is* the contract, documented field by field.
+
+use serde::de::{DeserializeOwned, MapAccess, Visitor};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use std::fmt;
+use std::marker::PhantomData;
+
+/// `lidarqa budget --format json` of one geometry (SPEC §6).
+pub const BUDGET_FILE: &str = "budget.json";
+/// Prefix of a sweep product: `budget_sweep_<variable>.json`, e.g. `budget_sweep_azimuth.json`
+/// (`lidarqa budget --sweep … --format json`).
+pub const SWEEP_FILE_PREFIX: &str = "budget_sweep_";
+/// Per-point TPU summary of `lidarqa tpu` ([`TpuSummary`]).
+pub const TPU_SUMMARY_FILE: &str = "tpu_summary.json";
+/// `lidarqa evaluate --format json` before calibration (SPEC §6).
+pub const EVALUATE_BEFORE_FILE: &str = "evaluate_before.json";
+/// `lidarqa evaluate --format json` after calibration and correction (SPEC §6).
+pub const EVALUATE_AFTER_FILE: &str = "evaluate_after.json";
+/// `lidarqa calibrate` output (SPEC §8).
+pub const CALIBRATION_FILE: &str = "calibration.json";
+/// Per-iteration history of the calibration ([`CalibrationIterations`]).
+pub const CALIBRATION_ITERATIONS_FILE: &str = "calibration_iterations.json";
+/// The simulator's truth (`"mounting"` with SPEC §8 keys).
+pub const TRUTH_FILE: &str = "truth.json";
+/// `lidarqa overlap` before correction ([`Overlap`]).
+pub const OVERLAP_BEFORE_FILE: &str = "overlap_before.json";
+/// `lidarqa overlap` after correction ([`Overlap`]).
+pub const OVERLAP_AFTER_FILE: &str = "overlap_after.json";
+/// IHO S-44 statement of a bathymetric survey ([`Iho`]).
+pub const IHO_FILE: &str = "iho.json";
+/// The report itself.
+pub const REPORT_FILE: &str = "report.html";
+
+/// The file name of the sweep product over `variable` (`scan-angle` → `budget_sweep_scan-angle.json`;
+/// the variable is written as `lidarqa budget --sweep` spells it).
+///
+/// ```
+/// assert_eq!(lidarqa_report::sweep_file_name("azimuth"), "budget_sweep_azimuth.json");
+/// ```
+pub fn sweep_file_name(variable: &str) -> String {
+    format!("{SWEEP_FILE_PREFIX}{variable}.json")
+}
+
+/// A problem found after parsing: the dotted JSON key and what is wrong with it.
+pub(crate) type Invalid = (String, String);
+
+/// A product file: its schema and the checks serde cannot express.
+pub trait Product: DeserializeOwned {
+    /// What the product is, for the report's list of inputs.
+    const WHAT: &'static str;
+    /// Checks what serde cannot (array lengths, monotonic edges); `Err((key, message))`.
+    fn validate(&self) -> std::result::Result<(), (String, String)> {
+        Ok(())
+    }
+}
+
+fn invalid(key: impl Into<String>, message: impl Into<String>) -> Invalid {
+    (key.into(), message.into())
+}
+
+/// An ordered `{"name": value}` object (serde_json keeps the file's order; so does this).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Ordered<V>(pub Vec<(String, V)>);
+
+impl<V> Ordered<V> {
+    /// The value of `key`, if present.
+    pub fn get(&self, key: &str) -> Option<&V> {
+        self.0.iter().find(|(k, _)| k == key).map(|(_, v)| v)
+    }
+    /// The entries in file order.
+    pub fn iter(&self) -> impl Iterator<Item = &(String, V)> {
+        self.0.iter()
+    }
+    /// Number of entries.
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+    /// No entries.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+}
+
+impl<'de, V: Deserialize<'de>> Deserialize<'de> for Ordered<V> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V2<V>(PhantomData<V>);
+        impl<'de, V: Deserialize<'de>> Visitor<'de> for V2<V> {
+            type Value = Ordered<V>;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an object")
+            }
+            fn visit_map<A: MapAccess<'de>>(
+                self,
+                mut m: A,
+            ) -> std::result::Result<Self::Value, A::Error> {
+                let mut v = Vec::new();
+                while let Some((k, x)) = m.next_entry::<String, V>()? {
+                    v.push((k, x));
+                }
+                Ok(Ordered(v))
+            }
+        }
+        d.deserialize_map(V2(PhantomData))
+    }
+}
+
+impl<V: Serialize> Serialize for Ordered<V> {
+    fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.collect_map(self.0.iter().map(|(k, v)| (k, v)))
+    }
+}
+
+/// An id that a producer may write as a string or a number (strip ids are numbers, target ids
+/// strings); kept as text.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize)]
+#[serde(transparent)]
+pub struct Id(pub String);
+
+impl<'de> Deserialize<'de> for Id {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        match serde_json::Value::deserialize(d)? {
+            serde_json::Value::String(s) => Ok(Id(s)),
+            serde_json::Value::Number(n) => Ok(Id(n.to_string())),
+            other => Err(serde::de::Error::custom(format!(
+                "expected an id (string or number), found {other}"
+            ))),
+        }
+    }
+}
+
+impl fmt::Display for Id {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// budget.json and budget_sweep_*.json (SPEC §6)
+
+/// Per-axis values, metres: north, east, up and the derived horizontal = √(north² + east²),
+/// vertical = |up|, three_d = √(horizontal² + vertical²) (SPEC §3).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Components {
+    /// North, m.
+    pub north: f64,
+    /// East, m.
+    pub east: f64,
+    /// Up, m.
+    pub up: f64,
+    /// Horizontal, m.
+    pub horizontal: f64,
+    /// Vertical, m.
+    pub vertical: f64,
+    /// 3-D, m.
+    pub three_d: f64,
+}
+
+/// Like [`Components`], every value optional (`evaluate`'s `predicted` may give only some).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct PartialComponents {
+    /// North, m.
+    pub north: Option<f64>,
+    /// East, m.
+    pub east: Option<f64>,
+    /// Up, m.
+    pub up: Option<f64>,
+    /// Horizontal, m.
+    pub horizontal: Option<f64>,
+    /// Vertical, m.
+    pub vertical: Option<f64>,
+    /// 3-D, m.
+    pub three_d: Option<f64>,
+}
+
+/// A signed displacement, metres (lidar − true), SPEC §6 `bias`.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Displacement {
+    /// North, m.
+    pub north: f64,
+    /// East, m.
+    pub east: f64,
+    /// Up, m.
+    pub up: f64,
+    /// Along the heading, m.
+    pub along_track: f64,
+    /// Across the heading, positive to the right wing, m.
+    pub across_track: f64,
+}
+
+/// One source of the budget: `|∂P/∂p|·σ` per axis, metres.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BudgetSource {
+    /// Snake-case source name (SPEC §4).
+    pub name: String,
+    /// 1σ of the source in SI units (`unit`).
+    pub sigma: f64,
+    /// `m`, `rad` or `s`.
+    pub unit: String,
+    /// The effect per axis, m.
+    #[serde(flatten)]
+    pub effect: Components,
+}
+
+/// `budget.json`: `lidarqa budget --format json` of one geometry (SPEC §6).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Budget {
+    /// `linear` or `conic`.
+    pub scanner: String,
+    /// Refraction mode of the conic scanner, null for the linear one.
+    #[serde(default)]
+    pub refraction: Option<String>,
+    /// Footprint relative to the GNSS/INS reference point, m (north, east, up).
+    #[serde(default)]
+    pub footprint: Option<serde_json::Value>,
+    /// Geometry facts in display units (keys carry the unit: `scan_angle_deg`, `range_m`, …).
+    #[serde(default)]
+    pub geometry: Ordered<serde_json::Value>,
+    /// Every source with its effect.
+    pub sources: Vec<BudgetSource>,
+    /// Total propagated uncertainty (1σ), m.
+    pub total: Components,
+    /// Exact displacement caused by the requested biases, m (with `--bias`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bias: Option<Displacement>,
+}
+
+impl Budget {
+    fn check(&self, at: &str) -> std::result::Result<(), Invalid> {
+        let t = &self.total;
+        for (k, v) in [
+            ("north", t.north),
+            ("east", t.east),
+            ("up", t.up),
+            ("horizontal", t.horizontal),
+            ("vertical", t.vertical),
+            ("three_d", t.three_d),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(invalid(
+                    format!("{at}total.{k}"),
+                    format!("{v} is not a σ (finite, ≥ 0)"),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Product for Budget {
+    const WHAT: &'static str = "error budget of one geometry";
+    fn validate(&self) -> std::result::Result<(), Invalid> {
+        self.check("")
+    }
+}
+
+/// One point of a sweep: the value of the swept variable and the budget there.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SweepPoint {
+    /// The swept variable's value, in the sweep's `unit`.
+    pub at: f64,
+    /// The budget at this value.
+    #[serde(flatten)]
+    pub budget: Budget,
+}
+
+/// `budget_sweep_<variable>.json`: `lidarqa budget --sweep NAME=… --format json`
+/// (`{"sweep", "unit", "points": [{"at", …budget…}]}`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Sweep {
+    /// The swept variable (`scan-angle`, `azimuth`, `height`, `depth`, …).
+    pub sweep: String,
+    /// Unit of `at` (`deg`, `m`).
+    #[serde(default)]
+    pub unit: Option<String>,
+    /// The budgets, in sweep order.
+    pub points: Vec<SweepPoint>,
+}
+
+impl Product for Sweep {
+    const WHAT: &'static str = "error budget sweep";
+    fn validate(&self) -> std::result::Result<(), Invalid> {
+        if self.points.is_empty() {
+            return Err(invalid("points", "empty"));
+        }
+        for (i, p) in self.points.iter().enumerate() {
+            if !p.at.is_finite() {
+                return Err(invalid(format!("points[{i}].at"), "not a finite number"));
+            }
+            p.budget.check(&format!("points[{i}]."))?;
+        }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// tpu_summary.json (defined here)
+
+/// Order statistics of one σ over all points, metres.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Stats {
+    /// Smallest, m.
+    pub min: f64,
+    /// Median, m.
+    pub median: f64,
+    /// 95th percentile, m: 95 % of the points have a smaller σ.
+    pub p95: f64,
+    /// Largest, m.
+    pub max: f64,
+}
+
+/// `sigma` of [`TpuSummary`]: statistics of each per-point 1σ, metres.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct TpuSigmas {
+    /// σ north.
+    #[serde(default)]
+    pub north: Option<Stats>,
+    /// σ east.
+    #[serde(default)]
+    pub east: Option<Stats>,
+    /// σ up.
+    #[serde(default)]
+    pub up: Option<Stats>,
+    /// σ horizontal = √(σN² + σE²).
+    #[serde(default)]
+    pub horizontal: Option<Stats>,
+    /// σ vertical (= σ up).
+    #[serde(default)]
+    pub vertical: Option<Stats>,
+}
+
+/// A histogram with explicit bin edges: bin `i` counts values in `[edges_m[i], edges_m[i+1])`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Histogram {
+    /// Bin edges, m, strictly increasing; one more than `counts`.
+    pub edges_m: Vec<f64>,
+    /// Points per bin.
+    pub counts: Vec<u64>,
+}
+
+impl Histogram {
+    fn check(&self, key: &str) -> std::result::Result<(), Invalid> {
+        if self.counts.is_empty() {
+            return Err(invalid(format!("{key}.counts"), "empty"));
+        }
+        if self.edges_m.len() != self.counts.len() + 1 {
+            return Err(invalid(
+                format!("{key}.edges_m"),
+                format!(
+                    "{} edges for {} counts (need one more edge than counts)",
+                    self.edges_m.len(),
+                    self.counts.len()
+                ),
+            ));
+        }
+        if !self.edges_m.iter().all(|e| e.is_finite())
+            || self.edges_m.windows(2).any(|w| w[1] <= w[0])
+        {
+            return Err(invalid(
+                format!("{key}.edges_m"),
+                "edges must be finite and strictly increasing",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// `histogram` of [`TpuSummary`].
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct TpuHistograms {
+    /// Of σ vertical.
+    #[serde(default)]
+    pub vertical: Option<Histogram>,
+    /// Of σ horizontal.
+    #[serde(default)]
+    pub horizontal: Option<Histogram>,
+}
+
+/// A regular grid in projected coordinates.
+///
+/// Cell `(row j, column i)` covers easting `[origin_x + i·cell_m, origin_x + (i+1)·cell_m)` and
+/// northing `[origin_y + j·cell_m, origin_y + (j+1)·cell_m)`: the origin is the **south-west
+/// (lower-left) corner**, rows go north, and values are stored row-major at index `j·nx + i`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GridGeometry {
+    /// Cell size, m.
+    pub cell_m: f64,
+    /// Easting of the grid's west edge, m.
+    pub origin_x: f64,
+    /// Northing of the grid's south edge, m.
+    pub origin_y: f64,
+    /// Columns (west → east).
+    pub nx: usize,
+    /// Rows (south → north).
+    pub ny: usize,
+}
+
+impl GridGeometry {
+    fn check(&self, key: &str, cells: usize) -> std::result::Result<(), Invalid> {
+        if !(self.cell_m.is_finite() && self.cell_m > 0.0) {
+            return Err(invalid(
+                format!("{key}.cell_m"),
+                format!("{} is not a positive size", self.cell_m),
+            ));
+        }
+        if !(self.origin_x.is_finite() && self.origin_y.is_finite()) {
+            return Err(invalid(format!("{key}.origin_x"), "origin is not finite"));
+        }
+        if self.nx == 0 || self.ny == 0 {
+            return Err(invalid(
+                format!("{key}.nx"),
+                "the grid is empty (nx or ny is 0)",
+            ));
+        }
+        if self.nx.checked_mul(self.ny) != Some(cells) {
+            return Err(invalid(
+                key.to_string(),
+                format!("nx·ny = {}·{} but {cells} values", self.nx, self.ny),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// `grid` of [`TpuSummary`]: the mean per-point σ vertical in each cell.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SigmaGrid {
+    /// The grid.
+    #[serde(flatten)]
+    pub geometry: GridGeometry,
+    /// σ vertical per cell, m, row-major; null for a cell without points.
+    pub sigma_vertical_m: Vec<Option<f64>>,
+}
+
+/// `tpu_summary.json`: the per-point TPU of a survey (`lidarqa tpu`), summarised.
+///
+/// ```json
+/// {"points": 1200000, "skipped": {"outside_trajectory": 12},
+///  "sigma": {"vertical": {"min": 0.051, "median": 0.062, "p95": 0.081, "max": 0.12}, "...": {}},
+///  "histogram": {"vertical": {"edges_m": [0.05, 0.06, 0.07], "counts": [400000, 800000]}},
+///  "grid": {"cell_m": 10.0, "origin_x": 500000.0, "origin_y": 4000000.0, "nx": 2, "ny": 1,
+///           "sigma_vertical_m": [0.06, null]},
+///  "source_share": {"gnss_up": 0.61, "range": 0.05}}
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TpuSummary {
+    /// Points with a TPU.
+    pub points: u64,
+    /// Points without one, by reason (e.g. `outside_trajectory`).
+    #[serde(default)]
+    pub skipped: Ordered<u64>,
+    /// Statistics of each σ, m.
+    #[serde(default)]
+    pub sigma: TpuSigmas,
+    /// Histograms of σ vertical / horizontal.
+    #[serde(default)]
+    pub histogram: TpuHistograms,
+    /// Map of σ vertical.
+    #[serde(default)]
+    pub grid: Option<SigmaGrid>,
+    /// Each source's share of the total variance (3-D), fractions summing to about 1.
+    #[serde(default)]
+    pub source_share: Ordered<f64>,
+}
+
+impl Product for TpuSummary {
+    const WHAT: &'static str = "per-point TPU summary";
+    fn validate(&self) -> std::result::Result<(), Invalid> {
+        if let Some(h) = &self.histogram.vertical {
+            h.check("histogram.vertical")?;
+        }
+        if let Some(h) = &self.histogram.horizontal {
+            h.check("histogram.horizontal")?;
+        }
+        if let Some(g) = &self.grid {
+            g.geometry.check("grid", g.sigma_vertical_m.len())?;
+        }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// evaluate_{before,after}.json (SPEC §6)
+
+/// North / east / up, metres.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Neu {
+    /// North, m.
+    pub north: f64,
+    /// East, m.
+    pub east: f64,
+    /// Up, m.
+    pub up: f64,
+}
+
+/// A projected position, m.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Xyz {
+    /// Easting, m.
+    pub x: f64,
+    /// Northing, m.
+    pub y: f64,
+    /// Height, m.
+    pub z: f64,
+}
+
+/// One checkpoint's residual (lidar − control).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ResidualPoint {
+    /// Target / checkpoint id.
+    pub id: Id,
+    /// Lidar − control, m.
+    pub residual: Neu,
+    /// The control position (needed for the plan view of residual vectors).
+    #[serde(default)]
+    pub control: Option<Xyz>,
+    /// The lidar position.
+    #[serde(default)]
+    pub lidar: Option<Xyz>,
+}
+
+/// One component of the ASPRS Ed. 2 assessment (every field optional).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct AsprsComponent {
+    /// Product RMSE, m.
+    #[serde(default)]
+    pub rmse_m: Option<f64>,
+    /// Accuracy class tested against, m.
+    #[serde(default)]
+    pub class_m: Option<f64>,
+    /// Whether the class is met.
+    #[serde(default)]
+    pub meets_class: Option<bool>,
+}
+
+/// ASPRS Positional Accuracy Standards Ed. 2 assessment.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Asprs {
+    /// Edition.
+    #[serde(default)]
+    pub edition: Option<String>,
+    /// Horizontal component.
+    #[serde(default)]
+    pub horizontal: Option<AsprsComponent>,
+    /// Vertical component.
+    #[serde(default)]
+    pub vertical: Option<AsprsComponent>,
+    /// The compliance statement.
+    #[serde(default)]
+    pub statement: Option<String>,
+    /// Limits of the assessment.
+    #[serde(default)]
+    pub warnings: Vec<String>,
+}
+
+/// NSSDA 95 % figures.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Nssda {
+    /// Horizontal accuracy at 95 %, m.
+    #[serde(default)]
+    pub horizontal_95_m: Option<f64>,
+    /// Which NSSDA formula gave it.
+    #[serde(default)]
+    pub horizontal_method: Option<String>,
+    /// Vertical accuracy at 95 %, m.
+    #[serde(default)]
+    pub vertical_95_m: Option<f64>,
+    /// A statement, if the producer wrote one.
+    #[serde(default)]
+    pub statement: Option<String>,
+}
+
+/// `evaluate_before.json` / `evaluate_after.json`: `lidarqa evaluate --format json` (SPEC §6).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Evaluation {
+    /// Points compared.
+    pub n: u64,
+    /// RMSE, m.
+    pub rmse: Components,
+    /// Mean residual, m.
+    #[serde(default)]
+    pub mean: Option<Neu>,
+    /// Standard deviation of the residuals, m.
+    #[serde(default)]
+    pub std: Option<Neu>,
+    /// ASPRS Ed. 2 assessment.
+    #[serde(default)]
+    pub asprs: Option<Asprs>,
+    /// NSSDA figures.
+    #[serde(default)]
+    pub nssda: Option<Nssda>,
+    /// Predicted (TPU) σ for comparison, m.
+    #[serde(default)]
+    pub predicted: Option<PartialComponents>,
+    /// Per-point residuals.
+    #[serde(default)]
+    pub points: Vec<ResidualPoint>,
+}
+
+impl Product for Evaluation {
+    const WHAT: &'static str = "accuracy against control";
+    fn validate(&self) -> std::result::Result<(), Invalid> {
+        let r = &self.rmse;
+        for (k, v) in [("horizontal", r.horizontal), ("vertical", r.vertical)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(invalid(format!("rmse.{k}"), format!("{v} is not an RMSE")));
+            }
+        }
+        for (i, p) in self.points.iter().enumerate() {
+            let r = &p.residual;
+            if !(r.north.is_finite() && r.east.is_finite() && r.up.is_finite()) {
+                return Err(invalid(format!("points[{i}].residual"), "not finite"));
+            }
+        }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// calibration.json (SPEC §8), calibration_iterations.json and truth.json
+
+/// A tie of the calibration with its residual before and after, m.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationTie {
+    /// Tie id.
+    pub id: Id,
+    /// Strips the tie was picked in.
+    #[serde(default)]
+    pub strips: Vec<Id>,
+    /// Residual (x, y, z) before the calibration, m.
+    #[serde(default)]
+    pub residual_before_m: Option<[f64; 3]>,
+    /// Residual after, m.
+    #[serde(default)]
+    pub residual_after_m: Option<[f64; 3]>,
+}
+
+/// `calibration.json` (SPEC §8).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Calibration {
+    /// `vtpm` or another method.
+    #[serde(default)]
+    pub method: Option<String>,
+    /// Recovered mounting, keys with units (`lever_x_m`, `boresight_roll_deg`, …).
+    pub parameters: Ordered<f64>,
+    /// 1σ of each parameter, same keys.
+    #[serde(default)]
+    pub sigma: Ordered<Option<f64>>,
+    /// Correlation matrix of the estimated parameters (in `parameters` order, or of the observable
+    /// ones only).
+    #[serde(default)]
+    pub correlation: Vec<Vec<f64>>,
+    /// `false` for a parameter the geometry cannot determine (held at its prior).
+    #[serde(default)]
+    pub observable: Ordered<bool>,
+    /// Iterations of the solver.
+    #[serde(default)]
+    pub iterations: Option<u64>,
+    /// The ties.
+    #[serde(default)]
+    pub ties: Vec<CalibrationTie>,
+}
+
+impl Product for Calibration {
+    const WHAT: &'static str = "boresight and lever-arm calibration";
+    fn validate(&self) -> std::result::Result<(), Invalid> {
+        if self.parameters.is_empty() {
+            return Err(invalid("parameters", "empty"));
+        }
+        let n = self.correlation.len();
+        for (i, row) in self.correlation.iter().enumerate() {
+            if row.len() != n {
+                return Err(invalid(
+                    format!("correlation[{i}]"),
+                    format!("{} columns in a {n}×{n} matrix", row.len()),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One tie's position at one iteration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TiePosition {
+    /// Tie id.
+    pub id: Id,
+    /// Easting, northing, height, m.
+    pub xyz_m: [f64; 3],
+}
+
+/// One iteration of the calibration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Iteration {
+    /// Iteration number (0 = the start).
+    pub iteration: u64,
+    /// Parameters after this iteration (SPEC §8 keys).
+    #[serde(default)]
+    pub parameters: Ordered<f64>,
+    /// Tie positions after this iteration.
+    #[serde(default)]
+    pub ties: Vec<TiePosition>,
+}
+
+/// `calibration_iterations.json`: `{"iterations": [{"iteration", "parameters": {…},
+/// "ties": [{"id", "xyz_m": [x, y, z]}]}]}`, one entry per solver iteration, in order.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationIterations {
+    /// The iterations.
+    pub iterations: Vec<Iteration>,
+}
+
+impl Product for CalibrationIterations {
+    const WHAT: &'static str = "calibration convergence history";
+    fn validate(&self) -> std::result::Result<(), Invalid> {
+        if self.iterations.is_empty() {
+            return Err(invalid("iterations", "empty"));
+        }
+        for (i, it) in self.iterations.iter().enumerate() {
+            if it
+                .ties
+                .iter()
+                .any(|t| !t.xyz_m.iter().all(|v| v.is_finite()))
+            {
+                return Err(invalid(
+                    format!("iterations[{i}].ties"),
+                    "a coordinate is not finite",
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `truth.json` of the simulator: only the true mounting is read.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Truth {
+    /// True mounting, SPEC §8 keys.
+    pub mounting: Ordered<f64>,
+}
+
+impl Product for Truth {
+    const WHAT: &'static str = "simulation truth";
+}
+
+// ---------------------------------------------------------------------------------------------
+// overlap_{before,after}.json (defined here)
+
+/// Height differences between one pair of overlapping strips.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OverlapPair {
+    /// The two strip ids.
+    pub strips: [Id; 2],
+    /// RMS of dz over the overlap, m.
+    pub rmsdz_m: f64,
+    /// Largest |dz|, m.
+    pub max_abs_dz_m: f64,
+    /// Cells / points compared.
+    pub n: u64,
+}
+
+/// `grid` of [`Overlap`]: mean dz (strip minus strip, m) per cell; null outside the overlaps.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DzGrid {
+    /// The grid.
+    #[serde(flatten)]
+    pub geometry: GridGeometry,
+    /// dz per cell, m, row-major (see [`GridGeometry`]); null where no strips overlap.
+    pub dz_m: Vec<Option<f64>>,
+}
+
+/// One strip along a profile.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProfileStrip {
+    /// Strip id.
+    pub id: Id,
+    /// Height at each `distance_m`, m; null where the strip has no points.
+    pub z_m: Vec<Option<f64>>,
+}
+
+/// A height profile across overlapping strips (seed 001 Fig. 10).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Profile {
+    /// Distance along the profile, m.
+    pub distance_m: Vec<f64>,
+    /// One entry per strip.
+    pub strips: Vec<ProfileStrip>,
+}
+
+/// `overlap_before.json` / `overlap_after.json`: swath-to-swath consistency (`lidarqa overlap`).
+///
+/// ```json
+/// {"pairs": [{"strips": [1, 2], "rmsdz_m": 0.08, "max_abs_dz_m": 0.31, "n": 5120}],
+///  "grid": {"cell_m": 2.0, "origin_x": 500000.0, "origin_y": 4000000.0, "nx": 2, "ny": 1,
+///           "dz_m": [0.05, null]},
+///  "profile": {"distance_m": [0.0, 1.0], "strips": [{"id": 1, "z_m": [101.2, 101.3]}]}}
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Overlap {
+    /// Per strip pair.
+    #[serde(default)]
+    pub pairs: Vec<OverlapPair>,
+    /// Map of dz.
+    #[serde(default)]
+    pub grid: Option<DzGrid>,
+    /// A profile across the strips.
+    #[serde(default)]
+    pub profile: Option<Profile>,
+}
+
+impl Product for Overlap {
+    const WHAT: &'static str = "strip-to-strip height differences";
+    fn validate(&self) -> std::result::Result<(), Invalid> {
+        if let Some(g) = &self.grid {
+            g.geometry.check("grid", g.dz_m.len())?;
+        }
+        if let Some(p) = &self.profile {
+            if !p.distance_m.iter().all(|d| d.is_finite()) {
+                return Err(invalid("profile.distance_m", "not finite"));
+            }
+            for (i, s) in p.strips.iter().enumerate() {
+                if s.z_m.len() != p.distance_m.len() {
+                    return Err(invalid(
+                        format!("profile.strips[{i}].z_m"),
+                        format!(
+                            "{} heights for {} distances",
+                            s.z_m.len(),
+                            p.distance_m.len()
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// iho.json (defined here)
+
+/// One depth band of an IHO order.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct IhoDepthBand {
+    /// Shallowest depth of the band, m.
+    pub depth_min_m: f64,
+    /// Deepest depth, m.
+    pub depth_max_m: f64,
+    /// Soundings in the band.
+    #[serde(default)]
+    pub n: Option<u64>,
+    /// Percentage of them within the order's TVU, %.
+    pub percent_meeting: f64,
+}
+
+/// One IHO S-44 order (`exclusive`, `special`, `1a`, `1b`, `2`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct IhoOrder {
+    /// The order's name.
+    pub order: String,
+    /// Percentage of soundings whose TVU (95 %) is within the order's allowance, %.
+    pub percent_meeting: f64,
+    /// The same per depth band.
+    #[serde(default)]
+    pub by_depth: Vec<IhoDepthBand>,
+}
+
+/// `iho.json`: `{"orders": [{"order", "percent_meeting", "by_depth": [{"depth_min_m",
+/// "depth_max_m", "n", "percent_meeting"}]}]}`. S-44 requires the allowance to be met at 95 %
+/// confidence, so an order is met when `percent_meeting ≥ 95`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Iho {
+    /// One entry per order.
+    pub orders: Vec<IhoOrder>,
+}
+
+impl Product for Iho {
+    const WHAT: &'static str = "IHO S-44 statement";
+    fn validate(&self) -> std::result::Result<(), Invalid> {
+        for (i, o) in self.orders.iter().enumerate() {
+            if !(0.0..=100.0).contains(&o.percent_meeting) {
+                return Err(invalid(
+                    format!("orders[{i}].percent_meeting"),
+                    format!("{} is not a percentage", o.percent_meeting),
+                ));
+            }
+        }
+        Ok(())
+    }
+}

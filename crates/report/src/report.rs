@@ -1,0 +1,276 @@
+//! [`Report`]: the products found in a directory, and the HTML made from them.
+
+use crate::error::{Error, Result};
+use crate::products::*;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Every product a report can show; `None` (or empty) for a product that is absent.
+///
+/// Build it from parsed structs (the demo does), or let [`Report::from_dir`] read a directory.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Products {
+    /// `budget.json`.
+    pub budget: Option<Budget>,
+    /// `budget_sweep_*.json`, with their file names, sorted by file name.
+    pub sweeps: Vec<(String, Sweep)>,
+    /// `tpu_summary.json`.
+    pub tpu: Option<TpuSummary>,
+    /// `evaluate_before.json`.
+    pub evaluate_before: Option<Evaluation>,
+    /// `evaluate_after.json`.
+    pub evaluate_after: Option<Evaluation>,
+    /// `calibration.json`.
+    pub calibration: Option<Calibration>,
+    /// `calibration_iterations.json`.
+    pub calibration_iterations: Option<CalibrationIterations>,
+    /// `truth.json`.
+    pub truth: Option<Truth>,
+    /// `overlap_before.json`.
+    pub overlap_before: Option<Overlap>,
+    /// `overlap_after.json`.
+    pub overlap_after: Option<Overlap>,
+    /// `iho.json`.
+    pub iho: Option<Iho>,
+}
+
+impl Products {
+    /// The file names of the products present, in report order.
+    pub fn present(&self) -> Vec<String> {
+        let mut v = Vec::new();
+        let mut add = |present: bool, name: &str| {
+            if present {
+                v.push(name.to_string());
+            }
+        };
+        add(self.budget.is_some(), BUDGET_FILE);
+        for (name, _) in &self.sweeps {
+            v.push(name.clone());
+        }
+        let mut add = |present: bool, name: &str| {
+            if present {
+                v.push(name.to_string());
+            }
+        };
+        add(self.tpu.is_some(), TPU_SUMMARY_FILE);
+        add(self.evaluate_before.is_some(), EVALUATE_BEFORE_FILE);
+        add(self.evaluate_after.is_some(), EVALUATE_AFTER_FILE);
+        add(self.calibration.is_some(), CALIBRATION_FILE);
+        add(
+            self.calibration_iterations.is_some(),
+            CALIBRATION_ITERATIONS_FILE,
+        );
+        add(self.truth.is_some(), TRUTH_FILE);
+        add(self.overlap_before.is_some(), OVERLAP_BEFORE_FILE);
+        add(self.overlap_after.is_some(), OVERLAP_AFTER_FILE);
+        add(self.iho.is_some(), IHO_FILE);
+        v
+    }
+
+    /// No product at all.
+    pub fn is_empty(&self) -> bool {
+        self.present().is_empty()
+    }
+}
+
+/// Reads and checks one product file.
+///
+/// # Errors
+/// [`Error::Read`], [`Error::Json`] (serde's message names the field, line and column) or
+/// [`Error::Invalid`] (names the key), each naming `path`.
+pub fn read_product<T: Product>(path: impl AsRef<Path>) -> Result<T> {
+    let path = path.as_ref();
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let de = &mut serde_json::Deserializer::from_str(&text);
+    let value: T = serde_path_to_error::deserialize(&mut *de).map_err(|e| Error::Json {
+        path: path.to_path_buf(),
+        key: e.path().to_string(),
+        source: e.into_inner(),
+    })?;
+    // Trailing characters after the object are an error too.
+    de.end().map_err(|source| Error::Json {
+        path: path.to_path_buf(),
+        key: String::new(),
+        source,
+    })?;
+    value.validate().map_err(|(key, message)| Error::Invalid {
+        path: path.to_path_buf(),
+        key,
+        message,
+    })?;
+    Ok(value)
+}
+
+/// A report: the products, where they came from, and what was skipped.
+#[derive(Debug)]
+pub struct Report {
+    pub(crate) products: Products,
+    pub(crate) source: Option<PathBuf>,
+    pub(crate) generated: String,
+    pub(crate) version: String,
+    pub(crate) skipped: Vec<Error>,
+}
+
+impl Report {
+    /// A report of already-parsed products, dated today (UTC).
+    pub fn new(products: Products) -> Report {
+        Report {
+            products,
+            source: None,
+            generated: today_utc(),
+            version: env!("CARGO_PKG_VERSION").to_string(),
+            skipped: Vec::new(),
+        }
+    }
+
+    /// Reads every product present in `dir` (see the crate docs for the file names).
+    ///
+    /// A product that is missing is simply absent from the report. A product that is present
+    /// but malformed (bad JSON, a missing field, an impossible value) does **not** fail the
+    /// report: its section is skipped, the error (naming the file and the key) is listed in the
+    /// report's *Inputs* box, and it is returned by [`Report::skipped`] so that a caller can
+    /// warn or refuse (`lidarqa report --strict`).
+    ///
+    /// # Errors
+    /// [`Error::NotADirectory`], or [`Error::Read`] when the directory cannot be listed.
+    pub fn from_dir(dir: impl AsRef<Path>) -> Result<Report> {
+        let dir = dir.as_ref();
+        if !dir.is_dir() {
+            return Err(Error::NotADirectory {
+                path: dir.to_path_buf(),
+            });
+        }
+        let mut skipped = Vec::new();
+        let mut p = Products::default();
+        fn load<T: Product>(dir: &Path, name: &str, skipped: &mut Vec<Error>) -> Option<T> {
+            let path = dir.join(name);
+            if !path.exists() {
+                return None;
+            }
+            match read_product::<T>(&path) {
+                Ok(v) => Some(v),
+                Err(e) => {
+                    skipped.push(e);
+                    None
+                }
+            }
+        }
+        p.budget = load(dir, BUDGET_FILE, &mut skipped);
+        let entries = std::fs::read_dir(dir).map_err(|source| Error::Read {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+        let mut sweep_names: Vec<String> = entries
+            .filter_map(|e| e.ok())
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with(SWEEP_FILE_PREFIX) && n.ends_with(".json"))
+            .collect();
+        sweep_names.sort();
+        for name in sweep_names {
+            if let Some(s) = load::<Sweep>(dir, &name, &mut skipped) {
+                p.sweeps.push((name, s));
+            }
+        }
+        p.tpu = load(dir, TPU_SUMMARY_FILE, &mut skipped);
+        p.evaluate_before = load(dir, EVALUATE_BEFORE_FILE, &mut skipped);
+        p.evaluate_after = load(dir, EVALUATE_AFTER_FILE, &mut skipped);
+        p.calibration = load(dir, CALIBRATION_FILE, &mut skipped);
+        p.calibration_iterations = load(dir, CALIBRATION_ITERATIONS_FILE, &mut skipped);
+        p.truth = load(dir, TRUTH_FILE, &mut skipped);
+        p.overlap_before = load(dir, OVERLAP_BEFORE_FILE, &mut skipped);
+        p.overlap_after = load(dir, OVERLAP_AFTER_FILE, &mut skipped);
+        p.iho = load(dir, IHO_FILE, &mut skipped);
+        let mut r = Report::new(p);
+        r.source = Some(dir.to_path_buf());
+        r.skipped = skipped;
+        Ok(r)
+    }
+
+    /// Sets the date printed in the header (default: today, UTC, `YYYY-MM-DD`); useful for
+    /// reproducible output.
+    #[must_use]
+    pub fn with_generated(mut self, date: impl Into<String>) -> Report {
+        self.generated = date.into();
+        self
+    }
+
+    /// Sets the tool version printed in the header (default: this crate's version, which is
+    /// the workspace's).
+    #[must_use]
+    pub fn with_version(mut self, version: impl Into<String>) -> Report {
+        self.version = version.into();
+        self
+    }
+
+    /// The products.
+    pub fn products(&self) -> &Products {
+        &self.products
+    }
+
+    /// Products that were present but malformed and whose sections were skipped.
+    pub fn skipped(&self) -> &[Error] {
+        &self.skipped
+    }
+
+    /// The whole report: one self-contained HTML document (inline CSS, inline SVG, no script,
+    /// no external reference).
+    pub fn to_html(&self) -> String {
+        crate::html::render(self)
+    }
+
+    /// Writes [`Report::to_html`] to `path` atomically (a temporary file renamed when complete).
+    ///
+    /// # Errors
+    /// [`Error::Write`] / [`Error::WriteIo`] naming `path`.
+    pub fn write(&self, path: impl AsRef<Path>) -> Result<()> {
+        let path = path.as_ref();
+        let html = self.to_html();
+        let mut f = lidarqa_io::AtomicFile::create(path, &[] as &[&Path])?;
+        f.write_all(html.as_bytes())
+            .map_err(|source| Error::WriteIo {
+                path: path.to_path_buf(),
+                source,
+            })?;
+        f.commit()?;
+        Ok(())
+    }
+}
+
+/// Today's date, UTC, `YYYY-MM-DD` (civil-from-days, proleptic Gregorian).
+fn today_utc() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0);
+    civil_date((secs / 86_400) as i64)
+}
+
+/// `days` since 1970-01-01 → `YYYY-MM-DD` (H. Hinnant's algorithm).
+pub(crate) fn civil_date(days: i64) -> String {
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let y = yoe + era * 400;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = if m <= 2 { y + 1 } else { y };
+    format!("{y:04}-{m:02}-{d:02}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn civil_dates() {
+        assert_eq!(civil_date(0), "1970-01-01");
+        assert_eq!(civil_date(19_723), "2024-01-01");
+        assert_eq!(civil_date(19_782), "2024-02-29");
+    }
+}
