@@ -2,8 +2,10 @@
 //! prints.
 
 mod budget;
+mod evaluate;
 mod report;
 mod simulate;
+mod targets;
 mod tpu;
 
 use clap::Subcommand;
@@ -14,6 +16,12 @@ pub enum Command {
     /// Error budget of one observation geometry, or a sweep over one variable.
     #[command(after_help = budget::AFTER_HELP)]
     Budget(budget::BudgetArgs),
+    /// Extract high-reflectivity targets near control points and fit their centres.
+    #[command(after_help = targets::AFTER_HELP)]
+    Targets(targets::TargetsArgs),
+    /// Accuracy statistics of targets against control (seed 000, ASPRS Ed. 2, NSSDA).
+    #[command(after_help = evaluate::AFTER_HELP)]
+    Evaluate(evaluate::EvaluateArgs),
     /// Simulate a survey with known truth: strips, trajectory, control, truth.json, sensor.toml.
     #[command(after_help = simulate::AFTER_HELP)]
     Simulate(simulate::SimulateArgs),
@@ -30,6 +38,8 @@ pub fn run(command: Command) -> anyhow::Result<()> {
     match command {
         Command::Budget(args) => budget::run(args),
         Command::Simulate(args) => simulate::run(&args),
+        Command::Targets(args) => targets::run(args),
+        Command::Evaluate(args) => evaluate::run(args),
         Command::Tpu(args) => tpu::run(args),
         Command::Report(args) => report::run(args),
     }
