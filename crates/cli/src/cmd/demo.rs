@@ -1,0 +1,420 @@
+//! `lidarqa demo`: the whole story on the built-in survey, as a sequence of ordinary `lidarqa`
+//! commands.
+//!
+//! Each step runs this same binary as a child process with exactly the arguments it prints, so every
+//! step can be re-run by hand, and a failed step stops the demo with the products of the steps before
+//! it left in place.
+
+use crate::format::print_text;
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use serde_json::Value;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+pub const AFTER_HELP: &str = "\
+Example:
+  lidarqa demo                 writes every product and report.html to lidarqa-demo/
+  lidarqa demo -o /tmp/demo --quick
+
+Steps: simulate (a survey with injected boresight and lever-arm errors and six surveyed targets) →
+budget → tpu → targets → evaluate → calibrate → correct → targets → evaluate → overlap → report.";
+
+/// Flags of `lidarqa demo`.
+#[derive(Debug, Args)]
+pub struct DemoArgs {
+    /// Output directory (created; files of an earlier demo are replaced).
+    #[arg(short, long, value_name = "DIR", default_value = "lidarqa-demo")]
+    output: PathBuf,
+    /// A smaller survey (a quarter of the pulses): for tests and slow machines.
+    #[arg(long)]
+    quick: bool,
+    /// Seed of the simulated survey.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+/// One step: what it does, its arguments, and where its stdout goes (None: the terminal).
+struct Step {
+    what: &'static str,
+    args: Vec<String>,
+    stdout: Option<PathBuf>,
+}
+
+fn step(what: &'static str, args: &[&str], stdout: Option<PathBuf>) -> Step {
+    Step {
+        what,
+        args: args.iter().map(|s| s.to_string()).collect(),
+        stdout,
+    }
+}
+
+fn quote(s: &str) -> String {
+    if s.chars()
+        .all(|c| c.is_ascii_alphanumeric() || "-_./=:,".contains(c))
+    {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
+fn run_step(exe: &Path, s: &Step, n: usize, total: usize) -> Result<()> {
+    let mut shown = format!(
+        "lidarqa {}",
+        s.args
+            .iter()
+            .map(|a| quote(a))
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    if let Some(out) = &s.stdout {
+        shown += &format!(" > {}", quote(&out.display().to_string()));
+    }
+    eprintln!("[{n}/{total}] {}\n    $ {shown}", s.what);
+    let mut cmd = Command::new(exe);
+    cmd.args(&s.args).stdin(Stdio::null());
+    match &s.stdout {
+        Some(path) => {
+            let file =
+                std::fs::File::create(path).with_context(|| format!("{}", path.display()))?;
+            cmd.stdout(file);
+        }
+        None => {
+            cmd.stdout(Stdio::null());
+        }
+    }
+    let status = cmd
+        .status()
+        .with_context(|| format!("running {}", exe.display()))?;
+    if !status.success() {
+        if let Some(path) = &s.stdout {
+            let _ = std::fs::remove_file(path);
+        }
+        bail!(
+            "step {n} ({}) failed; the products of the steps before it are in place. Re-run it with: {shown}",
+            s.what
+        );
+    }
+    Ok(())
+}
+
+/// The demo scenario, smaller with `--quick`.
+fn scenario_file(dir: &Path, quick: bool, seed: u64) -> Result<PathBuf> {
+    let text = lidarqa_sim::builtin_toml("demo").context("the built-in demo scenario")?;
+    let mut table: toml::Table = toml::from_str(text).context("the built-in demo scenario")?;
+    table.insert("seed".into(), toml::Value::Integer(seed as i64));
+    if quick {
+        if let Some(toml::Value::Table(scanner)) = table.get_mut("scanner") {
+            scanner.insert("pulse_rate_hz".into(), toml::Value::Float(25_000.0));
+        }
+    }
+    let path = dir.join("scenario.toml");
+    std::fs::write(&path, toml::to_string(&table)?)
+        .with_context(|| format!("{}", path.display()))?;
+    Ok(path)
+}
+
+fn read_json(path: &Path) -> Result<Value> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{}: not JSON", path.display()))
+}
+
+/// Run `lidarqa demo`.
+pub fn run(args: DemoArgs) -> Result<()> {
+    let dir = &args.output;
+    std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
+    let exe = std::env::current_exe().context("locating the lidarqa binary")?;
+    let d = |name: &str| dir.join(name).display().to_string();
+    let scenario = scenario_file(dir, args.quick, args.seed)?;
+    let strips = dir.join("strips");
+    let corrected = dir.join("corrected");
+    let tpu_dir = dir.join("tpu");
+    let scen = scenario.display().to_string();
+    let (s_dir, c_dir, t_dir) = (
+        strips.display().to_string(),
+        corrected.display().to_string(),
+        tpu_dir.display().to_string(),
+    );
+    let (sensor, sbet, smrmsg, control) = (
+        format!("{s_dir}/sensor.toml"),
+        format!("{s_dir}/sbet.out"),
+        format!("{s_dir}/smrmsg.out"),
+        format!("{s_dir}/control.csv"),
+    );
+    let strip_files = |base: &str| -> Vec<String> {
+        (1..=3)
+            .map(|i| format!("{base}/strip_{i:03}.laz"))
+            .collect()
+    };
+    let with = |head: &[&str], files: &[String], tail: &[&str]| -> Vec<String> {
+        head.iter()
+            .map(|s| s.to_string())
+            .chain(files.iter().cloned())
+            .chain(tail.iter().map(|s| s.to_string()))
+            .collect()
+    };
+    let own = |what: &'static str, args: Vec<String>, stdout: Option<PathBuf>| Step {
+        what,
+        args,
+        stdout,
+    };
+    let raw = strip_files(&s_dir);
+    let fixed = strip_files(&c_dir);
+    let steps = vec![
+        step(
+            "simulate the survey (injected boresight and lever-arm errors, six targets)",
+            &["simulate", "--scenario", &scen, "-o", &s_dir],
+            None,
+        ),
+        step(
+            "predict: the error budget at 20° scan angle, 300 m above ground",
+            &[
+                "budget",
+                "--sensor",
+                &sensor,
+                "--scan-angle",
+                "20",
+                "--height",
+                "300",
+                "--format",
+                "json",
+            ],
+            Some(dir.join("budget.json")),
+        ),
+        step(
+            "predict: the budget and the injected boresight's effect across the swath",
+            &[
+                "budget",
+                "--sensor",
+                &sensor,
+                "--height",
+                "300",
+                "--sweep",
+                "scan-angle=-30:30:2",
+                "--bias",
+                "boresight_roll_deg=0.05,boresight_pitch_deg=-0.03,boresight_yaw_deg=0.04",
+                "--format",
+                "json",
+            ],
+            Some(dir.join("budget_sweep_scan-angle.json")),
+        ),
+        step(
+            "predict: the per-point TPU of every strip",
+            &[
+                "tpu",
+                &s_dir,
+                "--trajectory",
+                &sbet,
+                "--smrmsg",
+                &smrmsg,
+                "--sensor",
+                &sensor,
+                "-o",
+                &t_dir,
+                "--summary",
+                &d("tpu_summary.json"),
+            ],
+            None,
+        ),
+        own(
+            "measure: extract the targets and fit their centres",
+            with(
+                &["targets"],
+                &raw,
+                &["--control", &control, "-o", &d("targets_before.csv")],
+            ),
+            None,
+        ),
+        step(
+            "measure: accuracy against control, beside the prediction",
+            &[
+                "evaluate",
+                "--targets",
+                &d("targets_before.csv"),
+                "--control",
+                &control,
+                "--tpu",
+                &d("tpu_summary.json"),
+                "--format",
+                "json",
+            ],
+            Some(dir.join("evaluate_before.json")),
+        ),
+        own(
+            "measure: strip-to-strip consistency before calibration",
+            with(&["overlap"], &raw, &["-o", &d("overlap_before.json")]),
+            None,
+        ),
+        own(
+            "calibrate: boresight and lever arm from the overlapping strips (VTPM) and the targets",
+            with(
+                &["calibrate"],
+                &raw,
+                &[
+                    "--trajectory",
+                    &sbet,
+                    "--sensor",
+                    &sensor,
+                    "--auto-ties",
+                    "--control",
+                    &control,
+                    "-o",
+                    &d("calibration.json"),
+                ],
+            ),
+            None,
+        ),
+        own(
+            "correct: re-georeference the strips with the calibrated mounting",
+            with(
+                &["correct"],
+                &raw,
+                &[
+                    "--trajectory",
+                    &sbet,
+                    "--sensor",
+                    &sensor,
+                    "--calibration",
+                    &d("calibration.json"),
+                    "-o",
+                    &c_dir,
+                ],
+            ),
+            None,
+        ),
+        own(
+            "measure again: the targets in the corrected strips",
+            with(
+                &["targets"],
+                &fixed,
+                &["--control", &control, "-o", &d("targets_after.csv")],
+            ),
+            None,
+        ),
+        step(
+            "measure again: accuracy against control after calibration",
+            &[
+                "evaluate",
+                "--targets",
+                &d("targets_after.csv"),
+                "--control",
+                &control,
+                "--tpu",
+                &d("tpu_summary.json"),
+                "--format",
+                "json",
+            ],
+            Some(dir.join("evaluate_after.json")),
+        ),
+        own(
+            "measure again: strip-to-strip consistency after calibration",
+            with(&["overlap"], &fixed, &["-o", &d("overlap_after.json")]),
+            None,
+        ),
+        step(
+            "report: everything in one HTML file",
+            &["report", &dir.display().to_string()],
+            None,
+        ),
+    ];
+    // truth.json is the simulator's; the report shows injected vs recovered from it.
+    let total = steps.len();
+    for (i, s) in steps.iter().enumerate() {
+        run_step(&exe, s, i + 1, total)?;
+    }
+    if let Ok(truth) = std::fs::read(strips.join("truth.json")) {
+        std::fs::write(dir.join("truth.json"), truth)
+            .with_context(|| format!("{}", dir.join("truth.json").display()))?;
+    }
+    print_text(&summary(dir, &strips)?)
+}
+
+fn summary(dir: &Path, strips: &Path) -> Result<String> {
+    let truth = read_json(&strips.join("truth.json"))?;
+    let cal = read_json(&dir.join("calibration.json"))?;
+    let before = read_json(&dir.join("evaluate_before.json"))?;
+    let after = read_json(&dir.join("evaluate_after.json"))?;
+    let mut t = String::new();
+    let _ = writeln!(t, "lidarqa demo: products and report in {}", dir.display());
+    let _ = writeln!(t);
+    let _ = writeln!(
+        t,
+        "{:<22}{:>12}{:>12}{:>12}{:>10}",
+        "mounting", "injected", "recovered", "error", "σ"
+    );
+    for key in [
+        "boresight_roll_deg",
+        "boresight_pitch_deg",
+        "boresight_yaw_deg",
+        "lever_x_m",
+        "lever_y_m",
+        "lever_z_m",
+    ] {
+        let inj = truth["mounting"][key].as_f64().unwrap_or(f64::NAN);
+        let rec = cal["parameters"][key].as_f64().unwrap_or(f64::NAN);
+        let sig = cal["sigma"][key].as_f64().unwrap_or(f64::NAN);
+        let observable = cal["observable"][key].as_bool().unwrap_or(true);
+        let _ = writeln!(
+            t,
+            "{:<22}{:>12.4}{:>12.4}{:>12.4}{:>10.4}{}",
+            key,
+            inj,
+            rec,
+            rec - inj,
+            sig,
+            if observable {
+                ""
+            } else {
+                "  (not observable: held)"
+            }
+        );
+    }
+    let _ = writeln!(t);
+    let cm = |v: &Value| {
+        v.as_f64()
+            .map_or("-".to_string(), |x| format!("{:.2}", x * 100.0))
+    };
+    let _ = writeln!(
+        t,
+        "{:<34}{:>12}{:>10}{:>10}",
+        "accuracy at the targets (cm)", "predicted σ", "before", "after"
+    );
+    for (name, key) in [
+        ("plane RMSE (seed 000 eq. 7)", "horizontal"),
+        ("elevation RMSE (seed 000 eq. 8)", "vertical"),
+    ] {
+        let _ = writeln!(
+            t,
+            "{:<34}{:>12}{:>10}{:>10}",
+            name,
+            cm(&before["predicted"][key]),
+            cm(&before["rmse"][key]),
+            cm(&after["rmse"][key])
+        );
+    }
+    for (name, file) in [
+        ("before", "overlap_before.json"),
+        ("after", "overlap_after.json"),
+    ] {
+        if let Ok(o) = read_json(&dir.join(file)) {
+            let worst = o["pairs"]
+                .as_array()
+                .map(|ps| {
+                    ps.iter()
+                        .filter_map(|p| p["rmsdz_m"].as_f64())
+                        .fold(0.0, f64::max)
+                })
+                .unwrap_or(f64::NAN);
+            let _ = writeln!(
+                t,
+                "strip-to-strip RMSDz {name:<7} (worst pair): {:.2} cm",
+                worst * 100.0
+            );
+        }
+    }
+    let _ = writeln!(t);
+    let _ = writeln!(t, "report: {}", dir.join("report.html").display());
+    Ok(t)
+}
