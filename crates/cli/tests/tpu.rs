@@ -86,13 +86,19 @@ fn strip_summary_json_and_file() {
     assert_eq!(v["scanner"], "linear");
     assert_eq!(v["tiles"].as_array().unwrap().len(), 1);
     let up = &v["sigma"]["up"];
-    // SMRMSG σ_down 4 cm dominates σ_up; range and attitude add a little.
+    // SMRMSG σ_down 4 cm is the floor of σ_up; attitude, range and incidence (0.3 mrad beam,
+    // up to ~9 cm σ along slant beams at the swath edge) add to it.
     let (min, max) = (up["min"].as_f64().unwrap(), up["max"].as_f64().unwrap());
-    assert!(min > 0.04 && max < 0.05, "{up}");
+    assert!(min > 0.04 && max < 0.1, "{up}");
     assert!(up["median"].as_f64().unwrap() >= min && up["p95"].as_f64().unwrap() <= max);
     assert!(v["source_share"]["incidence"].as_f64().unwrap() > 0.0);
     assert_eq!(v["points_with_surface_normal"], 2000);
-    assert!(v["scan_angle_check"]["max_beyond_las_step_deg"].as_f64().unwrap() < 1e-4);
+    assert!(
+        v["scan_angle_check"]["max_beyond_las_step_deg"]
+            .as_f64()
+            .unwrap()
+            < 1e-4
+    );
     let written: Value = serde_json::from_slice(&std::fs::read(&summary).unwrap()).unwrap();
     assert_eq!(written, v, "--summary writes the same JSON as stdout");
     // The table format prints the same run for people.
@@ -100,7 +106,10 @@ fn strip_summary_json_and_file() {
     let t = lidarqa(&tpu_args(&sv, &sv.strip, &out2));
     assert!(t.status.success());
     let text = String::from_utf8_lossy(&t.stdout);
-    assert!(text.contains("2000 points read, 2000 written, 0 skipped"), "{text}");
+    assert!(
+        text.contains("2000 points read, 2000 written, 0 skipped"),
+        "{text}"
+    );
     assert!(text.contains("gnss_up"), "{text}");
 }
 
@@ -121,7 +130,16 @@ fn directory_of_tiles() {
     assert!(out.join("a.las").is_file() && out.join("b.laz").is_file());
     // The same survey as one strip gives the same merged statistics.
     let one = json_ok(&tpu_args(&sv, &sv.strip, &dir.path().join("one.las")));
-    assert_eq!(one["sigma"], v["sigma"]);
+    for axis in ["north", "east", "up", "horizontal", "vertical"] {
+        for stat in ["min", "median", "p95", "max"] {
+            assert_eq!(
+                one["sigma"][axis][stat], v["sigma"][axis][stat],
+                "{axis} {stat}"
+            );
+        }
+        let (a, b) = (&one["sigma"][axis]["mean"], &v["sigma"][axis]["mean"]);
+        assert!((a.as_f64().unwrap() - b.as_f64().unwrap()).abs() < 1e-12);
+    }
 }
 
 #[test]
@@ -162,15 +180,20 @@ fn points_outside_the_trajectory_fail_or_are_counted() {
     let out = dir.path().join("out.las");
     fails_with(
         &tpu_args(&sv, &sv.strip, &out),
-        &["strip.las", "point 1500", "outside the trajectory span", "--skip-outside"],
+        &[
+            "strip.las",
+            "point 1500",
+            "outside the trajectory span",
+            "--skip-outside",
+        ],
         dir.path(),
     );
     let mut args = tpu_args(&sv, &sv.strip, &out);
     args.push("--skip-outside");
     let v = json_ok(&args);
-    // Pulses at 0.1 + k/3000 s; the last inside 0.6 s is k = 1500.
-    assert_eq!(v["skipped"]["outside_trajectory"], 1499);
-    assert_eq!(v["points_written"], 1501);
+    // Pulses at 0.1 + (k + 0.5)/3000 s; the last inside 0.6 s is k = 1499.
+    assert_eq!(v["skipped"]["outside_trajectory"], 1500);
+    assert_eq!(v["points_written"], 1500);
     assert!(out.is_file());
 }
 
@@ -208,7 +231,11 @@ fn nan_coordinates_are_refused() {
     bytes[131..139].copy_from_slice(&f64::NAN.to_le_bytes());
     std::fs::write(&input, bytes).unwrap();
     let out = dir.path().join("out.las");
-    fails_with(&tpu_args(&sv, &input, &out), &["nan.las", "not finite"], dir.path());
+    fails_with(
+        &tpu_args(&sv, &input, &out),
+        &["nan.las", "not finite"],
+        dir.path(),
+    );
 }
 
 #[test]
@@ -282,8 +309,7 @@ fn tpu_output_for_laspy() {
     std::fs::write(&json_path, serde_json::to_string_pretty(&spec).unwrap()).unwrap();
     match std::env::var_os("LIDARQA_PYTHON") {
         Some(python) => {
-            let script =
-                Path::new(env!("CARGO_MANIFEST_DIR")).join("../io/tests/laspy_check.py");
+            let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../io/tests/laspy_check.py");
             let out = Command::new(python)
                 .arg(script)
                 .arg(&json_path)

@@ -11,7 +11,10 @@
 //! Every error names the file and, where there is one, the line, record or key at fault.
 
 mod sensor;
-pub use sensor::{parse_sensor, read_sensor, sensor_to_toml};
+pub use sensor::{
+    SensorExtras, parse_sensor, parse_sensor_with_extras, read_sensor, read_sensor_with_extras,
+    sensor_to_toml,
+};
 
 mod atomic;
 mod csv;

@@ -39,6 +39,57 @@ struct ScannerSection {
     n_air: Option<f64>,
     n_water: Option<f64>,
     refraction: Option<String>,
+    /// Full beam divergence γ, milliradians (optional; used by the per-point TPU's `incidence`
+    /// term, `σ = ρ · γ/2 · tan α`). Any scanner type.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    beam_divergence_mrad: Option<f64>,
+}
+
+/// Sensor-file settings that are not part of the georeferencing model ([`Sensor`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SensorExtras {
+    /// `[scanner] beam_divergence_mrad`, converted to radians: the full beam divergence γ.
+    /// `None` when the key is absent.
+    pub beam_divergence_rad: Option<f64>,
+}
+
+/// Read and check a sensor file, with the settings outside the model ([`SensorExtras`]).
+///
+/// # Errors
+/// As [`read_sensor`]; a `beam_divergence_mrad` that is negative or not finite names the key.
+pub fn read_sensor_with_extras(path: &Path) -> Result<(Sensor, SensorExtras)> {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse_sensor_with_extras(&text, path)
+}
+
+/// Parse and check the text of a sensor file, with [`SensorExtras`]; `path` names the file in
+/// errors.
+///
+/// # Errors
+/// As [`parse_sensor`].
+pub fn parse_sensor_with_extras(text: &str, path: &Path) -> Result<(Sensor, SensorExtras)> {
+    let sensor = parse_sensor(text, path)?;
+    let file: SensorFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
+    let beam_divergence_rad = match file.scanner.beam_divergence_mrad {
+        None => None,
+        Some(v) if v.is_finite() && v >= 0.0 => Some(v * 1e-3),
+        Some(v) => {
+            return Err(config_error(
+                path,
+                Some("scanner.beam_divergence_mrad"),
+                format!("must be a finite number >= 0, got {v}"),
+            ));
+        }
+    };
+    Ok((
+        sensor,
+        SensorExtras {
+            beam_divergence_rad,
+        },
+    ))
 }
 
 #[derive(Debug, Clone, Default, Deserialize, Serialize)]
@@ -482,5 +533,27 @@ correlation = [[1.0, 0.3], [0.3, 1.0]]
             assert!(got.starts_with(want), "got: {got}\nwant: {want}");
             assert!(!got.contains('\n'), "one line: {got}");
         }
+    }
+
+    #[test]
+    fn beam_divergence_is_read_in_radians_and_checked() {
+        let path = Path::new("sensor.toml");
+        let text = EXAMPLE.replace(
+            "type = \"linear\"",
+            "type = \"linear\"\nbeam_divergence_mrad = 0.25",
+        );
+        let (s, x) = parse_sensor_with_extras(&text, path).unwrap();
+        assert_eq!(s, parse(EXAMPLE).unwrap());
+        assert_eq!(x.beam_divergence_rad, Some(0.25e-3));
+        let (_, none) = parse_sensor_with_extras(EXAMPLE, path).unwrap();
+        assert_eq!(none.beam_divergence_rad, None);
+        let bad = EXAMPLE.replace(
+            "type = \"linear\"",
+            "type = \"linear\"\nbeam_divergence_mrad = -1.0",
+        );
+        let e = parse_sensor_with_extras(&bad, path)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("scanner.beam_divergence_mrad"), "{e}");
     }
 }

@@ -36,11 +36,20 @@ pub fn plane_normals(
         .par_iter()
         .map(|q| {
             let nn = tree.nearest_n::<SquaredEuclidean>(q, qty);
-            let pts: Vec<Vector3<f64>> = nn
-                .iter()
-                .map(|n| Vector3::from(candidates[n.item as usize]))
-                .collect();
-            fit_normal(&pts)
+            // Scatter about the mean from sums of offsets to the query point (no second
+            // allocation; offsets of metres keep the sums well conditioned).
+            let q = Vector3::from(*q);
+            let (mut sum, mut outer) = (Vector3::zeros(), Matrix3::zeros());
+            for n in &nn {
+                let d = Vector3::from(candidates[n.item as usize]) - q;
+                sum += d;
+                outer += d * d.transpose();
+            }
+            let k = nn.len() as f64;
+            if nn.len() < MIN_NEIGHBOURS {
+                return None;
+            }
+            normal_of_scatter(&(outer - sum * sum.transpose() / k))
         })
         .collect()
 }
@@ -56,12 +65,19 @@ pub fn fit_normal(points: &[Vector3<f64>]) -> Option<Vector3<f64>> {
         let d = p - mean;
         scatter += d * d.transpose();
     }
+    normal_of_scatter(&scatter)
+}
+
+/// Unit eigenvector of the smallest eigenvalue of a 3 × 3 scatter matrix; `None` when the two
+/// smallest eigenvalues are both ~0 (collinear points).
+fn normal_of_scatter(scatter: &Matrix3<f64>) -> Option<Vector3<f64>> {
     let eig = scatter.symmetric_eigen();
     let mut order = [0usize, 1, 2];
     order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
     let (l0, l1) = (eig.eigenvalues[order[0]], eig.eigenvalues[order[1]]);
     // Collinear (or coincident) neighbours: the two smallest eigenvalues are both ~0.
-    if !(l1 > 1e-12 * eig.eigenvalues[order[2]].max(f64::MIN_POSITIVE)) || !l0.is_finite() {
+    let planar = l1 > 1e-12 * eig.eigenvalues[order[2]].max(f64::MIN_POSITIVE);
+    if !planar || !l0.is_finite() {
         return None;
     }
     let n: Vector3<f64> = eig.eigenvectors.column(order[0]).into_owned();

@@ -1,0 +1,389 @@
+//! `lidarqa tpu`: per-point TPU of a LAS/LAZ strip (or a directory of tiles) with its
+//! trajectory (SPEC §6, §7, §9). The work is lidarqa-pipeline's `tpu_tile`; this module parses,
+//! runs the tiles in parallel, shows progress and prints the summary.
+
+use crate::format::{OutputFormat, cm, print_json, print_text};
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use lidarqa_io::{AtomicFile, Hemisphere, LasReader, UtmZone};
+use lidarqa_pipeline::{
+    SurveyReport, TileReport, TpuContext, TpuOptions, TpuTileJob, tpu_tile_with_progress,
+};
+use std::fmt::Write as _;
+use std::io::{IsTerminal, Write as _};
+use std::path::{Path, PathBuf};
+
+pub const AFTER_HELP: &str = "\
+Examples:
+  lidarqa tpu strip.laz --trajectory sbet.out --sensor sensor.toml -o strip_tpu.laz
+  lidarqa tpu strip.laz --trajectory sbet.out --smrmsg smrmsg.out --sensor sensor.toml \\
+              -o strip_tpu.laz --summary summary.json --format json
+  lidarqa tpu tiles/ --trajectory sbet.out --sensor sensor.toml -o tiles_tpu/ --skip-outside
+
+Writes every point with extra-bytes f32 sigma_north, sigma_east, sigma_up, sigma_horizontal,
+sigma_vertical (1-sigma, metres, local level frame at the point; conic sensors also total_thu and
+total_tvu at 95 %). LAS Z must be ellipsoidal heights in the trajectory's datum. The table shows
+σ in cm; JSON is in metres. Skipped points are counted and not written.";
+
+/// Flags of `lidarqa tpu`, exactly as typed (checked by [`Plan::try_from`]).
+#[derive(Debug, Args)]
+pub struct TpuArgs {
+    /// LAS/LAZ strip, or a directory of .las/.laz tiles.
+    #[arg(value_name = "INPUT")]
+    input: PathBuf,
+    /// SBET trajectory (GPS seconds of week).
+    #[arg(long, value_name = "FILE")]
+    trajectory: PathBuf,
+    /// Sensor file (TOML, SPEC §5); `[scanner] beam_divergence_mrad` enables the incidence term.
+    #[arg(long, value_name = "FILE")]
+    sensor: PathBuf,
+    /// Output file (for a file input) or directory (for a directory input; created if missing).
+    #[arg(short, long, value_name = "PATH")]
+    output: PathBuf,
+    /// SMRMSG accuracy file: its σ replace the sensor file's gnss_* and roll/pitch/heading.
+    #[arg(long, value_name = "FILE")]
+    smrmsg: Option<PathBuf>,
+    /// GPS week of the survey (for adjusted standard GPS time).
+    #[arg(long, value_name = "N")]
+    gps_week: Option<i64>,
+    /// UTM zone of the points when the files have no CRS, e.g. 33N or 17S (WGS 84).
+    #[arg(long, value_name = "ZONE", conflicts_with = "epsg")]
+    utm_zone: Option<String>,
+    /// EPSG code of the points' UTM CRS when the files have none (326xx, 327xx, 269xx).
+    #[arg(long, value_name = "CODE")]
+    epsg: Option<u32>,
+    /// Skip and count points outside the trajectory's time span instead of failing.
+    #[arg(long)]
+    skip_outside: bool,
+    /// Skip and count points with NaN coordinates, an unusable GPS time or no recoverable
+    /// observation instead of failing.
+    #[arg(long)]
+    skip_invalid: bool,
+    /// Points per chunk (memory grows with it; the result does not).
+    #[arg(long, value_name = "N", default_value_t = TpuOptions::default().chunk_points)]
+    chunk_points: usize,
+    /// Neighbours of the plane fit for the incidence angle.
+    #[arg(long, value_name = "K", default_value_t = TpuOptions::default().neighbours)]
+    neighbours: usize,
+    /// Also write the summary as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    summary: Option<PathBuf>,
+    /// Output format of the summary on stdout.
+    #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
+    format: OutputFormat,
+}
+
+/// One tile: input → output.
+struct Tile {
+    input: PathBuf,
+    output: PathBuf,
+}
+
+/// A checked run.
+struct Plan {
+    tiles: Vec<Tile>,
+    options: TpuOptions,
+    trajectory: PathBuf,
+    smrmsg: Option<PathBuf>,
+    sensor: PathBuf,
+    summary: Option<PathBuf>,
+    format: OutputFormat,
+}
+
+/// `33N`, `17s`, `33` (north) → a WGS 84 UTM zone.
+fn parse_utm_zone(text: &str) -> Result<UtmZone> {
+    let t = text.trim();
+    let (digits, hemisphere) = match t.chars().last() {
+        Some('N' | 'n') => (&t[..t.len() - 1], Hemisphere::North),
+        Some('S' | 's') => (&t[..t.len() - 1], Hemisphere::South),
+        _ => (t, Hemisphere::North),
+    };
+    let zone: u32 = digits
+        .parse()
+        .with_context(|| format!("--utm-zone: '{text}' is not a zone like 33N or 17S"))?;
+    UtmZone::new(zone, hemisphere).with_context(|| format!("--utm-zone: '{text}'"))
+}
+
+fn is_point_cloud(p: &Path) -> bool {
+    p.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("las") || e.eq_ignore_ascii_case("laz"))
+}
+
+impl TryFrom<TpuArgs> for Plan {
+    type Error = anyhow::Error;
+
+    fn try_from(a: TpuArgs) -> Result<Plan> {
+        let crs = match (&a.utm_zone, a.epsg) {
+            (Some(z), _) => Some(parse_utm_zone(z)?),
+            (None, Some(code)) => {
+                Some(UtmZone::from_epsg(code).with_context(|| format!("--epsg {code}"))?)
+            }
+            (None, None) => None,
+        };
+        if a.chunk_points == 0 {
+            bail!("--chunk-points must be > 0");
+        }
+        if a.neighbours < 3 {
+            bail!("--neighbours {} must be >= 3", a.neighbours);
+        }
+        let tiles = if a.input.is_dir() {
+            let mut inputs: Vec<PathBuf> = std::fs::read_dir(&a.input)
+                .with_context(|| format!("{}", a.input.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.is_file() && is_point_cloud(p))
+                .collect();
+            inputs.sort();
+            if inputs.is_empty() {
+                bail!(
+                    "{}: no .las or .laz files in the directory",
+                    a.input.display()
+                );
+            }
+            if a.output.exists() && !a.output.is_dir() {
+                bail!(
+                    "{}: the input is a directory, so the output must be one too",
+                    a.output.display()
+                );
+            }
+            if a.output.canonicalize().ok() == a.input.canonicalize().ok() {
+                bail!(
+                    "{}: refusing to write into the input directory {}",
+                    a.output.display(),
+                    a.input.display()
+                );
+            }
+            std::fs::create_dir_all(&a.output)
+                .with_context(|| format!("{}", a.output.display()))?;
+            inputs
+                .into_iter()
+                .map(|input| Tile {
+                    output: a.output.join(input.file_name().unwrap_or_default()),
+                    input,
+                })
+                .collect()
+        } else {
+            if a.output.is_dir() {
+                bail!(
+                    "{}: the input is a file, so the output must be a file, not a directory",
+                    a.output.display()
+                );
+            }
+            vec![Tile {
+                input: a.input.clone(),
+                output: a.output.clone(),
+            }]
+        };
+        for t in &tiles {
+            lidarqa_io::check_not_an_input(
+                &t.output,
+                &[
+                    t.input.as_path(),
+                    a.trajectory.as_path(),
+                    a.sensor.as_path(),
+                ],
+            )?;
+        }
+        Ok(Plan {
+            tiles,
+            options: TpuOptions {
+                crs,
+                gps_week: a.gps_week,
+                skip_outside: a.skip_outside,
+                skip_invalid: a.skip_invalid,
+                chunk_points: a.chunk_points,
+                neighbours: a.neighbours,
+                ..TpuOptions::default()
+            },
+            trajectory: a.trajectory,
+            smrmsg: a.smrmsg,
+            sensor: a.sensor,
+            summary: a.summary,
+            format: a.format,
+        })
+    }
+}
+
+/// Run `lidarqa tpu`.
+pub fn run(args: TpuArgs) -> Result<()> {
+    let plan = Plan::try_from(args)?;
+    let ctx = TpuContext::from_files(
+        &plan.sensor,
+        &plan.trajectory,
+        plan.smrmsg.as_deref(),
+        plan.options.clone(),
+    )?;
+    // Headers only, for the progress bar's length.
+    let total: u64 = plan
+        .tiles
+        .iter()
+        .map(|t| LasReader::from_path(&t.input).map(|r| r.info().point_count))
+        .sum::<lidarqa_io::Result<u64>>()?;
+    let bar = if std::io::stderr().is_terminal() {
+        ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr())
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} tpu [{elapsed_precise}] {wide_bar} {human_pos}/{human_len} points ({eta})",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let progress = |n: u64| bar.inc(n);
+    let reports = run_tiles(&plan.tiles, &ctx, &progress)?;
+    bar.finish_and_clear();
+    let (_, report) = TileReport::merge(&reports).context("no tiles")?;
+    if let Some(path) = &plan.summary {
+        let mut inputs: Vec<&Path> = plan.tiles.iter().map(|t| t.input.as_path()).collect();
+        inputs.push(&plan.trajectory);
+        inputs.push(&plan.sensor);
+        let mut f = AtomicFile::create(path, &inputs)?;
+        serde_json::to_writer_pretty(&mut f, &report)
+            .with_context(|| format!("{}", path.display()))?;
+        writeln!(f).with_context(|| format!("{}", path.display()))?;
+        f.commit()?;
+    }
+    match plan.format {
+        OutputFormat::Json => print_json(&report),
+        OutputFormat::Table => print_text(&table(&report)),
+    }
+}
+
+/// Runs the tiles on up to `available_parallelism` plain threads, each tile's points in
+/// parallel on rayon's pool. Tiles are not run as rayon tasks themselves: `tpu_tile` blocks its
+/// thread on its reader / writer channels, and a rayon worker blocked that way could starve the
+/// pool its own chunks need. The first failing tile (in input order) stops the run; tiles
+/// already finished are complete files, the failing one leaves nothing.
+fn run_tiles(
+    tiles: &[Tile],
+    ctx: &TpuContext,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Vec<TileReport>> {
+    use std::sync::Mutex;
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    let workers = std::thread::available_parallelism()
+        .map_or(1, usize::from)
+        .min(tiles.len())
+        .max(1);
+    let next = AtomicUsize::new(0);
+    let stop = AtomicBool::new(false);
+    let results: Mutex<Vec<Option<lidarqa_pipeline::Result<TileReport>>>> =
+        Mutex::new(tiles.iter().map(|_| None).collect());
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::SeqCst);
+                    if i >= tiles.len() || stop.load(Ordering::SeqCst) {
+                        break;
+                    }
+                    let t = &tiles[i];
+                    let r = tpu_tile_with_progress(
+                        &TpuTileJob {
+                            input: &t.input,
+                            output: &t.output,
+                            context: ctx,
+                        },
+                        progress,
+                    );
+                    if r.is_err() {
+                        stop.store(true, Ordering::SeqCst);
+                    }
+                    if let Ok(mut all) = results.lock() {
+                        all[i] = Some(r);
+                    }
+                }
+            });
+        }
+    });
+    let results = results
+        .into_inner()
+        .map_err(|_| anyhow::anyhow!("a tile thread panicked"))?;
+    let mut reports = Vec::with_capacity(tiles.len());
+    // A tile not started after an earlier failure has no result; the failure is returned.
+    for r in results.into_iter().flatten() {
+        reports.push(r?);
+    }
+    if reports.len() != tiles.len() {
+        bail!("a tile thread stopped without a result");
+    }
+    Ok(reports)
+}
+
+fn table(r: &SurveyReport) -> String {
+    let s = &r.summary;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{} tile(s), {} scanner: {} points read, {} written, {} skipped",
+        r.tiles.len(),
+        s.scanner,
+        s.points_read,
+        s.points_written,
+        s.skipped.values().sum::<u64>()
+    );
+    for (reason, n) in s.skipped.iter().filter(|(_, n)| **n > 0) {
+        let _ = writeln!(out, "  skipped {reason}: {n}");
+    }
+    let _ = writeln!(
+        out,
+        "\n{:<12} {:>9} {:>9} {:>9} {:>9} {:>9}   (cm)",
+        "sigma", "min", "median", "p95", "max", "mean"
+    );
+    for (name, st) in &s.sigma {
+        match st {
+            Some(st) => {
+                let _ = writeln!(
+                    out,
+                    "{name:<12} {} {} {} {} {}",
+                    cm(st.min, 9),
+                    cm(st.median, 9),
+                    cm(st.p95, 9),
+                    cm(st.max, 9),
+                    cm(st.mean, 9)
+                );
+            }
+            None => {
+                let _ = writeln!(out, "{name:<12} {:>9}", "-");
+            }
+        }
+    }
+    let _ = writeln!(out, "\nshare of variance (mean over points):");
+    let mut shares: Vec<_> = s.source_share.iter().filter(|(_, v)| **v > 0.0).collect();
+    shares.sort_by(|a, b| b.1.total_cmp(a.1));
+    for (name, v) in shares {
+        let _ = writeln!(out, "  {name:<16} {:>6.1} %", v * 100.0);
+    }
+    if let Some(c) = &s.scan_angle_check {
+        let _ = writeln!(
+            out,
+            "\nscan angle, recovered - LAS field: RMS {:.4}°, max {:.4}° (LAS step {}°, max beyond half a step {:.4}°)",
+            c.rms_deg, c.max_deg, c.las_step_deg, c.max_beyond_las_step_deg
+        );
+    }
+    if let Some(q) = &s.recovery_residual_m {
+        let _ = writeln!(
+            out,
+            "recovery residual ({}): RMS {:.4} m, max {:.4} m",
+            q.kind, q.rms, q.max_abs
+        );
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn utm_zone_flag() {
+        let z = parse_utm_zone("33N").unwrap();
+        assert_eq!((z.zone(), z.hemisphere()), (33, Hemisphere::North));
+        let z = parse_utm_zone("17s").unwrap();
+        assert_eq!((z.zone(), z.hemisphere()), (17, Hemisphere::South));
+        assert!(parse_utm_zone("61N").is_err());
+        assert!(parse_utm_zone("xN").is_err());
+    }
+}

@@ -1,0 +1,193 @@
+//! What every tile of a survey shares: the sensor, the trajectory and its σ, and the options.
+
+use crate::error::{Error, Result};
+use lidarqa_io::{
+    Ellipsoid, Geodetic, SbetPose, SensorExtras, SmrmsgSigma, UtmDatum, UtmZone, read_sbet,
+    read_sensor_with_extras, read_smrmsg,
+};
+use lidarqa_model::{Attitude, Sensor};
+use lidarqa_tpu::{Pose, PoseSigma, Trajectory, TrajectorySigmas};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+/// How tiles are processed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TpuOptions {
+    /// The points' CRS when the files have none (or to override theirs).
+    pub crs: Option<UtmZone>,
+    /// GPS week of the survey (for LAS adjusted standard GPS time).
+    pub gps_week: Option<i64>,
+    /// Skip (and count) points outside the trajectory's time span instead of failing.
+    pub skip_outside: bool,
+    /// Skip (and count) points with non-finite coordinates, an unusable GPS time or no
+    /// recoverable observation instead of failing.
+    pub skip_invalid: bool,
+    /// Points per chunk (memory is bounded by a few chunks whatever the file size).
+    pub chunk_points: usize,
+    /// Neighbours k of the plane fit for the incidence angle.
+    pub neighbours: usize,
+    /// Points of the previous and of the next chunk searched as neighbours of a chunk's points
+    /// (the look-back / look-ahead margin across chunk borders).
+    pub margin_points: usize,
+}
+
+impl Default for TpuOptions {
+    fn default() -> Self {
+        TpuOptions {
+            crs: None,
+            gps_week: None,
+            skip_outside: false,
+            skip_invalid: false,
+            chunk_points: 500_000,
+            neighbours: 10,
+            margin_points: 20_000,
+        }
+    }
+}
+
+/// Everything the tiles of one survey share (read once, used by every [`crate::tpu_tile`]).
+#[derive(Debug)]
+pub struct TpuContext {
+    pub(crate) sensor: Sensor,
+    pub(crate) beam_divergence_rad: Option<f64>,
+    poses: Vec<SbetPose>,
+    pub(crate) trajectory_path: PathBuf,
+    pub(crate) sigmas: Option<TrajectorySigmas>,
+    pub(crate) options: TpuOptions,
+    /// Input files besides the tile (never to be overwritten).
+    pub(crate) inputs: Vec<PathBuf>,
+    /// The trajectory in ECEF for each datum used so far (WGS 84, NAD83): the points and the
+    /// trajectory go to ECEF on the same ellipsoid.
+    trajectories: Mutex<Vec<(UtmDatum, Arc<Trajectory>)>>,
+}
+
+impl TpuContext {
+    /// From data already read. `trajectory_path` names the SBET in messages.
+    ///
+    /// # Errors
+    /// [`Error::Input`] when the trajectory or the σ records cannot be used;
+    /// [`Error::InvalidOption`] for a chunk size or neighbour count of 0.
+    pub fn new(
+        sensor: Sensor,
+        extras: SensorExtras,
+        trajectory_path: PathBuf,
+        poses: Vec<SbetPose>,
+        smrmsg: Option<(PathBuf, Vec<SmrmsgSigma>)>,
+        options: TpuOptions,
+    ) -> Result<TpuContext> {
+        if options.chunk_points == 0 || options.neighbours < 3 {
+            return Err(Error::InvalidOption(format!(
+                "chunk size {} must be > 0 and neighbours {} >= 3",
+                options.chunk_points, options.neighbours
+            )));
+        }
+        let mut inputs = vec![trajectory_path.clone()];
+        let sigmas = match smrmsg {
+            None => None,
+            Some((path, records)) => {
+                let r = records
+                    .iter()
+                    .map(|s| PoseSigma {
+                        time_s: s.time_s,
+                        north_m: s.sigma_north_m,
+                        east_m: s.sigma_east_m,
+                        down_m: s.sigma_down_m,
+                        roll_rad: s.sigma_roll_rad,
+                        pitch_rad: s.sigma_pitch_rad,
+                        heading_rad: s.sigma_heading_rad,
+                    })
+                    .collect();
+                let s = TrajectorySigmas::new(r).map_err(|source| Error::Input {
+                    path: path.clone(),
+                    source,
+                })?;
+                inputs.push(path);
+                Some(s)
+            }
+        };
+        let ctx = TpuContext {
+            sensor,
+            beam_divergence_rad: extras.beam_divergence_rad,
+            poses,
+            trajectory_path,
+            sigmas,
+            options,
+            inputs,
+            trajectories: Mutex::new(Vec::new()),
+        };
+        // Check the trajectory now, before any tile.
+        ctx.trajectory(UtmDatum::Wgs84)?;
+        Ok(ctx)
+    }
+
+    /// Reads the sensor file, the SBET and optionally the SMRMSG.
+    ///
+    /// # Errors
+    /// As the lidarqa-io readers (each names its file) and [`TpuContext::new`].
+    pub fn from_files(
+        sensor: &Path,
+        sbet: &Path,
+        smrmsg: Option<&Path>,
+        options: TpuOptions,
+    ) -> Result<TpuContext> {
+        let (s, extras) = read_sensor_with_extras(sensor)?;
+        let poses = read_sbet(sbet)?;
+        let sig = match smrmsg {
+            Some(p) => Some((p.to_path_buf(), read_smrmsg(p)?)),
+            None => None,
+        };
+        let mut ctx = TpuContext::new(s, extras, sbet.to_path_buf(), poses, sig, options)?;
+        ctx.inputs.push(sensor.to_path_buf());
+        Ok(ctx)
+    }
+
+    /// The options.
+    pub fn options(&self) -> &TpuOptions {
+        &self.options
+    }
+
+    /// The sensor.
+    pub fn sensor(&self) -> &Sensor {
+        &self.sensor
+    }
+
+    /// The trajectory with ECEF positions on `datum`'s ellipsoid (built once per datum).
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming the SBET when it has fewer than two poses or bad values.
+    pub fn trajectory(&self, datum: UtmDatum) -> Result<Arc<Trajectory>> {
+        let mut cache = self
+            .trajectories
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some((_, t)) = cache.iter().find(|(d, _)| *d == datum) {
+            return Ok(Arc::clone(t));
+        }
+        let e: Ellipsoid = datum.ellipsoid();
+        let poses: Vec<Pose> = self
+            .poses
+            .iter()
+            .map(|p| Pose {
+                time_s: p.time_s,
+                position_ecef_m: e.geodetic_to_ecef(&Geodetic {
+                    latitude_rad: p.latitude_rad,
+                    longitude_rad: p.longitude_rad,
+                    height_m: p.height_m,
+                }),
+                latitude_rad: p.latitude_rad,
+                longitude_rad: p.longitude_rad,
+                attitude: Attitude {
+                    roll_rad: p.roll_rad,
+                    pitch_rad: p.pitch_rad,
+                    heading_rad: p.true_heading_rad(),
+                },
+            })
+            .collect();
+        let t = Arc::new(Trajectory::new(&poses).map_err(|source| Error::Input {
+            path: self.trajectory_path.clone(),
+            source,
+        })?);
+        cache.push((datum, Arc::clone(&t)));
+        Ok(t)
+    }
+}

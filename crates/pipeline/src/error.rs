@@ -1,0 +1,119 @@
+//! The error type of lidarqa-pipeline.
+
+use std::path::PathBuf;
+
+/// What can go wrong while running a tile.
+///
+/// Every variant about a point names the file and the zero-based point index.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A file could not be read or written (the message names it).
+    #[error(transparent)]
+    Io(#[from] lidarqa_io::Error),
+    /// The trajectory, SMRMSG or sensor cannot be used.
+    #[error("{}: {source}", path.display())]
+    Input {
+        /// The file at fault.
+        path: PathBuf,
+        /// Why.
+        source: lidarqa_tpu::Error,
+    },
+    /// A point format without GPS time: the trajectory cannot be interpolated.
+    #[error("{}: point format {format} has no GPS time; per-point TPU needs it", path.display())]
+    NoGpsTime {
+        /// The LAS/LAZ file.
+        path: PathBuf,
+        /// Its point format.
+        format: u8,
+    },
+    /// No usable CRS in the file and none given.
+    #[error("{}: unknown CRS ({reason}); pass --utm-zone or --epsg", path.display())]
+    UnknownCrs {
+        /// The LAS/LAZ file.
+        path: PathBuf,
+        /// What the file holds.
+        reason: String,
+    },
+    /// A point whose time is outside the trajectory's span.
+    #[error(
+        "{}: point {index}: time {time_s} s (GPS seconds of week) is outside the trajectory span \
+         [{start_s}, {end_s}] s (use --skip-outside to skip such points)",
+        path.display()
+    )]
+    OutsideTrajectory {
+        /// The LAS/LAZ file.
+        path: PathBuf,
+        /// Zero-based point index.
+        index: u64,
+        /// The point's time, GPS seconds of week.
+        time_s: f64,
+        /// Trajectory start, s.
+        start_s: f64,
+        /// Trajectory end, s.
+        end_s: f64,
+    },
+    /// A point with NaN or infinite coordinates.
+    #[error(
+        "{}: point {index}: coordinates ({x}, {y}, {z}) are not finite (use --skip-invalid to skip such points)",
+        path.display()
+    )]
+    NonFiniteCoordinates {
+        /// The LAS/LAZ file.
+        path: PathBuf,
+        /// Zero-based point index.
+        index: u64,
+        /// X as read.
+        x: f64,
+        /// Y as read.
+        y: f64,
+        /// Z as read.
+        z: f64,
+    },
+    /// A header scale or offset that makes every coordinate NaN or infinite.
+    #[error(
+        "{}: coordinates are not finite: header scale {scale:?} / offset {offset:?} must be finite (scale > 0)",
+        path.display()
+    )]
+    BadTransform {
+        /// The LAS/LAZ file.
+        path: PathBuf,
+        /// Scale factors (x, y, z).
+        scale: [f64; 3],
+        /// Offsets (x, y, z).
+        offset: [f64; 3],
+    },
+    /// A point whose raw observation or uncertainty cannot be computed.
+    #[error("{}: point {index}: {source}", path.display())]
+    Point {
+        /// The LAS/LAZ file.
+        path: PathBuf,
+        /// Zero-based point index.
+        index: u64,
+        /// Why.
+        source: lidarqa_tpu::Error,
+    },
+    /// A point whose GPS time cannot be put on the trajectory's time base (the message names
+    /// the file and the value).
+    #[error("{message} (point {index}; use --skip-invalid to skip such points)")]
+    BadTime {
+        /// Zero-based point index.
+        index: u64,
+        /// lidarqa-io's message.
+        message: String,
+    },
+    /// Options that cannot be used.
+    #[error("{0}")]
+    InvalidOption(String),
+    /// A worker thread of the tile pipeline stopped unexpectedly.
+    #[error("{}: internal error: {message}", path.display())]
+    Worker {
+        /// The tile.
+        path: PathBuf,
+        /// What happened.
+        message: String,
+    },
+}
+
+/// Result with the lidarqa-pipeline [`Error`].
+pub type Result<T> = std::result::Result<T, Error>;

@@ -1,0 +1,693 @@
+//! One tile: read → recover → propagate → write, streaming in chunks.
+
+use crate::context::TpuContext;
+use crate::error::{Error, Result};
+use crate::summary::{SIGMA_NAMES, SkipReason, TileReport, TpuSummary};
+use lidarqa_io::{
+    Ellipsoid, Geodetic, LasInfo, LasPoint, LasReader, LasTimeConverter, LasWriteOptions,
+    LasWriter, PointChunk, TransverseMercator,
+};
+use lidarqa_model::{
+    ConicScanner, Georeferencer, LinearObservation, LinearScanner, Mounting, Scanner,
+};
+use lidarqa_tpu::{
+    Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, Trajectory, ecef_from_ned,
+    incidence_angle, plane_normals,
+};
+use nalgebra::{Matrix3, Vector3};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+
+/// Classification code of a bathymetric point (ASPRS LAS 1.4 R15 / topobathy domain profile).
+const CLASS_BATHYMETRY: u8 = 40;
+/// NSSDA factor: 95 % radial from σ_H = √(σN² + σE²) (cBLUE's total_thu).
+const THU_95: f64 = 1.7308;
+/// 95 % vertical from σ_V (cBLUE's total_tvu).
+const TVU_95: f64 = 1.96;
+/// Points per parallel work item.
+const BLOCK: usize = 4096;
+
+const DESCRIPTIONS: [&str; 7] = [
+    "1-sigma TPU north (m)",
+    "1-sigma TPU east (m)",
+    "1-sigma TPU up (m)",
+    "1-sigma TPU horizontal (m)",
+    "1-sigma TPU vertical (m)",
+    "95% THU = 1.7308 sigma_h (m)",
+    "95% TVU = 1.96 sigma_v (m)",
+];
+
+/// One tile to process: input, output and the survey's shared context.
+#[derive(Debug, Clone, Copy)]
+pub struct TpuTileJob<'a> {
+    /// The LAS/LAZ tile.
+    pub input: &'a Path,
+    /// Where to write it with its σ (LAZ when it ends in `.laz`); never one of the inputs.
+    pub output: &'a Path,
+    /// Sensor, trajectory and options.
+    pub context: &'a TpuContext,
+}
+
+/// Runs one tile; see [`tpu_tile_with_progress`].
+///
+/// # Errors
+/// As [`tpu_tile_with_progress`].
+pub fn tpu_tile(job: &TpuTileJob<'_>) -> Result<TileReport> {
+    tpu_tile_with_progress(job, &|_| {})
+}
+
+/// Runs one tile, calling `progress(n)` after each chunk of `n` points read is written.
+///
+/// Three stages run at once on bounded channels (one chunk in flight each): a reader thread
+/// decodes a chunk and converts its points to ECEF and seconds of week (UTM inverse → geodetic
+/// → ECEF on the CRS's ellipsoid); the calling thread recovers and propagates every point
+/// (rayon); a writer thread writes the points with their σ. Memory is a few chunks whatever
+/// the file size. The output is atomic: on any error nothing is left at `job.output`.
+///
+/// The incidence angle's plane fit searches the chunk itself plus the last / first
+/// `margin_points` points of the previous / next chunk, so a time-ordered strip has no edge
+/// effect at chunk borders as long as the margin covers a few scan lines (20 000 points by
+/// default: ≥ 40 ms at 500 kHz); a spatially sorted tile may lose neighbours at a border only
+/// when they lie more than the margin away in file order. The look-ahead reaches into the next
+/// chunk only, so it is `min(margin_points, chunk_points)`.
+///
+/// # Blocking
+/// The calling thread waits on the reader and writer channels while the per-point work runs on
+/// rayon's global pool. Run several tiles on plain threads (as `lidarqa tpu` does), not as
+/// tasks of that same pool: tiles blocked in every worker would leave none for their chunks.
+///
+/// # Errors
+/// [`Error::NoGpsTime`], [`Error::UnknownCrs`], [`Error::OutsideTrajectory`],
+/// [`Error::NonFiniteCoordinates`], [`Error::Point`] naming the file and the point; I/O errors
+/// naming the file; `OutputIsInput` from lidarqa-io when `output` is one of the inputs.
+pub fn tpu_tile_with_progress(
+    job: &TpuTileJob<'_>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<TileReport> {
+    let ctx = job.context;
+    let input = job.input;
+    // las's reader is not `Send`: read the header here, the points in the reader thread.
+    let info = LasReader::from_path(input)?.info().clone();
+    if info.scale.iter().any(|v| !(v.is_finite() && *v > 0.0))
+        || info.offset.iter().any(|v| !v.is_finite())
+    {
+        return Err(Error::BadTransform {
+            path: input.to_path_buf(),
+            scale: info.scale,
+            offset: info.offset,
+        });
+    }
+    if !info.has_gps_time {
+        return Err(Error::NoGpsTime {
+            path: input.to_path_buf(),
+            format: info.point_format,
+        });
+    }
+    let zone = match ctx.options.crs {
+        Some(z) => z,
+        None => info.utm_zone().map_err(|e| Error::UnknownCrs {
+            path: input.to_path_buf(),
+            reason: crs_reason(&info, &e),
+        })?,
+    };
+    let trajectory = ctx.trajectory(zone.datum())?;
+    let converter = LasTimeConverter::new(
+        input,
+        info.time_base,
+        ctx.options.gps_week,
+        info.creation_date,
+    )?;
+    let kernel = Kernel::new(ctx)?;
+    let n_sigma = kernel.n_sigma();
+    let dims: Vec<(&str, &str)> = SIGMA_NAMES[..n_sigma]
+        .iter()
+        .zip(DESCRIPTIONS)
+        .map(|(n, d)| (*n, d))
+        .collect();
+    let options = LasWriteOptions::for_input(&info, &dims);
+    let mut inputs: Vec<&Path> = vec![input];
+    inputs.extend(ctx.inputs.iter().map(PathBuf::as_path));
+    let writer = LasWriter::create(job.output, &options, &inputs)?;
+
+    let prep = Prepare {
+        projection: zone.projection(),
+        ellipsoid: zone.datum().ellipsoid(),
+        converter,
+    };
+    let step_deg = if info.point_format >= 6 { 0.006 } else { 1.0 };
+    let mut summary = TpuSummary::new(kernel.kind(), kernel.source_names(), n_sigma);
+    summary.scan_angle.step_deg = step_deg;
+
+    let chunk_points = ctx.options.chunk_points;
+    let path = input.to_path_buf();
+    std::thread::scope(|scope| {
+        let (tx_read, rx_read) = sync_channel::<Result<Prepared>>(1);
+        let (tx_write, rx_write) = sync_channel::<WriteMsg>(1);
+        let prep = &prep;
+        let reader_thread = scope.spawn(move || read_loop(input, prep, chunk_points, tx_read));
+        let writer_thread = scope.spawn(move || write_loop(writer, n_sigma, rx_write, progress));
+        let run = Run {
+            ctx,
+            path: &path,
+            trajectory: &trajectory,
+            kernel: &kernel,
+            recoverer: Recoverer::new(&ctx.sensor.mounting),
+            mounting: ctx.sensor.mounting,
+        };
+        let main = run.compute_all(&rx_read, &tx_write, &mut summary);
+        if main.is_ok() {
+            // The writer commits only on this message; any other end drops the temporary file.
+            let _ = tx_write.send(WriteMsg::Finish);
+        }
+        drop(tx_write);
+        drop(rx_read);
+        let written = writer_thread.join();
+        let _ = reader_thread.join();
+        let worker = |what: &str| Error::Worker {
+            path: path.clone(),
+            message: format!("the {what} thread panicked"),
+        };
+        match (main, written) {
+            (_, Err(_)) => Err(worker("writer")),
+            // A writer error is the cause when the compute stage only saw the channel close.
+            (_, Ok(Err(e))) => Err(e),
+            (Err(e), _) => Err(e),
+            (Ok(()), Ok(Ok(Some(_)))) => Ok(()),
+            (Ok(()), Ok(Ok(None))) => Err(worker("writer")),
+        }
+    })?;
+    Ok(TileReport {
+        input: input.to_path_buf(),
+        output: job.output.to_path_buf(),
+        summary,
+    })
+}
+
+fn crs_reason(info: &LasInfo, e: &lidarqa_io::Error) -> String {
+    match info.crs.epsg {
+        None if info.crs.vlrs.is_empty() => "the file has no CRS".into(),
+        None => "the file's CRS has no EPSG code".into(),
+        Some(_) => {
+            // The io error names the file already; keep only its message.
+            let m = e.to_string();
+            let prefix = format!("{}: ", info.path.display());
+            m.strip_prefix(&prefix).unwrap_or(&m).to_string()
+        }
+    }
+}
+
+/// The georeferencing model with its propagator.
+// One per tile, built once and borrowed: the size difference costs nothing.
+#[allow(clippy::large_enum_variant)]
+enum Kernel {
+    Linear(PointPropagator<LinearScanner, 14>),
+    Conic(PointPropagator<ConicScanner, 21>, ConicScanner),
+}
+
+impl Kernel {
+    fn new(ctx: &TpuContext) -> Result<Kernel> {
+        let bad = |source| Error::Input {
+            path: ctx.trajectory_path.clone(),
+            source,
+        };
+        Ok(match &ctx.sensor.scanner {
+            Scanner::Linear => Kernel::Linear(
+                PointPropagator::new(LinearScanner, &ctx.sensor, ctx.beam_divergence_rad)
+                    .map_err(bad)?,
+            ),
+            Scanner::Conic(c) => Kernel::Conic(
+                PointPropagator::new(*c, &ctx.sensor, ctx.beam_divergence_rad).map_err(bad)?,
+                *c,
+            ),
+        })
+    }
+    fn kind(&self) -> &'static str {
+        match self {
+            Kernel::Linear(_) => "linear",
+            Kernel::Conic(..) => "conic",
+        }
+    }
+    fn n_sigma(&self) -> usize {
+        match self {
+            Kernel::Linear(_) => 5,
+            Kernel::Conic(..) => 7,
+        }
+    }
+    fn has_incidence(&self) -> bool {
+        match self {
+            Kernel::Linear(p) => p.has_incidence(),
+            Kernel::Conic(p, _) => p.has_incidence(),
+        }
+    }
+    fn source_names(&self) -> Vec<&'static str> {
+        let mut v: Vec<&'static str> = match self {
+            Kernel::Linear(_) => LinearScanner::SOURCES.iter().map(|s| s.name()).collect(),
+            Kernel::Conic(..) => ConicScanner::SOURCES.iter().map(|s| s.name()).collect(),
+        };
+        v.push("incidence");
+        v
+    }
+}
+
+/// Per-point conversion done by the reader thread.
+struct Prepare {
+    projection: TransverseMercator,
+    ellipsoid: Ellipsoid,
+    converter: LasTimeConverter,
+}
+
+#[derive(Debug, Clone)]
+enum PrepState {
+    Ok,
+    NonFinite,
+    BadTime(String),
+}
+
+struct Prep {
+    ecef: Vector3<f64>,
+    latitude_rad: f64,
+    longitude_rad: f64,
+    time_sow_s: f64,
+    state: PrepState,
+}
+
+struct Prepared {
+    first_index: u64,
+    chunk: PointChunk,
+    pts: Vec<Prep>,
+}
+
+impl Prepare {
+    fn point(&self, p: &LasPoint) -> Prep {
+        let mut out = Prep {
+            ecef: Vector3::zeros(),
+            latitude_rad: 0.0,
+            longitude_rad: 0.0,
+            time_sow_s: f64::NAN,
+            state: PrepState::Ok,
+        };
+        if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+            out.state = PrepState::NonFinite;
+            return out;
+        }
+        let (lat, lon) = self.projection.inverse(p.x, p.y);
+        out.latitude_rad = lat;
+        out.longitude_rad = lon;
+        // LAS Z is taken as the ellipsoidal height (no geoid model).
+        out.ecef = self.ellipsoid.geodetic_to_ecef(&Geodetic {
+            latitude_rad: lat,
+            longitude_rad: lon,
+            height_m: p.z,
+        });
+        match p.gps_time_s.map(|t| self.converter.to_seconds_of_week(t)) {
+            Some(Ok(t)) => out.time_sow_s = t,
+            Some(Err(e)) => out.state = PrepState::BadTime(e.to_string()),
+            None => out.state = PrepState::BadTime("point without GPS time".into()),
+        }
+        out
+    }
+}
+
+fn read_loop(input: &Path, prep: &Prepare, chunk_points: usize, tx: SyncSender<Result<Prepared>>) {
+    let mut reader = match LasReader::from_path(input) {
+        Ok(r) => r,
+        Err(e) => {
+            let _ = tx.send(Err(e.into()));
+            return;
+        }
+    };
+    let mut first_index = 0u64;
+    loop {
+        let mut chunk = PointChunk::new();
+        match reader.fill(&mut chunk, chunk_points) {
+            Err(e) => {
+                let _ = tx.send(Err(e.into()));
+                return;
+            }
+            Ok(0) => return,
+            Ok(_) => {}
+        }
+        let pts: Vec<Prep> = chunk.points.par_iter().map(|p| prep.point(p)).collect();
+        let n = chunk.len() as u64;
+        let msg = Prepared {
+            first_index,
+            chunk,
+            pts,
+        };
+        first_index += n;
+        if tx.send(Ok(msg)).is_err() {
+            return;
+        }
+    }
+}
+
+enum WriteMsg {
+    Chunk(PointChunk, Vec<Slot>),
+    Finish,
+}
+
+/// Writes; returns `Some(count)` after a commit, `None` when the channel closed without
+/// [`WriteMsg::Finish`] (the temporary file is then dropped).
+fn write_loop(
+    mut writer: LasWriter,
+    n_sigma: usize,
+    rx: Receiver<WriteMsg>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Option<u64>> {
+    let mut extra = [0f32; 7];
+    for msg in rx {
+        match msg {
+            WriteMsg::Chunk(chunk, slots) => {
+                for (p, s) in chunk.points.iter().zip(&slots) {
+                    if let Slot::Ok(sig) = s {
+                        for (e, v) in extra.iter_mut().zip(sig) {
+                            *e = *v as f32;
+                        }
+                        extra[5] = (THU_95 * sig[3]) as f32;
+                        extra[6] = (TVU_95 * sig[4]) as f32;
+                        writer.write_point(p, &extra[..n_sigma])?;
+                    }
+                }
+                progress(chunk.len() as u64);
+            }
+            WriteMsg::Finish => return Ok(Some(writer.finish()?)),
+        }
+    }
+    Ok(None)
+}
+
+/// The outcome of one point.
+#[derive(Debug, Default)]
+enum Slot {
+    #[default]
+    Pending,
+    /// σ north, east, up, horizontal, vertical (m, local level frame at the point).
+    Ok([f64; 5]),
+    Skipped(SkipReason),
+    Failed(Box<Error>),
+}
+
+/// Per-block statistics gathered in parallel.
+#[derive(Debug, Clone, Default)]
+struct Partial {
+    shares: Vec<f64>,
+    with_normal: u64,
+    scan: Vec<f64>,
+    residual: Vec<f64>,
+}
+
+struct Run<'a> {
+    ctx: &'a TpuContext,
+    path: &'a PathBuf,
+    trajectory: &'a Trajectory,
+    kernel: &'a Kernel,
+    recoverer: Recoverer,
+    mounting: Mounting,
+}
+
+impl Run<'_> {
+    fn compute_all(
+        &self,
+        rx: &Receiver<Result<Prepared>>,
+        tx: &SyncSender<WriteMsg>,
+        summary: &mut TpuSummary,
+    ) -> Result<()> {
+        let recv = || -> Result<Option<Prepared>> {
+            match rx.recv() {
+                Ok(Ok(p)) => Ok(Some(p)),
+                Ok(Err(e)) => Err(e),
+                Err(_) => Ok(None),
+            }
+        };
+        let margin = self.ctx.options.margin_points;
+        let mut tail: Vec<Vector3<f64>> = Vec::new();
+        let mut current = recv()?;
+        while let Some(cur) = current {
+            let next = recv()?;
+            let head: Vec<Vector3<f64>> = next
+                .as_ref()
+                .map(|n| valid_ecef(&n.pts).take(margin).collect())
+                .unwrap_or_default();
+            let slots = self.compute_chunk(&cur, &tail, &head, summary)?;
+            // The last `margin` valid points so far (they may span several small chunks).
+            tail.extend(valid_ecef(&cur.pts));
+            let excess = tail.len().saturating_sub(margin);
+            tail.drain(..excess);
+            if tx.send(WriteMsg::Chunk(cur.chunk, slots)).is_err() {
+                // The writer stopped; its error is reported by the caller.
+                return Ok(());
+            }
+            current = next;
+        }
+        Ok(())
+    }
+
+    fn compute_chunk(
+        &self,
+        cur: &Prepared,
+        tail: &[Vector3<f64>],
+        head: &[Vector3<f64>],
+        summary: &mut TpuSummary,
+    ) -> Result<Vec<Slot>> {
+        let n = cur.pts.len();
+        let normals: Vec<Option<Vector3<f64>>> = if self.kernel.has_incidence() {
+            let origin = valid_ecef(&cur.pts).next().unwrap_or_else(Vector3::zeros);
+            let rel = |v: &Vector3<f64>| {
+                let d = v - origin;
+                [d.x, d.y, d.z]
+            };
+            let candidates: Vec<[f64; 3]> = tail
+                .iter()
+                .chain(valid_ecef(&cur.pts).collect::<Vec<_>>().iter())
+                .chain(head)
+                .map(rel)
+                .collect();
+            let targets: Vec<[f64; 3]> = cur.pts.iter().map(|p| rel(&p.ecef)).collect();
+            plane_normals(&candidates, &targets, self.ctx.options.neighbours)
+        } else {
+            Vec::new()
+        };
+        let n_sources = summary.share_sums.len();
+        let mut slots: Vec<Slot> = std::iter::repeat_with(Slot::default).take(n).collect();
+        let partial = slots
+            .par_chunks_mut(BLOCK)
+            .enumerate()
+            .map(|(b, block)| {
+                let mut acc = Partial {
+                    shares: vec![0.0; n_sources],
+                    ..Partial::default()
+                };
+                for (k, slot) in block.iter_mut().enumerate() {
+                    let i = b * BLOCK + k;
+                    let normal = normals.get(i).copied().flatten();
+                    *slot = self.point(cur, i, normal, &mut acc);
+                }
+                acc
+            })
+            .reduce(
+                || Partial {
+                    shares: vec![0.0; n_sources],
+                    ..Partial::default()
+                },
+                |mut a, b| {
+                    for (x, y) in a.shares.iter_mut().zip(&b.shares) {
+                        *x += y;
+                    }
+                    a.with_normal += b.with_normal;
+                    a.scan.extend(b.scan);
+                    a.residual.extend(b.residual);
+                    a
+                },
+            );
+        // The first failure in file order, so the message is deterministic.
+        if let Some(i) = slots.iter().position(|s| matches!(s, Slot::Failed(_))) {
+            if let Slot::Failed(e) = std::mem::take(&mut slots[i]) {
+                return Err(*e);
+            }
+        }
+        summary.points_read += n as u64;
+        let conic = matches!(self.kernel, Kernel::Conic(..));
+        for s in &slots {
+            match s {
+                Slot::Ok(sig) => {
+                    summary.points_written += 1;
+                    for (h, v) in summary.sigma.iter_mut().zip(sig) {
+                        h.add(*v);
+                    }
+                    if conic {
+                        summary.sigma[5].add(THU_95 * sig[3]);
+                        summary.sigma[6].add(TVU_95 * sig[4]);
+                    }
+                }
+                Slot::Skipped(r) => *summary.skipped.entry(*r).or_default() += 1,
+                Slot::Pending | Slot::Failed(_) => {}
+            }
+        }
+        for ((_, s), v) in summary.share_sums.iter_mut().zip(&partial.shares) {
+            *s += v;
+        }
+        summary.with_normal += partial.with_normal;
+        for d in partial.scan {
+            summary.scan_angle.add(d);
+        }
+        for q in partial.residual {
+            summary.recovery_residual.add(q);
+        }
+        Ok(slots)
+    }
+
+    fn point(
+        &self,
+        cur: &Prepared,
+        i: usize,
+        normal: Option<Vector3<f64>>,
+        acc: &mut Partial,
+    ) -> Slot {
+        let p = &cur.pts[i];
+        let lp = &cur.chunk.points[i];
+        let index = cur.first_index + i as u64;
+        let opts = &self.ctx.options;
+        let invalid = |reason, e: Error| {
+            if opts.skip_invalid {
+                Slot::Skipped(reason)
+            } else {
+                Slot::Failed(Box::new(e))
+            }
+        };
+        match &p.state {
+            PrepState::Ok => {}
+            PrepState::NonFinite => {
+                return invalid(
+                    SkipReason::NonFiniteCoordinates,
+                    Error::NonFiniteCoordinates {
+                        path: self.path.clone(),
+                        index,
+                        x: lp.x,
+                        y: lp.y,
+                        z: lp.z,
+                    },
+                );
+            }
+            PrepState::BadTime(m) => {
+                return invalid(
+                    SkipReason::BadTime,
+                    Error::BadTime {
+                        index,
+                        message: m.clone(),
+                    },
+                );
+            }
+        }
+        if matches!(self.kernel, Kernel::Conic(..)) && lp.classification == CLASS_BATHYMETRY {
+            return Slot::Skipped(SkipReason::Bathymetric);
+        }
+        let pose = match self.trajectory.at(p.time_sow_s) {
+            Ok(pose) => pose,
+            Err(_) => {
+                let (start_s, end_s) = self.trajectory.span_s();
+                return if opts.skip_outside {
+                    Slot::Skipped(SkipReason::OutsideTrajectory)
+                } else {
+                    Slot::Failed(Box::new(Error::OutsideTrajectory {
+                        path: self.path.clone(),
+                        index,
+                        time_s: p.time_sow_s,
+                        start_s,
+                        end_s,
+                    }))
+                };
+            }
+        };
+        let sigma = self.ctx.sigmas.as_ref().map(|s| s.at(p.time_sow_s));
+        match self.propagate(&pose, p, lp, sigma.as_ref(), normal, acc) {
+            Ok(cov_at_p0) => {
+                // σ in the local level frame at the point: rotate from N at P0 (the two differ
+                // by the geodesic angle between them, ~1e-4 rad at 600 m; cheap to do exactly).
+                let m = ecef_from_ned(p.latitude_rad, p.longitude_rad).transpose()
+                    * ecef_from_ned(pose.latitude_rad, pose.longitude_rad);
+                let c = m * cov_at_p0 * m.transpose();
+                let (n2, e2, u2) = (c[(0, 0)].max(0.0), c[(1, 1)].max(0.0), c[(2, 2)].max(0.0));
+                Slot::Ok([n2.sqrt(), e2.sqrt(), u2.sqrt(), (n2 + e2).sqrt(), u2.sqrt()])
+            }
+            Err(source) => invalid(
+                SkipReason::NoObservation,
+                Error::Point {
+                    path: self.path.clone(),
+                    index,
+                    source,
+                },
+            ),
+        }
+    }
+
+    /// Recovery + propagation: the covariance in N at P0, m².
+    fn propagate(
+        &self,
+        pose: &PoseAt,
+        p: &Prep,
+        lp: &LasPoint,
+        sigma: Option<&PoseSigma>,
+        normal: Option<Vector3<f64>>,
+        acc: &mut Partial,
+    ) -> lidarqa_tpu::Result<Matrix3<f64>> {
+        let incidence = |range_m: f64, beam_ned: Vector3<f64>| {
+            normal.map(|n| Incidence {
+                range_m,
+                beam_ned,
+                incidence_rad: incidence_angle(&beam_ned, &(pose.ecef_to_ned * n)),
+            })
+        };
+        let (cov, vars, inc_var) = match self.kernel {
+            Kernel::Linear(pp) => {
+                let r = self.recoverer.linear(pose, &p.ecef)?;
+                let params = LinearScanner.parameters(
+                    &pose.attitude,
+                    &self.mounting,
+                    &LinearObservation {
+                        range_m: r.range_m,
+                        scan_angle_rad: r.scan_angle_rad,
+                    },
+                );
+                let inc = incidence(r.range_m, r.beam_ned);
+                let u = pp.propagate(&params, sigma, inc.as_ref())?;
+                acc.scan
+                    .push(r.scan_angle_rad.to_degrees() - f64::from(lp.scan_angle_deg));
+                acc.residual.push(r.out_of_plane_m);
+                (
+                    u.covariance_ned,
+                    u.source_variance_m2.as_slice().to_vec(),
+                    u.incidence_variance_m2,
+                )
+            }
+            Kernel::Conic(pp, scanner) => {
+                let r = self.recoverer.conic(scanner, pose, &p.ecef)?;
+                let params = scanner.parameters(&pose.attitude, &self.mounting, &r.observation);
+                let inc = incidence(r.range_air_m, r.beam_ned);
+                let u = pp.propagate(&params, sigma, inc.as_ref())?;
+                acc.residual.push(r.off_cone_m);
+                (
+                    u.covariance_ned,
+                    u.source_variance_m2.as_slice().to_vec(),
+                    u.incidence_variance_m2,
+                )
+            }
+        };
+        if normal.is_some() {
+            acc.with_normal += 1;
+        }
+        let total: f64 = vars.iter().sum::<f64>() + inc_var;
+        if total > 0.0 {
+            for (s, v) in acc.shares.iter_mut().zip(vars.iter().chain([&inc_var])) {
+                *s += v / total;
+            }
+        }
+        Ok(cov)
+    }
+}
+
+fn valid_ecef(pts: &[Prep]) -> impl DoubleEndedIterator<Item = Vector3<f64>> + '_ {
+    pts.iter()
+        .filter(|p| !matches!(p.state, PrepState::NonFinite))
+        .map(|p| p.ecef)
+}
