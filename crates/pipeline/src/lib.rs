@@ -53,7 +53,8 @@ mod tile;
 pub use context::{TpuContext, TpuOptions};
 pub use error::{Error, Result};
 pub use summary::{
-    AngleCheck, Histogram, ResidualCheck, ResidualView, SIGMA_NAMES, ScanAngleView, SkipReason,
-    Stats, SummaryView, SurveyReport, TileLine, TileReport, TpuSummary,
+    AngleCheck, Histogram, HistogramsView, LinearHistogram, ResidualCheck, ResidualView,
+    SIGMA_MAP_CELL_M, SIGMA_MAP_MAX_SIDE, SIGMA_NAMES, ScanAngleView, SigmaGridView, SigmaMap,
+    SkipReason, Stats, SummaryView, SurveyReport, TileLine, TileReport, TpuSummary,
 };
 pub use tile::{TpuTileJob, tpu_tile, tpu_tile_with_progress};

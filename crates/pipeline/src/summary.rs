@@ -101,6 +101,31 @@ impl Histogram {
         Some(self.max)
     }
 
+    /// The distribution as `bins` equal-width bins between min and max (each log bin counted at
+    /// its centre): what the report draws. `None` when empty.
+    pub fn linear(&self, bins: usize) -> Option<LinearHistogram> {
+        if self.n == 0 || bins == 0 {
+            return None;
+        }
+        let (lo, mut hi) = (self.min, self.max);
+        if hi - lo < 1e-9 {
+            hi = lo + 1e-6;
+        }
+        let width = (hi - lo) / bins as f64;
+        let mut counts = vec![0u64; bins];
+        let index = |v: f64| (((v - lo) / width).floor().max(0.0) as usize).min(bins - 1);
+        counts[0] += self.below;
+        counts[bins - 1] += self.above;
+        for (i, c) in self.counts.iter().enumerate().filter(|(_, c)| **c > 0) {
+            let centre = 10f64.powf(LOG_MIN + (i as f64 + 0.5) / BINS_PER_DECADE);
+            counts[index(centre.clamp(lo, hi))] += c;
+        }
+        Some(LinearHistogram {
+            edges_m: (0..=bins).map(|k| lo + k as f64 * width).collect(),
+            counts,
+        })
+    }
+
     /// min / median / 95th percentile / max / mean; `None` when empty.
     pub fn stats(&self) -> Option<Stats> {
         Some(Stats {
@@ -111,6 +136,125 @@ impl Histogram {
             mean: self.sum / self.n as f64,
         })
     }
+}
+
+/// Equal-width histogram for display: `counts[k]` values in `[edges_m[k], edges_m[k + 1])`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LinearHistogram {
+    /// Bin edges, m (one more than the counts).
+    pub edges_m: Vec<f64>,
+    /// Values per bin.
+    pub counts: Vec<u64>,
+}
+
+/// Mean σ vertical on a fixed grid of projected metres, kept sparse so tiles merge exactly.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SigmaMap {
+    cell_m: f64,
+    cells: BTreeMap<(i64, i64), (f64, u64)>,
+}
+
+/// Grid cell of the σ map, m.
+pub const SIGMA_MAP_CELL_M: f64 = 10.0;
+/// Largest number of cells a side of the σ map's JSON view; larger maps are coarsened.
+pub const SIGMA_MAP_MAX_SIDE: i64 = 200;
+
+impl Default for SigmaMap {
+    fn default() -> Self {
+        SigmaMap {
+            cell_m: SIGMA_MAP_CELL_M,
+            cells: BTreeMap::new(),
+        }
+    }
+}
+
+impl SigmaMap {
+    /// Adds one point's σ vertical at projected (x, y).
+    pub fn add(&mut self, x: f64, y: f64, sigma_vertical_m: f64) {
+        if !(x.is_finite() && y.is_finite() && sigma_vertical_m.is_finite()) {
+            return;
+        }
+        let key = (
+            (x / self.cell_m).floor() as i64,
+            (y / self.cell_m).floor() as i64,
+        );
+        let e = self.cells.entry(key).or_insert((0.0, 0));
+        e.0 += sigma_vertical_m;
+        e.1 += 1;
+    }
+
+    /// Adds another map's cells.
+    pub fn merge(&mut self, o: &SigmaMap) {
+        for (k, (s, n)) in &o.cells {
+            let e = self.cells.entry(*k).or_insert((0.0, 0));
+            e.0 += s;
+            e.1 += n;
+        }
+    }
+
+    /// Dense row-major view (south-west origin, rows north), coarsened to at most
+    /// [`SIGMA_MAP_MAX_SIDE`] cells a side; `None` when empty.
+    pub fn view(&self) -> Option<SigmaGridView> {
+        let (i0, i1) = self
+            .cells
+            .keys()
+            .fold((i64::MAX, i64::MIN), |a, k| (a.0.min(k.0), a.1.max(k.0)));
+        let (j0, j1) = self
+            .cells
+            .keys()
+            .fold((i64::MAX, i64::MIN), |a, k| (a.0.min(k.1), a.1.max(k.1)));
+        if i0 > i1 {
+            return None;
+        }
+        let mut f = 1;
+        while (i1 - i0) / f + 1 > SIGMA_MAP_MAX_SIDE || (j1 - j0) / f + 1 > SIGMA_MAP_MAX_SIDE {
+            f *= 2;
+        }
+        let (nx, ny) = (((i1 - i0) / f + 1) as usize, ((j1 - j0) / f + 1) as usize);
+        let mut acc = vec![(0.0, 0u64); nx * ny];
+        for ((i, j), (s, n)) in &self.cells {
+            let (a, b) = (((i - i0) / f) as usize, ((j - j0) / f) as usize);
+            acc[b * nx + a].0 += s;
+            acc[b * nx + a].1 += n;
+        }
+        Some(SigmaGridView {
+            cell_m: self.cell_m * f as f64,
+            origin_x: i0 as f64 * self.cell_m,
+            origin_y: j0 as f64 * self.cell_m,
+            nx,
+            ny,
+            sigma_vertical_m: acc
+                .into_iter()
+                .map(|(s, n)| (n > 0).then(|| s / n as f64))
+                .collect(),
+        })
+    }
+}
+
+/// JSON view of a [`SigmaMap`]: the report's `grid`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SigmaGridView {
+    /// Cell size, m.
+    pub cell_m: f64,
+    /// Easting of the west edge, m.
+    pub origin_x: f64,
+    /// Northing of the south edge, m.
+    pub origin_y: f64,
+    /// Columns (west → east).
+    pub nx: usize,
+    /// Rows (south → north).
+    pub ny: usize,
+    /// Mean σ vertical per cell, m, row-major from the south-west; null where no point fell.
+    pub sigma_vertical_m: Vec<Option<f64>>,
+}
+
+/// Histograms of the view.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HistogramsView {
+    /// σ vertical.
+    pub vertical: Option<LinearHistogram>,
+    /// σ horizontal.
+    pub horizontal: Option<LinearHistogram>,
 }
 
 /// Summary statistics of one σ, metres.
@@ -200,6 +344,8 @@ pub struct TpuSummary {
     /// Quality of recovery: Σ q², max |q| (m) of the out-of-plane (linear) or off-cone (conic)
     /// distance.
     pub recovery_residual: ResidualCheck,
+    /// Map of σ vertical.
+    pub map: SigmaMap,
 }
 
 /// Recovered vs LAS-field scan angle, degrees.
@@ -277,6 +423,7 @@ impl TpuSummary {
             with_normal: 0,
             scan_angle: AngleCheck::default(),
             recovery_residual: ResidualCheck::default(),
+            map: SigmaMap::default(),
         }
     }
 
@@ -297,6 +444,7 @@ impl TpuSummary {
             }
         }
         self.with_normal += o.with_normal;
+        self.map.merge(&o.map);
         self.scan_angle.merge(&o.scan_angle);
         self.recovery_residual.merge(&o.recovery_residual);
     }
@@ -313,6 +461,7 @@ impl TpuSummary {
             scanner: self.scanner,
             points_read: self.points_read,
             points_written: n,
+            points: n,
             skipped: SkipReason::ALL
                 .iter()
                 .map(|r| (r.name(), self.skipped.get(r).copied().unwrap_or(0)))
@@ -330,6 +479,11 @@ impl TpuSummary {
                 .map(|(s, v)| (*s, if n > 0 { v / n as f64 } else { 0.0 }))
                 .collect(),
             points_with_surface_normal: self.with_normal,
+            histogram: HistogramsView {
+                horizontal: self.sigma.get(3).and_then(|h| h.linear(40)),
+                vertical: self.sigma.get(4).and_then(|h| h.linear(40)),
+            },
+            grid: self.map.view(),
             scan_angle_check: (self.scan_angle.n > 0).then(|| ScanAngleView {
                 points: self.scan_angle.n,
                 rms_deg: (self.scan_angle.sum_sq_deg2 / self.scan_angle.n as f64).sqrt(),
@@ -359,6 +513,8 @@ pub struct SummaryView {
     pub points_read: u64,
     /// Points written.
     pub points_written: u64,
+    /// Points with a TPU (= `points_written`; the report's name).
+    pub points: u64,
     /// Skipped points by reason (every reason listed, 0 included).
     pub skipped: BTreeMap<&'static str, u64>,
     /// Per σ (north, east, up, horizontal, vertical[, total_thu, total_tvu]): statistics, m;
@@ -371,6 +527,10 @@ pub struct SummaryView {
     pub source_share: BTreeMap<&'static str, f64>,
     /// Points whose incidence angle was estimated.
     pub points_with_surface_normal: u64,
+    /// Equal-width histograms of σ horizontal and vertical (40 bins).
+    pub histogram: HistogramsView,
+    /// Mean σ vertical per 10 m cell (coarsened to ≤ 200 cells a side).
+    pub grid: Option<SigmaGridView>,
     /// Recovered vs LAS scan angle (linear scanner), degrees.
     pub scan_angle_check: Option<ScanAngleView>,
     /// Recovery residual, m.

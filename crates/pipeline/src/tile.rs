@@ -508,10 +508,12 @@ impl Run<'_> {
         }
         summary.points_read += n as u64;
         let conic = matches!(self.kernel, Kernel::Conic(..));
-        for s in &slots {
+        for (i, s) in slots.iter().enumerate() {
             match s {
                 Slot::Ok(sig) => {
                     summary.points_written += 1;
+                    let p = &cur.chunk.points[i];
+                    summary.map.add(p.x, p.y, sig[4]);
                     for (h, v) in summary.sigma.iter_mut().zip(sig) {
                         h.add(*v);
                     }

@@ -2,7 +2,11 @@
 //! prints.
 
 mod budget;
+mod calibrate;
+mod correct;
+mod demo;
 mod evaluate;
+mod overlap;
 mod report;
 mod simulate;
 mod targets;
@@ -13,6 +17,10 @@ use clap::Subcommand;
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// The main job on the built-in survey: simulate, predict, measure, calibrate, correct, measure
+    /// again, report.
+    #[command(after_help = demo::AFTER_HELP)]
+    Demo(demo::DemoArgs),
     /// Error budget of one observation geometry, or a sweep over one variable.
     #[command(after_help = budget::AFTER_HELP)]
     Budget(budget::BudgetArgs),
@@ -31,12 +39,25 @@ pub enum Command {
     /// HTML report from the JSON products in a directory (one offline file, inline SVG plots).
     #[command(after_help = report::AFTER_HELP)]
     Report(report::ReportArgs),
+    /// Boresight + lever-arm self-calibration from overlapping strips (seed 001 VTPM).
+    #[command(after_help = calibrate::AFTER_HELP)]
+    Calibrate(calibrate::CalibrateArgs),
+    /// Re-georeference strips with a calibration.
+    #[command(after_help = correct::AFTER_HELP)]
+    Correct(correct::CorrectArgs),
+    /// Swath-to-swath consistency of overlapping strips (RMSDz, dz grid, profile).
+    #[command(after_help = overlap::AFTER_HELP)]
+    Overlap(overlap::OverlapArgs),
 }
 
 /// Run a parsed subcommand.
 pub fn run(command: Command) -> anyhow::Result<()> {
     match command {
+        Command::Demo(args) => demo::run(args),
         Command::Budget(args) => budget::run(args),
+        Command::Calibrate(args) => calibrate::run(args),
+        Command::Correct(args) => correct::run(args),
+        Command::Overlap(args) => overlap::run(args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Targets(args) => targets::run(args),
         Command::Evaluate(args) => evaluate::run(args),

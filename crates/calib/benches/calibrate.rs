@@ -1,0 +1,89 @@
+//! Calibration and correction cost on a synthetic survey (tests/common): 8 strips flown at 300 and
+//! 800 m over a 250 m × 250 m scene at 4 points/m², about 250 000 points per strip (2 million in
+//! all; the 8 × 1 million is scaled down 4× to fit a 2-core CI box's memory: each
+//! `RawPoint` is 112 bytes and the simulator keeps two more positions per point), with the
+//! hand-picked ties of the scene (markings and roof faces, ~75).
+//!
+//! What to read: `calibrate_vtpm` (whole solve: indexing, RANSAC + Delaunay per tie and strip,
+//! LM with observability) and, per strip, `correct_strip` (rayon) against a single-thread loop of
+//! the same fast georeferencing and against the model's generic `footprint_ned` path: the
+//! correction *is* re-georeferencing, so the first ratio is the parallel speed-up and the second
+//! the cost of building `R_M` per point.
+//!
+//! `cargo bench -p lidarqa-calib --bench calibrate`
+
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use common::*;
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use lidarqa_calib::{
+    CalibrationOptions, Georeferencing, calibrate_vtpm, correct_strip, georeference,
+};
+use lidarqa_model::Mounting;
+use std::hint::black_box;
+
+fn bench(c: &mut Criterion) {
+    let survey = simulate(
+        &Scene::new(125.0),
+        &lines(300.0, 800.0),
+        &true_mounting(),
+        &Noise::default(),
+        0.5,
+        1,
+    );
+    let mut ties = survey.hand_ties(0.01, 2);
+    ties.truncate(100);
+    let n: usize = survey.strips.iter().map(|s| s.points.len()).sum();
+    eprintln!(
+        "{} strips, {n} points, {} ties",
+        survey.strips.len(),
+        ties.len()
+    );
+    let mut g = c.benchmark_group("calibration");
+    g.sample_size(10);
+    g.bench_function("calibrate_vtpm", |b| {
+        b.iter(|| {
+            calibrate_vtpm(
+                black_box(&survey.strips),
+                &ties,
+                &[],
+                &Mounting::default(),
+                &CalibrationOptions::default(),
+            )
+            .unwrap()
+        })
+    });
+    g.finish();
+    let strip = &survey.strips[0];
+    let m = true_mounting();
+    let mut g = c.benchmark_group("correct_one_strip");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(strip.points.len() as u64));
+    g.bench_function("correct_strip_rayon", |b| {
+        b.iter(|| correct_strip(black_box(strip), &m))
+    });
+    g.bench_function("georeference_fast_single_thread", |b| {
+        let geo = Georeferencing::new(&m);
+        b.iter(|| {
+            strip
+                .points
+                .iter()
+                .map(|p| geo.apply(black_box(p)).z)
+                .sum::<f64>()
+        })
+    });
+    g.bench_function("georeference_model_single_thread", |b| {
+        b.iter(|| {
+            strip
+                .points
+                .iter()
+                .map(|p| georeference(black_box(p), &m).z)
+                .sum::<f64>()
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

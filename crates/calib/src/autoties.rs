@@ -1,0 +1,301 @@
+//! Automatic tie selection (`--auto-ties`).
+//!
+//! Selection rule:
+//! 1. Candidate centres on a square grid of [`AutoTieOptions::spacing_m`] over the strips' extent;
+//!    a centre counts when at least two strips have [`AutoTieOptions::min_points`] points within
+//!    [`AutoTieOptions::patch_radius_m`].
+//! 2. In each covering strip the patch must be planar: RANSAC keeps at least 90 % of the points
+//!    within [`AutoTieOptions::planarity_m`].
+//! 3. **Markings** — flat patches (slope < 5°) with intensity contrast: in every strip the bright
+//!    points (above the midpoint of the patch's 5th and 95th intensity percentiles, the 95th at
+//!    least twice the 5th) are 5–60 % of the patch. The pick in each strip is the centroid of its
+//!    bright points (recomputed once around the first centroid), so the tie is the marking as that
+//!    strip sees it: a [`TieKind::Feature`] tie observing all three coordinates.
+//! 4. **Roofs** — planar patches sloped 10–60°: a [`TieKind::Surface`] tie at the grid centre in
+//!    every strip, observing only along the plane normal (nothing fixes a point within a roof face).
+//! 5. Spread: candidates are binned by kind, by a 3 × 3 division of the candidates' extent, by
+//!    |scan angle| in the first covering strip (three bins over its range) and, for roofs, by
+//!    aspect (8 sectors of 45°) and slope (below / above 30°); bins are visited round-robin, best
+//!    candidate first (markings by contrast, roofs by planarity), until
+//!    [`AutoTieOptions::max_ties`].
+
+use crate::error::{Error, Result};
+use crate::geometry::ransac_plane;
+use crate::strip::{Georeferencing, Strip, check_strips, within};
+use crate::vtpm::{Indexed, Tie, TieKind, TiePick, VtpmOptions, build_virtual_tie, mix_seed};
+use lidarqa_model::Mounting;
+use nalgebra::Vector3;
+use std::collections::BTreeMap;
+
+/// Options of the automatic tie search.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AutoTieOptions {
+    /// Candidate grid spacing, m.
+    pub spacing_m: f64,
+    /// Patch radius, m.
+    pub patch_radius_m: f64,
+    /// Minimum points of one strip in a patch.
+    pub min_points: usize,
+    /// Planarity threshold (RANSAC inlier distance), m.
+    pub planarity_m: f64,
+    /// Largest number of ties returned.
+    pub max_ties: usize,
+    /// RANSAC seed.
+    pub seed: u64,
+    /// The VTPM options the ties will be used with: a candidate is kept only when every one of
+    /// its picks gives a virtual tie with them (a coplanar triangle around the pick).
+    pub vtpm: VtpmOptions,
+}
+
+impl Default for AutoTieOptions {
+    fn default() -> Self {
+        AutoTieOptions {
+            spacing_m: 5.0,
+            patch_radius_m: 2.0,
+            min_points: 12,
+            planarity_m: 0.06,
+            max_ties: 100,
+            seed: 5,
+            vtpm: VtpmOptions::default(),
+        }
+    }
+}
+
+struct Candidate {
+    tie: Tie,
+    score: f64,
+    bin: (u8, usize, usize, usize),
+}
+
+/// Finds ties automatically in the strips' overlaps (module docs), with the points georeferenced
+/// with `prior`.
+///
+/// # Errors
+/// Invalid strips or options; [`Error::NothingUsable`] when no candidate qualifies.
+pub fn auto_ties(strips: &[Strip], prior: &Mounting, opts: &AutoTieOptions) -> Result<Vec<Tie>> {
+    check_strips(strips)?;
+    opts.vtpm.check()?;
+    if !(opts.spacing_m > 0.0 && opts.patch_radius_m > 0.0 && opts.planarity_m > 0.0) {
+        return Err(Error::InvalidOption {
+            name: "spacing_m / patch_radius_m / planarity_m",
+            expected: "finite numbers > 0",
+            value: opts
+                .spacing_m
+                .min(opts.patch_radius_m)
+                .min(opts.planarity_m),
+        });
+    }
+    let idx = Indexed::new(strips, opts.patch_radius_m);
+    let g = Georeferencing::new(prior);
+    let mut ext = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for s in strips {
+        if let Some(e) = s.extent_m() {
+            ext = [
+                ext[0].min(e[0]),
+                ext[1].min(e[1]),
+                ext[2].max(e[2]),
+                ext[3].max(e[3]),
+            ];
+        }
+    }
+    let nx = ((ext[2] - ext[0]) / opts.spacing_m) as usize + 1;
+    let ny = ((ext[3] - ext[1]) / opts.spacing_m) as usize + 1;
+    let mut cands: Vec<(f64, f64, Candidate)> = Vec::new();
+    let mut k = 0usize;
+    for i in 0..nx {
+        for j in 0..ny {
+            k += 1;
+            let (x, y) = (
+                ext[0] + i as f64 * opts.spacing_m,
+                ext[1] + j as f64 * opts.spacing_m,
+            );
+            if let Some(c) = candidate(&idx, &g, x, y, k, opts, None)
+                && usable(&idx, &g, &c.tie, opts)
+            {
+                cands.push((x, y, c));
+            }
+        }
+    }
+    if cands.is_empty() {
+        return Err(Error::NothingUsable {
+            what: "automatic tie",
+            reason: "no planar patch in two strips with intensity contrast or a roof slope".into(),
+        });
+    }
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for (x, y, _) in &cands {
+        lo = [lo[0].min(*x), lo[1].min(*y)];
+        hi = [hi[0].max(*x), hi[1].max(*y)];
+    }
+    let mut bins: BTreeMap<(u8, usize, usize, usize), Vec<Candidate>> = BTreeMap::new();
+    for (x, y, mut c) in cands {
+        let cell =
+            |v: f64, a: usize| (((v - lo[a]) / (hi[a] - lo[a]).max(1e-9) * 3.0) as usize).min(2);
+        c.bin.1 = cell(x, 0) * 3 + cell(y, 1);
+        bins.entry(c.bin).or_default().push(c);
+    }
+    for v in bins.values_mut() {
+        v.sort_by(|a, b| a.score.total_cmp(&b.score));
+    }
+    let mut out = Vec::new();
+    while out.len() < opts.max_ties && bins.values().any(|v| !v.is_empty()) {
+        for v in bins.values_mut() {
+            if let Some(c) = v.pop() {
+                if out.len() < opts.max_ties {
+                    out.push(c.tie);
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Every pick of the tie yields a virtual tie (step 2 of seed 001 would succeed).
+fn usable(idx: &Indexed<'_>, g: &Georeferencing, tie: &Tie, opts: &AutoTieOptions) -> bool {
+    tie.picks.iter().enumerate().all(|(pi, p)| {
+        idx.strip_index(&p.strip).is_some_and(|s| {
+            build_virtual_tie(
+                idx,
+                s,
+                &tie.id,
+                p.north_m,
+                p.east_m,
+                g,
+                &opts.vtpm,
+                mix_seed(opts.seed, 7, pi),
+            )
+            .is_ok()
+        })
+    })
+}
+
+fn candidate(
+    idx: &Indexed<'_>,
+    g: &Georeferencing,
+    x: f64,
+    y: f64,
+    k: usize,
+    opts: &AutoTieOptions,
+    cell_centre: Option<(f64, f64)>,
+) -> Option<Candidate> {
+    let mut patches = Vec::new();
+    for (s, strip) in idx.strips.iter().enumerate() {
+        let near = within(&idx.grids[s], &strip.points, x, y, opts.patch_radius_m);
+        if near.len() < opts.min_points {
+            continue;
+        }
+        let pos: Vec<Vector3<f64>> = near.iter().map(|&i| g.apply(&strip.points[i])).collect();
+        let (plane, inl) = ransac_plane(&pos, opts.planarity_m, 100, mix_seed(opts.seed, k, s))?;
+        if (inl.len() as f64) < 0.9 * pos.len() as f64 {
+            return None;
+        }
+        patches.push((s, near, pos, plane));
+    }
+    if patches.len() < 2 {
+        return None;
+    }
+    let n = patches[0].3.normal;
+    let slope = (-n.z).clamp(-1.0, 1.0).acos().to_degrees();
+    let theta = {
+        let (s, near, _, _) = &patches[0];
+        let th: Vec<f64> = near
+            .iter()
+            .map(|&i| idx.strips[*s].points[i].observation.scan_angle_rad.abs())
+            .collect();
+        th.iter().sum::<f64>() / th.len() as f64
+    };
+    let theta_bin = ((theta.to_degrees() / 10.0) as usize).min(2);
+    let id = format!("a{k}");
+    if slope < 5.0 {
+        let mut picks = Vec::new();
+        let mut score = f64::INFINITY;
+        for (s, near, pos, _) in &patches {
+            let mut inten: Vec<u16> = near
+                .iter()
+                .map(|&i| idx.strips[*s].points[i].intensity)
+                .collect();
+            inten.sort_unstable();
+            let p5 = f64::from(inten[inten.len() / 20]);
+            let p95 = f64::from(inten[inten.len() * 19 / 20]);
+            if p95 < 2.0 * p5.max(1.0) {
+                return None;
+            }
+            let mid = 0.5 * (p5 + p95);
+            let bright = |cx: f64, cy: f64| -> (usize, f64, f64) {
+                let (mut c, mut sx, mut sy) = (0, 0.0, 0.0);
+                for (j, &i) in near.iter().enumerate() {
+                    let p = &pos[j];
+                    if f64::from(idx.strips[*s].points[i].intensity) > mid
+                        && (p.x - cx).powi(2) + (p.y - cy).powi(2) <= opts.patch_radius_m.powi(2)
+                    {
+                        c += 1;
+                        sx += p.x;
+                        sy += p.y;
+                    }
+                }
+                (c, sx / c.max(1) as f64, sy / c.max(1) as f64)
+            };
+            let (c0, x0, y0) = bright(x, y);
+            if cell_centre.is_none() {
+                // Move the patch onto the marking as the first strip sees it, once; only a
+                // marking inside this grid cell counts, so each marking is found once.
+                let half = 0.5 * opts.spacing_m;
+                if c0 < 3 || (x0 - x).abs() > half || (y0 - y).abs() > half {
+                    return None;
+                }
+                return candidate(idx, g, x0, y0, k, opts, Some((x, y)));
+            }
+            let frac = c0 as f64 / near.len() as f64;
+            if !(0.05..=0.6).contains(&frac) {
+                return None;
+            }
+            // Recentre once on the marking; it must stay well inside the patch.
+            let (c1, x1, y1) = bright(x0, y0);
+            if c1 < 3 || (x1 - x).hypot(y1 - y) > 0.5 * opts.patch_radius_m {
+                return None;
+            }
+            score = score.min((p95 - p5) / p95 - (x1 - x).hypot(y1 - y));
+            picks.push(TiePick {
+                strip: idx.strips[*s].id.clone(),
+                north_m: x1,
+                east_m: y1,
+            });
+        }
+        Some(Candidate {
+            tie: Tie {
+                id,
+                picks,
+                kind: TieKind::Feature,
+            },
+            score,
+            bin: (0, 0, theta_bin, 0),
+        })
+    } else if (10.0..=60.0).contains(&slope) && cell_centre.is_none() {
+        let aspect = n.y.atan2(n.x).to_degrees().rem_euclid(360.0);
+        let sector = (aspect / 45.0) as usize % 8 + 8 * usize::from(slope > 30.0);
+        let picks = patches
+            .iter()
+            .map(|(s, _, _, _)| TiePick {
+                strip: idx.strips[*s].id.clone(),
+                north_m: x,
+                east_m: y,
+            })
+            .collect();
+        Some(Candidate {
+            tie: Tie {
+                id,
+                picks,
+                kind: TieKind::Surface,
+            },
+            score: 1.0,
+            bin: (1, 0, theta_bin, sector),
+        })
+    } else {
+        None
+    }
+}

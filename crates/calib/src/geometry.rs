@@ -1,0 +1,200 @@
+//! Small geometric kernels: least-squares and RANSAC planes, the rigid transform between two
+//! triangles (seed 001 eq. 6) and linear interpolation in a triangle (seed 001 eq. 5).
+
+use nalgebra::{Matrix3, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// A plane `n · p = d` with unit normal `n` (pointing up, i.e. `n.z <= 0` in NED).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Plane {
+    pub(crate) normal: Vector3<f64>,
+    pub(crate) d: f64,
+}
+
+impl Plane {
+    pub(crate) fn distance(&self, p: &Vector3<f64>) -> f64 {
+        self.normal.dot(p) - self.d
+    }
+}
+
+/// Least-squares plane through points (smallest eigenvector of the scatter matrix); `None` for
+/// fewer than three points or collinear ones.
+pub(crate) fn fit_plane(points: &[Vector3<f64>]) -> Option<Plane> {
+    if points.len() < 3 {
+        return None;
+    }
+    let c = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
+    let mut m = Matrix3::zeros();
+    for p in points {
+        let d = p - c;
+        m += d * d.transpose();
+    }
+    let e = m.symmetric_eigen();
+    let mut order = [0, 1, 2];
+    order.sort_by(|&a, &b| e.eigenvalues[a].total_cmp(&e.eigenvalues[b]));
+    // Collinear: the two largest spreads must both be non-trivial.
+    if e.eigenvalues[order[1]] <= 1e-12 * e.eigenvalues[order[2]].max(1e-300) {
+        return None;
+    }
+    let mut n: Vector3<f64> = e.eigenvectors.column(order[0]).into_owned();
+    if n.z > 0.0 {
+        n = -n;
+    }
+    Some(Plane {
+        normal: n,
+        d: n.dot(&c),
+    })
+}
+
+/// RANSAC (Fischler & Bolles 1981, seed 001 ref. 16): the plane through three random points with
+/// the most points within `threshold_m`, refitted by least squares to those inliers; returns the
+/// refitted plane and the indices (into `points`) within `threshold_m` of it.
+pub(crate) fn ransac_plane(
+    points: &[Vector3<f64>],
+    threshold_m: f64,
+    iterations: usize,
+    seed: u64,
+) -> Option<(Plane, Vec<usize>)> {
+    let n = points.len();
+    if n < 3 {
+        return None;
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut best: Vec<usize> = Vec::new();
+    let inliers_of = |pl: &Plane| -> Vec<usize> {
+        (0..n)
+            .filter(|&k| pl.distance(&points[k]).abs() <= threshold_m)
+            .collect()
+    };
+    for _ in 0..iterations.max(1) {
+        let i = rng.random_range(0..n);
+        let j = rng.random_range(0..n);
+        let k = rng.random_range(0..n);
+        if i == j || j == k || i == k {
+            continue;
+        }
+        let nrm = (points[j] - points[i]).cross(&(points[k] - points[i]));
+        let len = nrm.norm();
+        if len < 1e-9 {
+            continue;
+        }
+        let mut nrm = nrm / len;
+        if nrm.z > 0.0 {
+            nrm = -nrm;
+        }
+        let pl = Plane {
+            normal: nrm,
+            d: nrm.dot(&points[i]),
+        };
+        let inl = inliers_of(&pl);
+        if inl.len() > best.len() {
+            best = inl;
+        }
+    }
+    if best.len() < 3 {
+        return None;
+    }
+    let sel: Vec<Vector3<f64>> = best.iter().map(|&k| points[k]).collect();
+    let refined = fit_plane(&sel)?;
+    let inl = inliers_of(&refined);
+    if inl.len() < 3 {
+        return None;
+    }
+    Some((refined, inl))
+}
+
+/// The rigid transform (rotation `R`, translation `t`, `b ≈ R a + t`) that best maps triangle `a`
+/// onto triangle `b` in least squares (Kabsch / Horn, with the reflection guard): seed 001 eq. (6).
+pub(crate) fn rigid_transform(
+    a: &[Vector3<f64>; 3],
+    b: &[Vector3<f64>; 3],
+) -> (Matrix3<f64>, Vector3<f64>) {
+    let ca = (a[0] + a[1] + a[2]) / 3.0;
+    let cb = (b[0] + b[1] + b[2]) / 3.0;
+    let mut h = Matrix3::zeros();
+    for k in 0..3 {
+        h += (a[k] - ca) * (b[k] - cb).transpose();
+    }
+    let svd = h.svd(true, true);
+    let (u, vt) = match (svd.u, svd.v_t) {
+        (Some(u), Some(vt)) => (u, vt),
+        _ => return (Matrix3::identity(), cb - ca),
+    };
+    let v = vt.transpose();
+    let mut r = v * u.transpose();
+    if r.determinant() < 0.0 {
+        let mut v2 = v;
+        // The singular value of a planar triangle's normal direction is ~0: flip that column.
+        let smallest = svd
+            .singular_values
+            .iter()
+            .enumerate()
+            .min_by(|x, y| x.1.total_cmp(y.1))
+            .map_or(2, |(i, _)| i);
+        v2.column_mut(smallest).neg_mut();
+        r = v2 * u.transpose();
+    }
+    (r, cb - r * ca)
+}
+
+/// Seed 001 eq. (5): the height (NED z) at horizontal position (`x`, `y`) of the plane through the
+/// triangle's three points; `None` when the triangle is degenerate in plan.
+pub(crate) fn interpolate_z(t: &[Vector3<f64>; 3], x: f64, y: f64) -> Option<f64> {
+    let (a, b, c) = (t[0], t[1], t[2]);
+    let det = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let l1 = ((x - a.x) * (c.y - a.y) - (c.x - a.x) * (y - a.y)) / det;
+    let l2 = ((b.x - a.x) * (y - a.y) - (x - a.x) * (b.y - a.y)) / det;
+    Some(a.z + l1 * (b.z - a.z) + l2 * (c.z - a.z))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+    use lidarqa_model::rotation_zyx;
+
+    #[test]
+    fn rigid_transform_recovers_a_rigid_motion() {
+        let a = [
+            Vector3::new(0.0, 0.0, 0.0),
+            Vector3::new(0.6, 0.1, 0.02),
+            Vector3::new(0.2, 0.5, -0.03),
+        ];
+        let r = rotation_zyx(0.01, -0.02, 0.5);
+        let t = Vector3::new(0.3, -0.1, 0.05);
+        let b = a.map(|p| r * p + t);
+        let (r2, t2) = rigid_transform(&a, &b);
+        assert_relative_eq!(r2, r, epsilon = 1e-12);
+        assert_relative_eq!(t2, t, epsilon = 1e-12);
+    }
+
+    #[test]
+    fn interpolation_is_exact_on_a_plane() {
+        let z = |x: f64, y: f64| 3.0 + 0.2 * x - 0.5 * y;
+        let t = [(0.0, 0.0), (1.0, 0.2), (0.3, 0.9)].map(|(x, y)| Vector3::new(x, y, z(x, y)));
+        assert_relative_eq!(
+            interpolate_z(&t, 0.4, 0.3).unwrap(),
+            z(0.4, 0.3),
+            epsilon = 1e-12
+        );
+    }
+
+    #[test]
+    fn ransac_rejects_outliers() {
+        let mut pts: Vec<Vector3<f64>> = (0..50)
+            .map(|k| {
+                let (x, y) = ((k % 7) as f64 * 0.3, (k / 7) as f64 * 0.3);
+                Vector3::new(x, y, 0.1 * x)
+            })
+            .collect();
+        pts.push(Vector3::new(0.5, 0.5, -3.0));
+        pts.push(Vector3::new(0.7, 0.2, -2.0));
+        let (pl, inl) = ransac_plane(&pts, 0.01, 100, 7).unwrap();
+        assert_eq!(inl.len(), 50);
+        assert!(pl.distance(&Vector3::new(1.0, 0.0, 0.1)).abs() < 1e-9);
+    }
+}

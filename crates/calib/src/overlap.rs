@@ -1,0 +1,423 @@
+//! Swath-to-swath overlap QC: height differences between overlapping strips on smooth surfaces,
+//! as the USGS Lidar Base Specification's interswath (relative) accuracy — RMSDz and the largest
+//! |dz| per strip pair — plus a dz grid and a height profile across the strips.
+//!
+//! Each strip's points are binned into square cells of [`OverlapOptions::cell_m`]. In a cell with
+//! at least [`OverlapOptions::min_points`] points a least-squares plane `z = a + b·dx + c·dy` is
+//! fitted; the strip's height there is `a` (the plane at the cell centre), its roughness the RMS of
+//! the plane residuals and its slope `atan √(b² + c²)`. A cell is *smooth* in a strip when the
+//! roughness is at most [`OverlapOptions::max_roughness_m`] and the slope at most
+//! [`OverlapOptions::max_slope_deg`]; `dz = z_a − z_b` is taken only where both strips are smooth
+//! (USGS: "smooth, open, non-vegetated terrain"), so vegetation, walls and roof edges do not count.
+//! Coordinates are any right-handed Cartesian frame with z up (projected easting, northing,
+//! height, or the local frame's east, north, up).
+
+use crate::error::{Error, Result};
+use serde_json::{Value, json};
+use std::collections::HashMap;
+
+/// A strip for overlap QC: points as `[x, y, z]`, metres, z up.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OverlapStrip {
+    /// The strip's id.
+    pub id: String,
+    /// Points `[x, y, z]`, m.
+    pub points: Vec<[f64; 3]>,
+}
+
+/// Options of the overlap QC.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OverlapOptions {
+    /// Cell size, m.
+    pub cell_m: f64,
+    /// Minimum points of one strip in a cell.
+    pub min_points: usize,
+    /// Largest RMS of plane residuals for a smooth cell, m.
+    pub max_roughness_m: f64,
+    /// Largest slope for a smooth cell, degrees.
+    pub max_slope_deg: f64,
+    /// Profile line `[[x0, y0], [x1, y1]]`, m; `None`: along x through the middle of the overlap.
+    pub profile: Option<[[f64; 2]; 2]>,
+}
+
+impl Default for OverlapOptions {
+    fn default() -> Self {
+        OverlapOptions {
+            cell_m: 1.0,
+            min_points: 4,
+            max_roughness_m: 0.05,
+            max_slope_deg: 10.0,
+            profile: None,
+        }
+    }
+}
+
+/// RMSDz and max |dz| of one strip pair.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OverlapPair {
+    /// The two strips' ids, `dz = z(first) − z(second)`.
+    pub strips: [String; 2],
+    /// √(mean dz²) over smooth cells, m.
+    pub rmsdz_m: f64,
+    /// Largest |dz|, m.
+    pub max_abs_dz_m: f64,
+    /// Mean dz, m (a vertical offset between the strips).
+    pub mean_dz_m: f64,
+    /// Number of smooth cells compared.
+    pub n: usize,
+}
+
+/// The dz grid: cell `(ix, iy)` covers `[origin_x + ix·cell, origin_x + (ix+1)·cell)` ×
+/// `[origin_y + iy·cell, …)`; `dz_m[iy·nx + ix]` is the dz of the pair with the largest |dz| in
+/// that cell (`None` where no pair is smooth).
+#[derive(Debug, Clone, PartialEq)]
+pub struct OverlapGrid {
+    /// Cell size, m.
+    pub cell_m: f64,
+    /// Lower-left corner x, m.
+    pub origin_x: f64,
+    /// Lower-left corner y, m.
+    pub origin_y: f64,
+    /// Columns (x).
+    pub nx: usize,
+    /// Rows (y).
+    pub ny: usize,
+    /// Row-major dz, m.
+    pub dz_m: Vec<Option<f64>>,
+}
+
+/// One strip's heights along the profile.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProfileStrip {
+    /// The strip's id.
+    pub id: String,
+    /// Height at each profile sample (cell plane at the sample's cell, any roughness), m.
+    pub z_m: Vec<Option<f64>>,
+}
+
+/// A height profile across the strips.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OverlapProfile {
+    /// Start and end of the line, m.
+    pub line: [[f64; 2]; 2],
+    /// Distance of each sample from the start, m.
+    pub distance_m: Vec<f64>,
+    /// Heights per strip.
+    pub strips: Vec<ProfileStrip>,
+}
+
+/// The overlap QC result; [`OverlapReport::to_json`] gives the schema the report reads.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OverlapReport {
+    /// Pairs with at least one smooth cell in common.
+    pub pairs: Vec<OverlapPair>,
+    /// The dz grid.
+    pub grid: OverlapGrid,
+    /// The profile.
+    pub profile: OverlapProfile,
+}
+
+fn strip_json(s: &str) -> Value {
+    s.parse::<u64>().map_or_else(|_| json!(s), |n| json!(n))
+}
+
+impl OverlapReport {
+    /// `{"pairs": [{"strips": [a, b], "rmsdz_m", "max_abs_dz_m", "n", "mean_dz_m"}], "grid":
+    /// {"cell_m", "origin_x", "origin_y", "nx", "ny", "dz_m": [row-major, null where empty]},
+    /// "profile": {"distance_m": [...], "strips": [{"id", "z_m": [...]}]}}`.
+    pub fn to_json(&self) -> Value {
+        json!({
+            "pairs": self.pairs.iter().map(|p| json!({
+                "strips": [strip_json(&p.strips[0]), strip_json(&p.strips[1])],
+                "rmsdz_m": p.rmsdz_m,
+                "max_abs_dz_m": p.max_abs_dz_m,
+                "mean_dz_m": p.mean_dz_m,
+                "n": p.n,
+            })).collect::<Vec<_>>(),
+            "grid": {
+                "cell_m": self.grid.cell_m,
+                "origin_x": self.grid.origin_x,
+                "origin_y": self.grid.origin_y,
+                "nx": self.grid.nx,
+                "ny": self.grid.ny,
+                "dz_m": self.grid.dz_m,
+            },
+            "profile": {
+                "line": self.profile.line,
+                "distance_m": self.profile.distance_m,
+                "strips": self.profile.strips.iter().map(|s| json!({"id": strip_json(&s.id), "z_m": s.z_m})).collect::<Vec<_>>(),
+            },
+        })
+    }
+
+    /// RMS over all pairs' smooth cells of dz (each cell of each pair counts once), m.
+    pub fn overall_rmsdz_m(&self) -> f64 {
+        let n: usize = self.pairs.iter().map(|p| p.n).sum();
+        let s: f64 = self
+            .pairs
+            .iter()
+            .map(|p| p.rmsdz_m * p.rmsdz_m * p.n as f64)
+            .sum();
+        (s / n.max(1) as f64).sqrt()
+    }
+}
+
+#[derive(Clone, Copy)]
+struct CellFit {
+    z: f64,
+    smooth: bool,
+}
+
+fn fit_cells(
+    points: &[[f64; 3]],
+    origin: [f64; 2],
+    nx: usize,
+    opts: &OverlapOptions,
+) -> HashMap<usize, CellFit> {
+    let c = opts.cell_m;
+    let mut bins: HashMap<usize, Vec<usize>> = HashMap::new();
+    for (k, p) in points.iter().enumerate() {
+        let ix = ((p[0] - origin[0]) / c).floor() as usize;
+        let iy = ((p[1] - origin[1]) / c).floor() as usize;
+        bins.entry(iy * nx + ix).or_default().push(k);
+    }
+    let max_slope = opts.max_slope_deg.to_radians().tan();
+    bins.into_iter()
+        .filter(|(_, v)| v.len() >= opts.min_points.max(3))
+        .filter_map(|(cell, v)| {
+            let (ix, iy) = (cell % nx, cell / nx);
+            let cx = origin[0] + (ix as f64 + 0.5) * c;
+            let cy = origin[1] + (iy as f64 + 0.5) * c;
+            let mut ata = nalgebra::Matrix3::<f64>::zeros();
+            let mut atb = nalgebra::Vector3::<f64>::zeros();
+            for &k in &v {
+                let p = points[k];
+                let a = nalgebra::Vector3::new(1.0, p[0] - cx, p[1] - cy);
+                ata += a * a.transpose();
+                atb += a * p[2];
+            }
+            let sol = ata.lu().solve(&atb)?;
+            let rss: f64 = v
+                .iter()
+                .map(|&k| {
+                    let p = points[k];
+                    (p[2] - sol[0] - sol[1] * (p[0] - cx) - sol[2] * (p[1] - cy)).powi(2)
+                })
+                .sum();
+            let rough = (rss / v.len() as f64).sqrt();
+            let slope = (sol[1] * sol[1] + sol[2] * sol[2]).sqrt();
+            Some((
+                cell,
+                CellFit {
+                    z: sol[0],
+                    smooth: rough <= opts.max_roughness_m && slope <= max_slope,
+                },
+            ))
+        })
+        .collect()
+}
+
+/// Swath-to-swath QC of overlapping strips (module docs).
+///
+/// # Errors
+/// Fewer than two strips, an invalid option, a non-finite coordinate, or strips sharing no smooth
+/// cell ([`Error::NoOverlap`] naming the first strip).
+pub fn overlap_qc(strips: &[OverlapStrip], opts: &OverlapOptions) -> Result<OverlapReport> {
+    if strips.len() < 2 {
+        return Err(Error::TooFewStrips {
+            what: "overlap qc",
+            needed: 2,
+            got: strips.len(),
+        });
+    }
+    let bad = |name, expected, value| {
+        Err(Error::InvalidOption {
+            name,
+            expected,
+            value,
+        })
+    };
+    if !(opts.cell_m.is_finite() && opts.cell_m > 0.0) {
+        return bad("cell_m", "a finite number > 0", opts.cell_m);
+    }
+    if opts.max_roughness_m.is_nan() || opts.max_roughness_m < 0.0 {
+        return bad("max_roughness_m", "a number >= 0", opts.max_roughness_m);
+    }
+    if !(opts.max_slope_deg >= 0.0 && opts.max_slope_deg < 90.0) {
+        return bad("max_slope_deg", "in [0, 90)", opts.max_slope_deg);
+    }
+    let mut min = [f64::INFINITY; 2];
+    let mut max = [f64::NEG_INFINITY; 2];
+    for s in strips {
+        if s.points.is_empty() {
+            return Err(Error::EmptyStrip {
+                strip: s.id.clone(),
+            });
+        }
+        for (k, p) in s.points.iter().enumerate() {
+            if !p.iter().all(|v| v.is_finite()) {
+                return Err(Error::NonFinitePoint {
+                    strip: s.id.clone(),
+                    index: k,
+                });
+            }
+            for a in 0..2 {
+                min[a] = min[a].min(p[a]);
+                max[a] = max[a].max(p[a]);
+            }
+        }
+    }
+    let c = opts.cell_m;
+    let origin = [(min[0] / c).floor() * c, (min[1] / c).floor() * c];
+    let nx = ((max[0] - origin[0]) / c).floor() as usize + 1;
+    let ny = ((max[1] - origin[1]) / c).floor() as usize + 1;
+    let fits: Vec<HashMap<usize, CellFit>> = strips
+        .iter()
+        .map(|s| fit_cells(&s.points, origin, nx, opts))
+        .collect();
+    let mut pairs = Vec::new();
+    let mut grid: HashMap<usize, f64> = HashMap::new();
+    for a in 0..strips.len() {
+        for b in a + 1..strips.len() {
+            let (mut n, mut s2, mut s1, mut mx) = (0usize, 0.0, 0.0, 0.0f64);
+            for (cell, fa) in &fits[a] {
+                let Some(fb) = fits[b].get(cell) else {
+                    continue;
+                };
+                if !(fa.smooth && fb.smooth) {
+                    continue;
+                }
+                let dz = fa.z - fb.z;
+                n += 1;
+                s2 += dz * dz;
+                s1 += dz;
+                mx = mx.max(dz.abs());
+                let g = grid.entry(*cell).or_insert(dz);
+                if dz.abs() > g.abs() {
+                    *g = dz;
+                }
+            }
+            if n > 0 {
+                pairs.push(OverlapPair {
+                    strips: [strips[a].id.clone(), strips[b].id.clone()],
+                    rmsdz_m: (s2 / n as f64).sqrt(),
+                    max_abs_dz_m: mx,
+                    mean_dz_m: s1 / n as f64,
+                    n,
+                });
+            }
+        }
+    }
+    if pairs.is_empty() {
+        return Err(Error::NoOverlap {
+            strip: strips[0].id.clone(),
+        });
+    }
+    let mut dz_m = vec![None; nx * ny];
+    for (cell, dz) in &grid {
+        dz_m[*cell] = Some(*dz);
+    }
+    // Default profile: along x through the middle row of the compared cells.
+    let line = opts.profile.unwrap_or_else(|| {
+        let rows: Vec<usize> = grid.keys().map(|k| k / nx).collect();
+        let cols: Vec<usize> = grid.keys().map(|k| k % nx).collect();
+        let mid_row = (rows.iter().min().unwrap_or(&0) + rows.iter().max().unwrap_or(&0)) / 2;
+        let y = origin[1] + (mid_row as f64 + 0.5) * c;
+        let x0 = origin[0] + *cols.iter().min().unwrap_or(&0) as f64 * c;
+        let x1 = origin[0] + (*cols.iter().max().unwrap_or(&0) + 1) as f64 * c;
+        [[x0, y], [x1, y]]
+    });
+    let len = ((line[1][0] - line[0][0]).powi(2) + (line[1][1] - line[0][1]).powi(2)).sqrt();
+    let samples = ((len / c).floor() as usize + 1).min(1_000_000);
+    let distance_m: Vec<f64> = (0..samples).map(|k| k as f64 * c).collect();
+    let profile_strips = strips
+        .iter()
+        .zip(&fits)
+        .map(|(s, f)| ProfileStrip {
+            id: s.id.clone(),
+            z_m: distance_m
+                .iter()
+                .map(|d| {
+                    let w = if len > 0.0 { d / len } else { 0.0 };
+                    let x = line[0][0] + w * (line[1][0] - line[0][0]);
+                    let y = line[0][1] + w * (line[1][1] - line[0][1]);
+                    if x < origin[0] || y < origin[1] {
+                        return None;
+                    }
+                    let ix = ((x - origin[0]) / c).floor() as usize;
+                    let iy = ((y - origin[1]) / c).floor() as usize;
+                    if ix >= nx || iy >= ny {
+                        return None;
+                    }
+                    f.get(&(iy * nx + ix)).map(|cf| cf.z)
+                })
+                .collect(),
+        })
+        .collect();
+    Ok(OverlapReport {
+        pairs,
+        grid: OverlapGrid {
+            cell_m: c,
+            origin_x: origin[0],
+            origin_y: origin[1],
+            nx,
+            ny,
+            dz_m,
+        },
+        profile: OverlapProfile {
+            line,
+            distance_m,
+            strips: profile_strips,
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plane_strip(id: &str, dz: f64, x0: f64) -> OverlapStrip {
+        let mut points = Vec::new();
+        for i in 0..40 {
+            for j in 0..20 {
+                let (x, y) = (x0 + i as f64 * 0.25 + 0.01, j as f64 * 0.25 + 0.01);
+                points.push([x, y, 100.0 + 0.02 * x + dz]);
+            }
+        }
+        OverlapStrip {
+            id: id.into(),
+            points,
+        }
+    }
+
+    #[test]
+    fn constant_offset_gives_its_rmsdz() {
+        let r = overlap_qc(
+            &[plane_strip("1", 0.0, 0.0), plane_strip("2", 0.07, 5.0)],
+            &OverlapOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(r.pairs.len(), 1);
+        let p = &r.pairs[0];
+        assert!((p.rmsdz_m - 0.07).abs() < 1e-9, "{}", p.rmsdz_m);
+        assert!((p.mean_dz_m + 0.07).abs() < 1e-9);
+        // Overlap x in [5, 10): 5 columns × 5 rows of 1 m cells.
+        assert_eq!(p.n, 25);
+        let j = r.to_json();
+        assert_eq!(j["pairs"][0]["strips"][1], 2);
+        assert_eq!(
+            j["grid"]["dz_m"].as_array().unwrap().len(),
+            r.grid.nx * r.grid.ny
+        );
+    }
+
+    #[test]
+    fn disjoint_strips_are_refused() {
+        let e = overlap_qc(
+            &[plane_strip("a", 0.0, 0.0), plane_strip("b", 0.0, 50.0)],
+            &OverlapOptions::default(),
+        )
+        .unwrap_err();
+        assert_eq!(e.to_string(), "strip a does not overlap any other strip");
+    }
+}

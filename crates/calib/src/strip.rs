@@ -1,0 +1,401 @@
+//! Strips of points with their raw observations, in one local Cartesian frame, and
+//! re-georeferencing them with any mounting.
+//!
+//! The local frame `L` is North-East-Down at a survey centre (metres; x north, y east, z down).
+//! Each point keeps its trajectory pose expressed in `L`: the GNSS/INS reference point `P0` in `L`
+//! and the attitude `R_L = C_LE · C_EN(P0) · R_N` (body → `L`), where `C_EN(P0)` is the NED frame
+//! at the pose and `C_LE` the ECEF → `L` rotation. Since `R_L` is itself a rotation
+//! `Rz(h) Ry(p) Rx(r)`, seed 000 eq. (2) in `L` is the model's own
+//! `P = P0 + R_L (R_M S + ΔP)` with the attitude angles of `R_L`: rigorous through ECEF (SPEC §3),
+//! with no NED vector ever added to grid coordinates.
+
+use crate::error::{Error, Result};
+use lidarqa_model::{
+    Attitude, Georeferencer, LinearObservation, LinearScanner, Mounting, rotation_zyx,
+    scanner_vector, zyx_angles,
+};
+use lidarqa_tpu::{LinearRecovery, PoseAt, Recoverer, ecef_from_ned};
+use nalgebra::{Matrix3, Vector3};
+use rayon::prelude::*;
+
+/// A local North-East-Down frame at a survey centre: the one Cartesian frame of a calibration.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LocalFrame {
+    origin_ecef_m: Vector3<f64>,
+    latitude_rad: f64,
+    longitude_rad: f64,
+    ecef_to_local: Matrix3<f64>,
+}
+
+impl LocalFrame {
+    /// The frame at `origin_ecef_m` (ECEF metres), whose geodetic latitude and longitude (rad)
+    /// define its axes (the caller converts with lidarqa-io's geodesy).
+    pub fn new(origin_ecef_m: Vector3<f64>, latitude_rad: f64, longitude_rad: f64) -> LocalFrame {
+        LocalFrame {
+            origin_ecef_m,
+            latitude_rad,
+            longitude_rad,
+            ecef_to_local: ecef_from_ned(latitude_rad, longitude_rad).transpose(),
+        }
+    }
+
+    /// Origin, ECEF metres.
+    pub fn origin_ecef_m(&self) -> Vector3<f64> {
+        self.origin_ecef_m
+    }
+
+    /// Latitude and longitude of the origin, rad.
+    pub fn origin_lat_lon_rad(&self) -> (f64, f64) {
+        (self.latitude_rad, self.longitude_rad)
+    }
+
+    /// ECEF metres → local NED metres.
+    pub fn to_local(&self, ecef_m: &Vector3<f64>) -> Vector3<f64> {
+        self.ecef_to_local * (ecef_m - self.origin_ecef_m)
+    }
+
+    /// Local NED metres → ECEF metres.
+    pub fn to_ecef(&self, local_m: &Vector3<f64>) -> Vector3<f64> {
+        self.origin_ecef_m + self.ecef_to_local.transpose() * local_m
+    }
+
+    /// A trajectory pose (lidarqa-tpu, ECEF) as `P0` in `L` and the attitude of `R_L` (body → `L`).
+    pub fn pose_in_local(&self, pose: &PoseAt) -> (Vector3<f64>, Attitude) {
+        let r_l = self.ecef_to_local * pose.ecef_to_ned.transpose() * pose.body_to_ned;
+        let a = zyx_angles(&r_l);
+        (
+            self.to_local(&pose.position_ecef_m),
+            Attitude {
+                roll_rad: a.x,
+                pitch_rad: a.y,
+                heading_rad: a.z,
+            },
+        )
+    }
+}
+
+/// One laser point with its raw observation, everything in the local frame `L` (module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RawPoint {
+    /// Current coordinates (as delivered, i.e. georeferenced with the prior mounting), local NED, m.
+    pub position_m: Vector3<f64>,
+    /// GNSS/INS reference point `P0` at the pulse time, local NED, m.
+    pub origin_m: Vector3<f64>,
+    /// Attitude of `R_L` (body → `L`), rad: `R_L = Rz(heading) Ry(pitch) Rx(roll)`.
+    pub attitude: Attitude,
+    /// Range ρ (m) and scan angle θ (rad, positive to the right wing), recovered once.
+    pub observation: LinearObservation,
+    /// GPS seconds of week of the pulse, s (kept for output; not used by the geometry).
+    pub time_s: f64,
+    /// Return intensity, sensor units (used by the automatic tie search).
+    pub intensity: u16,
+}
+
+impl RawPoint {
+    /// Builds a point from a pose and a recovery already computed (lidarqa-tpu
+    /// [`Recoverer::linear`]) and the point's ECEF position.
+    pub fn from_recovery(
+        frame: &LocalFrame,
+        pose: &PoseAt,
+        recovery: &LinearRecovery,
+        point_ecef_m: &Vector3<f64>,
+        intensity: u16,
+    ) -> RawPoint {
+        let (origin_m, attitude) = frame.pose_in_local(pose);
+        RawPoint {
+            position_m: frame.to_local(point_ecef_m),
+            origin_m,
+            attitude,
+            observation: LinearObservation {
+                range_m: recovery.range_m,
+                scan_angle_rad: recovery.scan_angle_rad,
+            },
+            time_s: pose.time_s,
+            intensity,
+        }
+    }
+
+    /// Recovers the raw observation of a georeferenced point (ECEF) with the mounting it was
+    /// georeferenced with, once, and keeps it.
+    ///
+    /// # Errors
+    /// [`Error::Tpu`] when the point coincides with the scanner origin.
+    pub fn recover(
+        frame: &LocalFrame,
+        pose: &PoseAt,
+        recoverer: &Recoverer,
+        point_ecef_m: &Vector3<f64>,
+        intensity: u16,
+    ) -> Result<RawPoint> {
+        let r = recoverer.linear(pose, point_ecef_m)?;
+        Ok(RawPoint::from_recovery(
+            frame,
+            pose,
+            &r,
+            point_ecef_m,
+            intensity,
+        ))
+    }
+
+    /// Local north, east and up of [`RawPoint::position_m`], m.
+    pub fn neu_m(&self) -> [f64; 3] {
+        [self.position_m.x, self.position_m.y, -self.position_m.z]
+    }
+}
+
+/// One strip: points of one flight line, all in the same local frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Strip {
+    /// The strip's id: the LAS point source id or the file's stem (SPEC §7 tie picks).
+    pub id: String,
+    /// The points, in any order.
+    pub points: Vec<RawPoint>,
+}
+
+impl Strip {
+    /// Horizontal extent `[min north, min east, max north, max east]`, m; `None` when empty.
+    pub fn extent_m(&self) -> Option<[f64; 4]> {
+        let mut e = [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for p in &self.points {
+            e[0] = e[0].min(p.position_m.x);
+            e[1] = e[1].min(p.position_m.y);
+            e[2] = e[2].max(p.position_m.x);
+            e[3] = e[3].max(p.position_m.y);
+        }
+        (!self.points.is_empty()).then_some(e)
+    }
+}
+
+/// Seed 000 eq. (2) in the local frame with the model: `P = P0 + R_L (R_M S + ΔP)`, through
+/// [`LinearScanner::footprint_ned`] (the reference path; [`Georeferencing`] is the fast one).
+pub fn georeference(point: &RawPoint, mounting: &Mounting) -> Vector3<f64> {
+    point.origin_m
+        + LinearScanner.footprint_ned(&LinearScanner.parameters(
+            &point.attitude,
+            mounting,
+            &point.observation,
+        ))
+}
+
+/// A mounting prepared for re-georeferencing many points: `R_M` computed once.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Georeferencing {
+    r_m: Matrix3<f64>,
+    lever_m: Vector3<f64>,
+}
+
+impl Georeferencing {
+    /// Prepares `R_M = Rz(yaw) Ry(pitch) Rx(roll)` and the lever arm.
+    pub fn new(mounting: &Mounting) -> Georeferencing {
+        Georeferencing {
+            r_m: rotation_zyx(
+                mounting.boresight_roll_rad,
+                mounting.boresight_pitch_rad,
+                mounting.boresight_yaw_rad,
+            ),
+            lever_m: mounting.lever_arm_m,
+        }
+    }
+
+    /// `P0 + R_L (R_M S + ΔP)`, local NED metres; equal to [`georeference`] to rounding.
+    #[inline]
+    pub fn apply(&self, p: &RawPoint) -> Vector3<f64> {
+        let a = &p.attitude;
+        let r_l = rotation_zyx(a.roll_rad, a.pitch_rad, a.heading_rad);
+        let s = scanner_vector(p.observation.range_m, p.observation.scan_angle_rad);
+        p.origin_m + r_l * (self.r_m * s + self.lever_m)
+    }
+}
+
+/// Strip correction: every point re-georeferenced from its raw observation with `mounting`
+/// (local NED metres, in point order; rayon-parallel).
+pub fn correct_strip(strip: &Strip, mounting: &Mounting) -> Vec<Vector3<f64>> {
+    let g = Georeferencing::new(mounting);
+    strip.points.par_iter().map(|p| g.apply(p)).collect()
+}
+
+/// Checks strips: at least one point each, unique ids, finite values.
+pub(crate) fn check_strips(strips: &[Strip]) -> Result<()> {
+    for (i, s) in strips.iter().enumerate() {
+        if s.points.is_empty() {
+            return Err(Error::EmptyStrip {
+                strip: s.id.clone(),
+            });
+        }
+        if strips[..i].iter().any(|o| o.id == s.id) {
+            return Err(Error::DuplicateStrip {
+                strip: s.id.clone(),
+            });
+        }
+        if let Some(index) = s.points.iter().position(|p| {
+            !(p.position_m.iter().all(|v| v.is_finite())
+                && p.origin_m.iter().all(|v| v.is_finite())
+                && p.attitude.roll_rad.is_finite()
+                && p.attitude.pitch_rad.is_finite()
+                && p.attitude.heading_rad.is_finite()
+                && p.observation.range_m.is_finite()
+                && p.observation.scan_angle_rad.is_finite())
+        }) {
+            return Err(Error::NonFinitePoint {
+                strip: s.id.clone(),
+                index,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// A uniform grid over the horizontal (north, east) plane: cell lists in CSR layout.
+#[derive(Debug, Clone)]
+pub(crate) struct GridIndex {
+    cell_m: f64,
+    min: [f64; 2],
+    nx: usize,
+    ny: usize,
+    starts: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl GridIndex {
+    /// Index of horizontal positions `xy` (north, east) with square cells of `cell_m`.
+    pub(crate) fn new(xy: &[[f64; 2]], cell_m: f64) -> GridIndex {
+        let mut min = [f64::INFINITY; 2];
+        let mut max = [f64::NEG_INFINITY; 2];
+        for p in xy {
+            for k in 0..2 {
+                min[k] = min[k].min(p[k]);
+                max[k] = max[k].max(p[k]);
+            }
+        }
+        if xy.is_empty() {
+            min = [0.0; 2];
+            max = [0.0; 2];
+        }
+        let nx = (((max[0] - min[0]) / cell_m).floor() as usize + 1).max(1);
+        let ny = (((max[1] - min[1]) / cell_m).floor() as usize + 1).max(1);
+        let cell_of = |p: &[f64; 2]| {
+            let i = (((p[0] - min[0]) / cell_m) as usize).min(nx - 1);
+            let j = (((p[1] - min[1]) / cell_m) as usize).min(ny - 1);
+            i * ny + j
+        };
+        let mut counts = vec![0u32; nx * ny + 1];
+        for p in xy {
+            counts[cell_of(p) + 1] += 1;
+        }
+        for c in 1..counts.len() {
+            counts[c] += counts[c - 1];
+        }
+        let mut fill = counts.clone();
+        let mut items = vec![0u32; xy.len()];
+        for (k, p) in xy.iter().enumerate() {
+            let c = cell_of(p);
+            items[fill[c] as usize] = k as u32;
+            fill[c] += 1;
+        }
+        GridIndex {
+            cell_m,
+            min,
+            nx,
+            ny,
+            starts: counts,
+            items,
+        }
+    }
+
+    /// Calls `f` with every index whose cell meets the square `[x ± r] × [y ± r]` (a superset of
+    /// the disc; the caller checks the distance).
+    pub(crate) fn candidates(&self, x: f64, y: f64, r: f64, mut f: impl FnMut(usize)) {
+        let lo = |v: f64, m: f64| ((v - r - m) / self.cell_m).floor();
+        let hi = |v: f64, m: f64| ((v + r - m) / self.cell_m).floor();
+        let (i0, i1) = (lo(x, self.min[0]), hi(x, self.min[0]));
+        let (j0, j1) = (lo(y, self.min[1]), hi(y, self.min[1]));
+        if i1 < 0.0 || j1 < 0.0 || i0 >= self.nx as f64 || j0 >= self.ny as f64 {
+            return;
+        }
+        let i0 = i0.max(0.0) as usize;
+        let j0 = j0.max(0.0) as usize;
+        let i1 = (i1 as usize).min(self.nx - 1);
+        let j1 = (j1 as usize).min(self.ny - 1);
+        for i in i0..=i1 {
+            for j in j0..=j1 {
+                let c = i * self.ny + j;
+                for &k in &self.items[self.starts[c] as usize..self.starts[c + 1] as usize] {
+                    f(k as usize);
+                }
+            }
+        }
+    }
+}
+
+/// Indices of `points` within horizontal distance `r` of (`x`, `y`).
+pub(crate) fn within(index: &GridIndex, points: &[RawPoint], x: f64, y: f64, r: f64) -> Vec<usize> {
+    let mut out = Vec::new();
+    index.candidates(x, y, r, |k| {
+        let p = &points[k].position_m;
+        if (p.x - x).powi(2) + (p.y - y).powi(2) <= r * r {
+            out.push(k);
+        }
+    });
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    fn point() -> RawPoint {
+        RawPoint {
+            position_m: Vector3::zeros(),
+            origin_m: Vector3::new(10.0, -20.0, -500.0),
+            attitude: Attitude::from_degrees(1.5, -2.0, 123.0),
+            observation: LinearObservation {
+                range_m: 520.0,
+                scan_angle_rad: -0.3,
+            },
+            time_s: 0.0,
+            intensity: 0,
+        }
+    }
+
+    #[test]
+    fn fast_path_equals_model() {
+        let m = Mounting {
+            boresight_roll_rad: 1e-3,
+            boresight_pitch_rad: -5e-4,
+            boresight_yaw_rad: 2e-3,
+            lever_arm_m: Vector3::new(0.1, -0.05, 0.2),
+        };
+        let p = point();
+        assert_relative_eq!(
+            georeference(&p, &m),
+            Georeferencing::new(&m).apply(&p),
+            epsilon = 1e-9
+        );
+    }
+
+    #[test]
+    fn grid_finds_exactly_the_disc() {
+        let pts: Vec<[f64; 2]> = (0..400)
+            .map(|k| [(k % 20) as f64 * 0.7, (k / 20) as f64 * 0.9])
+            .collect();
+        let g = GridIndex::new(&pts, 1.3);
+        let mut found = Vec::new();
+        g.candidates(5.0, 7.0, 2.0, |k| {
+            if (pts[k][0] - 5.0).powi(2) + (pts[k][1] - 7.0).powi(2) <= 4.0 {
+                found.push(k)
+            }
+        });
+        found.sort();
+        let brute: Vec<usize> = (0..400)
+            .filter(|&k| (pts[k][0] - 5.0).powi(2) + (pts[k][1] - 7.0).powi(2) <= 4.0)
+            .collect();
+        assert_eq!(found, brute);
+        assert!(!brute.is_empty());
+    }
+}

@@ -1,0 +1,475 @@
+//! The virtual tie point model (seed 001 §2.3–2.4).
+//!
+//! A tie picked in strip `i` at horizontal position `(x, y)` becomes a *virtual tie point*: the
+//! points of strip `i` within [`VtpmOptions::radius_m`] of the pick, their coplanar subset by
+//! RANSAC, a Delaunay triangulation of that subset in plan (spade), and the triangle containing
+//! the pick, whose three laser points `p1, p2, p3` carry the tie from then on:
+//!
+//! - **rule 1** (eq. 5): the tie's height is interpolated linearly in the triangle at `(x, y)`;
+//! - **rule 2** (eq. 6): when the mounting changes, the three points are re-georeferenced from
+//!   their raw observations and the tie moves rigidly with its triangle,
+//!   `T₁ = R_rigid T₀ + Δ`, the rigid transform estimated from the old and new triangle
+//!   (least squares, Kabsch). As in seed 001 step (4), "old" is the state of the previous accepted
+//!   iteration, so the tie coordinates are carried from iteration to iteration.
+
+use crate::error::{Error, Result};
+use crate::geometry::{Plane, interpolate_z, ransac_plane, rigid_transform};
+use crate::params::mounting_from_vector;
+use crate::strip::{Georeferencing, GridIndex, Strip, within};
+use nalgebra::Vector3;
+use spade::{DelaunayTriangulation, HasPosition, Point2, PositionInTriangulation, Triangulation};
+
+/// Options of the virtual tie point model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VtpmOptions {
+    /// Search radius around a pick, m (seed 001: "e.g. 1 m, from the mean point spacing").
+    pub radius_m: f64,
+    /// RANSAC inlier threshold, point-to-plane distance, m.
+    pub ransac_threshold_m: f64,
+    /// RANSAC iterations (random triples tried).
+    pub ransac_iterations: usize,
+    /// Seed of RANSAC's random triples (each tie/strip derives its own from it).
+    pub seed: u64,
+}
+
+impl Default for VtpmOptions {
+    fn default() -> Self {
+        VtpmOptions {
+            radius_m: 1.0,
+            ransac_threshold_m: 0.05,
+            ransac_iterations: 200,
+            seed: 1,
+        }
+    }
+}
+
+impl VtpmOptions {
+    pub(crate) fn check(&self) -> Result<()> {
+        let bad = |name, expected, value| {
+            Err(Error::InvalidOption {
+                name,
+                expected,
+                value,
+            })
+        };
+        if !(self.radius_m.is_finite() && self.radius_m > 0.0) {
+            return bad("radius_m", "a finite number > 0", self.radius_m);
+        }
+        if !(self.ransac_threshold_m.is_finite() && self.ransac_threshold_m > 0.0) {
+            return bad(
+                "ransac_threshold_m",
+                "a finite number > 0",
+                self.ransac_threshold_m,
+            );
+        }
+        if self.ransac_iterations == 0 {
+            return bad("ransac_iterations", "at least 1", 0.0);
+        }
+        Ok(())
+    }
+}
+
+/// How a tie observes the strips.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TieKind {
+    /// A feature located in every strip (a road marking corner picked on the intensity image,
+    /// seed 001 step 1): all three coordinates are observations.
+    Feature,
+    /// A point on a planar surface with no feature to fix it within the plane (a roof face found
+    /// by the automatic search): only the component along the plane normal is an observation
+    /// (a weight matrix `P = n nᵀ` in seed 001 eq. 4).
+    Surface,
+}
+
+/// The pick of a tie in one strip, local frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TiePick {
+    /// The strip's id ([`Strip::id`]).
+    pub strip: String,
+    /// Local north, m.
+    pub north_m: f64,
+    /// Local east, m.
+    pub east_m: f64,
+}
+
+/// A tie point: the same feature picked in two or more strips (SPEC §7 `tie,strip,x,y`, converted
+/// to the local frame by the caller). Heights come from the VTPM, never from the picks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tie {
+    /// Identifier, unique.
+    pub id: String,
+    /// One pick per strip.
+    pub picks: Vec<TiePick>,
+    /// What the tie observes.
+    pub kind: TieKind,
+}
+
+/// A surveyed target or checkpoint, local frame: an absolute observation
+/// (tie coordinate − control).
+///
+/// With a [`Tie`] of the same id, that tie's picks are used and all three coordinates observe the
+/// control. Without one, the point is picked at its own horizontal position in every strip that
+/// covers it and only its height observes the control (a checkpoint on open flat ground: its plan
+/// position in a strip is unknown, its height is not).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ControlPoint {
+    /// Identifier.
+    pub id: String,
+    /// Surveyed position, local NED, m.
+    pub position_m: Vector3<f64>,
+}
+
+#[derive(Clone, Copy)]
+struct Vertex {
+    p: Point2<f64>,
+    k: usize,
+}
+
+impl HasPosition for Vertex {
+    type Scalar = f64;
+    fn position(&self) -> Point2<f64> {
+        self.p
+    }
+}
+
+/// One tie in one strip: the triangle of three laser points and the tie coordinate.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct VirtualTie {
+    pub(crate) strip: usize,
+    pub(crate) vertices: [usize; 3],
+    /// The triangle at the last accepted parameters, local NED.
+    pub(crate) tri: [Vector3<f64>; 3],
+    /// The tie at the last accepted parameters, local NED.
+    pub(crate) coord: Vector3<f64>,
+    /// Normal of the coplanar patch (up-pointing, NED).
+    pub(crate) normal: Vector3<f64>,
+}
+
+/// Strip indices and grids, built once.
+pub(crate) struct Indexed<'a> {
+    pub(crate) strips: &'a [Strip],
+    pub(crate) grids: Vec<GridIndex>,
+}
+
+impl<'a> Indexed<'a> {
+    pub(crate) fn new(strips: &'a [Strip], cell_m: f64) -> Indexed<'a> {
+        let grids = strips
+            .iter()
+            .map(|s| {
+                let xy: Vec<[f64; 2]> = s
+                    .points
+                    .iter()
+                    .map(|p| [p.position_m.x, p.position_m.y])
+                    .collect();
+                GridIndex::new(&xy, cell_m)
+            })
+            .collect();
+        Indexed { strips, grids }
+    }
+
+    pub(crate) fn strip_index(&self, id: &str) -> Option<usize> {
+        self.strips.iter().position(|s| s.id == id)
+    }
+
+    /// Whether strip `s` has a point within `r` of (x, y).
+    pub(crate) fn covers(&self, s: usize, x: f64, y: f64, r: f64) -> bool {
+        !within(&self.grids[s], &self.strips[s].points, x, y, r).is_empty()
+    }
+}
+
+/// A tie coordinate and its triangle, local NED.
+pub(crate) type TieAt = (Vector3<f64>, [Vector3<f64>; 3]);
+
+/// Builds the virtual tie of `tie_id` in strip `s` at the pick (x, y) with the mounting `g`
+/// (seed 001 step 2, then rule 1 for the initial height).
+#[allow(clippy::too_many_arguments)] // internal; each argument is a distinct input
+pub(crate) fn build_virtual_tie(
+    idx: &Indexed<'_>,
+    s: usize,
+    tie_id: &str,
+    x: f64,
+    y: f64,
+    g: &Georeferencing,
+    opts: &VtpmOptions,
+    seed: u64,
+) -> Result<VirtualTie> {
+    let strip = &idx.strips[s];
+    let near = within(&idx.grids[s], &strip.points, x, y, opts.radius_m);
+    if near.is_empty() {
+        return Err(Error::TieOutsideStrip {
+            tie: tie_id.to_string(),
+            strip: strip.id.clone(),
+            radius_m: opts.radius_m,
+            north_m: x,
+            east_m: y,
+        });
+    }
+    let no_tri = |reason: String| Error::NoCoplanarTriangle {
+        tie: tie_id.to_string(),
+        strip: strip.id.clone(),
+        reason,
+    };
+    let pos: Vec<Vector3<f64>> = near.iter().map(|&k| g.apply(&strip.points[k])).collect();
+    let (plane, inliers): (Plane, Vec<usize>) =
+        ransac_plane(&pos, opts.ransac_threshold_m, opts.ransac_iterations, seed).ok_or_else(
+            || {
+                no_tri(format!(
+                    "ransac found no plane among {} points within {} m",
+                    pos.len(),
+                    opts.radius_m
+                ))
+            },
+        )?;
+    let mut dt: DelaunayTriangulation<Vertex> = DelaunayTriangulation::new();
+    for &i in &inliers {
+        dt.insert(Vertex {
+            p: Point2::new(pos[i].x, pos[i].y),
+            k: i,
+        })
+        .map_err(|e| no_tri(format!("delaunay: {e:?}")))?;
+    }
+    let face_vertices = |f: spade::handles::FixedFaceHandle<spade::handles::InnerTag>| {
+        dt.face(f).vertices().map(|v| v.data().k)
+    };
+    let local = match dt.locate(Point2::new(x, y)) {
+        PositionInTriangulation::OnFace(f) => Some(face_vertices(f)),
+        PositionInTriangulation::OnEdge(e) => {
+            let e = dt.directed_edge(e);
+            e.face()
+                .as_inner()
+                .or_else(|| e.rev().face().as_inner())
+                .map(|f| face_vertices(f.fix()))
+        }
+        PositionInTriangulation::OnVertex(v) => dt
+            .vertex(v)
+            .out_edges()
+            .find_map(|e| e.face().as_inner())
+            .map(|f| face_vertices(f.fix())),
+        _ => None,
+    }
+    .ok_or_else(|| {
+        no_tri(format!(
+            "the pick is outside the {} coplanar points",
+            inliers.len()
+        ))
+    })?;
+    let tri = local.map(|i| pos[i]);
+    let z = interpolate_z(&tri, x, y)
+        .ok_or_else(|| no_tri("the enclosing triangle is degenerate".into()))?;
+    Ok(VirtualTie {
+        strip: s,
+        vertices: local.map(|i| near[i]),
+        tri,
+        coord: Vector3::new(x, y, z),
+        normal: plane.normal,
+    })
+}
+
+impl VirtualTie {
+    /// Rule 2 (eq. 6): the tie coordinate at the parameter vector `x`, and the new triangle.
+    pub(crate) fn at(
+        &self,
+        strips: &[Strip],
+        g: &Georeferencing,
+    ) -> (Vector3<f64>, [Vector3<f64>; 3]) {
+        let pts = &strips[self.strip].points;
+        let new = self.vertices.map(|k| g.apply(&pts[k]));
+        let (r, t) = rigid_transform(&self.tri, &new);
+        (r * self.coord + t, new)
+    }
+}
+
+/// A tie with its virtual ties (one per strip) and what it observes.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct TieSpec {
+    pub(crate) id: String,
+    pub(crate) virtuals: Vec<VirtualTie>,
+    /// Unit directions (NED) along which the tie observes; 3 for a feature.
+    pub(crate) directions: Vec<Vector3<f64>>,
+    /// Surveyed position when the tie is also a control point.
+    pub(crate) control: Option<Vector3<f64>>,
+}
+
+impl TieSpec {
+    /// Independent scalar observations this tie gives.
+    pub(crate) fn observations(&self) -> usize {
+        let s = self.virtuals.len();
+        let per = if self.control.is_some() { s } else { s - 1 };
+        per * self.directions.len()
+    }
+}
+
+/// The tie set as the adjustment sees it (seed 001 steps 4–6).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct TieModel {
+    pub(crate) ties: Vec<TieSpec>,
+}
+
+impl TieModel {
+    /// Tie coordinates of every virtual tie at the parameter vector `x` (rule 2).
+    pub(crate) fn coords_at(&self, strips: &[Strip], x: &[f64; 6]) -> Vec<Vec<TieAt>> {
+        let g = Georeferencing::new(&mounting_from_vector(x));
+        self.ties
+            .iter()
+            .map(|t| t.virtuals.iter().map(|v| v.at(strips, &g)).collect())
+            .collect()
+    }
+
+    /// Residuals (seed 001 eq. 8 with the eq. 7 mean): per tie and strip, the tie coordinate minus
+    /// the mean over its strips (or minus the control), projected on the tie's directions.
+    pub(crate) fn residuals_from(&self, coords: &[Vec<TieAt>]) -> Vec<f64> {
+        let mut r = Vec::new();
+        for (t, c) in self.ties.iter().zip(coords) {
+            let reference = t.control.unwrap_or_else(|| {
+                c.iter().map(|(p, _)| *p).sum::<Vector3<f64>>() / c.len() as f64
+            });
+            for (p, _) in c {
+                let d = p - reference;
+                for dir in &t.directions {
+                    r.push(dir.dot(&d));
+                }
+            }
+        }
+        r
+    }
+
+    /// Accepts the state at `x`: triangles and tie coordinates move to it (seed 001 step 4).
+    pub(crate) fn accept(&mut self, strips: &[Strip], x: &[f64; 6]) {
+        let coords = self.coords_at(strips, x);
+        for (t, c) in self.ties.iter_mut().zip(coords) {
+            for (v, (p, tri)) in t.virtuals.iter_mut().zip(c) {
+                v.coord = p;
+                v.tri = tri;
+            }
+        }
+    }
+
+    pub(crate) fn observations(&self) -> usize {
+        self.ties.iter().map(TieSpec::observations).sum()
+    }
+}
+
+/// Seed-mixing for per-tie RANSAC seeds.
+pub(crate) fn mix_seed(seed: u64, a: usize, b: usize) -> u64 {
+    let mut h = seed ^ 0x9E37_79B9_7F4A_7C15;
+    for v in [a as u64, b as u64] {
+        h = (h ^ v).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        h ^= h >> 31;
+    }
+    h
+}
+
+/// Builds the tie model: virtual ties for every pick and every control point.
+pub(crate) fn build_tie_model(
+    idx: &Indexed<'_>,
+    ties: &[Tie],
+    control: &[ControlPoint],
+    prior: &[f64; 6],
+    opts: &VtpmOptions,
+) -> Result<TieModel> {
+    let g = Georeferencing::new(&mounting_from_vector(prior));
+    let axes = vec![Vector3::x(), Vector3::y(), Vector3::z()];
+    let mut out = Vec::new();
+    for (ti, tie) in ties.iter().enumerate() {
+        if ties[..ti].iter().any(|o| o.id == tie.id) {
+            return Err(Error::InvalidTie {
+                tie: tie.id.clone(),
+                message: "the id is used twice".into(),
+            });
+        }
+        let mut virtuals = Vec::new();
+        for (pi, pick) in tie.picks.iter().enumerate() {
+            if !(pick.north_m.is_finite() && pick.east_m.is_finite()) {
+                return Err(Error::InvalidTie {
+                    tie: tie.id.clone(),
+                    message: format!("the pick in strip {} is not finite", pick.strip),
+                });
+            }
+            let s = idx
+                .strip_index(&pick.strip)
+                .ok_or_else(|| Error::UnknownStrip {
+                    tie: tie.id.clone(),
+                    strip: pick.strip.clone(),
+                })?;
+            if virtuals.iter().any(|v: &VirtualTie| v.strip == s) {
+                return Err(Error::InvalidTie {
+                    tie: tie.id.clone(),
+                    message: format!("picked twice in strip {}", pick.strip),
+                });
+            }
+            virtuals.push(build_virtual_tie(
+                idx,
+                s,
+                &tie.id,
+                pick.north_m,
+                pick.east_m,
+                &g,
+                opts,
+                mix_seed(opts.seed, ti, pi),
+            )?);
+        }
+        let c = control.iter().find(|c| c.id == tie.id);
+        if virtuals.len() < 2 && c.is_none() {
+            return Err(Error::InvalidTie {
+                tie: tie.id.clone(),
+                message: format!(
+                    "picked in {} strip(s); a tie needs at least 2",
+                    virtuals.len()
+                ),
+            });
+        }
+        let directions = match tie.kind {
+            TieKind::Feature => axes.clone(),
+            TieKind::Surface => vec![virtuals[0].normal],
+        };
+        out.push(TieSpec {
+            id: tie.id.clone(),
+            virtuals,
+            directions,
+            control: c.map(|c| c.position_m),
+        });
+    }
+    for (ci, c) in control.iter().enumerate() {
+        if ties.iter().any(|t| t.id == c.id) {
+            continue;
+        }
+        if !c.position_m.iter().all(|v| v.is_finite()) {
+            return Err(Error::InvalidTie {
+                tie: c.id.clone(),
+                message: "control coordinates are not finite".into(),
+            });
+        }
+        let (x, y) = (c.position_m.x, c.position_m.y);
+        let mut virtuals = Vec::new();
+        for s in 0..idx.strips.len() {
+            if !idx.covers(s, x, y, opts.radius_m) {
+                continue;
+            }
+            virtuals.push(build_virtual_tie(
+                idx,
+                s,
+                &c.id,
+                x,
+                y,
+                &g,
+                opts,
+                mix_seed(opts.seed ^ 0xC0, ci, s),
+            )?);
+        }
+        if virtuals.is_empty() {
+            return Err(Error::OutsideEveryStrip {
+                what: "control point",
+                id: c.id.clone(),
+                north_m: x,
+                east_m: y,
+            });
+        }
+        out.push(TieSpec {
+            id: c.id.clone(),
+            virtuals,
+            directions: vec![Vector3::z()],
+            control: Some(c.position_m),
+        });
+    }
+    Ok(TieModel { ties: out })
+}

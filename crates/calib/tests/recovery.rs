@@ -1,0 +1,60 @@
+//! Raw observations recovered through ECEF with lidarqa-tpu and expressed in the local frame
+//! re-georeference to the delivered point, and to the right place with another mounting.
+
+use lidarqa_calib::{LocalFrame, RawPoint, georeference};
+use lidarqa_model::{Attitude, Georeferencer, LinearObservation, LinearScanner, Mounting};
+use lidarqa_tpu::{Pose, Recoverer, Trajectory, ecef_from_ned};
+use nalgebra::Vector3;
+
+#[test]
+fn recovered_point_re_georeferences_in_the_local_frame() {
+    // Survey centre and a pose 3 km away (the N frames differ by ~0.03°).
+    let (lat0, lon0) = (0.52_f64, 1.98_f64);
+    let a = 6_378_137.0;
+    let ecef = |lat: f64, lon: f64, h: f64| {
+        Vector3::new(
+            (a + h) * lat.cos() * lon.cos(),
+            (a + h) * lat.cos() * lon.sin(),
+            (a + h) * lat.sin(),
+        )
+    };
+    let frame = LocalFrame::new(ecef(lat0, lon0, 0.0), lat0, lon0);
+    let (lat, lon) = (lat0 + 3000.0 / a, lon0 + 1000.0 / a);
+    let p0 = ecef(lat, lon, 800.0);
+    let pose = |t| Pose {
+        time_s: t,
+        position_ecef_m: p0,
+        latitude_rad: lat,
+        longitude_rad: lon,
+        attitude: Attitude::from_degrees(1.0, 2.0, 77.0),
+    };
+    let traj = Trajectory::new(&[pose(0.0), pose(1.0)]).unwrap();
+    let at = traj.at(0.5).unwrap();
+    let nominal = Mounting {
+        boresight_roll_rad: 0.001,
+        lever_arm_m: Vector3::new(0.3, 0.0, -0.2),
+        ..Mounting::default()
+    };
+    let obs = LinearObservation {
+        range_m: 812.5,
+        scan_angle_rad: 0.3,
+    };
+    let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&at.attitude, &nominal, &obs));
+    let point = p0 + ecef_from_ned(lat, lon) * f;
+    let raw = RawPoint::recover(&frame, &at, &Recoverer::new(&nominal), &point, 10).unwrap();
+    assert!((raw.observation.range_m - 812.5).abs() < 1e-6);
+    assert!((georeference(&raw, &nominal) - raw.position_m).norm() < 1e-6);
+    // Another mounting: the same answer as georeferencing in the pose's own N frame.
+    let other = Mounting {
+        boresight_yaw_rad: 0.002,
+        lever_arm_m: Vector3::new(0.0, 0.1, 0.0),
+        ..Mounting::default()
+    };
+    let f2 = LinearScanner.footprint_ned(&LinearScanner.parameters(&at.attitude, &other, &obs));
+    let expect = frame.to_local(&(p0 + ecef_from_ned(lat, lon) * f2));
+    assert!(
+        (georeference(&raw, &other) - expect).norm() < 1e-6,
+        "{}",
+        (georeference(&raw, &other) - expect).norm()
+    );
+}

@@ -1,0 +1,597 @@
+//! `lidarqa calibrate`: boresight + lever-arm self-calibration from overlapping strips (SPEC §7,
+//! seed 001), writing `calibration.json` (SPEC §8) and `calibration_iterations.json` beside it.
+//!
+//! Also holds the strip loading shared with `lidarqa correct`: LAS/LAZ → (UTM inverse, ellipsoid)
+//! ECEF → local NED frame at the survey centre, GPS time → trajectory pose, raw observation
+//! recovered once with the sensor file's mounting (lidarqa-tpu). The sensor and SBET are read by
+//! lidarqa-pipeline's `TpuContext`, as `lidarqa tpu` does.
+
+use crate::format::{OutputFormat, print_json, print_text};
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use lidarqa_calib::{
+    AutoTieOptions, Calibration, CalibrationOptions, ControlPoint, LocalFrame, Param, PlaneOptions,
+    RawPoint, Strip, Tie, TieKind, TiePick, auto_ties, calibrate_plane, calibrate_vtpm,
+};
+use lidarqa_io::{
+    AtomicFile, ControlPoints, Geodetic, LasInfo, LasPoint, LasReader, LasTimeConverter,
+    PointChunk, TiePicks, UtmZone,
+};
+use lidarqa_model::Mounting;
+use lidarqa_pipeline::{TpuContext, TpuOptions};
+use lidarqa_tpu::Recoverer;
+use nalgebra::Vector3;
+use std::collections::HashMap;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+pub const AFTER_HELP: &str = "\
+Examples:
+  lidarqa calibrate s1.laz s2.laz s3.laz s4.laz --trajectory sbet.out --sensor sensor.toml \\
+      --ties ties.csv --control control.csv -o calibration.json
+  lidarqa calibrate strips/*.laz --trajectory sbet.out --sensor sensor.toml --auto-ties -o cal.json
+  lidarqa calibrate strips/*.laz --trajectory sbet.out --sensor sensor.toml --ties ties.csv \\
+      --method plane -o calibration_plane.json
+
+Tie picks CSV: tie,strip,x,y (projected metres; strip = LAS point source id or file stem).
+Control CSV: id,x,y,z (projected metres, ellipsoidal height). A control id equal to a tie id
+observes all three coordinates; otherwise only its height. Without control the vertical lever
+arm is not observable and is held at the sensor file's value (\"observable\": false).
+Writes calibration_iterations.json (the convergence record) beside the output.";
+
+/// Flags of `lidarqa calibrate`.
+#[derive(Debug, Args)]
+pub struct CalibrateArgs {
+    /// Strips (LAS/LAZ with GPS time), one flight line each.
+    #[arg(required = true, value_name = "STRIP")]
+    strips: Vec<PathBuf>,
+    /// Trajectory (SBET).
+    #[arg(long, value_name = "FILE")]
+    trajectory: PathBuf,
+    /// Sensor file (TOML, SPEC §5); its [mounting] is the prior the strips were made with.
+    #[arg(long, value_name = "FILE")]
+    sensor: PathBuf,
+    /// Hand-picked ties (CSV tie,strip,x,y).
+    #[arg(
+        long,
+        value_name = "FILE",
+        conflicts_with = "auto_ties",
+        required_unless_present = "auto_ties"
+    )]
+    ties: Option<PathBuf>,
+    /// Find ties automatically: road markings (intensity contrast on flat ground) and roof faces.
+    #[arg(long)]
+    auto_ties: bool,
+    /// Control points (CSV id,x,y,z).
+    #[arg(long, value_name = "FILE")]
+    control: Option<PathBuf>,
+    /// vtpm (seed 001, lever arm + boresight) or plane (point-to-plane baseline, boresight only).
+    #[arg(long, default_value = "vtpm", value_parser = ["vtpm", "plane"])]
+    method: String,
+    /// Output calibration.json.
+    #[arg(short, long, value_name = "FILE")]
+    output: PathBuf,
+    /// GPS week of the survey (LAS adjusted standard GPS time).
+    #[arg(long, value_name = "WEEK")]
+    gps_week: Option<i64>,
+    /// VTPM search radius around a pick, metres.
+    #[arg(
+        long,
+        value_name = "M",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
+    radius_m: f64,
+    /// RANSAC plane threshold, metres.
+    #[arg(
+        long,
+        value_name = "M",
+        default_value_t = 0.05,
+        allow_negative_numbers = true
+    )]
+    ransac_threshold_m: f64,
+    /// RANSAC iterations.
+    #[arg(long, value_name = "N", default_value_t = 200)]
+    ransac_iterations: usize,
+    /// Levenberg–Marquardt iteration limit.
+    #[arg(long, value_name = "N", default_value_t = 50)]
+    max_iterations: usize,
+    /// Output format of the summary on stdout.
+    #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
+    format: OutputFormat,
+}
+
+/// A loaded strip: the calib strip, the file's points (for writing) and what converts back.
+pub(crate) struct LoadedStrip {
+    pub(crate) path: PathBuf,
+    pub(crate) stem: String,
+    pub(crate) info: LasInfo,
+    pub(crate) zone: UtmZone,
+    pub(crate) strip: Strip,
+    pub(crate) las_points: Vec<LasPoint>,
+}
+
+/// Survey centre of the files (from their headers) as a local frame, on `zone`'s ellipsoid.
+pub(crate) fn frame_for(infos: &[LasInfo], zone: &UtmZone) -> LocalFrame {
+    let n = infos.len().max(1) as f64;
+    let c = |k: usize| {
+        infos
+            .iter()
+            .map(|i| 0.5 * (i.min[k] + i.max[k]))
+            .sum::<f64>()
+            / n
+    };
+    let (lat, lon) = zone.projection().inverse(c(0), c(1));
+    let e = zone.datum().ellipsoid();
+    let ecef = e.geodetic_to_ecef(&Geodetic {
+        latitude_rad: lat,
+        longitude_rad: lon,
+        height_m: c(2),
+    });
+    LocalFrame::new(ecef, lat, lon)
+}
+
+pub(crate) fn read_info(path: &Path) -> Result<(LasInfo, UtmZone)> {
+    let info = LasReader::from_path(path)?.info().clone();
+    if !info.has_gps_time {
+        bail!(
+            "{}: no GPS time (point format {}); recovering raw observations needs each point's time",
+            path.display(),
+            info.point_format
+        );
+    }
+    let zone = info.utm_zone()?;
+    Ok((info, zone))
+}
+
+/// Reads one strip and recovers every point's raw observation (module docs).
+pub(crate) fn load_strip(
+    path: &Path,
+    ctx: &TpuContext,
+    frame: &LocalFrame,
+    gps_week: Option<i64>,
+) -> Result<LoadedStrip> {
+    let (info, zone) = read_info(path)?;
+    let trajectory = ctx.trajectory(zone.datum())?;
+    let converter = LasTimeConverter::new(path, info.time_base, gps_week, info.creation_date)?;
+    let projection = zone.projection();
+    let ellipsoid = zone.datum().ellipsoid();
+    let recoverer = Recoverer::new(&ctx.sensor().mounting);
+    let mut reader = LasReader::from_path(path)?;
+    let mut chunk = PointChunk::new();
+    let mut points = Vec::with_capacity(info.point_count as usize);
+    let mut las_points = Vec::with_capacity(info.point_count as usize);
+    let mut index = 0u64;
+    while reader.fill(&mut chunk, 200_000)? > 0 {
+        for p in &chunk.points {
+            let t = p
+                .gps_time_s
+                .with_context(|| format!("{}: point {index} has no GPS time", path.display()))?;
+            let sow = converter.to_seconds_of_week(t)?;
+            let pose = trajectory
+                .at(sow)
+                .with_context(|| format!("{}: point {index}", path.display()))?;
+            let (lat, lon) = projection.inverse(p.x, p.y);
+            let ecef = ellipsoid.geodetic_to_ecef(&Geodetic {
+                latitude_rad: lat,
+                longitude_rad: lon,
+                height_m: p.z,
+            });
+            let raw = RawPoint::recover(frame, &pose, &recoverer, &ecef, p.intensity)
+                .with_context(|| format!("{}: point {index}", path.display()))?;
+            points.push(raw);
+            las_points.push(p.clone());
+            index += 1;
+        }
+    }
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    // The strip id: the LAS point source id when every point has the same non-zero one.
+    let psid = las_points.first().map(|p| p.point_source_id).unwrap_or(0);
+    let id = if psid != 0 && las_points.iter().all(|p| p.point_source_id == psid) {
+        psid.to_string()
+    } else {
+        stem.clone()
+    };
+    Ok(LoadedStrip {
+        path: path.to_path_buf(),
+        stem,
+        info,
+        zone,
+        strip: Strip { id, points },
+        las_points,
+    })
+}
+
+/// Local NED → projected `[easting, northing, ellipsoidal height]` in `zone`.
+pub(crate) fn local_to_projected(frame: &LocalFrame, zone: &UtmZone, v: &Vector3<f64>) -> [f64; 3] {
+    let g = zone.datum().ellipsoid().ecef_to_geodetic(&frame.to_ecef(v));
+    let p = zone.projection().forward(g.latitude_rad, g.longitude_rad);
+    [p.easting_m, p.northing_m, g.height_m]
+}
+
+/// Projected position → local NED.
+pub(crate) fn projected_to_local(
+    frame: &LocalFrame,
+    zone: &UtmZone,
+    x: f64,
+    y: f64,
+    h: f64,
+) -> Vector3<f64> {
+    let (lat, lon) = zone.projection().inverse(x, y);
+    let ecef = zone.datum().ellipsoid().geodetic_to_ecef(&Geodetic {
+        latitude_rad: lat,
+        longitude_rad: lon,
+        height_m: h,
+    });
+    frame.to_local(&ecef)
+}
+
+fn frame_height(frame: &LocalFrame, zone: &UtmZone) -> f64 {
+    local_to_projected(frame, zone, &Vector3::zeros())[2]
+}
+
+/// Tie picks in the local frame; a pick's height is taken from the nearest point of its strip
+/// (the horizontal local position depends on it by ~1.6 cm per 100 m per km from the centre).
+fn ties_from_csv(
+    picks: &TiePicks,
+    loaded: &[LoadedStrip],
+    frame: &LocalFrame,
+    zone: &UtmZone,
+) -> Result<Vec<Tie>> {
+    let mut by_id: HashMap<&str, usize> = HashMap::new();
+    for (k, l) in loaded.iter().enumerate() {
+        by_id.insert(l.strip.id.as_str(), k);
+        by_id.insert(l.stem.as_str(), k);
+    }
+    let h0 = frame_height(frame, zone);
+    let mut order: Vec<String> = Vec::new();
+    let mut ties: HashMap<String, Vec<TiePick>> = HashMap::new();
+    for p in &picks.picks {
+        let &k = by_id.get(p.strip.as_str()).with_context(|| {
+            format!(
+                "{}: line {}: strip {} is not among the input strips",
+                picks.path.display(),
+                p.line,
+                p.strip
+            )
+        })?;
+        let guess = projected_to_local(frame, zone, p.x, p.y, h0);
+        let up = nearest_up(&loaded[k].strip, guess.x, guess.y).unwrap_or(0.0);
+        let local = projected_to_local(frame, zone, p.x, p.y, h0 + up);
+        if !ties.contains_key(&p.tie) {
+            order.push(p.tie.clone());
+        }
+        ties.entry(p.tie.clone()).or_default().push(TiePick {
+            strip: loaded[k].strip.id.clone(),
+            north_m: local.x,
+            east_m: local.y,
+        });
+    }
+    Ok(order
+        .into_iter()
+        .map(|id| Tie {
+            picks: ties.remove(&id).unwrap_or_default(),
+            id,
+            kind: TieKind::Feature,
+        })
+        .collect())
+}
+
+fn nearest_up(strip: &Strip, x: f64, y: f64) -> Option<f64> {
+    strip
+        .points
+        .iter()
+        .min_by(|a, b| {
+            let da = (a.position_m.x - x).powi(2) + (a.position_m.y - y).powi(2);
+            let db = (b.position_m.x - x).powi(2) + (b.position_m.y - y).powi(2);
+            da.total_cmp(&db)
+        })
+        .map(|p| -p.position_m.z)
+}
+
+/// Loads every strip into one frame (the files must share a CRS).
+pub(crate) fn load_all(
+    paths: &[PathBuf],
+    ctx: &TpuContext,
+    gps_week: Option<i64>,
+) -> Result<(LocalFrame, UtmZone, Vec<LoadedStrip>)> {
+    let mut infos = Vec::new();
+    let mut zone: Option<UtmZone> = None;
+    for p in paths {
+        let (info, z) = read_info(p)?;
+        if let Some(z0) = zone
+            && z0 != z
+        {
+            bail!(
+                "{}: CRS EPSG {:?} differs from the first strip's",
+                p.display(),
+                z.epsg()
+            );
+        }
+        zone = Some(z);
+        infos.push(info);
+    }
+    let zone = zone.context("no strips")?;
+    let frame = frame_for(&infos, &zone);
+    let loaded = paths
+        .iter()
+        .map(|p| load_strip(p, ctx, &frame, gps_week))
+        .collect::<Result<Vec<_>>>()?;
+    Ok((frame, zone, loaded))
+}
+
+fn write_json(path: &Path, value: &serde_json::Value, inputs: &[PathBuf]) -> Result<()> {
+    let mut f = AtomicFile::create(path, inputs)?;
+    serde_json::to_writer_pretty(&mut f, value)?;
+    writeln!(f)?;
+    f.commit()?;
+    Ok(())
+}
+
+struct Plan {
+    args: CalibrateArgs,
+    options: CalibrationOptions,
+    iterations_path: PathBuf,
+}
+
+impl TryFrom<CalibrateArgs> for Plan {
+    type Error = anyhow::Error;
+    fn try_from(args: CalibrateArgs) -> Result<Plan> {
+        let mut options = CalibrationOptions::default();
+        options.vtpm.radius_m = args.radius_m;
+        options.vtpm.ransac_threshold_m = args.ransac_threshold_m;
+        options.vtpm.ransac_iterations = args.ransac_iterations;
+        options.lm.max_iterations = args.max_iterations;
+        if !(args.radius_m.is_finite() && args.radius_m > 0.0) {
+            bail!("--radius-m must be a number > 0, got {}", args.radius_m);
+        }
+        if !(args.ransac_threshold_m.is_finite() && args.ransac_threshold_m > 0.0) {
+            bail!(
+                "--ransac-threshold-m must be a number > 0, got {}",
+                args.ransac_threshold_m
+            );
+        }
+        if args.ransac_iterations == 0 || args.max_iterations == 0 {
+            bail!("--ransac-iterations and --max-iterations must be at least 1");
+        }
+        let dir = match args.output.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let iterations_path = dir.join("calibration_iterations.json");
+        if iterations_path == args.output {
+            bail!(
+                "the output must not be named calibration_iterations.json (that file is written beside it)"
+            );
+        }
+        Ok(Plan {
+            args,
+            options,
+            iterations_path,
+        })
+    }
+}
+
+pub fn run(args: CalibrateArgs) -> Result<()> {
+    let plan = Plan::try_from(args)?;
+    let a = &plan.args;
+    let ctx = TpuContext::from_files(
+        &a.sensor,
+        &a.trajectory,
+        None,
+        TpuOptions {
+            gps_week: a.gps_week,
+            ..TpuOptions::default()
+        },
+    )?;
+    let prior: Mounting = ctx.sensor().mounting;
+    let (frame, zone, mut loaded) = load_all(&a.strips, &ctx, a.gps_week)?;
+    for l in &mut loaded {
+        l.las_points = Vec::new();
+    }
+    let picked = match &a.ties {
+        Some(p) => Some(ties_from_csv(
+            &TiePicks::from_path(p)?,
+            &loaded,
+            &frame,
+            &zone,
+        )?),
+        None => None,
+    };
+    let strips: Vec<Strip> = loaded.into_iter().map(|l| l.strip).collect();
+    let ties = match picked {
+        Some(t) => t,
+        None => auto_ties(
+            &strips,
+            &prior,
+            &AutoTieOptions {
+                vtpm: plan.options.vtpm,
+                ..AutoTieOptions::default()
+            },
+        )?,
+    };
+    let control: Vec<ControlPoint> = match &a.control {
+        Some(p) => ControlPoints::from_path(p)?
+            .records
+            .iter()
+            .map(|c| ControlPoint {
+                id: c.id.clone(),
+                position_m: projected_to_local(&frame, &zone, c.x, c.y, c.z),
+            })
+            .collect(),
+        None => Vec::new(),
+    };
+    let cal: Calibration = match a.method.as_str() {
+        "plane" => {
+            let centres: Vec<[f64; 2]> = ties
+                .iter()
+                .map(|t| {
+                    let n = t.picks.len() as f64;
+                    [
+                        t.picks.iter().map(|p| p.north_m).sum::<f64>() / n,
+                        t.picks.iter().map(|p| p.east_m).sum::<f64>() / n,
+                    ]
+                })
+                .collect();
+            calibrate_plane(
+                &strips,
+                &centres,
+                &prior,
+                &plan.options,
+                &PlaneOptions::default(),
+            )?
+        }
+        _ => calibrate_vtpm(&strips, &ties, &control, &prior, &plan.options)?,
+    };
+    let mut inputs: Vec<PathBuf> = a.strips.clone();
+    inputs.extend([a.trajectory.clone(), a.sensor.clone()]);
+    inputs.extend(a.ties.clone());
+    inputs.extend(a.control.clone());
+    write_json(&a.output, &cal.to_json(), &inputs)?;
+    if cal.method == lidarqa_calib::Method::Vtpm {
+        let doc = cal.iterations_json(|v| local_to_projected(&frame, &zone, v));
+        write_json(&plan.iterations_path, &doc, &inputs)?;
+    }
+    match a.format {
+        OutputFormat::Json => print_json(&cal.to_json()),
+        OutputFormat::Table => print_text(&table(&cal)),
+    }
+}
+
+fn table(cal: &Calibration) -> String {
+    let x = lidarqa_calib::mounting_to_vector(&cal.mounting);
+    let mut s = format!(
+        "method {}  iterations {}  ({})  sigma0 {:.4} m\n{:<22} {:>12} {:>12}  observable\n",
+        cal.method.name(),
+        cal.iterations,
+        cal.termination.name(),
+        cal.sigma0_m,
+        "parameter",
+        "value",
+        "sigma"
+    );
+    for p in Param::ALL {
+        let i = p.index();
+        let sig = cal.sigma[i].map_or("-".to_string(), |v| format!("{:.5}", p.to_display(v)));
+        s += &format!(
+            "{:<22} {:>12.5} {:>12}  {}\n",
+            p.key(),
+            p.to_display(x[i]),
+            sig,
+            if cal.observable[i] {
+                "yes".to_string()
+            } else {
+                format!("no: {}", cal.held_because[i])
+            }
+        );
+    }
+    let ((h0, v0), (h1, v1)) = cal.tie_rms_m();
+    s += &format!(
+        "tie residual RMS: horizontal {:.3} -> {:.3} m, vertical {:.3} -> {:.3} m ({} ties)\n",
+        h0,
+        h1,
+        v0,
+        v1,
+        cal.ties.len()
+    );
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+    use lidarqa_io::{LasTimeBase, LasWriteOptions, LasWriter};
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: CalibrateArgs,
+    }
+
+    #[test]
+    fn las_without_gps_time_is_refused_naming_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("no_time.las");
+        let opts = LasWriteOptions {
+            version_minor: 2,
+            point_format: 0,
+            scale: [0.001; 3],
+            offset: [0.0; 3],
+            time_base: LasTimeBase::GpsWeekSeconds,
+            crs_vlrs: Vec::new(),
+            extra_dims: Vec::new(),
+            file_source_id: 0,
+        };
+        let mut w = LasWriter::create(&path, &opts, &[] as &[&Path]).unwrap();
+        w.write_point(
+            &LasPoint {
+                x: 1.0,
+                y: 2.0,
+                z: 3.0,
+                ..LasPoint::default()
+            },
+            &[],
+        )
+        .unwrap();
+        w.finish().unwrap();
+        let e = read_info(&path).unwrap_err().to_string();
+        assert!(
+            e.ends_with(
+                "no GPS time (point format 0); recovering raw observations needs each point's time"
+            ),
+            "{e}"
+        );
+        assert!(e.contains("no_time.las"), "{e}");
+    }
+
+    #[test]
+    fn ties_and_auto_ties_are_exclusive_and_one_is_required() {
+        let base = [
+            "x",
+            "a.laz",
+            "--trajectory",
+            "t",
+            "--sensor",
+            "s",
+            "-o",
+            "c.json",
+        ];
+        assert!(Cli::try_parse_from(base).is_err());
+        let mut both = base.to_vec();
+        both.extend(["--ties", "t.csv", "--auto-ties"]);
+        assert!(Cli::try_parse_from(both).is_err());
+        let mut ok = base.to_vec();
+        ok.extend(["--auto-ties", "--radius-m", "1.5", "--method", "plane"]);
+        let c = Cli::try_parse_from(ok).unwrap();
+        let plan = Plan::try_from(c.args).unwrap();
+        assert_eq!(plan.options.vtpm.radius_m, 1.5);
+        assert_eq!(
+            plan.iterations_path,
+            PathBuf::from("./calibration_iterations.json")
+        );
+    }
+
+    #[test]
+    fn bad_radius_is_refused() {
+        let c = Cli::try_parse_from([
+            "x",
+            "a.laz",
+            "--trajectory",
+            "t",
+            "--sensor",
+            "s",
+            "-o",
+            "c.json",
+            "--auto-ties",
+            "--radius-m",
+            "-1",
+        ])
+        .unwrap();
+        let e = Plan::try_from(c.args).err().unwrap().to_string();
+        assert_eq!(e, "--radius-m must be a number > 0, got -1");
+    }
+}

@@ -1,0 +1,105 @@
+//! `lidarqa overlap`: swath-to-swath height differences of overlapping strips on smooth surfaces
+//! (USGS Lidar Base Specification interswath accuracy), a dz grid and a profile.
+
+use crate::format::{OutputFormat, print_text};
+use anyhow::{Result, bail};
+use clap::Args;
+use lidarqa_calib::{OverlapOptions, OverlapStrip, overlap_qc};
+use lidarqa_io::{AtomicFile, LasReader, PointChunk};
+use std::io::Write as _;
+use std::path::PathBuf;
+
+pub const AFTER_HELP: &str = "\
+Examples:
+  lidarqa overlap s1.laz s2.laz s3.laz                      RMSDz and max |dz| per strip pair
+  lidarqa overlap corrected/*.laz -o overlap_after.json     also the dz grid and a profile
+
+dz = z(first strip) − z(second) per cell of --cell-m where both strips are smooth (plane-fit RMS
+≤ --max-roughness-m, slope ≤ --max-slope-deg). Coordinates as in the files (projected, z up).";
+
+/// Flags of `lidarqa overlap`.
+#[derive(Debug, Args)]
+pub struct OverlapArgs {
+    /// Strips (LAS/LAZ), two or more.
+    #[arg(required = true, num_args = 2.., value_name = "STRIP")]
+    strips: Vec<PathBuf>,
+    /// Write the JSON (pairs, grid, profile) to this file.
+    #[arg(short, long, value_name = "FILE")]
+    output: Option<PathBuf>,
+    /// Cell size, metres.
+    #[arg(long, value_name = "M", default_value_t = 1.0)]
+    cell_m: f64,
+    /// Largest plane-fit RMS of a smooth cell, metres.
+    #[arg(long, value_name = "M", default_value_t = 0.05)]
+    max_roughness_m: f64,
+    /// Largest slope of a smooth cell, degrees.
+    #[arg(long, value_name = "DEG", default_value_t = 10.0)]
+    max_slope_deg: f64,
+    /// Output format on stdout.
+    #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
+    format: OutputFormat,
+}
+
+pub fn run(a: OverlapArgs) -> Result<()> {
+    if !(a.cell_m.is_finite() && a.cell_m > 0.0) {
+        bail!("--cell-m must be a number > 0, got {}", a.cell_m);
+    }
+    let mut strips = Vec::new();
+    for path in &a.strips {
+        let mut r = LasReader::from_path(path)?;
+        let mut chunk = PointChunk::new();
+        let mut points = Vec::new();
+        let mut psid = None;
+        while r.fill(&mut chunk, 200_000)? > 0 {
+            for p in &chunk.points {
+                psid.get_or_insert(p.point_source_id);
+                points.push([p.x, p.y, p.z]);
+            }
+        }
+        let stem = path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let id = match psid {
+            Some(id) if id != 0 => id.to_string(),
+            _ => stem,
+        };
+        strips.push(OverlapStrip { id, points });
+    }
+    let opts = OverlapOptions {
+        cell_m: a.cell_m,
+        max_roughness_m: a.max_roughness_m,
+        max_slope_deg: a.max_slope_deg,
+        ..OverlapOptions::default()
+    };
+    let report = overlap_qc(&strips, &opts)?;
+    let doc = report.to_json();
+    if let Some(out) = &a.output {
+        let mut f = AtomicFile::create(out, &a.strips)?;
+        serde_json::to_writer(&mut f, &doc)?;
+        writeln!(f)?;
+        f.commit()?;
+    }
+    match a.format {
+        OutputFormat::Json => {
+            let mut out = std::io::stdout().lock();
+            serde_json::to_writer_pretty(&mut out, &serde_json::json!({"pairs": doc["pairs"]}))?;
+            writeln!(out)?;
+            Ok(())
+        }
+        OutputFormat::Table => {
+            let mut s = format!(
+                "{:<12} {:<12} {:>10} {:>12} {:>10} {:>8}\n",
+                "strip a", "strip b", "RMSDz m", "max |dz| m", "mean dz m", "cells"
+            );
+            for p in &report.pairs {
+                s += &format!(
+                    "{:<12} {:<12} {:>10.4} {:>12.4} {:>10.4} {:>8}\n",
+                    p.strips[0], p.strips[1], p.rmsdz_m, p.max_abs_dz_m, p.mean_dz_m, p.n
+                );
+            }
+            s += &format!("all pairs: RMSDz {:.4} m\n", report.overall_rmsdz_m());
+            print_text(&s)
+        }
+    }
+}
