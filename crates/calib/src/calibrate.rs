@@ -334,6 +334,13 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
         let free: Vec<usize> = (0..PARAM_COUNT)
             .filter(|&i| held_because[i].is_empty())
             .collect();
+        if free.is_empty() {
+            let reasons: Vec<String> = Param::ALL
+                .iter()
+                .map(|p| format!("{}: {}", p.key(), held_because[p.index()]))
+                .collect();
+            return Err(Error::NothingDetermined(reasons.join("; ")));
+        }
         if observations < free.len().max(1) {
             return Err(Error::TooFewTies {
                 ties: 0,
@@ -561,7 +568,8 @@ pub fn calibrate_vtpm(
     check_overlap(strips)?;
     let x0 = mounting_to_vector(prior);
     let idx = Indexed::new(strips, options.vtpm.radius_m.max(0.5));
-    let model = build_tie_model(&idx, ties, control, &x0, &options.vtpm)?;
+    let mut model = build_tie_model(&idx, ties, control, &x0, &options.vtpm)?;
+    screen_outlier_ties(strips, &mut model, x0, options);
     let observations = model.observations();
     let unknowns = options.solve.iter().filter(|s| **s).count();
     if observations < unknowns {
@@ -601,6 +609,51 @@ pub fn calibrate_vtpm(
         ties: tie_reports(strips, &model, &solved.model.model),
         history,
     })
+}
+
+/// Removes blunders before the adjustment proper: solve once with every parameter free, then drop
+/// the tie with the largest residual while it exceeds 3 robust σ (1.4826 × the median tie residual,
+/// at least 2 cm), up to a fifth of the ties. A wrong automatic tie (a marking whose centroid
+/// jumped between strips, a pick on the wrong roof face) would otherwise inflate σ0 and make every
+/// parameter look undetermined.
+fn screen_outlier_ties(
+    strips: &[Strip],
+    model: &mut TieModel,
+    x0: [f64; PARAM_COUNT],
+    options: &CalibrationOptions,
+) {
+    let mut screening = *options;
+    screening.max_sigma_angle_rad = f64::INFINITY;
+    screening.max_sigma_lever_m = f64::INFINITY;
+    screening.max_correlation = 1.0 + 1e-9;
+    let max_drop = model.ties.len() / 5;
+    for _ in 0..max_drop {
+        let problem = VtpmProblem {
+            strips,
+            model: model.clone(),
+        };
+        let Ok(solved) =
+            solve_with_observability(&problem, x0, model.observations(), &screening, false)
+        else {
+            return;
+        };
+        let reports = tie_reports(strips, model, &solved.model.model);
+        let norms: Vec<f64> = reports
+            .iter()
+            .map(|r| r.residual_after_m.iter().map(|v| v * v).sum::<f64>().sqrt())
+            .collect();
+        let mut sorted = norms.clone();
+        sorted.sort_by(f64::total_cmp);
+        let robust = (1.4826 * sorted[sorted.len() / 2]).max(0.02);
+        let (worst, value) = norms
+            .iter()
+            .enumerate()
+            .fold((0, 0.0), |a, (i, v)| if *v > a.1 { (i, *v) } else { a });
+        if value <= 3.0 * robust || model.ties[worst].control.is_some() {
+            return;
+        }
+        model.ties.remove(worst);
+    }
 }
 
 /// Tie residuals of `ties` (and control points) picked in `strips` as delivered (georeferenced

@@ -135,6 +135,9 @@ pub enum Error {
     /// Raw-observation recovery failed (from lidarqa-tpu).
     #[error(transparent)]
     Tpu(#[from] lidarqa_tpu::Error),
+    /// The ties determine none of the parameters (each is held, with the reason).
+    #[error("the ties determine none of the mounting parameters ({0})")]
+    NothingDetermined(String),
 }
 
 /// Result with the lidarqa-calib [`Error`].

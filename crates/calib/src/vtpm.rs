@@ -70,7 +70,7 @@ impl VtpmOptions {
 }
 
 /// How a tie observes the strips.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum TieKind {
     /// A feature located in every strip (a road marking corner picked on the intensity image,
     /// seed 001 step 1): all three coordinates are observations.
@@ -79,6 +79,10 @@ pub enum TieKind {
     /// by the automatic search): only the component along the plane normal is an observation
     /// (a weight matrix `P = n nᵀ` in seed 001 eq. 4).
     Surface,
+    /// A point on a linear marking (a centre line, one zebra stripe): located across the line and
+    /// in height, but not along it, where a pick only reflects where the window was. The field is
+    /// the horizontal unit vector across the line, local (north, east).
+    Line([f64; 2]),
 }
 
 /// The pick of a tie in one strip, local frame.
@@ -117,6 +121,10 @@ pub struct ControlPoint {
     pub id: String,
     /// Surveyed position, local NED, m.
     pub position_m: Vector3<f64>,
+    /// Radius of the target the control point marks, m, when it is one (seed 000: 0.8 m, raised
+    /// above the ground). The height of a height-only control point is then taken from the
+    /// target's own plane, within 0.75 × this radius, never from the ground around it.
+    pub target_radius_m: Option<f64>,
 }
 
 #[derive(Clone, Copy)]
@@ -421,6 +429,7 @@ pub(crate) fn build_tie_model(
         let directions = match tie.kind {
             TieKind::Feature => axes.clone(),
             TieKind::Surface => vec![virtuals[0].normal],
+            TieKind::Line([n, e]) => vec![Vector3::new(n, e, 0.0), Vector3::z()],
         };
         out.push(TieSpec {
             id: tie.id.clone(),
@@ -440,21 +449,31 @@ pub(crate) fn build_tie_model(
             });
         }
         let (x, y) = (c.position_m.x, c.position_m.y);
+        let mut copts = *opts;
+        if let Some(r) = c.target_radius_m.filter(|r| r.is_finite() && *r > 0.0) {
+            copts.radius_m = copts.radius_m.min(0.75 * r);
+        }
         let mut virtuals = Vec::new();
         for s in 0..idx.strips.len() {
-            if !idx.covers(s, x, y, opts.radius_m) {
+            if !idx.covers(s, x, y, copts.radius_m) {
                 continue;
             }
-            virtuals.push(build_virtual_tie(
+            // A target seen by only a scan line or two in one strip has no triangle around its
+            // centre there: that strip does not observe it (the others still do).
+            match build_virtual_tie(
                 idx,
                 s,
                 &c.id,
                 x,
                 y,
                 &g,
-                opts,
+                &copts,
                 mix_seed(opts.seed ^ 0xC0, ci, s),
-            )?);
+            ) {
+                Ok(v) => virtuals.push(v),
+                Err(Error::NoCoplanarTriangle { .. }) => continue,
+                Err(e) => return Err(e),
+            }
         }
         if virtuals.is_empty() {
             return Err(Error::OutsideEveryStrip {

@@ -1058,7 +1058,11 @@ fn calibration_section(
             for (i, row) in c.correlation.iter().enumerate() {
                 let _ = write!(o, "<tr><th class=\"text\">{}</th>", esc(&labels[i]));
                 for &v in row {
-                    let a = if v.is_finite() { v.abs().min(1.0) } else { 0.0 };
+                    let Some(v) = v.filter(|v| v.is_finite()) else {
+                        o.push_str("<td>—</td>");
+                        continue;
+                    };
+                    let a = v.abs().min(1.0);
                     let bg = if v >= 0.0 {
                         format!("rgba(214,39,40,{:.2})", a * 0.6)
                     } else {

@@ -656,9 +656,9 @@ pub struct Calibration {
     #[serde(default)]
     pub sigma: Ordered<Option<f64>>,
     /// Correlation matrix of the estimated parameters (in `parameters` order, or of the observable
-    /// ones only).
+    /// ones only); null for a parameter held at its prior.
     #[serde(default)]
-    pub correlation: Vec<Vec<f64>>,
+    pub correlation: Vec<Vec<Option<f64>>>,
     /// `false` for a parameter the geometry cannot determine (held at its prior).
     #[serde(default)]
     pub observable: Ordered<bool>,

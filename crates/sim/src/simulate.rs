@@ -384,7 +384,9 @@ impl Kernel<'_> {
         } else {
             1.0
         };
-        let r = 400.0 / range_m;
+        // Range normalised to 150 m: no saturation of the u16 scale above ~110 m even for the
+        // target plates (reflectivity ~0.9), and still a 1/ρ² fall-off.
+        let r = 150.0 / range_m;
         let i = 0.8 * reflectivity * cos_incidence.abs().max(0.02) * r * r * n;
         (i.clamp(0.0, 1.0) * 65535.0).round().max(1.0) as u16
     }

@@ -424,6 +424,7 @@ impl Survey {
                 Some(ControlPoint {
                     id: t.id.clone(),
                     position_m: Vector3::new(c.x + h, c.y - h, 0.0),
+                    target_radius_m: None,
                 })
             })
             .step_by(3)

@@ -414,14 +414,18 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         )?,
     };
     let control: Vec<ControlPoint> = match &a.control {
-        Some(p) => ControlPoints::from_path(p)?
-            .records
-            .iter()
-            .map(|c| ControlPoint {
-                id: c.id.clone(),
-                position_m: projected_to_local(&frame, &zone, c.x, c.y, c.z),
-            })
-            .collect(),
+        Some(p) => {
+            let table = ControlPoints::from_path(p)?;
+            let mut out = Vec::with_capacity(table.records.len());
+            for (i, c) in table.records.iter().enumerate() {
+                out.push(ControlPoint {
+                    id: c.id.clone(),
+                    position_m: projected_to_local(&frame, &zone, c.x, c.y, c.z),
+                    target_radius_m: table.extra_f64(i, "radius_m")?,
+                });
+            }
+            out
+        }
         None => Vec::new(),
     };
     let cal: Calibration = match a.method.as_str() {

@@ -144,7 +144,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
         format!("{s_dir}/control.csv"),
     );
     let strip_files = |base: &str| -> Vec<String> {
-        (1..=3)
+        (1..=4)
             .map(|i| format!("{base}/strip_{i:03}.laz"))
             .collect()
     };
@@ -169,7 +169,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
             None,
         ),
         step(
-            "predict: the error budget at 20° scan angle, 300 m above ground",
+            "predict: the error budget at 20° scan angle, 200 m above ground",
             &[
                 "budget",
                 "--sensor",
@@ -177,7 +177,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
                 "--scan-angle",
                 "20",
                 "--height",
-                "300",
+                "200",
                 "--format",
                 "json",
             ],
@@ -190,7 +190,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
                 "--sensor",
                 &sensor,
                 "--height",
-                "300",
+                "200",
                 "--sweep",
                 "scan-angle=-30:30:2",
                 "--bias",
@@ -258,6 +258,8 @@ pub fn run(args: DemoArgs) -> Result<()> {
                     "--sensor",
                     &sensor,
                     "--auto-ties",
+                    "--radius-m",
+                    "1.5",
                     "--control",
                     &control,
                     "-o",
@@ -319,14 +321,17 @@ pub fn run(args: DemoArgs) -> Result<()> {
             None,
         ),
     ];
-    // truth.json is the simulator's; the report shows injected vs recovered from it.
     let total = steps.len();
     for (i, s) in steps.iter().enumerate() {
         run_step(&exe, s, i + 1, total)?;
-    }
-    if let Ok(truth) = std::fs::read(strips.join("truth.json")) {
-        std::fs::write(dir.join("truth.json"), truth)
-            .with_context(|| format!("{}", dir.join("truth.json").display()))?;
+        if i == 0 {
+            // The simulator's truth beside the other products, so the report can score the
+            // calibration against it.
+            let truth = std::fs::read(strips.join("truth.json"))
+                .with_context(|| format!("{}", strips.join("truth.json").display()))?;
+            std::fs::write(dir.join("truth.json"), truth)
+                .with_context(|| format!("{}", dir.join("truth.json").display()))?;
+        }
     }
     print_text(&summary(dir, &strips)?)
 }

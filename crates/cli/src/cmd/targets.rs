@@ -145,21 +145,89 @@ pub fn targets_table(path: &Path, report: &TargetReport) -> Targets {
 }
 
 /// Run target extraction and return the report (shared with `lidarqa demo`).
+///
+/// Each input is searched on its own and the per-file centres of a target are then averaged
+/// (weighted by their point counts): intensity falls with range, so strips flown at different
+/// heights cannot share one fuzzy c-means split of bright and dark.
 pub fn find_targets(
     inputs: &[PathBuf],
     control: &[ControlPoint],
     method: CentreMethod,
     window_m: f64,
 ) -> Result<TargetReport> {
-    let points = points_near(inputs, control, window_m)?;
-    if points.is_empty() {
+    let mut config = TargetConfig::default();
+    config.centre.method = method;
+    let mut reports = Vec::new();
+    for path in inputs {
+        let points = points_near(std::slice::from_ref(path), control, window_m)?;
+        if points.is_empty() {
+            continue;
+        }
+        match extract_targets(&points, control, &config) {
+            Ok(r) => reports.push(r),
+            // A strip that sees none of the targets well enough is not an error of the survey.
+            Err(lidarqa_targets::Error::NoPoints) => {}
+            Err(e) => return Err(anyhow::Error::new(e).context(format!("{}", path.display()))),
+        }
+    }
+    if reports.is_empty() {
         bail!(
             "no points within {window_m} m of any control point: are the control coordinates in the same CRS as the point clouds?"
         );
     }
-    let mut config = TargetConfig::default();
-    config.centre.method = method;
-    Ok(extract_targets(&points, control, &config)?)
+    Ok(merge_reports(reports, control))
+}
+
+/// One target per control id: the point-count-weighted mean of the per-file centres.
+fn merge_reports(reports: Vec<TargetReport>, control: &[ControlPoint]) -> TargetReport {
+    let mut merged = reports[0].clone();
+    merged.targets.clear();
+    merged.unmatched_clusters = reports
+        .iter()
+        .flat_map(|r| r.unmatched_clusters.iter().cloned())
+        .collect();
+    merged.small_clusters = reports.iter().map(|r| r.small_clusters).sum();
+    merged.small_cluster_points = reports.iter().map(|r| r.small_cluster_points).sum();
+    for c in control {
+        let found: Vec<&lidarqa_targets::TargetResult> = reports
+            .iter()
+            .flat_map(|r| r.targets.iter())
+            .filter(|t| t.id == c.id)
+            .collect();
+        let Some(first) = found.first() else {
+            continue;
+        };
+        let w: f64 = found.iter().map(|t| t.centre.n_points as f64).sum();
+        let mean = |f: fn(&lidarqa_targets::TargetResult) -> f64| {
+            found
+                .iter()
+                .map(|t| f(t) * t.centre.n_points as f64)
+                .sum::<f64>()
+                / w
+        };
+        let mut t = (*first).clone();
+        t.centre.x = mean(|t| t.centre.x);
+        t.centre.y = mean(|t| t.centre.y);
+        t.centre.z = mean(|t| t.centre.z);
+        t.centre.n_points = found.iter().map(|t| t.centre.n_points).sum();
+        t.centre.n_edge_points = found.iter().map(|t| t.centre.n_edge_points).sum();
+        t.centre.coverage_deg = found
+            .iter()
+            .map(|t| t.centre.coverage_deg)
+            .fold(0.0, f64::max);
+        let info: f64 = found
+            .iter()
+            .map(|t| 1.0 / t.centre.sigma_horizontal_m.max(1e-6).powi(2))
+            .sum();
+        t.centre.sigma_horizontal_m = 1.0 / info.sqrt();
+        merged.targets.push(t);
+    }
+    merged.missing_control = control
+        .iter()
+        .filter(|c| !merged.targets.iter().any(|t| t.id == c.id))
+        .map(|c| c.id.clone())
+        .collect();
+    merged
 }
 
 /// Run `lidarqa targets`.
