@@ -276,12 +276,12 @@ fn candidate(
                 let det = sxx * syy - sxy * sxy;
                 let disc = (0.25 * tr * tr - det).max(0.0).sqrt();
                 let (l_max, l_min) = (0.5 * tr + disc, 0.5 * tr - disc);
-                // A marking is narrow: a bright half-plane (the edge of a road) is not one, its
-                // centroid follows the window.
-                if l_min.max(0.0).sqrt() > 0.2 {
-                    return None;
-                }
                 shape = Some(if l_max > 4.0 * l_min.max(1e-12) {
+                    // A line marking is narrow: a bright half-plane (the edge of a road) is not
+                    // one, its centroid follows the window.
+                    if l_min.max(0.0).sqrt() > 0.2 {
+                        return None;
+                    }
                     // Unit vector of the small eigenvalue: across the line.
                     let (vx, vy) = if sxy.abs() > 1e-15 {
                         (l_min - syy, sxy)

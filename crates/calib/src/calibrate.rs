@@ -158,6 +158,8 @@ pub struct Calibration {
     pub ties: Vec<TieReport>,
     /// Convergence record of the final solve.
     pub history: Vec<IterationRecord>,
+    /// Control points inside the strips that no strip could triangulate, left out.
+    pub skipped_control: Vec<String>,
 }
 
 fn enu(v: &Vector3<f64>) -> [f64; 3] {
@@ -184,7 +186,7 @@ impl Calibration {
     /// (`residual_*_m` as `[east, north, up]` per-axis RMS, m).
     pub fn to_json(&self) -> Value {
         let x = mounting_to_vector(&self.mounting);
-        json!({
+        let mut doc = json!({
             "method": self.method.name(),
             "parameters": param_map(|p| json!(p.to_display(x[p.index()]))),
             "sigma": param_map(|p| self.sigma[p.index()].map_or(Value::Null, |s| json!(p.to_display(s)))),
@@ -197,7 +199,12 @@ impl Calibration {
                 "residual_before_m": t.residual_before_m,
                 "residual_after_m": t.residual_after_m,
             })).collect::<Vec<_>>(),
-        })
+        });
+        // Beyond SPEC §8, only when it happened: control points no strip could triangulate.
+        if !self.skipped_control.is_empty() {
+            doc["skipped_control"] = json!(self.skipped_control);
+        }
+        doc
     }
 
     /// `calibration_iterations.json`: `{"iterations": [{"iteration", "parameters": {same keys},
@@ -608,12 +615,13 @@ pub fn calibrate_vtpm(
         redundancy: solved.redundancy,
         ties: tie_reports(strips, &model, &solved.model.model),
         history,
+        skipped_control: model.skipped_control.clone(),
     })
 }
 
 /// Removes blunders before the adjustment proper: solve once with every parameter free, then drop
-/// the tie with the largest residual while it exceeds 3 robust σ (1.4826 × the median tie residual,
-/// at least 2 cm), up to a fifth of the ties. A wrong automatic tie (a marking whose centroid
+/// the tie with the largest residual (RMS per observed direction) while it exceeds 4 robust σ
+/// (1.4826 × the median, at least 1.25 cm, so at least 5 cm), up to a fifth of the ties. A wrong automatic tie (a marking whose centroid
 /// jumped between strips, a pick on the wrong roof face) would otherwise inflate σ0 and make every
 /// parameter look undetermined.
 fn screen_outlier_ties(
@@ -626,7 +634,7 @@ fn screen_outlier_ties(
     screening.max_sigma_angle_rad = f64::INFINITY;
     screening.max_sigma_lever_m = f64::INFINITY;
     screening.max_correlation = 1.0 + 1e-9;
-    let max_drop = model.ties.len() / 5;
+    let max_drop = model.ties.len() / 3;
     for _ in 0..max_drop {
         let problem = VtpmProblem {
             strips,
@@ -638,13 +646,18 @@ fn screen_outlier_ties(
             return;
         };
         let reports = tie_reports(strips, model, &solved.model.model);
+        // RMS per observed direction, so roof ties (one direction) and markings (three) compare.
         let norms: Vec<f64> = reports
             .iter()
-            .map(|r| r.residual_after_m.iter().map(|v| v * v).sum::<f64>().sqrt())
+            .zip(&model.ties)
+            .map(|(r, t)| {
+                let ss = r.residual_after_m.iter().map(|v| v * v).sum::<f64>();
+                (ss / t.directions.len().max(1) as f64).sqrt()
+            })
             .collect();
         let mut sorted = norms.clone();
         sorted.sort_by(f64::total_cmp);
-        let robust = (1.4826 * sorted[sorted.len() / 2]).max(0.02);
+        let robust = (1.4826 * sorted[sorted.len() / 2]).max(0.0125);
         let (worst, value) = norms
             .iter()
             .enumerate()

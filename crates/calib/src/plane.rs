@@ -234,6 +234,7 @@ pub fn calibrate_plane(
         redundancy: solved.redundancy,
         ties,
         history: Vec::new(),
+        skipped_control: Vec::new(),
     })
 }
 

@@ -311,6 +311,9 @@ impl TieSpec {
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct TieModel {
     pub(crate) ties: Vec<TieSpec>,
+    /// Control points inside the strips that no strip could triangulate (a target seen by a scan
+    /// line or two only): left out of the adjustment and reported.
+    pub(crate) skipped_control: Vec<String>,
 }
 
 impl TieModel {
@@ -438,6 +441,7 @@ pub(crate) fn build_tie_model(
             control: c.map(|c| c.position_m),
         });
     }
+    let mut skipped_control = Vec::new();
     for (ci, c) in control.iter().enumerate() {
         if ties.iter().any(|t| t.id == c.id) {
             continue;
@@ -454,10 +458,12 @@ pub(crate) fn build_tie_model(
             copts.radius_m = copts.radius_m.min(0.75 * r);
         }
         let mut virtuals = Vec::new();
+        let mut covered = false;
         for s in 0..idx.strips.len() {
             if !idx.covers(s, x, y, copts.radius_m) {
                 continue;
             }
+            covered = true;
             // A target seen by only a scan line or two in one strip has no triangle around its
             // centre there: that strip does not observe it (the others still do).
             match build_virtual_tie(
@@ -475,6 +481,10 @@ pub(crate) fn build_tie_model(
                 Err(e) => return Err(e),
             }
         }
+        if virtuals.is_empty() && covered {
+            skipped_control.push(c.id.clone());
+            continue;
+        }
         if virtuals.is_empty() {
             return Err(Error::OutsideEveryStrip {
                 what: "control point",
@@ -490,5 +500,8 @@ pub(crate) fn build_tie_model(
             control: Some(c.position_m),
         });
     }
-    Ok(TieModel { ties: out })
+    Ok(TieModel {
+        ties: out,
+        skipped_control,
+    })
 }

@@ -27,7 +27,7 @@ pub struct DemoArgs {
     /// Output directory (created; files of an earlier demo are replaced).
     #[arg(short, long, value_name = "DIR", default_value = "lidarqa-demo")]
     output: PathBuf,
-    /// A smaller survey (a quarter of the pulses): for tests and slow machines.
+    /// A smaller survey (half the pulses): for tests and slow machines.
     #[arg(long)]
     quick: bool,
     /// Seed of the simulated survey.
@@ -107,7 +107,7 @@ fn scenario_file(dir: &Path, quick: bool, seed: u64) -> Result<PathBuf> {
     table.insert("seed".into(), toml::Value::Integer(seed as i64));
     if quick {
         if let Some(toml::Value::Table(scanner)) = table.get_mut("scanner") {
-            scanner.insert("pulse_rate_hz".into(), toml::Value::Float(25_000.0));
+            scanner.insert("pulse_rate_hz".into(), toml::Value::Float(50_000.0));
         }
     }
     let path = dir.join("scenario.toml");
@@ -361,9 +361,14 @@ fn summary(dir: &Path, strips: &Path) -> Result<String> {
         let rec = cal["parameters"][key].as_f64().unwrap_or(f64::NAN);
         let sig = cal["sigma"][key].as_f64().unwrap_or(f64::NAN);
         let observable = cal["observable"][key].as_bool().unwrap_or(true);
+        let sig = if sig.is_finite() {
+            format!("{sig:.4}")
+        } else {
+            "-".into()
+        };
         let _ = writeln!(
             t,
-            "{:<22}{:>12.4}{:>12.4}{:>12.4}{:>10.4}{}",
+            "{:<22}{:>12.4}{:>12.4}{:>12.4}{:>10}{}",
             key,
             inj,
             rec,
