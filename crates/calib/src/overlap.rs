@@ -206,6 +206,11 @@ fn fit_cells(
                 .sum();
             let rough = (rss / v.len() as f64).sqrt();
             let slope = (sol[1] * sol[1] + sol[2] * sol[2]).sqrt();
+            // Points on one scan line make the plane fit degenerate (any tilt about the line fits):
+            // such a cell has no height worth comparing or drawing.
+            if !(sol.iter().all(|x| x.is_finite()) && slope < 10.0) {
+                return None;
+            }
             Some((
                 cell,
                 CellFit {

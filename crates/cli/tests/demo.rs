@@ -100,3 +100,27 @@ fn demo_recovers_the_injected_mounting_and_improves_accuracy() {
     assert!(!html.contains("http://") && !html.contains("https://"));
     assert!(html.matches("<svg").count() >= 8, "plots in the report");
 }
+
+#[test]
+fn a_failed_step_stops_the_demo_and_keeps_the_products_before_it() {
+    let dir = tempfile::tempdir().unwrap();
+    // Step 2 writes budget.json: a directory in its way makes that step fail.
+    std::fs::create_dir_all(dir.path().join("budget.json")).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_lidarqa"))
+        .args(["demo", "--quick", "-o"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    let last = err.lines().last().unwrap();
+    assert!(
+        last.starts_with("lidarqa: ") && last.contains("budget.json"),
+        "{last}"
+    );
+    // Step 1's products are in place; nothing of the later steps was written.
+    assert!(dir.path().join("strips/strip_001.laz").exists());
+    assert!(dir.path().join("truth.json").exists());
+    assert!(!dir.path().join("tpu_summary.json").exists());
+    assert!(!dir.path().join("report.html").exists());
+}

@@ -98,8 +98,13 @@ fn rms_error_matches_linear_propagation() {
             "{axis}: rms {actual:.4} m vs predicted {predicted:.4} m (ratio {ratio:.4})"
         );
     }
-    // The GNSS north error seen in the trajectory is a Gauss–Markov process: marginal σ = 5 cm
-    // and lag-one correlation e^(−Δt/τ) = e⁻¹, not white noise.
+    // The GNSS north error seen in the trajectory is a Gauss–Markov process: marginal σ = the
+    // sensor's gnss_north σ and lag-one correlation e^(−Δt/τ) = e⁻¹, not white noise.
+    let sigma_north = scenario
+        .sensor()
+        .sigma
+        .get(lidarqa_model::Source::GnssNorth);
+    assert!(sigma_north > 0.0);
     let ell = Ellipsoid::WGS84;
     let errs: Vec<f64> = strip
         .trajectory
@@ -112,7 +117,7 @@ fn rms_error_matches_linear_propagation() {
     let var = errs.iter().map(|e| e * e).sum::<f64>() / errs.len() as f64;
     let lag1 = errs.windows(2).map(|w| w[0] * w[1]).sum::<f64>() / (errs.len() - 1) as f64 / var;
     assert!(
-        (var.sqrt() / 0.05 - 1.0).abs() < 0.05,
+        (var.sqrt() / sigma_north - 1.0).abs() < 0.05,
         "gnss north sigma {}",
         var.sqrt()
     );

@@ -45,9 +45,9 @@ fn unknown_keys_are_named() {
 
 #[test]
 fn bad_values_name_key_and_value() {
-    let e = err(&demo_text().replace("end_m = [350.0, 0.0]", "end_m = [-350.0, 0.0]"));
+    let e = err(&demo_text().replace("end_m = [250.0, 0.0]", "end_m = [-250.0, 0.0]"));
     assert!(
-        e.starts_with("lines[0].end_m = [-350, 0]: zero-length flight line"),
+        e.starts_with("lines[0].end_m = [-250, 0]: zero-length flight line"),
         "{e}"
     );
     let e = err(&demo_text().replace("pulse_rate_hz = 100000.0", "pulse_rate_hz = 0.0"));
