@@ -8,7 +8,7 @@
 //! second returns.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use lidarqa_io::{LasPoint, LasTimeBase, LasWriteOptions, LasWriter};
+use lidarqa_io::{LasTimeBase, LasWriteOptions, LasWriter};
 use lidarqa_sim::{Scenario, SimOptions, simulate};
 use std::hint::black_box;
 use std::path::Path;
@@ -57,19 +57,7 @@ fn bench(c: &mut Criterion) {
                 };
                 let mut w = LasWriter::create(&path, &options, &[] as &[&Path]).unwrap();
                 for p in &survey.strips[0].points {
-                    let q = LasPoint {
-                        x: p.easting_m,
-                        y: p.northing_m,
-                        z: p.height_m,
-                        gps_time_s: Some(survey.adjusted_standard_time_s(p.gps_time_s)),
-                        intensity: p.intensity,
-                        return_number: p.return_number,
-                        number_of_returns: p.number_of_returns,
-                        classification: p.classification,
-                        scan_angle_deg: p.scan_angle_deg,
-                        point_source_id: p.point_source_id,
-                        ..LasPoint::default()
-                    };
+                    let q = survey.las_point(p);
                     w.write_point(&q, &[]).unwrap();
                 }
                 black_box(w.finish().unwrap())

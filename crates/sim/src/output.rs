@@ -293,6 +293,23 @@ impl Survey {
         lidarqa_io::week_to_adjusted_standard(i64::from(self.truth.gps_week), seconds_of_week)
     }
 
+    /// A simulated point as the LAS record lidarqa-io writes (adjusted standard GPS time).
+    pub fn las_point(&self, p: &SimPoint) -> lidarqa_io::LasPoint {
+        lidarqa_io::LasPoint {
+            x: p.easting_m,
+            y: p.northing_m,
+            z: p.height_m,
+            gps_time_s: Some(self.adjusted_standard_time_s(p.gps_time_s)),
+            intensity: p.intensity,
+            return_number: p.return_number,
+            number_of_returns: p.number_of_returns,
+            classification: p.classification,
+            scan_angle_deg: p.scan_angle_deg,
+            point_source_id: p.point_source_id,
+            ..lidarqa_io::LasPoint::default()
+        }
+    }
+
     /// Total number of points.
     pub fn point_count(&self) -> u64 {
         self.strips.iter().map(|s| s.points.len() as u64).sum()

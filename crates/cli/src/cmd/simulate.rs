@@ -6,8 +6,8 @@
 
 use anyhow::Context;
 use lidarqa_io::{
-    AtomicFile, LasPoint, LasTimeBase, LasWriteOptions, LasWriter, RawVlr, SbetPose, SmrmsgSigma,
-    UtmDatum, UtmZone, sbet_raw, write_records_to_path,
+    AtomicFile, LasTimeBase, LasWriteOptions, LasWriter, RawVlr, SbetPose, SmrmsgSigma, UtmDatum,
+    UtmZone, sbet_raw, write_records_to_path,
 };
 use lidarqa_sim::{Scenario, SimOptions, Survey, builtin_toml, simulate_with_progress};
 use std::io::{IsTerminal, Write};
@@ -214,19 +214,7 @@ fn write_strip(
     };
     let mut w = LasWriter::create(path, &options, &[] as &[&Path])?;
     for p in &strip.points {
-        let point = LasPoint {
-            x: p.easting_m,
-            y: p.northing_m,
-            z: p.height_m,
-            gps_time_s: Some(survey.adjusted_standard_time_s(p.gps_time_s)),
-            intensity: p.intensity,
-            return_number: p.return_number,
-            number_of_returns: p.number_of_returns,
-            classification: p.classification,
-            scan_angle_deg: p.scan_angle_deg,
-            point_source_id: p.point_source_id,
-            ..LasPoint::default()
-        };
+        let point = survey.las_point(p);
         w.write_point(&point, &[])?;
     }
     w.finish()?;
