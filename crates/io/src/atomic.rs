@@ -10,6 +10,12 @@
 //!
 //! An output that resolves to one of the run's inputs is refused up front: the rename would
 //! replace the input with a half-derived copy of itself.
+//!
+//! A process killed outright (SIGKILL, power loss) runs no destructor, so its temporary file
+//! stays behind: hidden, named `.NAME.PID.XXXXXX.tmp` after the target and the writing process,
+//! never under the target's own name. The next [`AtomicFile::create`] of the same target removes
+//! such leftovers whose process no longer runs (on Linux, where `/proc` tells; elsewhere they are
+//! left for the user). A temporary file of a live process is never touched.
 
 use crate::error::{Error, Result};
 use std::fs::File;
@@ -68,9 +74,10 @@ impl AtomicFile {
             })?
             .to_string_lossy()
             .into_owned();
-        // Hidden, recognisable name: `.out.laz.XXXXXX.tmp`.
+        remove_stale_temps(&dir, &name);
+        // Hidden, recognisable name: `.out.laz.PID.XXXXXX.tmp`.
         let temp = tempfile::Builder::new()
-            .prefix(&format!(".{name}."))
+            .prefix(&format!(".{name}.{}.", std::process::id()))
             .suffix(".tmp")
             .tempfile_in(&dir)
             .map_err(|e| Error::io(target, e))?;
@@ -127,6 +134,40 @@ impl Seek for AtomicFile {
     fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
         self.file().seek(pos)
     }
+}
+
+/// Removes `.{name}.PID.XXXXXX.tmp` files in `dir` left by processes that no longer run
+/// (killed before they could commit or clean up). Best effort: errors are ignored, since a
+/// leftover is harmless and the new output does not depend on it.
+fn remove_stale_temps(dir: &Path, name: &str) {
+    let prefix = format!(".{name}.");
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let file_name = entry.file_name();
+        let Some(file_name) = file_name.to_str() else {
+            continue;
+        };
+        let Some(rest) = file_name
+            .strip_prefix(&prefix)
+            .and_then(|r| r.strip_suffix(".tmp"))
+        else {
+            continue;
+        };
+        let Some(Ok(pid)) = rest.split_once('.').map(|(pid, _)| pid.parse::<u32>()) else {
+            continue;
+        };
+        if pid != std::process::id() && process_is_gone(pid) {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+}
+
+/// True only when the process certainly does not exist (Linux `/proc`); false when unsure.
+fn process_is_gone(pid: u32) -> bool {
+    let proc = Path::new("/proc");
+    cfg!(target_os = "linux") && proc.join("self").exists() && !proc.join(pid.to_string()).exists()
 }
 
 #[cfg(unix)]
@@ -214,8 +255,33 @@ mod tests {
         let f = AtomicFile::create(&target, &[] as &[&Path]).unwrap();
         assert_eq!(f.temp_path().parent(), Some(dir.path()));
         let name = f.temp_path().file_name().unwrap().to_string_lossy();
-        assert!(name.starts_with(".out.laz."), "{name}");
+        assert!(
+            name.starts_with(&format!(".out.laz.{}.", std::process::id())),
+            "{name}"
+        );
         assert!(name.ends_with(".tmp"), "{name}");
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn leftovers_of_dead_processes_are_removed_and_live_ones_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("out.laz");
+        // A pid above the kernel's maximum (4194304) never runs.
+        let dead = dir.path().join(".out.laz.4294967295.abc123.tmp");
+        let live = dir
+            .path()
+            .join(format!(".out.laz.{}.def456.tmp", std::process::id()));
+        let init = dir.path().join(".out.laz.1.ghi789.tmp");
+        let other = dir.path().join(".other.laz.4294967295.abc123.tmp");
+        for p in [&dead, &live, &init, &other] {
+            std::fs::write(p, "partial").unwrap();
+        }
+        let f = AtomicFile::create(&target, &[] as &[&Path]).unwrap();
+        assert!(!dead.exists());
+        assert!(live.exists() && init.exists() && other.exists());
+        f.commit().unwrap();
+        assert!(target.exists());
     }
 
     #[test]

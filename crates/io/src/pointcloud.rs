@@ -24,10 +24,12 @@
 //! An input's own extra bytes are readable by name but are not carried into outputs: an output
 //! has exactly the dimensions its caller names.
 //!
-//! # Panics
-//! `las::Writer` finishes a file in its `Drop` and panics if that fails (a full disk). A
-//! [`LasWriter`] dropped without [`finish`](LasWriter::finish) (an error path) lets that happen
-//! on its temporary file, which is then removed; call `finish` to get the error instead.
+//! # Full disks and corrupt input
+//! `las::Writer` finishes a file in its `Drop` and panics if that fails (a full disk). The file
+//! under a [`LasWriter`] therefore stops writing after its first I/O error and reports that error
+//! from [`finish`](LasWriter::finish) (or from the write that hit it); the temporary file is
+//! removed, nothing panics. [`LasReader`] checks the header's claims against the file size before
+//! `las` sizes anything from them, and turns a panic inside `las`/`laz` into an error.
 
 use crate::atomic::AtomicFile;
 use crate::error::{Error, Result};
@@ -495,6 +497,10 @@ pub struct LasReader {
     info: LasInfo,
     buffer: las::PointData,
     next_index: u64,
+    /// Points the LAZ chunk table covers (variable-size chunks only), see [`check_layout`].
+    readable: Option<u64>,
+    /// Set when the `las` crate panicked: the reader's state is unknown, every later call fails.
+    failed: Option<String>,
 }
 
 impl LasReader {
@@ -517,8 +523,10 @@ impl LasReader {
         Self::with_path(read, Path::new("<stream>"))
     }
 
-    fn with_path<R: Read + Seek + Send + Sync + 'static>(read: R, path: &Path) -> Result<Self> {
-        let reader = las::Reader::new(read).map_err(|e| Error::las(path, e))?;
+    fn with_path<R: Read + Seek + Send + Sync + 'static>(mut read: R, path: &Path) -> Result<Self> {
+        let readable = check_layout(&mut read, path)?;
+        let reader =
+            guard(path, "header", || las::Reader::new(read))?.map_err(|e| Error::las(path, e))?;
         let info = LasInfo::from_header(path, reader.header())?;
         let buffer = las::PointDataBuilder::new()
             .for_header(reader.header())
@@ -528,6 +536,8 @@ impl LasReader {
             info,
             buffer,
             next_index: 0,
+            readable,
+            failed: None,
         })
     }
 
@@ -560,15 +570,44 @@ impl LasReader {
                 .collect();
         }
         let start = self.next_index;
+        if let Some(message) = &self.failed {
+            return Err(Error::InvalidLas {
+                path: self.info.path.clone(),
+                message: message.clone(),
+            });
+        }
+        let mut max = max as u64;
+        if let Some(readable) = self.readable {
+            if max > 0 && start >= readable && start < self.info.point_count {
+                return Err(Error::InvalidLas {
+                    path: self.info.path.clone(),
+                    message: format!(
+                        "the LAZ chunk table covers only {readable} of the header's {} points",
+                        self.info.point_count
+                    ),
+                });
+            }
+            max = max.min(readable.saturating_sub(start));
+        }
         let point_err = |source| Error::LasPoint {
             path: self.info.path.clone(),
             index: start,
             source,
         };
-        let n = self
-            .reader
-            .fill_points(max as u64, &mut self.buffer)
-            .map_err(point_err)?;
+        let (reader, buffer) = (&mut self.reader, &mut self.buffer);
+        let filled = guard(&self.info.path, &format!("point {start}"), || {
+            reader.fill_points(max, buffer)
+        });
+        let n = match filled {
+            Ok(r) => r.map_err(point_err)?,
+            Err(e) => {
+                self.failed = Some(match &e {
+                    Error::InvalidLas { message, .. } => message.clone(),
+                    other => other.to_string(),
+                });
+                return Err(e);
+            }
+        };
         chunk.points.reserve(n as usize);
         let has_nir = self.buffer.format().has_nir;
         for (k, p) in self.buffer.points().enumerate() {
@@ -592,6 +631,197 @@ impl LasReader {
         self.next_index += n;
         Ok(chunk.points.len())
     }
+}
+
+/// Runs a call into the `las` / `laz` crates, turning a panic inside them into
+/// [`Error::InvalidLas`] naming the file and `what` was being read. Defence in depth: the known
+/// panics are prevented by [`check_layout`]; a new one (a corrupt file no check foresaw) still
+/// ends in a one-line error instead of a crash. The reader is not used again after a panic.
+fn guard<T>(path: &Path, what: &str, f: impl FnOnce() -> T) -> Result<T> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).map_err(|payload| {
+        let detail = payload
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown".into());
+        Error::InvalidLas {
+            path: path.to_path_buf(),
+            message: format!("{what}: corrupt data (the LAS/LAZ decoder failed: {detail})"),
+        }
+    })
+}
+
+/// Length of a VLR header (LAS 1.4 R15 §2.5.1) and of an EVLR header (§2.6.1), bytes.
+const VLR_HEADER_LEN: u64 = 54;
+const EVLR_HEADER_LEN: u64 = 60;
+
+/// Checks what a LAS/LAZ header claims against the bytes the stream holds, before the `las`
+/// crate sizes anything from it, and leaves the stream at its start.
+///
+/// las 0.11 sizes an EVLR's buffer from its 64-bit length field (`Vec::resize`, so a header that
+/// claims 4 GB allocates 4 GB before the read fails), and computes the end of the point data as
+/// `points × record length` without overflow checks. Here every claim is bounded by the file:
+/// the point data must start inside it; an uncompressed file must hold `points × record length`
+/// bytes after that; the VLR headers must fit before the point data; the first EVLR must fit in
+/// the file. A LAZ file's point count cannot be checked from its size (compression), but
+/// lidarqa reads it in bounded chunks and never sizes a buffer from the count.
+///
+/// Returns, for a LAZ file with variable-size chunks, how many points its chunk table covers:
+/// laz 0.13 indexes the table without a bounds check when a chunk begins, so reading past the
+/// table's points would panic inside the crate.
+fn check_layout<R: Read + Seek>(read: &mut R, path: &Path) -> Result<Option<u64>> {
+    use std::io::SeekFrom;
+    let io = |e| Error::io(path, e);
+    let invalid = |message: String| Error::InvalidLas {
+        path: path.to_path_buf(),
+        message,
+    };
+    let file_len = read.seek(SeekFrom::End(0)).map_err(io)?;
+    read.seek(SeekFrom::Start(0)).map_err(io)?;
+    let raw = las::raw::Header::read_from(&mut *read).map_err(|e| Error::las(path, e))?;
+    let offset = u64::from(raw.offset_to_point_data);
+    let record_len = u64::from(raw.point_data_record_length);
+    let points = match (raw.number_of_point_records, raw.large_file) {
+        // LAS 1.4 R15: a non-zero legacy count wins, as in the `las` crate.
+        (0, Some(large)) => large.number_of_point_records,
+        (legacy, _) => u64::from(legacy),
+    };
+    let compressed = raw.point_data_record_format & 0x80 != 0;
+    if offset > file_len {
+        return Err(invalid(format!(
+            "header says the point data starts at byte {offset} but the file holds only \
+             {file_len} bytes"
+        )));
+    }
+    let vlr_bytes = u64::from(raw.number_of_variable_length_records) * VLR_HEADER_LEN;
+    if u64::from(raw.header_size) + vlr_bytes > offset {
+        return Err(invalid(format!(
+            "header claims {} VLRs, which need at least {vlr_bytes} bytes, but the point data \
+             starts at byte {offset}",
+            raw.number_of_variable_length_records
+        )));
+    }
+    // The crate computes `offset + points × record length` unchecked, for LAZ too.
+    let fits = match points.checked_mul(record_len) {
+        Some(n) if compressed => n.checked_add(offset).is_some(),
+        Some(n) => n <= file_len - offset,
+        None => false,
+    };
+    if !fits {
+        return Err(invalid(format!(
+            "header claims {points} points of {record_len} bytes but the file holds only \
+             {file_len} bytes"
+        )));
+    }
+    if compressed {
+        check_laz_chunk_table(read, path, offset, file_len)?;
+    }
+    let mut readable = None;
+    let evlr = raw
+        .evlr
+        .filter(|e| e.number_of_evlrs > 0 && e.start_of_first_evlr > 0);
+    if let Some(evlr) = evlr {
+        let start = evlr.start_of_first_evlr;
+        let fits = start
+            .checked_add(EVLR_HEADER_LEN)
+            .is_some_and(|end| end <= file_len);
+        if !fits {
+            return Err(invalid(format!(
+                "header says the first EVLR starts at byte {start} but the file holds only \
+                 {file_len} bytes"
+            )));
+        }
+        // reserved u16, user id [u8; 16], record id u16, then the u64 length.
+        read.seek(SeekFrom::Start(start + 20)).map_err(io)?;
+        let mut len = [0u8; 8];
+        read.read_exact(&mut len).map_err(io)?;
+        let len = u64::from_le_bytes(len);
+        if len > file_len - start - EVLR_HEADER_LEN {
+            return Err(invalid(format!(
+                "EVLR at byte {start} claims {len} bytes but the file holds only {file_len} bytes"
+            )));
+        }
+    }
+    if compressed {
+        read.seek(SeekFrom::Start(0)).map_err(io)?;
+        // A header las refuses is reported when las reads it for real.
+        if let Some(vlr) = las::Header::new(&mut *read)
+            .ok()
+            .and_then(|h| h.laz_vlr().ok())
+        {
+            if vlr.items_size() != record_len {
+                return Err(invalid(format!(
+                    "the laszip VLR describes {}-byte point records but the header says \
+                     {record_len} bytes",
+                    vlr.items_size()
+                )));
+            }
+            if vlr.uses_variable_size_chunks() {
+                read.seek(SeekFrom::Start(offset)).map_err(io)?;
+                readable = laz::laszip::ChunkTable::read_from(&mut *read, &vlr)
+                    .ok()
+                    .map(|t| {
+                        t.as_ref()
+                            .iter()
+                            .fold(0u64, |n, e| n.saturating_add(e.point_count))
+                    });
+            }
+        }
+    }
+    read.seek(SeekFrom::Start(0)).map_err(io)?;
+    Ok(readable)
+}
+
+/// The laz crate sizes its chunk table from the table's 32-bit chunk count
+/// (`Vec::with_capacity`, 16 bytes an entry: 64 GB for a count of 2³²). Each chunk takes at
+/// least one byte of the file (its first point is even stored raw), so a count beyond the bytes
+/// after the point-data offset is refused. Where the table is follows laz's own
+/// `ChunkTable::read_offset`: the i64 at the start of the point data, or, when that was never
+/// updated, the file's last 8 bytes. A missing table is left to laz to report.
+fn check_laz_chunk_table<R: Read + Seek>(
+    read: &mut R,
+    path: &Path,
+    offset: u64,
+    file_len: u64,
+) -> Result<()> {
+    use std::io::SeekFrom;
+    let io = |e| Error::io(path, e);
+    let read_u64_at = |read: &mut R, at: u64| -> Option<u64> {
+        let mut b = [0u8; 8];
+        (at.checked_add(8)? <= file_len).then_some(())?;
+        read.seek(SeekFrom::Start(at)).ok()?;
+        read.read_exact(&mut b).ok()?;
+        Some(u64::from_le_bytes(b))
+    };
+    // As laz: an offset (i64) not past the point-data start means "look at the end".
+    let after_start = |v: u64| (v as i64 > offset as i64).then_some(v);
+    let table = read_u64_at(read, offset).and_then(after_start).or_else(|| {
+        file_len
+            .checked_sub(8)
+            .and_then(|end| read_u64_at(read, end))
+            .and_then(after_start)
+    });
+    let Some(table) = table else {
+        return Ok(());
+    };
+    // u32 version, then u32 number of chunks.
+    let Some(count_at) = table.checked_add(4).filter(|&at| at + 4 <= file_len) else {
+        return Ok(()); // laz reports the short read
+    };
+    read.seek(SeekFrom::Start(count_at)).map_err(io)?;
+    let mut b = [0u8; 4];
+    read.read_exact(&mut b).map_err(io)?;
+    let chunks = u64::from(u32::from_le_bytes(b));
+    if chunks > file_len - offset {
+        return Err(Error::InvalidLas {
+            path: path.to_path_buf(),
+            message: format!(
+                "LAZ chunk table at byte {table} claims {chunks} chunks but the file holds only \
+                 {file_len} bytes"
+            ),
+        });
+    }
+    Ok(())
 }
 
 // las::Reader and las::Writer are not Debug; show what identifies the stream.
@@ -803,7 +1033,7 @@ fn scan_angle_for_las(deg: f32) -> f32 {
 
 /// Writes a LAS/LAZ file atomically; see the module docs.
 pub struct LasWriter {
-    inner: las::Writer<BufWriter<AtomicFile>>,
+    inner: las::Writer<BufWriter<Sink>>,
     path: PathBuf,
     format: las::point::Format,
     n_extra: usize,
@@ -825,7 +1055,7 @@ impl LasWriter {
         let path = path.as_ref();
         let header = options.header(path)?;
         let format = *header.point_format();
-        let file = AtomicFile::create(path, inputs)?;
+        let file = Sink::new(AtomicFile::create(path, inputs)?);
         let inner =
             las::Writer::new(BufWriter::new(file), header).map_err(|e| Error::las(path, e))?;
         Ok(LasWriter {
@@ -957,17 +1187,123 @@ impl LasWriter {
             inner, path, index, ..
         } = self;
         let buffered = inner.into_inner().map_err(|e| Error::las(&path, e))?;
-        let file = buffered
+        let sink = buffered
             .into_inner()
             .map_err(|e| Error::io(&path, e.into_error()))?;
-        file.commit()?;
+        // An error las or BufWriter did not pass on still fails the file.
+        if let Some((kind, message)) = sink.error {
+            return Err(Error::io(&path, std::io::Error::new(kind, message)));
+        }
+        sink.file.commit()?;
         Ok(index)
+    }
+}
+
+/// The file under a [`LasWriter`]'s buffer. `las::Writer` finishes the file in its `Drop` and
+/// panics if that fails, and its `into_inner` drops it after a failed close: on a full disk
+/// both would panic. So after the first I/O error a `Sink` remembers it and accepts every later
+/// write and seek without touching the file (keeping a plausible position); the caller gets
+/// the first error, [`LasWriter::finish`] reports it and the temporary file is removed.
+struct Sink {
+    file: AtomicFile,
+    /// The first I/O error (kind, message); then everything is discarded.
+    error: Option<(std::io::ErrorKind, String)>,
+    /// Position and length as the writer sees them.
+    pos: u64,
+    len: u64,
+}
+
+impl Sink {
+    fn new(file: AtomicFile) -> Sink {
+        Sink {
+            file,
+            error: None,
+            pos: 0,
+            len: 0,
+        }
+    }
+
+    fn advance(&mut self, n: usize) {
+        self.pos = self.pos.saturating_add(n as u64);
+        self.len = self.len.max(self.pos);
+    }
+
+    fn fail(&mut self, e: &std::io::Error) {
+        if self.error.is_none() {
+            self.error = Some((e.kind(), e.to_string()));
+        }
+    }
+}
+
+impl std::io::Write for Sink {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if self.error.is_some() {
+            self.advance(buf.len());
+            return Ok(buf.len());
+        }
+        match self.file.write(buf) {
+            Ok(n) => {
+                self.advance(n);
+                Ok(n)
+            }
+            Err(e) => {
+                self.fail(&e);
+                Err(e)
+            }
+        }
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        if self.error.is_some() {
+            return Ok(());
+        }
+        self.file.flush().inspect_err(|e| self.fail(e))
+    }
+}
+
+impl Seek for Sink {
+    fn seek(&mut self, to: std::io::SeekFrom) -> std::io::Result<u64> {
+        use std::io::SeekFrom;
+        if self.error.is_some() {
+            self.pos = match to {
+                SeekFrom::Start(n) => n,
+                SeekFrom::Current(d) => self.pos.saturating_add_signed(d),
+                SeekFrom::End(d) => self.len.saturating_add_signed(d),
+            };
+            return Ok(self.pos);
+        }
+        match self.file.seek(to) {
+            Ok(p) => {
+                self.pos = p;
+                self.len = self.len.max(p);
+                Ok(p)
+            }
+            Err(e) => {
+                self.fail(&e);
+                Err(e)
+            }
+        }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_panic_inside_las_becomes_a_one_line_error_naming_the_file() {
+        let e = guard(Path::new("strip.laz"), "point 7", || -> u32 {
+            panic!("index out of bounds: the len is 0 but the index is 0")
+        })
+        .unwrap_err()
+        .to_string();
+        assert_eq!(
+            e,
+            "strip.laz: point 7: corrupt data (the LAS/LAZ decoder failed: index out of bounds: \
+             the len is 0 but the index is 0)"
+        );
+        assert_eq!(guard(Path::new("a.las"), "header", || 3).unwrap(), 3);
+    }
 
     /// What las 0.11 stores for an f32 angle: `(deg / 0.006) as i16`.
     fn las_steps(deg: f32) -> i16 {

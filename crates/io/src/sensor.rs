@@ -114,7 +114,7 @@ struct CovarianceSection {
 }
 
 /// Sources that only the conic scanner has.
-const CONIC_ONLY: [Source; 9] = [
+const CONIC_ONLY: [Source; 13] = [
     Source::PrismSlope,
     Source::PrismX,
     Source::PrismY,
@@ -124,6 +124,10 @@ const CONIC_ONLY: [Source; 9] = [
     Source::EmitterAzimuth,
     Source::TimeAir,
     Source::TimeWater,
+    Source::WaterSurfaceHeight,
+    Source::WaterSurfaceSlopeNorth,
+    Source::WaterSurfaceSlopeEast,
+    Source::NWater,
 ];
 
 /// Sources that only the linear scanner has.
@@ -337,6 +341,7 @@ fn source_for_key(key: &str) -> std::result::Result<Source, String> {
                     lidarqa_model::Unit::Metre => "metres",
                     lidarqa_model::Unit::Radian => "degrees",
                     lidarqa_model::Unit::Second => "nanoseconds",
+                    lidarqa_model::Unit::One => "plain numbers: a ratio has no unit suffix",
                 }
             ));
         }

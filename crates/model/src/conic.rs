@@ -10,7 +10,13 @@
 //! - `p3` is `[0, 0, 1]` in S (`scanner-frame`, the paper's model) or the local vertical in N
 //!   (`level`, physically right: attitude then changes the incidence angle);
 //! - ranges `ρ1 = c Δt1 / 2`, `ρ2 = c Δt2 / (2 nw)` with `c` the speed of light in air;
-//!   `X_S = ρ1 l3 + ρ2 l4`, then boresight, lever arm and attitude as for the linear scanner.
+//!   `X_S = ρ1 l3 + ρ2 l4`, then boresight, lever arm and attitude as for the linear scanner;
+//! - four more parameters for bathymetric soundings (not in seed 004): the water-surface height
+//!   δh at the refraction point (the point moves `δh / cos θi` back along `l3`, and the water
+//!   leg gains that optical path, `ρ1 + nw ρ2` held: the total travel time is measured), its
+//!   slope towards north and east (waves: `p3 ∝ p3₀ + (R_N R_M)ᵀ [tan s_N, tan s_E, 0]`), and the
+//!   refraction index nw itself (Snell's law and `ρ2`). Their nominal values are 0, 0, 0 and the
+//!   scanner's nw; none of them moves a topographic or water-surface return (`Δt2 = 0`).
 
 use crate::error::{Error, Result};
 use crate::frames::{Attitude, Mounting};
@@ -24,7 +30,7 @@ use nalgebra::{SVector, Vector3};
 pub const SPEED_OF_LIGHT_AIR_M_PER_S: f64 = 299_552_816.0;
 
 /// Number of parameters of the conic model.
-pub const CONIC_N: usize = 21;
+pub const CONIC_N: usize = 25;
 
 /// Where the water-surface normal `p3` is fixed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -200,6 +206,12 @@ impl ConicScanner {
     /// Beam directions in S: `(l3, l4)`, in air after the prism and in water after the surface, for
     /// the parameter vector `p` (see [`Georeferencer::SOURCES`] for the order).
     pub fn beam_directions<D: Scalar>(&self, p: &SVector<D, CONIC_N>) -> (Vector3<D>, Vector3<D>) {
+        let r = self.rays(p);
+        (r.l3, r.l4)
+    }
+
+    /// The rays and the surface normals of one pulse (all in S).
+    fn rays<D: Scalar>(&self, p: &SVector<D, CONIC_N>) -> Rays<D> {
         let (o, l) = (D::zero(), D::one());
         let turn = rot_z(p[16]) * rot_x(p[13]) * rot_y(p[14]) * rot_z(p[15]);
         let (st, ct) = p[12].sin_cos();
@@ -208,23 +220,22 @@ impl ConicScanner {
         let (sz, cz) = p[17].sin_cos();
         let (sa, ca) = p[18].sin_cos();
         let l1 = Vector3::new(sz * ca, sz * sa, cz);
-        let (na, nf, nw) = (
-            c::<D>(self.n_air),
-            c::<D>(self.n_prism),
-            c::<D>(self.n_water),
-        );
+        let (na, nf, nw) = (c::<D>(self.n_air), c::<D>(self.n_prism), p[24]);
         let l2 = refract(&l1, &p1, na / nf);
         let l3 = refract(&l2, &p2, nf / na);
-        let p3 = match self.refraction {
+        // S → N: R_N R_M.
+        let r = rotation_zyx(p[3], p[4], p[5]) * rotation_zyx(p[6], p[7], p[8]);
+        let base = match self.refraction {
             Refraction::ScannerFrame => Vector3::new(o, o, l),
-            Refraction::Level => {
-                // Local vertical (N down) expressed in S: (R_N R_M)ᵀ [0, 0, 1].
-                let r = rotation_zyx(p[3], p[4], p[5]) * rotation_zyx(p[6], p[7], p[8]);
-                r.transpose() * Vector3::new(o, o, l)
-            }
+            // Local vertical (N down) expressed in S: (R_N R_M)ᵀ [0, 0, 1].
+            Refraction::Level => r.transpose() * Vector3::new(o, o, l),
         };
+        // Wave slope: the surface rises by tan(slope) per metre towards north / east, so its
+        // normal along the propagation (down) is ∝ base + [tan s_N, tan s_E, 0] in N.
+        let tilt = r.transpose() * Vector3::new(p[22].tan(), p[23].tan(), o);
+        let p3 = (base + tilt).normalize();
         let l4 = refract(&l3, &p3, na / nw);
-        (l3, l4)
+        Rays { l3, l4, base }
     }
 
     /// Air and water ranges (m) that put the footprint on a level water surface `height_m` below the
@@ -304,6 +315,16 @@ pub(crate) fn range_to_level(drop_m: f64, dir: &Vector3<f64>, height_m: f64) -> 
     Ok(drop_m / dir.z)
 }
 
+/// The rays of one pulse, scanner frame.
+struct Rays<D> {
+    /// In air, after the prism.
+    l3: Vector3<D>,
+    /// In water, after the surface.
+    l4: Vector3<D>,
+    /// The untilted surface normal (down): S Z (`scanner-frame`) or the local vertical (`level`).
+    base: Vector3<D>,
+}
+
 /// Raw observation of one conic-scanner pulse.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ConicObservation {
@@ -340,6 +361,10 @@ impl Georeferencer<CONIC_N> for ConicScanner {
         Source::EmitterAzimuth,
         Source::TimeAir,
         Source::TimeWater,
+        Source::WaterSurfaceHeight,
+        Source::WaterSurfaceSlopeNorth,
+        Source::WaterSurfaceSlopeEast,
+        Source::NWater,
     ];
 
     fn parameters(
@@ -370,15 +395,27 @@ impl Georeferencer<CONIC_N> for ConicScanner {
             0.0,
             o.time_air_s,
             o.time_water_s,
+            0.0,
+            0.0,
+            0.0,
+            self.n_water,
         ])
     }
 
     fn footprint_ned<D: Scalar>(&self, p: &SVector<D, CONIC_N>) -> Vector3<D> {
-        let (l3, l4) = self.beam_directions(p);
+        let rays = self.rays(p);
         let speed = c::<D>(SPEED_OF_LIGHT_AIR_M_PER_S);
-        let rho1 = speed * p[19] * c::<D>(0.5);
-        let rho2 = speed * p[20] / (c::<D>(2.0 * self.n_water));
-        let x_s = l3 * rho1 + l4 * rho2;
+        let mut rho1 = speed * p[19] * c::<D>(0.5);
+        let mut rho2 = speed * p[20] / (p[24] * c::<D>(2.0));
+        if p[20] > D::zero() {
+            // The surface δh above where Δt1 puts it, total time held: the refraction point
+            // moves δh / cos θi back along the air beam and the water leg gains that optical
+            // path, ρ1 + nw ρ2 = const.
+            let shift = p[21] / rays.l3.dot(&rays.base);
+            rho1 -= shift;
+            rho2 += shift / p[24];
+        }
+        let x_s = rays.l3 * rho1 + rays.l4 * rho2;
         let r_n = rotation_zyx(p[3], p[4], p[5]);
         let r_m = rotation_zyx(p[6], p[7], p[8]);
         let lever = Vector3::new(p[9], p[10], p[11]);
@@ -481,6 +518,87 @@ mod tests {
         let d = sf.footprint_ned(&sf.parameters(&a1, &m, &obs))
             - lv.footprint_ned(&lv.parameters(&a1, &m, &obs));
         assert!(d.norm() > 0.1, "5° roll must change the in-water path: {d}");
+    }
+
+    fn sounding(s: &ConicScanner, a: &Attitude) -> SVector<f64, CONIC_N> {
+        let obs = ConicObservation {
+            azimuth_rad: 0.7,
+            time_air_s: s.time_air_s(425.7),
+            time_water_s: s.time_water_s(30.0),
+        };
+        s.parameters(a, &Mounting::default(), &obs)
+    }
+
+    #[test]
+    fn water_surface_height_holds_the_total_travel_time() {
+        for mode in [Refraction::ScannerFrame, Refraction::Level] {
+            let s = czmil(mode);
+            let a = Attitude::from_degrees(1.0, -2.0, 30.0);
+            let p = sounding(&s, &a);
+            let mut q = p;
+            q[21] = 0.2; // the surface 20 cm higher
+            let (f0, f1) = (s.footprint_ned(&p), s.footprint_ned(&q));
+            // Same beam: the refraction point moves up the air leg by 0.2 / cos θi, the water
+            // leg gains 0.2 / (cos θi · nw); the bottom point moves by that difference.
+            let (l3, l4) = s.beam_directions(&p);
+            let r = rotation_zyx(a.roll_rad, a.pitch_rad, a.heading_rad);
+            let base = match mode {
+                Refraction::ScannerFrame => Vector3::z(),
+                Refraction::Level => r.transpose() * Vector3::z(),
+            };
+            let d = 0.2 / l3.dot(&base);
+            let want = r * (l4 * (d / DEFAULT_N_WATER) - l3 * d);
+            assert_relative_eq!(f1 - f0, want, epsilon = 1e-9);
+            // A topographic return does not move.
+            let (mut t0, mut t1) = (p, q);
+            t0[20] = 0.0;
+            t1[20] = 0.0;
+            assert_eq!(s.footprint_ned(&t0), s.footprint_ned(&t1));
+        }
+    }
+
+    #[test]
+    fn level_slope_is_snell_at_the_tilted_surface() {
+        let s = czmil(Refraction::Level);
+        let a = Attitude::from_degrees(2.0, 1.0, 10.0);
+        let mut p = sounding(&s, &a);
+        p[22] = 0.03;
+        p[23] = -0.02;
+        // Independently: the air beam in N refracted at the normal ∝ [tan sN, tan sE, 1].
+        let r = rotation_zyx(a.roll_rad, a.pitch_rad, a.heading_rad);
+        let (l3, l4) = s.beam_directions(&p);
+        let n = Vector3::new(0.03f64.tan(), (-0.02f64).tan(), 1.0).normalize();
+        let want = refract(&(r * l3), &n, DEFAULT_N_AIR / DEFAULT_N_WATER);
+        assert_relative_eq!(r * l4, want, epsilon = 1e-12);
+    }
+
+    #[test]
+    fn n_water_enters_snell_and_the_water_range() {
+        let s = czmil(Refraction::Level);
+        let a = Attitude::default();
+        let mut p = sounding(&s, &a);
+        let f0 = s.footprint_ned(&p);
+        p[24] = 1.34;
+        let other = ConicScanner::new(
+            s.prism_slope_rad(),
+            DEFAULT_N_PRISM,
+            DEFAULT_N_AIR,
+            1.34,
+            Refraction::Level,
+        )
+        .unwrap();
+        let q = other.parameters(
+            &a,
+            &Mounting::default(),
+            &ConicObservation {
+                azimuth_rad: 0.7,
+                time_air_s: s.time_air_s(425.7),
+                time_water_s: s.time_water_s(30.0),
+            },
+        );
+        assert_relative_eq!(s.footprint_ned(&p), other.footprint_ned(&q), epsilon = 1e-9);
+        // A larger index: a shorter, steeper water leg (the bottom comes up).
+        assert!(s.footprint_ned(&p).z < f0.z);
     }
 
     #[test]

@@ -11,6 +11,8 @@ pub enum Unit {
     Radian,
     /// Times: SI seconds, config `_ns` (nanoseconds at the edges).
     Second,
+    /// Dimensionless ratios (a refraction index): SI symbol `1`, config key without a suffix.
+    One,
 }
 
 impl Unit {
@@ -20,15 +22,18 @@ impl Unit {
             Unit::Metre => "m",
             Unit::Radian => "rad",
             Unit::Second => "s",
+            Unit::One => "1",
         }
     }
 
-    /// The suffix a config key or flag carries for this unit (`_m`, `_deg`, `_ns`).
+    /// The suffix a config key or flag carries for this unit (`_m`, `_deg`, `_ns`; none for a
+    /// ratio).
     pub fn config_suffix(self) -> &'static str {
         match self {
             Unit::Metre => "_m",
             Unit::Radian => "_deg",
             Unit::Second => "_ns",
+            Unit::One => "",
         }
     }
 
@@ -38,6 +43,7 @@ impl Unit {
             Unit::Metre => 1.0,
             Unit::Radian => std::f64::consts::PI / 180.0,
             Unit::Second => 1e-9,
+            Unit::One => 1.0,
         }
     }
 }
@@ -115,6 +121,19 @@ sources! {
     TimeAir = "time_air", Second;
     /// Two-way travel time in water (s). Seed 004 Δt2.
     TimeWater = "time_water", Second;
+    /// Height of the water surface at the refraction point above where the air travel time puts
+    /// it, along the surface normal (m), with the total travel time held: the refraction point
+    /// moves along the air beam and the water leg takes up the difference. Waves about a
+    /// modelled surface, or a surface-detection bias. Bathymetric soundings only.
+    WaterSurfaceHeight = "water_surface_height", Metre;
+    /// Tilt of the water surface at the refraction point towards north (rad): the surface rises
+    /// towards north by tan of it (wave slope). Bathymetric soundings only.
+    WaterSurfaceSlopeNorth = "water_surface_slope_north", Radian;
+    /// Tilt of the water surface at the refraction point towards east (rad).
+    WaterSurfaceSlopeEast = "water_surface_slope_east", Radian;
+    /// Refraction index of the water (dimensionless): Snell's law at the surface and the speed
+    /// of light in water, `ρ2 = c Δt2 / (2 nw)`. Bathymetric soundings only.
+    NWater = "n_water", One;
 }
 
 impl Source {
@@ -155,7 +174,7 @@ mod tests {
 
     #[test]
     fn names_and_keys_round_trip() {
-        assert_eq!(Source::COUNT, 23);
+        assert_eq!(Source::COUNT, 27);
         for (i, s) in Source::ALL.iter().enumerate() {
             assert_eq!(s.index(), i);
             assert_eq!(Source::from_name(s.name()), Some(*s));
@@ -164,5 +183,14 @@ mod tests {
         assert_eq!(Source::BoresightRoll.config_key(), "boresight_roll_deg");
         assert_eq!(Source::TimeWater.config_key(), "time_water_ns");
         assert_eq!(Source::from_config_key("range_deg"), None);
+        assert_eq!(Source::NWater.config_key(), "n_water");
+        assert_eq!(
+            Source::WaterSurfaceSlopeNorth.config_key(),
+            "water_surface_slope_north_deg"
+        );
+        assert_eq!(
+            Source::WaterSurfaceHeight.config_key(),
+            "water_surface_height_m"
+        );
     }
 }

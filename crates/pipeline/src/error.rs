@@ -113,6 +113,30 @@ pub enum Error {
         /// What happened.
         message: String,
     },
+    /// A tile manifest or tile report that cannot be used (the message names the key or value).
+    #[error("{}: {message}", path.display())]
+    Manifest {
+        /// The manifest or report file.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// Correction of a tile failed (lidarqa-calib's message).
+    #[error("{}: {source}", path.display())]
+    Calib {
+        /// The tile.
+        path: PathBuf,
+        /// Why.
+        source: lidarqa_calib::Error,
+    },
+    /// Target extraction in a tile failed (lidarqa-targets' message).
+    #[error("{}: {source}", path.display())]
+    Targets {
+        /// The tile.
+        path: PathBuf,
+        /// Why.
+        source: lidarqa_targets::Error,
+    },
 }
 
 /// Result with the lidarqa-pipeline [`Error`].

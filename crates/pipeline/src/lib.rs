@@ -20,9 +20,15 @@
 //!    `[scanner] beam_divergence_mrad`;
 //! 5. the covariance is rotated from N at the aircraft to N at the point.
 //!
-//! Skipped points (with `skip_outside` / `skip_invalid`, and conic bathymetric soundings, class
-//! 40, whose in-water leg is not recovered yet) are counted by reason and not written: every
-//! output point has a σ.
+//! Conic bathymetric soundings (class 40) are recovered from their pulse's water-surface return
+//! (class 41, same GPS time) or, without one, from a plane fitted to the surface returns within
+//! 20 m (lidarqa-tpu's `sounding` module); they also get `depth` and `iho_order` extra bytes and
+//! are counted in the summary's `iho_s44` block (IHO S-44 Ed. 6 orders by depth band). A sounding
+//! with no water surface above it or not below its surface is an error naming the point, or
+//! with `skip_invalid` a counted skip (`no_water_surface`, `negative_depth`).
+//!
+//! Skipped points (with `skip_outside` / `skip_invalid`) are counted by reason and not written:
+//! every output point has a σ.
 //!
 //! ```no_run
 //! use lidarqa_pipeline::{TileReport, TpuContext, TpuOptions, TpuTileJob, tpu_tile};
@@ -46,15 +52,32 @@
 //! ```
 
 mod context;
+mod correct_tile;
+mod digest;
 mod error;
+mod manifest;
+mod retile;
+mod stored;
 mod summary;
+mod targets_tile;
 mod tile;
 
 pub use context::{TpuContext, TpuOptions};
+pub use correct_tile::{CorrectTileJob, CorrectTileReport, correct_tile};
+pub use digest::{FileDigest, seed_for_tile};
 pub use error::{Error, Result};
-pub use summary::{
-    AngleCheck, Histogram, HistogramsView, LinearHistogram, ResidualCheck, ResidualView,
-    SIGMA_MAP_CELL_M, SIGMA_MAP_MAX_SIDE, SIGMA_NAMES, ScanAngleView, SigmaGridView, SigmaMap,
-    SkipReason, Stats, SummaryView, SurveyReport, TileLine, TileReport, TpuSummary,
+pub use manifest::{
+    Entry, EntryOutcome, InputFile, MANIFEST_FORMAT, Manifest, ManifestOptions, REPORT_SUFFIX,
+    TILE_REPORT_FORMAT, Task, TpuPlan, collect, entry_status, plan_tpu, resolve, run_entry,
+    run_manifest_entry,
 };
+pub use retile::{RetileReport, TileFile, TileGrid, retile};
+pub use stored::{StoredHistogram, StoredSummary};
+pub use summary::{
+    AngleCheck, BandView, DEPTH_BANDS_M, Histogram, HistogramsView, IhoTally, IhoView,
+    LinearHistogram, OrderView, ResidualCheck, ResidualView, SIGMA_MAP_CELL_M, SIGMA_MAP_MAX_SIDE,
+    SIGMA_NAMES, ScanAngleView, SigmaGridView, SigmaMap, SkipReason, SoundingResult, Stats,
+    SummaryView, SurveyReport, TileLine, TileReport, TpuSummary,
+};
+pub use targets_tile::{TargetsTileJob, TargetsTileReport, extract_targets_tile};
 pub use tile::{TpuTileJob, tpu_tile, tpu_tile_with_progress};

@@ -8,7 +8,8 @@
 //! (count, min, max, percentiles exactly; mean and shares up to floating-point summation order).
 //! Storing every value would give exact percentiles but memory proportional to the survey.
 
-use serde::Serialize;
+use lidarqa_tpu::{IhoLimits, IhoOrder};
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
@@ -20,13 +21,14 @@ const N_BINS: usize = ((LOG_MAX - LOG_MIN) * BINS_PER_DECADE) as usize;
 /// A value distribution (metres) with exact count / min / max / sum and histogram percentiles.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Histogram {
-    counts: Vec<u64>,
-    below: u64,
-    above: u64,
-    n: u64,
-    sum: f64,
-    min: f64,
-    max: f64,
+    // pub(crate): the tile-report JSON (`stored.rs`) stores and restores them exactly.
+    pub(crate) counts: Vec<u64>,
+    pub(crate) below: u64,
+    pub(crate) above: u64,
+    pub(crate) n: u64,
+    pub(crate) sum: f64,
+    pub(crate) min: f64,
+    pub(crate) max: f64,
 }
 
 impl Default for Histogram {
@@ -150,8 +152,8 @@ pub struct LinearHistogram {
 /// Mean σ vertical on a fixed grid of projected metres, kept sparse so tiles merge exactly.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SigmaMap {
-    cell_m: f64,
-    cells: BTreeMap<(i64, i64), (f64, u64)>,
+    pub(crate) cell_m: f64,
+    pub(crate) cells: BTreeMap<(i64, i64), (f64, u64)>,
 }
 
 /// Grid cell of the σ map, m.
@@ -283,19 +285,22 @@ pub enum SkipReason {
     BadTime,
     /// The raw observation or its uncertainty cannot be computed (`--skip-invalid`).
     NoObservation,
-    /// A bathymetric sounding (class 40) of a conic scanner: the in-water leg is not recovered
-    /// yet, so these are always skipped and counted.
-    Bathymetric,
+    /// A bathymetric sounding (class 40) with no water surface above it: no surface return of
+    /// its pulse and too few around it (`--skip-invalid`).
+    NoWaterSurface,
+    /// A bathymetric sounding not below its water surface (`--skip-invalid`).
+    NegativeDepth,
 }
 
 impl SkipReason {
     /// Every reason.
-    pub const ALL: [SkipReason; 5] = [
+    pub const ALL: [SkipReason; 6] = [
         SkipReason::OutsideTrajectory,
         SkipReason::NonFiniteCoordinates,
         SkipReason::BadTime,
         SkipReason::NoObservation,
-        SkipReason::Bathymetric,
+        SkipReason::NoWaterSurface,
+        SkipReason::NegativeDepth,
     ];
 
     /// snake_case name used in JSON.
@@ -305,9 +310,210 @@ impl SkipReason {
             SkipReason::NonFiniteCoordinates => "non_finite_coordinates",
             SkipReason::BadTime => "bad_gps_time",
             SkipReason::NoObservation => "no_observation",
-            SkipReason::Bathymetric => "bathymetric_not_supported",
+            SkipReason::NoWaterSurface => "no_water_surface",
+            SkipReason::NegativeDepth => "negative_depth",
         }
     }
+}
+
+/// Depth bands of the IHO summary, m: `[from, to)`.
+pub const DEPTH_BANDS_M: [[f64; 2]; 5] = [
+    [0.0, 5.0],
+    [5.0, 10.0],
+    [10.0, 20.0],
+    [20.0, 50.0],
+    [50.0, f64::INFINITY],
+];
+
+/// One sounding's IHO S-44 result (computed by the tile, counted here).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SoundingResult {
+    /// Depth below the water surface, m.
+    pub depth_m: f64,
+    /// 95 % horizontal uncertainty (exact radius of the error ellipse), m.
+    pub thu_95_m: f64,
+    /// 95 % vertical uncertainty (1.96 σ_V), m.
+    pub tvu_95_m: f64,
+    /// Whether the surface was modelled (no surface return of its own pulse).
+    pub surface_modelled: bool,
+    /// Recovery residual, m.
+    pub residual_m: f64,
+}
+
+/// Counts of one depth band.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BandTally {
+    n: u64,
+    both: [u64; 5],
+    thu: [u64; 5],
+    tvu: [u64; 5],
+}
+
+/// Mergeable IHO S-44 counts of soundings by depth band and order (stored as they are in tile
+/// reports: plain counts).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IhoTally {
+    bands: [BandTally; 5],
+    modelled: u64,
+    residual: ResidualCheck,
+}
+
+impl IhoTally {
+    /// Counts one sounding.
+    pub fn add(&mut self, r: &SoundingResult) {
+        let b = DEPTH_BANDS_M
+            .iter()
+            .position(|[lo, hi]| r.depth_m >= *lo && r.depth_m < *hi)
+            .unwrap_or(0);
+        let band = &mut self.bands[b];
+        band.n += 1;
+        for (k, o) in IhoOrder::ALL.iter().enumerate() {
+            let (h, v) = o.check(r.depth_m, r.thu_95_m, r.tvu_95_m);
+            band.thu[k] += u64::from(h);
+            band.tvu[k] += u64::from(v);
+            band.both[k] += u64::from(h && v);
+        }
+        self.modelled += u64::from(r.surface_modelled);
+        self.residual.add(r.residual_m);
+    }
+
+    /// Adds another tally.
+    pub fn merge(&mut self, o: &IhoTally) {
+        for (a, b) in self.bands.iter_mut().zip(&o.bands) {
+            a.n += b.n;
+            for k in 0..5 {
+                a.both[k] += b.both[k];
+                a.thu[k] += b.thu[k];
+                a.tvu[k] += b.tvu[k];
+            }
+        }
+        self.modelled += o.modelled;
+        self.residual.merge(&o.residual);
+    }
+
+    /// Soundings counted.
+    pub fn soundings(&self) -> u64 {
+        self.bands.iter().map(|b| b.n).sum()
+    }
+
+    /// The JSON view; `None` without soundings.
+    pub fn view(&self) -> Option<IhoView> {
+        let n = self.soundings();
+        if n == 0 {
+            return None;
+        }
+        let pct = |c: u64, n: u64| {
+            if n > 0 {
+                100.0 * c as f64 / n as f64
+            } else {
+                0.0
+            }
+        };
+        let per_order = |counts: [u64; 5], n: u64| -> BTreeMap<&'static str, f64> {
+            IhoOrder::ALL
+                .iter()
+                .zip(counts)
+                .map(|(o, c)| (o.name(), pct(c, n)))
+                .collect()
+        };
+        let mut total = BandTally::default();
+        for b in &self.bands {
+            total.n += b.n;
+            for k in 0..5 {
+                total.both[k] += b.both[k];
+                total.thu[k] += b.thu[k];
+                total.tvu[k] += b.tvu[k];
+            }
+        }
+        Some(IhoView {
+            standard: "IHO S-44 Edition 6.0.0 (2020), Table 1",
+            thu_95: "exact 95 % radius of each sounding's horizontal error ellipse (>= total_thu = 1.7308 sigma_h, <= 1.96 sigma_h)",
+            tvu_95: "1.96 sigma_v",
+            soundings: n,
+            surface_from_pulse: n - self.modelled,
+            surface_modelled: self.modelled,
+            recovery_residual_m: ResidualView {
+                kind: "sounding",
+                rms: (self.residual.sum_sq_m2 / self.residual.n.max(1) as f64).sqrt(),
+                max_abs: self.residual.max_abs_m,
+            },
+            orders: IhoOrder::ALL
+                .iter()
+                .enumerate()
+                .map(|(k, o)| {
+                    (
+                        o.name(),
+                        OrderView {
+                            limits: o.limits(),
+                            percent_meeting: pct(total.both[k], n),
+                        },
+                    )
+                })
+                .collect(),
+            bands: DEPTH_BANDS_M
+                .iter()
+                .zip(&self.bands)
+                .filter(|(_, b)| b.n > 0)
+                .map(|(range, b)| BandView {
+                    depth_m: [range[0], if range[1].is_finite() { range[1] } else { -1.0 }],
+                    soundings: b.n,
+                    percent_meeting: per_order(b.both, b.n),
+                    percent_thu: per_order(b.thu, b.n),
+                    percent_tvu: per_order(b.tvu, b.n),
+                })
+                .collect(),
+        })
+    }
+}
+
+/// JSON view of an [`IhoTally`]: the summary's `iho_s44` block.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IhoView {
+    /// The standard and table.
+    pub standard: &'static str,
+    /// How THU at 95 % is computed.
+    pub thu_95: &'static str,
+    /// How TVU at 95 % is computed.
+    pub tvu_95: &'static str,
+    /// Soundings (class 40) with a TPU.
+    pub soundings: u64,
+    /// Soundings whose water surface is their pulse's own surface return.
+    pub surface_from_pulse: u64,
+    /// Soundings under a modelled (fitted) surface.
+    pub surface_modelled: u64,
+    /// Recovery residual of the soundings, m.
+    pub recovery_residual_m: ResidualView,
+    /// Per order: its limits and the percentage of all soundings meeting both THU and TVU.
+    pub orders: BTreeMap<&'static str, OrderView>,
+    /// Per depth band with soundings.
+    pub bands: Vec<BandView>,
+}
+
+/// One order's line.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct OrderView {
+    /// Its limits.
+    #[serde(flatten)]
+    pub limits: IhoLimits,
+    /// Percentage of soundings meeting THU and TVU.
+    pub percent_meeting: f64,
+}
+
+/// One depth band's line.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BandView {
+    /// `[from, to)`, m; `to` = −1 for "and deeper".
+    pub depth_m: [f64; 2],
+    /// Soundings in the band.
+    pub soundings: u64,
+    /// Per order, percentage meeting both THU and TVU.
+    pub percent_meeting: BTreeMap<&'static str, f64>,
+    /// Per order, percentage meeting THU.
+    pub percent_thu: BTreeMap<&'static str, f64>,
+    /// Per order, percentage meeting TVU.
+    pub percent_tvu: BTreeMap<&'static str, f64>,
 }
 
 /// The σ reported per point, in output order: the extra-bytes dimension names.
@@ -346,6 +552,8 @@ pub struct TpuSummary {
     pub recovery_residual: ResidualCheck,
     /// Map of σ vertical.
     pub map: SigmaMap,
+    /// IHO S-44 counts of the bathymetric soundings (conic scanner).
+    pub iho: IhoTally,
 }
 
 /// Recovered vs LAS-field scan angle, degrees.
@@ -384,7 +592,8 @@ impl AngleCheck {
 }
 
 /// Distribution of a recovery residual, metres.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ResidualCheck {
     /// Points.
     pub n: u64,
@@ -424,6 +633,7 @@ impl TpuSummary {
             scan_angle: AngleCheck::default(),
             recovery_residual: ResidualCheck::default(),
             map: SigmaMap::default(),
+            iho: IhoTally::default(),
         }
     }
 
@@ -447,6 +657,7 @@ impl TpuSummary {
         self.map.merge(&o.map);
         self.scan_angle.merge(&o.scan_angle);
         self.recovery_residual.merge(&o.recovery_residual);
+        self.iho.merge(&o.iho);
     }
 
     /// Total skipped points.
@@ -500,6 +711,7 @@ impl TpuSummary {
                 rms: (self.recovery_residual.sum_sq_m2 / self.recovery_residual.n as f64).sqrt(),
                 max_abs: self.recovery_residual.max_abs_m,
             }),
+            iho_s44: self.iho.view(),
         }
     }
 }
@@ -535,6 +747,10 @@ pub struct SummaryView {
     pub scan_angle_check: Option<ScanAngleView>,
     /// Recovery residual, m.
     pub recovery_residual_m: Option<ResidualView>,
+    /// IHO S-44 Ed. 6 orders met by the bathymetric soundings (class 40) by depth band; only
+    /// present when there are soundings.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub iho_s44: Option<IhoView>,
 }
 
 /// JSON view of an [`AngleCheck`].
@@ -555,7 +771,7 @@ pub struct ScanAngleView {
 /// JSON view of a [`ResidualCheck`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct ResidualView {
-    /// `out_of_plane` (linear: S_x) or `off_cone` (conic).
+    /// `out_of_plane` (linear: S_x), `off_cone` (conic) or `sounding` (bathymetric).
     pub kind: &'static str,
     /// RMS, m.
     pub rms: f64,

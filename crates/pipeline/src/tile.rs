@@ -2,17 +2,18 @@
 
 use crate::context::TpuContext;
 use crate::error::{Error, Result};
-use crate::summary::{SIGMA_NAMES, SkipReason, TileReport, TpuSummary};
+use crate::summary::{SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary};
 use lidarqa_io::{
     Ellipsoid, Geodetic, LasInfo, LasPoint, LasReader, LasTimeConverter, LasWriteOptions,
     LasWriter, PointChunk, TransverseMercator,
 };
 use lidarqa_model::{
-    ConicScanner, Georeferencer, LinearObservation, LinearScanner, Mounting, Scanner,
+    ConicScanner, Georeferencer, LinearObservation, LinearScanner, Mounting, Scanner, Source,
 };
 use lidarqa_tpu::{
-    Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, Trajectory, ecef_from_ned,
-    incidence_angle, plane_normals,
+    IhoOrder, Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, SoundingRecovery,
+    SurfaceSource, TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex, ecef_from_ned,
+    incidence_angle, plane_normals, thu_95_m,
 };
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
@@ -28,7 +29,10 @@ const TVU_95: f64 = 1.96;
 /// Points per parallel work item.
 const BLOCK: usize = 4096;
 
-const DESCRIPTIONS: [&str; 7] = [
+/// Classification code of a water-surface return.
+const CLASS_WATER_SURFACE: u8 = 41;
+
+const DESCRIPTIONS: [&str; 9] = [
     "1-sigma TPU north (m)",
     "1-sigma TPU east (m)",
     "1-sigma TPU up (m)",
@@ -36,7 +40,12 @@ const DESCRIPTIONS: [&str; 7] = [
     "1-sigma TPU vertical (m)",
     "95% THU = 1.7308 sigma_h (m)",
     "95% TVU = 1.96 sigma_v (m)",
+    "depth below water surface (m)",
+    "IHO S-44 order met, -1 n/a",
 ];
+
+/// Names of the sounding dimensions written after the σ for conic sensors.
+pub const SOUNDING_DIMS: [&str; 2] = ["depth", "iho_order"];
 
 /// One tile to process: input, output and the survey's shared context.
 #[derive(Debug, Clone, Copy)]
@@ -120,8 +129,11 @@ pub fn tpu_tile_with_progress(
     )?;
     let kernel = Kernel::new(ctx)?;
     let n_sigma = kernel.n_sigma();
-    let dims: Vec<(&str, &str)> = SIGMA_NAMES[..n_sigma]
+    let n_dims = kernel.n_dims();
+    let dims: Vec<(&str, &str)> = SIGMA_NAMES
         .iter()
+        .chain(&SOUNDING_DIMS)
+        .take(n_dims)
         .zip(DESCRIPTIONS)
         .map(|(n, d)| (*n, d))
         .collect();
@@ -146,7 +158,7 @@ pub fn tpu_tile_with_progress(
         let (tx_write, rx_write) = sync_channel::<WriteMsg>(1);
         let prep = &prep;
         let reader_thread = scope.spawn(move || read_loop(input, prep, chunk_points, tx_read));
-        let writer_thread = scope.spawn(move || write_loop(writer, n_sigma, rx_write, progress));
+        let writer_thread = scope.spawn(move || write_loop(writer, n_dims, rx_write, progress));
         let run = Run {
             ctx,
             path: &path,
@@ -202,7 +214,7 @@ fn crs_reason(info: &LasInfo, e: &lidarqa_io::Error) -> String {
 #[allow(clippy::large_enum_variant)]
 enum Kernel {
     Linear(PointPropagator<LinearScanner, 14>),
-    Conic(PointPropagator<ConicScanner, 21>, ConicScanner),
+    Conic(PointPropagator<ConicScanner, 25>, ConicScanner),
 }
 
 impl Kernel {
@@ -232,6 +244,13 @@ impl Kernel {
         match self {
             Kernel::Linear(_) => 5,
             Kernel::Conic(..) => 7,
+        }
+    }
+    /// σ columns plus, for conic sensors, `depth` and `iho_order`.
+    fn n_dims(&self) -> usize {
+        match self {
+            Kernel::Linear(_) => 5,
+            Kernel::Conic(..) => 9,
         }
     }
     fn has_incidence(&self) -> bool {
@@ -351,22 +370,35 @@ enum WriteMsg {
 /// [`WriteMsg::Finish`] (the temporary file is then dropped).
 fn write_loop(
     mut writer: LasWriter,
-    n_sigma: usize,
+    n_dims: usize,
     rx: Receiver<WriteMsg>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Option<u64>> {
-    let mut extra = [0f32; 7];
+    let mut extra = [0f32; 9];
     for msg in rx {
         match msg {
             WriteMsg::Chunk(chunk, slots) => {
                 for (p, s) in chunk.points.iter().zip(&slots) {
-                    if let Slot::Ok(sig) = s {
+                    if let Slot::Ok(sig, sounding) = s {
                         for (e, v) in extra.iter_mut().zip(sig) {
                             *e = *v as f32;
                         }
                         extra[5] = (THU_95 * sig[3]) as f32;
                         extra[6] = (TVU_95 * sig[4]) as f32;
-                        writer.write_point(p, &extra[..n_sigma])?;
+                        (extra[7], extra[8]) = match sounding {
+                            Some(r) => (
+                                r.depth_m as f32,
+                                IhoOrder::best(r.depth_m, r.thu_95_m, r.tvu_95_m).map_or(
+                                    0.0,
+                                    |o| {
+                                        (IhoOrder::ALL.iter().position(|x| *x == o).unwrap_or(0)
+                                            + 1) as f32
+                                    },
+                                ),
+                            ),
+                            None => (0.0, -1.0),
+                        };
+                        writer.write_point(p, &extra[..n_dims])?;
                     }
                 }
                 progress(chunk.len() as u64);
@@ -382,8 +414,9 @@ fn write_loop(
 enum Slot {
     #[default]
     Pending,
-    /// σ north, east, up, horizontal, vertical (m, local level frame at the point).
-    Ok([f64; 5]),
+    /// σ north, east, up, horizontal, vertical (m, local level frame at the point), and for a
+    /// sounding its depth and 95 % uncertainties.
+    Ok([f64; 5], Option<SoundingResult>),
     Skipped(SkipReason),
     Failed(Box<Error>),
 }
@@ -421,7 +454,10 @@ impl Run<'_> {
             }
         };
         let margin = self.ctx.options.margin_points;
+        let conic = matches!(self.kernel, Kernel::Conic(..));
         let mut tail: Vec<Vector3<f64>> = Vec::new();
+        // Water-surface returns among the last `margin` points, with their file index.
+        let mut water_tail: Vec<(u64, WaterReturn)> = Vec::new();
         let mut current = recv()?;
         while let Some(cur) = current {
             let next = recv()?;
@@ -429,11 +465,31 @@ impl Run<'_> {
                 .as_ref()
                 .map(|n| valid_ecef(&n.pts).take(margin).collect())
                 .unwrap_or_default();
-            let slots = self.compute_chunk(&cur, &tail, &head, summary)?;
+            // Soundings look for their surface in the chunk and the same margins.
+            let water = (conic
+                && cur
+                    .chunk
+                    .points
+                    .iter()
+                    .any(|p| p.classification == CLASS_BATHYMETRY))
+            .then(|| {
+                let mut w: Vec<WaterReturn> = water_tail.iter().map(|(_, r)| *r).collect();
+                w.extend(water_returns(&cur, cur.pts.len()).map(|(_, r)| r));
+                if let Some(n) = &next {
+                    w.extend(water_returns(n, margin).map(|(_, r)| r));
+                }
+                WaterSurfaceIndex::new(w)
+            });
+            let slots = self.compute_chunk(&cur, &tail, &head, water.as_ref(), summary)?;
             // The last `margin` valid points so far (they may span several small chunks).
             tail.extend(valid_ecef(&cur.pts));
             let excess = tail.len().saturating_sub(margin);
             tail.drain(..excess);
+            if conic {
+                water_tail.extend(water_returns(&cur, cur.pts.len()));
+                let end = cur.first_index + cur.pts.len() as u64;
+                water_tail.retain(|(i, _)| i + margin as u64 >= end);
+            }
             if tx.send(WriteMsg::Chunk(cur.chunk, slots)).is_err() {
                 // The writer stopped; its error is reported by the caller.
                 return Ok(());
@@ -448,6 +504,7 @@ impl Run<'_> {
         cur: &Prepared,
         tail: &[Vector3<f64>],
         head: &[Vector3<f64>],
+        water: Option<&WaterSurfaceIndex>,
         summary: &mut TpuSummary,
     ) -> Result<Vec<Slot>> {
         let n = cur.pts.len();
@@ -481,12 +538,17 @@ impl Run<'_> {
                 for (k, slot) in block.iter_mut().enumerate() {
                     let i = b * BLOCK + k;
                     let normal = normals.get(i).copied().flatten();
-                    *slot = self.point(cur, i, normal, &mut acc);
+                    *slot = self.point(cur, i, normal, water, &mut acc);
                 }
                 acc
             })
-            .reduce(
-                || Partial {
+            // Collected in block order and summed sequentially: a parallel `reduce` would add
+            // the shares in an order that depends on work stealing, and the summary would
+            // differ in the last bits from run to run (and between the CLI and a job array).
+            .collect::<Vec<Partial>>()
+            .into_iter()
+            .fold(
+                Partial {
                     shares: vec![0.0; n_sources],
                     ..Partial::default()
                 },
@@ -510,8 +572,11 @@ impl Run<'_> {
         let conic = matches!(self.kernel, Kernel::Conic(..));
         for (i, s) in slots.iter().enumerate() {
             match s {
-                Slot::Ok(sig) => {
+                Slot::Ok(sig, sounding) => {
                     summary.points_written += 1;
+                    if let Some(r) = sounding {
+                        summary.iho.add(r);
+                    }
                     let p = &cur.chunk.points[i];
                     summary.map.add(p.x, p.y, sig[4]);
                     for (h, v) in summary.sigma.iter_mut().zip(sig) {
@@ -544,6 +609,7 @@ impl Run<'_> {
         cur: &Prepared,
         i: usize,
         normal: Option<Vector3<f64>>,
+        water: Option<&WaterSurfaceIndex>,
         acc: &mut Partial,
     ) -> Slot {
         let p = &cur.pts[i];
@@ -581,9 +647,6 @@ impl Run<'_> {
                 );
             }
         }
-        if matches!(self.kernel, Kernel::Conic(..)) && lp.classification == CLASS_BATHYMETRY {
-            return Slot::Skipped(SkipReason::Bathymetric);
-        }
         let pose = match self.trajectory.at(p.time_sow_s) {
             Ok(pose) => pose,
             Err(_) => {
@@ -602,25 +665,128 @@ impl Run<'_> {
             }
         };
         let sigma = self.ctx.sigmas.as_ref().map(|s| s.at(p.time_sow_s));
-        match self.propagate(&pose, p, lp, sigma.as_ref(), normal, acc) {
-            Ok(cov_at_p0) => {
+        let sounding = match (self.kernel, water) {
+            (Kernel::Conic(_, scanner), Some(w)) if lp.classification == CLASS_BATHYMETRY => {
+                Some(self.recover_sounding(scanner, &pose, p, lp, w))
+            }
+            _ => None,
+        };
+        let result = match sounding {
+            None => self
+                .propagate(&pose, p, lp, sigma.as_ref(), normal, acc)
+                .map(|c| (c, None)),
+            Some(Err(e)) => Err(e),
+            Some(Ok(rec)) => self
+                .propagate_sounding(&rec, &pose, sigma.as_ref(), acc)
+                .map(|c| (c, Some(rec))),
+        };
+        match result {
+            Ok((cov_at_p0, rec)) => {
                 // σ in the local level frame at the point: rotate from N at P0 (the two differ
                 // by the geodesic angle between them, ~1e-4 rad at 600 m; cheap to do exactly).
                 let m = ecef_from_ned(p.latitude_rad, p.longitude_rad).transpose()
                     * ecef_from_ned(pose.latitude_rad, pose.longitude_rad);
                 let c = m * cov_at_p0 * m.transpose();
                 let (n2, e2, u2) = (c[(0, 0)].max(0.0), c[(1, 1)].max(0.0), c[(2, 2)].max(0.0));
-                Slot::Ok([n2.sqrt(), e2.sqrt(), u2.sqrt(), (n2 + e2).sqrt(), u2.sqrt()])
+                let result = rec.map(|r| SoundingResult {
+                    depth_m: r.depth_m,
+                    thu_95_m: thu_95_m(&c.fixed_view::<2, 2>(0, 0).into_owned()),
+                    tvu_95_m: TVU_95_FACTOR * u2.sqrt(),
+                    surface_modelled: matches!(r.surface, SurfaceSource::Modelled { .. }),
+                    residual_m: r.residual_m,
+                });
+                Slot::Ok(
+                    [n2.sqrt(), e2.sqrt(), u2.sqrt(), (n2 + e2).sqrt(), u2.sqrt()],
+                    result,
+                )
             }
-            Err(source) => invalid(
-                SkipReason::NoObservation,
-                Error::Point {
-                    path: self.path.clone(),
-                    index,
-                    source,
-                },
-            ),
+            Err(source) => {
+                let reason = match source {
+                    lidarqa_tpu::Error::NoWaterSurface { .. } => SkipReason::NoWaterSurface,
+                    lidarqa_tpu::Error::NegativeDepth { .. } => SkipReason::NegativeDepth,
+                    _ => SkipReason::NoObservation,
+                };
+                invalid(
+                    reason,
+                    Error::Point {
+                        path: self.path.clone(),
+                        index,
+                        source,
+                    },
+                )
+            }
         }
+    }
+
+    /// The raw observation of a sounding from its pulse's surface return or a modelled surface.
+    fn recover_sounding(
+        &self,
+        scanner: &ConicScanner,
+        pose: &PoseAt,
+        p: &Prep,
+        lp: &LasPoint,
+        water: &WaterSurfaceIndex,
+    ) -> lidarqa_tpu::Result<SoundingRecovery> {
+        match water.same_pulse(p.time_sow_s) {
+            Some(s) => self.recoverer.sounding_from_surface_return(
+                scanner,
+                &self.mounting,
+                pose,
+                &p.ecef,
+                lp.z,
+                &s.ecef_m,
+                s.xyh[2],
+            ),
+            None => {
+                let plane = water.plane_at(lp.x, lp.y)?;
+                self.recoverer.sounding_from_plane(
+                    scanner,
+                    &self.mounting,
+                    pose,
+                    &p.ecef,
+                    [lp.x, lp.y, lp.z],
+                    &plane,
+                )
+            }
+        }
+    }
+
+    /// Propagation of a sounding: no incidence term; under a modelled surface the
+    /// water-surface height σ grows by the surface's scatter about its plane (the waves):
+    /// `√(σ_file² + rms²)`.
+    fn propagate_sounding(
+        &self,
+        rec: &SoundingRecovery,
+        pose: &PoseAt,
+        sigma: Option<&PoseSigma>,
+        acc: &mut Partial,
+    ) -> lidarqa_tpu::Result<Matrix3<f64>> {
+        let Kernel::Conic(pp, scanner) = self.kernel else {
+            return Err(lidarqa_tpu::Error::Recovery(
+                "a sounding needs a conic scanner".into(),
+            ));
+        };
+        let params = scanner.parameters(&pose.attitude, &self.mounting, &rec.observation);
+        let over = match rec.surface {
+            SurfaceSource::Pulse => Vec::new(),
+            SurfaceSource::Modelled { rms_m, .. } => vec![(
+                Source::WaterSurfaceHeight,
+                self.ctx
+                    .sensor
+                    .sigma
+                    .get(Source::WaterSurfaceHeight)
+                    .hypot(rms_m),
+            )],
+        };
+        let u = pp.propagate_with(&params, sigma, None, &over)?;
+        let vars = u.source_variance_m2.as_slice();
+        let total: f64 = vars.iter().sum();
+        if total > 0.0 {
+            for (s, v) in acc.shares.iter_mut().zip(vars) {
+                *s += v / total;
+            }
+        }
+        Ok(u.covariance_ned)
     }
 
     /// Recovery + propagation: the covariance in N at P0, m².
@@ -686,6 +852,29 @@ impl Run<'_> {
         }
         Ok(cov)
     }
+}
+
+/// The water-surface returns (class 41, usable time) among the first `limit` points of a chunk,
+/// with their file index.
+fn water_returns(c: &Prepared, limit: usize) -> impl Iterator<Item = (u64, WaterReturn)> + '_ {
+    c.pts
+        .iter()
+        .zip(&c.chunk.points)
+        .take(limit)
+        .enumerate()
+        .filter(|(_, (p, lp))| {
+            lp.classification == CLASS_WATER_SURFACE && matches!(p.state, PrepState::Ok)
+        })
+        .map(move |(k, (p, lp))| {
+            (
+                c.first_index + k as u64,
+                WaterReturn {
+                    time_s: p.time_sow_s,
+                    ecef_m: p.ecef,
+                    xyh: [lp.x, lp.y, lp.z],
+                },
+            )
+        })
 }
 
 fn valid_ecef(pts: &[Prep]) -> impl DoubleEndedIterator<Item = Vector3<f64>> + '_ {

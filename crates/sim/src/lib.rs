@@ -56,10 +56,10 @@ pub use output::{
 pub use scenario::{
     BUILTIN_NAMES, BuildingFile, ErrorModel, ErrorsFile, Line, LineFile, Motion, MotionFile,
     MountingFile, PavedFile, ScanPattern, ScanWave, ScannerSettingsFile, Scenario, ScenarioFile,
-    SceneFile, SensorFile, SensorScannerFile, TargetFile, WaterFile, builtin_toml,
+    SceneFile, SensorFile, SensorScannerFile, TargetFile, WaterFile, WaveFile, builtin_toml,
 };
 pub use scene::{
     Building, CLASS_BATHYMETRY, CLASS_BUILDING, CLASS_GROUND, CLASS_TARGET, CLASS_WATER_SURFACE,
-    Curve, Hit, Markings, Paved, Scene, Target, Water,
+    Curve, Hit, Markings, Paved, Scene, Target, Water, Wave,
 };
 pub use simulate::{SimOptions, simulate, simulate_with_progress};

@@ -459,6 +459,25 @@ pub struct WaterFile {
     /// Grid bearing the waves travel towards, degrees.
     #[serde(default)]
     pub wave_azimuth_deg: f64,
+    /// More wave trains, summed with the one above: a sea of several directions and lengths
+    /// (its slope σ per axis is [`Water::slope_sigma_rad`](crate::Water::slope_sigma_rad)).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub waves: Vec<WaveFile>,
+}
+
+/// `[[scene.water.waves]]`: one sinusoidal wave train `A sin(k (x, y)·d + φ)`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WaveFile {
+    /// Amplitude A, m.
+    pub amplitude_m: f64,
+    /// Wavelength 2π/k, m.
+    pub length_m: f64,
+    /// Grid bearing the train travels towards, degrees.
+    pub azimuth_deg: f64,
+    /// Phase φ at the local origin, degrees.
+    #[serde(default)]
+    pub phase_deg: f64,
 }
 
 fn default_bank() -> f64 {

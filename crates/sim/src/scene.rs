@@ -123,12 +123,54 @@ pub struct Water {
     pub depth_m: [f64; 2],
     /// Bank width, m.
     pub bank_m: f64,
-    /// Wave amplitude, m.
-    pub wave_amplitude_m: f64,
-    /// Wave number 2π/λ, rad/m.
+    /// The wave trains summed on the still level (empty: a flat surface).
+    pub waves: Vec<Wave>,
+}
+
+/// One sinusoidal wave train: height `A sin(k (x, y)·d + φ)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Wave {
+    /// Amplitude A, m.
+    pub amplitude_m: f64,
+    /// Wave number k = 2π/λ, rad/m.
     pub wave_number_per_m: f64,
-    /// Unit vector of the wave travel direction in (x, y).
-    pub wave_dir: [f64; 2],
+    /// Unit vector d of the travel direction in (x, y).
+    pub dir: [f64; 2],
+    /// Phase φ at the local origin, rad.
+    pub phase_rad: f64,
+}
+
+impl Water {
+    /// Largest height of the surface above the still level, m (Σ A).
+    pub fn max_wave_m(&self) -> f64 {
+        self.waves.iter().map(|w| w.amplitude_m).sum()
+    }
+
+    /// RMS surface slope (as the angle atan ∂h/∂x ≈ ∂h/∂x) towards grid east and grid north,
+    /// rad, over an area large against the wavelengths: `√(Σ A² k² d² / 2)` per axis (the trains'
+    /// cross terms average out when their wave vectors differ). With small slopes this is the σ
+    /// of the sensor file's `water_surface_slope_east_deg` / `_north_deg` (grid and true north
+    /// differ by the meridian convergence, a fraction of a degree).
+    pub fn slope_sigma_rad(&self) -> [f64; 2] {
+        let var = |axis: usize| {
+            self.waves
+                .iter()
+                .map(|w| (w.amplitude_m * w.wave_number_per_m * w.dir[axis]).powi(2) / 2.0)
+                .sum::<f64>()
+        };
+        [var(0).sqrt(), var(1).sqrt()]
+    }
+
+    /// RMS height of the surface about its still level, m: `√(Σ A² / 2)`.
+    pub fn height_sigma_m(&self) -> f64 {
+        (self
+            .waves
+            .iter()
+            .map(|w| w.amplitude_m.powi(2))
+            .sum::<f64>()
+            / 2.0)
+            .sqrt()
+    }
 }
 
 /// The checked analytic scene.
@@ -363,18 +405,44 @@ impl Scene {
                     reason: format!("must be at most a tenth of wave_length_m = {wl}"),
                 });
             }
+            let mut waves = Vec::with_capacity(w.waves.len() + 1);
+            if amp > 0.0 {
+                waves.push(Wave {
+                    amplitude_m: amp,
+                    wave_number_per_m: 2.0 * PI / wl,
+                    dir: unit_from_azimuth(finite(
+                        "scene.water.wave_azimuth_deg",
+                        w.wave_azimuth_deg,
+                    )?),
+                    phase_rad: 0.0,
+                });
+            }
+            for (i, t) in w.waves.iter().enumerate() {
+                let key = format!("scene.water.waves[{i}]");
+                let a = non_negative(&format!("{key}.amplitude_m"), t.amplitude_m)?;
+                let l = positive(&format!("{key}.length_m"), t.length_m)?;
+                if a > 0.1 * l {
+                    return Err(Error::InvalidValue {
+                        key: format!("{key}.amplitude_m"),
+                        value: a.to_string(),
+                        reason: format!("must be at most a tenth of length_m = {l}"),
+                    });
+                }
+                waves.push(Wave {
+                    amplitude_m: a,
+                    wave_number_per_m: 2.0 * PI / l,
+                    dir: unit_from_azimuth(finite(&format!("{key}.azimuth_deg"), t.azimuth_deg)?),
+                    phase_rad: finite(&format!("{key}.phase_deg"), t.phase_deg)?.to_radians(),
+                });
+            }
+            waves.retain(|w| w.amplitude_m > 0.0);
             scene.water = Some(Water {
                 min_m: w.min_m,
                 max_m: w.max_m,
                 level_m: ground + level,
                 depth_m: [d0, d1],
                 bank_m: bank,
-                wave_amplitude_m: amp,
-                wave_number_per_m: 2.0 * PI / wl,
-                wave_dir: unit_from_azimuth(finite(
-                    "scene.water.wave_azimuth_deg",
-                    w.wave_azimuth_deg,
-                )?),
+                waves,
             });
         }
         for (i, b) in f.buildings.iter().enumerate() {
@@ -642,7 +710,7 @@ impl Scene {
     }
 
     fn water_hit(&self, w: &Water, curve: &Curve) -> Option<Hit> {
-        let r = if w.wave_amplitude_m == 0.0 {
+        let r = if w.waves.is_empty() {
             curve.plane([0.0, 0.0, 1.0], w.level_m)?
         } else {
             // Secant on h(ρ) − surface(x, y), started on the still level.
@@ -650,7 +718,7 @@ impl Scene {
                 let p = curve.at(r);
                 p[2] - wave(w, p[0], p[1]).0
             };
-            let mut ra = curve.plane([0.0, 0.0, 1.0], w.level_m + w.wave_amplitude_m)?;
+            let mut ra = curve.plane([0.0, 0.0, 1.0], w.level_m + w.max_wave_m())?;
             let mut rb = curve.plane([0.0, 0.0, 1.0], w.level_m)?;
             let (mut fa, mut fb) = (f(ra), f(rb));
             for _ in 0..40 {
@@ -711,17 +779,16 @@ fn basin_cut(w: &Water, x: f64, y: f64) -> f64 {
 /// Water surface height and its gradient (∂h/∂x, ∂h/∂y) at (x, y).
 #[inline]
 fn wave(w: &Water, x: f64, y: f64) -> (f64, f64, f64) {
-    if w.wave_amplitude_m == 0.0 {
-        return (w.level_m, 0.0, 0.0);
+    let (mut h, mut gx, mut gy) = (w.level_m, 0.0, 0.0);
+    for t in &w.waves {
+        let phase = t.wave_number_per_m * (x * t.dir[0] + y * t.dir[1]) + t.phase_rad;
+        let (s, c) = phase.sin_cos();
+        let g = t.amplitude_m * t.wave_number_per_m * c;
+        h += t.amplitude_m * s;
+        gx += g * t.dir[0];
+        gy += g * t.dir[1];
     }
-    let phase = w.wave_number_per_m * (x * w.wave_dir[0] + y * w.wave_dir[1]);
-    let (s, c) = phase.sin_cos();
-    let g = w.wave_amplitude_m * w.wave_number_per_m * c;
-    (
-        w.level_m + w.wave_amplitude_m * s,
-        g * w.wave_dir[0],
-        g * w.wave_dir[1],
-    )
+    (h, gx, gy)
 }
 
 fn unit(v: [f64; 3]) -> [f64; 3] {

@@ -37,6 +37,11 @@ use rand_distr::StandardNormal;
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
+/// Shortest in-water path of a sounding, m: a seabed closer to the surface than this is not
+/// separated from the surface return (a real bathymetric pulse lasts a few ns; 0.5 m of water
+/// is 4.4 ns two-way), so it gives no class-40 point.
+pub const MIN_WATER_RANGE_M: f64 = 0.5;
+
 /// Options of a run that do not change the survey itself.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct SimOptions {
@@ -562,7 +567,12 @@ impl Kernel<'_> {
                 let down = -grad.transpose().normalize();
                 let l_w = refract(&dir, &down, conic.n_air() / conic.n_water());
                 let water_curve = map.curve(&v_s, &l_w);
-                let bottom = sc.scene().trace_ground(&water_curve);
+                // A bottom closer than MIN_WATER_RANGE_M below the surface is not separated from
+                // the surface return (as with a real pulse of a few ns): no sounding.
+                let bottom = sc
+                    .scene()
+                    .trace_ground(&water_curve)
+                    .filter(|b| b.range_m >= MIN_WATER_RANGE_M);
                 let (to, o, v) = measure(0.0, 0.0);
                 let n_ret = if bottom.is_some() { 2 } else { 1 };
                 emit(

@@ -124,6 +124,7 @@ fn bathymetric_points_lie_on_the_bed_without_errors() {
         ..Default::default()
     };
     f.scene.water.as_mut().unwrap().wave_amplitude_m = 0.0;
+    f.scene.water.as_mut().unwrap().waves.clear();
     f.lines.truncate(1);
     f.lines[0].start_m = [0.0, 0.0];
     f.lines[0].end_m = [120.0, 0.0];

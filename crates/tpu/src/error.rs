@@ -47,6 +47,27 @@ pub enum Error {
     /// origin, or lies behind or off the scanner's beam geometry).
     #[error("cannot recover the raw observation: {0}")]
     Recovery(String),
+    /// A bathymetric sounding that is not below its water surface.
+    #[error(
+        "negative depth: the sounding is {depth_m:.3} m below its water surface (water range {range_water_m:.3} m); a sounding must lie below the surface"
+    )]
+    NegativeDepth {
+        /// Height of the surface above the sounding, m (≤ 0 here, or the water range is).
+        depth_m: f64,
+        /// Recovered water range ρ2, m.
+        range_water_m: f64,
+    },
+    /// A bathymetric sounding with no water surface above it: no surface return of its own
+    /// pulse and too few water-surface returns around it for a modelled surface.
+    #[error(
+        "no water surface above the sounding: no water-surface return (class 41) of its pulse and {found} within {radius_m} m (at least 3 needed for a modelled surface)"
+    )]
+    NoWaterSurface {
+        /// Water-surface returns found within the radius.
+        found: usize,
+        /// Search radius, m.
+        radius_m: f64,
+    },
 }
 
 /// Result with the lidarqa-tpu [`Error`].

@@ -156,7 +156,7 @@ pub struct Evaluation {
 /// A resolved geometry: the model and its nominal parameter vector.
 enum Resolved<'a> {
     Linear(SVector<f64, 14>, GeometryFacts),
-    Conic(&'a ConicScanner, SVector<f64, 21>, GeometryFacts),
+    Conic(&'a ConicScanner, SVector<f64, 25>, GeometryFacts),
 }
 
 fn resolve<'a>(sensor: &'a Sensor, geometry: &Geometry) -> Result<Resolved<'a>> {

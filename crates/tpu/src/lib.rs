@@ -10,7 +10,11 @@
 //!   the attitude), raw-observation recovery from a georeferenced point ([`Recoverer`]),
 //!   per-point propagation with the trajectory's own σ and an `incidence` term
 //!   ([`PointPropagator`]) and plane-fit surface normals ([`plane_normals`]). File handling is
-//!   in lidarqa-pipeline.
+//!   in lidarqa-pipeline;
+//! - bathymetric soundings of a conic scanner: their raw observation from the seabed point and
+//!   its water surface ([`Recoverer::sounding_from_surface_return`],
+//!   [`Recoverer::sounding_from_plane`]) and the IHO S-44 Ed. 6 orders they meet ([`IhoOrder`],
+//!   [`thu_95_m`]).
 //!
 //! ```
 //! use lidarqa_tpu::{evaluate, Preset};
@@ -31,11 +35,13 @@ mod bias;
 mod budget;
 mod error;
 mod geometry;
+mod iho;
 mod montecarlo;
 mod normals;
 mod point;
 mod presets;
 mod recover;
+mod sounding;
 mod sweep;
 mod trajectory;
 
@@ -47,10 +53,17 @@ pub use geometry::{
     ConicRanges, Evaluation, Footprint, Geometry, GeometryFacts, LinearRange, evaluate,
     evaluate_monte_carlo,
 };
+pub use iho::{
+    IhoLimits, IhoOrder, THU_95_CBLUE, THU_95_CIRCULAR_PER_AXIS, TVU_95_FACTOR, thu_95_m,
+};
 pub use montecarlo::{MonteCarlo, monte_carlo};
 pub use normals::{MIN_NEIGHBOURS, fit_normal, incidence_angle, plane_normals};
 pub use point::{Incidence, MAX_INCIDENCE_RAD, PointPropagator, PointUncertainty};
 pub use presets::Preset;
 pub use recover::{ConicRecovery, LinearRecovery, Recoverer, nominal_l3};
+pub use sounding::{
+    SAME_PULSE_S, SURFACE_NEIGHBOURS, SURFACE_RADIUS_M, SoundingRecovery, SurfacePlane,
+    SurfaceSource, WaterReturn, WaterSurfaceIndex,
+};
 pub use sweep::{MAX_SWEEP_POINTS, Sweep, SweepVariable};
 pub use trajectory::{Pose, PoseAt, PoseSigma, Trajectory, TrajectorySigmas, ecef_from_ned};

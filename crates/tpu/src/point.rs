@@ -113,7 +113,23 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
 
     /// The parameter covariance (SI² in `G::SOURCES` order) with the trajectory σ, if given.
     pub fn covariance(&self, trajectory: Option<&PoseSigma>) -> SMatrix<f64, N, N> {
+        self.covariance_with(trajectory, &[])
+    }
+
+    /// [`PointPropagator::covariance`] with the σ (SI) of some sources replaced for this point
+    /// (e.g. the water-surface height σ of a sounding under a modelled surface); sources the
+    /// model does not have are ignored.
+    pub fn covariance_with(
+        &self,
+        trajectory: Option<&PoseSigma>,
+        sigma_override: &[(Source, f64)],
+    ) -> SMatrix<f64, N, N> {
         let mut sigma = self.sigma;
+        for (src, v) in sigma_override {
+            if let Some(i) = G::SOURCES.iter().position(|x| x == src) {
+                sigma[i] = *v;
+            }
+        }
         if let Some(t) = trajectory {
             let values = [
                 t.north_m,
@@ -152,13 +168,28 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
         trajectory: Option<&PoseSigma>,
         incidence: Option<&Incidence>,
     ) -> Result<PointUncertainty<N>> {
+        self.propagate_with(p, trajectory, incidence, &[])
+    }
+
+    /// [`PointPropagator::propagate`] with per-point σ overrides (see
+    /// [`PointPropagator::covariance_with`]).
+    ///
+    /// # Errors
+    /// As [`PointPropagator::propagate`].
+    pub fn propagate_with(
+        &self,
+        p: &SVector<f64, N>,
+        trajectory: Option<&PoseSigma>,
+        incidence: Option<&Incidence>,
+        sigma_override: &[(Source, f64)],
+    ) -> Result<PointUncertainty<N>> {
         let (footprint_ned, j) = self.model.footprint_jacobian(p);
         if !(footprint_ned.iter().all(|v| v.is_finite()) && j.iter().all(|v| v.is_finite())) {
             return Err(Error::NotFinite {
                 what: "footprint or its Jacobian",
             });
         }
-        let cov = self.covariance(trajectory);
+        let cov = self.covariance_with(trajectory, sigma_override);
         let mut covariance_ned = crate::budget::propagate_covariance(&j, &cov);
         let source_variance_m2 = SVector::from_fn(|i, _| j.column(i).norm_squared() * cov[(i, i)]);
         let mut incidence_variance_m2 = 0.0;

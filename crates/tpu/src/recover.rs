@@ -14,7 +14,8 @@
 //! nominal prism and emitter angles (all 0, as [`Georeferencer::parameters`] sets them)
 //! `l3(θaz) = Rz(θaz) · l3(0)`, so `ρ1 = |S|`, `θaz = atan2(S_y, S_x) − atan2(l3(0)_y, l3(0)_x)`,
 //! and the distance of `S` from the nominal cone is the quality figure. Bathymetric soundings
-//! (the in-water leg after the water-surface intersection) are not recovered here.
+//! (the in-water leg after the water-surface intersection) are recovered in
+//! [`crate::sounding`] from the seabed point and its water surface.
 
 use crate::error::{Error, Result};
 use crate::trajectory::PoseAt;
@@ -69,6 +70,16 @@ impl Recoverer {
             ),
             lever_m: mounting.lever_arm_m,
         }
+    }
+
+    /// `R_N R_M`: scanner frame S → N at the pose.
+    pub fn body_from_scanner(&self, pose: &PoseAt) -> Matrix3<f64> {
+        pose.body_to_ned * self.r_m
+    }
+
+    /// The lever arm ΔP in B, m.
+    pub fn lever(&self) -> Vector3<f64> {
+        self.lever_m
     }
 
     /// `S = R_Mᵀ (R_Nᵀ C_NE (P − P0) − ΔP)`, scanner frame, metres; and the beam (scanner

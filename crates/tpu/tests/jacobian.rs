@@ -16,6 +16,7 @@ fn step(s: Source) -> f64 {
         Unit::Metre => 1e-4,
         Unit::Radian => 1e-6,
         Unit::Second => 1e-13,
+        Unit::One => 1e-6,
     }
 }
 
@@ -101,7 +102,10 @@ fn conic_jacobian_matches_central_differences() {
                 17 => rng.random_range(0.0..0.01),
                 18 => rng.random_range(-3.1..3.1),
                 19 => c.time_air_s(rng.random_range(200.0..900.0)),
-                _ => c.time_water_s(rng.random_range(0.0..60.0)),
+                20 => c.time_water_s(rng.random_range(0.0..60.0)),
+                21 => rng.random_range(-0.5..0.5),
+                22 | 23 => rng.random_range(-0.1..0.1),
+                _ => rng.random_range(1.32..1.35),
             });
             let (_, j) = footprint_jacobian(&c, &p);
             assert_agree(&ConicScanner::SOURCES, &j, &central(&c, &p));

@@ -6,8 +6,8 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use lidarqa_model::{Attitude, Scanner, Sensor, Source};
 use lidarqa_tpu::{
-    Biases, ConicRanges, Evaluation, Geometry, GeometryFacts, LinearRange, Preset, Sweep, evaluate,
-    evaluate_monte_carlo,
+    Biases, ConicRanges, Evaluation, Geometry, GeometryFacts, LinearRange, Preset, Sweep,
+    SweepVariable, evaluate, evaluate_monte_carlo,
 };
 use serde_json::{Value, json};
 use std::fmt::Write as _;
@@ -18,6 +18,7 @@ Examples:
   lidarqa budget --preset czmil                        seed 004 Table 4 (conic, 425.7 m air, 51.7 m water)
   lidarqa budget --preset seed000 --format json        seed 000 Table 1 at scan angle 30°, 80 m below
   lidarqa budget --preset czmil --sweep azimuth=0:360:10
+  lidarqa budget --preset czmil --sweep depth=0:50:5     seed 004 §3 (3): the budget grows with depth
   lidarqa budget --preset seed000 --height 1000 --sweep scan-angle=-30:30:5 --bias boresight_roll_deg=0.1
   lidarqa budget --sensor my_sensor.toml --scan-angle 20 --height 1200 --roll 2
   lidarqa budget --preset czmil --print-sensor > my_sensor.toml
@@ -238,6 +239,32 @@ impl TryFrom<BudgetArgs> for Plan {
             .as_deref()
             .map(|s| s.parse::<Sweep>().context("--sweep"))
             .transpose()?;
+        // Seed 004 §3 (3): at a fixed flying height the budget is a function of depth. A
+        // height or depth sweep over a preset given by its ranges starts from the preset's own
+        // height above the water and depth (czmil: 400.0 m and 50.0 m).
+        let geometry = match (&sweep, geometry) {
+            (
+                Some(Sweep {
+                    variable: SweepVariable::Height | SweepVariable::Depth,
+                    ..
+                }),
+                Geometry::Conic {
+                    attitude,
+                    azimuth_rad,
+                    ranges: ConicRanges::Ranges { .. },
+                },
+            ) if a.range_air.is_none() => match evaluate(&sensor, &geometry, None)?.geometry {
+                GeometryFacts::Conic {
+                    height_m, depth_m, ..
+                } => Geometry::Conic {
+                    attitude,
+                    azimuth_rad,
+                    ranges: ConicRanges::HeightDepth { height_m, depth_m },
+                },
+                GeometryFacts::Linear { .. } => geometry,
+            },
+            (_, g) => g,
+        };
         let biases = a.bias.as_deref().map(parse_biases).transpose()?;
         if a.monte_carlo.is_some_and(|n| n < 2) {
             bail!("--monte-carlo needs at least 2 samples");
@@ -359,6 +386,14 @@ fn geometry_line(e: &Evaluation) -> String {
     }
 }
 
+/// Sources of bathymetric soundings only (water surface and refraction index).
+const WATER_SURFACE_SOURCES: [Source; 4] = [
+    Source::WaterSurfaceHeight,
+    Source::WaterSurfaceSlopeNorth,
+    Source::WaterSurfaceSlopeEast,
+    Source::NWater,
+];
+
 /// Seed 004 Table 4 layout: one row per source, cm, totals at the bottom, geometry on top.
 fn table(label: &str, e: &Evaluation) -> String {
     let mut t = String::new();
@@ -377,20 +412,33 @@ fn table(label: &str, e: &Evaluation) -> String {
         e.footprint.north, e.footprint.east, e.footprint.up
     );
     let _ = writeln!(t);
+    // The water-surface sources (not in seed 004) are listed only when they have a σ, so the
+    // czmil preset prints seed 004's Table 4 rows exactly; JSON lists every source.
+    let rows: Vec<_> = e
+        .sources
+        .iter()
+        .filter(|s| s.sigma_si > 0.0 || !WATER_SURFACE_SOURCES.contains(&s.source))
+        .collect();
+    let name_w = rows
+        .iter()
+        .map(|s| s.source.name().len() + 1)
+        .max()
+        .unwrap_or(0)
+        .max(16);
     let _ = writeln!(
         t,
-        "{:<16}{:>12}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}",
+        "{:<name_w$}{:>12}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}",
         "source", "1σ", "north", "east", "up", "horiz", "vert", "3-D"
     );
-    let _ = writeln!(t, "{:<28}{:>48}", "", "(cm)");
-    for s in &e.sources {
+    let _ = writeln!(t, "{:<w$}{:>48}", "", "(cm)", w = name_w + 12);
+    for s in rows {
         let shown = s.sigma_si / s.source.unit().config_to_si();
         let unit = s.source.unit().config_suffix().trim_start_matches('_');
         let _ = writeln!(
             t,
-            "{:<16}{:>12}{}{}{}{}{}{}",
+            "{:<name_w$}{:>12}{}{}{}{}{}{}",
             s.source.name(),
-            format!("{} {unit}", trim_number(shown)),
+            format!("{} {unit}", trim_number(shown)).trim_end(),
             cm(s.effect.north, 8),
             cm(s.effect.east, 8),
             cm(s.effect.up, 8),
@@ -400,17 +448,18 @@ fn table(label: &str, e: &Evaluation) -> String {
         );
     }
     let x = e.total;
-    let _ = writeln!(t, "{}", "-".repeat(76));
+    let _ = writeln!(t, "{}", "-".repeat(name_w + 60));
     let _ = writeln!(
         t,
-        "{:<28}{}{}{}{}{}{}",
+        "{:<w$}{}{}{}{}{}{}",
         "total",
         cm(x.north, 8),
         cm(x.east, 8),
         cm(x.up, 8),
         cm(x.horizontal, 8),
         cm(x.vertical, 8),
-        cm(x.three_d, 8)
+        cm(x.three_d, 8),
+        w = name_w + 12
     );
     if let (Some(b), Some(f)) = (e.bias, e.bias_first_order) {
         let _ = writeln!(t);

@@ -159,8 +159,11 @@ pub(crate) fn load_strip(
     let recoverer = Recoverer::new(&ctx.sensor().mounting);
     let mut reader = LasReader::from_path(path)?;
     let mut chunk = PointChunk::new();
-    let mut points = Vec::with_capacity(info.point_count as usize);
-    let mut las_points = Vec::with_capacity(info.point_count as usize);
+    // A LAZ header's count cannot be checked against the file size (issue #12): reserve at
+    // most 4 Mi points up front and let the vectors grow with what is really read.
+    let reserve = usize::try_from(info.point_count.min(1 << 22)).unwrap_or(0);
+    let mut points = Vec::with_capacity(reserve);
+    let mut las_points = Vec::with_capacity(reserve);
     let mut index = 0u64;
     while reader.fill(&mut chunk, 200_000)? > 0 {
         for p in &chunk.points {

@@ -3,13 +3,17 @@
 
 mod budget;
 mod calibrate;
+mod collect;
 mod correct;
 mod demo;
 mod evaluate;
 mod overlap;
+mod plan;
 mod report;
+mod run;
 mod simulate;
 mod targets;
+mod tile;
 mod tpu;
 
 use clap::Subcommand;
@@ -48,6 +52,18 @@ pub enum Command {
     /// Swath-to-swath consistency of overlapping strips (RMSDz, dz grid, profile).
     #[command(after_help = overlap::AFTER_HELP)]
     Overlap(overlap::OverlapArgs),
+    /// Cut strips into a grid of tiles (input of `lidarqa plan` and `lidarqa tpu DIR`).
+    #[command(after_help = tile::AFTER_HELP)]
+    Tile(tile::TileArgs),
+    /// Write a tile manifest for job arrays and Dask (SPEC §9).
+    #[command(after_help = plan::AFTER_HELP)]
+    Plan(plan::PlanArgs),
+    /// Run one entry of a tile manifest, skipping it when already complete.
+    #[command(after_help = run::AFTER_HELP)]
+    Run(run::RunArgs),
+    /// Merge a manifest's tile reports into the survey summary.
+    #[command(after_help = collect::AFTER_HELP)]
+    Collect(collect::CollectArgs),
 }
 
 /// Run a parsed subcommand.
@@ -63,5 +79,9 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Evaluate(args) => evaluate::run(args),
         Command::Tpu(args) => tpu::run(args),
         Command::Report(args) => report::run(args),
+        Command::Tile(args) => tile::run(args),
+        Command::Plan(args) => plan::run(args),
+        Command::Run(args) => run::run(args),
+        Command::Collect(args) => collect::run(args),
     }
 }

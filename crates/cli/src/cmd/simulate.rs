@@ -122,6 +122,24 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         CloudFormat::Laz => "laz",
         CloudFormat::Las => "las",
     };
+    // SPEC §7: an output equal to an input (a scenario file kept in the output directory under
+    // an output's name) is refused before anything is written.
+    if builtin_toml(&args.scenario).is_none() {
+        let fixed = [
+            "sbet.out",
+            "smrmsg.out",
+            "control.csv",
+            "truth.json",
+            "sensor.toml",
+        ];
+        let strips = survey
+            .strips
+            .iter()
+            .map(|s| format!("strip_{:03}.{ext}", s.id));
+        for name in fixed.into_iter().map(String::from).chain(strips) {
+            lidarqa_io::check_not_an_input(dir.join(name), &[Path::new(&args.scenario)])?;
+        }
+    }
     for strip in &survey.strips {
         let path = dir.join(format!("strip_{:03}.{ext}", strip.id));
         write_strip(&path, &scenario, &survey, strip)?;

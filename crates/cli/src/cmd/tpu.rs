@@ -23,8 +23,12 @@ Examples:
 
 Writes every point with extra-bytes f32 sigma_north, sigma_east, sigma_up, sigma_horizontal,
 sigma_vertical (1-sigma, metres, local level frame at the point; conic sensors also total_thu and
-total_tvu at 95 %). LAS Z must be ellipsoidal heights in the trajectory's datum. The table shows
-σ in cm; JSON is in metres. Skipped points are counted and not written.";
+total_tvu at 95 %, and for bathymetric soundings, class 40, depth and iho_order: 1 exclusive,
+2 special, 3 order 1a, 4 order 1b, 5 order 2, 0 none, -1 not a sounding). A sounding refracts at
+its pulse's water-surface return (class 41, same GPS time) or else at a plane fitted to the
+surface returns within 20 m; the summary gives the IHO S-44 Ed. 6 orders met by depth band.
+LAS Z must be ellipsoidal heights in the trajectory's datum. The table shows σ in cm; JSON is in
+metres. Skipped points are counted and not written.";
 
 /// Flags of `lidarqa tpu`, exactly as typed (checked by [`Plan::try_from`]).
 #[derive(Debug, Args)]
@@ -57,7 +61,8 @@ pub struct TpuArgs {
     #[arg(long)]
     skip_outside: bool,
     /// Skip and count points with NaN coordinates, an unusable GPS time or no recoverable
-    /// observation instead of failing.
+    /// observation (including soundings with no water surface above them or not below it)
+    /// instead of failing.
     #[arg(long)]
     skip_invalid: bool,
     /// Points per chunk (memory grows with it; the result does not).
@@ -92,7 +97,7 @@ struct Plan {
 }
 
 /// `33N`, `17s`, `33` (north) → a WGS 84 UTM zone.
-fn parse_utm_zone(text: &str) -> Result<UtmZone> {
+pub(crate) fn parse_utm_zone(text: &str) -> Result<UtmZone> {
     let t = text.trim();
     let (digits, hemisphere) = match t.chars().last() {
         Some('N' | 'n') => (&t[..t.len() - 1], Hemisphere::North),
@@ -105,7 +110,7 @@ fn parse_utm_zone(text: &str) -> Result<UtmZone> {
     UtmZone::new(zone, hemisphere).with_context(|| format!("--utm-zone: '{text}'"))
 }
 
-fn is_point_cloud(p: &Path) -> bool {
+pub(crate) fn is_point_cloud(p: &Path) -> bool {
     p.extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("las") || e.eq_ignore_ascii_case("laz"))
@@ -176,14 +181,13 @@ impl TryFrom<TpuArgs> for Plan {
             }]
         };
         for t in &tiles {
-            lidarqa_io::check_not_an_input(
-                &t.output,
-                &[
-                    t.input.as_path(),
-                    a.trajectory.as_path(),
-                    a.sensor.as_path(),
-                ],
-            )?;
+            let mut inputs = vec![
+                t.input.as_path(),
+                a.trajectory.as_path(),
+                a.sensor.as_path(),
+            ];
+            inputs.extend(a.smrmsg.as_deref());
+            lidarqa_io::check_not_an_input(&t.output, &inputs)?;
         }
         Ok(Plan {
             tiles,
@@ -239,6 +243,7 @@ pub fn run(args: TpuArgs) -> Result<()> {
         let mut inputs: Vec<&Path> = plan.tiles.iter().map(|t| t.input.as_path()).collect();
         inputs.push(&plan.trajectory);
         inputs.push(&plan.sensor);
+        inputs.extend(plan.smrmsg.as_deref());
         let mut f = AtomicFile::create(path, &inputs)?;
         serde_json::to_writer_pretty(&mut f, &report)
             .with_context(|| format!("{}", path.display()))?;
@@ -312,7 +317,7 @@ fn run_tiles(
     Ok(reports)
 }
 
-fn table(r: &SurveyReport) -> String {
+pub(crate) fn table(r: &SurveyReport) -> String {
     let s = &r.summary;
     let mut out = String::new();
     let _ = writeln!(
@@ -354,7 +359,7 @@ fn table(r: &SurveyReport) -> String {
     let mut shares: Vec<_> = s.source_share.iter().filter(|(_, v)| **v > 0.0).collect();
     shares.sort_by(|a, b| b.1.total_cmp(a.1));
     for (name, v) in shares {
-        let _ = writeln!(out, "  {name:<16} {:>6.1} %", v * 100.0);
+        let _ = writeln!(out, "  {name:<26} {:>6.1} %", v * 100.0);
     }
     if let Some(c) = &s.scan_angle_check {
         let _ = writeln!(
@@ -369,6 +374,42 @@ fn table(r: &SurveyReport) -> String {
             "recovery residual ({}): RMS {:.4} m, max {:.4} m",
             q.kind, q.rms, q.max_abs
         );
+    }
+    if let Some(iho) = &s.iho_s44 {
+        let _ = writeln!(
+            out,
+            "
+IHO S-44 Ed. 6: {} soundings ({} under their own surface return, {} under a modelled surface); % meeting THU and TVU at 95 %",
+            iho.soundings, iho.surface_from_pulse, iho.surface_modelled
+        );
+        let orders = ["exclusive", "special", "1a", "1b", "2"];
+        let _ = write!(out, "{:<14}{:>10}", "depth (m)", "soundings");
+        for o in orders {
+            let _ = write!(out, "{o:>11}");
+        }
+        let _ = writeln!(out);
+        for b in &iho.bands {
+            let to = if b.depth_m[1] < 0.0 {
+                "".to_string()
+            } else {
+                format!("{}", b.depth_m[1])
+            };
+            let _ = write!(
+                out,
+                "{:<14}{:>10}",
+                format!("{}–{to}", b.depth_m[0]),
+                b.soundings
+            );
+            for o in orders {
+                let _ = write!(out, "{:>10.1}%", b.percent_meeting[o]);
+            }
+            let _ = writeln!(out);
+        }
+        let _ = write!(out, "{:<14}{:>10}", "all", iho.soundings);
+        for o in orders {
+            let _ = write!(out, "{:>10.1}%", iho.orders[o].percent_meeting);
+        }
+        let _ = writeln!(out);
     }
     out
 }

@@ -1,0 +1,57 @@
+//! `lidarqa collect`: merge the tile reports of a manifest into the survey summary, the same
+//! summary `lidarqa tpu` writes over the same tiles (SPEC §9).
+
+use super::tpu::table;
+use crate::format::{OutputFormat, print_json, print_text};
+use anyhow::{Context, Result};
+use clap::Args;
+use lidarqa_io::AtomicFile;
+use lidarqa_pipeline::{Manifest, collect, resolve};
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+pub const AFTER_HELP: &str = "\
+Example:
+  lidarqa collect manifest.json --summary summary.json
+
+Fails, listing the entries, when any entry is not complete (run them with `lidarqa run`).";
+
+/// Flags of `lidarqa collect`.
+#[derive(Debug, Args)]
+pub struct CollectArgs {
+    /// The manifest from `lidarqa plan`.
+    #[arg(value_name = "MANIFEST")]
+    manifest: PathBuf,
+    /// Also write the summary as JSON to this file (the JSON of `lidarqa tpu --summary`).
+    #[arg(long, value_name = "FILE")]
+    summary: Option<PathBuf>,
+    /// Output format of the summary on stdout.
+    #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
+    format: OutputFormat,
+}
+
+/// Run `lidarqa collect`.
+pub fn run(a: CollectArgs) -> Result<()> {
+    let manifest = Manifest::read(&a.manifest)?;
+    let (_, report) = collect(&a.manifest, &manifest)?;
+    if let Some(path) = &a.summary {
+        let mut inputs: Vec<PathBuf> = vec![a.manifest.clone()];
+        inputs.extend(
+            manifest
+                .entries
+                .iter()
+                .flat_map(|e| [&e.input.path, &e.output, &e.report])
+                .map(|p| resolve(&a.manifest, p)),
+        );
+        let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+        let mut f = AtomicFile::create(path, &inputs)?;
+        serde_json::to_writer_pretty(&mut f, &report)
+            .with_context(|| format!("{}", path.display()))?;
+        writeln!(f).with_context(|| format!("{}", path.display()))?;
+        f.commit()?;
+    }
+    match a.format {
+        OutputFormat::Json => print_json(&report),
+        OutputFormat::Table => print_text(&table(&report)),
+    }
+}

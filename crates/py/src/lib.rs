@@ -1,0 +1,241 @@
+//! Python bindings of lidarqa (SPEC §9): the per-tile entry points of lidarqa-pipeline, taking
+//! paths (never point arrays: a tile stays on disk, as it does for a job array) and releasing
+//! the GIL while they run, so a Dask worker's threads, or the Python threads of one process,
+//! run tiles in parallel. Results come back as JSON text; the `lidarqa` Python package turns
+//! them into dicts.
+//!
+//! Every function raises `lidarqa.LidarqaError` with lidarqa's one-line message (naming the
+//! file, key or value) on failure.
+
+use lidarqa_calib::mounting_from_json;
+use lidarqa_io::{ControlPoints, UtmZone};
+use lidarqa_pipeline::{
+    CorrectTileJob, Manifest, TargetsTileJob, TileReport, TpuContext, TpuOptions, TpuTileJob,
+    collect as collect_manifest, correct_tile as correct_one, extract_targets_tile as targets_one,
+    run_entry, tpu_tile as tpu_one,
+};
+use lidarqa_targets::{CentreMethod, ControlPoint, TargetConfig};
+use pyo3::create_exception;
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+use std::path::{Path, PathBuf};
+
+create_exception!(
+    _lidarqa,
+    LidarqaError,
+    PyException,
+    "A lidarqa error (one line naming the file, key or value)."
+);
+
+fn err(e: impl std::fmt::Display) -> PyErr {
+    LidarqaError::new_err(e.to_string())
+}
+
+fn json(v: &impl serde::Serialize) -> PyResult<String> {
+    serde_json::to_string(v).map_err(err)
+}
+
+fn options(
+    gps_week: Option<i64>,
+    epsg: Option<u32>,
+    skip_outside: bool,
+    skip_invalid: bool,
+) -> PyResult<TpuOptions> {
+    Ok(TpuOptions {
+        crs: epsg.map(UtmZone::from_epsg).transpose().map_err(err)?,
+        gps_week,
+        skip_outside,
+        skip_invalid,
+        ..TpuOptions::default()
+    })
+}
+
+/// Per-point TPU of one tile: `input` LAS/LAZ → `output` with σ extra bytes. Returns the tile's
+/// summary as JSON (the object `lidarqa tpu --summary` writes, for this one tile).
+#[pyfunction]
+#[pyo3(signature = (input, output, trajectory, sensor, smrmsg=None, gps_week=None, epsg=None, skip_outside=false, skip_invalid=false))]
+#[allow(clippy::too_many_arguments)]
+fn tpu_tile(
+    py: Python<'_>,
+    input: PathBuf,
+    output: PathBuf,
+    trajectory: PathBuf,
+    sensor: PathBuf,
+    smrmsg: Option<PathBuf>,
+    gps_week: Option<i64>,
+    epsg: Option<u32>,
+    skip_outside: bool,
+    skip_invalid: bool,
+) -> PyResult<String> {
+    let opts = options(gps_week, epsg, skip_outside, skip_invalid)?;
+    py.allow_threads(|| {
+        let ctx =
+            TpuContext::from_files(&sensor, &trajectory, smrmsg.as_deref(), opts).map_err(err)?;
+        let report = tpu_one(&TpuTileJob {
+            input: &input,
+            output: &output,
+            context: &ctx,
+        })
+        .map_err(err)?;
+        let (_, survey) = TileReport::merge(&[report]).ok_or_else(|| err("no tile"))?;
+        json(&survey)
+    })
+}
+
+/// Re-georeferences one tile with `calibration` (calibration.json from `lidarqa calibrate`).
+/// Returns `{"input", "output", "points"}` as JSON.
+#[pyfunction]
+#[pyo3(signature = (input, output, trajectory, sensor, calibration, gps_week=None))]
+fn correct_tile(
+    py: Python<'_>,
+    input: PathBuf,
+    output: PathBuf,
+    trajectory: PathBuf,
+    sensor: PathBuf,
+    calibration: PathBuf,
+    gps_week: Option<i64>,
+) -> PyResult<String> {
+    py.allow_threads(|| {
+        let text = std::fs::read_to_string(&calibration)
+            .map_err(|e| err(format!("{}: {e}", calibration.display())))?;
+        let doc: serde_json::Value = serde_json::from_str(&text)
+            .map_err(|e| err(format!("{}: not JSON: {e}", calibration.display())))?;
+        let mounting =
+            mounting_from_json(&doc).map_err(|e| err(format!("{}: {e}", calibration.display())))?;
+        let ctx = TpuContext::from_files(
+            &sensor,
+            &trajectory,
+            None,
+            TpuOptions {
+                gps_week,
+                ..TpuOptions::default()
+            },
+        )
+        .map_err(err)?;
+        let r = correct_one(&CorrectTileJob {
+            input: &input,
+            output: &output,
+            context: &ctx,
+            mounting: &mounting,
+            other_inputs: &[calibration.as_path()],
+        })
+        .map_err(err)?;
+        Ok(
+            serde_json::json!({"input": r.input, "output": r.output, "points": r.points})
+                .to_string(),
+        )
+    })
+}
+
+/// Target extraction in one tile near the control points of `control` (CSV
+/// `id,x,y,z[,sigma_h,sigma_v,radius_m]`); writes the tile's report JSON to `output` and
+/// returns it.
+#[pyfunction]
+#[pyo3(signature = (input, output, control, radius_m=None, method="circle-fit", window_m=6.0))]
+fn extract_targets_tile(
+    py: Python<'_>,
+    input: PathBuf,
+    output: PathBuf,
+    control: PathBuf,
+    radius_m: Option<f64>,
+    method: &str,
+    window_m: f64,
+) -> PyResult<String> {
+    let method: CentreMethod = method.parse().map_err(|e| err(format!("method: {e}")))?;
+    py.allow_threads(|| {
+        let table = ControlPoints::from_path(&control).map_err(err)?;
+        let mut points = Vec::with_capacity(table.records.len());
+        for (i, c) in table.records.iter().enumerate() {
+            let mut p = ControlPoint::new(c.id.clone(), c.x, c.y, c.z);
+            p.sigma_h_m = c.sigma_h_m;
+            p.sigma_v_m = c.sigma_v_m;
+            p.radius_m = table.extra_f64(i, "radius_m").map_err(err)?.or(radius_m);
+            points.push(p);
+        }
+        let mut config = TargetConfig::default();
+        config.centre.method = method;
+        let r = targets_one(&TargetsTileJob {
+            input: &input,
+            output: &output,
+            control: &points,
+            config: &config,
+            window_m,
+            other_inputs: &[control.as_path()],
+        })
+        .map_err(err)?;
+        json(&r)
+    })
+}
+
+/// Runs entry `index` of a manifest from `lidarqa plan` (skipped when already complete, unless
+/// `force`). Returns `{"index", "skipped", "input", "output", "points_read", "points_written"}`
+/// as JSON.
+#[pyfunction]
+#[pyo3(signature = (manifest, index, force=false))]
+fn run_manifest_entry(
+    py: Python<'_>,
+    manifest: PathBuf,
+    index: usize,
+    force: bool,
+) -> PyResult<String> {
+    py.allow_threads(|| {
+        let m = Manifest::read(&manifest).map_err(err)?;
+        let o = run_entry(&manifest, &m, index, None, force).map_err(err)?;
+        Ok(serde_json::json!({
+            "index": index,
+            "skipped": o.skipped,
+            "input": o.report.input,
+            "output": o.report.output,
+            "points_read": o.report.summary.points_read,
+            "points_written": o.report.summary.points_written,
+        })
+        .to_string())
+    })
+}
+
+/// Number of entries of a manifest.
+#[pyfunction]
+fn manifest_len(manifest: PathBuf) -> PyResult<usize> {
+    Ok(Manifest::read(&manifest).map_err(err)?.entries.len())
+}
+
+/// Merges a manifest's tile reports into the survey summary (as `lidarqa collect`), writing it
+/// to `summary` when given (pretty JSON, as `lidarqa collect --summary`), and returns it as JSON.
+#[pyfunction]
+#[pyo3(signature = (manifest, summary=None))]
+fn collect(py: Python<'_>, manifest: PathBuf, summary: Option<PathBuf>) -> PyResult<String> {
+    py.allow_threads(|| {
+        let m = Manifest::read(&manifest).map_err(err)?;
+        let (_, report) = collect_manifest(&manifest, &m).map_err(err)?;
+        let text = serde_json::to_string_pretty(&report).map_err(err)? + "\n";
+        if let Some(path) = &summary {
+            write_atomic(path, &text, &manifest).map_err(err)?;
+        }
+        Ok(text)
+    })
+}
+
+fn write_atomic(path: &Path, text: &str, manifest: &Path) -> lidarqa_io::Result<()> {
+    use std::io::Write as _;
+    let mut f = lidarqa_io::AtomicFile::create(path, &[manifest])?;
+    f.write_all(text.as_bytes())
+        .map_err(|source| lidarqa_io::Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    f.commit()
+}
+
+/// The native part of the `lidarqa` Python package.
+#[pymodule]
+fn _lidarqa(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("LidarqaError", m.py().get_type::<LidarqaError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_function(wrap_pyfunction!(tpu_tile, m)?)?;
+    m.add_function(wrap_pyfunction!(correct_tile, m)?)?;
+    m.add_function(wrap_pyfunction!(extract_targets_tile, m)?)?;
+    m.add_function(wrap_pyfunction!(run_manifest_entry, m)?)?;
+    m.add_function(wrap_pyfunction!(manifest_len, m)?)?;
+    m.add_function(wrap_pyfunction!(collect, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,311 @@
+//! IHO S-44 (Edition 6.0.0, 2020, Table 1) survey orders and the 95 % uncertainties of a sounding.
+//!
+//! | order | THU (95 %) | TVU (95 %): a, b |
+//! |---|---|---|
+//! | Exclusive | 0.5 m | 0.15 m, 0.0075 |
+//! | Special | 2 m | 0.25 m, 0.0075 |
+//! | 1a | 5 m + 5 % of depth | 0.5 m, 0.013 |
+//! | 1b | 5 m + 5 % of depth | 0.5 m, 0.013 |
+//! | 2 | 20 m + 10 % of depth | 1.0 m, 0.023 |
+//!
+//! with the maximum allowable TVU `√(a² + (b·d)²)` at depth `d`. Orders 1a and 1b share their
+//! THU and TVU; they differ in feature detection and coverage, which are not a property of one
+//! sounding, so a sounding that meets their limits is reported as meeting both.
+//!
+//! **95 % horizontal uncertainty.** IHO asks for THU at 95 % confidence. For a sounding with the
+//! horizontal covariance `C` (eigenvalues λ₁ ≥ λ₂) that is the radius `r` with
+//! `P(λ₁ Z₁² + λ₂ Z₂² ≤ r²) = 0.95` ([`thu_95_m`], exact to 1e-4 relative here). For a circular
+//! error (λ₁ = λ₂ = σ²) it is `2.4477 σ = 1.7308 σ_H` (σ_H = √(σ_N² + σ_E²)), which is cBLUE's
+//! `total_thu` (SPEC §7); for a fully elongated one (λ₂ = 0) it is `1.96 σ_H`. A conic scanner's
+//! horizontal error ellipse is elongated (the water-time and slope terms lie along the beam), so
+//! lidarqa's IHO comparison uses the exact radius of each sounding's own ellipse, never smaller
+//! than the `total_thu` field and up to 13 % larger. TVU at 95 % is `1.96 σ_V`.
+
+use nalgebra::Matrix2;
+use serde::Serialize;
+use std::sync::OnceLock;
+
+/// Factor of σ_V for the 95 % vertical uncertainty (normal distribution).
+pub const TVU_95_FACTOR: f64 = 1.96;
+/// 95 % radius of a circular bivariate normal in units of its per-axis σ: `√(−2 ln 0.05)`.
+pub const THU_95_CIRCULAR_PER_AXIS: f64 = 2.447_746_830_680_816;
+/// cBLUE's `total_thu` factor of σ_H: the circular 95 % radius `2.4477 / √2` (SPEC §7).
+pub const THU_95_CBLUE: f64 = 1.7308;
+
+/// An S-44 order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+pub enum IhoOrder {
+    /// Exclusive Order (harbours and critical under-keel areas).
+    #[serde(rename = "exclusive")]
+    Exclusive,
+    /// Special Order.
+    #[serde(rename = "special")]
+    Special,
+    /// Order 1a.
+    #[serde(rename = "1a")]
+    Order1a,
+    /// Order 1b.
+    #[serde(rename = "1b")]
+    Order1b,
+    /// Order 2.
+    #[serde(rename = "2")]
+    Order2,
+}
+
+/// The limits of one order (S-44 Ed. 6 Table 1).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct IhoLimits {
+    /// Constant part of the THU, m.
+    pub thu_m: f64,
+    /// Depth-proportional part of the THU (0.05 = 5 % of depth).
+    pub thu_depth_fraction: f64,
+    /// TVU constant `a`, m.
+    pub tvu_a_m: f64,
+    /// TVU depth factor `b`.
+    pub tvu_b: f64,
+}
+
+impl IhoOrder {
+    /// Every order, most stringent first.
+    pub const ALL: [IhoOrder; 5] = [
+        IhoOrder::Exclusive,
+        IhoOrder::Special,
+        IhoOrder::Order1a,
+        IhoOrder::Order1b,
+        IhoOrder::Order2,
+    ];
+
+    /// `exclusive`, `special`, `1a`, `1b`, `2`.
+    pub fn name(self) -> &'static str {
+        match self {
+            IhoOrder::Exclusive => "exclusive",
+            IhoOrder::Special => "special",
+            IhoOrder::Order1a => "1a",
+            IhoOrder::Order1b => "1b",
+            IhoOrder::Order2 => "2",
+        }
+    }
+
+    /// The order's limits.
+    pub fn limits(self) -> IhoLimits {
+        let (thu_m, thu_depth_fraction, tvu_a_m, tvu_b) = match self {
+            IhoOrder::Exclusive => (0.5, 0.0, 0.15, 0.0075),
+            IhoOrder::Special => (2.0, 0.0, 0.25, 0.0075),
+            IhoOrder::Order1a | IhoOrder::Order1b => (5.0, 0.05, 0.5, 0.013),
+            IhoOrder::Order2 => (20.0, 0.10, 1.0, 0.023),
+        };
+        IhoLimits {
+            thu_m,
+            thu_depth_fraction,
+            tvu_a_m,
+            tvu_b,
+        }
+    }
+
+    /// Maximum allowable THU (95 %) at depth `depth_m`, m: `c + f·d`.
+    pub fn max_thu_m(self, depth_m: f64) -> f64 {
+        let l = self.limits();
+        l.thu_m + l.thu_depth_fraction * depth_m
+    }
+
+    /// Maximum allowable TVU (95 %) at depth `depth_m`, m: `√(a² + (b·d)²)`.
+    pub fn max_tvu_m(self, depth_m: f64) -> f64 {
+        let l = self.limits();
+        l.tvu_a_m.hypot(l.tvu_b * depth_m)
+    }
+
+    /// Whether a sounding at `depth_m` with these 95 % uncertainties meets the order
+    /// (`(THU met, TVU met)`).
+    pub fn check(self, depth_m: f64, thu_95_m: f64, tvu_95_m: f64) -> (bool, bool) {
+        (
+            thu_95_m <= self.max_thu_m(depth_m),
+            tvu_95_m <= self.max_tvu_m(depth_m),
+        )
+    }
+
+    /// The most stringent order whose THU and TVU the sounding meets, if any.
+    pub fn best(depth_m: f64, thu_95_m: f64, tvu_95_m: f64) -> Option<IhoOrder> {
+        IhoOrder::ALL.into_iter().find(|o| {
+            let (h, v) = o.check(depth_m, thu_95_m, tvu_95_m);
+            h && v
+        })
+    }
+}
+
+/// Standard normal CDF from a rational erfc approximation (W. J. Cody's erfc to ~1e-7 via
+/// Numerical Recipes' `erfcc`, relative error < 1.2e-7).
+fn normal_cdf(x: f64) -> f64 {
+    let z = x.abs() / std::f64::consts::SQRT_2;
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let erfc = t
+        * (-z * z - 1.265_512_23
+            + t * (1.000_023_68
+                + t * (0.374_091_96
+                    + t * (0.096_784_18
+                        + t * (-0.186_288_06
+                            + t * (0.278_868_07
+                                + t * (-1.135_203_98
+                                    + t * (1.488_515_87
+                                        + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
+            .exp();
+    if x >= 0.0 {
+        1.0 - 0.5 * erfc
+    } else {
+        0.5 * erfc
+    }
+}
+
+/// `P(Z₁² + k Z₂² ≤ s²)` for independent standard normals, 0 ≤ k ≤ 1: Simpson's rule over
+/// `z₁ = s sin θ`, which removes the square-root end points.
+fn prob_within(s: f64, k: f64) -> f64 {
+    if k <= 0.0 {
+        return 2.0 * normal_cdf(s) - 1.0;
+    }
+    let n = 400; // even
+    let h = std::f64::consts::PI / n as f64;
+    let f = |theta: f64| {
+        let (st, ct) = theta.sin_cos();
+        let z1 = s * st;
+        let w = (-0.5 * z1 * z1).exp() / (2.0 * std::f64::consts::PI).sqrt() * s * ct;
+        w * (2.0 * normal_cdf(s * ct / k.sqrt()) - 1.0)
+    };
+    let (a, b) = (-std::f64::consts::FRAC_PI_2, std::f64::consts::FRAC_PI_2);
+    let mut sum = f(a) + f(b);
+    for i in 1..n {
+        let x = a + i as f64 * h;
+        sum += f(x) * if i % 2 == 1 { 4.0 } else { 2.0 };
+    }
+    sum * h / 3.0
+}
+
+/// The 95 % radius in units of √λ₁ for the eigenvalue ratio `k = λ₂/λ₁` (bisection).
+fn radius_factor(k: f64) -> f64 {
+    let (mut lo, mut hi) = (1.9, 2.5);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if prob_within(mid, k) < 0.95 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Table of the factor on a grid of `√k` (the factor is smooth in √k), built once.
+fn factor_table() -> &'static [f64] {
+    static TABLE: OnceLock<Vec<f64>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        (0..=TABLE_STEPS)
+            .map(|i| {
+                let q = i as f64 / TABLE_STEPS as f64;
+                radius_factor(q * q)
+            })
+            .collect()
+    })
+}
+const TABLE_STEPS: usize = 200;
+
+/// The 95 % horizontal uncertainty (radius, m) of a horizontal covariance `c` (m², north/east):
+/// `r` with `P(|x| ≤ r) = 0.95` for `x ~ N(0, c)`. See the module docs.
+///
+/// ```
+/// use lidarqa_tpu::thu_95_m;
+/// use nalgebra::Matrix2;
+/// // Circular, σ = 0.1 m per axis: 2.4477 σ = 1.7308 σ_H.
+/// assert!((thu_95_m(&Matrix2::new(0.01, 0.0, 0.0, 0.01)) - 0.244_77).abs() < 1e-4);
+/// // One axis only: 1.96 σ.
+/// assert!((thu_95_m(&Matrix2::new(0.01, 0.0, 0.0, 0.0)) - 0.196).abs() < 1e-4);
+/// ```
+pub fn thu_95_m(c: &Matrix2<f64>) -> f64 {
+    let (a, b, d) = (c[(0, 0)], 0.5 * (c[(0, 1)] + c[(1, 0)]), c[(1, 1)]);
+    let mean = 0.5 * (a + d);
+    let half = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+    let (l1, l2) = ((mean + half).max(0.0), (mean - half).max(0.0));
+    if l1 <= 0.0 {
+        return 0.0;
+    }
+    let q = (l2 / l1).sqrt().clamp(0.0, 1.0) * TABLE_STEPS as f64;
+    let i = (q.floor() as usize).min(TABLE_STEPS - 1);
+    let t = factor_table();
+    let f = t[i] + (q - i as f64) * (t[i + 1] - t[i]);
+    f * l1.sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hand_computed_limits() {
+        // Special order at 20 m: √(0.25² + (0.0075·20)²) = √(0.0625 + 0.0225) = 0.29155 m.
+        assert!((IhoOrder::Special.max_tvu_m(20.0) - 0.291_547_6).abs() < 1e-6);
+        // Exclusive at 10 m: √(0.15² + 0.075²) = 0.16771 m; THU 0.5 m at any depth.
+        assert!((IhoOrder::Exclusive.max_tvu_m(10.0) - 0.167_705_1).abs() < 1e-6);
+        assert_eq!(IhoOrder::Exclusive.max_thu_m(40.0), 0.5);
+        // Order 1a / 1b at 30 m: TVU √(0.5² + 0.39²) = 0.63411 m, THU 5 + 1.5 = 6.5 m.
+        assert!((IhoOrder::Order1a.max_tvu_m(30.0) - 0.634_113_5).abs() < 1e-6);
+        assert_eq!(IhoOrder::Order1b.max_thu_m(30.0), 6.5);
+        // Order 2 at 50 m: TVU √(1 + 1.15²) = 1.52398 m, THU 20 + 5 = 25 m.
+        assert!((IhoOrder::Order2.max_tvu_m(50.0) - 1.523_975_1).abs() < 1e-6);
+        assert_eq!(IhoOrder::Order2.max_thu_m(50.0), 25.0);
+        // At 0 m the TVU limit is a.
+        assert_eq!(IhoOrder::Order2.max_tvu_m(0.0), 1.0);
+    }
+
+    #[test]
+    fn best_order() {
+        // 20 m: TVU 0.29 m just within Special, THU 0.3 m within Exclusive's 0.5 m but the TVU
+        // misses Exclusive's 0.2121 m.
+        assert_eq!(IhoOrder::best(20.0, 0.3, 0.29), Some(IhoOrder::Special));
+        assert_eq!(IhoOrder::best(20.0, 0.3, 0.20), Some(IhoOrder::Exclusive));
+        assert_eq!(IhoOrder::best(20.0, 3.0, 0.29), Some(IhoOrder::Order1a));
+        assert_eq!(IhoOrder::best(20.0, 3.0, 0.7), Some(IhoOrder::Order2));
+        assert_eq!(IhoOrder::best(20.0, 30.0, 0.29), None);
+    }
+
+    #[test]
+    fn radius_factors_match_closed_forms() {
+        // Circular: √(−2 ln 0.05) per axis.
+        assert!((radius_factor(1.0) - THU_95_CIRCULAR_PER_AXIS).abs() < 1e-5);
+        assert!((THU_95_CIRCULAR_PER_AXIS / 2f64.sqrt() - THU_95_CBLUE).abs() < 1e-4);
+        // Degenerate: 1.959964.
+        assert!((radius_factor(0.0) - 1.959_964).abs() < 1e-5);
+        // Interpolated table against direct evaluation at awkward ratios.
+        for k in [0.003, 0.07, 0.31, 0.77] {
+            let c = Matrix2::new(1.0, 0.0, 0.0, k);
+            assert!(
+                (thu_95_m(&c) / radius_factor(k) - 1.0).abs() < 1e-4,
+                "{k}: {} vs {}",
+                thu_95_m(&c),
+                radius_factor(k)
+            );
+        }
+        // Rotation does not matter.
+        let (s, co) = 0.6f64.sin_cos();
+        let r = Matrix2::new(co, -s, s, co);
+        let c = Matrix2::new(0.04, 0.0, 0.0, 0.01);
+        assert!((thu_95_m(&(r * c * r.transpose())) - thu_95_m(&c)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn monte_carlo_confirms_the_elliptical_radius() {
+        use rand::{Rng, SeedableRng};
+        use rand_chacha::ChaCha8Rng;
+        use rand_distr::StandardNormal;
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let (sx, sy) = (0.3, 0.1);
+        let r = thu_95_m(&Matrix2::new(sx * sx, 0.0, 0.0, sy * sy));
+        let n = 200_000;
+        let inside = (0..n)
+            .filter(|_| {
+                let x: f64 = rng.sample::<f64, _>(StandardNormal) * sx;
+                let y: f64 = rng.sample::<f64, _>(StandardNormal) * sy;
+                x.hypot(y) <= r
+            })
+            .count();
+        let p = inside as f64 / n as f64;
+        // Binomial σ at 0.95 over 2e5: 0.0005.
+        assert!((p - 0.95).abs() < 0.002, "{p}");
+    }
+}
