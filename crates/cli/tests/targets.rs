@@ -211,3 +211,108 @@ fn finds_the_target_and_refuses_bad_control() {
         "--method",
     );
 }
+
+/// A sloped ground (z = 100 + 0.02·x_local, class 2) on a 0.5 m grid with class-1 "vegetation"
+/// 5 m above it, which the NVA must ignore.
+fn write_ground(path: &Path) {
+    let options = LasWriteOptions {
+        version_minor: 4,
+        point_format: 6,
+        scale: [0.001; 3],
+        offset: [500_000.0, 4_000_000.0, 0.0],
+        time_base: LasTimeBase::AdjustedStandard,
+        crs_vlrs: Vec::new(),
+        extra_dims: Vec::new(),
+        file_source_id: 1,
+    };
+    let mut w = LasWriter::create(path, &options, &[] as &[&Path]).unwrap();
+    for i in 0..40 {
+        for j in 0..40 {
+            let (dx, dy) = (f64::from(i) * 0.5, f64::from(j) * 0.5);
+            for (class, lift) in [(2u8, 0.0), (1, 5.0)] {
+                let p = LasPoint {
+                    x: 500_000.0 + dx,
+                    y: 4_000_000.0 + dy,
+                    z: 100.0 + 0.02 * dx + lift,
+                    gps_time_s: Some(1.0e8 + f64::from(i * 40 + j) * 1e-4),
+                    intensity: 500,
+                    return_number: 1,
+                    number_of_returns: 1,
+                    classification: class,
+                    point_source_id: 1,
+                    ..LasPoint::default()
+                };
+                w.write_point(&p, &[]).unwrap();
+            }
+        }
+    }
+    w.finish().unwrap();
+}
+
+#[test]
+fn nva_against_the_ground_tin() {
+    let dir = tempfile::tempdir().unwrap();
+    let las = dir.path().join("ground.las");
+    write_ground(&las);
+    // Checkpoints surveyed `offset` above the true ground: TIN − control = −offset exactly (the
+    // TIN of a plane is the plane). One checkpoint lies outside the TIN.
+    let offsets = [0.03, -0.01, 0.02, -0.04, 0.0];
+    let mut csv = String::from("id,x,y,z,sigma_h,sigma_v\n");
+    for (k, o) in offsets.iter().enumerate() {
+        let (dx, dy) = (2.3 + 3.1 * k as f64, 17.9 - 2.7 * k as f64);
+        csv += &format!(
+            "C{k},{},{},{},0.01,0.02\n",
+            500_000.0 + dx,
+            4_000_000.0 + dy,
+            100.0 + 0.02 * dx + o
+        );
+    }
+    csv += "OUT,500100.0,4000100.0,100.0,0.01,0.02\n";
+    let cps = dir.path().join("checkpoints.csv");
+    std::fs::write(&cps, csv).unwrap();
+    let out = lidarqa(&[
+        "evaluate",
+        "--ground",
+        las.to_str().unwrap(),
+        "--checkpoints",
+        cps.to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let nva = &v["nva"];
+    assert_eq!(nva["n"], 5);
+    assert_eq!(nva["outside_tin"], serde_json::json!(["OUT"]));
+    let rmse = (offsets.iter().map(|o| o * o).sum::<f64>() / 5.0).sqrt();
+    // Coordinates are stored at 1 mm.
+    assert!(
+        (nva["rmse_v_m"].as_f64().unwrap() - rmse).abs() < 1e-3,
+        "{nva}"
+    );
+    let mean = -offsets.iter().sum::<f64>() / 5.0;
+    assert!(
+        (nva["mean_up_m"].as_f64().unwrap() - mean).abs() < 1e-3,
+        "{nva}"
+    );
+    assert!(v.get("rmse").is_none(), "no targets were given: {v}");
+
+    // Without ground points of the class asked for: one line naming the file.
+    fails_with(
+        &[
+            "evaluate",
+            "--ground",
+            las.to_str().unwrap(),
+            "--checkpoints",
+            cps.to_str().unwrap(),
+            "--ground-class",
+            "9",
+        ],
+        "no points of class 9",
+    );
+    fails_with(&["evaluate"], "nothing to evaluate");
+}

@@ -74,14 +74,10 @@ pub struct CalibrateArgs {
     /// GPS week of the survey (LAS adjusted standard GPS time).
     #[arg(long, value_name = "WEEK")]
     gps_week: Option<i64>,
-    /// VTPM search radius around a pick, metres.
-    #[arg(
-        long,
-        value_name = "M",
-        default_value_t = 1.0,
-        allow_negative_numbers = true
-    )]
-    radius_m: f64,
+    /// VTPM search radius around a pick, metres [default: the radius that holds ~20 points of
+    /// the sparsest strip, at least seed 001's 1 m].
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    radius_m: Option<f64>,
     /// RANSAC plane threshold, metres.
     #[arg(
         long,
@@ -334,6 +330,10 @@ fn write_json(path: &Path, value: &serde_json::Value, inputs: &[PathBuf]) -> Res
     Ok(())
 }
 
+/// Points a VTPM window should hold in the sparsest strip when `--radius-m` is not given: enough
+/// for a RANSAC plane and a Delaunay triangle around the pick with points to spare.
+const VTPM_NEIGHBOURS: usize = 20;
+
 struct Plan {
     args: CalibrateArgs,
     options: CalibrationOptions,
@@ -344,12 +344,16 @@ impl TryFrom<CalibrateArgs> for Plan {
     type Error = anyhow::Error;
     fn try_from(args: CalibrateArgs) -> Result<Plan> {
         let mut options = CalibrationOptions::default();
-        options.vtpm.radius_m = args.radius_m;
+        if let Some(r) = args.radius_m {
+            options.vtpm.radius_m = r;
+        }
         options.vtpm.ransac_threshold_m = args.ransac_threshold_m;
         options.vtpm.ransac_iterations = args.ransac_iterations;
         options.lm.max_iterations = args.max_iterations;
-        if !(args.radius_m.is_finite() && args.radius_m > 0.0) {
-            bail!("--radius-m must be a number > 0, got {}", args.radius_m);
+        if let Some(r) = args.radius_m
+            && !(r.is_finite() && r > 0.0)
+        {
+            bail!("--radius-m must be a number > 0, got {r}");
         }
         if !(args.ransac_threshold_m.is_finite() && args.ransac_threshold_m > 0.0) {
             bail!(
@@ -379,7 +383,13 @@ impl TryFrom<CalibrateArgs> for Plan {
 }
 
 pub fn run(args: CalibrateArgs) -> Result<()> {
-    let plan = Plan::try_from(args)?;
+    let mut plan = Plan::try_from(args)?;
+    if let Some(dir) = plan.args.output.parent()
+        && !dir.as_os_str().is_empty()
+    {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("{}: cannot create", dir.display()))?;
+    }
     let a = &plan.args;
     let ctx = TpuContext::from_files(
         &a.sensor,
@@ -405,6 +415,13 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         None => None,
     };
     let strips: Vec<Strip> = loaded.into_iter().map(|l| l.strip).collect();
+    if a.radius_m.is_none() {
+        let sparsest = strips
+            .iter()
+            .filter_map(|s| s.radius_for_neighbours_m(VTPM_NEIGHBOURS))
+            .fold(0.0f64, f64::max);
+        plan.options.vtpm.radius_m = sparsest.max(plan.options.vtpm.radius_m);
+    }
     let ties = match picked {
         Some(t) => t,
         None => auto_ties(

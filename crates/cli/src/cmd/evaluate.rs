@@ -2,33 +2,67 @@
 //! Ed. 2, NSSDA), side by side with the predicted accuracy.
 
 use crate::format::{OutputFormat, cm, print_json, print_text};
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::Args;
-use lidarqa_io::{ControlPoints, Targets};
-use lidarqa_targets::{Components, EvaluateOptions, Evaluation, MeasuredPoint, evaluate};
+use lidarqa_io::{ControlPoints, LasReader, PointChunk, Targets};
+use lidarqa_model::{Attitude, Scanner};
+use lidarqa_targets::{
+    Components, EvaluateOptions, Evaluation, MeasuredPoint, VerticalEvaluation, evaluate,
+    evaluate_vertical_tin,
+};
+use lidarqa_tpu::{ConicRanges, Geometry, LinearRange};
+use serde::Serialize;
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 pub const AFTER_HELP: &str = "\
-Example:
+Examples:
   lidarqa evaluate --targets targets.csv --control control.csv --tpu tpu_summary.json
+  lidarqa evaluate --targets targets.csv --control control.csv --sensor sensor.toml --height 200
+  lidarqa evaluate --ground strip1.laz strip2.laz --checkpoints nva.csv
 
 Residual = lidar − control (m). rmse.horizontal is seed 000's formula (7), rmse.vertical its
 formula (8). With --tpu, the predicted σ (the median per-point σ of the TPU summary) is shown beside
-the measured RMSE, as seed 000's Table 3.";
+the measured RMSE, as seed 000's Table 3; with --sensor, the budget at --height (and --scan-angle)
+is. --ground with --checkpoints tests vertical checkpoints against a TIN of the ground points (ASPRS
+non-vegetated vertical accuracy, NVA), beside or instead of the targets; the JSON then has an
+\"nva\" block.";
 
 /// Flags of `lidarqa evaluate`.
 #[derive(Debug, Args)]
 pub struct EvaluateArgs {
     /// Targets CSV (`lidarqa targets` output: id,x,y,z,…).
-    #[arg(long, value_name = "FILE")]
-    targets: PathBuf,
+    #[arg(long, value_name = "FILE", requires = "control")]
+    targets: Option<PathBuf>,
     /// Control CSV (`id,x,y,z[,sigma_h,sigma_v]`).
-    #[arg(long, value_name = "FILE")]
-    control: PathBuf,
+    #[arg(long, value_name = "FILE", requires = "targets")]
+    control: Option<PathBuf>,
     /// TPU summary JSON (`lidarqa tpu --summary`): its median σ is the prediction.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with = "sensor")]
     tpu: Option<PathBuf>,
+    /// Sensor file (TOML, SPEC §5): the budget at --height is the prediction.
+    #[arg(long, value_name = "FILE", requires = "height")]
+    sensor: Option<PathBuf>,
+    /// With --sensor: flying height above the targets, m.
+    #[arg(long, value_name = "M", requires = "sensor")]
+    height: Option<f64>,
+    /// With --sensor: scan angle (linear, degrees from nadir) or scan azimuth (conic, degrees).
+    #[arg(
+        long,
+        value_name = "DEG",
+        requires = "sensor",
+        allow_negative_numbers = true
+    )]
+    scan_angle: Option<f64>,
+    /// Point clouds (LAS/LAZ) whose ground points form the TIN for vertical checkpoints (NVA).
+    #[arg(long, value_name = "FILE", num_args = 1.., requires = "checkpoints")]
+    ground: Vec<PathBuf>,
+    /// Vertical checkpoints CSV (`id,x,y,z[,sigma_h,sigma_v]`) tested against the ground TIN.
+    #[arg(long, value_name = "FILE", requires = "ground")]
+    checkpoints: Option<PathBuf>,
+    /// ASPRS class of the ground points in --ground files.
+    #[arg(long, value_name = "CLASS", default_value_t = 2)]
+    ground_class: u8,
     /// ASPRS horizontal accuracy class to test against, m (RMSE_H).
     #[arg(long, value_name = "M")]
     horizontal_class_m: Option<f64>,
@@ -72,20 +106,173 @@ pub fn evaluate_files(
     Ok(evaluate(&measured, &control, options)?)
 }
 
+/// The prediction from a sensor file: its budget at `height_m` above level ground, at the scan
+/// angle (linear) or scan azimuth (conic) given, level flight heading north.
+pub fn predicted_from_sensor(
+    path: &Path,
+    height_m: f64,
+    scan_angle_deg: Option<f64>,
+) -> Result<Components> {
+    let sensor = lidarqa_io::read_sensor(path)?;
+    let attitude = Attitude {
+        roll_rad: 0.0,
+        pitch_rad: 0.0,
+        heading_rad: 0.0,
+    };
+    let geometry = match sensor.scanner {
+        Scanner::Linear => Geometry::Linear {
+            attitude,
+            scan_angle_rad: scan_angle_deg.unwrap_or(0.0).to_radians(),
+            range: LinearRange::Height(height_m),
+        },
+        Scanner::Conic(_) => Geometry::Conic {
+            attitude,
+            azimuth_rad: scan_angle_deg.unwrap_or(90.0).to_radians(),
+            ranges: ConicRanges::HeightDepth {
+                height_m,
+                depth_m: 0.0,
+            },
+        },
+    };
+    let e = lidarqa_tpu::evaluate(&sensor, &geometry, None)
+        .with_context(|| format!("{}: --height {height_m}", path.display()))?;
+    Ok(Components::from_axes(
+        e.total.north,
+        e.total.east,
+        e.total.up,
+    ))
+}
+
+/// Ground points (`class`) of `inputs` as `[x, y, z]`, read chunk by chunk.
+pub fn ground_points(inputs: &[PathBuf], class: u8) -> Result<Vec<[f64; 3]>> {
+    let mut ground = Vec::new();
+    let mut chunk = PointChunk::new();
+    for path in inputs {
+        let mut reader = LasReader::from_path(path)?;
+        let before = ground.len();
+        while reader.fill(&mut chunk, 1 << 20)? > 0 {
+            ground.extend(
+                chunk
+                    .points
+                    .iter()
+                    .filter(|p| p.classification == class)
+                    .map(|p| [p.x, p.y, p.z]),
+            );
+        }
+        if ground.len() == before {
+            bail!(
+                "{}: no points of class {class} (ground); classify the ground or pass --ground-class",
+                path.display()
+            );
+        }
+    }
+    Ok(ground)
+}
+
+/// Vertical checkpoints against the TIN of the ground points of `ground` (NVA).
+pub fn evaluate_nva(
+    ground: &[PathBuf],
+    class: u8,
+    checkpoints: &Path,
+    options: &EvaluateOptions,
+) -> Result<VerticalEvaluation> {
+    let table = ControlPoints::from_path(checkpoints)?;
+    let cps = super::targets::control_for_targets(&table, None)?;
+    let points = ground_points(ground, class)?;
+    evaluate_vertical_tin(&points, &cps, options)
+        .with_context(|| format!("{}: vertical checkpoints", checkpoints.display()))
+}
+
+/// What `lidarqa evaluate --format json` prints: the targets' evaluation (SPEC §6), with the
+/// NVA block beside it when --ground is given.
+#[derive(Serialize)]
+struct Output {
+    #[serde(flatten)]
+    targets: Option<Evaluation>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    nva: Option<VerticalEvaluation>,
+}
+
 /// Run `lidarqa evaluate`.
 pub fn run(args: EvaluateArgs) -> Result<()> {
     let options = EvaluateOptions {
         horizontal_class_m: args.horizontal_class_m,
         vertical_class_m: args.vertical_class_m,
     };
-    let mut e = evaluate_files(&args.targets, &args.control, &options)?;
-    if let Some(p) = &args.tpu {
-        e.predicted = Some(predicted_from_tpu_summary(p)?);
+    if args.targets.is_none() && args.checkpoints.is_none() {
+        bail!("nothing to evaluate: give --targets with --control, or --ground with --checkpoints");
     }
+    let targets = match (&args.targets, &args.control) {
+        (Some(t), Some(c)) => {
+            let mut e = evaluate_files(t, c, &options)?;
+            if let Some(p) = &args.tpu {
+                e.predicted = Some(predicted_from_tpu_summary(p)?);
+            }
+            if let (Some(s), Some(h)) = (&args.sensor, args.height) {
+                e.predicted = Some(predicted_from_sensor(s, h, args.scan_angle)?);
+            }
+            Some(e)
+        }
+        _ => None,
+    };
+    let nva = match &args.checkpoints {
+        Some(cp) => Some(evaluate_nva(&args.ground, args.ground_class, cp, &options)?),
+        None => None,
+    };
     match args.format {
-        OutputFormat::Json => print_json(&e),
-        OutputFormat::Table => print_text(&table(&e)),
+        OutputFormat::Json => print_json(&Output { targets, nva }),
+        OutputFormat::Table => {
+            let mut text = String::new();
+            if let Some(e) = &targets {
+                text.push_str(&table(e));
+            }
+            if let Some(v) = &nva {
+                if !text.is_empty() {
+                    text.push('\n');
+                }
+                text.push_str(&nva_table(v));
+            }
+            print_text(&text)
+        }
     }
+}
+
+/// The NVA evaluation as text.
+pub fn nva_table(v: &VerticalEvaluation) -> String {
+    let mut t = String::new();
+    let _ = writeln!(
+        t,
+        "{:<10}{:>12}{:>12}{:>9}   (vertical checkpoints against the ground TIN, m / cm)",
+        "checkpoint", "control z", "TIN z", "up"
+    );
+    for p in &v.points {
+        let _ = writeln!(
+            t,
+            "{:<10}{:>12.3}{:>12.3}{}",
+            p.id,
+            p.control_z,
+            p.tin_z,
+            cm(p.up, 9)
+        );
+    }
+    let _ = writeln!(
+        t,
+        "NVA (n = {}): RMSE_V {:.2} cm, mean {:.2} cm, std {:.2} cm, max |up| {:.2} cm, NSSDA 95 % {:.2} cm",
+        v.n,
+        v.rmse_v_m * 100.0,
+        v.mean_up_m * 100.0,
+        v.std_up_m * 100.0,
+        v.max_abs_up_m * 100.0,
+        v.nssda.vertical_95_m * 100.0
+    );
+    let _ = writeln!(t, "{}", v.asprs.statement);
+    for w in &v.asprs.warnings {
+        let _ = writeln!(t, "note: {w}");
+    }
+    for id in &v.outside_tin {
+        let _ = writeln!(t, "checkpoint {id}: outside the ground TIN, not evaluated");
+    }
+    t
 }
 
 /// The evaluation as text (also used by the demo).
