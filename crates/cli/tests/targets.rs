@@ -21,10 +21,9 @@ fn fails_with(args: &[&str], needle: &str) {
     assert!(err.contains(needle), "{err} lacks {needle}");
 }
 
-/// A flat field at 100 m with one bright disk target (radius 0.8 m, 0.5 m up) centred at
-/// (500 010.3, 4 000 020.7), sampled on a 0.25 m grid (16 pts/m²).
-fn write_field(path: &Path) {
-    let options = LasWriteOptions {
+/// LAS 1.4 point format 6 at 1 mm, local offset, no CRS.
+fn las_options() -> LasWriteOptions {
+    LasWriteOptions {
         version_minor: 4,
         point_format: 6,
         scale: [0.001; 3],
@@ -33,8 +32,13 @@ fn write_field(path: &Path) {
         crs_vlrs: Vec::new(),
         extra_dims: Vec::new(),
         file_source_id: 1,
-    };
-    let mut w = LasWriter::create(path, &options, &[] as &[&Path]).unwrap();
+    }
+}
+
+/// A flat field at 100 m with one bright disk target (radius 0.8 m, 0.5 m up) centred at
+/// (500 010.3, 4 000 020.7), sampled on a 0.25 m grid (16 pts/m²).
+fn write_field(path: &Path) {
+    let mut w = LasWriter::create(path, &las_options(), &[] as &[&Path]).unwrap();
     let (cx, cy) = (500_010.3, 4_000_020.7);
     for i in 0..80 {
         for j in 0..80 {
@@ -215,17 +219,7 @@ fn finds_the_target_and_refuses_bad_control() {
 /// A sloped ground (z = 100 + 0.02·x_local, class 2) on a 0.5 m grid with class-1 "vegetation"
 /// 5 m above it, which the NVA must ignore.
 fn write_ground(path: &Path) {
-    let options = LasWriteOptions {
-        version_minor: 4,
-        point_format: 6,
-        scale: [0.001; 3],
-        offset: [500_000.0, 4_000_000.0, 0.0],
-        time_base: LasTimeBase::AdjustedStandard,
-        crs_vlrs: Vec::new(),
-        extra_dims: Vec::new(),
-        file_source_id: 1,
-    };
-    let mut w = LasWriter::create(path, &options, &[] as &[&Path]).unwrap();
+    let mut w = LasWriter::create(path, &las_options(), &[] as &[&Path]).unwrap();
     for i in 0..40 {
         for j in 0..40 {
             let (dx, dy) = (f64::from(i) * 0.5, f64::from(j) * 0.5);

@@ -3,11 +3,11 @@
 
 mod common;
 
-use common::{grid_to_true, pose_at, quiet_demo};
+use common::{grid_to_true, linear_covariance, pose_at, quiet_demo};
 use lidarqa_io::Ellipsoid;
 use lidarqa_model::{Georeferencer, LinearScanner, Source};
 use lidarqa_sim::{Observation, Scenario, SimOptions, simulate};
-use nalgebra::{SMatrix, SVector};
+use nalgebra::SVector;
 use num_dual::{DualSVec64, jacobian};
 
 #[test]
@@ -51,15 +51,7 @@ fn rms_error_matches_linear_propagation() {
         Source::Range,
         Source::ScanAngle,
     ];
-    let sigma: SVector<f64, 14> = SVector::from_fn(|i, _| {
-        let s = LinearScanner::SOURCES[i];
-        if drawn.contains(&s) {
-            sensor.sigma.get(s)
-        } else {
-            0.0
-        }
-    });
-    let cov = SMatrix::<f64, 14, 14>::from_diagonal(&sigma.component_mul(&sigma));
+    let cov = linear_covariance(sensor, &drawn);
 
     let zone = scenario.zone();
     let (mut sum_pred, mut sum_act) = ([0.0f64; 3], [0.0f64; 3]);

@@ -14,11 +14,11 @@
 
 mod common;
 
-use common::{grid_to_true, pose_at, quiet_demo};
+use common::{grid_to_true, linear_covariance, pose_at, quiet_demo};
 use lidarqa_model::{Georeferencer, LinearScanner, Source};
 use lidarqa_sim::{Observation, Scenario, SimOptions, TargetFile, simulate};
 use lidarqa_targets::{ControlPoint, LidarPoint, TargetConfig, extract_targets};
-use nalgebra::{Matrix3, SMatrix, SVector};
+use nalgebra::{Matrix3, SVector};
 use num_dual::{DualSVec64, jacobian};
 
 const TAU_S: f64 = 0.3;
@@ -68,15 +68,7 @@ fn target_rmse_agrees_with_predicted_sigma() {
             Source::Pitch,
             Source::Heading,
         ];
-        let sigma: SVector<f64, 14> = SVector::from_fn(|i, _| {
-            let s = LinearScanner::SOURCES[i];
-            if traj.contains(&s) {
-                sensor.sigma.get(s)
-            } else {
-                0.0
-            }
-        });
-        let cov = SMatrix::<f64, 14, 14>::from_diagonal(&sigma.component_mul(&sigma));
+        let cov = linear_covariance(sensor, &traj);
         // The true centres, as error-free control (the survey σ of the control is a separate
         // term of ASPRS Ed. 2, tested in lidarqa-targets).
         let control: Vec<ControlPoint> = survey

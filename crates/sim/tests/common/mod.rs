@@ -83,3 +83,21 @@ pub fn grid_to_true(zone: &UtmZone, e: f64, n: f64, de: f64, dn: f64) -> (f64, f
     let (s, c) = p.convergence_rad.sin_cos();
     ((dn * c - de * s) / p.scale, (de * c + dn * s) / p.scale)
 }
+
+/// The 14 × 14 diagonal covariance of the linear scanner's sources at the sensor's σ, keeping
+/// only `drawn` (the sources the simulator draws as random errors) and zero for the rest.
+pub fn linear_covariance(
+    sensor: &lidarqa_model::Sensor,
+    drawn: &[lidarqa_model::Source],
+) -> nalgebra::SMatrix<f64, 14, 14> {
+    use lidarqa_model::{Georeferencer, LinearScanner};
+    let sigma = nalgebra::SVector::<f64, 14>::from_fn(|i, _| {
+        let s = LinearScanner::SOURCES[i];
+        if drawn.contains(&s) {
+            sensor.sigma.get(s)
+        } else {
+            0.0
+        }
+    });
+    nalgebra::SMatrix::<f64, 14, 14>::from_diagonal(&sigma.component_mul(&sigma))
+}
