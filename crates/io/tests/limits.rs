@@ -298,3 +298,47 @@ fn laspy_written_seed_files_read_completely() {
     }
     assert!(n >= 4);
 }
+
+/// Found by the `las` fuzz target (artifact crash-55274362…, committed as
+/// tests/data/fuzz/laz_decoder_debug_assert.laz): corrupt LAZ GPS-time data trips a
+/// `debug_assert!(sym < (1 << 16))` in laz 0.13's arithmetic decoder (`decoders.rs`), a panic
+/// inside the crate that no check of the header can foresee. lidarqa-io's boundary
+/// (`catch_unwind` around every call into las) turns it into a one-line error naming the file; in
+/// a build without debug assertions laz decodes garbage instead, and the reader returns points
+/// or an error, never a panic.
+#[test]
+fn fuzz_regression_laz_decoder_debug_assert() {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz/laz_decoder_debug_assert.laz");
+    let mut r = LasReader::from_path(&path).unwrap();
+    let mut chunk = PointChunk::new();
+    let mut errors = Vec::new();
+    for _ in 0..4 {
+        match r.fill(&mut chunk, 64) {
+            Ok(0) => break,
+            Ok(_) => {}
+            Err(e) => errors.push(e.to_string()),
+        }
+    }
+    if cfg!(debug_assertions) {
+        let e = errors
+            .first()
+            .expect("the decoder's assertion becomes an error");
+        assert!(e.contains("laz_decoder_debug_assert.laz"), "{e}");
+        assert!(e.contains("corrupt data"), "{e}");
+        assert!(!e.contains('\n'), "{e}");
+    }
+}
+
+/// Found by the `las` fuzz target (artifact crash-22acef4b…, committed as
+/// tests/data/fuzz/laz_items_size_overflow.laz): a laszip VLR whose item sizes add up past
+/// 65 535 overflowed laz 0.13's `LazVlr::items_size` (a u16 sum; "attempt to add with
+/// overflow" with overflow checks) when lidarqa-io compared it with the record length.
+#[test]
+fn fuzz_regression_laz_items_size_overflow() {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz/laz_items_size_overflow.laz");
+    let err = open_and_read(&path).unwrap_err().to_string();
+    assert!(err.contains("laz_items_size_overflow.laz"), "{err}");
+    assert!(!err.contains('\n'), "{err}");
+}
