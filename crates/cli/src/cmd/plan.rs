@@ -2,11 +2,10 @@
 //! digest, its output and its report, for `lidarqa run` (a job array task each) and
 //! `lidarqa collect`. The manifest format is lidarqa-pipeline's `Manifest`.
 
-use super::tpu::{is_point_cloud, parse_utm_zone};
-use anyhow::{Context, Result, bail};
+use super::tpu::{TpuFlags, point_clouds_in};
+use anyhow::{Result, bail};
 use clap::{Args, Subcommand};
-use lidarqa_io::UtmZone;
-use lidarqa_pipeline::{TpuOptions, TpuPlan, plan_tpu};
+use lidarqa_pipeline::{TpuPlan, plan_tpu};
 use std::path::PathBuf;
 
 pub const AFTER_HELP: &str = "\
@@ -57,27 +56,8 @@ struct PlanTpuArgs {
     /// The manifest to write (JSON).
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
-    /// GPS week of the survey (for adjusted standard GPS time).
-    #[arg(long, value_name = "N")]
-    gps_week: Option<i64>,
-    /// UTM zone of the points when the files have no CRS, e.g. 33N or 17S (WGS 84).
-    #[arg(long, value_name = "ZONE", conflicts_with = "epsg")]
-    utm_zone: Option<String>,
-    /// EPSG code of the points' UTM CRS when the files have none.
-    #[arg(long, value_name = "CODE")]
-    epsg: Option<u32>,
-    /// Skip and count points outside the trajectory's time span instead of failing.
-    #[arg(long)]
-    skip_outside: bool,
-    /// Skip and count invalid points instead of failing.
-    #[arg(long)]
-    skip_invalid: bool,
-    /// Points per chunk.
-    #[arg(long, value_name = "N", default_value_t = TpuOptions::default().chunk_points)]
-    chunk_points: usize,
-    /// Neighbours of the plane fit for the incidence angle.
-    #[arg(long, value_name = "K", default_value_t = TpuOptions::default().neighbours)]
-    neighbours: usize,
+    #[command(flatten)]
+    flags: TpuFlags,
 }
 
 /// Run `lidarqa plan`.
@@ -88,37 +68,14 @@ pub fn run(args: PlanArgs) -> Result<()> {
 }
 
 fn plan_tpu_cmd(a: PlanTpuArgs) -> Result<()> {
-    let crs: Option<UtmZone> = match (&a.utm_zone, a.epsg) {
-        (Some(z), _) => Some(parse_utm_zone(z)?),
-        (None, Some(code)) => {
-            Some(UtmZone::from_epsg(code).with_context(|| format!("--epsg {code}"))?)
-        }
-        (None, None) => None,
-    };
-    if a.chunk_points == 0 {
-        bail!("--chunk-points must be > 0");
-    }
-    if a.neighbours < 3 {
-        bail!("--neighbours {} must be >= 3", a.neighbours);
-    }
+    let options = a.flags.options()?;
     if !a.tiles.is_dir() {
         bail!(
             "{}: --tiles must be a directory of .las/.laz files",
             a.tiles.display()
         );
     }
-    let mut tiles: Vec<PathBuf> = std::fs::read_dir(&a.tiles)
-        .with_context(|| format!("{}", a.tiles.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.is_file() && is_point_cloud(p))
-        .collect();
-    tiles.sort();
-    if tiles.is_empty() {
-        bail!(
-            "{}: no .las or .laz files in the directory",
-            a.tiles.display()
-        );
-    }
+    let tiles = point_clouds_in(&a.tiles)?;
     let output_dir = a.output_dir.clone().unwrap_or_else(|| {
         a.output
             .parent()
@@ -132,15 +89,6 @@ fn plan_tpu_cmd(a: PlanTpuArgs) -> Result<()> {
             a.tiles.display()
         );
     }
-    let options = TpuOptions {
-        crs,
-        gps_week: a.gps_week,
-        skip_outside: a.skip_outside,
-        skip_invalid: a.skip_invalid,
-        chunk_points: a.chunk_points,
-        neighbours: a.neighbours,
-        ..TpuOptions::default()
-    };
     let manifest = plan_tpu(&TpuPlan {
         manifest: &a.output,
         tiles: &tiles,

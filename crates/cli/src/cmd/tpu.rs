@@ -48,6 +48,25 @@ pub struct TpuArgs {
     /// SMRMSG accuracy file: its σ replace the sensor file's gnss_* and roll/pitch/heading.
     #[arg(long, value_name = "FILE")]
     smrmsg: Option<PathBuf>,
+    #[command(flatten)]
+    flags: TpuFlags,
+    /// Also write the summary as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    summary: Option<PathBuf>,
+    /// Output format of the summary on stdout.
+    #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
+    format: OutputFormat,
+}
+
+/// One tile: input → output.
+struct Tile {
+    input: PathBuf,
+    output: PathBuf,
+}
+
+/// The options of a per-point TPU run, shared by `lidarqa tpu` and `lidarqa plan tpu`.
+#[derive(Debug, Args)]
+pub struct TpuFlags {
     /// GPS week of the survey (for adjusted standard GPS time).
     #[arg(long, value_name = "N")]
     gps_week: Option<i64>,
@@ -71,18 +90,48 @@ pub struct TpuArgs {
     /// Neighbours of the plane fit for the incidence angle.
     #[arg(long, value_name = "K", default_value_t = TpuOptions::default().neighbours)]
     neighbours: usize,
-    /// Also write the summary as JSON to this file.
-    #[arg(long, value_name = "FILE")]
-    summary: Option<PathBuf>,
-    /// Output format of the summary on stdout.
-    #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
-    format: OutputFormat,
 }
 
-/// One tile: input → output.
-struct Tile {
-    input: PathBuf,
-    output: PathBuf,
+impl TpuFlags {
+    /// The checked library options.
+    pub(crate) fn options(&self) -> Result<TpuOptions> {
+        let crs = match (&self.utm_zone, self.epsg) {
+            (Some(z), _) => Some(parse_utm_zone(z)?),
+            (None, Some(code)) => {
+                Some(UtmZone::from_epsg(code).with_context(|| format!("--epsg {code}"))?)
+            }
+            (None, None) => None,
+        };
+        if self.chunk_points == 0 {
+            bail!("--chunk-points must be > 0");
+        }
+        if self.neighbours < 3 {
+            bail!("--neighbours {} must be >= 3", self.neighbours);
+        }
+        Ok(TpuOptions {
+            crs,
+            gps_week: self.gps_week,
+            skip_outside: self.skip_outside,
+            skip_invalid: self.skip_invalid,
+            chunk_points: self.chunk_points,
+            neighbours: self.neighbours,
+            ..TpuOptions::default()
+        })
+    }
+}
+
+/// The `.las` / `.laz` files of `dir`, sorted; an error names the directory when it has none.
+pub(crate) fn point_clouds_in(dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut inputs: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("{}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_file() && is_point_cloud(p))
+        .collect();
+    inputs.sort();
+    if inputs.is_empty() {
+        bail!("{}: no .las or .laz files in the directory", dir.display());
+    }
+    Ok(inputs)
 }
 
 /// A checked run.
@@ -120,32 +169,9 @@ impl TryFrom<TpuArgs> for Plan {
     type Error = anyhow::Error;
 
     fn try_from(a: TpuArgs) -> Result<Plan> {
-        let crs = match (&a.utm_zone, a.epsg) {
-            (Some(z), _) => Some(parse_utm_zone(z)?),
-            (None, Some(code)) => {
-                Some(UtmZone::from_epsg(code).with_context(|| format!("--epsg {code}"))?)
-            }
-            (None, None) => None,
-        };
-        if a.chunk_points == 0 {
-            bail!("--chunk-points must be > 0");
-        }
-        if a.neighbours < 3 {
-            bail!("--neighbours {} must be >= 3", a.neighbours);
-        }
+        let options = a.flags.options()?;
         let tiles = if a.input.is_dir() {
-            let mut inputs: Vec<PathBuf> = std::fs::read_dir(&a.input)
-                .with_context(|| format!("{}", a.input.display()))?
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| p.is_file() && is_point_cloud(p))
-                .collect();
-            inputs.sort();
-            if inputs.is_empty() {
-                bail!(
-                    "{}: no .las or .laz files in the directory",
-                    a.input.display()
-                );
-            }
+            let inputs = point_clouds_in(&a.input)?;
             if a.output.exists() && !a.output.is_dir() {
                 bail!(
                     "{}: the input is a directory, so the output must be one too",
@@ -191,15 +217,7 @@ impl TryFrom<TpuArgs> for Plan {
         }
         Ok(Plan {
             tiles,
-            options: TpuOptions {
-                crs,
-                gps_week: a.gps_week,
-                skip_outside: a.skip_outside,
-                skip_invalid: a.skip_invalid,
-                chunk_points: a.chunk_points,
-                neighbours: a.neighbours,
-                ..TpuOptions::default()
-            },
+            options,
             trajectory: a.trajectory,
             smrmsg: a.smrmsg,
             sensor: a.sensor,
