@@ -80,6 +80,22 @@ fn small_scenario(dir: &Path) -> PathBuf {
     path
 }
 
+/// The small scenario simulated as LAS into `tmp/survey`: (scenario file, survey directory).
+fn small_survey(tmp: &Path) -> (PathBuf, PathBuf) {
+    let scenario = small_scenario(tmp);
+    let dir = tmp.join("survey");
+    ok(&[
+        "simulate",
+        "--scenario",
+        s(&scenario),
+        "--format",
+        "las",
+        "-o",
+        s(&dir),
+    ]);
+    (scenario, dir)
+}
+
 /// Polls every millisecond until a hidden temporary file whose name starts with `.{prefix}`
 /// has data (the output has begun), then kills the child with SIGKILL. Returns false when the
 /// child ended first.
@@ -263,17 +279,7 @@ fn lidarqa_with_file_limit(blocks: u32, args: &[&str]) -> Output {
 #[test]
 fn full_disk_gives_one_line_and_no_output() {
     let tmp = tempfile::tempdir().unwrap();
-    let scenario = small_scenario(tmp.path());
-    let dir = tmp.path().join("survey");
-    ok(&[
-        "simulate",
-        "--scenario",
-        s(&scenario),
-        "--format",
-        "las",
-        "-o",
-        s(&dir),
-    ]);
+    let (scenario, dir) = small_survey(tmp.path());
     let strip = dir.join("strip_001.las");
     assert!(std::fs::metadata(&strip).unwrap().len() > 400 * 512);
 
@@ -329,17 +335,7 @@ fn full_disk_gives_one_line_and_no_output() {
 #[test]
 fn an_input_that_is_also_an_output_is_refused() {
     let tmp = tempfile::tempdir().unwrap();
-    let scenario = small_scenario(tmp.path());
-    let dir = tmp.path().join("survey");
-    ok(&[
-        "simulate",
-        "--scenario",
-        s(&scenario),
-        "--format",
-        "las",
-        "-o",
-        s(&dir),
-    ]);
+    let (scenario, dir) = small_survey(tmp.path());
     let strip = dir.join("strip_001.las");
     let sbet = dir.join("sbet.out");
     let smrmsg = dir.join("smrmsg.out");
