@@ -1,11 +1,12 @@
 //! Calibration and correction cost on a synthetic survey (tests/common): 8 strips flown at 300 and
 //! 800 m over a 250 m × 250 m scene at 4 points/m², about 250 000 points per strip (2 million in
-//! all; the 8 × 1 million is scaled down 4× to fit a 2-core CI box's memory: each
-//! `RawPoint` is 112 bytes and the simulator keeps two more positions per point), with the
-//! hand-picked ties of the scene (markings and roof faces, ~75).
+//! all), with the hand-picked ties of the scene (markings and roof faces, at most 100).
+//! `LIDARQA_BENCH_HALF_M=250` doubles the scene's side for the 8 × 1 million points
+//! (about 1.5 GB: each `RawPoint` is 112 bytes and the simulator keeps two more positions).
 //!
 //! What to read: `calibrate_vtpm` (whole solve: indexing, RANSAC + Delaunay per tie and strip,
-//! LM with observability) and, per strip, `correct_strip` (rayon) against a single-thread loop of
+//! LM with observability), the same with the trajectory weighting (`lidarqa calibrate`'s
+//! default: 48 more residual sensitivities and a Cholesky of the ties' covariance) and, per strip, `correct_strip` (rayon) against a single-thread loop of
 //! the same fast georeferencing and against the model's generic `footprint_ned` path: the
 //! correction *is* re-georeferencing, so the first ratio is the parallel speed-up and the second
 //! the cost of building `R_M` per point.
@@ -18,14 +19,19 @@ mod common;
 use common::*;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use lidarqa_calib::{
-    CalibrationOptions, Georeferencing, calibrate_vtpm, correct_strip, georeference,
+    CalibrationOptions, Georeferencing, TrajectorySigma, calibrate_vtpm, correct_strip,
+    georeference,
 };
 use lidarqa_model::Mounting;
 use std::hint::black_box;
 
 fn bench(c: &mut Criterion) {
+    let half_m: f64 = std::env::var("LIDARQA_BENCH_HALF_M")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(125.0);
     let survey = simulate(
-        &Scene::new(125.0),
+        &Scene::new(half_m),
         &lines(300.0, 800.0),
         &true_mounting(),
         &Noise::default(),
@@ -50,6 +56,29 @@ fn bench(c: &mut Criterion) {
                 &[],
                 &Mounting::default(),
                 &CalibrationOptions::default(),
+            )
+            .unwrap()
+        })
+    });
+    let weighted = CalibrationOptions {
+        trajectory_sigma: Some(TrajectorySigma {
+            position_m: [0.02, 0.02, 0.03],
+            attitude_rad: [
+                0.0025f64.to_radians(),
+                0.0025f64.to_radians(),
+                0.005f64.to_radians(),
+            ],
+        }),
+        ..CalibrationOptions::default()
+    };
+    g.bench_function("calibrate_vtpm_trajectory_weighted", |b| {
+        b.iter(|| {
+            calibrate_vtpm(
+                black_box(&survey.strips),
+                &ties,
+                &[],
+                &Mounting::default(),
+                &weighted,
             )
             .unwrap()
         })

@@ -5,6 +5,7 @@ use crate::lm::{LmModel, LmOptions, Termination, jacobian, minimize};
 use crate::params::{PARAM_COUNT, Param, mounting_from_vector, mounting_to_vector};
 use crate::strip::{Strip, check_strips};
 use crate::vtpm::{ControlPoint, Indexed, Tie, TieModel, VtpmOptions, build_tie_model};
+use crate::weighting::{TrajectorySigma, Whitening};
 use lidarqa_model::Mounting;
 use nalgebra::{DMatrix, Vector3};
 use serde_json::{Map, Value, json};
@@ -48,6 +49,9 @@ pub struct CalibrationOptions {
     /// Lower bound on the observation σ used in the observability test, m (so that a perfect fit,
     /// σ0 → 0, cannot make every parameter look determined).
     pub sigma_floor_m: f64,
+    /// Each strip's constant trajectory error (1-σ): when given, the VTPM adjustment weighs the
+    /// ties by it (generalised least squares, [`TrajectorySigma`]) and the σ it reports include it.
+    pub trajectory_sigma: Option<TrajectorySigma>,
 }
 
 impl Default for CalibrationOptions {
@@ -60,6 +64,7 @@ impl Default for CalibrationOptions {
             max_sigma_lever_m: 0.05,
             max_sigma_angle_rad: 0.01f64.to_radians(),
             sigma_floor_m: 0.01,
+            trajectory_sigma: None,
         }
     }
 }
@@ -90,6 +95,28 @@ impl CalibrationOptions {
                 value: self.max_correlation,
             });
         }
+        if let Some(t) = &self.trajectory_sigma {
+            let names = [
+                "trajectory sigma north",
+                "trajectory sigma east",
+                "trajectory sigma up",
+                "trajectory sigma roll",
+                "trajectory sigma pitch",
+                "trajectory sigma heading",
+            ];
+            for (name, v) in names
+                .into_iter()
+                .zip(t.position_m.iter().chain(&t.attitude_rad))
+            {
+                if !(v.is_finite() && *v >= 0.0) {
+                    return Err(Error::InvalidOption {
+                        name,
+                        expected: "a finite number >= 0",
+                        value: *v,
+                    });
+                }
+            }
+        }
         if self.lm.max_iterations == 0 {
             return Err(Error::InvalidOption {
                 name: "max_iterations",
@@ -100,6 +127,10 @@ impl CalibrationOptions {
         Ok(())
     }
 }
+
+/// Lower bound on the ties' own noise in the trajectory weighting, m: a near-perfect fit must not
+/// make the trajectory's share look infinitely larger than the ties'.
+const MIN_TIE_SIGMA_M: f64 = 0.002;
 
 /// One tie's residuals before and after the adjustment.
 #[derive(Debug, Clone, PartialEq)]
@@ -160,6 +191,8 @@ pub struct Calibration {
     pub history: Vec<IterationRecord>,
     /// Control points inside the strips that no strip could triangulate, left out.
     pub skipped_control: Vec<String>,
+    /// The per-strip trajectory σ the ties were weighted with, when they were.
+    pub trajectory_sigma: Option<TrajectorySigma>,
 }
 
 fn enu(v: &Vector3<f64>) -> [f64; 3] {
@@ -203,6 +236,17 @@ impl Calibration {
         // Beyond SPEC §8, only when it happened: control points no strip could triangulate.
         if !self.skipped_control.is_empty() {
             doc["skipped_control"] = json!(self.skipped_control);
+        }
+        // Beyond SPEC §8: the trajectory σ the ties were weighted with (and `sigma` includes).
+        if let Some(t) = &self.trajectory_sigma {
+            doc["trajectory_sigma"] = json!({
+                "gnss_north_m": t.position_m[0],
+                "gnss_east_m": t.position_m[1],
+                "gnss_up_m": t.position_m[2],
+                "roll_deg": t.attitude_rad[0].to_degrees(),
+                "pitch_deg": t.attitude_rad[1].to_degrees(),
+                "heading_deg": t.attitude_rad[2].to_degrees(),
+            });
         }
         doc
     }
@@ -295,12 +339,19 @@ pub(crate) fn check_overlap(strips: &[Strip]) -> Result<()> {
 struct VtpmProblem<'a> {
     strips: &'a [Strip],
     model: TieModel,
+    /// The trajectory weighting, when on: residuals are whitened by it.
+    whitening: Option<Whitening>,
 }
 
 impl LmModel for VtpmProblem<'_> {
     fn residuals(&self, x: &[f64; PARAM_COUNT]) -> Vec<f64> {
-        self.model
-            .residuals_from(&self.model.coords_at(self.strips, x))
+        let r = self
+            .model
+            .residuals_from(&self.model.coords_at(self.strips, x));
+        match &self.whitening {
+            Some(w) => w.apply(r),
+            None => r,
+        }
     }
     fn accept(&mut self, x: &[f64; PARAM_COUNT]) {
         self.model.accept(self.strips, x);
@@ -586,11 +637,47 @@ pub fn calibrate_vtpm(
             unknowns,
         });
     }
-    let problem = VtpmProblem {
+    let mut problem = VtpmProblem {
         strips,
         model: model.clone(),
+        whitening: None,
     };
-    let solved = solve_with_observability(&problem, x0, observations, options, true)?;
+    let solved = match &options.trajectory_sigma {
+        None => solve_with_observability(&problem, x0, observations, options, true)?,
+        Some(ts) => {
+            // What is determined is decided on the unweighted fit, by the same rules as without
+            // the weighting (its σ0 holds the trajectory's share, so this is the cautious
+            // choice); the weighted solves then free exactly those parameters and report σ that
+            // include the trajectory. A parameter the weighting alone would call determined is
+            // not trusted: the weighting models the trajectory, not a tie's systematic error.
+            let geometry = solve_with_observability(&problem, x0, observations, options, false)?;
+            let mut weighted = *options;
+            weighted.solve = geometry.observable;
+            weighted.max_sigma_angle_rad = f64::INFINITY;
+            weighted.max_sigma_lever_m = f64::INFINITY;
+            weighted.max_correlation = 1.0 + 1e-9;
+            // The ties' own noise σ_t: first the unweighted fit's σ0 (which still holds the
+            // trajectory's share, so too large), then the weighted fit's.
+            let mut tie_sigma_m = geometry.sigma0_m.max(MIN_TIE_SIGMA_M);
+            for pass in 0..2 {
+                problem.whitening = Some(
+                    Whitening::new(strips, &model, &x0, ts, tie_sigma_m).ok_or_else(|| {
+                        Error::Diverged("the trajectory weighting is not positive definite".into())
+                    })?,
+                );
+                if pass == 0 {
+                    tie_sigma_m =
+                        solve_with_observability(&problem, x0, observations, &weighted, false)?
+                            .sigma0_m
+                            .max(MIN_TIE_SIGMA_M);
+                }
+            }
+            let mut solved = solve_with_observability(&problem, x0, observations, &weighted, true)?;
+            solved.observable = geometry.observable;
+            solved.held_because = geometry.held_because;
+            solved
+        }
+    };
     let history = solved
         .history
         .iter()
@@ -616,6 +703,7 @@ pub fn calibrate_vtpm(
         ties: tie_reports(strips, &model, &solved.model.model),
         history,
         skipped_control: model.skipped_control.clone(),
+        trajectory_sigma: options.trajectory_sigma,
     })
 }
 
@@ -639,6 +727,7 @@ fn screen_outlier_ties(
         let problem = VtpmProblem {
             strips,
             model: model.clone(),
+            whitening: None,
         };
         let Ok(solved) =
             solve_with_observability(&problem, x0, model.observations(), &screening, false)

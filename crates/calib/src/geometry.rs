@@ -107,14 +107,15 @@ pub(crate) fn ransac_plane(
 /// The rigid transform (rotation `R`, translation `t`, `b ≈ R a + t`) that best maps triangle `a`
 /// onto triangle `b` in least squares (Kabsch / Horn, with the reflection guard): seed 001 eq. (6).
 pub(crate) fn rigid_transform(
-    a: &[Vector3<f64>; 3],
-    b: &[Vector3<f64>; 3],
+    a: &[Vector3<f64>],
+    b: &[Vector3<f64>],
 ) -> (Matrix3<f64>, Vector3<f64>) {
-    let ca = (a[0] + a[1] + a[2]) / 3.0;
-    let cb = (b[0] + b[1] + b[2]) / 3.0;
+    let n = a.len().min(b.len()).max(1) as f64;
+    let ca = a.iter().sum::<Vector3<f64>>() / n;
+    let cb = b.iter().sum::<Vector3<f64>>() / n;
     let mut h = Matrix3::zeros();
-    for k in 0..3 {
-        h += (a[k] - ca) * (b[k] - cb).transpose();
+    for (pa, pb) in a.iter().zip(b) {
+        h += (pa - ca) * (pb - cb).transpose();
     }
     let svd = h.svd(true, true);
     let (u, vt) = match (svd.u, svd.v_t) {

@@ -52,6 +52,7 @@ mod params;
 mod plane;
 mod strip;
 mod vtpm;
+mod weighting;
 
 pub use autoties::{AutoTieOptions, auto_ties};
 pub use calibrate::{
@@ -68,3 +69,4 @@ pub use params::{PARAM_COUNT, Param, mounting_from_vector, mounting_to_vector};
 pub use plane::{PlaneOptions, calibrate_plane, check_plane_rms};
 pub use strip::{Georeferencing, LocalFrame, RawPoint, Strip, correct_strip, georeference};
 pub use vtpm::{ControlPoint, Tie, TieKind, TiePick, VtpmOptions};
+pub use weighting::TrajectorySigma;

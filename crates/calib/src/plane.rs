@@ -235,6 +235,7 @@ pub fn calibrate_plane(
         ties,
         history: Vec::new(),
         skipped_control: Vec::new(),
+        trajectory_sigma: None,
     })
 }
 

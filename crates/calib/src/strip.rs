@@ -243,6 +243,27 @@ impl Georeferencing {
     }
 }
 
+/// A constant error of one strip's trajectory: the GNSS/INS position (local NED, m) and the
+/// attitude (roll, pitch, heading, rad) each off by a fixed amount over the strip. Over a strip's
+/// ten-odd seconds a navigation solution's correlated errors are nearly constant, so this is
+/// how they enter the strip's points (the calibration's trajectory weighting).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct TrajectoryOffset {
+    pub(crate) position_m: Vector3<f64>,
+    pub(crate) attitude_rad: [f64; 3],
+}
+
+impl Georeferencing {
+    /// [`Georeferencing::apply`] with the trajectory of the point off by `offset`.
+    pub(crate) fn apply_offset(&self, p: &RawPoint, offset: &TrajectoryOffset) -> Vector3<f64> {
+        let a = &p.attitude;
+        let [dr, dp, dh] = offset.attitude_rad;
+        let r_l = rotation_zyx(a.roll_rad + dr, a.pitch_rad + dp, a.heading_rad + dh);
+        let s = scanner_vector(p.observation.range_m, p.observation.scan_angle_rad);
+        p.origin_m + offset.position_m + r_l * (self.r_m * s + self.lever_m)
+    }
+}
+
 /// Strip correction: every point re-georeferenced from its raw observation with `mounting`
 /// (local NED metres, in point order; rayon-parallel).
 pub fn correct_strip(strip: &Strip, mounting: &Mounting) -> Vec<Vector3<f64>> {

@@ -15,7 +15,7 @@
 use crate::error::{Error, Result};
 use crate::geometry::{Plane, interpolate_z, ransac_plane, rigid_transform};
 use crate::params::mounting_from_vector;
-use crate::strip::{Georeferencing, GridIndex, Strip, within};
+use crate::strip::{Georeferencing, GridIndex, Strip, TrajectoryOffset, within};
 use nalgebra::Vector3;
 use spade::{DelaunayTriangulation, HasPosition, Point2, PositionInTriangulation, Triangulation};
 
@@ -30,6 +30,10 @@ pub struct VtpmOptions {
     pub ransac_iterations: usize,
     /// Seed of RANSAC's random triples (each tie/strip derives its own from it).
     pub seed: u64,
+    /// Carry each tie by every coplanar point of its window instead of seed 001's one triangle:
+    /// rule 1's height from their least-squares plane, rule 2's rigid motion fitted to all of
+    /// them. Same model, √(n/3) less of the points' noise in every tie.
+    pub patch: bool,
 }
 
 impl Default for VtpmOptions {
@@ -39,6 +43,7 @@ impl Default for VtpmOptions {
             ransac_threshold_m: 0.05,
             ransac_iterations: 200,
             seed: 1,
+            patch: false,
         }
     }
 }
@@ -122,9 +127,12 @@ pub struct ControlPoint {
     /// Surveyed position, local NED, m.
     pub position_m: Vector3<f64>,
     /// Radius of the target the control point marks, m, when it is one (seed 000: 0.8 m, raised
-    /// above the ground). The height of a height-only control point is then taken from the
-    /// target's own plane, within 0.75 × this radius, never from the ground around it.
+    /// above the ground). The height of a height-only control point is then the mean of the
+    /// target's top points within 0.75 × this radius, never the ground around it.
     pub target_radius_m: Option<f64>,
+    /// The survey's vertical 1-σ, m, when known (the control CSV's `sigma_v`): weighs the control
+    /// against the ties when the trajectory weighting is on.
+    pub sigma_vertical_m: Option<f64>,
 }
 
 #[derive(Clone, Copy)]
@@ -144,13 +152,19 @@ impl HasPosition for Vertex {
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct VirtualTie {
     pub(crate) strip: usize,
-    pub(crate) vertices: [usize; 3],
-    /// The triangle at the last accepted parameters, local NED.
-    pub(crate) tri: [Vector3<f64>; 3],
+    /// The laser points that carry the tie: seed 001's triangle (3), the whole coplanar patch
+    /// ([`VtpmOptions::patch`]) or a control target's top.
+    pub(crate) vertices: Vec<usize>,
+    /// Those points at the last accepted parameters, local NED.
+    pub(crate) carried: Vec<Vector3<f64>>,
     /// The tie at the last accepted parameters, local NED.
     pub(crate) coord: Vector3<f64>,
     /// Normal of the coplanar patch (up-pointing, NED).
     pub(crate) normal: Vector3<f64>,
+    /// A control target: the tie is the mean of its top points (`vertices`), re-georeferenced,
+    /// not one triangle's: its height is observed with √n less range noise, and a target crossed
+    /// by one or two scan lines (no triangle around its centre) still counts.
+    pub(crate) target_mean: bool,
 }
 
 /// Strip indices and grids, built once.
@@ -186,7 +200,7 @@ impl<'a> Indexed<'a> {
 }
 
 /// A tie coordinate and its triangle, local NED.
-pub(crate) type TieAt = (Vector3<f64>, [Vector3<f64>; 3]);
+pub(crate) type TieAt = (Vector3<f64>, Vec<Vector3<f64>>);
 
 /// Builds the virtual tie of `tie_id` in strip `s` at the pick (x, y) with the mounting `g`
 /// (seed 001 step 2, then rule 1 for the initial height).
@@ -264,25 +278,127 @@ pub(crate) fn build_virtual_tie(
     let tri = local.map(|i| pos[i]);
     let z = interpolate_z(&tri, x, y)
         .ok_or_else(|| no_tri("the enclosing triangle is degenerate".into()))?;
+    if opts.patch {
+        let z = (plane.d - plane.normal.x * x - plane.normal.y * y) / plane.normal.z;
+        if !z.is_finite() {
+            return Err(no_tri("the coplanar patch is vertical".into()));
+        }
+        return Ok(VirtualTie {
+            strip: s,
+            vertices: inliers.iter().map(|&i| near[i]).collect(),
+            carried: inliers.iter().map(|&i| pos[i]).collect(),
+            coord: Vector3::new(x, y, z),
+            normal: plane.normal,
+            target_mean: false,
+        });
+    }
     Ok(VirtualTie {
         strip: s,
-        vertices: local.map(|i| near[i]),
-        tri,
+        vertices: local.map(|i| near[i]).to_vec(),
+        carried: tri.to_vec(),
         coord: Vector3::new(x, y, z),
         normal: plane.normal,
+        target_mean: false,
     })
 }
 
+/// The virtual tie of a control target of radius `radius_m` in strip `s`: its top points.
+///
+/// The strip's points are still off by the uncalibrated mounting (a boresight error of 0.05° moves
+/// them ~0.7 m at 800 m), so the target is first found as the points standing above the local
+/// ground (more than [`TARGET_MIN_HEIGHT_M`] above its 20th height percentile) within the radius
+/// plus [`TARGET_SEARCH_MARGIN_M`] of the surveyed centre; the tie is those of them within 2 × the
+/// RANSAC threshold of their median height and within the radius of their centroid (never a
+/// ground point at the rim). `None` when fewer than three remain (the strip does not observe the
+/// target).
+fn build_target_tie(
+    idx: &Indexed<'_>,
+    s: usize,
+    x: f64,
+    y: f64,
+    radius_m: f64,
+    g: &Georeferencing,
+    opts: &VtpmOptions,
+) -> Option<VirtualTie> {
+    let strip = &idx.strips[s];
+    let at = |k: usize| g.apply(&strip.points[k]);
+    let around = within(
+        &idx.grids[s],
+        &strip.points,
+        x,
+        y,
+        radius_m + TARGET_SEARCH_MARGIN_M,
+    );
+    let mut ups: Vec<f64> = around.iter().map(|&k| -at(k).z).collect();
+    ups.sort_by(f64::total_cmp);
+    let ground_up = *ups.get(ups.len() / 5)?;
+    let raised: Vec<(usize, Vector3<f64>)> = around
+        .iter()
+        .map(|&k| (k, at(k)))
+        .filter(|(_, p)| -p.z > ground_up + TARGET_MIN_HEIGHT_M)
+        .collect();
+    let mut heights: Vec<f64> = raised.iter().map(|(_, p)| p.z).collect();
+    heights.sort_by(f64::total_cmp);
+    let median = *heights.get(heights.len() / 2)?;
+    let level: Vec<(usize, Vector3<f64>)> = raised
+        .into_iter()
+        .filter(|(_, p)| (p.z - median).abs() <= 2.0 * opts.ransac_threshold_m)
+        .collect();
+    if level.is_empty() {
+        return None;
+    }
+    let c = level.iter().map(|(_, p)| p).sum::<Vector3<f64>>() / level.len() as f64;
+    let top: Vec<usize> = level
+        .iter()
+        .filter(|(_, p)| (p.x - c.x).hypot(p.y - c.y) <= radius_m)
+        .map(|(k, _)| *k)
+        .collect();
+    if top.len() < 3 {
+        return None;
+    }
+    let pos: Vec<Vector3<f64>> = top.iter().map(|&k| at(k)).collect();
+    let coord = pos.iter().sum::<Vector3<f64>>() / pos.len() as f64;
+    Some(VirtualTie {
+        strip: s,
+        vertices: top,
+        carried: pos,
+        coord,
+        normal: -Vector3::z(),
+        target_mean: true,
+    })
+}
+
+/// How far beyond its radius a control target is looked for, m: more than an uncalibrated
+/// mounting displaces it.
+const TARGET_SEARCH_MARGIN_M: f64 = 1.5;
+
+/// How far above the local ground a target's top stands at least, m (seed 000's targets: 0.5 m).
+const TARGET_MIN_HEIGHT_M: f64 = 0.25;
+
 impl VirtualTie {
     /// Rule 2 (eq. 6): the tie coordinate at the parameter vector `x`, and the new triangle.
-    pub(crate) fn at(
+    pub(crate) fn at(&self, strips: &[Strip], g: &Georeferencing) -> TieAt {
+        self.at_offset(strips, g, None)
+    }
+
+    /// [`VirtualTie::at`] with strip `offset.0`'s trajectory off by `offset.1`.
+    pub(crate) fn at_offset(
         &self,
         strips: &[Strip],
         g: &Georeferencing,
-    ) -> (Vector3<f64>, [Vector3<f64>; 3]) {
+        offset: Option<(usize, &TrajectoryOffset)>,
+    ) -> TieAt {
         let pts = &strips[self.strip].points;
-        let new = self.vertices.map(|k| g.apply(&pts[k]));
-        let (r, t) = rigid_transform(&self.tri, &new);
+        let place = |k: usize| match offset {
+            Some((s, o)) if s == self.strip => g.apply_offset(&pts[k], o),
+            _ => g.apply(&pts[k]),
+        };
+        let new: Vec<Vector3<f64>> = self.vertices.iter().map(|&k| place(k)).collect();
+        if self.target_mean {
+            let mean = new.iter().sum::<Vector3<f64>>() / new.len() as f64;
+            return (mean, new);
+        }
+        let (r, t) = rigid_transform(&self.carried, &new);
         (r * self.coord + t, new)
     }
 }
@@ -296,6 +412,8 @@ pub(crate) struct TieSpec {
     pub(crate) directions: Vec<Vector3<f64>>,
     /// Surveyed position when the tie is also a control point.
     pub(crate) control: Option<Vector3<f64>>,
+    /// The control point's own 1-σ (its vertical σ), m, when known.
+    pub(crate) control_sigma_m: Option<f64>,
 }
 
 impl TieSpec {
@@ -326,6 +444,28 @@ impl TieModel {
             .collect()
     }
 
+    /// The residuals at `x` with strip `offset.0`'s trajectory off by `offset.1`: how a strip's
+    /// navigation error moves the residuals (the trajectory weighting's sensitivity).
+    pub(crate) fn residuals_offset(
+        &self,
+        strips: &[Strip],
+        x: &[f64; 6],
+        offset: (usize, &TrajectoryOffset),
+    ) -> Vec<f64> {
+        let g = Georeferencing::new(&mounting_from_vector(x));
+        let coords: Vec<Vec<TieAt>> = self
+            .ties
+            .iter()
+            .map(|t| {
+                t.virtuals
+                    .iter()
+                    .map(|v| v.at_offset(strips, &g, Some(offset)))
+                    .collect()
+            })
+            .collect();
+        self.residuals_from(&coords)
+    }
+
     /// Residuals (seed 001 eq. 8 with the eq. 7 mean): per tie and strip, the tie coordinate minus
     /// the mean over its strips (or minus the control), projected on the tie's directions.
     pub(crate) fn residuals_from(&self, coords: &[Vec<TieAt>]) -> Vec<f64> {
@@ -350,7 +490,7 @@ impl TieModel {
         for (t, c) in self.ties.iter_mut().zip(coords) {
             for (v, (p, tri)) in t.virtuals.iter_mut().zip(c) {
                 v.coord = p;
-                v.tri = tri;
+                v.carried = tri;
             }
         }
     }
@@ -439,6 +579,7 @@ pub(crate) fn build_tie_model(
             virtuals,
             directions,
             control: c.map(|c| c.position_m),
+            control_sigma_m: c.and_then(|c| c.sigma_vertical_m),
         });
     }
     let mut skipped_control = Vec::new();
@@ -453,19 +594,21 @@ pub(crate) fn build_tie_model(
             });
         }
         let (x, y) = (c.position_m.x, c.position_m.y);
-        let mut copts = *opts;
-        if let Some(r) = c.target_radius_m.filter(|r| r.is_finite() && *r > 0.0) {
-            copts.radius_m = copts.radius_m.min(0.75 * r);
-        }
+        let target_radius = c.target_radius_m.filter(|r| r.is_finite() && *r > 0.0);
+        let cover_radius = target_radius.map_or(opts.radius_m, |r| 0.75 * r);
         let mut virtuals = Vec::new();
         let mut covered = false;
         for s in 0..idx.strips.len() {
-            if !idx.covers(s, x, y, copts.radius_m) {
+            if !idx.covers(s, x, y, cover_radius) {
                 continue;
             }
             covered = true;
-            // A target seen by only a scan line or two in one strip has no triangle around its
-            // centre there: that strip does not observe it (the others still do).
+            if let Some(r) = target_radius {
+                virtuals.extend(build_target_tie(idx, s, x, y, r, &g, opts));
+                continue;
+            }
+            // A checkpoint with no coplanar triangle around it in one strip is not observed
+            // there (the others still do).
             match build_virtual_tie(
                 idx,
                 s,
@@ -473,7 +616,7 @@ pub(crate) fn build_tie_model(
                 x,
                 y,
                 &g,
-                &copts,
+                opts,
                 mix_seed(opts.seed ^ 0xC0, ci, s),
             ) {
                 Ok(v) => virtuals.push(v),
@@ -498,10 +641,67 @@ pub(crate) fn build_tie_model(
             virtuals,
             directions: vec![Vector3::z()],
             control: Some(c.position_m),
+            control_sigma_m: c.sigma_vertical_m,
         });
     }
     Ok(TieModel {
         ties: out,
         skipped_control,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lidarqa_model::{Attitude, LinearObservation, Mounting};
+
+    /// A point whose georeferencing is its own origin (zero range, level, no lever arm).
+    fn at(x: f64, y: f64, up: f64) -> crate::strip::RawPoint {
+        let p = Vector3::new(x, y, -up);
+        crate::strip::RawPoint {
+            position_m: p,
+            origin_m: p,
+            attitude: Attitude::default(),
+            observation: LinearObservation {
+                range_m: 0.0,
+                scan_angle_rad: 0.0,
+            },
+            time_s: 0.0,
+            intensity: 0,
+        }
+    }
+
+    #[test]
+    fn a_displaced_target_is_found_and_observed_by_its_top_only() {
+        // Flat ground at 0 m, a 0.8 m disc 0.5 m high centred 1.35 m from where the control
+        // says (as an uncalibrated strip would put it), points every 0.25 m.
+        let (cx, cy, r) = (1.0, 0.9, 0.8);
+        let mut points = Vec::new();
+        for i in -16..=16 {
+            for j in -16..=16 {
+                let (x, y) = (i as f64 * 0.25, j as f64 * 0.25);
+                let on_disc = (x - cx).hypot(y - cy) <= r;
+                points.push(at(x, y, if on_disc { 0.5 } else { 0.0 }));
+            }
+        }
+        let on_disc = points.iter().filter(|p| p.position_m.z < -0.25).count();
+        let strips = [Strip {
+            id: "1".into(),
+            points,
+        }];
+        let idx = Indexed::new(&strips, 1.0);
+        let g = Georeferencing::new(&Mounting::default());
+        let v = build_target_tie(&idx, 0, 0.0, 0.0, r, &g, &VtpmOptions::default()).unwrap();
+        assert_eq!(v.vertices.len(), on_disc);
+        assert!((v.coord.z + 0.5).abs() < 1e-12, "{}", v.coord.z);
+        assert!((v.coord.x - cx).abs() < 0.05 && (v.coord.y - cy).abs() < 0.05);
+        // Rule 2 for a target: the mean moves with its points (here: a 0.1 m lever arm down).
+        let lowered = Georeferencing::new(&Mounting {
+            lever_arm_m: Vector3::new(0.0, 0.0, 0.1),
+            ..Mounting::default()
+        });
+        assert!((v.at(&strips, &lowered).0.z + 0.4).abs() < 1e-12);
+        // Too far from the surveyed centre: not observed.
+        assert!(build_target_tie(&idx, 0, -3.5, -3.5, r, &g, &VtpmOptions::default()).is_none());
+    }
 }

@@ -82,6 +82,30 @@ fn vtpm_without_control_recovers_boresight_and_horizontal_lever_and_holds_lever_
 }
 
 #[test]
+fn patch_carrier_recovers_the_mounting_with_less_noise_than_the_triangle() {
+    let (s, ties) = survey();
+    let solve = |patch: bool| {
+        let mut o = CalibrationOptions::default();
+        o.vtpm.patch = patch;
+        calibrate_vtpm(&s.strips, ties, &[], &Mounting::default(), &o).unwrap()
+    };
+    let (triangle, patch) = (solve(false), solve(true));
+    let e = errors(&patch, &s.truth);
+    for k in 3..6 {
+        assert!(e[k].abs() < 0.003 * DEG, "angle {k}: {} deg", e[k] / DEG);
+    }
+    assert!(e[0].abs() < 0.03 && e[1].abs() < 0.03, "lever x/y {e:?}");
+    // Every coplanar point of the window instead of three: the ties' height noise averages
+    // down, so the fit's σ0 (horizontal pick noise unchanged) drops.
+    assert!(
+        patch.sigma0_m < 0.9 * triangle.sigma0_m,
+        "sigma0 patch {} vs triangle {}",
+        patch.sigma0_m,
+        triangle.sigma0_m
+    );
+}
+
+#[test]
 fn vtpm_with_control_recovers_lever_z() {
     let (s, ties) = survey();
     let control = s.control_for(ties, 6);

@@ -81,6 +81,7 @@ fn control_point_outside_every_strip() {
         id: "gcp9".into(),
         position_m: Vector3::new(900.0, 900.0, 0.0),
         target_radius_m: None,
+        sigma_vertical_m: None,
     };
     let e = run(&s.strips, &ties, &[c]);
     assert_eq!(

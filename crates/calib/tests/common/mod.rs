@@ -425,6 +425,7 @@ impl Survey {
                     id: t.id.clone(),
                     position_m: Vector3::new(c.x + h, c.y - h, 0.0),
                     target_radius_m: None,
+                    sigma_vertical_m: None,
                 })
             })
             .step_by(3)

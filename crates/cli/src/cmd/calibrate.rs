@@ -11,13 +11,14 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use lidarqa_calib::{
     AutoTieOptions, Calibration, CalibrationOptions, ControlPoint, LocalFrame, Param, PlaneOptions,
-    RawPoint, Strip, Tie, TieKind, TiePick, auto_ties, calibrate_plane, calibrate_vtpm,
+    RawPoint, Strip, Tie, TieKind, TiePick, TrajectorySigma, auto_ties, calibrate_plane,
+    calibrate_vtpm,
 };
 use lidarqa_io::{
     AtomicFile, ControlPoints, Geodetic, LasInfo, LasPoint, LasReader, LasTimeConverter,
     PointChunk, TiePicks, UtmZone,
 };
-use lidarqa_model::Mounting;
+use lidarqa_model::{Mounting, Source};
 use lidarqa_pipeline::{TpuContext, TpuOptions};
 use lidarqa_tpu::Recoverer;
 use nalgebra::Vector3;
@@ -89,9 +90,18 @@ pub struct CalibrateArgs {
     /// RANSAC iterations.
     #[arg(long, value_name = "N", default_value_t = 200)]
     ransac_iterations: usize,
+    /// What carries a tie in a strip: `triangle` is seed 001's rule (the three coplanar points
+    /// around the pick); `patch` uses every coplanar point of the window (height from their
+    /// least-squares plane, moved rigidly with all of them), which averages the points' noise
+    #[arg(long, value_name = "CARRIER", default_value = "patch", value_parser = ["patch", "triangle"])]
+    tie_carrier: String,
     /// Levenberg–Marquardt iteration limit.
     #[arg(long, value_name = "N", default_value_t = 50)]
     max_iterations: usize,
+    /// Plain least squares, as seed 001: do not weigh the ties by each strip's trajectory error
+    /// (the sensor file's GNSS and attitude σ), and report σ from the tie scatter alone
+    #[arg(long)]
+    no_trajectory_weighting: bool,
     /// Output format of the summary on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
     format: OutputFormat,
@@ -349,6 +359,7 @@ impl TryFrom<CalibrateArgs> for Plan {
         }
         options.vtpm.ransac_threshold_m = args.ransac_threshold_m;
         options.vtpm.ransac_iterations = args.ransac_iterations;
+        options.vtpm.patch = args.tie_carrier == "patch";
         options.lm.max_iterations = args.max_iterations;
         if let Some(r) = args.radius_m
             && !(r.is_finite() && r > 0.0)
@@ -401,6 +412,15 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         },
     )?;
     let prior: Mounting = ctx.sensor().mounting;
+    if !a.no_trajectory_weighting {
+        let sigma = &ctx.sensor().sigma;
+        let t = TrajectorySigma {
+            position_m: [Source::GnssNorth, Source::GnssEast, Source::GnssUp].map(|s| sigma.get(s)),
+            attitude_rad: [Source::Roll, Source::Pitch, Source::Heading].map(|s| sigma.get(s)),
+        };
+        let any = t.position_m.iter().chain(&t.attitude_rad).any(|v| *v > 0.0);
+        plan.options.trajectory_sigma = any.then_some(t);
+    }
     let (frame, zone, mut loaded) = load_all(&a.strips, &ctx, a.gps_week)?;
     for l in &mut loaded {
         l.las_points = Vec::new();
@@ -442,6 +462,7 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
                     id: c.id.clone(),
                     position_m: projected_to_local(&frame, &zone, c.x, c.y, c.z),
                     target_radius_m: table.extra_f64(i, "radius_m")?,
+                    sigma_vertical_m: c.sigma_v_m,
                 });
             }
             out
@@ -510,6 +531,17 @@ fn table(cal: &Calibration) -> String {
             } else {
                 format!("no: {}", cal.held_because[i])
             }
+        );
+    }
+    if let Some(t) = &cal.trajectory_sigma {
+        s += &format!(
+            "sigma includes each strip's trajectory error (GNSS {:.3}/{:.3}/{:.3} m, roll/pitch/heading {:.4}/{:.4}/{:.4} deg; the ties are weighted by it)\n",
+            t.position_m[0],
+            t.position_m[1],
+            t.position_m[2],
+            t.attitude_rad[0].to_degrees(),
+            t.attitude_rad[1].to_degrees(),
+            t.attitude_rad[2].to_degrees(),
         );
     }
     let ((h0, v0), (h1, v1)) = cal.tie_rms_m();
