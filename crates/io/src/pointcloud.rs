@@ -38,6 +38,8 @@ use std::fs::File;
 use std::io::{BufReader, BufWriter, Read, Seek};
 use std::path::{Path, PathBuf};
 
+mod laz_layout;
+
 /// Extra-bytes VLR: user id, record id and descriptor length (LAS 1.4 R15 §2.5.8).
 const EXTRA_BYTES_USER: &str = "LASF_Spec";
 const EXTRA_BYTES_RECORD: u16 = 4;
@@ -664,11 +666,11 @@ const EVLR_HEADER_LEN: u64 = 60;
 /// the point data must start inside it; an uncompressed file must hold `points × record length`
 /// bytes after that; the VLR headers must fit before the point data; the first EVLR must fit in
 /// the file. A LAZ file's point count cannot be checked from its size (compression), but
-/// lidarqa reads it in bounded chunks and never sizes a buffer from the count.
+/// lidarqa reads it in bounded chunks and never sizes a buffer from the count; what the LAZ
+/// data says about its own layout is checked by [`laz_layout::check`].
 ///
-/// Returns, for a LAZ file with variable-size chunks, how many points its chunk table covers:
-/// laz 0.13 indexes the table without a bounds check when a chunk begins, so reading past the
-/// table's points would panic inside the crate.
+/// Returns, for a LAZ file with variable-size chunks, how many points its chunk table covers
+/// (see [`laz_layout::check`]).
 fn check_layout<R: Read + Seek>(read: &mut R, path: &Path) -> Result<Option<u64>> {
     use std::io::SeekFrom;
     let io = |e| Error::io(path, e);
@@ -713,10 +715,6 @@ fn check_layout<R: Read + Seek>(read: &mut R, path: &Path) -> Result<Option<u64>
              {file_len} bytes"
         )));
     }
-    if compressed {
-        check_laz_chunk_table(read, path, offset, file_len)?;
-    }
-    let mut readable = None;
     let evlr = raw
         .evlr
         .filter(|e| e.number_of_evlrs > 0 && e.start_of_first_evlr > 0);
@@ -742,89 +740,13 @@ fn check_layout<R: Read + Seek>(read: &mut R, path: &Path) -> Result<Option<u64>
             )));
         }
     }
-    if compressed {
-        read.seek(SeekFrom::Start(0)).map_err(io)?;
-        // A header las refuses is reported when las reads it for real.
-        if let Some(vlr) = las::Header::new(&mut *read)
-            .ok()
-            .and_then(|h| h.laz_vlr().ok())
-        {
-            // Summed here in u64: laz's own `items_size` sums u16 and overflows (found by the
-            // `las` fuzz target, regressions/las/crash-22acef4b…); with this check laz never
-            // sees items whose sizes do not add up to the record length.
-            let items_size: u64 = vlr.items().iter().map(|i| u64::from(i.size())).sum();
-            if items_size != record_len {
-                return Err(invalid(format!(
-                    "the laszip VLR describes {items_size}-byte point records but the header \
-                     says {record_len} bytes"
-                )));
-            }
-            if vlr.uses_variable_size_chunks() {
-                read.seek(SeekFrom::Start(offset)).map_err(io)?;
-                readable = laz::laszip::ChunkTable::read_from(&mut *read, &vlr)
-                    .ok()
-                    .map(|t| {
-                        t.as_ref()
-                            .iter()
-                            .fold(0u64, |n, e| n.saturating_add(e.point_count))
-                    });
-            }
-        }
-    }
+    let readable = if compressed {
+        laz_layout::check(read, path, offset, record_len, points, file_len)?
+    } else {
+        None
+    };
     read.seek(SeekFrom::Start(0)).map_err(io)?;
     Ok(readable)
-}
-
-/// The laz crate sizes its chunk table from the table's 32-bit chunk count
-/// (`Vec::with_capacity`, 16 bytes an entry: 64 GB for a count of 2³²). Each chunk takes at
-/// least one byte of the file (its first point is even stored raw), so a count beyond the bytes
-/// after the point-data offset is refused. Where the table is follows laz's own
-/// `ChunkTable::read_offset`: the i64 at the start of the point data, or, when that was never
-/// updated, the file's last 8 bytes. A missing table is left to laz to report.
-fn check_laz_chunk_table<R: Read + Seek>(
-    read: &mut R,
-    path: &Path,
-    offset: u64,
-    file_len: u64,
-) -> Result<()> {
-    use std::io::SeekFrom;
-    let io = |e| Error::io(path, e);
-    let read_u64_at = |read: &mut R, at: u64| -> Option<u64> {
-        let mut b = [0u8; 8];
-        (at.checked_add(8)? <= file_len).then_some(())?;
-        read.seek(SeekFrom::Start(at)).ok()?;
-        read.read_exact(&mut b).ok()?;
-        Some(u64::from_le_bytes(b))
-    };
-    // As laz: an offset (i64) not past the point-data start means "look at the end".
-    let after_start = |v: u64| (v as i64 > offset as i64).then_some(v);
-    let table = read_u64_at(read, offset).and_then(after_start).or_else(|| {
-        file_len
-            .checked_sub(8)
-            .and_then(|end| read_u64_at(read, end))
-            .and_then(after_start)
-    });
-    let Some(table) = table else {
-        return Ok(());
-    };
-    // u32 version, then u32 number of chunks.
-    let Some(count_at) = table.checked_add(4).filter(|&at| at + 4 <= file_len) else {
-        return Ok(()); // laz reports the short read
-    };
-    read.seek(SeekFrom::Start(count_at)).map_err(io)?;
-    let mut b = [0u8; 4];
-    read.read_exact(&mut b).map_err(io)?;
-    let chunks = u64::from(u32::from_le_bytes(b));
-    if chunks > file_len - offset {
-        return Err(Error::InvalidLas {
-            path: path.to_path_buf(),
-            message: format!(
-                "LAZ chunk table at byte {table} claims {chunks} chunks but the file holds only \
-                 {file_len} bytes"
-            ),
-        });
-    }
-    Ok(())
 }
 
 // las::Reader and las::Writer are not Debug; show what identifies the stream.

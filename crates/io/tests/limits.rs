@@ -17,29 +17,43 @@ const NUMBER_OF_EVLRS: usize = 243;
 const POINT_COUNT: usize = 247;
 
 fn write_las(dir: &Path, name: &str, n: u32) -> PathBuf {
+    write_points(dir, name, 6, true, n)
+}
+
+/// `n` points of `format` (6–8), with one f32 extra-bytes dimension when `extra`; LAZ when
+/// `name` ends in `.laz` (las writes chunks of 50 000 points).
+fn write_points(dir: &Path, name: &str, format: u8, extra: bool, n: u32) -> PathBuf {
     let path = dir.join(name);
     let opts = LasWriteOptions {
         version_minor: 4,
-        point_format: 6,
+        point_format: format,
         scale: [0.001, 0.001, 0.001],
         offset: [500_000.0, 4_982_000.0, 0.0],
         time_base: LasTimeBase::AdjustedStandard,
         crs_vlrs: Vec::new(),
-        extra_dims: vec![("sigma_up".into(), "1-sigma up (m)".into())],
+        extra_dims: if extra {
+            vec![("sigma_up".into(), "1-sigma up (m)".into())]
+        } else {
+            Vec::new()
+        },
         file_source_id: 1,
     };
+    let extras: &[f32] = if extra { &[0.05] } else { &[] };
     let mut w = LasWriter::create(&path, &opts, &[] as &[&Path]).unwrap();
     for i in 0..n {
         let p = LasPoint {
-            x: 500_100.0 + f64::from(i),
-            y: 4_982_100.0,
-            z: 100.0,
-            gps_time_s: Some(330_560_000.0 + f64::from(i)),
+            x: 500_100.0 + f64::from(i % 1000),
+            y: 4_982_100.0 + f64::from(i / 1000),
+            z: 100.0 + f64::from(i % 7),
+            gps_time_s: Some(330_560_000.0 + f64::from(i) * 1e-4),
+            intensity: (i % 4096) as u16,
             return_number: 1,
             number_of_returns: 1,
+            rgb: matches!(format, 7 | 8).then_some([i as u16, 2, 3]),
+            nir: (format == 8).then_some(i as u16),
             ..LasPoint::default()
         };
-        w.write_point(&p, &[0.05]).unwrap();
+        w.write_point(&p, extras).unwrap();
     }
     w.finish().unwrap();
     path
@@ -341,4 +355,141 @@ fn fuzz_regression_laz_items_size_overflow() {
     let err = open_and_read(&path).unwrap_err().to_string();
     assert!(err.contains("laz_items_size_overflow.laz"), "{err}");
     assert!(!err.contains('\n'), "{err}");
+}
+
+/// Peak resident memory of this process (Linux `VmHWM`), bytes; `None` where there is no
+/// /proc.
+fn peak_rss() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let kb = status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))?
+        .trim()
+        .strip_suffix("kB")?
+        .trim()
+        .parse::<u64>()
+        .ok()?;
+    Some(kb * 1024)
+}
+
+/// Found by the `las` fuzz target (artifact oom-7edb4768…, committed as
+/// tests/data/fuzz/laz_layer_size_oom.laz): in a layered LAZ chunk (point formats 6–10) each
+/// layer's byte count is a u32 from the file, and laz 0.13 `copy_bytes_into_decoder` does
+/// `Vec::resize(count, 0)` before `read_exact`, so this 1.5 KB file, whose layer sizes are WKT
+/// text, made it allocate and zero 1.3 GB before the read failed. lidarqa-io now walks the
+/// chunks when the file is opened and refuses layers that add up past the file; laz never
+/// reads them. The peak RSS is the measurement of "never allocates beyond the file" (the test
+/// binary runs other small tests at the same time, hence the margin).
+#[test]
+fn fuzz_regression_laz_layer_size_oom() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz/laz_layer_size_oom.laz");
+    let before = peak_rss();
+    assert!(
+        LasReader::from_path(&path).is_err(),
+        "refused when opened, before laz reads a point"
+    );
+    let msg = invalid_message(open_and_read(&path));
+    let after = peak_rss();
+    assert!(msg.contains("laz_layer_size_oom.laz"), "{msg}");
+    assert!(
+        msg.contains(
+            "LAZ chunk 0 at byte 1130: its layers claim 11788500040 bytes but only 307 bytes \
+             follow"
+        ),
+        "{msg}"
+    );
+    if let (Some(before), Some(after)) = (before, after) {
+        assert!(
+            after - before < 256 << 20,
+            "peak RSS grew by {} MB",
+            (after - before) >> 20
+        );
+    }
+}
+
+/// The same check on a file lidarqa wrote (point format 6, one extra byte dimension: 34 raw
+/// bytes of first point, 13 layers): a layer size beyond the file, and one that stays inside
+/// the file but beyond the chunk's byte count in the chunk table.
+#[test]
+fn laz_layer_sizes_beyond_the_file_or_the_chunk_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_las(dir.path(), "layers.laz", 20);
+    let data = std::fs::read(&path).unwrap();
+    let offset = u32::from_le_bytes(data[OFFSET_TO_POINT_DATA..][..4].try_into().unwrap()) as usize;
+    let chunk = offset + 8;
+    // First point (30 + 4 bytes), the chunk's point count, then 13 u32 layer sizes.
+    let sizes_at = chunk + 34 + 4;
+    let u32_at = |i: usize| u32::from_le_bytes(data[i..i + 4].try_into().unwrap());
+    assert_eq!(u32_at(chunk + 34), 20, "the chunk's point count");
+    let layers: u64 = (0..13).map(|k| u64::from(u32_at(sizes_at + 4 * k))).sum();
+    let table = u64::from_le_bytes(data[offset..offset + 8].try_into().unwrap());
+    assert_eq!(
+        table,
+        (sizes_at + 4 * 13) as u64 + layers,
+        "the layers end where the chunk table starts"
+    );
+    assert_eq!(open_and_read(&path).unwrap(), 20);
+
+    // The GPS time layer (the 9th) claims 4 GB.
+    let gps = sizes_at + 4 * 8;
+    patch(&path, gps, &4_000_000_000u32.to_le_bytes());
+    let msg = invalid_message(open_and_read(&path));
+    let follow = data.len() - (sizes_at + 4 * 13);
+    let claim = layers - u64::from(u32_at(gps)) + 4_000_000_000;
+    assert!(msg.contains("layers.laz"), "{msg}");
+    assert!(
+        msg.contains(&format!(
+            "LAZ chunk 0 at byte {chunk}: its layers claim {claim} bytes but only {follow} bytes \
+             follow"
+        )),
+        "{msg}"
+    );
+
+    // 8 bytes more: still inside the file (the chunk table follows), not inside the chunk.
+    patch(&path, gps, &(u32_at(gps) + 8).to_le_bytes());
+    let msg = invalid_message(open_and_read(&path));
+    let chunk_bytes = table - chunk as u64;
+    assert!(
+        msg.contains(&format!(
+            "LAZ chunk 0 at byte {chunk}: its layers claim {} bytes but the chunk table gives \
+             the whole chunk {chunk_bytes} bytes",
+            layers + 8
+        )),
+        "{msg}"
+    );
+}
+
+/// The layer check refuses nothing valid: LAZ point formats 6, 7 and 8, with and without extra
+/// bytes, in more than one chunk (the check walks every chunk), read back completely; and a
+/// layered LAZ without points.
+#[test]
+fn layered_laz_reads_across_chunks() {
+    let dir = tempfile::tempdir().unwrap();
+    let empty = write_points(dir.path(), "empty.laz", 6, true, 0);
+    assert_eq!(open_and_read(&empty).unwrap(), 0);
+    for (format, extra) in [(6, false), (7, true), (8, false), (8, true)] {
+        let name = format!("pf{format}_{extra}.laz");
+        let path = write_points(dir.path(), &name, format, extra, 50_000 + 1_234);
+        let mut r = LasReader::from_path(&path).unwrap();
+        assert_eq!(r.info().point_format, format);
+        let mut chunk = PointChunk::new();
+        let mut n = 0u32;
+        while r.fill(&mut chunk, 20_000).unwrap() > 0 {
+            for p in &chunk.points {
+                assert_eq!(p.intensity, (n % 4096) as u16, "{name} point {n}");
+                assert_eq!(p.nir, (format == 8).then_some(n as u16), "{name} point {n}");
+                n += 1;
+            }
+            if extra {
+                assert!(
+                    chunk
+                        .extra_column("sigma_up")
+                        .unwrap()
+                        .iter()
+                        .all(|&v| v == f64::from(0.05f32))
+                );
+            }
+        }
+        assert_eq!(n, 51_234, "{name}");
+    }
 }

@@ -194,6 +194,7 @@ roundtrip!(las_1_4_format_6, 4, 6, "las", vec![wkt_vlr(32633)], 32633);
 roundtrip!(laz_1_4_format_6, 4, 6, "laz", vec![wkt_vlr(32633)], 32633);
 roundtrip!(las_1_4_format_8, 4, 8, "las", vec![wkt_vlr(32633)], 32633);
 roundtrip!(laz_1_4_format_7, 4, 7, "LAZ", vec![wkt_vlr(32633)], 32633);
+roundtrip!(laz_1_4_format_8, 4, 8, "laz", vec![wkt_vlr(32633)], 32633);
 
 /// SPEC §7: the output of a file follows its input: LAS 1.4, the input's format when it has GPS
 /// time, its scale/offset and CRS.
