@@ -17,9 +17,11 @@
 //! names and types them. This module therefore encodes and decodes that VLR's 192-byte
 //! descriptors itself (LAS 1.4 R15 §2.5.8, table 24) and packs the values into
 //! `Point::extra_bytes`; everything else (headers, VLR storage, point records, LAZ) is the crate's.
-//! The EPSG code is read from the GeoKey directory with the crate's `get_geotiff_crs`, and from a
-//! WKT VLR by taking the last `AUTHORITY["EPSG","…"]` of the horizontal part (the crate has no WKT
-//! parser, and the outermost authority is the last one of a WKT1 CRS).
+//! The EPSG code is read from the GeoKey directory with the crate's `get_geotiff_crs` (including a
+//! user-defined projected CRS that is a WGS 84 UTM zone by its ProjectionGeoKey, as PDAL writes
+//! one from a PROJ string), and from a WKT VLR by taking the last `AUTHORITY["EPSG","…"]` of the
+//! horizontal part (the crate has no WKT parser, and the outermost authority is the last one of a
+//! WKT1 CRS).
 //!
 //! An input's own extra bytes are readable by name but are not carried into outputs: an output
 //! has exactly the dimensions its caller names.
@@ -137,7 +139,8 @@ pub struct LasCrs {
     /// The CRS VLRs/EVLRs as found (`LASF_Projection` 2112, 34735, 34736, 34737), to copy into
     /// outputs unchanged.
     pub vlrs: Vec<RawVlr>,
-    /// The horizontal CRS's EPSG code, from ProjectedCSTypeGeoKey (3072) or the WKT's last
+    /// The horizontal CRS's EPSG code, from ProjectedCSTypeGeoKey (3072), a user-defined WGS 84
+    /// UTM zone (ProjectionGeoKey 3074 = 160zz / 161zz), or the WKT's last
     /// `AUTHORITY["EPSG","…"]`; `None` when the file has no CRS or a CRS without a code.
     pub epsg: Option<u32>,
     /// The WKT text (record 2112), when present.
@@ -158,16 +161,59 @@ impl LasCrs {
         });
         // A GeoKey directory that las cannot parse is no EPSG code, not an error: the VLRs are
         // still copied, and a caller that needs the code reports its absence.
-        let geokey = header
-            .get_geotiff_crs()
-            .ok()
-            .flatten()
-            .and_then(|g| g.get_projected_crs_geo_key_value())
-            .filter(|&c| c != 0 && c != 32767) // 32767 = user-defined
-            .map(u32::from);
+        let geokey = header.get_geotiff_crs().ok().flatten().and_then(|g| {
+            g.get_projected_crs_geo_key_value()
+                .filter(|&c| c != 0 && c != 32767) // 32767 = user-defined
+                .map(u32::from)
+                .or_else(|| user_defined_utm_epsg(&g))
+        });
         let epsg = geokey.or_else(|| wkt.as_deref().and_then(epsg_from_wkt));
         LasCrs { vlrs, epsg, wkt }
     }
+}
+
+/// The EPSG code (326zz / 327zz) of a user-defined projected CRS that is plainly a WGS 84 UTM
+/// zone, as PDAL and others write it from a PROJ string (`+proj=utm +zone=11 +datum=WGS84`):
+/// ProjectedCSTypeGeoKey 32767 (user-defined) with ProjectionGeoKey (3074) = 16000 + zone (north)
+/// or 16100 + zone (south), metres (ProjLinearUnitsGeoKey 3076 = 9001 or absent), Greenwich, and
+/// a geographic CRS that is EPSG 4326 or user-defined with the WGS 84 datum (6326), ellipsoid
+/// (7030) or ellipsoid parameters (a = 6378137 m, 1/f = 298.257223563), taken as WGS 84. Anything
+/// else (another datum, other units, another projection) is `None`: the caller then asks for
+/// `--utm-zone` / `--epsg` as before.
+fn user_defined_utm_epsg(g: &las::crs::GeoTiffCrs) -> Option<u32> {
+    use las::crs::GeoTiffData;
+    let key = |id: u16| g.entries.iter().find(|e| e.id == id).map(|e| &e.data);
+    let short = |id: u16| match key(id) {
+        Some(GeoTiffData::U16(v)) => Some(*v),
+        _ => None,
+    };
+    let double = |id: u16| match key(id) {
+        Some(GeoTiffData::Doubles(v)) if v.len() == 1 => Some(v[0]),
+        _ => None,
+    };
+    if !matches!(short(3072), None | Some(32767)) || !matches!(short(3076), None | Some(9001)) {
+        return None;
+    }
+    // GeogPrimeMeridianGeoKey (2051) Greenwich, GeogPrimeMeridianLongGeoKey (2061) 0.
+    if !matches!(short(2051), None | Some(8901)) || double(2061).is_some_and(|l| l != 0.0) {
+        return None;
+    }
+    let (zone, north) = match short(3074)? {
+        p @ 16001..=16060 => (u32::from(p - 16000), true),
+        p @ 16101..=16160 => (u32::from(p - 16100), false),
+        _ => return None,
+    };
+    let wgs84_ellipsoid = || {
+        short(2056) == Some(7030)
+            || (double(2057) == Some(6_378_137.0)
+                && double(2059).is_some_and(|f| (f - 298.257_223_563).abs() < 1e-9))
+    };
+    match short(2048) {
+        Some(4326) => {}
+        Some(32767) | None if short(2050) == Some(6326) || wgs84_ellipsoid() => {}
+        _ => return None,
+    }
+    Some(if north { 32600 } else { 32700 } + zone)
 }
 
 /// The EPSG code of a WKT1 or WKT2 horizontal CRS: the last `AUTHORITY["EPSG","n"]` (WKT1) or

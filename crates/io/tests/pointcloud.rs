@@ -343,3 +343,63 @@ fn epsg_from_wkt_takes_the_horizontal_crs() {
     assert_eq!(epsg_from_wkt(wkt2), Some(32717));
     assert_eq!(epsg_from_wkt("LOCAL_CS[\"x\"]"), None);
 }
+
+/// The three GeoTIFF VLRs PDAL 2.1 writes for `+proj=utm +zone=11 +datum=WGS84` (copied key by
+/// key from the leeward project's `data/points.las`): a user-defined projected CRS (3072 = 32767)
+/// with ProjectionGeoKey 3074 = 16011 (UTM zone 11N) and a user-defined geographic CRS on the
+/// WGS 84 ellipsoid given by its parameters. `ellipsoid` = (a, 1/f) goes into the doubles VLR.
+fn pdal_user_defined_utm(projection: u16, ellipsoid: (f64, f64)) -> Vec<RawVlr> {
+    let ascii = "WGS 84 / UTM zone 11N|GCS Name = WGS84|Datum = unnamed|Ellipsoid = unnamed|\
+                 Primem = Greenwich||unknown|\0";
+    let keys: [u16; 68] = [
+        1, 1, 0, 16, 1024, 0, 1, 1, 1025, 0, 1, 1, 1026, 34737, 22, 0, 2048, 0, 1, 32767, 2049,
+        34737, 73, 22, 2050, 0, 1, 32767, 2054, 0, 1, 9102, 2056, 0, 1, 32767, 2057, 34736, 1, 0,
+        2059, 34736, 1, 1, 2061, 34736, 1, 2, 3072, 0, 1, 32767, 3074, 0, 1, projection, 3076, 0,
+        1, 9001, 4097, 34737, 8, 95, 4099, 0, 1, 9001,
+    ];
+    let doubles = [ellipsoid.0, ellipsoid.1, 0.0];
+    let vlr = |record_id: u16, data: Vec<u8>| RawVlr {
+        user_id: "LASF_Projection".into(),
+        record_id,
+        description: String::new(),
+        data,
+    };
+    vec![
+        vlr(34735, keys.iter().flat_map(|w| w.to_le_bytes()).collect()),
+        vlr(
+            34736,
+            doubles.iter().flat_map(|d| d.to_le_bytes()).collect(),
+        ),
+        vlr(34737, ascii.as_bytes().to_vec()),
+    ]
+}
+
+/// A user-defined projected CRS that is a WGS 84 UTM zone by its ProjectionGeoKey gets that
+/// zone's EPSG code (16011 → 32611, 16111 → 32711); on another ellipsoid (here GRS 80, which
+/// would leave the datum open) or with a projection that is not UTM it stays without one.
+#[test]
+fn user_defined_utm_geokeys_give_the_zone_epsg() {
+    let dir = tempfile::tempdir().unwrap();
+    let wgs84 = (6_378_137.0, 298.257_223_563);
+    let cases = [
+        (16011, wgs84, Some(32611)),
+        (16111, wgs84, Some(32711)),
+        (16011, (6_378_137.0, 298.257_222_101), None),
+        (15914, wgs84, None),
+    ];
+    for (i, (projection, ellipsoid, want)) in cases.into_iter().enumerate() {
+        let path = dir.path().join(format!("pdal{i}.las"));
+        write(
+            &path,
+            &options(2, 3, pdal_user_defined_utm(projection, ellipsoid)),
+            &points(3),
+        );
+        let r = LasReader::from_path(&path).unwrap();
+        assert_eq!(r.info().crs.epsg, want, "projection {projection}");
+        assert_eq!(
+            r.info().crs.vlrs.len(),
+            3,
+            "the VLRs are carried as they are"
+        );
+    }
+}
