@@ -2,8 +2,9 @@
 
     python3 docs/real-data/compare_leeward.py OUT.las LEEWARD_TPU.csv
 
-OUT.las is `lidarqa tpu`'s output, LEEWARD_TPU.csv is `leeward SBET LAS CONFIG -o CSV tpu`
-(both keep the input's point order; the script checks the coordinates match). Needs laspy, numpy.
+OUT.las is `lidarqa tpu`'s output, LEEWARD_TPU.csv is leeward's per-point TPU of the same
+files, as a CSV with columns x, y, range, incidence_angle, horizontal, vertical (both keep the
+input's point order; the script checks the coordinates match). Needs laspy, numpy.
 """
 
 import sys
