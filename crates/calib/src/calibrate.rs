@@ -388,6 +388,10 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
             held_because[p.index()] = "not solved for (by request)".into();
         }
     }
+    // The observation σ the decisions use is the first solve's (every requested parameter
+    // free): a parameter held at a wrong prior worsens the fit, and judging the rest by that
+    // worse σ0 would hold them one after another.
+    let mut decision_sigma0: Option<f64> = None;
     loop {
         let free: Vec<usize> = (0..PARAM_COUNT)
             .filter(|&i| held_because[i].is_empty())
@@ -438,8 +442,12 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
                 inv += v * v.transpose() / l;
             }
         }
-        let sigma_obs = sigma0.max(opts.sigma_floor_m);
-        let mut newly_held = false;
+        let sigma_obs = decision_sigma0
+            .get_or_insert(sigma0)
+            .max(opts.sigma_floor_m);
+        // Hold only the least determined parameter (σ furthest beyond its limit), then solve
+        // again: with a near-null one held (lever z without control), the others' σ shrink.
+        let mut worst_sigma: Option<(usize, f64, f64)> = None;
         for (c, &i) in free.iter().enumerate() {
             let p = Param::ALL[i];
             let s = if null_weight[c] > 1e-6 {
@@ -452,21 +460,28 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
             } else {
                 opts.max_sigma_lever_m
             };
-            if s.is_nan() || s > limit {
-                held_because[i] = if s.is_finite() {
-                    format!(
-                        "not determined: sigma {:.4} {} exceeds {:.4}",
-                        p.to_display(s),
-                        if p.is_angle() { "deg" } else { "m" },
-                        p.to_display(limit)
-                    )
-                } else {
-                    "not determined: the ties carry no information on it".into()
-                };
-                newly_held = true;
+            let excess = if s.is_nan() { f64::INFINITY } else { s / limit };
+            if excess > 1.0 && worst_sigma.is_none_or(|(_, _, e)| excess > e) {
+                worst_sigma = Some((i, s, excess));
             }
         }
-        if newly_held {
+        if let Some((i, s, _)) = worst_sigma {
+            let p = Param::ALL[i];
+            let limit = if p.is_angle() {
+                opts.max_sigma_angle_rad
+            } else {
+                opts.max_sigma_lever_m
+            };
+            held_because[i] = if s.is_finite() {
+                format!(
+                    "not determined: sigma {:.4} {} exceeds {:.4}",
+                    p.to_display(s),
+                    if p.is_angle() { "deg" } else { "m" },
+                    p.to_display(limit)
+                )
+            } else {
+                "not determined: the ties carry no information on it".into()
+            };
             continue;
         }
         // Correlations among the determined parameters.

@@ -10,6 +10,7 @@ use lidarqa_io::{
 use lidarqa_model::Mounting;
 use lidarqa_tpu::Recoverer;
 use nalgebra::Vector3;
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 /// One tile to correct.
@@ -92,45 +93,55 @@ pub fn correct_tile(job: &CorrectTileJob<'_>) -> Result<CorrectTileReport> {
     let mut chunk = PointChunk::new();
     let mut index = 0u64;
     while reader.fill(&mut chunk, CHUNK)? > 0 {
-        let mut points = Vec::with_capacity(chunk.len());
-        for p in &chunk.points {
-            let t = p.gps_time_s.ok_or_else(|| Error::BadTime {
-                index,
-                message: format!("{}: point without GPS time", input.display()),
-            })?;
-            let sow = converter.to_seconds_of_week(t)?;
-            let pose = trajectory.at(sow).map_err(|_| {
-                let (start_s, end_s) = trajectory.span_s();
-                Error::OutsideTrajectory {
-                    path: input.to_path_buf(),
+        // Recovery and the projections cost more than the LAZ coding: in parallel over the chunk
+        // (rayon keeps the order, so the output is the same whatever the thread count).
+        let recovered: Vec<Result<RawPoint>> = chunk
+            .points
+            .par_iter()
+            .enumerate()
+            .map(|(k, p)| {
+                let index = index + k as u64;
+                let t = p.gps_time_s.ok_or_else(|| Error::BadTime {
                     index,
-                    time_s: sow,
-                    start_s,
-                    end_s,
-                }
-            })?;
-            let (lat, lon) = projection.inverse(p.x, p.y);
-            let ecef = ellipsoid.geodetic_to_ecef(&Geodetic {
-                latitude_rad: lat,
-                longitude_rad: lon,
-                height_m: p.z,
-            });
-            let raw = RawPoint::recover(&frame, &pose, &recoverer, &ecef, p.intensity).map_err(
-                |source| Error::Calib {
-                    path: input.to_path_buf(),
-                    source,
-                },
-            )?;
-            points.push(raw);
-            index += 1;
-        }
+                    message: format!("{}: point without GPS time", input.display()),
+                })?;
+                let sow = converter.to_seconds_of_week(t)?;
+                let pose = trajectory.at(sow).map_err(|_| {
+                    let (start_s, end_s) = trajectory.span_s();
+                    Error::OutsideTrajectory {
+                        path: input.to_path_buf(),
+                        index,
+                        time_s: sow,
+                        start_s,
+                        end_s,
+                    }
+                })?;
+                let (lat, lon) = projection.inverse(p.x, p.y);
+                let ecef = ellipsoid.geodetic_to_ecef(&Geodetic {
+                    latitude_rad: lat,
+                    longitude_rad: lon,
+                    height_m: p.z,
+                });
+                RawPoint::recover(&frame, &pose, &recoverer, &ecef, p.intensity).map_err(|source| {
+                    Error::Calib {
+                        path: input.to_path_buf(),
+                        source,
+                    }
+                })
+            })
+            .collect();
+        // The first bad point in file order, whatever the thread count.
+        let points = recovered.into_iter().collect::<Result<Vec<RawPoint>>>()?;
+        index += points.len() as u64;
         let strip = Strip {
             id: String::new(),
             points,
         };
-        let corrected = correct_strip(&strip, job.mounting);
-        for (p, v) in chunk.points.iter().zip(&corrected) {
-            let [x, y, z] = to_projected(&frame, &zone, v);
+        let corrected: Vec<[f64; 3]> = correct_strip(&strip, job.mounting)
+            .par_iter()
+            .map(|v| to_projected(&frame, &zone, v))
+            .collect();
+        for (p, [x, y, z]) in chunk.points.iter().zip(corrected) {
             let mut q = p.clone();
             q.x = x;
             q.y = y;
