@@ -4,7 +4,7 @@
 //! measurement (criterion would repeat it dozens of times). Both passes read the same LAZ and
 //! write a LAZ with the same five f32 extra-bytes dimensions; the baseline writes zeros, so the
 //! ratio is the cost of the per-point TPU (trajectory interpolation, recovery, exact Jacobian,
-//! `J Σ Jᵀ`, plane fits with kiddo for the incidence term) on top of I/O that must happen
+//! `J Σ Jᵀ`, k-nearest-neighbour plane fits for the incidence term) on top of I/O that must happen
 //! anyway. Peak memory is the process's VmHWM from /proc/self/status (reset before each pass
 //! where the kernel allows it).
 //!

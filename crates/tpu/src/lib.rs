@@ -33,6 +33,7 @@
 mod axes;
 mod bias;
 mod budget;
+mod eigen3;
 mod error;
 mod geometry;
 mod iho;

@@ -2,16 +2,32 @@
 //! `incidence` term of the per-point TPU.
 //!
 //! The normal is the eigenvector of the smallest eigenvalue of the neighbours' 3 × 3 scatter
-//! matrix (total least squares plane). Neighbours come from a kiddo k-d tree over the points
-//! given: the caller decides which points are candidates (lidarqa-pipeline gives each chunk
-//! plus bounded margins of its neighbours in file order, see its docs).
+//! matrix (total least squares plane), from the closed-form solver of [`crate::eigen3`] (its
+//! docs say why it is not nalgebra's). The caller decides which points are candidates
+//! (lidarqa-pipeline gives each chunk plus bounded margins of its neighbours in file order, see
+//! its docs).
+//!
+//! # Neighbour search
+//! The k nearest neighbours are exact (the same set as a k-d tree's, up to ties in distance),
+//! found in a uniform grid of cells rather than a tree: airborne points lie near a surface, so
+//! the candidates are bucketed on the plane of their two principal axes (from a sample's
+//! covariance) with about `k/2` points per occupied cell, and each query scans rings of cells
+//! around its own until the k-th distance found is within the distance to the unscanned cells
+//! (a 3-D distance is never shorter than its projection on the plane, so the search stays exact
+//! for any point layout, only slower where many points share a cell, e.g. under vegetation).
+//! Cells are filled by a counting sort (two passes, no per-cell allocation); a query keeps its k
+//! best in a reused fixed-capacity buffer. Against kiddo's `ImmutableKdTree::nearest_n` (one
+//! sorted `Vec` allocated per query) it is several times faster on airborne strips; the tree
+//! build was also serial.
 
-use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use crate::eigen3::symmetric_eigen3;
 use nalgebra::{Matrix3, Vector3};
-use std::num::NonZero;
 
 /// Fewest neighbours (the point included) a plane fit uses.
 pub const MIN_NEIGHBOURS: usize = 3;
+
+/// Targets per parallel work item.
+const QUERY_BLOCK: usize = 2048;
 
 /// Unit normals (sign arbitrary) of `targets`, searched among `candidates`, with `k` nearest
 /// neighbours each (the point itself is among them when it is a candidate). Coordinates in any
@@ -30,28 +46,294 @@ pub fn plane_normals(
     if candidates.len() < MIN_NEIGHBOURS {
         return vec![None; targets.len()];
     }
-    let tree: ImmutableKdTree<f64, 3> = ImmutableKdTree::new_from_slice(candidates);
-    let qty = NonZero::new(k).unwrap_or(NonZero::<usize>::MIN);
-    targets
-        .par_iter()
-        .map(|q| {
-            let nn = tree.nearest_n::<SquaredEuclidean>(q, qty);
-            // Scatter about the mean from sums of offsets to the query point (no second
-            // allocation; offsets of metres keep the sums well conditioned).
-            let q = Vector3::from(*q);
-            let (mut sum, mut outer) = (Vector3::zeros(), Matrix3::zeros());
-            for n in &nn {
-                let d = Vector3::from(candidates[n.item as usize]) - q;
-                sum += d;
-                outer += d * d.transpose();
+    let grid = Grid::new(candidates, k);
+    let mut out = vec![None; targets.len()];
+    out.par_chunks_mut(QUERY_BLOCK)
+        .zip(targets.par_chunks(QUERY_BLOCK))
+        .for_each(|(out, targets)| {
+            let mut best = Best::new(k);
+            for (o, q) in out.iter_mut().zip(targets) {
+                grid.nearest(q, &mut best);
+                *o = normal_of_neighbours(q, best.points());
             }
-            let k = nn.len() as f64;
-            if nn.len() < MIN_NEIGHBOURS {
-                return None;
+        });
+    out
+}
+
+/// Plane normal from the neighbours of `q` (nearest first).
+fn normal_of_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Option<Vector3<f64>> {
+    if nn.len() < MIN_NEIGHBOURS {
+        return None;
+    }
+    // Scatter about the mean from sums of offsets to the query point (offsets of metres keep
+    // the sums well conditioned).
+    let q = Vector3::from(*q);
+    let (mut sum, mut outer) = (Vector3::zeros(), Matrix3::zeros());
+    for (_, p) in nn {
+        let d = Vector3::from(*p) - q;
+        sum += d;
+        outer += d * d.transpose();
+    }
+    let k = nn.len() as f64;
+    normal_of_scatter(&(outer - sum * sum.transpose() / k))
+}
+
+/// The k best (squared distance, point) so far, nearest first, in a buffer reused across
+/// queries.
+struct Best {
+    k: usize,
+    items: Vec<(f64, [f64; 3])>,
+}
+
+impl Best {
+    fn new(k: usize) -> Best {
+        Best {
+            k,
+            items: Vec::with_capacity(k + 1),
+        }
+    }
+
+    fn clear(&mut self) {
+        self.items.clear();
+    }
+
+    fn full(&self) -> bool {
+        self.items.len() >= self.k
+    }
+
+    /// The k-th squared distance (∞ until k are held).
+    fn worst(&self) -> f64 {
+        if self.full() {
+            self.items[self.k - 1].0
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    #[inline]
+    fn offer(&mut self, d2: f64, p: [f64; 3]) {
+        // NaN distances are never kept.
+        if d2.partial_cmp(&self.worst()) != Some(std::cmp::Ordering::Less) {
+            return;
+        }
+        let mut i = self.items.len();
+        while i > 0 && self.items[i - 1].0 > d2 {
+            i -= 1;
+        }
+        if self.full() {
+            self.items.pop();
+        }
+        self.items.insert(i, (d2, p));
+    }
+
+    fn points(&self) -> &[(f64, [f64; 3])] {
+        &self.items
+    }
+}
+
+/// Candidates bucketed in square cells on the plane of their two principal axes.
+struct Grid {
+    /// Unit principal axes (largest variance first), and the plane coordinates of cell (0, 0)'s
+    /// corner.
+    axes: [[f64; 3]; 2],
+    origin: [f64; 2],
+    /// Cell side, m, and the grid's size in cells.
+    cell: f64,
+    nu: usize,
+    nv: usize,
+    /// `start[c] .. start[c + 1]` indexes `points` for cell `c = iv · nu + iu`.
+    start: Vec<u32>,
+    /// The candidates in cell order.
+    points: Vec<[f64; 3]>,
+}
+
+impl Grid {
+    fn new(candidates: &[[f64; 3]], k: usize) -> Grid {
+        let n = candidates.len();
+        let axes = principal_axes(candidates);
+        let project = |p: &[f64; 3]| -> [f64; 2] { [dot(&axes[0], p), dot(&axes[1], p)] };
+        // Extent from a sample's quantiles (a far outlier must not stretch the grid; points
+        // outside are clamped into the border cells, which keeps the search exact).
+        let step = (n / 4096).max(1);
+        let sample: Vec<[f64; 2]> = candidates.iter().step_by(step).map(project).collect();
+        let range = |axis: usize| -> (f64, f64) {
+            let mut v: Vec<f64> = sample
+                .iter()
+                .map(|p| p[axis])
+                .filter(|x| x.is_finite())
+                .collect();
+            if v.is_empty() {
+                return (0.0, 0.0);
             }
-            normal_of_scatter(&(outer - sum * sum.transpose() / k))
-        })
-        .collect()
+            v.sort_by(f64::total_cmp);
+            let cut = v.len() / 200;
+            (v[cut], v[v.len() - 1 - cut])
+        };
+        let ((u0, u1), (v0, v1)) = (range(0), range(1));
+        // About k/2 candidates per cell on an evenly covered extent (the k-th neighbour is then
+        // mostly found within the 3 × 3 cells around the query); at most ~2 cells per candidate.
+        let (du, dv) = ((u1 - u0).max(0.0), (v1 - v0).max(0.0));
+        let per_cell = (k as f64 * 0.5).max(2.0);
+        let mut cell = (du * dv * per_cell / n as f64).sqrt();
+        let floor = (du.max(dv) / (2.0 * n as f64)).max(1e-9);
+        if !(cell.is_finite() && cell >= floor) {
+            cell = floor.max(du.max(dv) / 64.0).max(1e-6);
+        }
+        let cells = |d: f64, cell: f64| ((d / cell).floor() as usize).saturating_add(1);
+        let (mut nu, mut nv) = (cells(du, cell), cells(dv, cell));
+        while nu.saturating_mul(nv) > 2 * n + 64 {
+            cell *= 1.5;
+            (nu, nv) = (cells(du, cell), cells(dv, cell));
+        }
+        let origin = [u0, v0];
+        let index = |p: &[f64; 3]| -> usize {
+            let [u, v] = project(p);
+            let iu = clamp_cell((u - origin[0]) / cell, nu);
+            let iv = clamp_cell((v - origin[1]) / cell, nv);
+            iv * nu + iu
+        };
+        // Counting sort into cells.
+        let ids: Vec<u32> = candidates.iter().map(|p| index(p) as u32).collect();
+        let mut start = vec![0u32; nu * nv + 1];
+        for &c in &ids {
+            start[c as usize + 1] += 1;
+        }
+        for c in 0..nu * nv {
+            start[c + 1] += start[c];
+        }
+        let mut fill = start.clone();
+        let mut points = vec![[0.0; 3]; n];
+        for (p, &c) in candidates.iter().zip(&ids) {
+            let slot = &mut fill[c as usize];
+            points[*slot as usize] = *p;
+            *slot += 1;
+        }
+        Grid {
+            axes,
+            origin,
+            cell,
+            nu,
+            nv,
+            start,
+            points,
+        }
+    }
+
+    /// The (up to) k nearest candidates of `q` into `best`, nearest first.
+    fn nearest(&self, q: &[f64; 3], best: &mut Best) {
+        best.clear();
+        let (u, v) = (dot(&self.axes[0], q), dot(&self.axes[1], q));
+        let (fu, fv) = (
+            (u - self.origin[0]) / self.cell,
+            (v - self.origin[1]) / self.cell,
+        );
+        // Ring centre: the query's cell, clamped into the grid.
+        let (cu, cv) = (
+            clamp_cell(fu, self.nu) as isize,
+            clamp_cell(fv, self.nv) as isize,
+        );
+        let (nu, nv) = (self.nu as isize, self.nv as isize);
+        let want = best.k.min(self.points.len());
+        let mut r: isize = 0;
+        loop {
+            // Scan ring r: rows cv ± r in full, columns cu ± r between them.
+            let (u_lo, u_hi) = ((cu - r).max(0), (cu + r).min(nu - 1));
+            for row in [cv - r, cv + r] {
+                if (0..nv).contains(&row) {
+                    self.scan(row, u_lo, u_hi, q, best);
+                }
+                if r == 0 {
+                    break;
+                }
+            }
+            if r > 0 {
+                for row in (cv - r + 1).max(0)..=(cv + r - 1).min(nv - 1) {
+                    if cu - r >= 0 {
+                        self.scan(row, cu - r, cu - r, q, best);
+                    }
+                    if cu + r < nu {
+                        self.scan(row, cu + r, cu + r, q, best);
+                    }
+                }
+            }
+            // Unscanned candidates lie beyond the block's sides that are inside the grid (a
+            // side on or past the grid's edge has nothing beyond it: outliers were clamped into
+            // the border cells). Their distance is at least the projected distance to the
+            // nearest such side (less 1 µm for the rounding of the projection).
+            let mut bound = f64::INFINITY;
+            if cu - r > 0 {
+                bound = bound.min(fu - (cu - r) as f64);
+            }
+            if cu + r < nu - 1 {
+                bound = bound.min((cu + r + 1) as f64 - fu);
+            }
+            if cv - r > 0 {
+                bound = bound.min(fv - (cv - r) as f64);
+            }
+            if cv + r < nv - 1 {
+                bound = bound.min((cv + r + 1) as f64 - fv);
+            }
+            if bound == f64::INFINITY {
+                return; // every cell scanned
+            }
+            if best.items.len() >= want {
+                let b = (bound * self.cell - 1e-6).max(0.0);
+                if best.worst() <= b * b {
+                    return;
+                }
+            }
+            r += 1;
+        }
+    }
+
+    /// Offers the candidates of cells `u_lo ..= u_hi` of row `row` (contiguous in `points`).
+    #[inline]
+    fn scan(&self, row: isize, u_lo: isize, u_hi: isize, q: &[f64; 3], best: &mut Best) {
+        let base = row as usize * self.nu;
+        let (a, b) = (
+            self.start[base + u_lo as usize] as usize,
+            self.start[base + u_hi as usize + 1] as usize,
+        );
+        for p in &self.points[a..b] {
+            let (dx, dy, dz) = (p[0] - q[0], p[1] - q[1], p[2] - q[2]);
+            best.offer(dx * dx + dy * dy + dz * dz, *p);
+        }
+    }
+}
+
+/// Cell index of a plane coordinate in cell units, clamped to `0 .. n` (NaN → 0).
+fn clamp_cell(f: f64, n: usize) -> usize {
+    if f >= 0.0 { (f as usize).min(n - 1) } else { 0 }
+}
+
+fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The two principal axes (largest variance first) of a sample of the points; x and y when
+/// there is no spread.
+fn principal_axes(points: &[[f64; 3]]) -> [[f64; 3]; 2] {
+    let step = (points.len() / 4096).max(1);
+    let (mut n, mut sum, mut outer) = (0.0, Vector3::zeros(), Matrix3::zeros());
+    let first = Vector3::from(points[0]);
+    for p in points.iter().step_by(step) {
+        let d = Vector3::from(*p) - first;
+        if d.iter().all(|x| x.is_finite()) {
+            n += 1.0;
+            sum += d;
+            outer += d * d.transpose();
+        }
+    }
+    let fallback = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    if n < 2.0 {
+        return fallback;
+    }
+    let (vals, vecs) = symmetric_eigen3(&(outer - sum * sum.transpose() / n));
+    if !(vals[1] > 0.0 && vals[2].is_finite()) {
+        return fallback;
+    }
+    let axis = |v: &Vector3<f64>| [v.x, v.y, v.z];
+    [axis(&vecs[2]), axis(&vecs[1])]
 }
 
 /// Normal of the total-least-squares plane through `points` (≥ 3, not collinear).
@@ -71,18 +353,14 @@ pub fn fit_normal(points: &[Vector3<f64>]) -> Option<Vector3<f64>> {
 /// Unit eigenvector of the smallest eigenvalue of a 3 × 3 scatter matrix; `None` when the two
 /// smallest eigenvalues are both ~0 (collinear points).
 fn normal_of_scatter(scatter: &Matrix3<f64>) -> Option<Vector3<f64>> {
-    let eig = scatter.symmetric_eigen();
-    let mut order = [0usize, 1, 2];
-    order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
-    let (l0, l1) = (eig.eigenvalues[order[0]], eig.eigenvalues[order[1]]);
+    let ([l0, l1, l2], [n, ..]) = symmetric_eigen3(scatter);
     // Collinear (or coincident) neighbours: the two smallest eigenvalues are both ~0.
-    let planar = l1 > 1e-12 * eig.eigenvalues[order[2]].max(f64::MIN_POSITIVE);
+    let planar = l1 > 1e-12 * l2.max(f64::MIN_POSITIVE);
     if !planar || !l0.is_finite() {
         return None;
     }
-    let n: Vector3<f64> = eig.eigenvectors.column(order[0]).into_owned();
     let norm = n.norm();
-    (norm > 0.0).then(|| n / norm)
+    (norm > 0.0 && norm.is_finite()).then(|| n / norm)
 }
 
 /// Angle between a beam direction and a surface normal, rad in [0, π/2] (the sign of either
@@ -116,6 +394,228 @@ mod tests {
         // A vertical beam meets the plane at atan(0.5).
         let a = incidence_angle(&Vector3::new(0.0, 0.0, 1.0), &want);
         assert_relative_eq!(a, 0.5f64.atan(), epsilon = 1e-12);
+    }
+
+    /// The implementation this module replaced (kiddo k-d tree, nalgebra's iterative symmetric
+    /// eigen-decomposition), kept as the reference.
+    fn reference_normals(
+        candidates: &[[f64; 3]],
+        targets: &[[f64; 3]],
+        k: usize,
+    ) -> Vec<Option<Vector3<f64>>> {
+        use kiddo::{ImmutableKdTree, SquaredEuclidean};
+        use std::num::NonZero;
+        let k = k.max(MIN_NEIGHBOURS);
+        if candidates.len() < MIN_NEIGHBOURS {
+            return vec![None; targets.len()];
+        }
+        let tree: ImmutableKdTree<f64, 3> = ImmutableKdTree::new_from_slice(candidates);
+        let qty = NonZero::new(k).unwrap();
+        targets
+            .iter()
+            .map(|q| {
+                let nn = tree.nearest_n::<SquaredEuclidean>(q, qty);
+                let q = Vector3::from(*q);
+                let (mut sum, mut outer) = (Vector3::zeros(), Matrix3::zeros());
+                for n in &nn {
+                    let d = Vector3::from(candidates[n.item as usize]) - q;
+                    sum += d;
+                    outer += d * d.transpose();
+                }
+                let kk = nn.len() as f64;
+                if nn.len() < MIN_NEIGHBOURS {
+                    return None;
+                }
+                let scatter = outer - sum * sum.transpose() / kk;
+                let eig = scatter.symmetric_eigen();
+                let mut order = [0usize, 1, 2];
+                order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
+                let (l0, l1) = (eig.eigenvalues[order[0]], eig.eigenvalues[order[1]]);
+                let planar = l1 > 1e-12 * eig.eigenvalues[order[2]].max(f64::MIN_POSITIVE);
+                if !planar || !l0.is_finite() {
+                    return None;
+                }
+                let n: Vector3<f64> = eig.eigenvectors.column(order[0]).into_owned();
+                Some(n / n.norm())
+            })
+            .collect()
+    }
+
+    /// An airborne-like strip in a tilted frame (ECEF-like offsets): scan lines across a
+    /// wavy surface with millimetre noise, plus a wall, a stack of points in one column,
+    /// duplicates and a far outlier.
+    fn strip(seed: u64, n: usize) -> Vec<[f64; 3]> {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let r = nalgebra::Rotation3::from_euler_angles(0.4, -0.7, 1.1);
+        let mut pts: Vec<[f64; 3]> = (0..n)
+            .map(|i| {
+                let t = i as f64 / 2000.0; // 2000 points per scan line
+                let phase = t.fract();
+                let across = 300.0 * (1.0 - 4.0 * (phase - 0.5).abs()) - 150.0;
+                let along = 0.3 * i as f64 / 2000.0 + rng.random_range(-0.01..0.01);
+                let h = 2.0 * (across / 40.0).sin()
+                    + 0.5 * (along / 7.0).cos()
+                    + rng.random_range(-0.003..0.003);
+                let p = r * Vector3::new(along, across, h);
+                [p.x, p.y, p.z]
+            })
+            .collect();
+        for i in 0..200 {
+            // A vertical wall and a column of stacked returns.
+            let p = r * Vector3::new(5.0, 20.0 + f64::from(i % 20) * 0.1, f64::from(i / 20));
+            pts.push([p.x, p.y, p.z]);
+            let p = r * Vector3::new(8.0, -40.0, -1.0 + f64::from(i) * 0.05);
+            pts.push([p.x, p.y, p.z]);
+        }
+        let dup = pts[1234];
+        pts.extend([dup; 4]);
+        pts.push([1e5, -3e4, 2e4]);
+        pts
+    }
+
+    /// λ2 / (λ1 − λ0) of the scatter of the k nearest neighbours of `q`.
+    fn condition(pts: &[[f64; 3]], q: &[f64; 3], k: usize) -> f64 {
+        let grid = Grid::new(pts, k);
+        let mut best = Best::new(k);
+        grid.nearest(q, &mut best);
+        let mean = best
+            .points()
+            .iter()
+            .map(|(_, p)| Vector3::from(*p))
+            .sum::<Vector3<f64>>()
+            / best.points().len() as f64;
+        let s: Matrix3<f64> = best
+            .points()
+            .iter()
+            .map(|(_, p)| (Vector3::from(*p) - mean) * (Vector3::from(*p) - mean).transpose())
+            .sum();
+        let mut e: Vec<f64> = s.symmetric_eigen().eigenvalues.iter().copied().collect();
+        e.sort_by(f64::total_cmp);
+        e[2] / (e[1] - e[0])
+    }
+
+    #[test]
+    fn grid_search_equals_the_kd_tree_and_normals_the_previous_implementation() {
+        for (seed, k) in [(1, 10), (2, 3), (3, 25)] {
+            let pts = strip(seed, 60_000);
+            let targets: Vec<[f64; 3]> = pts
+                .iter()
+                .step_by(7)
+                .copied()
+                .chain([
+                    [0.0, 0.0, 500.0],  // above the strip, not a candidate
+                    [-3e5, 1e5, 0.0],   // far outside the grid
+                    [1e5, -3e4, 2.0e4], // next to the outlier
+                ])
+                .collect();
+            let new = plane_normals(&pts, &targets, k);
+            let old = reference_normals(&pts, &targets, k);
+            let mut compared = 0;
+            for (i, (a, b)) in new.iter().zip(&old).enumerate() {
+                match (a, b) {
+                    (Some(a), Some(b)) => {
+                        // Same neighbours, same normal to rounding (sign arbitrary).
+                        let d = (a - b).norm().min((a + b).norm());
+                        // Both solvers are exact to rounding, i.e. to ~ε · λ2 / (λ1 − λ0): that
+                        // of the neighbourhood's scatter (near-collinear neighbours, the
+                        // outlier's far neighbours).
+                        if d >= 1e-9 {
+                            let cond = condition(&pts, &targets[i], k);
+                            assert!(d < 1e-13 * cond, "target {i}: {a} vs {b} ({cond})");
+                        }
+                        compared += 1;
+                    }
+                    (None, None) => {}
+                    _ => panic!("target {i}: {a:?} vs {b:?}"),
+                }
+            }
+            // The stacked column has no plane: the rest all compared.
+            assert!(
+                compared > targets.len() * 99 / 100,
+                "{compared} of {}",
+                targets.len()
+            );
+        }
+    }
+
+    #[test]
+    fn per_point_sigma_with_incidence_is_unchanged_from_the_previous_implementation() {
+        // The per-point σ (J Σ Jᵀ + the incidence term) with the normals of this module and
+        // with those of the kd-tree + nalgebra implementation: equal to 1e-9 relative wherever
+        // the plane fit is well posed (the bench strip in lidarqa-pipeline, with its ten
+        // nearest neighbours all on one scan line, is not: there both normals are rounding
+        // noise amplified ~1e9 times, and so is the incidence term).
+        use crate::{Incidence, PointPropagator, Preset};
+        use lidarqa_model::{Attitude, Georeferencer, LinearObservation, LinearScanner, Mounting};
+        let pp =
+            PointPropagator::new(LinearScanner, &Preset::Seed000.sensor(), Some(0.5e-3)).unwrap();
+        let pts = strip(5, 40_000);
+        let targets: Vec<[f64; 3]> = pts[..40_000].iter().step_by(11).copied().collect();
+        let (new, old) = (
+            plane_normals(&pts, &targets, 10),
+            reference_normals(&pts, &targets, 10),
+        );
+        let mut compared = 0;
+        for (i, (a, b)) in new.iter().zip(&old).enumerate() {
+            let (Some(a), Some(b)) = (a, b) else {
+                assert_eq!(a.is_some(), b.is_some());
+                continue;
+            };
+            let t = i as f64;
+            let att = Attitude::from_degrees((t * 0.1).sin(), 2.0, t % 360.0);
+            let obs = LinearObservation {
+                range_m: 800.0,
+                scan_angle_rad: (t * 0.013).sin() * 0.5,
+            };
+            let p = LinearScanner.parameters(&att, &Mounting::default(), &obs);
+            let beam = Vector3::new(0.3 * (t * 0.7).sin(), 0.2, 1.0).normalize();
+            let sigma = |n: &Vector3<f64>| {
+                let inc = Incidence {
+                    range_m: 800.0,
+                    beam_ned: beam,
+                    incidence_rad: incidence_angle(&beam, n),
+                };
+                let u = pp.propagate(&p, None, Some(&inc)).unwrap();
+                u.covariance_ned.diagonal().map(f64::sqrt)
+            };
+            let (sa, sb) = (sigma(a), sigma(b));
+            for k in 0..3 {
+                assert!(
+                    (sa[k] - sb[k]).abs() <= 1e-9 * sb[k],
+                    "target {i}: {sa} vs {sb}"
+                );
+            }
+            compared += 1;
+        }
+        assert!(compared > 3500, "{compared}");
+    }
+
+    #[test]
+    fn grid_search_finds_the_exact_neighbours() {
+        use kiddo::{ImmutableKdTree, SquaredEuclidean};
+        let pts = strip(4, 30_000);
+        let k = 12;
+        let grid = Grid::new(&pts, k);
+        let tree: ImmutableKdTree<f64, 3> = ImmutableKdTree::new_from_slice(&pts);
+        let mut best = Best::new(k);
+        for q in pts
+            .iter()
+            .step_by(3)
+            .chain(&[[0.0, 0.0, 900.0], [7e5, 0.0, 0.0]])
+        {
+            grid.nearest(q, &mut best);
+            let want = tree.nearest_n::<SquaredEuclidean>(q, std::num::NonZero::new(k).unwrap());
+            assert_eq!(best.points().len(), want.len());
+            for (g, w) in best.points().iter().zip(&want) {
+                assert_eq!(g.0, w.distance);
+            }
+        }
+        // Fewer candidates than k: all of them.
+        let few = &pts[..5];
+        let grid = Grid::new(few, k);
+        grid.nearest(&[0.0; 3], &mut best);
+        assert_eq!(best.points().len(), 5);
     }
 
     #[test]

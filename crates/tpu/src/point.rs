@@ -58,6 +58,8 @@ pub struct PointPropagator<G, const N: usize> {
     /// Indices in `G::SOURCES` of gnss_north, gnss_east, gnss_up, roll, pitch, heading.
     trajectory_index: [Option<usize>; 6],
     beam_divergence_rad: Option<f64>,
+    /// The non-zero correlations `(i, j, ρ_ij, ρ_ji)`, i < j, for the per-point `J Σ Jᵀ`.
+    off_diagonal: Vec<(usize, usize, f64, f64)>,
 }
 
 const TRAJECTORY_SOURCES: [Source; 6] = [
@@ -92,12 +94,18 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
             }
         });
         let trajectory_index = TRAJECTORY_SOURCES.map(|s| G::SOURCES.iter().position(|x| *x == s));
+        let off_diagonal = (0..N)
+            .flat_map(|i| (i + 1..N).map(move |j| (i, j)))
+            .filter(|&(i, j)| correlation[(i, j)] != 0.0 || correlation[(j, i)] != 0.0)
+            .map(|(i, j)| (i, j, correlation[(i, j)], correlation[(j, i)]))
+            .collect();
         Ok(PointPropagator {
             model,
             sigma,
             correlation,
             trajectory_index,
             beam_divergence_rad,
+            off_diagonal,
         })
     }
 
@@ -124,6 +132,17 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
         trajectory: Option<&PoseSigma>,
         sigma_override: &[(Source, f64)],
     ) -> SMatrix<f64, N, N> {
+        let sigma = self.sigma_with(trajectory, sigma_override);
+        SMatrix::from_fn(|i, j| self.correlation[(i, j)] * sigma[i] * sigma[j])
+    }
+
+    /// The σ (SI) of every source for this point: the sensor file's, with the trajectory's and
+    /// the overrides in their place.
+    fn sigma_with(
+        &self,
+        trajectory: Option<&PoseSigma>,
+        sigma_override: &[(Source, f64)],
+    ) -> SVector<f64, N> {
         let mut sigma = self.sigma;
         for (src, v) in sigma_override {
             if let Some(i) = G::SOURCES.iter().position(|x| x == src) {
@@ -145,7 +164,7 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
                 }
             }
         }
-        SMatrix::from_fn(|i, j| self.correlation[(i, j)] * sigma[i] * sigma[j])
+        sigma
     }
 
     /// σ of the incidence term, m: `ρ · γ/2 · tan(min(α, 85°))`; 0 without a beam divergence.
@@ -189,9 +208,25 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
                 what: "footprint or its Jacobian",
             });
         }
-        let cov = self.covariance_with(trajectory, sigma_override);
-        let mut covariance_ned = crate::budget::propagate_covariance(&j, &cov);
-        let source_variance_m2 = SVector::from_fn(|i, _| j.column(i).norm_squared() * cov[(i, i)]);
+        // J Σ Jᵀ with Σ = S R S (S = diag σ, R the correlations, mostly the identity) as
+        // Σ_i a_i a_iᵀ + Σ_{i<j} (ρ_ij a_i a_jᵀ + ρ_ji a_j a_iᵀ), a_i = σ_i J_i: the same sum as
+        // `budget::propagate_covariance` to rounding without the N × N products, the per-point
+        // kernel's largest cost (this runs for every point of a tile).
+        let sigma = self.sigma_with(trajectory, sigma_override);
+        let a: SMatrix<f64, 3, N> = SMatrix::from_fn(|r, i| j[(r, i)] * sigma[i]);
+        let mut covariance_ned = Matrix3::zeros();
+        let mut source_variance_m2 = SVector::<f64, N>::zeros();
+        for i in 0..N {
+            let ai = a.column(i);
+            // Each source's own variance |J_i|² σ_i² = |a_i|².
+            source_variance_m2[i] =
+                j.column(i).norm_squared() * (self.correlation[(i, i)] * sigma[i] * sigma[i]);
+            covariance_ned += (ai * ai.transpose()) * self.correlation[(i, i)];
+        }
+        for &(i, k, rho_ik, rho_ki) in &self.off_diagonal {
+            let cross = a.column(i) * a.column(k).transpose();
+            covariance_ned += cross * rho_ik + cross.transpose() * rho_ki;
+        }
         let mut incidence_variance_m2 = 0.0;
         if let Some(inc) = incidence {
             let s = self.incidence_sigma_m(inc);
@@ -242,6 +277,57 @@ mod tests {
         assert_relative_eq!(u.covariance_ned, b.covariance_ned, epsilon = 1e-15);
         let sum: f64 = u.source_variance_m2.sum();
         assert_relative_eq!(sum, b.covariance_ned.trace(), epsilon = 1e-12);
+    }
+
+    #[test]
+    fn correlated_sources_give_the_full_j_sigma_jt() {
+        use lidarqa_model::Correlation;
+        use nalgebra::DMatrix;
+        let srcs = vec![
+            Source::Roll,
+            Source::BoresightRoll,
+            Source::ScanAngle,
+            Source::Range,
+        ];
+        let corr = DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                1.0, 0.3, -0.2, 0.0, //
+                0.3, 1.0, 0.5, 0.1, //
+                -0.2, 0.5, 1.0, 0.0, //
+                0.0, 0.1, 0.0, 1.0,
+            ],
+        );
+        let sensor = lidarqa_model::Sensor {
+            correlation: Some(Correlation::new(srcs, corr).unwrap()),
+            ..Preset::Seed000.sensor()
+        };
+        let pp = PointPropagator::new(LinearScanner, &sensor, None).unwrap();
+        let t = PoseSigma {
+            north_m: 0.01,
+            roll_rad: 1e-5,
+            ..PoseSigma::default()
+        };
+        let p = params();
+        let u = pp.propagate(&p, Some(&t), None).unwrap();
+        let (_, j) = LinearScanner.footprint_jacobian(&p);
+        let full = budget::propagate_covariance(&j, &pp.covariance(Some(&t)));
+        assert_relative_eq!(
+            u.covariance_ned,
+            full,
+            max_relative = 1e-13,
+            epsilon = 1e-18
+        );
+        // Correlations change the total, not the per-source variances.
+        let c = pp.covariance(Some(&t));
+        for i in 0..14 {
+            assert_eq!(
+                u.source_variance_m2[i],
+                j.column(i).norm_squared() * c[(i, i)]
+            );
+        }
+        assert!((u.covariance_ned.trace() - u.source_variance_m2.sum()).abs() > 1e-9);
     }
 
     #[test]
