@@ -14,47 +14,17 @@
 
 #[path = "../tests/common/mod.rs"]
 mod common;
+mod shared;
 
-use lidarqa_io::{LasReader, LasWriteOptions, LasWriter, PointChunk};
 use lidarqa_model::Mounting;
 use lidarqa_pipeline::{CorrectTileJob, TpuContext, TpuOptions, correct_tile};
-use std::path::Path;
 use std::time::Instant;
 
 fn main() {
-    let n: usize = std::env::var("LIDARQA_BENCH_POINTS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(2_000_000);
-    let keep = std::env::var_os("LIDARQA_BENCH_DIR").map(std::path::PathBuf::from);
-    let temp = tempfile::tempdir().unwrap();
-    let dir: &Path = keep.as_deref().unwrap_or(temp.path());
-    std::fs::create_dir_all(dir).unwrap();
-    let pulse_hz = 200_000.0;
-    let input = dir.join("bench.laz");
-    let (sbet, sensor) = (dir.join("sbet.out"), dir.join("sensor.toml"));
-    common::write_sbet(&sbet, 0.1 + n as f64 / pulse_hz + 0.2);
-    common::write_sensor(&sensor, None);
-    common::write_las_streaming(&input, n, pulse_hz, &common::las_options(true, 6));
-
+    let files = shared::bench_files(None);
+    let n = files.points;
     // Baseline: LAZ read + LAZ write of every point, no computation.
-    let t = Instant::now();
-    let mut reader = LasReader::from_path(&input).unwrap();
-    let opts = LasWriteOptions::for_input(reader.info(), &[]);
-    let copy = dir.join("copy.laz");
-    let mut w = LasWriter::create(&copy, &opts, &[&input]).unwrap();
-    let mut chunk = PointChunk::new();
-    while reader
-        .fill(&mut chunk, TpuOptions::default().chunk_points)
-        .unwrap()
-        > 0
-    {
-        for p in &chunk.points {
-            w.write_point(p, &[]).unwrap();
-        }
-    }
-    assert_eq!(w.finish().unwrap(), n as u64);
-    let base_s = t.elapsed().as_secs_f64();
+    let base_s = shared::laz_copy_s(&files.input, &files.dir.join("copy.laz"), &[]);
 
     // The injected mounting, as a calibration would return it.
     let mounting = Mounting {
@@ -63,11 +33,12 @@ fn main() {
         boresight_yaw_rad: 0.08f64.to_radians(),
         lever_arm_m: nalgebra::Vector3::new(0.10, -0.05, 0.20),
     };
-    let ctx = TpuContext::from_files(&sensor, &sbet, None, TpuOptions::default()).unwrap();
-    let out = dir.join("corrected.laz");
+    let ctx =
+        TpuContext::from_files(&files.sensor, &files.sbet, None, TpuOptions::default()).unwrap();
+    let out = files.dir.join("corrected.laz");
     let t = Instant::now();
     let report = correct_tile(&CorrectTileJob {
-        input: &input,
+        input: &files.input,
         output: &out,
         context: &ctx,
         mounting: &mounting,

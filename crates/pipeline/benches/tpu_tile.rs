@@ -16,10 +16,9 @@
 
 #[path = "../tests/common/mod.rs"]
 mod common;
+mod shared;
 
-use lidarqa_io::{LasReader, LasWriteOptions, LasWriter, PointChunk};
 use lidarqa_pipeline::{TpuContext, TpuOptions, TpuTileJob, tpu_tile};
-use std::path::Path;
 use std::time::Instant;
 
 fn vm_hwm_mb() -> Option<f64> {
@@ -35,32 +34,12 @@ fn reset_hwm() {
 }
 
 fn main() {
-    let n: usize = std::env::var("LIDARQA_BENCH_POINTS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(2_000_000);
-    let keep = std::env::var_os("LIDARQA_BENCH_DIR").map(std::path::PathBuf::from);
-    let temp = tempfile::tempdir().unwrap();
-    let dir: &Path = keep.as_deref().unwrap_or(temp.path());
-    std::fs::create_dir_all(dir).unwrap();
-    let pulse_hz = 200_000.0;
-    let input = dir.join("bench.laz");
-    let (sbet, sensor) = (dir.join("sbet.out"), dir.join("sensor.toml"));
-    let t = Instant::now();
-    common::write_sbet(&sbet, 0.1 + n as f64 / pulse_hz + 0.2);
     let incidence = std::env::var_os("LIDARQA_BENCH_NO_INCIDENCE").is_none();
-    common::write_sensor(&sensor, incidence.then_some(0.3));
-    common::write_las_streaming(&input, n, pulse_hz, &common::las_options(true, 6));
-    eprintln!(
-        "generated {n} points in {:.1} s ({:.1} MB LAZ)",
-        t.elapsed().as_secs_f64(),
-        std::fs::metadata(&input).unwrap().len() as f64 / 1e6
-    );
+    let files = shared::bench_files(incidence.then_some(0.3));
+    let n = files.points;
 
     // Baseline: LAZ read + LAZ write, same chunking and extra dimensions, no computation.
     reset_hwm();
-    let t = Instant::now();
-    let mut reader = LasReader::from_path(&input).unwrap();
     let dims = [
         ("sigma_north", ""),
         ("sigma_east", ""),
@@ -68,29 +47,16 @@ fn main() {
         ("sigma_horizontal", ""),
         ("sigma_vertical", ""),
     ];
-    let opts = LasWriteOptions::for_input(reader.info(), &dims);
-    let copy = dir.join("copy.laz");
-    let mut w = LasWriter::create(&copy, &opts, &[&input]).unwrap();
-    let mut chunk = PointChunk::new();
-    while reader
-        .fill(&mut chunk, TpuOptions::default().chunk_points)
-        .unwrap()
-        > 0
-    {
-        for p in &chunk.points {
-            w.write_point(p, &[0.0; 5]).unwrap();
-        }
-    }
-    assert_eq!(w.finish().unwrap(), n as u64);
-    let base_s = t.elapsed().as_secs_f64();
+    let base_s = shared::laz_copy_s(&files.input, &files.dir.join("copy.laz"), &dims);
     let base_mb = vm_hwm_mb();
 
     reset_hwm();
-    let ctx = TpuContext::from_files(&sensor, &sbet, None, TpuOptions::default()).unwrap();
-    let out = dir.join("tpu.laz");
+    let ctx =
+        TpuContext::from_files(&files.sensor, &files.sbet, None, TpuOptions::default()).unwrap();
+    let out = files.dir.join("tpu.laz");
     let t = Instant::now();
     let report = tpu_tile(&TpuTileJob {
-        input: &input,
+        input: &files.input,
         output: &out,
         context: &ctx,
     })
