@@ -48,18 +48,6 @@ fn bench(c: &mut Criterion) {
     );
     let mut g = c.benchmark_group("calibration");
     g.sample_size(10);
-    g.bench_function("calibrate_vtpm", |b| {
-        b.iter(|| {
-            calibrate_vtpm(
-                black_box(&survey.strips),
-                &ties,
-                &[],
-                &Mounting::default(),
-                &CalibrationOptions::default(),
-            )
-            .unwrap()
-        })
-    });
     let weighted = CalibrationOptions {
         trajectory_sigma: Some(TrajectorySigma {
             position_m: [0.02, 0.02, 0.03],
@@ -71,18 +59,23 @@ fn bench(c: &mut Criterion) {
         }),
         ..CalibrationOptions::default()
     };
-    g.bench_function("calibrate_vtpm_trajectory_weighted", |b| {
-        b.iter(|| {
-            calibrate_vtpm(
-                black_box(&survey.strips),
-                &ties,
-                &[],
-                &Mounting::default(),
-                &weighted,
-            )
-            .unwrap()
-        })
-    });
+    for (name, options) in [
+        ("calibrate_vtpm", CalibrationOptions::default()),
+        ("calibrate_vtpm_trajectory_weighted", weighted),
+    ] {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                calibrate_vtpm(
+                    black_box(&survey.strips),
+                    &ties,
+                    &[],
+                    &Mounting::default(),
+                    &options,
+                )
+                .unwrap()
+            })
+        });
+    }
     g.finish();
     let strip = &survey.strips[0];
     let m = true_mounting();
