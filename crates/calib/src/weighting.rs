@@ -13,8 +13,14 @@
 //! heading, each at its 1-σ) move the residuals, by central differences through the same rule-2
 //! tie model. That is the same estimator as solving for the `6 × strips` offsets with their σ as
 //! priors (the Schur complement), with 6 unknowns instead, and `σ_t² (Jᵀ C'⁻¹ J)⁻¹` is then the
-//! mounting's covariance including the trajectory. The residuals are whitened by the Cholesky
-//! factor of `C' = C / σ_t²` so they stay in metres and σ0 still estimates `σ_t`.
+//! mounting's covariance including the trajectory. The residuals are whitened by a `W` with
+//! `Wᵀ W = C'⁻¹`, `C' = C / σ_t²`, so they stay in metres and σ0 still estimates `σ_t`.
+//!
+//! `C'` is diagonal plus rank ≤ 6 × strips, so `W` is never formed as an n × n matrix:
+//! `W = M D^-½` with `D` the diagonal, `V = D^-½ A / σ_t` and `M = (I + V Vᵀ)^-½
+//! = I + V Q diag((1/√(1+λ) − 1)/λ) Qᵀ Vᵀ` from the eigen-decomposition `Vᵀ V = Q Λ Qᵀ`
+//! (6·strips square). Memory and time are linear in the observations: a thousand ties cost no
+//! n² matrix.
 //!
 //! Strips are taken as independent (a strip's offsets do not correlate with the next one's):
 //! right for attitude, optimistic for GNSS errors correlated across strips flown minutes apart.
@@ -57,15 +63,20 @@ impl TrajectorySigma {
     }
 }
 
-/// The lower Cholesky factor `L` of `C'`; residuals are whitened as `L⁻¹ r`.
+/// `W` of the module docs, in factored form: `W r = y + V (K (Vᵀ y))` with `y = D^-½ r`.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Whitening {
-    l: DMatrix<f64>,
+    /// `D^-½`, per observation.
+    inv_sqrt_d: DVector<f64>,
+    /// `V = D^-½ A / σ_t` (observations × offsets).
+    v: DMatrix<f64>,
+    /// `K = Q diag((1/√(1+λ) − 1)/λ) Qᵀ`.
+    k: DMatrix<f64>,
 }
 
 impl Whitening {
-    /// Builds `C'` at the parameters `x` for ties with noise `tie_sigma_m`; `None` when it is not
-    /// positive definite (it always is for `tie_sigma_m > 0`, barring non-finite input).
+    /// Builds `W` at the parameters `x` for ties with noise `tie_sigma_m`; `None` for non-finite
+    /// input (`C'` is positive definite for any `tie_sigma_m > 0`).
     pub(crate) fn new(
         strips: &[Strip],
         model: &TieModel,
@@ -103,30 +114,90 @@ impl Whitening {
                 }
             }
         }
-        let mut c = DMatrix::identity(n, n);
-        if !columns.is_empty() {
-            let a = DMatrix::from_columns(&columns);
-            c += &a * a.transpose();
-        }
+        let mut d = DVector::from_element(n, 1.0);
         let mut row = 0;
         for t in &model.ties {
             let rows = t.virtuals.len() * t.directions.len();
             if let Some(sc) = t.control_sigma_m.filter(|v| v.is_finite() && *v > 0.0) {
                 for i in row..row + rows {
-                    c[(i, i)] += (sc / tie_sigma_m).powi(2);
+                    d[i] += (sc / tie_sigma_m).powi(2);
                 }
             }
             row += rows;
         }
         debug_assert_eq!(row, n);
-        c.cholesky().map(|ch| Whitening { l: ch.unpack() })
+        let a = if columns.is_empty() {
+            DMatrix::zeros(n, 0)
+        } else {
+            DMatrix::from_columns(&columns)
+        };
+        Whitening::from_parts(a, &d)
     }
 
-    /// `L⁻¹ r`.
+    /// `W` for `C' = diag(d) + A Aᵀ`; `None` for non-finite or non-positive input.
+    fn from_parts(mut v: DMatrix<f64>, d: &DVector<f64>) -> Option<Whitening> {
+        if d.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+            return None;
+        }
+        let inv_sqrt_d = d.map(|x| 1.0 / x.sqrt());
+        for (i, mut r) in v.row_iter_mut().enumerate() {
+            r *= inv_sqrt_d[i];
+        }
+        let e = (v.transpose() * &v).symmetric_eigen();
+        let lmax = e.eigenvalues.iter().cloned().fold(0.0, f64::max);
+        let coef = e.eigenvalues.map(|l| {
+            if l > 1e-12 * lmax && l > 0.0 {
+                (1.0 / (1.0 + l).sqrt() - 1.0) / l
+            } else {
+                0.0
+            }
+        });
+        let k = &e.eigenvectors * DMatrix::from_diagonal(&coef) * e.eigenvectors.transpose();
+        let w = Whitening { inv_sqrt_d, v, k };
+        w.k.iter()
+            .chain(w.v.iter())
+            .all(|x| x.is_finite())
+            .then_some(w)
+    }
+
+    /// `W r`.
     pub(crate) fn apply(&self, r: Vec<f64>) -> Vec<f64> {
-        let v = DVector::from_vec(r);
-        self.l
-            .solve_lower_triangular(&v)
-            .map_or_else(|| v.as_slice().to_vec(), |w| w.as_slice().to_vec())
+        let y = DVector::from_vec(r).component_mul(&self.inv_sqrt_d);
+        let t = &self.k * (self.v.transpose() * &y);
+        (y + &self.v * t).as_slice().to_vec()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn whitening_is_a_square_root_of_the_inverse_covariance() {
+        // Wᵀ W = (D + A Aᵀ)⁻¹, with a rank-deficient A (a repeated column) as the strips' offsets
+        // can give.
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let (n, m) = (40, 7);
+        let mut a = DMatrix::from_fn(n, m, |_, _| rng.random_range(-2.0..2.0));
+        let first = a.column(0).into_owned();
+        a.set_column(m - 1, &first);
+        let d = DVector::from_fn(n, |i, _| if i % 5 == 0 { 3.0 } else { 1.0 });
+        let w = Whitening::from_parts(a.clone(), &d).unwrap();
+        let wm = DMatrix::from_columns(
+            &(0..n)
+                .map(|j| {
+                    let mut e = vec![0.0; n];
+                    e[j] = 1.0;
+                    DVector::from_vec(w.apply(e))
+                })
+                .collect::<Vec<_>>(),
+        );
+        let c = DMatrix::from_diagonal(&d) + &a * a.transpose();
+        let want = c.try_inverse().unwrap();
+        let got = wm.transpose() * &wm;
+        assert!((got - &want).abs().max() < 1e-10 * want.abs().max());
+        assert!(Whitening::from_parts(a, &d.map(|_| f64::NAN)).is_none());
     }
 }
