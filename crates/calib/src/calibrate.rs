@@ -70,6 +70,26 @@ impl Default for CalibrationOptions {
 }
 
 impl CalibrationOptions {
+    /// The σ beyond which parameter `p` is not determined (m or rad).
+    fn sigma_limit(&self, p: Param) -> f64 {
+        if p.is_angle() {
+            self.max_sigma_angle_rad
+        } else {
+            self.max_sigma_lever_m
+        }
+    }
+
+    /// These options with no parameter ever held for its σ or a correlation: for solves whose
+    /// free parameters are already decided (outlier screening, the weighted solves).
+    fn holding_nothing(&self) -> CalibrationOptions {
+        CalibrationOptions {
+            max_sigma_angle_rad: f64::INFINITY,
+            max_sigma_lever_m: f64::INFINITY,
+            max_correlation: 1.0 + 1e-9,
+            ..*self
+        }
+    }
+
     fn check(&self) -> Result<()> {
         self.vtpm.check()?;
         let pos = |name, v: f64| {
@@ -455,11 +475,7 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
             } else {
                 sigma_obs * inv[(c, c)].sqrt()
             };
-            let limit = if p.is_angle() {
-                opts.max_sigma_angle_rad
-            } else {
-                opts.max_sigma_lever_m
-            };
+            let limit = opts.sigma_limit(p);
             let excess = if s.is_nan() { f64::INFINITY } else { s / limit };
             if excess > 1.0 && worst_sigma.is_none_or(|(_, _, e)| excess > e) {
                 worst_sigma = Some((i, s, excess));
@@ -467,11 +483,7 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
         }
         if let Some((i, s, _)) = worst_sigma {
             let p = Param::ALL[i];
-            let limit = if p.is_angle() {
-                opts.max_sigma_angle_rad
-            } else {
-                opts.max_sigma_lever_m
-            };
+            let limit = opts.sigma_limit(p);
             held_because[i] = if s.is_finite() {
                 format!(
                     "not determined: sigma {:.4} {} exceeds {:.4}",
@@ -498,14 +510,7 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
         }
         if let Some((a, b, rho)) = worst {
             let (pa, pb) = (Param::ALL[free[a]], Param::ALL[free[b]]);
-            let rel = |c: usize, p: Param| {
-                inv[(c, c)].sqrt()
-                    / if p.is_angle() {
-                        opts.max_sigma_angle_rad
-                    } else {
-                        opts.max_sigma_lever_m
-                    }
-            };
+            let rel = |c: usize, p: Param| inv[(c, c)].sqrt() / opts.sigma_limit(p);
             let hold = match (pa.is_angle(), pb.is_angle()) {
                 (false, true) => a,
                 (true, false) => b,
@@ -666,27 +671,22 @@ pub fn calibrate_vtpm(
             // include the trajectory. A parameter the weighting alone would call determined is
             // not trusted: the weighting models the trajectory, not a tie's systematic error.
             let geometry = solve_with_observability(&problem, x0, observations, options, false)?;
-            let mut weighted = *options;
-            weighted.solve = geometry.observable;
-            weighted.max_sigma_angle_rad = f64::INFINITY;
-            weighted.max_sigma_lever_m = f64::INFINITY;
-            weighted.max_correlation = 1.0 + 1e-9;
+            let weighted = CalibrationOptions {
+                solve: geometry.observable,
+                ..options.holding_nothing()
+            };
+            let whitening = |tie_sigma_m: f64| {
+                Whitening::new(strips, &model, &x0, ts, tie_sigma_m)
+                    .ok_or_else(|| Error::Diverged("the trajectory weighting is not finite".into()))
+            };
             // The ties' own noise σ_t: first the unweighted fit's σ0 (which still holds the
             // trajectory's share, so too large), then the weighted fit's.
-            let mut tie_sigma_m = geometry.sigma0_m.max(MIN_TIE_SIGMA_M);
-            for pass in 0..2 {
-                problem.whitening = Some(
-                    Whitening::new(strips, &model, &x0, ts, tie_sigma_m).ok_or_else(|| {
-                        Error::Diverged("the trajectory weighting is not positive definite".into())
-                    })?,
-                );
-                if pass == 0 {
-                    tie_sigma_m =
-                        solve_with_observability(&problem, x0, observations, &weighted, false)?
-                            .sigma0_m
-                            .max(MIN_TIE_SIGMA_M);
-                }
-            }
+            problem.whitening = Some(whitening(geometry.sigma0_m.max(MIN_TIE_SIGMA_M))?);
+            let tie_sigma_m =
+                solve_with_observability(&problem, x0, observations, &weighted, false)?
+                    .sigma0_m
+                    .max(MIN_TIE_SIGMA_M);
+            problem.whitening = Some(whitening(tie_sigma_m)?);
             let mut solved = solve_with_observability(&problem, x0, observations, &weighted, true)?;
             solved.observable = geometry.observable;
             solved.held_because = geometry.held_because;
@@ -733,10 +733,7 @@ fn screen_outlier_ties(
     x0: [f64; PARAM_COUNT],
     options: &CalibrationOptions,
 ) {
-    let mut screening = *options;
-    screening.max_sigma_angle_rad = f64::INFINITY;
-    screening.max_sigma_lever_m = f64::INFINITY;
-    screening.max_correlation = 1.0 + 1e-9;
+    let screening = options.holding_nothing();
     let max_drop = model.ties.len() / 3;
     for _ in 0..max_drop {
         let problem = VtpmProblem {

@@ -329,12 +329,12 @@ fn build_target_tie(
         y,
         radius_m + TARGET_SEARCH_MARGIN_M,
     );
-    let mut ups: Vec<f64> = around.iter().map(|&k| -at(k).z).collect();
+    let placed: Vec<(usize, Vector3<f64>)> = around.iter().map(|&k| (k, at(k))).collect();
+    let mut ups: Vec<f64> = placed.iter().map(|(_, p)| -p.z).collect();
     ups.sort_by(f64::total_cmp);
     let ground_up = *ups.get(ups.len() / 5)?;
-    let raised: Vec<(usize, Vector3<f64>)> = around
-        .iter()
-        .map(|&k| (k, at(k)))
+    let raised: Vec<(usize, Vector3<f64>)> = placed
+        .into_iter()
         .filter(|(_, p)| -p.z > ground_up + TARGET_MIN_HEIGHT_M)
         .collect();
     let mut heights: Vec<f64> = raised.iter().map(|(_, p)| p.z).collect();
@@ -348,15 +348,13 @@ fn build_target_tie(
         return None;
     }
     let c = level.iter().map(|(_, p)| p).sum::<Vector3<f64>>() / level.len() as f64;
-    let top: Vec<usize> = level
-        .iter()
+    let (top, pos): (Vec<usize>, Vec<Vector3<f64>>) = level
+        .into_iter()
         .filter(|(_, p)| (p.x - c.x).hypot(p.y - c.y) <= radius_m)
-        .map(|(k, _)| *k)
-        .collect();
+        .unzip();
     if top.len() < 3 {
         return None;
     }
-    let pos: Vec<Vector3<f64>> = top.iter().map(|&k| at(k)).collect();
     let coord = pos.iter().sum::<Vector3<f64>>() / pos.len() as f64;
     Some(VirtualTie {
         strip: s,
@@ -376,13 +374,9 @@ const TARGET_SEARCH_MARGIN_M: f64 = 1.5;
 const TARGET_MIN_HEIGHT_M: f64 = 0.25;
 
 impl VirtualTie {
-    /// Rule 2 (eq. 6): the tie coordinate at the parameter vector `x`, and the new triangle.
-    pub(crate) fn at(&self, strips: &[Strip], g: &Georeferencing) -> TieAt {
-        self.at_offset(strips, g, None)
-    }
-
-    /// [`VirtualTie::at`] with strip `offset.0`'s trajectory off by `offset.1`.
-    pub(crate) fn at_offset(
+    /// Rule 2 (eq. 6): the tie coordinate with the mounting `g` (and, when given, strip
+    /// `offset.0`'s trajectory off by `offset.1`), and the points that carry it.
+    pub(crate) fn at(
         &self,
         strips: &[Strip],
         g: &Georeferencing,
@@ -437,10 +431,25 @@ pub(crate) struct TieModel {
 impl TieModel {
     /// Tie coordinates of every virtual tie at the parameter vector `x` (rule 2).
     pub(crate) fn coords_at(&self, strips: &[Strip], x: &[f64; 6]) -> Vec<Vec<TieAt>> {
+        self.coords_at_offset(strips, x, None)
+    }
+
+    /// [`TieModel::coords_at`] with strip `offset.0`'s trajectory off by `offset.1`.
+    fn coords_at_offset(
+        &self,
+        strips: &[Strip],
+        x: &[f64; 6],
+        offset: Option<(usize, &TrajectoryOffset)>,
+    ) -> Vec<Vec<TieAt>> {
         let g = Georeferencing::new(&mounting_from_vector(x));
         self.ties
             .iter()
-            .map(|t| t.virtuals.iter().map(|v| v.at(strips, &g)).collect())
+            .map(|t| {
+                t.virtuals
+                    .iter()
+                    .map(|v| v.at(strips, &g, offset))
+                    .collect()
+            })
             .collect()
     }
 
@@ -452,18 +461,7 @@ impl TieModel {
         x: &[f64; 6],
         offset: (usize, &TrajectoryOffset),
     ) -> Vec<f64> {
-        let g = Georeferencing::new(&mounting_from_vector(x));
-        let coords: Vec<Vec<TieAt>> = self
-            .ties
-            .iter()
-            .map(|t| {
-                t.virtuals
-                    .iter()
-                    .map(|v| v.at_offset(strips, &g, Some(offset)))
-                    .collect()
-            })
-            .collect();
-        self.residuals_from(&coords)
+        self.residuals_from(&self.coords_at_offset(strips, x, Some(offset)))
     }
 
     /// Residuals (seed 001 eq. 8 with the eq. 7 mean): per tie and strip, the tie coordinate minus
@@ -700,7 +698,7 @@ mod tests {
             lever_arm_m: Vector3::new(0.0, 0.0, 0.1),
             ..Mounting::default()
         });
-        assert!((v.at(&strips, &lowered).0.z + 0.4).abs() < 1e-12);
+        assert!((v.at(&strips, &lowered, None).0.z + 0.4).abs() < 1e-12);
         // Too far from the surveyed centre: not observed.
         assert!(build_target_tie(&idx, 0, -3.5, -3.5, r, &g, &VtpmOptions::default()).is_none());
     }
