@@ -61,14 +61,14 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("calibration");
     g.sample_size(10);
     let weighted = CalibrationOptions {
-        trajectory_sigma: Some(TrajectorySigma {
-            position_m: [0.02, 0.02, 0.03],
-            attitude_rad: [
+        trajectory_sigma: Some(TrajectorySigma::constant(
+            [0.02, 0.02, 0.03],
+            [
                 0.0025f64.to_radians(),
                 0.0025f64.to_radians(),
                 0.005f64.to_radians(),
             ],
-        }),
+        )),
         ..CalibrationOptions::default()
     };
     for (name, options) in [

@@ -5,7 +5,7 @@ use crate::lm::{LmModel, LmOptions, Termination, jacobian, minimize};
 use crate::params::{PARAM_COUNT, Param, mounting_from_vector, mounting_to_vector};
 use crate::strip::{Strip, check_strips};
 use crate::vtpm::{ControlPoint, Indexed, Tie, TieModel, VtpmOptions, build_tie_model};
-use crate::weighting::{TrajectorySigma, Whitening};
+use crate::weighting::{TrajectorySensitivity, TrajectorySigma, Whitening};
 use lidarqa_model::Mounting;
 use nalgebra::{DMatrix, Vector3};
 use serde_json::{Map, Value, json};
@@ -133,6 +133,18 @@ impl CalibrationOptions {
                         name,
                         expected: "a finite number >= 0",
                         value: *v,
+                    });
+                }
+            }
+            for (name, tau) in [
+                ("GNSS correlation time", t.position_correlation_s),
+                ("attitude correlation time", t.attitude_correlation_s),
+            ] {
+                if let Some(v) = tau.filter(|v| !(v.is_finite() && *v > 0.0)) {
+                    return Err(Error::InvalidOption {
+                        name,
+                        expected: "a finite number of seconds > 0",
+                        value: v,
                     });
                 }
             }
@@ -266,6 +278,8 @@ impl Calibration {
                 "roll_deg": t.attitude_rad[0].to_degrees(),
                 "pitch_deg": t.attitude_rad[1].to_degrees(),
                 "heading_deg": t.attitude_rad[2].to_degrees(),
+                "gnss_correlation_s": t.position_correlation_s,
+                "attitude_correlation_s": t.attitude_correlation_s,
             });
         }
         doc
@@ -675,19 +689,31 @@ pub fn calibrate_vtpm(
                 solve: geometry.observable,
                 ..options.holding_nothing()
             };
-            let whitening = |tie_sigma_m: f64| {
-                Whitening::new(strips, &model, &x0, ts, tie_sigma_m)
-                    .ok_or_else(|| Error::Diverged("the trajectory weighting is not finite".into()))
-            };
-            // The ties' own noise σ_t: first the unweighted fit's σ0 (which still holds the
-            // trajectory's share, so too large), then the weighted fit's.
-            problem.whitening = Some(whitening(geometry.sigma0_m.max(MIN_TIE_SIGMA_M))?);
-            let tie_sigma_m =
-                solve_with_observability(&problem, x0, observations, &weighted, false)?
-                    .sigma0_m
-                    .max(MIN_TIE_SIGMA_M);
-            problem.whitening = Some(whitening(tie_sigma_m)?);
-            let mut solved = solve_with_observability(&problem, x0, observations, &weighted, true)?;
+            let not_finite = || Error::Diverged("the trajectory weighting is not finite".into());
+            let sensitivity =
+                TrajectorySensitivity::new(strips, &model, &x0, ts).ok_or_else(not_finite)?;
+            let whitening =
+                |tie_sigma_m: f64| sensitivity.whitening(tie_sigma_m).ok_or_else(not_finite);
+            // The ties' own noise σ_t is not known in advance: start from the unweighted fit's
+            // σ0 (which still holds the trajectory's share, so too large) and re-weight with each
+            // weighted fit's σ0 until the two agree. Stopping early would scale the trajectory's
+            // part of the reported σ by σ0/σ_t (it did: by 0.72 after one pass on the simulator's
+            // calibration flight).
+            let mut tie_sigma_m = geometry.sigma0_m.max(MIN_TIE_SIGMA_M);
+            let mut solved = None;
+            for pass in 0..MAX_NOISE_PASSES {
+                problem.whitening = Some(whitening(tie_sigma_m)?);
+                let last = pass + 1 == MAX_NOISE_PASSES;
+                let fit = solve_with_observability(&problem, x0, observations, &weighted, true)?;
+                let sigma0 = fit.sigma0_m.max(MIN_TIE_SIGMA_M);
+                let agreed = (sigma0 - tie_sigma_m).abs() <= NOISE_AGREEMENT * tie_sigma_m;
+                solved = Some(fit);
+                if agreed || last {
+                    break;
+                }
+                tie_sigma_m = sigma0;
+            }
+            let mut solved = solved.expect("at least one pass");
             solved.observable = geometry.observable;
             solved.held_because = geometry.held_because;
             solved
@@ -721,6 +747,11 @@ pub fn calibrate_vtpm(
         trajectory_sigma: options.trajectory_sigma,
     })
 }
+
+/// Most re-weightings of the ties' own noise against the trajectory's (see `calibrate_vtpm`).
+const MAX_NOISE_PASSES: usize = 8;
+/// When the weighted fit's σ0 and the σ_t it was weighted with agree (relative).
+const NOISE_AGREEMENT: f64 = 0.02;
 
 /// Removes blunders before the adjustment proper: solve once with every parameter free, then drop
 /// the tie with the largest residual (RMS per observed direction) while it exceeds 4 robust σ

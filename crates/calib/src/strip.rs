@@ -85,7 +85,8 @@ pub struct RawPoint {
     pub attitude: Attitude,
     /// Range ρ (m) and scan angle θ (rad, positive to the right wing), recovered once.
     pub observation: LinearObservation,
-    /// GPS seconds of week of the pulse, s (kept for output; not used by the geometry).
+    /// GPS seconds of week of the pulse, s (for output, and for the trajectory weighting's
+    /// time-varying offsets).
     pub time_s: f64,
     /// Return intensity, sensor units (used by the automatic tie search).
     pub intensity: u16,
@@ -247,20 +248,49 @@ impl Georeferencing {
 /// attitude (roll, pitch, heading, rad) each off by a fixed amount over the strip. Over a strip's
 /// ten-odd seconds a navigation solution's correlated errors are nearly constant, so this is
 /// how they enter the strip's points (the calibration's trajectory weighting).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub(crate) struct TrajectoryOffset {
     pub(crate) position_m: Vector3<f64>,
     pub(crate) attitude_rad: [f64; 3],
+    /// How the offset varies over the strip's time (a Gauss–Markov mode); `None`: constant.
+    pub(crate) profile: Option<TimeProfile>,
+}
+
+/// A function of time, piecewise linear on a uniform grid, held at its ends outside it.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct TimeProfile {
+    pub(crate) start_s: f64,
+    pub(crate) step_s: f64,
+    pub(crate) values: Vec<f64>,
+}
+
+impl TimeProfile {
+    pub(crate) fn at(&self, time_s: f64) -> f64 {
+        let last = self.values.len() - 1;
+        let u = if self.step_s > 0.0 {
+            ((time_s - self.start_s) / self.step_s).clamp(0.0, last as f64)
+        } else {
+            0.0
+        };
+        let i = (u.floor() as usize).min(last.saturating_sub(1));
+        let f = u - i as f64;
+        if last == 0 {
+            self.values[0]
+        } else {
+            self.values[i] * (1.0 - f) + self.values[i + 1] * f
+        }
+    }
 }
 
 impl Georeferencing {
     /// [`Georeferencing::apply`] with the trajectory of the point off by `offset`.
     pub(crate) fn apply_offset(&self, p: &RawPoint, offset: &TrajectoryOffset) -> Vector3<f64> {
         let a = &p.attitude;
-        let [dr, dp, dh] = offset.attitude_rad;
+        let k = offset.profile.as_ref().map_or(1.0, |f| f.at(p.time_s));
+        let [dr, dp, dh] = offset.attitude_rad.map(|v| v * k);
         let r_l = rotation_zyx(a.roll_rad + dr, a.pitch_rad + dp, a.heading_rad + dh);
         let s = scanner_vector(p.observation.range_m, p.observation.scan_angle_rad);
-        p.origin_m + offset.position_m + r_l * (self.r_m * s + self.lever_m)
+        p.origin_m + offset.position_m * k + r_l * (self.r_m * s + self.lever_m)
     }
 }
 

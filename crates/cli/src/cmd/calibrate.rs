@@ -102,6 +102,24 @@ pub struct CalibrateArgs {
     /// (the sensor file's GNSS and attitude σ), and report σ from the tie scatter alone
     #[arg(long)]
     no_trajectory_weighting: bool,
+    /// Correlation time of the trajectory's GNSS position errors (Gauss–Markov), s: the
+    /// weighting then lets a strip's error drift over the strip instead of holding it constant
+    /// (the navigation processing report, or the simulator's `errors.gnss_correlation_time_s`)
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        conflicts_with = "no_trajectory_weighting"
+    )]
+    gnss_correlation_s: Option<f64>,
+    /// Correlation time of the trajectory's attitude errors (Gauss–Markov), s; as
+    /// `--gnss-correlation-s` (post-processed attitude is often correlated over tens of seconds,
+    /// about a strip's length, which is when it matters)
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        conflicts_with = "no_trajectory_weighting"
+    )]
+    attitude_correlation_s: Option<f64>,
     /// Output format of the summary on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
     format: OutputFormat,
@@ -372,6 +390,14 @@ impl TryFrom<CalibrateArgs> for Plan {
                 args.ransac_threshold_m
             );
         }
+        for (flag, tau) in [
+            ("--gnss-correlation-s", args.gnss_correlation_s),
+            ("--attitude-correlation-s", args.attitude_correlation_s),
+        ] {
+            if let Some(t) = tau.filter(|t| !(t.is_finite() && *t > 0.0)) {
+                bail!("{flag} must be a number of seconds > 0, got {t}");
+            }
+        }
         if args.ransac_iterations == 0 || args.max_iterations == 0 {
             bail!("--ransac-iterations and --max-iterations must be at least 1");
         }
@@ -417,6 +443,8 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         let t = TrajectorySigma {
             position_m: [Source::GnssNorth, Source::GnssEast, Source::GnssUp].map(|s| sigma.get(s)),
             attitude_rad: [Source::Roll, Source::Pitch, Source::Heading].map(|s| sigma.get(s)),
+            position_correlation_s: a.gnss_correlation_s,
+            attitude_correlation_s: a.attitude_correlation_s,
         };
         let any = t.position_m.iter().chain(&t.attitude_rad).any(|v| *v > 0.0);
         plan.options.trajectory_sigma = any.then_some(t);
@@ -535,13 +563,14 @@ fn table(cal: &Calibration) -> String {
     }
     if let Some(t) = &cal.trajectory_sigma {
         s += &format!(
-            "sigma includes each strip's trajectory error (GNSS {:.3}/{:.3}/{:.3} m, roll/pitch/heading {:.4}/{:.4}/{:.4} deg; the ties are weighted by it)\n",
+            "sigma includes each strip's trajectory error (GNSS {:.3}/{:.3}/{:.3} m, roll/pitch/heading {:.4}/{:.4}/{:.4} deg, {}; the ties are weighted by it)\n",
             t.position_m[0],
             t.position_m[1],
             t.position_m[2],
             t.attitude_rad[0].to_degrees(),
             t.attitude_rad[1].to_degrees(),
             t.attitude_rad[2].to_degrees(),
+            correlation_phrase(t),
         );
     }
     let ((h0, v0), (h1, v1)) = cal.tie_rms_m();
@@ -554,6 +583,19 @@ fn table(cal: &Calibration) -> String {
         cal.ties.len()
     );
     s
+}
+
+/// How the trajectory errors are taken to vary over a strip, for the summary.
+fn correlation_phrase(t: &TrajectorySigma) -> String {
+    let one = |what: &str, tau: Option<f64>| match tau {
+        Some(v) => format!("{what} correlated over {v} s"),
+        None => format!("{what} constant over each strip"),
+    };
+    format!(
+        "{}, {}",
+        one("GNSS", t.position_correlation_s),
+        one("attitude", t.attitude_correlation_s)
+    )
 }
 
 #[cfg(test)]
@@ -649,5 +691,42 @@ mod tests {
         .unwrap();
         let e = Plan::try_from(c.args).err().unwrap().to_string();
         assert_eq!(e, "--radius-m must be a number > 0, got -1");
+    }
+
+    #[test]
+    fn correlation_times_are_checked_and_exclude_the_plain_adjustment() {
+        let base = [
+            "x",
+            "a.laz",
+            "--trajectory",
+            "t",
+            "--sensor",
+            "s",
+            "-o",
+            "c.json",
+            "--auto-ties",
+        ];
+        let with = |extra: &[&'static str]| {
+            let mut v = base.to_vec();
+            v.extend(extra);
+            Cli::try_parse_from(v)
+        };
+        let c = with(&[
+            "--attitude-correlation-s",
+            "30",
+            "--gnss-correlation-s",
+            "200",
+        ])
+        .unwrap();
+        assert_eq!(c.args.attitude_correlation_s, Some(30.0));
+        assert_eq!(c.args.gnss_correlation_s, Some(200.0));
+        assert!(Plan::try_from(c.args).is_ok());
+        let c = with(&["--attitude-correlation-s", "0"]).unwrap();
+        let e = Plan::try_from(c.args).err().unwrap().to_string();
+        assert_eq!(
+            e,
+            "--attitude-correlation-s must be a number of seconds > 0, got 0"
+        );
+        assert!(with(&["--gnss-correlation-s", "60", "--no-trajectory-weighting"]).is_err());
     }
 }

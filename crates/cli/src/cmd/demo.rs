@@ -100,10 +100,24 @@ fn run_step(exe: &Path, s: &Step, n: usize, total: usize) -> Result<()> {
     Ok(())
 }
 
-/// The demo scenario, smaller with `--quick`.
-fn scenario_file(dir: &Path, quick: bool, seed: u64) -> Result<PathBuf> {
+/// The demo scenario, smaller with `--quick`, and its trajectory errors' correlation times
+/// (GNSS, attitude; s), which the calibration is told as a user reads them from the navigation
+/// processing report.
+fn scenario_file(dir: &Path, quick: bool, seed: u64) -> Result<(PathBuf, [String; 2])> {
     let text = lidarqa_sim::builtin_toml("demo").context("the built-in demo scenario")?;
     let mut table: toml::Table = toml::from_str(text).context("the built-in demo scenario")?;
+    let tau = |key: &str| {
+        table
+            .get("errors")
+            .and_then(|e| e.get(key))
+            .and_then(toml::Value::as_float)
+            .map(|v| v.to_string())
+            .with_context(|| format!("the built-in demo scenario: errors.{key}"))
+    };
+    let taus = [
+        tau("gnss_correlation_time_s")?,
+        tau("attitude_correlation_time_s")?,
+    ];
     table.insert("seed".into(), toml::Value::Integer(seed as i64));
     if quick {
         if let Some(toml::Value::Table(scanner)) = table.get_mut("scanner") {
@@ -113,7 +127,7 @@ fn scenario_file(dir: &Path, quick: bool, seed: u64) -> Result<PathBuf> {
     let path = dir.join("scenario.toml");
     std::fs::write(&path, toml::to_string(&table)?)
         .with_context(|| format!("{}", path.display()))?;
-    Ok(path)
+    Ok((path, taus))
 }
 
 fn read_json(path: &Path) -> Result<Value> {
@@ -127,7 +141,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
     let exe = std::env::current_exe().context("locating the lidarqa binary")?;
     let d = |name: &str| dir.join(name).display().to_string();
-    let scenario = scenario_file(dir, args.quick, args.seed)?;
+    let (scenario, [gnss_tau_s, attitude_tau_s]) = scenario_file(dir, args.quick, args.seed)?;
     let strips = dir.join("strips");
     let corrected = dir.join("corrected");
     let tpu_dir = dir.join("tpu");
@@ -262,6 +276,10 @@ pub fn run(args: DemoArgs) -> Result<()> {
                     "1.5",
                     "--control",
                     &control,
+                    "--gnss-correlation-s",
+                    &gnss_tau_s,
+                    "--attitude-correlation-s",
+                    &attitude_tau_s,
                     "-o",
                     &d("calibration.json"),
                 ],
