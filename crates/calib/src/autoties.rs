@@ -5,11 +5,7 @@
 //!    a centre counts when at least two strips have [`AutoTieOptions::min_points`] points within
 //!    [`AutoTieOptions::patch_radius_m`].
 //! 2. In each covering strip the patch must be planar: RANSAC keeps at least 90 % of the points
-//!    within [`AutoTieOptions::planarity_m`]. A strip where it is not (or, below, where the marking
-//!    shows no contrast, the roof face is another one, or no coplanar triangle holds the pick)
-//!    sits that tie out; the tie is kept while two strips remain. Requiring every covering strip
-//!    (the first rule) found 29 ties among 24 strips flown at 250 and 1200 m, where one sparse
-//!    high strip was enough to drop a marking the other strips all saw.
+//!    within [`AutoTieOptions::planarity_m`].
 //! 3. **Markings** — flat patches (slope < 5°) with intensity contrast: in every strip the bright
 //!    points (above the midpoint of the patch's 5th and 95th intensity percentiles, the 95th at
 //!    least twice the 5th) are 5–60 % of the patch. The pick in each strip is the centroid of its
@@ -122,11 +118,10 @@ pub fn auto_ties(strips: &[Strip], prior: &Mounting, opts: &AutoTieOptions) -> R
                 ext[0] + i as f64 * opts.spacing_m,
                 ext[1] + j as f64 * opts.spacing_m,
             );
-            if let Some(mut c) = candidate(&idx, &g, x, y, k, opts, None) {
-                keep_usable_picks(&idx, &g, &mut c.tie, opts);
-                if c.tie.picks.len() >= 2 {
-                    cands.push((x, y, c));
-                }
+            if let Some(c) = candidate(&idx, &g, x, y, k, opts, None)
+                && usable(&idx, &g, &c.tie, opts)
+            {
+                cands.push((x, y, c));
             }
         }
     }
@@ -164,13 +159,9 @@ pub fn auto_ties(strips: &[Strip], prior: &Mounting, opts: &AutoTieOptions) -> R
     Ok(out)
 }
 
-/// Keeps the picks that yield a virtual tie (step 2 of seed 001 would succeed there); a strip
-/// with no coplanar triangle at the pick sits the tie out.
-fn keep_usable_picks(idx: &Indexed<'_>, g: &Georeferencing, tie: &mut Tie, opts: &AutoTieOptions) {
-    let mut next = 0;
-    tie.picks.retain(|p| {
-        let pi = next;
-        next += 1;
+/// Every pick of the tie yields a virtual tie (step 2 of seed 001 would succeed).
+fn usable(idx: &Indexed<'_>, g: &Georeferencing, tie: &Tie, opts: &AutoTieOptions) -> bool {
+    tie.picks.iter().enumerate().all(|(pi, p)| {
         idx.strip_index(&p.strip).is_some_and(|s| {
             build_virtual_tie(
                 idx,
@@ -203,15 +194,9 @@ fn candidate(
             continue;
         }
         let pos: Vec<Vector3<f64>> = near.iter().map(|&i| g.apply(&strip.points[i])).collect();
-        // A strip where the patch is not planar (it reaches a roof edge there) sits this tie
-        // out; the others still tie.
-        let Some((plane, inl)) =
-            ransac_plane(&pos, opts.planarity_m, 100, mix_seed(opts.seed, k, s))
-        else {
-            continue;
-        };
+        let (plane, inl) = ransac_plane(&pos, opts.planarity_m, 100, mix_seed(opts.seed, k, s))?;
         if (inl.len() as f64) < 0.9 * pos.len() as f64 {
-            continue;
+            return None;
         }
         patches.push((s, near, pos, plane));
     }
@@ -243,9 +228,7 @@ fn candidate(
             let p5 = f64::from(inten[inten.len() / 20]);
             let p95 = f64::from(inten[inten.len() * 19 / 20]);
             if p95 < 2.0 * p5.max(1.0) {
-                // No contrast in this strip (too sparse, or the marking only grazed): it sits
-                // this tie out.
-                continue;
+                return None;
             }
             let mid = 0.5 * (p5 + p95);
             let bright = |cx: f64, cy: f64| -> (usize, f64, f64) {
@@ -342,12 +325,12 @@ fn candidate(
             }
             let frac = c0 as f64 / near.len() as f64;
             if !(0.05..=0.6).contains(&frac) {
-                continue;
+                return None;
             }
             // Recentre once on the marking; it must stay well inside the patch.
             let (c1, x1, y1) = bright(x0, y0);
             if c1 < 3 || (x1 - x).hypot(y1 - y) > 0.5 * opts.patch_radius_m {
-                continue;
+                return None;
             }
             score = score.min((p95 - p5) / p95 - (x1 - x).hypot(y1 - y));
             picks.push(TiePick {
@@ -355,9 +338,6 @@ fn candidate(
                 north_m: x1,
                 east_m: y1,
             });
-        }
-        if picks.len() < 2 {
-            return None;
         }
         Some(Candidate {
             tie: Tie {
@@ -370,19 +350,15 @@ fn candidate(
         })
     } else if (10.0..=60.0).contains(&slope)
         && cell_centre.is_none()
-        // The same face in every strip (not the other side of a ridge): normals within 3°; a
-        // strip that sees another face sits the tie out.
+        // The same face in every strip (not the other side of a ridge): normals within 3°.
         && patches
             .iter()
-            .filter(|p| p.3.normal.dot(&n).abs() > 3f64.to_radians().cos())
-            .count()
-            >= 2
+            .all(|p| p.3.normal.dot(&n).abs() > 3f64.to_radians().cos())
     {
         let aspect = n.y.atan2(n.x).to_degrees().rem_euclid(360.0);
         let sector = (aspect / 45.0) as usize % 8 + 8 * usize::from(slope > 30.0);
         let picks = patches
             .iter()
-            .filter(|p| p.3.normal.dot(&n).abs() > 3f64.to_radians().cos())
             .map(|(s, _, _, _)| TiePick {
                 strip: idx.strips[*s].id.clone(),
                 north_m: x,
