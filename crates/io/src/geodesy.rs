@@ -184,6 +184,20 @@ pub struct Projected {
     pub scale: f64,
 }
 
+/// A grid point taken back to the ellipsoid, with the projection's local properties there
+/// (what a displacement on the ground does to grid coordinates).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Unprojected {
+    /// Geodetic latitude φ, radians.
+    pub latitude_rad: f64,
+    /// Longitude λ, radians.
+    pub longitude_rad: f64,
+    /// Grid convergence γ, radians; see [`Projected::convergence_rad`].
+    pub convergence_rad: f64,
+    /// Point scale factor k; see [`Projected::scale`].
+    pub scale: f64,
+}
+
 /// A transverse Mercator projection on an ellipsoid (Krüger's series, 6th order; see the
 /// module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -327,18 +341,8 @@ impl TransverseMercator {
     /// Inverse projection: easting/northing in metres → (latitude, longitude) in radians.
     /// The convergence and scale there follow from [`forward`](Self::forward) of the result.
     pub fn inverse(&self, easting_m: f64, northing_m: f64) -> (f64, f64) {
-        let xi = (northing_m - self.false_northing_m) / (self.k0 * self.a_rect_m);
-        let eta = (easting_m - self.false_easting_m) / (self.k0 * self.a_rect_m);
-        // Eq. 11 inverted with the β series: ζ' = ζ − Σ β_j sin 2jζ.
-        let (sum, _) = clenshaw(&self.beta, xi, eta);
-        let (xip, etap) = (xi - sum.re, eta - sum.im);
-        // Inverse Gauss–Schreiber, eqs. 14–15.
-        let (sxip, cxip) = xip.sin_cos();
-        let shetap = etap.sinh();
-        let taup = sxip / shetap.hypot(cxip);
-        let lam = shetap.atan2(cxip);
-        let tau = self.tau_from_taup(taup);
-        let (mut lat, mut lon) = (tau.atan(), wrap_pi(lam + self.central_meridian_rad));
+        let u = self.inverse_series(easting_m, northing_m);
+        let (mut lat, mut lon) = (u.latitude_rad, u.longitude_rad);
         // The β series inverts the α series only to its truncation order (about a nanometre
         // here). One Newton step through the forward map makes `inverse` the exact inverse of
         // `forward` in f64: the grid residual is turned into a ground displacement with the
@@ -354,6 +358,44 @@ impl TransverseMercator {
             lon += de / (self.ellipsoid.prime_vertical_radius_m(lat) * lat.cos());
         }
         (lat, wrap_pi(lon))
+    }
+
+    /// The inverse by Krüger's β series alone, with the grid convergence and point scale there
+    /// (Karney 2011 eqs. 14–15, 19–21 and 28–31, as GeographicLib's `Reverse`): about half the
+    /// cost of [`inverse`](Self::inverse), which adds a Newton step through
+    /// [`forward`](Self::forward) to be its exact f64 inverse. The series alone is within a few
+    /// nanometres of that within a zone (its truncation error, Karney §4), which is what a
+    /// caller that only needs the local properties and the ground position to the micrometre
+    /// (strip correction) pays for.
+    pub fn inverse_series(&self, easting_m: f64, northing_m: f64) -> Unprojected {
+        let xi = (northing_m - self.false_northing_m) / (self.k0 * self.a_rect_m);
+        let eta = (easting_m - self.false_easting_m) / (self.k0 * self.a_rect_m);
+        // Eq. 11 inverted with the β series: ζ' = ζ − Σ β_j sin 2jζ, and its derivative
+        // dζ'/dζ = 1 − Σ 2j β_j cos 2jζ for γ and k.
+        let (sum, deriv) = clenshaw(&self.beta, xi, eta);
+        let (xip, etap) = (xi - sum.re, eta - sum.im);
+        let (p, q) = (1.0 - deriv.re, -deriv.im);
+        // Inverse Gauss–Schreiber, eqs. 14–15.
+        let (sxip, cxip) = xip.sin_cos();
+        let shetap = etap.sinh();
+        let r = shetap.hypot(cxip);
+        let taup = sxip / r;
+        let lam = shetap.atan2(cxip);
+        let tau = self.tau_from_taup(taup);
+        // γ and k: the series part (dζ'/dζ) and the sphere part (eqs. 30–31 with
+        // cos φ' cosh η' = r).
+        let e2 = self.ellipsoid.e2();
+        let convergence_rad = q.atan2(p) + (sxip * etap.tanh()).atan2(cxip);
+        let scale = self.k0 * self.a_rect_m / self.ellipsoid.a_m / p.hypot(q)
+            * ((1.0 - e2) + e2 / (1.0 + tau * tau)).sqrt()
+            * (1.0 + tau * tau).sqrt()
+            * r;
+        Unprojected {
+            latitude_rad: tau.atan(),
+            longitude_rad: wrap_pi(lam + self.central_meridian_rad),
+            convergence_rad,
+            scale,
+        }
     }
 
     /// Grid convergence γ at (φ, λ), radians; see [`Projected::convergence_rad`].
@@ -648,5 +690,27 @@ mod tests {
         }
         assert!(UtmZone::new(0, Hemisphere::North).is_err());
         assert!(UtmZone::new(61, Hemisphere::North).is_err());
+    }
+
+    #[test]
+    fn inverse_series_equals_the_exact_inverse_with_forward_properties() {
+        let tm = UtmZone::new(33, Hemisphere::South).unwrap().projection();
+        for (e, n) in [
+            (500_000.0, 5_000_000.0),
+            (166_021.0, 9_000_000.0),
+            (833_978.0, 1_100_000.0),
+            (320_000.0, 3_000_000.0),
+            (790_000.0, 2_500_000.0),
+        ] {
+            let u = tm.inverse_series(e, n);
+            let (lat, lon) = tm.inverse(e, n);
+            // Within 2 nm of the exact inverse on the ground (measured: up to 1.3 nm).
+            let r = 6.4e6;
+            assert!((u.latitude_rad - lat).abs() * r < 2e-9);
+            assert!((u.longitude_rad - lon).abs() * lat.cos() * r < 2e-9);
+            let p = tm.forward(lat, lon);
+            assert!((u.convergence_rad - p.convergence_rad).abs() < 1e-15);
+            assert!((u.scale - p.scale).abs() < 1e-15);
+        }
     }
 }
