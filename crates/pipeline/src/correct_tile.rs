@@ -200,12 +200,16 @@ impl Run<'_> {
         for msg in rx {
             let mut chunk = msg?;
             // The first bad point in file order, whatever the thread count.
+            // Each work item keeps the trajectory segment of its last point (`hint`).
             if let Some(e) = chunk
                 .points
                 .par_iter_mut()
                 .enumerate()
                 .with_min_len(1024)
-                .map(|(k, p)| self.point(first_index + k as u64, p))
+                .map_init(
+                    || 0usize,
+                    |hint, (k, p)| self.point(first_index + k as u64, p, hint),
+                )
                 .find_map_first(Result::err)
             {
                 return Err(e);
@@ -220,7 +224,7 @@ impl Run<'_> {
     }
 
     /// Corrects one point in place.
-    fn point(&self, index: u64, p: &mut LasPoint) -> Result<()> {
+    fn point(&self, index: u64, p: &mut LasPoint, hint: &mut usize) -> Result<()> {
         let path = self.path;
         if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
             return Err(Error::NonFiniteCoordinates {
@@ -236,7 +240,7 @@ impl Run<'_> {
             message: format!("{}: point without GPS time", path.display()),
         })?;
         let sow = self.converter.to_seconds_of_week(t)?;
-        let (p0, r_be) = self.trajectory.body_to_ecef_at(sow).map_err(|_| {
+        let (p0, r_be) = self.trajectory.body_to_ecef_at(sow, hint).map_err(|_| {
             let (start_s, end_s) = self.trajectory.span_s();
             Error::OutsideTrajectory {
                 path: path.to_path_buf(),
@@ -521,7 +525,7 @@ mod tests {
                 let c = Correction::new(&zone, &old(), &new);
                 for &(t, xyz) in &pts {
                     let want = exact(&zone, &trajectory.at(t).unwrap(), xyz, &old(), &new);
-                    let (p0, r_be) = trajectory.body_to_ecef_at(t).unwrap();
+                    let (p0, r_be) = trajectory.body_to_ecef_at(t, &mut 0).unwrap();
                     let got = c.apply(xyz, &p0, &r_be).unwrap();
                     max_h = max_h.max((got[0] - want[0]).hypot(got[1] - want[1]));
                     max_v = max_v.max((got[2] - want[2]).abs());
