@@ -184,18 +184,43 @@ pub struct Projected {
     pub scale: f64,
 }
 
-/// A grid point taken back to the ellipsoid, with the projection's local properties there
-/// (what a displacement on the ground does to grid coordinates).
+/// A grid point taken back to the ellipsoid by [`TransverseMercator::inverse_series`], with the
+/// projection's local properties there, as the sines and cosines a local frame at the point
+/// needs (what a displacement on the ground does to grid coordinates): no inverse trigonometry
+/// is spent on angles the caller would only take the sine and cosine of again.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Unprojected {
-    /// Geodetic latitude φ, radians.
-    pub latitude_rad: f64,
-    /// Longitude λ, radians.
-    pub longitude_rad: f64,
-    /// Grid convergence γ, radians; see [`Projected::convergence_rad`].
-    pub convergence_rad: f64,
+    /// sin φ and cos φ of the geodetic latitude.
+    pub sin_latitude: f64,
+    /// cos φ.
+    pub cos_latitude: f64,
+    /// sin λ of the longitude.
+    pub sin_longitude: f64,
+    /// cos λ.
+    pub cos_longitude: f64,
+    /// sin γ of the grid convergence (see [`Projected::convergence_rad`]).
+    pub sin_convergence: f64,
+    /// cos γ.
+    pub cos_convergence: f64,
     /// Point scale factor k; see [`Projected::scale`].
     pub scale: f64,
+}
+
+impl Unprojected {
+    /// Latitude φ, radians.
+    pub fn latitude_rad(&self) -> f64 {
+        self.sin_latitude.atan2(self.cos_latitude)
+    }
+
+    /// Longitude λ, radians, in [−π, π].
+    pub fn longitude_rad(&self) -> f64 {
+        self.sin_longitude.atan2(self.cos_longitude)
+    }
+
+    /// Grid convergence γ, radians.
+    pub fn convergence_rad(&self) -> f64 {
+        self.sin_convergence.atan2(self.cos_convergence)
+    }
 }
 
 /// A transverse Mercator projection on an ellipsoid (Krüger's series, 6th order; see the
@@ -213,6 +238,8 @@ pub struct TransverseMercator {
     a_rect_m: f64,
     alpha: [f64; 6],
     beta: [f64; 6],
+    /// sin λ₀ and cos λ₀.
+    sin_cos_central_meridian: (f64, f64),
 }
 
 impl TransverseMercator {
@@ -266,6 +293,7 @@ impl TransverseMercator {
             a_rect_m,
             alpha,
             beta,
+            sin_cos_central_meridian: central_meridian_rad.sin_cos(),
         }
     }
 
@@ -341,8 +369,18 @@ impl TransverseMercator {
     /// Inverse projection: easting/northing in metres → (latitude, longitude) in radians.
     /// The convergence and scale there follow from [`forward`](Self::forward) of the result.
     pub fn inverse(&self, easting_m: f64, northing_m: f64) -> (f64, f64) {
-        let u = self.inverse_series(easting_m, northing_m);
-        let (mut lat, mut lon) = (u.latitude_rad, u.longitude_rad);
+        let xi = (northing_m - self.false_northing_m) / (self.k0 * self.a_rect_m);
+        let eta = (easting_m - self.false_easting_m) / (self.k0 * self.a_rect_m);
+        // Eq. 11 inverted with the β series: ζ' = ζ − Σ β_j sin 2jζ.
+        let (sum, _) = clenshaw(&self.beta, xi, eta);
+        let (xip, etap) = (xi - sum.re, eta - sum.im);
+        // Inverse Gauss–Schreiber, eqs. 14–15.
+        let (sxip, cxip) = xip.sin_cos();
+        let shetap = etap.sinh();
+        let taup = sxip / shetap.hypot(cxip);
+        let lam = shetap.atan2(cxip);
+        let tau = self.tau_from_taup(taup);
+        let (mut lat, mut lon) = (tau.atan(), wrap_pi(lam + self.central_meridian_rad));
         // The β series inverts the α series only to its truncation order (about a nanometre
         // here). One Newton step through the forward map makes `inverse` the exact inverse of
         // `forward` in f64: the grid residual is turned into a ground displacement with the
@@ -361,39 +399,57 @@ impl TransverseMercator {
     }
 
     /// The inverse by Krüger's β series alone, with the grid convergence and point scale there
-    /// (Karney 2011 eqs. 14–15, 19–21 and 28–31, as GeographicLib's `Reverse`): about half the
-    /// cost of [`inverse`](Self::inverse), which adds a Newton step through
-    /// [`forward`](Self::forward) to be its exact f64 inverse. The series alone is within a few
-    /// nanometres of that within a zone (its truncation error, Karney §4), which is what a
-    /// caller that only needs the local properties and the ground position to the micrometre
-    /// (strip correction) pays for.
+    /// (Karney 2011 eqs. 14–15, 19–21 and 28–31, as GeographicLib's `Reverse`), as sines and
+    /// cosines: about half the cost of [`inverse`](Self::inverse), which adds a Newton step
+    /// through [`forward`](Self::forward) to be its exact f64 inverse. The series alone is
+    /// within a few nanometres of that within a zone (its truncation error, Karney §4): enough
+    /// for a caller that needs the local properties and the ground position to the micrometre
+    /// (strip correction), for every point of a tile.
     pub fn inverse_series(&self, easting_m: f64, northing_m: f64) -> Unprojected {
         let xi = (northing_m - self.false_northing_m) / (self.k0 * self.a_rect_m);
         let eta = (easting_m - self.false_easting_m) / (self.k0 * self.a_rect_m);
         // Eq. 11 inverted with the β series: ζ' = ζ − Σ β_j sin 2jζ, and its derivative
-        // dζ'/dζ = 1 − Σ 2j β_j cos 2jζ for γ and k.
+        // dζ'/dζ = p + i q = 1 − Σ 2j β_j cos 2jζ for γ and k.
         let (sum, deriv) = clenshaw(&self.beta, xi, eta);
         let (xip, etap) = (xi - sum.re, eta - sum.im);
         let (p, q) = (1.0 - deriv.re, -deriv.im);
-        // Inverse Gauss–Schreiber, eqs. 14–15.
+        // Inverse Gauss–Schreiber, eqs. 14–15: λ − λ₀ = atan2(sinh η', cos ξ'),
+        // τ' = sin ξ' / r with r = √(sinh² η' + cos² ξ') = cos φ' cosh η'.
         let (sxip, cxip) = xip.sin_cos();
         let shetap = etap.sinh();
-        let r = shetap.hypot(cxip);
-        let taup = sxip / r;
-        let lam = shetap.atan2(cxip);
-        let tau = self.tau_from_taup(taup);
-        // γ and k: the series part (dζ'/dζ) and the sphere part (eqs. 30–31 with
-        // cos φ' cosh η' = r).
+        let r = (shetap * shetap + cxip * cxip).sqrt();
+        let tau = self.tau_from_taup(sxip / r);
+        let (sin_dlam, cos_dlam) = if r > 0.0 {
+            (shetap / r, cxip / r)
+        } else {
+            (0.0, 1.0)
+        };
+        let (s0, c0) = self.sin_cos_central_meridian;
+        let tau1 = (1.0 + tau * tau).sqrt();
+        // γ = atan2(q, p) + atan2(sin ξ' tanh η', cos ξ') (eqs. 28 and 30), as the product of
+        // the two unit complex numbers.
+        let pq = (p * p + q * q).sqrt();
+        let t = sxip * shetap / (1.0 + shetap * shetap).sqrt();
+        let tc = (t * t + cxip * cxip).sqrt();
+        let (c1, s1) = (p / pq, q / pq);
+        let (c2, s2) = if tc > 0.0 {
+            (cxip / tc, t / tc)
+        } else {
+            (1.0, 0.0)
+        };
         let e2 = self.ellipsoid.e2();
-        let convergence_rad = q.atan2(p) + (sxip * etap.tanh()).atan2(cxip);
-        let scale = self.k0 * self.a_rect_m / self.ellipsoid.a_m / p.hypot(q)
-            * ((1.0 - e2) + e2 / (1.0 + tau * tau)).sqrt()
-            * (1.0 + tau * tau).sqrt()
+        // k (eqs. 29 and 31).
+        let scale = self.k0 * self.a_rect_m / self.ellipsoid.a_m / pq
+            * ((1.0 - e2) + e2 / (tau1 * tau1)).sqrt()
+            * tau1
             * r;
         Unprojected {
-            latitude_rad: tau.atan(),
-            longitude_rad: wrap_pi(lam + self.central_meridian_rad),
-            convergence_rad,
+            sin_latitude: tau / tau1,
+            cos_latitude: 1.0 / tau1,
+            sin_longitude: sin_dlam * c0 + cos_dlam * s0,
+            cos_longitude: cos_dlam * c0 - sin_dlam * s0,
+            sin_convergence: s1 * c2 + c1 * s2,
+            cos_convergence: c1 * c2 - s1 * s2,
             scale,
         }
     }
@@ -706,10 +762,18 @@ mod tests {
             let (lat, lon) = tm.inverse(e, n);
             // Within 2 nm of the exact inverse on the ground (measured: up to 1.3 nm).
             let r = 6.4e6;
-            assert!((u.latitude_rad - lat).abs() * r < 2e-9);
-            assert!((u.longitude_rad - lon).abs() * lat.cos() * r < 2e-9);
+            assert!((u.latitude_rad() - lat).abs() * r < 2e-9);
+            assert!((u.longitude_rad() - lon).abs() * lat.cos() * r < 2e-9);
+            for (s, c, angle) in [
+                (u.sin_latitude, u.cos_latitude, lat),
+                (u.sin_longitude, u.cos_longitude, lon),
+            ] {
+                assert!((s - angle.sin()).abs() < 1e-15 && (c - angle.cos()).abs() < 1e-15);
+            }
             let p = tm.forward(lat, lon);
-            assert!((u.convergence_rad - p.convergence_rad).abs() < 1e-15);
+            assert!((u.convergence_rad() - p.convergence_rad).abs() < 1e-15);
+            assert!((u.sin_convergence - p.convergence_rad.sin()).abs() < 1e-15);
+            assert!((u.cos_convergence - p.convergence_rad.cos()).abs() < 1e-15);
             assert!((u.scale - p.scale).abs() < 1e-15);
         }
     }

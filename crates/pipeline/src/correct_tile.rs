@@ -313,8 +313,8 @@ impl Correction {
     ) -> std::result::Result<[f64; 3], lidarqa_tpu::Error> {
         let [x, y, h] = xyz;
         let u = self.projection.inverse_series(x, y);
-        let (sp, cp) = u.latitude_rad.sin_cos();
-        let (sl, cl) = u.longitude_rad.sin_cos();
+        let (sp, cp) = (u.sin_latitude, u.cos_latitude);
+        let (sl, cl) = (u.sin_longitude, u.cos_longitude);
         // Radii of curvature: prime vertical N and meridian M.
         let w2 = 1.0 - self.e2 * sp * sp;
         let n_m = self.a_m / w2.sqrt();
@@ -348,7 +348,7 @@ impl Correction {
         let down = -cp * cl * d.x - cp * sl * d.y - sp * d.z;
         let g_north = north * m_m / (m_m + h);
         let g_east = east * n_m / (n_m + h);
-        let (sg, cg) = u.convergence_rad.sin_cos();
+        let (sg, cg) = (u.sin_convergence, u.cos_convergence);
         let k = u.scale;
         Ok([
             x + k * (cg * g_east - sg * g_north),
