@@ -2,8 +2,8 @@
 
 use crate::error::{Error, Result};
 use lidarqa_io::{
-    Ellipsoid, Geodetic, SbetPose, SensorExtras, SmrmsgSigma, UtmDatum, UtmZone, read_sbet,
-    read_sensor_with_extras, read_smrmsg,
+    Ellipsoid, Geodetic, LasInfo, LasReader, LasTimeConverter, SbetPose, SensorExtras, SmrmsgSigma,
+    UtmDatum, UtmZone, read_sbet, read_sensor_with_extras, read_smrmsg,
 };
 use lidarqa_model::{Attitude, Sensor};
 use lidarqa_tpu::{Pose, PoseSigma, Trajectory, TrajectorySigmas};
@@ -189,5 +189,85 @@ impl TpuContext {
         })?);
         cache.push((datum, Arc::clone(&t)));
         Ok(t)
+    }
+}
+
+/// What every per-point entry point needs from a tile's header, checked once: the header, the
+/// points' UTM zone, the trajectory on that zone's ellipsoid and the GPS time converter.
+pub(crate) struct OpenTile {
+    pub(crate) info: LasInfo,
+    pub(crate) zone: UtmZone,
+    pub(crate) trajectory: Arc<Trajectory>,
+    pub(crate) converter: LasTimeConverter,
+}
+
+impl TpuContext {
+    /// Reads and checks the header of `input` (one place, so `tpu_tile` and `correct_tile`
+    /// cannot drift apart): finite scale and offset, GPS time, and the CRS — the context's
+    /// `crs` (`--utm-zone` / `--epsg`) when given, else the file's own.
+    ///
+    /// # Errors
+    /// [`Error::BadTransform`], [`Error::NoGpsTime`], [`Error::UnknownCrs`], the reader's and
+    /// the time converter's errors, each naming the file.
+    pub(crate) fn open_tile(&self, input: &Path) -> Result<OpenTile> {
+        let info = LasReader::from_path(input)?.info().clone();
+        if info.scale.iter().any(|v| !(v.is_finite() && *v > 0.0))
+            || info.offset.iter().any(|v| !v.is_finite())
+        {
+            return Err(Error::BadTransform {
+                path: input.to_path_buf(),
+                scale: info.scale,
+                offset: info.offset,
+            });
+        }
+        if !info.has_gps_time {
+            return Err(Error::NoGpsTime {
+                path: input.to_path_buf(),
+                format: info.point_format,
+            });
+        }
+        let zone = self.zone_of(input, &info)?;
+        let trajectory = self.trajectory(zone.datum())?;
+        let converter = LasTimeConverter::new(
+            input,
+            info.time_base,
+            self.options.gps_week,
+            info.creation_date,
+        )?;
+        Ok(OpenTile {
+            info,
+            zone,
+            trajectory,
+            converter,
+        })
+    }
+
+    /// The UTM zone of the points of `input`: the options' `crs` when set (it overrides the
+    /// file's), else the one in the file's header.
+    ///
+    /// # Errors
+    /// [`Error::UnknownCrs`] naming the file when neither gives a UTM zone.
+    pub(crate) fn zone_of(&self, input: &Path, info: &LasInfo) -> Result<UtmZone> {
+        match self.options.crs {
+            Some(z) => Ok(z),
+            None => info.utm_zone().map_err(|e| Error::UnknownCrs {
+                path: input.to_path_buf(),
+                reason: crs_reason(info, &e),
+            }),
+        }
+    }
+}
+
+/// Why the file's own CRS is unusable, in a few words.
+fn crs_reason(info: &LasInfo, e: &lidarqa_io::Error) -> String {
+    match info.crs.epsg {
+        None if info.crs.vlrs.is_empty() => "the file has no CRS".into(),
+        None => "the file's CRS has no EPSG code".into(),
+        Some(_) => {
+            // The io error names the file already; keep only its message.
+            let m = e.to_string();
+            let prefix = format!("{}: ", info.path.display());
+            m.strip_prefix(&prefix).unwrap_or(&m).to_string()
+        }
     }
 }

@@ -1,11 +1,11 @@
 //! One tile: read → recover → propagate → write, streaming in chunks.
 
-use crate::context::TpuContext;
+use crate::context::{OpenTile, TpuContext};
 use crate::error::{Error, Result};
 use crate::summary::{SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary};
 use lidarqa_io::{
-    Ellipsoid, Geodetic, LasInfo, LasPoint, LasReader, LasTimeConverter, LasWriteOptions,
-    LasWriter, PointChunk, TransverseMercator,
+    Ellipsoid, Geodetic, LasPoint, LasReader, LasTimeConverter, LasWriteOptions, LasWriter,
+    PointChunk, TransverseMercator,
 };
 use lidarqa_model::{
     ConicScanner, Georeferencer, LinearObservation, LinearScanner, Mounting, Scanner, Source,
@@ -97,36 +97,12 @@ pub fn tpu_tile_with_progress(
     let ctx = job.context;
     let input = job.input;
     // las's reader is not `Send`: read the header here, the points in the reader thread.
-    let info = LasReader::from_path(input)?.info().clone();
-    if info.scale.iter().any(|v| !(v.is_finite() && *v > 0.0))
-        || info.offset.iter().any(|v| !v.is_finite())
-    {
-        return Err(Error::BadTransform {
-            path: input.to_path_buf(),
-            scale: info.scale,
-            offset: info.offset,
-        });
-    }
-    if !info.has_gps_time {
-        return Err(Error::NoGpsTime {
-            path: input.to_path_buf(),
-            format: info.point_format,
-        });
-    }
-    let zone = match ctx.options.crs {
-        Some(z) => z,
-        None => info.utm_zone().map_err(|e| Error::UnknownCrs {
-            path: input.to_path_buf(),
-            reason: crs_reason(&info, &e),
-        })?,
-    };
-    let trajectory = ctx.trajectory(zone.datum())?;
-    let converter = LasTimeConverter::new(
-        input,
-        info.time_base,
-        ctx.options.gps_week,
-        info.creation_date,
-    )?;
+    let OpenTile {
+        info,
+        zone,
+        trajectory,
+        converter,
+    } = ctx.open_tile(input)?;
     let kernel = Kernel::new(ctx)?;
     let n_sigma = kernel.n_sigma();
     let n_dims = kernel.n_dims();
@@ -213,19 +189,6 @@ pub fn tpu_tile_with_progress(
         output: job.output.to_path_buf(),
         summary,
     })
-}
-
-fn crs_reason(info: &LasInfo, e: &lidarqa_io::Error) -> String {
-    match info.crs.epsg {
-        None if info.crs.vlrs.is_empty() => "the file has no CRS".into(),
-        None => "the file's CRS has no EPSG code".into(),
-        Some(_) => {
-            // The io error names the file already; keep only its message.
-            let m = e.to_string();
-            let prefix = format!("{}: ", info.path.display());
-            m.strip_prefix(&prefix).unwrap_or(&m).to_string()
-        }
-    }
 }
 
 /// The georeferencing model with its propagator.

@@ -186,26 +186,7 @@ impl Trajectory {
     /// # Errors
     /// [`Error::OutsideTrajectory`] when `time_s` is not finite or outside the span.
     pub fn at(&self, time_s: f64) -> Result<PoseAt> {
-        let (start_s, end_s) = self.span_s();
-        if !(time_s >= start_s && time_s <= end_s) {
-            return Err(Error::OutsideTrajectory {
-                time_s,
-                start_s,
-                end_s,
-            });
-        }
-        let n = self.times_s.len();
-        let i = self
-            .times_s
-            .partition_point(|&x| x <= time_s)
-            .saturating_sub(1)
-            .min(n - 2);
-        let (t0, t1) = (self.times_s[i], self.times_s[i + 1]);
-        let w = if t1 > t0 {
-            (time_s - t0) / (t1 - t0)
-        } else {
-            0.0
-        };
+        let (i, w) = self.segment(time_s)?;
         let position_ecef_m = self.positions_ecef_m[i].lerp(&self.positions_ecef_m[i + 1], w);
         let [la0, lo0] = self.lat_lon_rad[i];
         let [la1, lo1] = self.lat_lon_rad[i + 1];
@@ -228,6 +209,60 @@ impl Trajectory {
                 heading_rad: a.z,
             },
         })
+    }
+
+    /// P0 (ECEF metres) and the body → ECEF rotation at `time_s`: the same interpolation as
+    /// [`Trajectory::at`] without the NED frame and the Euler angles, for a caller that works
+    /// in ECEF (strip correction). `hint` is the pose index found by the previous call (any
+    /// value at first): points come in time order, so the search is usually skipped.
+    ///
+    /// # Errors
+    /// As [`Trajectory::at`].
+    pub fn body_to_ecef_at(
+        &self,
+        time_s: f64,
+        hint: &mut usize,
+    ) -> Result<(Vector3<f64>, Matrix3<f64>)> {
+        let i = *hint;
+        let (i, w) = if i + 1 < self.times_s.len()
+            && self.times_s[i] <= time_s
+            && time_s < self.times_s[i + 1]
+        {
+            // The segment the search would find: every earlier time is ≤ time_s, the next > it.
+            let (t0, t1) = (self.times_s[i], self.times_s[i + 1]);
+            (i, (time_s - t0) / (t1 - t0))
+        } else {
+            self.segment(time_s)?
+        };
+        *hint = i;
+        let position_ecef_m = self.positions_ecef_m[i].lerp(&self.positions_ecef_m[i + 1], w);
+        let q = slerp(&self.body_to_ecef[i], &self.body_to_ecef[i + 1], w);
+        Ok((position_ecef_m, q.to_rotation_matrix().into_inner()))
+    }
+
+    /// The segment `[i, i + 1]` holding `time_s` and the weight of pose `i + 1`.
+    fn segment(&self, time_s: f64) -> Result<(usize, f64)> {
+        let (start_s, end_s) = self.span_s();
+        if !(time_s >= start_s && time_s <= end_s) {
+            return Err(Error::OutsideTrajectory {
+                time_s,
+                start_s,
+                end_s,
+            });
+        }
+        let n = self.times_s.len();
+        let i = self
+            .times_s
+            .partition_point(|&x| x <= time_s)
+            .saturating_sub(1)
+            .min(n - 2);
+        let (t0, t1) = (self.times_s[i], self.times_s[i + 1]);
+        let w = if t1 > t0 {
+            (time_s - t0) / (t1 - t0)
+        } else {
+            0.0
+        };
+        Ok((i, w))
     }
 }
 
@@ -353,6 +388,28 @@ mod tests {
         assert_relative_eq!(mid.attitude.heading_rad.abs(), PI, epsilon = 1e-3);
         assert_relative_eq!(mid.attitude.roll_rad, 1f64.to_radians(), epsilon = 1e-4);
         assert_relative_eq!(mid.position_ecef_m.x, 4_000_030.0, epsilon = 1e-9);
+    }
+
+    #[test]
+    fn body_to_ecef_is_the_pose_without_its_ned_frame() {
+        let t = Trajectory::new(&[pose(0.0, 30.0), pose(0.005, 31.0), pose(0.01, 29.5)]).unwrap();
+        // In order, backwards, repeated, at the nodes: the hint never changes the result.
+        let mut hint = 7;
+        for time in [
+            0.0, 0.0012, 0.005, 0.0099, 0.01, 0.0051, 0.0, 0.0049, 0.0049,
+        ] {
+            let p = t.at(time).unwrap();
+            let (position, r) = t.body_to_ecef_at(time, &mut hint).unwrap();
+            assert_eq!(position, p.position_ecef_m);
+            assert_relative_eq!(
+                r,
+                p.ecef_to_ned.transpose() * p.body_to_ned,
+                epsilon = 1e-15
+            );
+            assert_eq!(hint, if time < 0.005 { 0 } else { 1 });
+        }
+        assert!(t.body_to_ecef_at(0.0101, &mut hint).is_err());
+        assert!(t.body_to_ecef_at(f64::NAN, &mut hint).is_err());
     }
 
     #[test]

@@ -15,8 +15,8 @@ use lidarqa_calib::{
     calibrate_vtpm,
 };
 use lidarqa_io::{
-    AtomicFile, ControlPoints, Geodetic, LasInfo, LasPoint, LasReader, LasTimeConverter,
-    PointChunk, TiePicks, UtmZone,
+    AtomicFile, ControlPoints, Geodetic, LasInfo, LasReader, LasTimeConverter, PointChunk,
+    TiePicks, UtmZone,
 };
 use lidarqa_model::{Mounting, Source};
 use lidarqa_pipeline::{TpuContext, TpuOptions};
@@ -127,12 +127,8 @@ pub struct CalibrateArgs {
 
 /// A loaded strip: the calib strip, the file's points (for writing) and what converts back.
 pub(crate) struct LoadedStrip {
-    pub(crate) path: PathBuf,
     pub(crate) stem: String,
-    pub(crate) info: LasInfo,
-    pub(crate) zone: UtmZone,
     pub(crate) strip: Strip,
-    pub(crate) las_points: Vec<LasPoint>,
 }
 
 /// Survey centre of the files (from their headers) as a local frame, on `zone`'s ellipsoid.
@@ -187,7 +183,9 @@ pub(crate) fn load_strip(
     // most 4 Mi points up front and let the vectors grow with what is really read.
     let reserve = usize::try_from(info.point_count.min(1 << 22)).unwrap_or(0);
     let mut points = Vec::with_capacity(reserve);
-    let mut las_points = Vec::with_capacity(reserve);
+    // The strip's point source id while every point has the same one.
+    let mut psid: Option<u16> = None;
+    let mut same_psid = true;
     let mut index = 0u64;
     while reader.fill(&mut chunk, 200_000)? > 0 {
         for p in &chunk.points {
@@ -207,7 +205,7 @@ pub(crate) fn load_strip(
             let raw = RawPoint::recover(frame, &pose, &recoverer, &ecef, p.intensity)
                 .with_context(|| format!("{}: point {index}", path.display()))?;
             points.push(raw);
-            las_points.push(p.clone());
+            same_psid &= *psid.get_or_insert(p.point_source_id) == p.point_source_id;
             index += 1;
         }
     }
@@ -216,19 +214,13 @@ pub(crate) fn load_strip(
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
     // The strip id: the LAS point source id when every point has the same non-zero one.
-    let psid = las_points.first().map(|p| p.point_source_id).unwrap_or(0);
-    let id = if psid != 0 && las_points.iter().all(|p| p.point_source_id == psid) {
-        psid.to_string()
-    } else {
-        stem.clone()
+    let id = match psid {
+        Some(id) if id != 0 && same_psid => id.to_string(),
+        _ => stem.clone(),
     };
     Ok(LoadedStrip {
-        path: path.to_path_buf(),
         stem,
-        info,
-        zone,
         strip: Strip { id, points },
-        las_points,
     })
 }
 
@@ -449,10 +441,7 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         let any = t.position_m.iter().chain(&t.attitude_rad).any(|v| *v > 0.0);
         plan.options.trajectory_sigma = any.then_some(t);
     }
-    let (frame, zone, mut loaded) = load_all(&a.strips, &ctx, a.gps_week)?;
-    for l in &mut loaded {
-        l.las_points = Vec::new();
-    }
+    let (frame, zone, loaded) = load_all(&a.strips, &ctx, a.gps_week)?;
     let picked = match &a.ties {
         Some(p) => Some(ties_from_csv(
             &TiePicks::from_path(p)?,
@@ -626,11 +615,11 @@ mod tests {
         };
         let mut w = LasWriter::create(&path, &opts, &[] as &[&Path]).unwrap();
         w.write_point(
-            &LasPoint {
+            &lidarqa_io::LasPoint {
                 x: 1.0,
                 y: 2.0,
                 z: 3.0,
-                ..LasPoint::default()
+                ..lidarqa_io::LasPoint::default()
             },
             &[],
         )

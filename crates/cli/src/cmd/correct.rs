@@ -1,13 +1,15 @@
 //! `lidarqa correct`: re-georeference strips from their raw observations with a calibration
 //! (SPEC §7), one output LAS/LAZ per input in DIR, written atomically.
+//!
+//! Each strip is one `lidarqa_pipeline::correct_tile` (streaming, bounded memory): the command,
+//! the Python binding and a job array give the same bytes because they run the same function.
 
-use super::calibrate::{frame_for, load_strip, local_to_projected, read_info};
+use super::tpu::crs_flags;
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lidarqa_calib::{correct_strip, mounting_from_json};
-use lidarqa_io::{LasWriteOptions, LasWriter};
-use lidarqa_pipeline::{TpuContext, TpuOptions};
-use std::path::PathBuf;
+use lidarqa_calib::mounting_from_json;
+use lidarqa_pipeline::{CorrectTileJob, TpuContext, TpuOptions, correct_tile};
+use std::path::{Path, PathBuf};
 
 pub const AFTER_HELP: &str = "\
 Example:
@@ -16,7 +18,8 @@ Example:
 
 Each point's range and scan angle are recovered with the sensor file's [mounting] (the one the
 strips were made with), then the point is georeferenced again with the calibrated mounting.
-All other attributes are kept; DIR/<input file name> is written, never over an input.";
+All other attributes are kept; DIR/<input file name> is written, never over an input. A strip
+without a CRS in its header needs --utm-zone or --epsg (which also override the header's).";
 
 /// Flags of `lidarqa correct`.
 #[derive(Debug, Args)]
@@ -39,6 +42,12 @@ pub struct CorrectArgs {
     /// GPS week of the survey (LAS adjusted standard GPS time).
     #[arg(long, value_name = "WEEK")]
     gps_week: Option<i64>,
+    /// UTM zone of the points when the files have no CRS, e.g. 33N or 17S (WGS 84).
+    #[arg(long, value_name = "ZONE", conflicts_with = "epsg")]
+    utm_zone: Option<String>,
+    /// EPSG code of the points' UTM CRS when the files have none (326xx, 327xx, 269xx).
+    #[arg(long, value_name = "CODE")]
+    epsg: Option<u32>,
 }
 
 pub fn run(a: CorrectArgs) -> Result<()> {
@@ -58,43 +67,30 @@ pub fn run(a: CorrectArgs) -> Result<()> {
         None,
         TpuOptions {
             gps_week: a.gps_week,
+            crs: crs_flags(a.utm_zone.as_deref(), a.epsg)?,
             ..TpuOptions::default()
         },
     )?;
-    let mut inputs = a.strips.clone();
-    inputs.extend([
-        a.trajectory.clone(),
-        a.sensor.clone(),
-        a.calibration.clone(),
-    ]);
+    // No output may overwrite any strip (not only its own input) or the calibration.
+    let mut others: Vec<&Path> = a.strips.iter().map(PathBuf::as_path).collect();
+    others.push(&a.calibration);
     for path in &a.strips {
-        // Each strip in its own local frame at its centre: correction needs no common frame.
-        let (info, zone) = read_info(path)?;
-        let frame = frame_for(std::slice::from_ref(&info), &zone);
-        let loaded = load_strip(path, &ctx, &frame, a.gps_week)?;
-        let corrected = correct_strip(&loaded.strip, &mounting);
         let name = path
             .file_name()
             .with_context(|| format!("{}: no file name", path.display()))?;
         let out = a.output.join(name);
-        let mut w = LasWriter::create(
-            &out,
-            &LasWriteOptions::for_input(&loaded.info, &[]),
-            &inputs,
-        )?;
-        for (p, v) in loaded.las_points.iter().zip(&corrected) {
-            let [x, y, z] = local_to_projected(&frame, &loaded.zone, v);
-            let mut q = p.clone();
-            q.x = x;
-            q.y = y;
-            q.z = z;
-            w.write_point(&q, &[])?;
-        }
-        let n = w.finish()?;
+        let r = correct_tile(&CorrectTileJob {
+            input: path,
+            output: &out,
+            context: &ctx,
+            mounting: &mounting,
+            other_inputs: &others,
+        })?;
         eprintln!(
-            "lidarqa: {} -> {} ({n} points)",
-            loaded.path.display(),
-            out.display()
+            "lidarqa: {} -> {} ({} points)",
+            path.display(),
+            out.display(),
+            r.points
         );
     }
     Ok(())

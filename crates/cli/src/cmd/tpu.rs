@@ -95,13 +95,7 @@ pub struct TpuFlags {
 impl TpuFlags {
     /// The checked library options.
     pub(crate) fn options(&self) -> Result<TpuOptions> {
-        let crs = match (&self.utm_zone, self.epsg) {
-            (Some(z), _) => Some(parse_utm_zone(z)?),
-            (None, Some(code)) => {
-                Some(UtmZone::from_epsg(code).with_context(|| format!("--epsg {code}"))?)
-            }
-            (None, None) => None,
-        };
+        let crs = crs_flags(self.utm_zone.as_deref(), self.epsg)?;
         if self.chunk_points == 0 {
             bail!("--chunk-points must be > 0");
         }
@@ -143,6 +137,17 @@ struct Plan {
     sensor: PathBuf,
     summary: Option<PathBuf>,
     format: OutputFormat,
+}
+
+/// The CRS given by `--utm-zone` or `--epsg` (clap refuses both), if any.
+pub(crate) fn crs_flags(utm_zone: Option<&str>, epsg: Option<u32>) -> Result<Option<UtmZone>> {
+    Ok(match (utm_zone, epsg) {
+        (Some(z), _) => Some(parse_utm_zone(z)?),
+        (None, Some(code)) => {
+            Some(UtmZone::from_epsg(code).with_context(|| format!("--epsg {code}"))?)
+        }
+        (None, None) => None,
+    })
 }
 
 /// `33N`, `17s`, `33` (north) → a WGS 84 UTM zone.
