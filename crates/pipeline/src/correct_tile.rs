@@ -67,7 +67,8 @@ const CHUNK: usize = 200_000;
 
 /// Corrects one tile, streaming in chunks: each point's range and scan angle are recovered with
 /// the sensor's mounting, georeferenced again with `job.mounting` (seed 000 eq. 2), and the
-/// point is moved by that displacement (module docs); every other attribute is kept. The
+/// point is moved by that displacement (module docs); every other point record field is kept
+/// (extra-bytes dimensions and waveform packets are not carried over yet). The
 /// output is atomic. Each point's result depends on that point and the trajectory only, so a
 /// tile corrected here equals the same points of `lidarqa correct` of the whole strip.
 ///

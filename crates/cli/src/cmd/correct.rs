@@ -18,7 +18,8 @@ Example:
 
 Each point's range and scan angle are recovered with the sensor file's [mounting] (the one the
 strips were made with), then the point is georeferenced again with the calibrated mounting.
-All other attributes are kept; DIR/<input file name> is written, never over an input. A strip
+Every other point record field is kept (extra-bytes dimensions and waveform packets are not
+carried over yet); DIR/<input file name> is written, never over an input. A strip
 without a CRS in its header needs --utm-zone or --epsg (which also override the header's).";
 
 /// Flags of `lidarqa correct`.
