@@ -116,6 +116,33 @@ fn seed000_table2_formula_7_is_17_56_cm() {
     assert_eq!(v["n"], 4);
 }
 
+/// The same field with no target: only isolated bright returns (glints), 2.5 m apart.
+fn write_dark_field(path: &Path) {
+    let mut w = LasWriter::create(path, &las_options(), &[] as &[&Path]).unwrap();
+    for i in 0..80 {
+        for j in 0..80 {
+            let p = LasPoint {
+                x: 500_000.0 + f64::from(i) * 0.25 + 0.03,
+                y: 4_000_010.0 + f64::from(j) * 0.25 + 0.07,
+                z: 100.0,
+                gps_time_s: Some(1.0e8 + f64::from(i * 80 + j) * 1e-4),
+                intensity: if i % 10 == 0 && j % 10 == 0 {
+                    2000
+                } else {
+                    300
+                },
+                return_number: 1,
+                number_of_returns: 1,
+                classification: 2,
+                point_source_id: 2,
+                ..LasPoint::default()
+            };
+            w.write_point(&p, &[]).unwrap();
+        }
+    }
+    w.finish().unwrap();
+}
+
 #[test]
 fn finds_the_target_and_refuses_bad_control() {
     let dir = tempfile::tempdir().unwrap();
@@ -156,6 +183,50 @@ fn finds_the_target_and_refuses_bad_control() {
         "{x} {y}"
     );
     assert!((z - 100.5).abs() < 1e-3, "{z}");
+
+    // Beside a strip that resolves no target (no bright point: a strip too sparse or flown too
+    // high), the target still comes from the strip that does; the other is named on stderr.
+    let dark = dir.path().join("dark.las");
+    write_dark_field(&dark);
+    let out_two = dir.path().join("two.csv");
+    let out = lidarqa(&[
+        "targets",
+        las.to_str().unwrap(),
+        dark.to_str().unwrap(),
+        "--control",
+        control.to_str().unwrap(),
+        "--radius-m",
+        "0.8",
+        "-o",
+        out_two.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("skipped")
+            && stderr.contains("dark.las")
+            && stderr.contains("no high-intensity"),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read_to_string(&out_two).unwrap(), text);
+    // Alone, it is an error naming the file, and nothing is written.
+    let out_dark = dir.path().join("dark.csv");
+    fails_with(
+        &[
+            "targets",
+            dark.to_str().unwrap(),
+            "--control",
+            control.to_str().unwrap(),
+            "-o",
+            out_dark.to_str().unwrap(),
+        ],
+        "no high-intensity",
+    );
+    assert!(!out_dark.exists());
 
     // Control in another CRS (far away): a clear error, no output.
     let far = dir.path().join("far.csv");

@@ -158,6 +158,7 @@ pub fn find_targets(
     let mut config = TargetConfig::default();
     config.centre.method = method;
     let mut reports = Vec::new();
+    let mut unresolved = Vec::new();
     for path in inputs {
         let points = points_near(std::slice::from_ref(path), control, window_m)?;
         if points.is_empty() {
@@ -167,8 +168,19 @@ pub fn find_targets(
             Ok(r) => reports.push(r),
             // A strip that sees none of the targets well enough is not an error of the survey.
             Err(lidarqa_targets::Error::NoPoints) => {}
+            // Nor is one too sparse to resolve them (a high strip of a two-height flight), as
+            // long as another strip does: said on stderr, the error if none does.
+            Err(e @ lidarqa_targets::Error::NoHighIntensityPoints { .. }) if inputs.len() > 1 => {
+                unresolved.push(anyhow::Error::new(e).context(format!("{}", path.display())));
+            }
             Err(e) => return Err(anyhow::Error::new(e).context(format!("{}", path.display()))),
         }
+    }
+    if reports.is_empty() && !unresolved.is_empty() {
+        return Err(unresolved.swap_remove(0));
+    }
+    for e in &unresolved {
+        eprintln!("lidarqa: targets: skipped {e:#}");
     }
     if reports.is_empty() {
         bail!(
