@@ -38,13 +38,23 @@ fn las_options() -> LasWriteOptions {
 /// A flat field at 100 m with one bright disk target (radius 0.8 m, 0.5 m up) centred at
 /// (500 010.3, 4 000 020.7), sampled on a 0.25 m grid (16 pts/m²).
 fn write_field(path: &Path) {
+    write_grid(path, true);
+}
+
+/// The same field with no target: only isolated bright returns (glints), 2.5 m apart.
+fn write_dark_field(path: &Path) {
+    write_grid(path, false);
+}
+
+fn write_grid(path: &Path, with_target: bool) {
     let mut w = LasWriter::create(path, &las_options(), &[] as &[&Path]).unwrap();
     let (cx, cy) = (500_010.3, 4_000_020.7);
     for i in 0..80 {
         for j in 0..80 {
             let x = 500_000.0 + f64::from(i) * 0.25 + 0.03;
             let y = 4_000_010.0 + f64::from(j) * 0.25 + 0.07;
-            let on = ((x - cx).powi(2) + (y - cy).powi(2)).sqrt() < 0.8;
+            let on = with_target && ((x - cx).powi(2) + (y - cy).powi(2)).sqrt() < 0.8;
+            let glint = !with_target && i % 10 == 0 && j % 10 == 0;
             let p = LasPoint {
                 x,
                 y,
@@ -52,6 +62,8 @@ fn write_field(path: &Path) {
                 gps_time_s: Some(1.0e8 + f64::from(i * 80 + j) * 1e-4),
                 intensity: if on {
                     2000 + (j % 7) as u16 * 10
+                } else if glint {
+                    2000
                 } else {
                     300 + (i % 5) as u16 * 20
                 },
@@ -114,33 +126,6 @@ fn seed000_table2_formula_7_is_17_56_cm() {
     assert!((get("north") - 11.23).abs() < 0.005);
     assert!((get("east") - 13.50).abs() < 0.005);
     assert_eq!(v["n"], 4);
-}
-
-/// The same field with no target: only isolated bright returns (glints), 2.5 m apart.
-fn write_dark_field(path: &Path) {
-    let mut w = LasWriter::create(path, &las_options(), &[] as &[&Path]).unwrap();
-    for i in 0..80 {
-        for j in 0..80 {
-            let p = LasPoint {
-                x: 500_000.0 + f64::from(i) * 0.25 + 0.03,
-                y: 4_000_010.0 + f64::from(j) * 0.25 + 0.07,
-                z: 100.0,
-                gps_time_s: Some(1.0e8 + f64::from(i * 80 + j) * 1e-4),
-                intensity: if i % 10 == 0 && j % 10 == 0 {
-                    2000
-                } else {
-                    300
-                },
-                return_number: 1,
-                number_of_returns: 1,
-                classification: 2,
-                point_source_id: 2,
-                ..LasPoint::default()
-            };
-            w.write_point(&p, &[]).unwrap();
-        }
-    }
-    w.finish().unwrap();
 }
 
 #[test]

@@ -635,25 +635,27 @@ mod tests {
         assert!(e.contains("no_time.las"), "{e}");
     }
 
+    /// The required arguments, with neither `--ties` nor `--auto-ties`.
+    const BASE: [&str; 8] = [
+        "x",
+        "a.laz",
+        "--trajectory",
+        "t",
+        "--sensor",
+        "s",
+        "-o",
+        "c.json",
+    ];
+
+    fn parse(extra: &[&str]) -> Result<Cli, clap::Error> {
+        Cli::try_parse_from(BASE.iter().chain(extra))
+    }
+
     #[test]
     fn ties_and_auto_ties_are_exclusive_and_one_is_required() {
-        let base = [
-            "x",
-            "a.laz",
-            "--trajectory",
-            "t",
-            "--sensor",
-            "s",
-            "-o",
-            "c.json",
-        ];
-        assert!(Cli::try_parse_from(base).is_err());
-        let mut both = base.to_vec();
-        both.extend(["--ties", "t.csv", "--auto-ties"]);
-        assert!(Cli::try_parse_from(both).is_err());
-        let mut ok = base.to_vec();
-        ok.extend(["--auto-ties", "--radius-m", "1.5", "--method", "plane"]);
-        let c = Cli::try_parse_from(ok).unwrap();
+        assert!(Cli::try_parse_from(BASE).is_err());
+        assert!(parse(&["--ties", "t.csv", "--auto-ties"]).is_err());
+        let c = parse(&["--auto-ties", "--radius-m", "1.5", "--method", "plane"]).unwrap();
         let plan = Plan::try_from(c.args).unwrap();
         assert_eq!(plan.options.vtpm.radius_m, 1.5);
         assert_eq!(
@@ -664,41 +666,17 @@ mod tests {
 
     #[test]
     fn bad_radius_is_refused() {
-        let c = Cli::try_parse_from([
-            "x",
-            "a.laz",
-            "--trajectory",
-            "t",
-            "--sensor",
-            "s",
-            "-o",
-            "c.json",
-            "--auto-ties",
-            "--radius-m",
-            "-1",
-        ])
-        .unwrap();
+        let c = parse(&["--auto-ties", "--radius-m", "-1"]).unwrap();
         let e = Plan::try_from(c.args).err().unwrap().to_string();
         assert_eq!(e, "--radius-m must be a number > 0, got -1");
     }
 
     #[test]
     fn correlation_times_are_checked_and_exclude_the_plain_adjustment() {
-        let base = [
-            "x",
-            "a.laz",
-            "--trajectory",
-            "t",
-            "--sensor",
-            "s",
-            "-o",
-            "c.json",
-            "--auto-ties",
-        ];
         let with = |extra: &[&'static str]| {
-            let mut v = base.to_vec();
+            let mut v = vec!["--auto-ties"];
             v.extend(extra);
-            Cli::try_parse_from(v)
+            parse(&v)
         };
         let c = with(&[
             "--attitude-correlation-s",
