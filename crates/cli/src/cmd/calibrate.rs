@@ -6,6 +6,7 @@
 //! recovered once with the sensor file's mounting (lidarqa-tpu). The sensor and SBET are read by
 //! lidarqa-pipeline's `TpuContext`, as `lidarqa tpu` does.
 
+use super::tpu::crs_flags;
 use crate::format::{OutputFormat, print_json, print_text};
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -120,6 +121,13 @@ pub struct CalibrateArgs {
         conflicts_with = "no_trajectory_weighting"
     )]
     attitude_correlation_s: Option<f64>,
+    /// UTM zone of the points when the files have no CRS, e.g. 33N or 17S (WGS 84); overrides
+    /// the header's.
+    #[arg(long, value_name = "ZONE", conflicts_with = "epsg")]
+    utm_zone: Option<String>,
+    /// EPSG code of the points' UTM CRS when the files have none (326xx, 327xx, 269xx).
+    #[arg(long, value_name = "CODE")]
+    epsg: Option<u32>,
     /// Output format of the summary on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
     format: OutputFormat,
@@ -151,7 +159,9 @@ pub(crate) fn frame_for(infos: &[LasInfo], zone: &UtmZone) -> LocalFrame {
     LocalFrame::new(ecef, lat, lon)
 }
 
-pub(crate) fn read_info(path: &Path) -> Result<(LasInfo, UtmZone)> {
+/// The strip's header and CRS: `crs` (from `--utm-zone` / `--epsg`) when given, else the
+/// header's.
+pub(crate) fn read_info(path: &Path, crs: Option<UtmZone>) -> Result<(LasInfo, UtmZone)> {
     let info = LasReader::from_path(path)?.info().clone();
     if !info.has_gps_time {
         bail!(
@@ -160,7 +170,12 @@ pub(crate) fn read_info(path: &Path) -> Result<(LasInfo, UtmZone)> {
             info.point_format
         );
     }
-    let zone = info.utm_zone()?;
+    let zone = match crs {
+        Some(z) => z,
+        None => info
+            .utm_zone()
+            .context("pass --utm-zone or --epsg for points without a UTM CRS")?,
+    };
     Ok((info, zone))
 }
 
@@ -170,8 +185,9 @@ pub(crate) fn load_strip(
     ctx: &TpuContext,
     frame: &LocalFrame,
     gps_week: Option<i64>,
+    crs: Option<UtmZone>,
 ) -> Result<LoadedStrip> {
-    let (info, zone) = read_info(path)?;
+    let (info, zone) = read_info(path, crs)?;
     let trajectory = ctx.trajectory(zone.datum())?;
     let converter = LasTimeConverter::new(path, info.time_base, gps_week, info.creation_date)?;
     let projection = zone.projection();
@@ -316,11 +332,12 @@ pub(crate) fn load_all(
     paths: &[PathBuf],
     ctx: &TpuContext,
     gps_week: Option<i64>,
+    crs: Option<UtmZone>,
 ) -> Result<(LocalFrame, UtmZone, Vec<LoadedStrip>)> {
     let mut infos = Vec::new();
     let mut zone: Option<UtmZone> = None;
     for p in paths {
-        let (info, z) = read_info(p)?;
+        let (info, z) = read_info(p, crs)?;
         if let Some(z0) = zone
             && z0 != z
         {
@@ -337,7 +354,7 @@ pub(crate) fn load_all(
     let frame = frame_for(&infos, &zone);
     let loaded = paths
         .iter()
-        .map(|p| load_strip(p, ctx, &frame, gps_week))
+        .map(|p| load_strip(p, ctx, &frame, gps_week, crs))
         .collect::<Result<Vec<_>>>()?;
     Ok((frame, zone, loaded))
 }
@@ -441,7 +458,8 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         let any = t.position_m.iter().chain(&t.attitude_rad).any(|v| *v > 0.0);
         plan.options.trajectory_sigma = any.then_some(t);
     }
-    let (frame, zone, loaded) = load_all(&a.strips, &ctx, a.gps_week)?;
+    let crs = crs_flags(a.utm_zone.as_deref(), a.epsg)?;
+    let (frame, zone, loaded) = load_all(&a.strips, &ctx, a.gps_week, crs)?;
     let picked = match &a.ties {
         Some(p) => Some(ties_from_csv(
             &TiePicks::from_path(p)?,
@@ -599,13 +617,11 @@ mod tests {
         args: CalibrateArgs,
     }
 
-    #[test]
-    fn las_without_gps_time_is_refused_naming_the_file() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("no_time.las");
+    /// A one-point LAS without a CRS, in point format 0 (no GPS time) or 1.
+    fn one_point_las(path: &Path, point_format: u8) {
         let opts = LasWriteOptions {
             version_minor: 2,
-            point_format: 0,
+            point_format,
             scale: [0.001; 3],
             offset: [0.0; 3],
             time_base: LasTimeBase::GpsWeekSeconds,
@@ -613,19 +629,43 @@ mod tests {
             extra_dims: Vec::new(),
             file_source_id: 0,
         };
-        let mut w = LasWriter::create(&path, &opts, &[] as &[&Path]).unwrap();
+        let mut w = LasWriter::create(path, &opts, &[] as &[&Path]).unwrap();
         w.write_point(
             &lidarqa_io::LasPoint {
                 x: 1.0,
                 y: 2.0,
                 z: 3.0,
+                gps_time_s: (point_format == 1).then_some(1000.0),
                 ..lidarqa_io::LasPoint::default()
             },
             &[],
         )
         .unwrap();
         w.finish().unwrap();
-        let e = read_info(&path).unwrap_err().to_string();
+    }
+
+    #[test]
+    fn a_strip_without_a_crs_needs_the_flag_which_overrides() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("no_crs.las");
+        one_point_las(&path, 1);
+        let e = format!("{:#}", read_info(&path, None).unwrap_err());
+        assert!(
+            e.contains("no_crs.las") && e.contains("pass --utm-zone or --epsg"),
+            "{e}"
+        );
+        let zone = crs_flags(Some("33N"), None).unwrap();
+        let (_, z) = read_info(&path, zone).unwrap();
+        assert_eq!(Some(z), zone);
+        assert_eq!(z.epsg(), Some(32633));
+    }
+
+    #[test]
+    fn las_without_gps_time_is_refused_naming_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("no_time.las");
+        one_point_las(&path, 0);
+        let e = read_info(&path, None).unwrap_err().to_string();
         assert!(
             e.ends_with(
                 "no GPS time (point format 0); recovering raw observations needs each point's time"
