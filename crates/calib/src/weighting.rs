@@ -34,8 +34,9 @@
 //! tilt, a bow… each a column of `A`, applied to every carrier point at its own time. For
 //! `τ ≫ T` the first mode is the constant offset and the rest vanish, so this is the
 //! constant-offset model's limit; for `τ` of the order of `T` it keeps the drift within a strip
-//! from being taken for a boresight angle. Without it, on the simulator's calibration flight
-//! (attitude τ = 30 s, 13 s strips), errors reached 3 of their reported σ.
+//! from being taken for a boresight angle (on the simulator's 8-strip calibration flight, attitude
+//! τ = 30 s against 13 s strips, it moved yaw by 0.0009° towards the truth in seed 12 and changed
+//! little in seed 16).
 
 use crate::strip::{Strip, TimeProfile, TrajectoryOffset};
 use crate::vtpm::TieModel;
