@@ -35,8 +35,8 @@
 //! `τ ≫ T` the first mode is the constant offset and the rest vanish, so this is the
 //! constant-offset model's limit; for `τ` of the order of `T` it keeps the drift within a strip
 //! from being taken for a boresight angle (on the simulator's 8-strip calibration flight, attitude
-//! τ = 30 s against 13 s strips, it moved yaw by 0.0009° towards the truth in seed 12 and changed
-//! little in seed 16).
+//! τ = 30 s against 13 s strips, it moved yaw 0.0009° and 0.0008° towards the truth in seeds 12
+//! and 16, and left pitch as it was).
 
 use crate::strip::{Strip, TimeProfile, TrajectoryOffset};
 use crate::vtpm::TieModel;
