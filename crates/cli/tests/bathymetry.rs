@@ -3,19 +3,14 @@
 //! (simulated point − truth), per axis, in both refraction modes; the IHO S-44 block of the
 //! summary; bad input.
 
+mod binary;
+use binary::lidarqa;
+
 use lidarqa_io::{Geodetic, LasReader, PointChunk, UtmZone};
 use lidarqa_sim::{CLASS_BATHYMETRY, Scenario, ScenarioFile, SimOptions, simulate};
 use lidarqa_tpu::ecef_from_ned;
 use nalgebra::Vector3;
 use std::path::Path;
-use std::process::Command;
-
-fn lidarqa(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_lidarqa"))
-        .args(args)
-        .output()
-        .expect("run lidarqa")
-}
 
 fn ok(args: &[&str]) -> String {
     let out = lidarqa(args);

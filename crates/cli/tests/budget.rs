@@ -1,15 +1,10 @@
 //! `lidarqa budget` run as a real binary: the JSON contract with values, and one-line errors with
 //! exit code 1 for bad input.
 
-use serde_json::Value;
-use std::process::{Command, Output};
+mod binary;
+use binary::lidarqa;
 
-fn lidarqa(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lidarqa"))
-        .args(args)
-        .output()
-        .expect("the lidarqa binary runs")
-}
+use serde_json::Value;
 
 fn json(args: &[&str]) -> Value {
     let out = lidarqa(&[args, &["--format", "json"]].concat());

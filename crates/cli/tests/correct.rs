@@ -2,6 +2,9 @@
 //! command runs that function for each strip), and a strip without a CRS is corrected with
 //! `--utm-zone` / `--epsg`, refused with a one-line error naming the file without them.
 
+mod binary;
+use binary::{lidarqa, s};
+
 #[path = "../../pipeline/tests/common/mod.rs"]
 mod common;
 
@@ -9,18 +12,7 @@ use lidarqa_model::Mounting;
 use lidarqa_pipeline::{CorrectTileJob, TpuContext, TpuOptions, correct_tile};
 use nalgebra::Vector3;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn lidarqa(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lidarqa"))
-        .args(args)
-        .output()
-        .expect("the lidarqa binary runs")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+use std::process::Output;
 
 const CALIBRATION: &str = r#"{"parameters": {"lever_x_m": 0.3, "lever_y_m": -0.2, "lever_z_m": 0.25,
     "boresight_roll_deg": 0.12, "boresight_pitch_deg": -0.11, "boresight_yaw_deg": 0.15}}"#;

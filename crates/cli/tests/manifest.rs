@@ -3,16 +3,11 @@
 //! entries skipped; changed inputs refused until planned again, then redone; partial or corrupt
 //! outputs and reports redone; one-line errors (SPEC §9).
 
+mod binary;
+use binary::{lidarqa, s};
+
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn lidarqa(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lidarqa"))
-        .args(args)
-        .output()
-        .expect("the lidarqa binary runs")
-}
 
 fn ok(args: &[&str]) -> String {
     let out = lidarqa(args);
@@ -31,10 +26,6 @@ fn fails_with(args: &[&str], needles: &[&str]) {
     for n in needles {
         assert!(err.contains(n), "{args:?}: `{err}` lacks `{n}`");
     }
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 /// A simulated survey (the demo scenario at 1 kHz: ~36 000 points in four strips) cut into

@@ -1,17 +1,12 @@
 //! `lidarqa targets` and `lidarqa evaluate` run as the real binary: seed 000 Table 2, a target found
 //! in a small point cloud, and one-line errors for bad input.
 
+mod binary;
+use binary::lidarqa;
+
 use lidarqa_io::{LasPoint, LasTimeBase, LasWriteOptions, LasWriter};
 use serde_json::Value;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn lidarqa(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lidarqa"))
-        .args(args)
-        .output()
-        .expect("the lidarqa binary runs")
-}
 
 fn fails_with(args: &[&str], needle: &str) {
     let out = lidarqa(args);

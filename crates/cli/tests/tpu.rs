@@ -3,23 +3,15 @@
 //! cross-check of the written file (when `LIDARQA_PYTHON` is set, as in tests/laspy.rs of
 //! lidarqa-io).
 
+mod binary;
+use binary::{lidarqa, s};
+
 #[path = "../../pipeline/tests/common/mod.rs"]
 mod common;
 
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn lidarqa(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lidarqa"))
-        .args(args)
-        .output()
-        .expect("the lidarqa binary runs")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+use std::process::Command;
 
 /// `tpu INPUT --trajectory … --sensor … -o OUTPUT` plus `extra`.
 fn tpu_args<'a>(sv: &'a common::Survey, input: &'a Path, output: &'a Path) -> Vec<&'a str> {
