@@ -700,20 +700,19 @@ pub fn calibrate_vtpm(
             // part of the reported σ by σ0/σ_t (it did: by 0.72 after one pass on the simulator's
             // calibration flight).
             let mut tie_sigma_m = geometry.sigma0_m.max(MIN_TIE_SIGMA_M);
-            let mut solved = None;
-            for pass in 0..MAX_NOISE_PASSES {
+            let mut pass = 1;
+            let mut solved = loop {
                 problem.whitening = Some(whitening(tie_sigma_m)?);
-                let last = pass + 1 == MAX_NOISE_PASSES;
                 let fit = solve_with_observability(&problem, x0, observations, &weighted, true)?;
                 let sigma0 = fit.sigma0_m.max(MIN_TIE_SIGMA_M);
-                let agreed = (sigma0 - tie_sigma_m).abs() <= NOISE_AGREEMENT * tie_sigma_m;
-                solved = Some(fit);
-                if agreed || last {
-                    break;
+                if (sigma0 - tie_sigma_m).abs() <= NOISE_AGREEMENT * tie_sigma_m
+                    || pass == MAX_NOISE_PASSES
+                {
+                    break fit;
                 }
                 tie_sigma_m = sigma0;
-            }
-            let mut solved = solved.expect("at least one pass");
+                pass += 1;
+            };
             solved.observable = geometry.observable;
             solved.held_because = geometry.held_because;
             solved

@@ -29,7 +29,7 @@ use lidarqa_io::{
     TransverseMercator, UtmZone,
 };
 use lidarqa_model::{Mounting, rotation_zyx};
-use lidarqa_tpu::Trajectory;
+use lidarqa_tpu::{Recoverer, Trajectory};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -271,9 +271,8 @@ pub(crate) struct Correction {
     /// Semi-major axis a, m, and first eccentricity squared e².
     a_m: f64,
     e2: f64,
-    /// `R_Mᵀ` and ΔP of the mounting the points were made with.
-    old_r_m_t: Matrix3<f64>,
-    old_lever_m: Vector3<f64>,
+    /// The mounting the points were made with, for the recovery.
+    old: Recoverer,
     /// `R_M` and ΔP of the calibrated mounting.
     new_r_m: Matrix3<f64>,
     new_lever_m: Vector3<f64>,
@@ -282,21 +281,17 @@ pub(crate) struct Correction {
 impl Correction {
     /// From the points' zone, the mounting they were made with and the calibrated one.
     pub(crate) fn new(zone: &UtmZone, old: &Mounting, new: &Mounting) -> Correction {
-        let r_m = |m: &Mounting| {
-            rotation_zyx(
-                m.boresight_roll_rad,
-                m.boresight_pitch_rad,
-                m.boresight_yaw_rad,
-            )
-        };
         let ellipsoid = zone.datum().ellipsoid();
         Correction {
             projection: zone.projection(),
             a_m: ellipsoid.a_m,
             e2: ellipsoid.e2(),
-            old_r_m_t: r_m(old).transpose(),
-            old_lever_m: old.lever_arm_m,
-            new_r_m: r_m(new),
+            old: Recoverer::new(old),
+            new_r_m: rotation_zyx(
+                new.boresight_roll_rad,
+                new.boresight_pitch_rad,
+                new.boresight_yaw_rad,
+            ),
             new_lever_m: new.lever_arm_m,
         }
     }
@@ -325,10 +320,10 @@ impl Correction {
             (n_m + h) * cp * sl,
             (n_m * (1.0 - self.e2) + h) * sp,
         );
-        // Recovery (lidarqa-tpu's Recoverer): B = R_BEᵀ (P − P0), S = R_Mᵀ (B − ΔP);
-        // range ρ = |S|, scan angle θ = atan2(S_y, S_z), S' = ρ (0, sin θ, cos θ).
+        // Recovery: B = R_BEᵀ (P − P0), S = R_Mᵀ (B − ΔP); range ρ = |S|, scan angle
+        // θ = atan2(S_y, S_z), S' = ρ (0, sin θ, cos θ).
         let body = r_be.transpose() * (point - p0);
-        let s = self.old_r_m_t * (body - self.old_lever_m);
+        let s = self.old.scanner_from_body(&body);
         let range = s.norm();
         if !(range.is_finite() && range > 0.0) {
             return Err(lidarqa_tpu::Error::Recovery(format!("range {range} m")));
@@ -365,7 +360,7 @@ mod tests {
     use lidarqa_calib::{Georeferencing, LocalFrame, RawPoint};
     use lidarqa_io::{Geodetic, Hemisphere, UtmDatum};
     use lidarqa_model::Attitude;
-    use lidarqa_tpu::{Pose, Recoverer};
+    use lidarqa_tpu::Pose;
 
     /// The mounting the points are made with.
     fn old() -> Mounting {

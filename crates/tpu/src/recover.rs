@@ -82,6 +82,12 @@ impl Recoverer {
         self.lever_m
     }
 
+    /// `S = R_Mᵀ (B − ΔP)`, scanner frame, of a point at `body_m` = `P − P0` in the body frame
+    /// (for callers that rotate into the body frame their own way).
+    pub fn scanner_from_body(&self, body_m: &Vector3<f64>) -> Vector3<f64> {
+        self.r_m.transpose() * (body_m - self.lever_m)
+    }
+
     /// `S = R_Mᵀ (R_Nᵀ C_NE (P − P0) − ΔP)`, scanner frame, metres; and the beam (scanner
     /// origin → point) in N.
     pub fn scanner_vector(
@@ -90,8 +96,7 @@ impl Recoverer {
         point_ecef_m: &Vector3<f64>,
     ) -> (Vector3<f64>, Vector3<f64>) {
         let ned = pose.ecef_to_ned * (point_ecef_m - pose.position_ecef_m);
-        let body = pose.body_to_ned.transpose() * ned - self.lever_m;
-        let s = self.r_m.transpose() * body;
+        let s = self.scanner_from_body(&(pose.body_to_ned.transpose() * ned));
         // Origin → point in N is R_N R_M S.
         (s, pose.body_to_ned * (self.r_m * s))
     }

@@ -179,15 +179,15 @@ pub(crate) fn read_info(path: &Path, crs: Option<UtmZone>) -> Result<(LasInfo, U
     Ok((info, zone))
 }
 
-/// Reads one strip and recovers every point's raw observation (module docs).
+/// Reads the points of one strip (its header and zone from [`read_info`]) and recovers every
+/// point's raw observation (module docs).
 pub(crate) fn load_strip(
     path: &Path,
+    (info, zone): (&LasInfo, &UtmZone),
     ctx: &TpuContext,
     frame: &LocalFrame,
     gps_week: Option<i64>,
-    crs: Option<UtmZone>,
 ) -> Result<LoadedStrip> {
-    let (info, zone) = read_info(path, crs)?;
     let trajectory = ctx.trajectory(zone.datum())?;
     let converter = LasTimeConverter::new(path, info.time_base, gps_week, info.creation_date)?;
     let projection = zone.projection();
@@ -354,7 +354,8 @@ pub(crate) fn load_all(
     let frame = frame_for(&infos, &zone);
     let loaded = paths
         .iter()
-        .map(|p| load_strip(p, ctx, &frame, gps_week, crs))
+        .zip(&infos)
+        .map(|(p, info)| load_strip(p, (info, &zone), ctx, &frame, gps_week))
         .collect::<Result<Vec<_>>>()?;
     Ok((frame, zone, loaded))
 }
