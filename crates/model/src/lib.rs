@@ -33,6 +33,7 @@ mod rotation;
 mod scalar;
 mod sensor;
 mod source;
+mod warning;
 
 pub use conic::{
     CONIC_N, ConicObservation, ConicScanner, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER,
@@ -48,3 +49,4 @@ pub use rotation::{rot_x, rot_y, rot_z, rotation_zyx, rotation_zyx_with_partials
 pub use scalar::Scalar;
 pub use sensor::{Correlation, Scanner, Sensor, Sigmas};
 pub use source::{Source, Unit};
+pub use warning::Warning;
