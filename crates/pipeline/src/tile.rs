@@ -32,6 +32,9 @@ const BLOCK: usize = 4096;
 /// Classification code of a water-surface return.
 const CLASS_WATER_SURFACE: u8 = 41;
 
+/// σ overrides for a conic return without a water leg: no water travel time.
+const NO_WATER_LEG: [(Source, f64); 1] = [(Source::TimeWater, 0.0)];
+
 const DESCRIPTIONS: [&str; 9] = [
     "1-sigma TPU north (m)",
     "1-sigma TPU east (m)",
@@ -861,7 +864,14 @@ impl Run<'_> {
                 let r = self.recoverer.conic(scanner, pose, &p.ecef)?;
                 let params = scanner.parameters(&pose.attitude, &self.mounting, &r.observation);
                 let inc = incidence(r.range_air_m, r.beam_ned);
-                let u = pp.propagate(&params, sigma, inc.as_ref())?;
+                // A conic return recovered here has no water leg (topographic or water-surface
+                // return: Δt2 = 0), so the water travel time's σ must not move it; soundings
+                // take `propagate_sounding` with their own water terms.
+                let u = if r.observation.time_water_s == 0.0 {
+                    pp.propagate_with(&params, sigma, inc.as_ref(), &NO_WATER_LEG)?
+                } else {
+                    pp.propagate(&params, sigma, inc.as_ref())?
+                };
                 acc.residual.push(r.off_cone_m);
                 (
                     u.covariance_ned,
