@@ -110,6 +110,7 @@ fn run(f: &ScenarioFile, dir: &Path) -> ([f64; 3], [f64; 3], usize, serde_json::
         file.to_str().unwrap(),
         "-o",
         sim.to_str().unwrap(),
+        "--truth",
     ]);
     let scenario = Scenario::from_file(f.clone()).unwrap();
     let survey = simulate(
@@ -144,6 +145,24 @@ fn run(f: &ScenarioFile, dir: &Path) -> ([f64; 3], [f64; 3], usize, serde_json::
         .map(|n| c.extra_column(n).unwrap())
         .collect();
     let zone = scenario.zone();
+    // `simulate --truth` wrote each point's actual error as extra bytes: the same as the
+    // in-process truth, point for point, to the LAS rounding.
+    let strip_file = read_all(&sim.join("strip_001.laz"));
+    let truth_cols: Vec<Vec<f64>> = ["error_x", "error_y", "error_z"]
+        .iter()
+        .map(|n| strip_file.extra_column(n).unwrap())
+        .collect();
+    for (i, (p, t)) in strip_file.points.iter().zip(&strip.truth).enumerate() {
+        let expected = [p.x - t.easting_m, p.y - t.northing_m, p.z - t.height_m];
+        for k in 0..3 {
+            assert!(
+                (truth_cols[k][i] - expected[k]).abs() < 1e-4,
+                "point {i} axis {k}: error {} in the file, {} from the truth",
+                truth_cols[k][i],
+                expected[k]
+            );
+        }
+    }
     let (mut soundings, mut dry) = (Agreement::default(), Agreement::default());
     for (i, (p, t)) in c.points.iter().zip(&strip.truth).enumerate() {
         let (x, lat, lon) = ecef(zone, p.x, p.y, p.z);
@@ -300,6 +319,7 @@ fn bad_input_is_refused_with_clear_errors() {
         file.to_str().unwrap(),
         "-o",
         sim.to_str().unwrap(),
+        "--truth",
     ]);
     let laz = sim.join("strip_001.laz");
     let c = read_all(&laz);

@@ -19,6 +19,7 @@ Examples:
   lidarqa simulate --scenario demo -o sim/
   lidarqa simulate --scenario calibration --print > my-survey.toml
   lidarqa simulate --scenario my-survey.toml --seed 7 --format las -o sim7/
+  lidarqa simulate --scenario bathymetry --truth -o bathy/   # + each point's actual error
 
 Built-in scenarios: demo, calibration, bathymetry.";
 
@@ -54,6 +55,11 @@ pub struct SimulateArgs {
     /// Point-cloud format of the strips.
     #[arg(long, value_enum, default_value_t = CloudFormat::Laz)]
     pub format: CloudFormat,
+    /// Also write each point's actual error, lidar − true, as extra bytes `error_x`, `error_y`,
+    /// `error_z` (f32 metres along the projected x, y and up axes, of the coordinates as stored),
+    /// so any TPU can be scored against the truth point by point.
+    #[arg(long)]
+    pub truth: bool,
 }
 
 /// Reads the scenario named by `--scenario` (built-in name first, then a file), with the seed
@@ -114,7 +120,11 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     } else {
         indicatif::ProgressBar::hidden()
     };
-    let survey = simulate_with_progress(&scenario, &SimOptions::default(), &|n| bar.inc(n))
+    let options = SimOptions {
+        keep_truth: args.truth,
+        ..SimOptions::default()
+    };
+    let survey = simulate_with_progress(&scenario, &options, &|n| bar.inc(n))
         .with_context(|| format!("scenario {}", scenario.name()))?;
     bar.finish_and_clear();
 
@@ -227,17 +237,45 @@ fn write_strip(
             description: "OGC WKT".into(),
             data: wkt,
         }],
-        extra_dims: Vec::new(),
+        extra_dims: if strip.truth.is_empty() {
+            Vec::new()
+        } else {
+            TRUTH_DIMS
+                .iter()
+                .map(|(n, d)| (n.to_string(), d.to_string()))
+                .collect()
+        },
         file_source_id: strip.id,
     };
+    let scale = options.scale;
+    let offset = options.offset;
+    // The error of the coordinates as stored: the LAS record rounds them to its scale.
+    let stored = |v: f64, k: usize| ((v - offset[k]) / scale[k]).round() * scale[k] + offset[k];
     let mut w = LasWriter::create(path, &options, &[] as &[&Path])?;
-    for p in &strip.points {
+    for (i, p) in strip.points.iter().enumerate() {
         let point = survey.las_point(p);
-        w.write_point(&point, &[])?;
+        match strip.truth.get(i) {
+            Some(t) => {
+                let error = [
+                    (stored(point.x, 0) - t.easting_m) as f32,
+                    (stored(point.y, 1) - t.northing_m) as f32,
+                    (stored(point.z, 2) - t.height_m) as f32,
+                ];
+                w.write_point(&point, &error)?;
+            }
+            None => w.write_point(&point, &[])?,
+        }
     }
     w.finish()?;
     Ok(())
 }
+
+/// The `--truth` extra-bytes dimensions: name and description (each ≤ 32 bytes).
+const TRUTH_DIMS: [(&str, &str); 3] = [
+    ("error_x", "lidar - true, projected x (m)"),
+    ("error_y", "lidar - true, projected y (m)"),
+    ("error_z", "lidar - true, height (m)"),
+];
 
 fn write_trajectory(dir: &Path, survey: &Survey) -> anyhow::Result<()> {
     let sbet: Vec<sbet_raw::SbetRecord> = survey
