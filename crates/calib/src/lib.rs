@@ -44,6 +44,7 @@
 
 mod autoties;
 mod calibrate;
+mod calibrated_sensor;
 mod error;
 mod geometry;
 mod lm;
@@ -59,6 +60,7 @@ pub use calibrate::{
     Calibration, CalibrationOptions, IterationRecord, Method, TieReport, calibrate_vtpm, local_enu,
     mounting_from_json, tie_residuals,
 };
+pub use calibrated_sensor::calibrated_sensor;
 pub use error::{Error, Result};
 pub use lm::{LmOptions, Termination};
 pub use overlap::{

@@ -5,7 +5,7 @@ use lidarqa_io::{
     Ellipsoid, Geodetic, LasInfo, LasReader, LasTimeConverter, SbetPose, SensorExtras, SmrmsgSigma,
     UtmDatum, UtmZone, read_sbet, read_sensor_with_extras, read_smrmsg,
 };
-use lidarqa_model::{Attitude, Sensor};
+use lidarqa_model::{Attitude, Mounting, Sensor};
 use lidarqa_tpu::{Pose, PoseSigma, Trajectory, TrajectorySigmas};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -48,7 +48,12 @@ impl Default for TpuOptions {
 /// Everything the tiles of one survey share (read once, used by every [`crate::tpu_tile`]).
 #[derive(Debug)]
 pub struct TpuContext {
+    /// The sensor the TPU propagates with (its mounting calibrated after
+    /// [`TpuContext::with_calibration`]).
     pub(crate) sensor: Sensor,
+    /// The mounting the points were georeferenced with (the sensor file's): raw observations
+    /// are recovered with it, whatever calibration the propagation uses.
+    pub(crate) recovery_mounting: Mounting,
     pub(crate) beam_divergence_rad: Option<f64>,
     poses: Vec<SbetPose>,
     pub(crate) trajectory_path: PathBuf,
@@ -106,6 +111,7 @@ impl TpuContext {
             }
         };
         let ctx = TpuContext {
+            recovery_mounting: sensor.mounting,
             sensor,
             beam_divergence_rad: extras.beam_divergence_rad,
             poses,
@@ -139,6 +145,32 @@ impl TpuContext {
         let mut ctx = TpuContext::new(s, extras, sbet.to_path_buf(), poses, sig, options)?;
         ctx.inputs.push(sensor.to_path_buf());
         Ok(ctx)
+    }
+
+    /// This context with the calibration at `path` (a `calibration.json` of `lidarqa calibrate`)
+    /// applied to its sensor: the calibrated mounting and its covariance replace the sensor
+    /// file's ([`lidarqa_calib::calibrated_sensor`]). The file becomes one of the inputs no
+    /// output may overwrite.
+    ///
+    /// # Errors
+    /// [`Error::Calib`] naming the file when it cannot be read, is not JSON or is not a
+    /// calibration.
+    pub fn with_calibration(mut self, path: &Path) -> Result<TpuContext> {
+        let fail = |m: String| Error::Calib {
+            path: path.to_path_buf(),
+            source: lidarqa_calib::Error::InvalidCalibration(m),
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| fail(format!("cannot read: {e}")))?;
+        let doc: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| fail(format!("not JSON: {e}")))?;
+        self.sensor = lidarqa_calib::calibrated_sensor(&self.sensor, &doc).map_err(|source| {
+            Error::Calib {
+                path: path.to_path_buf(),
+                source,
+            }
+        })?;
+        self.inputs.push(path.to_path_buf());
+        Ok(self)
     }
 
     /// The options.

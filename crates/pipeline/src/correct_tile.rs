@@ -86,7 +86,7 @@ pub fn correct_tile(job: &CorrectTileJob<'_>) -> Result<CorrectTileReport> {
         trajectory,
         converter,
     } = ctx.open_tile(input)?;
-    let correction = Correction::new(&zone, &ctx.sensor.mounting, job.mounting);
+    let correction = Correction::new(&zone, &ctx.recovery_mounting, job.mounting);
     let mut inputs: Vec<&Path> = vec![input];
     inputs.extend(ctx.inputs.iter().map(PathBuf::as_path));
     inputs.extend(job.other_inputs);

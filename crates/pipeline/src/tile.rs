@@ -158,7 +158,8 @@ pub fn tpu_tile_with_progress(
             path: &path,
             trajectory: &trajectory,
             kernel: &kernel,
-            recoverer: Recoverer::new(&ctx.sensor.mounting),
+            recoverer: Recoverer::new(&ctx.recovery_mounting),
+            recovery_mounting: ctx.recovery_mounting,
             mounting: ctx.sensor.mounting,
         };
         let spent = Recycle {
@@ -461,6 +462,9 @@ struct Run<'a> {
     trajectory: &'a Trajectory,
     kernel: &'a Kernel,
     recoverer: Recoverer,
+    /// The mounting the points were made with: raw observations are recovered with it.
+    recovery_mounting: Mounting,
+    /// The mounting the σ are propagated at (calibrated, or the sensor file's).
     mounting: Mounting,
 }
 
@@ -762,7 +766,7 @@ impl Run<'_> {
         match water.same_pulse(p.time_sow_s) {
             Some(s) => self.recoverer.sounding_from_surface_return(
                 scanner,
-                &self.mounting,
+                &self.recovery_mounting,
                 pose,
                 &p.ecef,
                 lp.z,
@@ -773,7 +777,7 @@ impl Run<'_> {
                 let plane = water.plane_at(lp.x, lp.y)?;
                 self.recoverer.sounding_from_plane(
                     scanner,
-                    &self.mounting,
+                    &self.recovery_mounting,
                     pose,
                     &p.ecef,
                     [lp.x, lp.y, lp.z],

@@ -20,6 +20,8 @@ Examples:
   lidarqa tpu strip.laz --trajectory sbet.out --smrmsg smrmsg.out --sensor sensor.toml \\
               -o strip_tpu.laz --summary summary.json --format json
   lidarqa tpu tiles/ --trajectory sbet.out --sensor sensor.toml -o tiles_tpu/ --skip-outside
+  lidarqa tpu strip.laz --trajectory sbet.out --sensor sensor.toml \\
+      --calibration calibration.json -o strip_tpu.laz   # the calibrated mounting and its σ
 
 Writes every point with extra-bytes f32 sigma_north, sigma_east, sigma_up, sigma_horizontal,
 sigma_vertical (1-sigma, metres, local level frame at the point; conic sensors also total_thu and
@@ -48,6 +50,10 @@ pub struct TpuArgs {
     /// SMRMSG accuracy file: its σ replace the sensor file's gnss_* and roll/pitch/heading.
     #[arg(long, value_name = "FILE")]
     smrmsg: Option<PathBuf>,
+    /// calibration.json from `lidarqa calibrate`: its mounting and covariance replace the sensor
+    /// file's mounting and mounting σ (parameters it held keep the sensor file's σ).
+    #[arg(long, value_name = "FILE")]
+    calibration: Option<PathBuf>,
     #[command(flatten)]
     flags: TpuFlags,
     /// Also write the summary as JSON to this file.
@@ -135,6 +141,7 @@ struct Plan {
     trajectory: PathBuf,
     smrmsg: Option<PathBuf>,
     sensor: PathBuf,
+    calibration: Option<PathBuf>,
     summary: Option<PathBuf>,
     format: OutputFormat,
 }
@@ -218,6 +225,7 @@ impl TryFrom<TpuArgs> for Plan {
                 a.sensor.as_path(),
             ];
             inputs.extend(a.smrmsg.as_deref());
+            inputs.extend(a.calibration.as_deref());
             lidarqa_io::check_not_an_input(&t.output, &inputs)?;
         }
         Ok(Plan {
@@ -226,6 +234,7 @@ impl TryFrom<TpuArgs> for Plan {
             trajectory: a.trajectory,
             smrmsg: a.smrmsg,
             sensor: a.sensor,
+            calibration: a.calibration,
             summary: a.summary,
             format: a.format,
         })
@@ -241,6 +250,10 @@ pub fn run(args: TpuArgs) -> Result<()> {
         plan.smrmsg.as_deref(),
         plan.options.clone(),
     )?;
+    let ctx = match &plan.calibration {
+        Some(path) => ctx.with_calibration(path)?,
+        None => ctx,
+    };
     // Headers only, for the progress bar's length.
     let total: u64 = plan
         .tiles
@@ -267,6 +280,7 @@ pub fn run(args: TpuArgs) -> Result<()> {
         inputs.push(&plan.trajectory);
         inputs.push(&plan.sensor);
         inputs.extend(plan.smrmsg.as_deref());
+        inputs.extend(plan.calibration.as_deref());
         let mut f = AtomicFile::create(path, &inputs)?;
         serde_json::to_writer_pretty(&mut f, &report)
             .with_context(|| format!("{}", path.display()))?;
