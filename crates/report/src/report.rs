@@ -32,6 +32,8 @@ pub struct Products {
     pub overlap_after: Option<Overlap>,
     /// `iho.json`.
     pub iho: Option<Iho>,
+    /// The `warnings` of every product read (SPEC §7), with the file they came from.
+    pub warnings: Vec<(String, lidarqa_model::Warning)>,
 }
 
 impl Products {
@@ -102,6 +104,17 @@ pub fn read_product<T: Product>(path: impl AsRef<Path>) -> Result<T> {
         message,
     })?;
     Ok(value)
+}
+
+/// The `warnings` array of a product file (SPEC §7); none when the file has none or they do not
+/// parse (the product itself was checked by [`read_product`]).
+fn product_warnings(path: &Path) -> Vec<lidarqa_model::Warning> {
+    std::fs::read_to_string(path)
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|mut v| v.get_mut("warnings").map(serde_json::Value::take))
+        .and_then(|w| serde_json::from_value(w).ok())
+        .unwrap_or_default()
 }
 
 /// A report: the products, where they came from, and what was skipped.
@@ -183,6 +196,10 @@ impl Report {
         p.overlap_before = load(dir, OVERLAP_BEFORE_FILE, &mut skipped);
         p.overlap_after = load(dir, OVERLAP_AFTER_FILE, &mut skipped);
         p.iho = load(dir, IHO_FILE, &mut skipped);
+        for name in p.present() {
+            let w = product_warnings(&dir.join(&name));
+            p.warnings.extend(w.into_iter().map(|w| (name.clone(), w)));
+        }
         let mut r = Report::new(p);
         r.source = Some(dir.to_path_buf());
         r.skipped = skipped;
