@@ -246,8 +246,8 @@ fn a_sensor_file_with_the_wrong_boresight_is_named_with_the_fitted_one() {
 fn trajectory_gap_inside_the_strip_is_an_error_a_short_one_and_a_duplicate_warnings() {
     let dir = tempfile::tempdir().unwrap();
     let sv = common::survey(dir.path(), 2000, "laz", None);
-    // The points span 0.1 to 0.77 s. A 5 s gap at 0.4 s: the records after move 5 s later,
-    // and so do the points after it would... they fall in the gap instead.
+    // The points span 0.1 to 0.77 s. A 5 s gap at 0.4 s (the records after it moved 5 s
+    // later): the points after 0.4 s fall in the gap.
     let mut recs = sbet_records(DURATION_S);
     for r in recs.iter_mut().skip(81) {
         r.time += 5.0;
@@ -259,7 +259,7 @@ fn trajectory_gap_inside_the_strip_is_an_error_a_short_one_and_a_duplicate_warni
         &[
             "strip.laz",
             "gap.out has a 5.005 s gap",
-            "inside the points' time span",
+            "with points inside it",
         ],
     );
     // Three samples missing at 0.5 s (a 20 ms gap) and one record twice: warnings.

@@ -31,6 +31,12 @@ pub const MAX_HEIGHT_M: f64 = 25_000.0;
 /// Fastest plausible ground speed, m/s: about Mach 1; survey aircraft fly below 150 m/s, so a
 /// faster step is positions in a wrong unit or a wrong record, not flight.
 pub const MAX_SPEED_MPS: f64 = 350.0;
+/// Speeds are judged over at least this time, s: sample-to-sample GNSS noise (decimetres in a
+/// few milliseconds, e.g. a simulated noisy trajectory) is not motion; a wrong unit or a jumped
+/// record still moves kilometres per second.
+pub const SPEED_BASELINE_S: f64 = 1.0;
+/// Attitude rates are judged over at least this time, s (attitude noise is far smaller).
+pub const ATTITUDE_BASELINE_S: f64 = 0.1;
 /// Fastest plausible attitude rate, deg/s: aerobatic roll rates reach ~200 deg/s, survey
 /// aircraft turn at a few deg/s; faster is angles in a wrong unit or a corrupt record.
 pub const MAX_ATTITUDE_RATE_DEG_S: f64 = 300.0;
@@ -221,18 +227,26 @@ pub fn check_trajectory(path: &Path, samples: &[TrajectorySample]) -> Result<Tra
             continue;
         }
         intervals.push(dt);
+    }
+    let times: Vec<f64> = samples.iter().map(|s| s.time_s).collect();
+    for (i, j) in baseline_pairs(&times, SPEED_BASELINE_S) {
+        let (a, b) = (&samples[i], &samples[j]);
+        let (dist, dt) = ((ecef(b) - ecef(a)).norm(), b.time_s - a.time_s);
         let speed = dist / dt;
         if speed > MAX_SPEED_MPS {
             return Err(implausible(
                 path,
                 format!(
-                    "records {i}–{}: the aircraft would move {dist:.1} m in {dt} s \
+                    "records {i}–{j}: the aircraft would move {dist:.1} m in {dt:.3} s \
                      ({speed:.0} m/s, more than {MAX_SPEED_MPS} m/s): positions in a wrong \
-                     unit (latitudes in degrees?) or a corrupt record",
-                    i + 1
+                     unit (latitudes in degrees?) or a corrupt record"
                 ),
             ));
         }
+    }
+    for (i, j) in baseline_pairs(&times, ATTITUDE_BASELINE_S) {
+        let (a, b) = (&samples[i], &samples[j]);
+        let dt = b.time_s - a.time_s;
         for (name, x, y) in [
             ("roll", a.attitude.roll_rad, b.attitude.roll_rad),
             ("pitch", a.attitude.pitch_rad, b.attitude.pitch_rad),
@@ -243,10 +257,9 @@ pub fn check_trajectory(path: &Path, samples: &[TrajectorySample]) -> Result<Tra
                 return Err(implausible(
                     path,
                     format!(
-                        "records {i}–{}: {name} changes at {rate:.0} deg/s (more than \
+                        "records {i}–{j}: {name} changes at {rate:.0} deg/s (more than \
                          {MAX_ATTITUDE_RATE_DEG_S} deg/s): angles in a wrong unit (degrees \
-                         where radians are stored?) or a corrupt record",
-                        i + 1
+                         where radians are stored?) or a corrupt record"
                     ),
                 ));
             }
@@ -267,6 +280,29 @@ pub fn check_trajectory(path: &Path, samples: &[TrajectorySample]) -> Result<Tra
             .collect();
     }
     Ok(facts)
+}
+
+/// Pairs of samples at least `baseline_s` apart (or the whole span when shorter), each sample
+/// once as a start and once as an end, so that one bad record is always in a pair.
+fn baseline_pairs(times: &[f64], baseline_s: f64) -> Vec<(usize, usize)> {
+    let n = times.len();
+    let mut out = Vec::with_capacity(2 * n);
+    let (mut j, mut k) = (0, 0);
+    for i in 0..n {
+        j = j.max(i);
+        while j + 1 < n && times[j] - times[i] < baseline_s {
+            j += 1;
+        }
+        while k + 1 < i && times[i] - times[k + 1] >= baseline_s {
+            k += 1;
+        }
+        for (a, b) in [(i, j), (k, i)] {
+            if b > a && times[b] > times[a] {
+                out.push((a, b));
+            }
+        }
+    }
+    out
 }
 
 /// Checks the trajectory's σ (SMRMSG or any other source): position and attitude σ in units a
@@ -306,8 +342,9 @@ pub fn check_trajectory_sigmas(path: &Path, sigmas: &[lidarqa_tpu::PoseSigma]) -
     out
 }
 
-/// Judges the gaps overlapping the points' time span `[t0, t1]`: a gap longer than
-/// [`GAP_ERROR_S`] is an error, a shorter one a warning.
+/// Judges the gaps that points fall in (`times_s`: the points' times, sorted): a gap longer
+/// than [`GAP_ERROR_S`] is an error, a shorter one a warning. Gaps between strips (turns, where
+/// no point lies) are not judged.
 ///
 /// # Errors
 /// [`Error::Implausible`] naming the point file and the gap.
@@ -315,18 +352,21 @@ pub fn check_gaps(
     points: &Path,
     trajectory: &Path,
     gaps: &[Gap],
-    t0: f64,
-    t1: f64,
+    times_s: &[f64],
 ) -> Result<Vec<Warning>> {
     let mut out = Vec::new();
-    for g in gaps.iter().filter(|g| g.end_s > t0 && g.start_s < t1) {
+    for g in gaps {
+        let k = times_s.partition_point(|t| *t <= g.start_s);
+        let Some(&t) = times_s.get(k).filter(|t| **t < g.end_s) else {
+            continue;
+        };
         let len = g.end_s - g.start_s;
         if len > GAP_ERROR_S {
             return Err(implausible(
                 points,
                 format!(
-                    "the trajectory {} has a {len:.3} s gap ({} to {} s) inside the points' time \
-                     span ({t0:.3} to {t1:.3} s): poses cannot be interpolated over more than \
+                    "the trajectory {} has a {len:.3} s gap ({} to {} s) with points inside it \
+                     (the first at {t:.3} s): poses cannot be interpolated over more than \
                      {GAP_ERROR_S} s; use a trajectory without the gap",
                     trajectory.display(),
                     g.start_s,
@@ -337,8 +377,8 @@ pub fn check_gaps(
         out.push(Warning::new(
             "trajectory_gap",
             format!(
-                "{}: the trajectory {} has a {len:.3} s gap ({} to {} s) inside the points' time \
-                 span: poses there are interpolated over missing samples",
+                "{}: the trajectory {} has a {len:.3} s gap ({} to {} s) with points inside it \
+                 (the first at {t:.3} s): poses there are interpolated over missing samples",
                 points.display(),
                 trajectory.display(),
                 g.start_s,
@@ -786,11 +826,19 @@ mod tests {
             "{m}"
         );
         let mut s = samples(10, 0.005);
-        s[5].longitude_rad += 1e-4; // 490 m in 5 ms
-        assert!(message(check_trajectory(p, &s)).contains("m/s, more than 350 m/s"));
+        s[5].longitude_rad += 1e-4; // 490 m in 25 ms
+        let m = message(check_trajectory(p, &s));
+        assert!(m.contains("m/s, more than 350 m/s"), "{m}");
+        // Decimetre noise on every record of a 200 Hz trajectory is not speed.
+        let mut s = samples(1000, 0.005);
+        for (i, p) in s.iter_mut().enumerate() {
+            p.height_m += if i % 2 == 0 { 0.1 } else { -0.1 };
+        }
+        assert!(check_trajectory(p, &s).is_ok());
         let mut s = samples(10, 0.005);
-        s[5].attitude.roll_rad = 0.1; // 5.7° in 5 ms
-        assert!(message(check_trajectory(p, &s)).contains("roll changes at 1146 deg/s"));
+        s[5].attitude.roll_rad = 0.5; // 28.6° in 25 ms
+        let m = message(check_trajectory(p, &s));
+        assert!(m.contains("records 5–9: roll changes at 1432 deg/s"), "{m}");
         let mut s = samples(10, 0.005);
         s[6] = s[5];
         let f = check_trajectory(p, &s).unwrap();
@@ -818,13 +866,16 @@ mod tests {
         let (pts, traj) = (Path::new("s.laz"), Path::new("t.out"));
         // Points before the gaps: nothing.
         assert!(
-            check_gaps(pts, traj, &f.gaps, 1000.0, 1004.0)
+            check_gaps(pts, traj, &f.gaps, &[1000.0, 1004.0])
                 .unwrap()
                 .is_empty()
         );
-        let e = check_gaps(pts, traj, &f.gaps, 1004.0, 1012.0).unwrap_err();
+        // Points on both sides of the gaps, none inside: nothing (a tile spanning two strips).
+        let around = [1004.0, 1010.1, 1012.4, 1012.6];
+        assert!(check_gaps(pts, traj, &f.gaps, &around).unwrap().is_empty());
+        let e = check_gaps(pts, traj, &f.gaps, &[1004.0, 1006.0, 1012.0]).unwrap_err();
         assert!(e.to_string().contains("5.005 s gap"), "{e}");
-        let w = check_gaps(pts, traj, &f.gaps, 1011.0, 1013.0).unwrap();
+        let w = check_gaps(pts, traj, &f.gaps, &[1011.0, 1012.51, 1013.0]).unwrap();
         assert_eq!(w.len(), 1);
         assert!(w[0].message.contains("0.020 s gap"), "{}", w[0].message);
     }

@@ -696,14 +696,11 @@ impl Run<'_> {
     }
 
     /// The chunk-level plausibility checks: the points near the trajectory (else an error naming
-    /// the CRS), no trajectory gap inside their time span, within the zone's area and the
+    /// the CRS), none in a trajectory gap, within the zone's area and the
     /// trajectory σ's span (counted for warnings).
     fn check_chunk(&self, cur: &Prepared, summary: &mut TpuSummary) -> Result<()> {
         let ok = || cur.pts.iter().filter(|p| matches!(p.state, PrepState::Ok));
-        let (t0, t1) = ok().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
-            (a.min(p.time_sow_s), b.max(p.time_sow_s))
-        });
-        if t0 > t1 {
+        if ok().next().is_none() {
             return Ok(());
         }
         let samples: Vec<_> = ok()
@@ -718,14 +715,18 @@ impl Run<'_> {
             })
             .collect();
         check_distance(self.path, self.crs_name, &samples)?;
-        let (start_s, end_s) = self.trajectory.span_s();
-        let w = check_gaps(
-            self.path,
-            &self.ctx.trajectory_path,
-            &self.ctx.facts.gaps,
-            t0.max(start_s),
-            t1.min(end_s),
-        )?;
+        let w = if self.ctx.facts.gaps.is_empty() {
+            Vec::new()
+        } else {
+            let mut times: Vec<f64> = ok().map(|p| p.time_sow_s).collect();
+            times.sort_by(f64::total_cmp);
+            check_gaps(
+                self.path,
+                &self.ctx.trajectory_path,
+                &self.ctx.facts.gaps,
+                &times,
+            )?
+        };
         let p = &mut summary.plausibility;
         p.warn(w);
         p.outside_zone += ok()
