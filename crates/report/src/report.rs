@@ -282,6 +282,45 @@ pub(crate) fn civil_date(days: i64) -> String {
 
 #[cfg(test)]
 mod tests {
+
+    /// Every product's `warnings` (SPEC §7) show in a block near the top, with their file.
+    #[test]
+    fn warnings_of_the_products_are_shown_near_the_top() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join(BUDGET_FILE),
+            r#"{"scanner": "linear", "sources": [
+                 {"name": "gnss_up", "sigma": 0.1, "unit": "m", "north": 0, "east": 0, "up": 0.1,
+                  "horizontal": 0, "vertical": 0.1, "three_d": 0.1}],
+                "total": {"north": 0, "east": 0, "up": 0.1, "horizontal": 0, "vertical": 0.1,
+                          "three_d": 0.1},
+                "warnings": [{"code": "mounting_does_not_fit", "message": "fitted yaw <13.96°>"}]}"#,
+        )
+        .unwrap();
+        let r = Report::from_dir(dir.path()).unwrap();
+        assert_eq!(r.products().warnings.len(), 1);
+        let html = r.to_html();
+        let block = html.find("id=\"sec-warnings\"").expect("a warnings block");
+        assert!(block < html.find("id=\"sec-budget\"").unwrap());
+        assert!(html.contains("mounting_does_not_fit</code>: fitted yaw &lt;13.96°&gt;"));
+        // No warnings, no block.
+        std::fs::write(
+            dir.path().join(BUDGET_FILE),
+            std::fs::read_to_string(dir.path().join(BUDGET_FILE))
+                .unwrap()
+                .replace(
+                    r#"[{"code": "mounting_does_not_fit", "message": "fitted yaw <13.96°>"}]"#,
+                    "[]",
+                ),
+        )
+        .unwrap();
+        assert!(
+            !Report::from_dir(dir.path())
+                .unwrap()
+                .to_html()
+                .contains("sec-warnings")
+        );
+    }
     use super::*;
 
     #[test]
