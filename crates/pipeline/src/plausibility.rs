@@ -222,11 +222,10 @@ pub fn check_trajectory(path: &Path, samples: &[TrajectorySample]) -> Result<Tra
             ));
             continue;
         }
-        if !(dt > 0.0) {
-            // Time order is the reader's / Trajectory's check; nothing to judge here.
-            continue;
+        // Time order is the reader's / Trajectory's check; nothing to judge here.
+        if dt > 0.0 {
+            intervals.push(dt);
         }
-        intervals.push(dt);
     }
     let times: Vec<f64> = samples.iter().map(|s| s.time_s).collect();
     for (i, j) in baseline_pairs(&times, SPEED_BASELINE_S) {
