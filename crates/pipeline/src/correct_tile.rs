@@ -231,7 +231,10 @@ impl Run<'_> {
     /// is moved (see [`crate::plausibility::check_distance`]).
     fn check_distance(&self, chunk: &PointChunk) -> Result<()> {
         let (projection, ellipsoid) = (self.zone.projection(), self.zone.datum().ellipsoid());
-        let step = chunk.len().div_ceil(101).max(1);
+        let step = chunk
+            .len()
+            .div_ceil(crate::plausibility::DISTANCE_SAMPLES)
+            .max(1);
         let samples: Vec<_> = chunk
             .points
             .iter()

@@ -62,8 +62,9 @@ pub const DEFAULT_MAX_RANGE_M: f64 = 10_000.0;
 /// Median point-to-trajectory distance of a chunk beyond which the points cannot belong to this
 /// trajectory, m: a wrong zone, a wrong CRS or another survey's trajectory.
 pub const MAX_TRAJECTORY_DISTANCE_M: f64 = 50_000.0;
-/// Points sampled per chunk for the distance check.
-const DISTANCE_SAMPLES: usize = 101;
+/// Points sampled per chunk for the distance check: a median of 101 distances is robust to a
+/// few corrupted points and costs nothing next to the chunk's propagation.
+pub const DISTANCE_SAMPLES: usize = 101;
 /// Margin beyond a UTM zone's ±3° from its central meridian, degrees: points up to here are in
 /// the zone's usual overlap; beyond it the projection's scale error grows fast.
 pub const ZONE_MARGIN_DEG: f64 = 1.0;
