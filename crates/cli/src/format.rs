@@ -12,10 +12,16 @@ pub enum OutputFormat {
     Json,
 }
 
-/// Print one JSON value (pretty) to stdout.
+/// Print one JSON value (pretty) to stdout. Every JSON summary has `warnings` (SPEC §7): an
+/// object without the key gets an empty list (commands with findings put theirs in).
 pub fn print_json(value: &impl serde::Serialize) -> anyhow::Result<()> {
+    let mut value = serde_json::to_value(value)?;
+    if let Some(map) = value.as_object_mut() {
+        map.entry("warnings")
+            .or_insert_with(|| serde_json::Value::Array(Vec::new()));
+    }
     let mut out = std::io::stdout().lock();
-    serde_json::to_writer_pretty(&mut out, value)?;
+    serde_json::to_writer_pretty(&mut out, &value)?;
     writeln!(out)?;
     Ok(())
 }
@@ -31,4 +37,11 @@ pub fn print_text(text: &str) -> anyhow::Result<()> {
 /// Metres as centimetres with two decimals, right-aligned in `width`.
 pub fn cm(v: f64, width: usize) -> String {
     format!("{:>width$.2}", v * 100.0)
+}
+
+/// Print each warning to stderr, one line each (SPEC §7).
+pub fn print_warnings(warnings: &[lidarqa_model::Warning]) {
+    for w in warnings {
+        eprintln!("lidarqa: warning: {} ({})", w.message, w.code);
+    }
 }

@@ -764,6 +764,7 @@ fn check_layout<R: Read + Seek>(read: &mut R, path: &Path) -> Result<Option<u64>
     let evlr = raw
         .evlr
         .filter(|e| e.number_of_evlrs > 0 && e.start_of_first_evlr > 0);
+    let first_evlr = evlr.as_ref().map(|e| e.start_of_first_evlr);
     if let Some(evlr) = evlr {
         let start = evlr.start_of_first_evlr;
         let fits = start
@@ -786,6 +787,8 @@ fn check_layout<R: Read + Seek>(read: &mut R, path: &Path) -> Result<Option<u64>
             )));
         }
     }
+    check_zero_count(points, compressed, offset, record_len, first_evlr, file_len)
+        .map_err(invalid)?;
     let readable = if compressed {
         laz_layout::check(read, path, offset, record_len, points, file_len)?
     } else {
@@ -793,6 +796,46 @@ fn check_layout<R: Read + Seek>(read: &mut R, path: &Path) -> Result<Option<u64>
     };
     read.seek(SeekFrom::Start(0)).map_err(io)?;
     Ok(readable)
+}
+
+/// Bytes after the point-data offset that an empty LAZ file may hold (its chunk-table offset
+/// and an empty chunk table, 16 bytes as laz-rs writes them; margin for other writers).
+const EMPTY_LAZ_TAIL_BYTES: u64 = 64;
+
+/// A header that claims 0 points while the file holds point records: a writer that did not
+/// update the header. Read as empty, the file would give "0 points read, 0 written" in silence,
+/// so it is refused with the count the data size implies (uncompressed) or its byte count (LAZ).
+fn check_zero_count(
+    points: u64,
+    compressed: bool,
+    offset: u64,
+    record_len: u64,
+    first_evlr: Option<u64>,
+    file_len: u64,
+) -> std::result::Result<(), String> {
+    if points != 0 {
+        return Ok(());
+    }
+    let end = first_evlr
+        .filter(|s| *s >= offset)
+        .unwrap_or(file_len)
+        .min(file_len);
+    let data = end.saturating_sub(offset);
+    if compressed && data > EMPTY_LAZ_TAIL_BYTES {
+        return Err(format!(
+            "header says 0 points but the file holds {data} bytes of compressed point data: a \
+             header the writer did not update? rewrite the file with its point count"
+        ));
+    }
+    if !compressed && record_len > 0 && data >= record_len {
+        return Err(format!(
+            "header says 0 points but the file holds {} point records of {record_len} bytes \
+             ({data} bytes after the header): a header the writer did not update? rewrite the \
+             file with its point count",
+            data / record_len
+        ));
+    }
+    Ok(())
 }
 
 // las::Reader and las::Writer are not Debug; show what identifies the stream.

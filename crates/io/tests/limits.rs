@@ -493,3 +493,32 @@ fn layered_laz_reads_across_chunks() {
         assert_eq!(n, 51_234, "{name}");
     }
 }
+
+/// Issue #25: a header that says 0 points while the file holds 20 read as empty ("0 points read,
+/// 0 written", exit 0). Now refused, naming the file and the records the data size implies; a
+/// truly empty file still reads as empty.
+#[test]
+fn header_point_count_zero_with_points_in_the_file_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_las(dir.path(), "zero.las", 20);
+    patch(&path, LEGACY_POINT_COUNT, &0u32.to_le_bytes());
+    patch(&path, POINT_COUNT, &0u64.to_le_bytes());
+    let msg = invalid_message(open_and_read(&path));
+    assert!(msg.contains("zero.las"), "{msg}");
+    assert!(
+        msg.contains("header says 0 points but the file holds 20 point records of 34 bytes"),
+        "{msg}"
+    );
+    let path = write_points(dir.path(), "zero.laz", 6, true, 2000);
+    patch(&path, LEGACY_POINT_COUNT, &0u32.to_le_bytes());
+    patch(&path, POINT_COUNT, &0u64.to_le_bytes());
+    let msg = invalid_message(open_and_read(&path));
+    assert!(
+        msg.contains("header says 0 points but the file holds"),
+        "{msg}"
+    );
+    for name in ["empty.las", "empty.laz"] {
+        let path = write_points(dir.path(), name, 6, true, 0);
+        assert_eq!(open_and_read(&path).unwrap(), 0, "{name}");
+    }
+}

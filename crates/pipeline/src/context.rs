@@ -1,11 +1,14 @@
 //! What every tile of a survey shares: the sensor, the trajectory and its σ, and the options.
 
 use crate::error::{Error, Result};
+use crate::plausibility::{
+    TrajectoryFacts, TrajectorySample, check_trajectory, check_trajectory_sigmas,
+};
 use lidarqa_io::{
     Ellipsoid, Geodetic, LasInfo, LasReader, LasTimeConverter, SbetPose, SensorExtras, SmrmsgSigma,
     UtmDatum, UtmZone, read_sbet, read_sensor_with_extras, read_smrmsg,
 };
-use lidarqa_model::{Attitude, Mounting, Sensor};
+use lidarqa_model::{Attitude, Mounting, Sensor, Warning};
 use lidarqa_tpu::{Pose, PoseSigma, Trajectory, TrajectorySigmas};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -61,6 +64,12 @@ pub struct TpuContext {
     pub(crate) options: TpuOptions,
     /// Input files besides the tile (never to be overwritten).
     pub(crate) inputs: Vec<PathBuf>,
+    /// What the trajectory check found: gaps (judged per tile against the points' times).
+    pub(crate) facts: TrajectoryFacts,
+    /// Warnings about the trajectory and its σ, given to every tile's summary.
+    pub(crate) warnings: Vec<Warning>,
+    /// The trajectory σ's time span, s.
+    pub(crate) sigma_span_s: Option<[f64; 2]>,
     /// The trajectory in ECEF for each datum used so far (WGS 84, NAD83): the points and the
     /// trajectory go to ECEF on the same ellipsoid.
     trajectories: Mutex<Vec<(UtmDatum, Arc<Trajectory>)>>,
@@ -87,10 +96,26 @@ impl TpuContext {
             )));
         }
         let mut inputs = vec![trajectory_path.clone()];
+        let samples: Vec<TrajectorySample> = poses
+            .iter()
+            .map(|p| TrajectorySample {
+                time_s: p.time_s,
+                latitude_rad: p.latitude_rad,
+                longitude_rad: p.longitude_rad,
+                height_m: p.height_m,
+                attitude: Attitude {
+                    roll_rad: p.roll_rad,
+                    pitch_rad: p.pitch_rad,
+                    heading_rad: p.true_heading_rad(),
+                },
+            })
+            .collect();
+        let mut warnings = Vec::new();
+        let mut sigma_span_s = None;
         let sigmas = match smrmsg {
             None => None,
             Some((path, records)) => {
-                let r = records
+                let r: Vec<PoseSigma> = records
                     .iter()
                     .map(|s| PoseSigma {
                         time_s: s.time_s,
@@ -102,6 +127,8 @@ impl TpuContext {
                         heading_rad: s.sigma_heading_rad,
                     })
                     .collect();
+                warnings.extend(check_trajectory_sigmas(&path, &r));
+                sigma_span_s = r.first().zip(r.last()).map(|(a, b)| [a.time_s, b.time_s]);
                 let s = TrajectorySigmas::new(r).map_err(|source| Error::Input {
                     path: path.clone(),
                     source,
@@ -119,10 +146,17 @@ impl TpuContext {
             sigmas,
             options,
             inputs,
+            facts: TrajectoryFacts::default(),
+            warnings,
+            sigma_span_s,
             trajectories: Mutex::new(Vec::new()),
         };
-        // Check the trajectory now, before any tile.
+        // Check the trajectory now, before any tile: well formed, then physically plausible.
+        let mut ctx = ctx;
         ctx.trajectory(UtmDatum::Wgs84)?;
+        ctx.facts = check_trajectory(&ctx.trajectory_path, &samples)?;
+        ctx.warnings
+            .splice(0..0, ctx.facts.warnings.iter().cloned());
         Ok(ctx)
     }
 
@@ -171,6 +205,11 @@ impl TpuContext {
         })?;
         self.inputs.push(path.to_path_buf());
         Ok(self)
+    }
+
+    /// Warnings about the trajectory and its σ (every tile's summary carries them too).
+    pub fn warnings(&self) -> &[Warning] {
+        &self.warnings
     }
 
     /// The options.

@@ -96,6 +96,7 @@ pub fn correct_tile(job: &CorrectTileJob<'_>) -> Result<CorrectTileReport> {
         correction: &correction,
         trajectory: &trajectory,
         converter: &converter,
+        zone,
     };
     std::thread::scope(|scope| {
         let (tx_read, rx_read) = sync_channel::<Result<PointChunk>>(1);
@@ -188,6 +189,7 @@ struct Run<'a> {
     correction: &'a Correction,
     trajectory: &'a Trajectory,
     converter: &'a LasTimeConverter,
+    zone: UtmZone,
 }
 
 impl Run<'_> {
@@ -200,6 +202,7 @@ impl Run<'_> {
         let mut first_index = 0u64;
         for msg in rx {
             let mut chunk = msg?;
+            self.check_distance(&chunk)?;
             // The first bad point in file order, whatever the thread count.
             // Each work item keeps the trajectory segment of its last point (`hint`).
             if let Some(e) = chunk
@@ -222,6 +225,43 @@ impl Run<'_> {
             }
         }
         Ok(())
+    }
+
+    /// Points hundreds of kilometres from the trajectory (a wrong zone) are refused before any
+    /// is moved (see [`crate::plausibility::check_distance`]).
+    fn check_distance(&self, chunk: &PointChunk) -> Result<()> {
+        let (projection, ellipsoid) = (self.zone.projection(), self.zone.datum().ellipsoid());
+        let step = chunk
+            .len()
+            .div_ceil(crate::plausibility::DISTANCE_SAMPLES)
+            .max(1);
+        let samples: Vec<_> = chunk
+            .points
+            .iter()
+            .step_by(step)
+            .filter(|p| p.x.is_finite() && p.y.is_finite() && p.z.is_finite())
+            .filter_map(|p| {
+                let sow = self.converter.to_seconds_of_week(p.gps_time_s?).ok()?;
+                let pose = self.trajectory.at(sow).ok()?;
+                let (lat, lon) = projection.inverse(p.x, p.y);
+                let ecef = ellipsoid.geodetic_to_ecef(&lidarqa_io::Geodetic {
+                    latitude_rad: lat,
+                    longitude_rad: lon,
+                    height_m: p.z,
+                });
+                Some((
+                    ecef,
+                    pose.position_ecef_m,
+                    pose.latitude_rad,
+                    pose.longitude_rad,
+                ))
+            })
+            .collect();
+        crate::plausibility::check_distance(
+            self.path,
+            &crate::plausibility::crs_name(&self.zone),
+            &samples,
+        )
     }
 
     /// Corrects one point in place.

@@ -19,6 +19,15 @@ pub enum Error {
         /// Why.
         source: lidarqa_tpu::Error,
     },
+    /// An input that cannot be physically right (see the `plausibility` module): the message
+    /// names the value and the likely cause.
+    #[error("{}: {message}", path.display())]
+    Implausible {
+        /// The file at fault (or whose points show the fault).
+        path: PathBuf,
+        /// What, the value, and the likely cause.
+        message: String,
+    },
     /// A point format without GPS time: the trajectory cannot be interpolated.
     #[error("{}: point format {format} has no GPS time; per-point TPU needs it", path.display())]
     NoGpsTime {

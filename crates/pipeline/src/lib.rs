@@ -56,6 +56,7 @@ mod correct_tile;
 mod digest;
 mod error;
 mod manifest;
+pub mod plausibility;
 mod retile;
 mod stored;
 mod summary;

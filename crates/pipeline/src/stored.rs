@@ -3,6 +3,7 @@
 //! have built (SPEC §9). Kept apart from the in-memory types (as las-rs keeps `raw` apart from
 //! its cooked types); f64 values round-trip bit for bit (serde_json's `float_roundtrip`).
 
+use crate::plausibility::PlausibilityTally;
 use crate::summary::{
     AngleCheck, Histogram, IhoTally, ResidualCheck, SigmaMap, SkipReason, TpuSummary,
 };
@@ -59,6 +60,9 @@ pub struct StoredSummary {
     /// IHO S-44 counts of the bathymetric soundings (absent: none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub iho: Option<IhoTally>,
+    /// Plausibility findings (absent in tile reports written before they existed).
+    #[serde(default)]
+    pub plausibility: PlausibilityTally,
 }
 
 impl From<&Histogram> for StoredHistogram {
@@ -147,6 +151,7 @@ impl From<&TpuSummary> for StoredSummary {
                 .map(|((i, j), (sum, n))| (*i, *j, *sum, *n))
                 .collect(),
             iho: (s.iho.soundings() > 0).then(|| s.iho.clone()),
+            plausibility: s.plausibility.clone(),
         }
     }
 }
@@ -220,6 +225,7 @@ impl StoredSummary {
             },
             map,
             iho: self.iho.clone().unwrap_or_default(),
+            plausibility: self.plausibility.clone(),
         })
     }
 }

@@ -8,6 +8,8 @@
 //! (count, min, max, percentiles exactly; mean and shares up to floating-point summation order).
 //! Storing every value would give exact percentiles but memory proportional to the survey.
 
+use crate::plausibility::{MountingView, PlausibilityTally};
+use lidarqa_model::Warning;
 use lidarqa_tpu::{IhoLimits, IhoOrder};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -290,17 +292,21 @@ pub enum SkipReason {
     NoWaterSurface,
     /// A bathymetric sounding not below its water surface (`--skip-invalid`).
     NegativeDepth,
+    /// A range beyond the sensor's envelope or a recovery residual its σ cannot explain
+    /// (`--skip-invalid`; otherwise written and counted in a warning).
+    Implausible,
 }
 
 impl SkipReason {
     /// Every reason.
-    pub const ALL: [SkipReason; 6] = [
+    pub const ALL: [SkipReason; 7] = [
         SkipReason::OutsideTrajectory,
         SkipReason::NonFiniteCoordinates,
         SkipReason::BadTime,
         SkipReason::NoObservation,
         SkipReason::NoWaterSurface,
         SkipReason::NegativeDepth,
+        SkipReason::Implausible,
     ];
 
     /// snake_case name used in JSON.
@@ -312,6 +318,7 @@ impl SkipReason {
             SkipReason::NoObservation => "no_observation",
             SkipReason::NoWaterSurface => "no_water_surface",
             SkipReason::NegativeDepth => "negative_depth",
+            SkipReason::Implausible => "implausible",
         }
     }
 }
@@ -554,6 +561,8 @@ pub struct TpuSummary {
     pub map: SigmaMap,
     /// IHO S-44 counts of the bathymetric soundings (conic scanner).
     pub iho: IhoTally,
+    /// Plausibility findings: warnings, implausible points, the mounting check's sums.
+    pub plausibility: PlausibilityTally,
 }
 
 /// Recovered vs LAS-field scan angle, degrees.
@@ -634,6 +643,7 @@ impl TpuSummary {
             recovery_residual: ResidualCheck::default(),
             map: SigmaMap::default(),
             iho: IhoTally::default(),
+            plausibility: PlausibilityTally::default(),
         }
     }
 
@@ -658,6 +668,13 @@ impl TpuSummary {
         self.scan_angle.merge(&o.scan_angle);
         self.recovery_residual.merge(&o.recovery_residual);
         self.iho.merge(&o.iho);
+        self.plausibility.merge(&o.plausibility);
+    }
+
+    /// Every warning of the summary (see [`PlausibilityTally::all_warnings`]).
+    pub fn warnings(&self) -> Vec<Warning> {
+        let skipped = self.skipped.contains_key(&SkipReason::Implausible);
+        self.plausibility.all_warnings(!skipped)
     }
 
     /// Total skipped points.
@@ -712,6 +729,8 @@ impl TpuSummary {
                 max_abs: self.recovery_residual.max_abs_m,
             }),
             iho_s44: self.iho.view(),
+            mounting_check: self.plausibility.mounting.view(),
+            warnings: self.warnings(),
         }
     }
 }
@@ -751,6 +770,10 @@ pub struct SummaryView {
     /// present when there are soundings.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub iho_s44: Option<IhoView>,
+    /// Whether the sensor file's mounting fits the points, and the boresight that does.
+    pub mounting_check: Option<MountingView>,
+    /// Doubtful findings (SPEC §7): `{code, message}`, empty when none.
+    pub warnings: Vec<Warning>,
 }
 
 /// JSON view of an [`AngleCheck`].

@@ -2,6 +2,10 @@
 
 use crate::context::{OpenTile, TpuContext};
 use crate::error::{Error, Result};
+use crate::plausibility::{
+    DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, MOUNTING_ERROR_M, MountingTally, check_distance,
+    check_gaps, crs_name, outside_zone, point_implausible,
+};
 use crate::summary::{SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary};
 use lidarqa_io::{
     Ellipsoid, Geodetic, LasPoint, LasReader, LasTimeConverter, LasWriteOptions, LasWriter,
@@ -9,6 +13,7 @@ use lidarqa_io::{
 };
 use lidarqa_model::{
     ConicScanner, Georeferencer, LinearObservation, LinearScanner, Mounting, Scanner, Source,
+    rotation_zyx,
 };
 use lidarqa_tpu::{
     IhoOrder, Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, SoundingRecovery,
@@ -129,6 +134,11 @@ pub fn tpu_tile_with_progress(
     let step_deg = if info.point_format >= 6 { 0.006 } else { 1.0 };
     let mut summary = TpuSummary::new(kernel.kind(), kernel.source_names(), n_sigma);
     summary.scan_angle.step_deg = step_deg;
+    summary.plausibility.warn(ctx.warnings.iter().cloned());
+    summary.plausibility.sigma_span_s = ctx.sigma_span_s;
+    let tally0 = MountingTally::new(&ctx.sensor.mounting, kernel.kind() == "linear");
+    summary.plausibility.mounting = tally0;
+    let crs_name = crs_name(&zone);
 
     let chunk_points = ctx.options.chunk_points;
     let path = input.to_path_buf();
@@ -161,12 +171,32 @@ pub fn tpu_tile_with_progress(
             recoverer: Recoverer::new(&ctx.recovery_mounting),
             recovery_mounting: ctx.recovery_mounting,
             mounting: ctx.sensor.mounting,
+            r_m: rotation_zyx(
+                ctx.recovery_mounting.boresight_roll_rad,
+                ctx.recovery_mounting.boresight_pitch_rad,
+                ctx.recovery_mounting.boresight_yaw_rad,
+            ),
+            tally0,
+            central_meridian_rad: zone.central_meridian_rad(),
+            crs_name: &crs_name,
         };
         let spent = Recycle {
             preps: tx_spent_read,
             slots: rx_spent_slots,
         };
-        let main = run.compute_all(&rx_read, &tx_write, &spent, &mut summary);
+        let main = run
+            .compute_all(&rx_read, &tx_write, &spent, &mut summary)
+            .and_then(|()| {
+                // Kilometres off the scan plane: an error, before the output is committed.
+                let m = &summary.plausibility.mounting;
+                if m.rms_residual_m() > MOUNTING_ERROR_M {
+                    return Err(Error::Implausible {
+                        path: path.clone(),
+                        message: m.message(),
+                    });
+                }
+                Ok(())
+            });
         if main.is_ok() {
             // The writer commits only on this message; any other end drops the temporary file.
             let _ = tx_write.send(WriteMsg::Finish);
@@ -454,6 +484,20 @@ struct Partial {
     with_normal: u64,
     scan: Vec<f64>,
     residual: Vec<f64>,
+    mounting: MountingTally,
+    /// Implausible points written: index, range (m), residual (m).
+    implausible: Vec<(u64, f64, f64)>,
+}
+
+/// What the recovery of a topographic point gives the plausibility checks.
+#[derive(Debug, Clone, Copy)]
+struct Recovered {
+    /// Range, m.
+    range_m: f64,
+    /// Out-of-plane / off-cone residual, m.
+    residual_m: f64,
+    /// Scanner origin → point in the body frame (linear scanner), m.
+    body_m: Option<Vector3<f64>>,
 }
 
 struct Run<'a> {
@@ -466,6 +510,14 @@ struct Run<'a> {
     recovery_mounting: Mounting,
     /// The mounting the σ are propagated at (calibrated, or the sensor file's).
     mounting: Mounting,
+    /// `R_M` of the mounting the points were made with (the sensor file's), scanner → body.
+    r_m: Matrix3<f64>,
+    /// An empty mounting tally for this sensor.
+    tally0: MountingTally,
+    /// The points' zone's central meridian, rad.
+    central_meridian_rad: f64,
+    /// The points' CRS, for messages.
+    crs_name: &'a str,
 }
 
 impl Run<'_> {
@@ -542,6 +594,7 @@ impl Run<'_> {
         summary: &mut TpuSummary,
     ) -> Result<Vec<Slot>> {
         let n = cur.pts.len();
+        self.check_chunk(cur, summary)?;
         let normals: Vec<Option<Vector3<f64>>> = if self.kernel.has_incidence() {
             let origin = valid_ecef(&cur.pts).next().unwrap_or_else(Vector3::zeros);
             let rel = |v: &Vector3<f64>| {
@@ -568,6 +621,7 @@ impl Run<'_> {
             .map(|(b, block)| {
                 let mut acc = Partial {
                     shares: vec![0.0; n_sources],
+                    mounting: self.tally0,
                     ..Partial::default()
                 };
                 for (k, slot) in block.iter_mut().enumerate() {
@@ -585,9 +639,12 @@ impl Run<'_> {
             .fold(
                 Partial {
                     shares: vec![0.0; n_sources],
+                    mounting: self.tally0,
                     ..Partial::default()
                 },
                 |mut a, b| {
+                    a.mounting.merge(&b.mounting);
+                    a.implausible.extend(b.implausible);
                     for (x, y) in a.shares.iter_mut().zip(&b.shares) {
                         *x += y;
                     }
@@ -636,7 +693,61 @@ impl Run<'_> {
         for q in partial.residual {
             summary.recovery_residual.add(q);
         }
+        summary.plausibility.mounting.merge(&partial.mounting);
+        for (index, range_m, q) in partial.implausible {
+            summary
+                .plausibility
+                .add_implausible(self.path, index, range_m, q);
+        }
         Ok(slots)
+    }
+
+    /// The chunk-level plausibility checks: the points near the trajectory (else an error naming
+    /// the CRS), none in a trajectory gap, within the zone's area and the
+    /// trajectory σ's span (counted for warnings).
+    fn check_chunk(&self, cur: &Prepared, summary: &mut TpuSummary) -> Result<()> {
+        let ok = || cur.pts.iter().filter(|p| matches!(p.state, PrepState::Ok));
+        if ok().next().is_none() {
+            return Ok(());
+        }
+        // Only the points the check looks at are put on the trajectory (cost: ~101 per chunk).
+        let step = ok().count().div_ceil(DISTANCE_SAMPLES).max(1);
+        let samples: Vec<_> = ok()
+            .step_by(step)
+            .filter_map(|p| {
+                let pose = self.trajectory.at(p.time_sow_s).ok()?;
+                Some((
+                    p.ecef,
+                    pose.position_ecef_m,
+                    pose.latitude_rad,
+                    pose.longitude_rad,
+                ))
+            })
+            .collect();
+        check_distance(self.path, self.crs_name, &samples)?;
+        let w = if self.ctx.facts.gaps.is_empty() {
+            Vec::new()
+        } else {
+            let mut times: Vec<f64> = ok().map(|p| p.time_sow_s).collect();
+            times.sort_by(f64::total_cmp);
+            check_gaps(
+                self.path,
+                &self.ctx.trajectory_path,
+                &self.ctx.facts.gaps,
+                &times,
+            )?
+        };
+        let p = &mut summary.plausibility;
+        p.warn(w);
+        p.outside_zone += ok()
+            .filter(|q| outside_zone(q.longitude_rad, self.central_meridian_rad))
+            .count() as u64;
+        if let Some([a, b]) = self.ctx.sigma_span_s {
+            p.outside_sigma_span += ok()
+                .filter(|q| q.time_sow_s < a || q.time_sow_s > b)
+                .count() as u64;
+        }
+        Ok(())
     }
 
     fn point(
@@ -706,17 +817,19 @@ impl Run<'_> {
             }
             _ => None,
         };
+        // With skip_invalid an implausible point is dropped after propagation: its shares too.
+        let shares_before = opts.skip_invalid.then(|| acc.shares.clone());
         let result = match sounding {
             None => self
                 .propagate(&pose, p, lp, sigma.as_ref(), normal, acc)
-                .map(|c| (c, None)),
+                .map(|(c, r)| (c, None, Some(r))),
             Some(Err(e)) => Err(e),
             Some(Ok(rec)) => self
                 .propagate_sounding(&rec, &pose, sigma.as_ref(), acc)
-                .map(|c| (c, Some(rec))),
+                .map(|c| (c, Some(rec), None)),
         };
         match result {
-            Ok((cov_at_p0, rec)) => {
+            Ok((cov_at_p0, rec, recovered)) => {
                 // σ in the local level frame at the point: rotate from N at P0 (the two differ
                 // by the geodesic angle between them, ~1e-4 rad at 600 m; cheap to do exactly).
                 // (`pose.ecef_to_ned` is `ecef_from_ned` at the pose, transposed.)
@@ -724,6 +837,21 @@ impl Run<'_> {
                     * pose.ecef_to_ned.transpose();
                 let c = m * cov_at_p0 * m.transpose();
                 let (n2, e2, u2) = (c[(0, 0)].max(0.0), c[(1, 1)].max(0.0), c[(2, 2)].max(0.0));
+                if let Some(r) = recovered {
+                    let sigma_3d = (n2 + e2 + u2).sqrt();
+                    if point_implausible(r.range_m, r.residual_m, sigma_3d) {
+                        acc.implausible.push((index, r.range_m, r.residual_m));
+                        if let Some(before) = shares_before {
+                            acc.shares = before;
+                            return Slot::Skipped(SkipReason::Implausible);
+                        }
+                    }
+                    acc.residual.push(r.residual_m);
+                    // Points beyond the envelope stay out of the mounting check.
+                    if r.range_m <= DEFAULT_MAX_RANGE_M {
+                        acc.mounting.add(r.residual_m, sigma_3d, r.body_m.as_ref());
+                    }
+                }
                 let result = rec.map(|r| SoundingResult {
                     depth_m: r.depth_m,
                     thu_95_m: thu_95_m(&c.fixed_view::<2, 2>(0, 0).into_owned()),
@@ -834,7 +962,7 @@ impl Run<'_> {
         sigma: Option<&PoseSigma>,
         normal: Option<Vector3<f64>>,
         acc: &mut Partial,
-    ) -> lidarqa_tpu::Result<Matrix3<f64>> {
+    ) -> lidarqa_tpu::Result<(Matrix3<f64>, Recovered)> {
         let incidence = |range_m: f64, beam_ned: Vector3<f64>| {
             normal.map(|n| Incidence {
                 range_m,
@@ -842,7 +970,7 @@ impl Run<'_> {
                 incidence_rad: incidence_angle(&beam_ned, &(pose.ecef_to_ned * n)),
             })
         };
-        let (cov, vars, inc_var) = match self.kernel {
+        let (cov, vars, inc_var, recovered) = match self.kernel {
             Kernel::Linear(pp) => {
                 let r = self.recoverer.linear(pose, &p.ecef)?;
                 let params = LinearScanner.parameters(
@@ -857,11 +985,23 @@ impl Run<'_> {
                 let u = pp.propagate(&params, sigma, inc.as_ref())?;
                 acc.scan
                     .push(r.scan_angle_rad.to_degrees() - f64::from(lp.scan_angle_deg));
-                acc.residual.push(r.out_of_plane_m);
+                // S = (S_x, ρ sin θ, ρ cos θ); in the body frame R_M S.
+                let in_plane = r.range_m.powi(2) - r.out_of_plane_m.powi(2);
+                let rho = in_plane.max(0.0).sqrt();
+                let s = Vector3::new(
+                    r.out_of_plane_m,
+                    rho * r.scan_angle_rad.sin(),
+                    rho * r.scan_angle_rad.cos(),
+                );
                 (
                     u.covariance_ned,
                     u.source_variance_m2.as_slice().to_vec(),
                     u.incidence_variance_m2,
+                    Recovered {
+                        range_m: r.range_m,
+                        residual_m: r.out_of_plane_m,
+                        body_m: Some(self.r_m * s),
+                    },
                 )
             }
             Kernel::Conic(pp, scanner) => {
@@ -876,11 +1016,15 @@ impl Run<'_> {
                 } else {
                     pp.propagate(&params, sigma, inc.as_ref())?
                 };
-                acc.residual.push(r.off_cone_m);
                 (
                     u.covariance_ned,
                     u.source_variance_m2.as_slice().to_vec(),
                     u.incidence_variance_m2,
+                    Recovered {
+                        range_m: r.range_air_m,
+                        residual_m: r.off_cone_m,
+                        body_m: None,
+                    },
                 )
             }
         };
@@ -893,7 +1037,7 @@ impl Run<'_> {
                 *s += v / total;
             }
         }
-        Ok(cov)
+        Ok((cov, recovered))
     }
 }
 

@@ -139,6 +139,7 @@ pub(crate) fn render(r: &Report) -> String {
     o.push_str(CSS);
     o.push_str("</style>\n</head>\n<body>\n<main>\n");
     header(r, &sections, &mut o);
+    warnings_block(&p.warnings, &mut o);
     for (id, title, body) in &sections {
         let _ = write!(
             o,
@@ -154,6 +155,24 @@ pub(crate) fn render(r: &Report) -> String {
     );
     o.push_str("</main>\n</body>\n</html>\n");
     o
+}
+
+/// The products' warnings (SPEC §7), near the top where they cannot be missed.
+fn warnings_block(warnings: &[(String, lidarqa_model::Warning)], o: &mut String) {
+    if warnings.is_empty() {
+        return;
+    }
+    o.push_str("<section id=\"sec-warnings\">\n<h2>Warnings</h2>\n<ul class=\"warn\">\n");
+    for (file, w) in warnings {
+        let _ = writeln!(
+            o,
+            "<li><code>{}</code> <code>{}</code>: {}</li>",
+            esc(file),
+            esc(&w.code),
+            esc(&w.message)
+        );
+    }
+    o.push_str("</ul>\n</section>\n");
 }
 
 fn header(r: &Report, sections: &[(&str, &str, String)], o: &mut String) {

@@ -32,6 +32,8 @@ pub struct Products {
     pub overlap_after: Option<Overlap>,
     /// `iho.json`.
     pub iho: Option<Iho>,
+    /// The `warnings` of every product read (SPEC §7), with the file they came from.
+    pub warnings: Vec<(String, lidarqa_model::Warning)>,
 }
 
 impl Products {
@@ -102,6 +104,17 @@ pub fn read_product<T: Product>(path: impl AsRef<Path>) -> Result<T> {
         message,
     })?;
     Ok(value)
+}
+
+/// The `warnings` array of a product file (SPEC §7); none when the file has none or they do not
+/// parse (the product itself was checked by [`read_product`]).
+fn product_warnings(path: &Path) -> Vec<lidarqa_model::Warning> {
+    std::fs::read_to_string(path)
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|mut v| v.get_mut("warnings").map(serde_json::Value::take))
+        .and_then(|w| serde_json::from_value(w).ok())
+        .unwrap_or_default()
 }
 
 /// A report: the products, where they came from, and what was skipped.
@@ -183,6 +196,10 @@ impl Report {
         p.overlap_before = load(dir, OVERLAP_BEFORE_FILE, &mut skipped);
         p.overlap_after = load(dir, OVERLAP_AFTER_FILE, &mut skipped);
         p.iho = load(dir, IHO_FILE, &mut skipped);
+        for name in p.present() {
+            let w = product_warnings(&dir.join(&name));
+            p.warnings.extend(w.into_iter().map(|w| (name.clone(), w)));
+        }
         let mut r = Report::new(p);
         r.source = Some(dir.to_path_buf());
         r.skipped = skipped;
@@ -265,6 +282,45 @@ pub(crate) fn civil_date(days: i64) -> String {
 
 #[cfg(test)]
 mod tests {
+
+    /// Every product's `warnings` (SPEC §7) show in a block near the top, with their file.
+    #[test]
+    fn warnings_of_the_products_are_shown_near_the_top() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join(BUDGET_FILE),
+            r#"{"scanner": "linear", "sources": [
+                 {"name": "gnss_up", "sigma": 0.1, "unit": "m", "north": 0, "east": 0, "up": 0.1,
+                  "horizontal": 0, "vertical": 0.1, "three_d": 0.1}],
+                "total": {"north": 0, "east": 0, "up": 0.1, "horizontal": 0, "vertical": 0.1,
+                          "three_d": 0.1},
+                "warnings": [{"code": "mounting_does_not_fit", "message": "fitted yaw <13.96°>"}]}"#,
+        )
+        .unwrap();
+        let r = Report::from_dir(dir.path()).unwrap();
+        assert_eq!(r.products().warnings.len(), 1);
+        let html = r.to_html();
+        let block = html.find("id=\"sec-warnings\"").expect("a warnings block");
+        assert!(block < html.find("id=\"sec-budget\"").unwrap());
+        assert!(html.contains("mounting_does_not_fit</code>: fitted yaw &lt;13.96°&gt;"));
+        // No warnings, no block.
+        std::fs::write(
+            dir.path().join(BUDGET_FILE),
+            std::fs::read_to_string(dir.path().join(BUDGET_FILE))
+                .unwrap()
+                .replace(
+                    r#"[{"code": "mounting_does_not_fit", "message": "fitted yaw <13.96°>"}]"#,
+                    "[]",
+                ),
+        )
+        .unwrap();
+        assert!(
+            !Report::from_dir(dir.path())
+                .unwrap()
+                .to_html()
+                .contains("sec-warnings")
+        );
+    }
     use super::*;
 
     #[test]

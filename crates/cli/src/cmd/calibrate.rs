@@ -447,6 +447,7 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
             ..TpuOptions::default()
         },
     )?;
+    crate::format::print_warnings(ctx.warnings());
     let prior: Mounting = ctx.sensor().mounting;
     if !a.no_trajectory_weighting {
         let sigma = &ctx.sensor().sigma;
@@ -531,13 +532,18 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
     inputs.extend([a.trajectory.clone(), a.sensor.clone()]);
     inputs.extend(a.ties.clone());
     inputs.extend(a.control.clone());
-    write_json(&a.output, &cal.to_json(), &inputs)?;
+    // SPEC §7: the trajectory's warnings go into the JSON too.
+    let mut doc = cal.to_json();
+    if let Some(m) = doc.as_object_mut() {
+        m.insert("warnings".into(), serde_json::to_value(ctx.warnings())?);
+    }
+    write_json(&a.output, &doc, &inputs)?;
     if cal.method == lidarqa_calib::Method::Vtpm {
         let doc = cal.iterations_json(|v| local_to_projected(&frame, &zone, v));
         write_json(&plan.iterations_path, &doc, &inputs)?;
     }
     match a.format {
-        OutputFormat::Json => print_json(&cal.to_json()),
+        OutputFormat::Json => print_json(&doc),
         OutputFormat::Table => print_text(&table(&cal)),
     }
 }

@@ -2,7 +2,7 @@
 //! summary `lidarqa tpu` writes over the same tiles (SPEC §9).
 
 use super::tpu::table;
-use crate::format::{OutputFormat, print_json, print_text};
+use crate::format::{OutputFormat, print_json, print_text, print_warnings};
 use anyhow::{Context, Result};
 use clap::Args;
 use lidarqa_io::AtomicFile;
@@ -34,6 +34,7 @@ pub struct CollectArgs {
 pub fn run(a: CollectArgs) -> Result<()> {
     let manifest = Manifest::read(&a.manifest)?;
     let (_, report) = collect(&a.manifest, &manifest)?;
+    print_warnings(&report.summary.warnings);
     if let Some(path) = &a.summary {
         let mut inputs: Vec<PathBuf> = vec![a.manifest.clone()];
         inputs.extend(

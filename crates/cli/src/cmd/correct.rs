@@ -72,6 +72,7 @@ pub fn run(a: CorrectArgs) -> Result<()> {
             ..TpuOptions::default()
         },
     )?;
+    crate::format::print_warnings(ctx.warnings());
     // No output may overwrite any strip (not only its own input) or the calibration.
     let mut others: Vec<&Path> = a.strips.iter().map(PathBuf::as_path).collect();
     others.push(&a.calibration);

@@ -2,7 +2,7 @@
 //! trajectory (SPEC §6, §7, §9). The work is lidarqa-pipeline's `tpu_tile`; this module parses,
 //! runs the tiles in parallel, shows progress and prints the summary.
 
-use crate::format::{OutputFormat, cm, print_json, print_text};
+use crate::format::{OutputFormat, cm, print_json, print_text, print_warnings};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -275,6 +275,7 @@ pub fn run(args: TpuArgs) -> Result<()> {
     let reports = run_tiles(&plan.tiles, &ctx, &progress)?;
     bar.finish_and_clear();
     let (_, report) = TileReport::merge(&reports).context("no tiles")?;
+    print_warnings(&report.summary.warnings);
     if let Some(path) = &plan.summary {
         let mut inputs: Vec<&Path> = plan.tiles.iter().map(|t| t.input.as_path()).collect();
         inputs.push(&plan.trajectory);

@@ -1,0 +1,920 @@
+//! Physical plausibility of the inputs: one home for every check that the trajectory, the CRS,
+//! the ranges and the mounting can be physically right (issue #25).
+//!
+//! The parsers only check that a file is well formed. Here each check is a function with its
+//! threshold as a named constant; an input that cannot be right is an [`Error::Implausible`]
+//! naming the file, the value and the likely cause; a doubtful one is a [`Warning`] that the
+//! tile's summary carries (merged across tiles, printed by the CLI, written to the JSON and the
+//! report). The checks run on the in-memory types ([`TrajectorySample`], the recovered scanner
+//! vectors), so they apply to any trajectory reader and any CRS.
+//!
+//! The mounting check (issue #20): for a linear scanner every point, taken into the body frame
+//! with its pose (`B = R_Nᵀ C_NE (P − P0) − ΔP`), lies on one plane through the scanner origin,
+//! the scan plane, whose normal is `R_M e_x = (cos p cos y, cos p sin y, −sin p)` (boresight
+//! pitch p, yaw y; roll turns the plane in itself and is not observable from it). The normal is
+//! the eigenvector of the smallest eigenvalue of `Σ B Bᵀ`, which merges exactly across tiles.
+//! Written by hand: a 3×3 symmetric eigenproblem (nalgebra) and a few sums, no crate does it.
+
+use crate::error::{Error, Result};
+use lidarqa_model::{Attitude, Mounting, Warning};
+use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+use serde::{Deserialize, Serialize};
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::path::Path;
+
+/// Lowest plausible ellipsoidal height of an aircraft, m: below the Dead Sea shore (−430 m) plus
+/// the geoid's lowest undulation (−106 m) with a margin.
+pub const MIN_HEIGHT_M: f64 = -1_000.0;
+/// Highest plausible ellipsoidal height of a survey aircraft, m: above the service ceiling of any
+/// airborne-LiDAR platform (high-altitude jets fly below 16 km).
+pub const MAX_HEIGHT_M: f64 = 25_000.0;
+/// Fastest plausible ground speed, m/s: about Mach 1; survey aircraft fly below 150 m/s, so a
+/// faster step is positions in a wrong unit or a wrong record, not flight.
+pub const MAX_SPEED_MPS: f64 = 350.0;
+/// Speeds are judged over at least this time, s: sample-to-sample GNSS noise (decimetres in a
+/// few milliseconds, e.g. a simulated noisy trajectory) is not motion; a wrong unit or a jumped
+/// record still moves kilometres per second.
+pub const SPEED_BASELINE_S: f64 = 1.0;
+/// Attitude rates are judged over at least this time, s (attitude noise is far smaller).
+pub const ATTITUDE_BASELINE_S: f64 = 0.1;
+/// Fastest plausible attitude rate, deg/s: aerobatic roll rates reach ~200 deg/s, survey
+/// aircraft turn at a few deg/s; faster is angles in a wrong unit or a corrupt record.
+pub const MAX_ATTITUDE_RATE_DEG_S: f64 = 300.0;
+/// A trajectory gap longer than this many nominal sample intervals inside the points' time span
+/// is a warning: the pose there is interpolated over more than one missing sample.
+pub const GAP_WARNING_SAMPLES: f64 = 3.0;
+/// A trajectory gap longer than this inside the points' time span is an error: interpolating an
+/// aircraft's attitude over more than a second is no longer a measurement (attitude changes of
+/// a degree within a second are common in turbulence).
+pub const GAP_ERROR_S: f64 = 1.0;
+/// Two records with the same time whose positions differ by more than this, m, are an error
+/// (the trajectory jumps); closer, the duplicate is a warning.
+pub const DUPLICATE_POSITION_TOLERANCE_M: f64 = 0.01;
+/// A trajectory position σ above this, m, is not a GNSS/INS solution: likely centimetres or
+/// millimetres read as metres.
+pub const MAX_POSITION_SIGMA_M: f64 = 100.0;
+/// An attitude σ above this, degrees, is not an INS solution: likely a wrong unit (SMRMSG stores
+/// arc-minutes).
+pub const MAX_ATTITUDE_SIGMA_DEG: f64 = 5.0;
+/// The default longest range of an airborne LiDAR, m: long-range sensors (e.g. flown at 6 km
+/// above ground, off-nadir) stay below it. A point farther from its scanner is implausible.
+pub const DEFAULT_MAX_RANGE_M: f64 = 10_000.0;
+/// Median point-to-trajectory distance of a chunk beyond which the points cannot belong to this
+/// trajectory, m: a wrong zone, a wrong CRS or another survey's trajectory.
+pub const MAX_TRAJECTORY_DISTANCE_M: f64 = 50_000.0;
+/// Points sampled per chunk for the distance check: a median of 101 distances is robust to a
+/// few corrupted points and costs nothing next to the chunk's propagation.
+pub const DISTANCE_SAMPLES: usize = 101;
+/// Margin beyond a UTM zone's ±3° from its central meridian, degrees: points up to here are in
+/// the zone's usual overlap; beyond it the projection's scale error grows fast.
+pub const ZONE_MARGIN_DEG: f64 = 1.0;
+/// A point whose recovery residual exceeds this many of its own 3-D σ ...
+pub const POINT_RESIDUAL_SIGMAS: f64 = 10.0;
+/// ... and this many metres is implausible (corrupted point data, a wrong time): the σ do not
+/// explain it.
+pub const POINT_RESIDUAL_FLOOR_M: f64 = 1.0;
+/// A strip whose RMS recovery residual exceeds this many RMS 3-D σ does not fit its mounting:
+/// the residual is one component of the point error, so a fitting model keeps it below ~1.
+pub const MOUNTING_WARNING_RATIO: f64 = 3.0;
+/// Below this RMS residual, m, the mounting is not questioned whatever the σ (centimetre-level
+/// misfit of a sensor with tiny σ is not a mounting error worth a warning).
+pub const MOUNTING_WARNING_FLOOR_M: f64 = 0.05;
+/// An RMS recovery residual beyond this, m, is an error: kilometres off the scan plane is no
+/// longer a mounting that is slightly off.
+pub const MOUNTING_ERROR_M: f64 = 1_000.0;
+
+/// One trajectory sample as any reader gives it (SBET, text): what the checks need.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrajectorySample {
+    /// GPS seconds of week.
+    pub time_s: f64,
+    /// Geodetic latitude, rad.
+    pub latitude_rad: f64,
+    /// Longitude, rad.
+    pub longitude_rad: f64,
+    /// Ellipsoidal height, m.
+    pub height_m: f64,
+    /// Roll, pitch, heading, rad.
+    pub attitude: Attitude,
+}
+
+/// A stretch of the trajectory longer than [`GAP_WARNING_SAMPLES`] nominal intervals.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gap {
+    /// Time of the sample before the gap, s.
+    pub start_s: f64,
+    /// Time of the sample after it, s.
+    pub end_s: f64,
+}
+
+/// What the trajectory check found that matters later: its gaps and its warnings.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TrajectoryFacts {
+    /// Gaps, in time order (judged against the points' times per chunk).
+    pub gaps: Vec<Gap>,
+    /// Median sample interval, s.
+    pub nominal_interval_s: f64,
+    /// Doubtful findings.
+    pub warnings: Vec<Warning>,
+}
+
+fn implausible(path: &Path, message: String) -> Error {
+    Error::Implausible {
+        path: path.to_path_buf(),
+        message,
+    }
+}
+
+/// A value for a message: plain, or in exponent form when huge (1e30, not 31 digits).
+fn short(v: f64) -> String {
+    if v.abs() >= 1e9 {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// The angle `a − b` wrapped to (−π, π].
+fn wrapped(a: f64, b: f64) -> f64 {
+    let d = (a - b).rem_euclid(TAU);
+    if d > PI { d - TAU } else { d }
+}
+
+/// Checks a trajectory: latitude and longitude in radians and in range, heights of an aircraft,
+/// speeds and attitude rates an aircraft can have, duplicated times; returns its gaps.
+///
+/// # Errors
+/// [`Error::Implausible`] naming `path`, the record and the value, with the likely cause.
+pub fn check_trajectory(path: &Path, samples: &[TrajectorySample]) -> Result<TrajectoryFacts> {
+    let mut facts = TrajectoryFacts::default();
+    for (i, s) in samples.iter().enumerate() {
+        if s.latitude_rad.abs() > FRAC_PI_2 {
+            let hint = if s.latitude_rad.abs() <= 90.0 {
+                "latitudes look like degrees, SBET stores radians"
+            } else {
+                "not a latitude in radians or degrees: a corrupt record or a wrong format"
+            };
+            return Err(implausible(
+                path,
+                format!(
+                    "record {i}: latitude {} is beyond ±π/2 rad: {hint}",
+                    s.latitude_rad
+                ),
+            ));
+        }
+        if s.longitude_rad.abs() > TAU {
+            let hint = if s.longitude_rad.abs() <= 360.0 {
+                "longitudes look like degrees, SBET stores radians"
+            } else {
+                "not a longitude in radians or degrees: a corrupt record or a wrong format"
+            };
+            return Err(implausible(
+                path,
+                format!(
+                    "record {i}: longitude {} is beyond ±2π rad: {hint}",
+                    s.longitude_rad
+                ),
+            ));
+        }
+        if !(MIN_HEIGHT_M..=MAX_HEIGHT_M).contains(&s.height_m) {
+            return Err(implausible(
+                path,
+                format!(
+                    "record {i}: height {} m is not an aircraft's (expected {MIN_HEIGHT_M} to \
+                     {MAX_HEIGHT_M} m): a corrupt record or a wrong unit",
+                    short(s.height_m)
+                ),
+            ));
+        }
+    }
+    let ellipsoid = lidarqa_io::UtmDatum::Wgs84.ellipsoid();
+    let ecef = |s: &TrajectorySample| {
+        ellipsoid.geodetic_to_ecef(&lidarqa_io::Geodetic {
+            latitude_rad: s.latitude_rad,
+            longitude_rad: s.longitude_rad,
+            height_m: s.height_m,
+        })
+    };
+    let mut intervals = Vec::with_capacity(samples.len());
+    for (i, w) in samples.windows(2).enumerate() {
+        let (a, b) = (&w[0], &w[1]);
+        let dt = b.time_s - a.time_s;
+        let dist = (ecef(b) - ecef(a)).norm();
+        if dt == 0.0 {
+            if dist > DUPLICATE_POSITION_TOLERANCE_M {
+                return Err(implausible(
+                    path,
+                    format!(
+                        "records {i} and {} share time {} s but lie {dist:.3} m apart: a \
+                         duplicated time in the trajectory",
+                        i + 1,
+                        a.time_s
+                    ),
+                ));
+            }
+            facts.warnings.push(Warning::new(
+                "trajectory_duplicate_time",
+                format!(
+                    "{}: records {i} and {} share time {} s (the same pose twice)",
+                    path.display(),
+                    i + 1,
+                    a.time_s
+                ),
+            ));
+            continue;
+        }
+        // Time order is the reader's / Trajectory's check; nothing to judge here.
+        if dt > 0.0 {
+            intervals.push(dt);
+        }
+    }
+    let times: Vec<f64> = samples.iter().map(|s| s.time_s).collect();
+    for (i, j) in baseline_pairs(&times, SPEED_BASELINE_S) {
+        let (a, b) = (&samples[i], &samples[j]);
+        let (dist, dt) = ((ecef(b) - ecef(a)).norm(), b.time_s - a.time_s);
+        let speed = dist / dt;
+        if speed > MAX_SPEED_MPS {
+            return Err(implausible(
+                path,
+                format!(
+                    "records {i}–{j}: the aircraft would move {dist:.1} m in {dt:.3} s \
+                     ({speed:.0} m/s, more than {MAX_SPEED_MPS} m/s): positions in a wrong \
+                     unit (latitudes in degrees?) or a corrupt record"
+                ),
+            ));
+        }
+    }
+    for (i, j) in baseline_pairs(&times, ATTITUDE_BASELINE_S) {
+        let (a, b) = (&samples[i], &samples[j]);
+        let dt = b.time_s - a.time_s;
+        for (name, x, y) in [
+            ("roll", a.attitude.roll_rad, b.attitude.roll_rad),
+            ("pitch", a.attitude.pitch_rad, b.attitude.pitch_rad),
+            ("heading", a.attitude.heading_rad, b.attitude.heading_rad),
+        ] {
+            let rate = wrapped(y, x).abs().to_degrees() / dt;
+            if rate > MAX_ATTITUDE_RATE_DEG_S {
+                return Err(implausible(
+                    path,
+                    format!(
+                        "records {i}–{j}: {name} changes at {rate:.0} deg/s (more than \
+                         {MAX_ATTITUDE_RATE_DEG_S} deg/s): angles in a wrong unit (degrees \
+                         where radians are stored?) or a corrupt record"
+                    ),
+                ));
+            }
+        }
+    }
+    if !intervals.is_empty() {
+        let mut sorted = intervals.clone();
+        sorted.sort_by(f64::total_cmp);
+        facts.nominal_interval_s = sorted[sorted.len() / 2];
+        let limit = GAP_WARNING_SAMPLES * facts.nominal_interval_s;
+        facts.gaps = samples
+            .windows(2)
+            .filter(|w| w[1].time_s - w[0].time_s > limit)
+            .map(|w| Gap {
+                start_s: w[0].time_s,
+                end_s: w[1].time_s,
+            })
+            .collect();
+    }
+    Ok(facts)
+}
+
+/// Pairs of samples at least `baseline_s` apart (or the whole span when shorter), each sample
+/// once as a start and once as an end, so that one bad record is always in a pair.
+fn baseline_pairs(times: &[f64], baseline_s: f64) -> Vec<(usize, usize)> {
+    let n = times.len();
+    let mut out = Vec::with_capacity(2 * n);
+    let (mut j, mut k) = (0, 0);
+    for i in 0..n {
+        j = j.max(i);
+        while j + 1 < n && times[j] - times[i] < baseline_s {
+            j += 1;
+        }
+        while k + 1 < i && times[i] - times[k + 1] >= baseline_s {
+            k += 1;
+        }
+        for (a, b) in [(i, j), (k, i)] {
+            if b > a && times[b] > times[a] {
+                out.push((a, b));
+            }
+        }
+    }
+    out
+}
+
+/// Checks the trajectory's σ (SMRMSG or any other source): position and attitude σ in units a
+/// GNSS/INS solution can have. Returns warnings only: a σ in a wrong unit gives a wrong σ, not a
+/// wrong point.
+pub fn check_trajectory_sigmas(path: &Path, sigmas: &[lidarqa_tpu::PoseSigma]) -> Vec<Warning> {
+    let mut out = Vec::new();
+    let max_pos = sigmas
+        .iter()
+        .map(|s| s.north_m.max(s.east_m).max(s.down_m))
+        .fold(0.0, f64::max);
+    if max_pos > MAX_POSITION_SIGMA_M {
+        out.push(Warning::new(
+            "trajectory_sigma_unit",
+            format!(
+                "{}: a position σ of {max_pos} m (more than {MAX_POSITION_SIGMA_M} m) is not a \
+                 GNSS/INS solution: σ in centimetres or millimetres read as metres?",
+                path.display()
+            ),
+        ));
+    }
+    let max_att = sigmas
+        .iter()
+        .map(|s| s.roll_rad.max(s.pitch_rad).max(s.heading_rad))
+        .fold(0.0, f64::max)
+        .to_degrees();
+    if max_att > MAX_ATTITUDE_SIGMA_DEG {
+        out.push(Warning::new(
+            "trajectory_sigma_unit",
+            format!(
+                "{}: an attitude σ of {max_att:.2}° (more than {MAX_ATTITUDE_SIGMA_DEG}°) is not \
+                 an INS solution: a wrong unit (SMRMSG stores arc-minutes)?",
+                path.display()
+            ),
+        ));
+    }
+    out
+}
+
+/// Judges the gaps that points fall in (`times_s`: the points' times, sorted): a gap longer
+/// than [`GAP_ERROR_S`] is an error, a shorter one a warning. Gaps between strips (turns, where
+/// no point lies) are not judged.
+///
+/// # Errors
+/// [`Error::Implausible`] naming the point file and the gap.
+pub fn check_gaps(
+    points: &Path,
+    trajectory: &Path,
+    gaps: &[Gap],
+    times_s: &[f64],
+) -> Result<Vec<Warning>> {
+    let mut out = Vec::new();
+    for g in gaps {
+        let k = times_s.partition_point(|t| *t <= g.start_s);
+        let Some(&t) = times_s.get(k).filter(|t| **t < g.end_s) else {
+            continue;
+        };
+        let len = g.end_s - g.start_s;
+        if len > GAP_ERROR_S {
+            return Err(implausible(
+                points,
+                format!(
+                    "the trajectory {} has a {len:.3} s gap ({} to {} s) with points inside it \
+                     (the first at {t:.3} s): poses cannot be interpolated over more than \
+                     {GAP_ERROR_S} s; use a trajectory without the gap",
+                    trajectory.display(),
+                    g.start_s,
+                    g.end_s
+                ),
+            ));
+        }
+        out.push(Warning::new(
+            "trajectory_gap",
+            format!(
+                "{}: the trajectory {} has a {len:.3} s gap ({} to {} s) with points inside it \
+                 (the first at {t:.3} s): poses there are interpolated over missing samples",
+                points.display(),
+                trajectory.display(),
+                g.start_s,
+                g.end_s
+            ),
+        ));
+    }
+    Ok(out)
+}
+
+/// The UTM zone (e.g. `49N`) a longitude and latitude fall in, for messages.
+pub fn utm_zone_name(latitude_rad: f64, longitude_rad: f64) -> String {
+    let lon = wrapped(longitude_rad, 0.0).to_degrees();
+    let zone = (((lon + 180.0) / 6.0).floor() as i64).clamp(0, 59) + 1;
+    format!("{zone}{}", if latitude_rad >= 0.0 { 'N' } else { 'S' })
+}
+
+/// Checks that a chunk's points lie near the trajectory: the median distance from each point
+/// to the aircraft at its time, over up to 101 points spread through `points` (`(time,
+/// point ECEF, aircraft ECEF, aircraft latitude, longitude)`), must stay below
+/// [`MAX_TRAJECTORY_DISTANCE_M`]. `crs` names the points' CRS in the message.
+///
+/// # Errors
+/// [`Error::Implausible`] naming the file, the distance, the CRS and the trajectory's zone.
+pub fn check_distance(
+    path: &Path,
+    crs: &str,
+    points: &[(Vector3<f64>, Vector3<f64>, f64, f64)],
+) -> Result<()> {
+    if points.is_empty() {
+        return Ok(());
+    }
+    let step = points.len().div_ceil(DISTANCE_SAMPLES).max(1);
+    let mut d: Vec<f64> = points
+        .iter()
+        .step_by(step)
+        .map(|(p, a, _, _)| (p - a).norm())
+        .collect();
+    d.sort_by(f64::total_cmp);
+    let median = d[d.len() / 2];
+    if median > MAX_TRAJECTORY_DISTANCE_M {
+        let (_, _, lat, lon) = points[0];
+        return Err(implausible(
+            path,
+            format!(
+                "the points are {:.0} km from the trajectory (median of {} points): wrong UTM \
+                 zone or CRS? the points are read in {crs}, the trajectory is in {}",
+                median / 1000.0,
+                d.len(),
+                utm_zone_name(lat, lon)
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// A UTM zone's name for messages, e.g. `UTM zone 50N`.
+pub fn crs_name(zone: &lidarqa_io::UtmZone) -> String {
+    let h = match zone.hemisphere() {
+        lidarqa_io::Hemisphere::North => 'N',
+        lidarqa_io::Hemisphere::South => 'S',
+    };
+    format!("UTM zone {}{h}", zone.zone())
+}
+
+/// Whether a point at `longitude_rad` lies outside a UTM zone with central meridian
+/// `central_meridian_rad` (± 3° + [`ZONE_MARGIN_DEG`]).
+pub fn outside_zone(longitude_rad: f64, central_meridian_rad: f64) -> bool {
+    wrapped(longitude_rad, central_meridian_rad)
+        .to_degrees()
+        .abs()
+        > 3.0 + ZONE_MARGIN_DEG
+}
+
+/// Why a point is implausible, if it is: a range beyond the sensor's envelope, or a recovery
+/// residual its σ cannot explain.
+pub fn point_implausible(range_m: f64, residual_m: f64, sigma_3d_m: f64) -> bool {
+    range_m > DEFAULT_MAX_RANGE_M
+        || (residual_m.abs() > POINT_RESIDUAL_SIGMAS * sigma_3d_m
+            && residual_m.abs() > POINT_RESIDUAL_FLOOR_M)
+}
+
+/// The mergeable sums of the mounting check.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MountingTally {
+    /// Points summed (range within the envelope).
+    pub n: u64,
+    /// Σ q², m² (recovery residual).
+    pub sum_q2_m2: f64,
+    /// Σ σ_3D², m².
+    pub sum_sigma2_m2: f64,
+    /// Σ B Bᵀ over the body-frame vectors (linear scanner), row-major, m².
+    pub scatter_m2: [f64; 9],
+    /// Whether `scatter_m2` was summed (linear scanner).
+    pub linear: bool,
+    /// The sensor file's boresight roll, pitch, yaw, degrees.
+    pub file_boresight_deg: [f64; 3],
+}
+
+impl MountingTally {
+    /// An empty tally for a sensor file's mounting.
+    pub fn new(mounting: &Mounting, linear: bool) -> Self {
+        MountingTally {
+            linear,
+            file_boresight_deg: [
+                mounting.boresight_roll_rad.to_degrees(),
+                mounting.boresight_pitch_rad.to_degrees(),
+                mounting.boresight_yaw_rad.to_degrees(),
+            ],
+            ..MountingTally::default()
+        }
+    }
+
+    /// Adds one point: residual, 3-D σ and (linear scanner) its body-frame vector from the
+    /// scanner origin.
+    pub fn add(&mut self, q_m: f64, sigma_3d_m: f64, body_m: Option<&Vector3<f64>>) {
+        self.n += 1;
+        self.sum_q2_m2 += q_m * q_m;
+        self.sum_sigma2_m2 += sigma_3d_m * sigma_3d_m;
+        if let Some(b) = body_m {
+            let m = b * b.transpose();
+            for (s, v) in self.scatter_m2.iter_mut().zip(m.transpose().iter()) {
+                *s += v;
+            }
+        }
+    }
+
+    /// Adds another tally.
+    pub fn merge(&mut self, o: &MountingTally) {
+        if self.n == 0 {
+            self.linear = o.linear;
+            self.file_boresight_deg = o.file_boresight_deg;
+        }
+        self.n += o.n;
+        self.sum_q2_m2 += o.sum_q2_m2;
+        self.sum_sigma2_m2 += o.sum_sigma2_m2;
+        for (a, b) in self.scatter_m2.iter_mut().zip(&o.scatter_m2) {
+            *a += b;
+        }
+    }
+
+    /// RMS recovery residual, m.
+    pub fn rms_residual_m(&self) -> f64 {
+        (self.sum_q2_m2 / self.n.max(1) as f64).sqrt()
+    }
+
+    /// RMS 3-D σ, m.
+    pub fn rms_sigma_m(&self) -> f64 {
+        (self.sum_sigma2_m2 / self.n.max(1) as f64).sqrt()
+    }
+
+    /// The boresight pitch and yaw (degrees) that put the points on the scanner's plane, and
+    /// the RMS distance of the points from that plane (m); `None` without linear points.
+    pub fn fit(&self) -> Option<FittedMounting> {
+        if !self.linear || self.n < 3 {
+            return None;
+        }
+        let m = Matrix3::from_row_slice(&self.scatter_m2);
+        let e = SymmetricEigen::new(m);
+        let k = e.eigenvalues.imin();
+        let mut n: Vector3<f64> = e.eigenvectors.column(k).into_owned();
+        // The normal nearest the file's scanner X (the sign of a plane normal is free).
+        let [_, p, y] = self.file_boresight_deg.map(f64::to_radians);
+        let file_x = Vector3::new(p.cos() * y.cos(), p.cos() * y.sin(), -p.sin());
+        if n.dot(&file_x) < 0.0 {
+            n = -n;
+        }
+        Some(FittedMounting {
+            roll_deg: self.file_boresight_deg[0],
+            pitch_deg: (-n.z).atan2(n.x.hypot(n.y)).to_degrees(),
+            yaw_deg: n.y.atan2(n.x).to_degrees(),
+            rms_m: (e.eigenvalues[k].max(0.0) / self.n as f64).sqrt(),
+        })
+    }
+
+    /// Whether the residual is far beyond what the σ explain (see [`MOUNTING_WARNING_RATIO`]).
+    pub fn does_not_fit(&self) -> bool {
+        let rms = self.rms_residual_m();
+        self.n > 0
+            && rms > MOUNTING_WARNING_FLOOR_M
+            && rms > MOUNTING_WARNING_RATIO * self.rms_sigma_m()
+    }
+
+    /// The sentence saying the mounting does not fit, with the fitted boresight.
+    pub fn message(&self) -> String {
+        let (rms, sig) = (self.rms_residual_m(), self.rms_sigma_m());
+        let [r0, p0, y0] = self.file_boresight_deg;
+        let head = format!(
+            "the points are {rms:.3} m RMS off the scan {} ({:.0}× their RMS 3-D σ of {sig:.3} m): \
+             the mounting in the sensor file (boresight roll {r0:.3}°, pitch {p0:.3}°, yaw {y0:.3}°) \
+             does not fit the data",
+            if self.linear { "plane" } else { "cone" },
+            rms / sig.max(1e-12),
+        );
+        match self.fit() {
+            Some(f) if f.rms_m <= MOUNTING_WARNING_RATIO * sig.max(MOUNTING_WARNING_FLOOR_M) => {
+                format!(
+                    "{head}; the boresight that does, fitted from the points: pitch {:.3}°, yaw \
+                     {:.3}° (roll {:.3}° kept: not observable from the plane), leaving {:.3} m \
+                     RMS off the plane",
+                    f.pitch_deg, f.yaw_deg, f.roll_deg, f.rms_m
+                )
+            }
+            Some(f) => format!(
+                "{head}; no boresight fits either (best: pitch {:.3}°, yaw {:.3}°, still {:.3} m \
+                 RMS off the plane): check the trajectory, the time base and the CRS",
+                f.pitch_deg, f.yaw_deg, f.rms_m
+            ),
+            None => head,
+        }
+    }
+}
+
+/// JSON view of the mounting check: the summary's `mounting_check`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct MountingView {
+    /// RMS recovery residual of the points within the range envelope, m.
+    pub rms_residual_m: f64,
+    /// RMS of their 3-D σ, m.
+    pub rms_sigma_3d_m: f64,
+    /// Whether the residual is beyond what the σ explain (the `mounting_does_not_fit` warning).
+    pub does_not_fit: bool,
+    /// The sensor file's boresight roll, pitch, yaw, degrees.
+    pub file_boresight_deg: [f64; 3],
+    /// The boresight that puts the points on the scan plane (linear scanner): roll (the file's,
+    /// not observable), pitch, yaw, degrees.
+    pub fitted_boresight_deg: Option<[f64; 3]>,
+    /// RMS distance of the points from the fitted plane, m.
+    pub fitted_plane_rms_m: Option<f64>,
+}
+
+impl MountingTally {
+    /// The JSON view; `None` without points.
+    pub fn view(&self) -> Option<MountingView> {
+        (self.n > 0).then(|| {
+            let f = self.fit();
+            MountingView {
+                rms_residual_m: self.rms_residual_m(),
+                rms_sigma_3d_m: self.rms_sigma_m(),
+                does_not_fit: self.does_not_fit(),
+                file_boresight_deg: self.file_boresight_deg,
+                fitted_boresight_deg: f.map(|f| [f.roll_deg, f.pitch_deg, f.yaw_deg]),
+                fitted_plane_rms_m: f.map(|f| f.rms_m),
+            }
+        })
+    }
+}
+
+/// A boresight fitted from the points (linear scanner).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FittedMounting {
+    /// The file's roll, degrees (not observable from the scan plane).
+    pub roll_deg: f64,
+    /// Fitted boresight pitch, degrees.
+    pub pitch_deg: f64,
+    /// Fitted boresight yaw, degrees.
+    pub yaw_deg: f64,
+    /// RMS distance of the points from the fitted plane, m.
+    pub rms_m: f64,
+}
+
+/// Mergeable plausibility findings of one tile or many.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlausibilityTally {
+    /// Warnings found while reading (trajectory, gaps), sorted and without duplicates.
+    pub warnings: Vec<Warning>,
+    /// Points outside their UTM zone's area.
+    pub outside_zone: u64,
+    /// Points outside the trajectory σ's time span (their σ is the nearest record's).
+    pub outside_sigma_span: u64,
+    /// The σ records' time span, s.
+    pub sigma_span_s: Option<[f64; 2]>,
+    /// Points whose range or residual is implausible.
+    pub implausible: u64,
+    /// The largest residual among them, m.
+    pub implausible_max_residual_m: f64,
+    /// The largest range among them, m.
+    pub implausible_max_range_m: f64,
+    /// The first of them: file and point index.
+    pub first_implausible: Option<(String, u64)>,
+    /// The mounting check's sums.
+    pub mounting: MountingTally,
+}
+
+impl PlausibilityTally {
+    /// Adds warnings (kept sorted, without duplicates).
+    pub fn warn(&mut self, w: impl IntoIterator<Item = Warning>) {
+        self.warnings.extend(w);
+        self.warnings.sort();
+        self.warnings.dedup();
+    }
+
+    /// Counts one implausible point.
+    pub fn add_implausible(&mut self, path: &Path, index: u64, range_m: f64, residual_m: f64) {
+        self.implausible += 1;
+        self.implausible_max_range_m = self.implausible_max_range_m.max(range_m);
+        self.implausible_max_residual_m = self.implausible_max_residual_m.max(residual_m.abs());
+        if self.first_implausible.is_none() {
+            self.first_implausible = Some((path.display().to_string(), index));
+        }
+    }
+
+    /// Adds another tally.
+    pub fn merge(&mut self, o: &PlausibilityTally) {
+        self.warn(o.warnings.iter().cloned());
+        self.outside_zone += o.outside_zone;
+        self.outside_sigma_span += o.outside_sigma_span;
+        self.sigma_span_s = self.sigma_span_s.or(o.sigma_span_s);
+        if self.first_implausible.is_none() {
+            self.first_implausible = o.first_implausible.clone();
+        }
+        self.implausible += o.implausible;
+        self.implausible_max_range_m = self.implausible_max_range_m.max(o.implausible_max_range_m);
+        self.implausible_max_residual_m = self
+            .implausible_max_residual_m
+            .max(o.implausible_max_residual_m);
+        self.mounting.merge(&o.mounting);
+    }
+
+    /// Every warning: those found while reading and those the counts imply.
+    pub fn all_warnings(&self, skip_invalid_hint: bool) -> Vec<Warning> {
+        let mut out = self.warnings.clone();
+        if self.outside_zone > 0 {
+            out.push(Warning::new(
+                "outside_crs_area",
+                format!(
+                    "{} points lie more than {}° from their UTM zone's central meridian: a \
+                     wrong zone? the projection's scale error grows fast there",
+                    self.outside_zone,
+                    3.0 + ZONE_MARGIN_DEG
+                ),
+            ));
+        }
+        if self.outside_sigma_span > 0 {
+            let span = self
+                .sigma_span_s
+                .map(|[a, b]| format!(" ({a} to {b} s)"))
+                .unwrap_or_default();
+            out.push(Warning::new(
+                "trajectory_sigma_not_covering",
+                format!(
+                    "{} points lie outside the time span of the trajectory σ{span}: their σ is \
+                     the nearest record's, held constant",
+                    self.outside_sigma_span
+                ),
+            ));
+        }
+        let mounting = self.mounting.does_not_fit();
+        // A mounting that does not fit puts every point far off: that warning says it once.
+        if self.implausible > 0 && (!mounting || self.implausible * 2 < self.mounting.n) {
+            let first = self
+                .first_implausible
+                .as_ref()
+                .map(|(p, i)| format!(" (first: {p} point {i})"))
+                .unwrap_or_default();
+            out.push(Warning::new(
+                "implausible_points",
+                format!(
+                    "{} points{first} have a range beyond {DEFAULT_MAX_RANGE_M} m or a recovery \
+                     residual beyond {POINT_RESIDUAL_SIGMAS} σ and {POINT_RESIDUAL_FLOOR_M} m \
+                     (largest residual {:.1} m, largest range {:.1} m): corrupted point data?{}",
+                    self.implausible,
+                    self.implausible_max_residual_m,
+                    self.implausible_max_range_m,
+                    if skip_invalid_hint {
+                        " --skip-invalid leaves them out"
+                    } else {
+                        " they were skipped"
+                    }
+                ),
+            ));
+        }
+        if mounting {
+            out.push(Warning::new(
+                "mounting_does_not_fit",
+                self.mounting.message(),
+            ));
+        }
+        out.sort();
+        out.dedup();
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lidarqa_model::rotation_zyx;
+
+    fn samples(n: usize, dt: f64) -> Vec<TrajectorySample> {
+        // 60 m/s north at 1000 m, level, heading north.
+        (0..n)
+            .map(|i| {
+                let t = 1000.0 + i as f64 * dt;
+                TrajectorySample {
+                    time_s: t,
+                    latitude_rad: 0.7 + 60.0 * (t - 1000.0) / 6_371_000.0,
+                    longitude_rad: 0.2,
+                    height_m: 1000.0,
+                    attitude: Attitude::default(),
+                }
+            })
+            .collect()
+    }
+
+    fn message(r: Result<TrajectoryFacts>) -> String {
+        match r {
+            Err(e @ Error::Implausible { .. }) => e.to_string(),
+            other => panic!("expected Implausible, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_plausible_trajectory_passes_without_warnings() {
+        let f = check_trajectory(Path::new("t.out"), &samples(200, 0.005)).unwrap();
+        assert!(f.warnings.is_empty() && f.gaps.is_empty());
+        assert!((f.nominal_interval_s - 0.005).abs() < 1e-12);
+    }
+
+    #[test]
+    fn latitudes_in_degrees_are_named() {
+        let mut s = samples(10, 0.005);
+        for p in &mut s {
+            p.latitude_rad = p.latitude_rad.to_degrees();
+            p.longitude_rad = p.longitude_rad.to_degrees();
+        }
+        let m = message(check_trajectory(Path::new("t.out"), &s));
+        assert!(m.contains("t.out: record 0: latitude 40.1"), "{m}");
+        assert!(
+            m.contains("latitudes look like degrees, SBET stores radians"),
+            "{m}"
+        );
+    }
+
+    #[test]
+    fn altitude_speed_attitude_rate_and_duplicates() {
+        let p = Path::new("t.out");
+        let mut s = samples(10, 0.005);
+        s[4].height_m = 1e30;
+        let m = message(check_trajectory(p, &s));
+        assert!(
+            m.contains("record 4: height 1e30 m is not an aircraft's"),
+            "{m}"
+        );
+        let mut s = samples(10, 0.005);
+        s[5].longitude_rad += 1e-4; // 490 m in 25 ms
+        let m = message(check_trajectory(p, &s));
+        assert!(m.contains("m/s, more than 350 m/s"), "{m}");
+        // Decimetre noise on every record of a 200 Hz trajectory is not speed.
+        let mut s = samples(1000, 0.005);
+        for (i, p) in s.iter_mut().enumerate() {
+            p.height_m += if i % 2 == 0 { 0.1 } else { -0.1 };
+        }
+        assert!(check_trajectory(p, &s).is_ok());
+        let mut s = samples(10, 0.005);
+        s[5].attitude.roll_rad = 0.5; // 28.6° in 25 ms
+        let m = message(check_trajectory(p, &s));
+        assert!(m.contains("records 5–9: roll changes at 1432 deg/s"), "{m}");
+        let mut s = samples(10, 0.005);
+        s[6] = s[5];
+        let f = check_trajectory(p, &s).unwrap();
+        assert_eq!(f.warnings[0].code, "trajectory_duplicate_time");
+        s[6].latitude_rad += 1e-6;
+        s[6].time_s = s[5].time_s;
+        assert!(message(check_trajectory(p, &s)).contains("share time"));
+    }
+
+    #[test]
+    fn gaps_inside_the_points_span_are_errors_or_warnings_by_length() {
+        let mut s = samples(2000, 0.005);
+        // A 5 s gap after sample 1000 and a 4-sample gap after 1500.
+        for p in &mut s[1001..] {
+            p.time_s += 5.0;
+        }
+        for p in &mut s[1501..] {
+            p.time_s += 0.015;
+        }
+        for p in &mut s {
+            p.latitude_rad = 0.7 + 1e-9 * (p.time_s - 1000.0);
+        }
+        let f = check_trajectory(Path::new("t.out"), &s).unwrap();
+        assert_eq!(f.gaps.len(), 2);
+        let (pts, traj) = (Path::new("s.laz"), Path::new("t.out"));
+        // Points before the gaps: nothing.
+        assert!(
+            check_gaps(pts, traj, &f.gaps, &[1000.0, 1004.0])
+                .unwrap()
+                .is_empty()
+        );
+        // Points on both sides of the gaps, none inside: nothing (a tile spanning two strips).
+        let around = [1004.0, 1010.1, 1012.4, 1012.6];
+        assert!(check_gaps(pts, traj, &f.gaps, &around).unwrap().is_empty());
+        let e = check_gaps(pts, traj, &f.gaps, &[1004.0, 1006.0, 1012.0]).unwrap_err();
+        assert!(e.to_string().contains("5.005 s gap"), "{e}");
+        let w = check_gaps(pts, traj, &f.gaps, &[1011.0, 1012.51, 1013.0]).unwrap();
+        assert_eq!(w.len(), 1);
+        assert!(w[0].message.contains("0.020 s gap"), "{}", w[0].message);
+    }
+
+    #[test]
+    fn utm_zone_names() {
+        assert_eq!(utm_zone_name(0.4, 111f64.to_radians()), "49N");
+        assert_eq!(utm_zone_name(-0.4, 117.5f64.to_radians()), "50S");
+        assert!(outside_zone(112.9f64.to_radians(), 117f64.to_radians()));
+        assert!(!outside_zone(113.5f64.to_radians(), 117f64.to_radians()));
+    }
+
+    /// Points on a scan plane turned by a known boresight: the fit returns it.
+    #[test]
+    fn mounting_fit_recovers_a_known_boresight() {
+        let truth = Mounting {
+            boresight_roll_rad: 0.0,
+            boresight_pitch_rad: 0.3f64.to_radians(),
+            boresight_yaw_rad: 13.96f64.to_radians(),
+            lever_arm_m: Vector3::zeros(),
+        };
+        let r = rotation_zyx(0.0, truth.boresight_pitch_rad, truth.boresight_yaw_rad);
+        let mut t = MountingTally::new(&Mounting::default(), true);
+        for k in 0..200 {
+            let a = (k as f64 / 200.0 - 0.5) * 0.6;
+            let s = Vector3::new(0.0, 1000.0 * a.sin(), 1000.0 * a.cos());
+            let b = r * s;
+            // The residual the file's (zero) mounting leaves: S_x with R_M = I.
+            t.add(b.x, 0.1, Some(&b));
+        }
+        let f = t.fit().unwrap();
+        assert!((f.yaw_deg - 13.96).abs() < 1e-9, "{f:?}");
+        assert!((f.pitch_deg - 0.3).abs() < 1e-9, "{f:?}");
+        assert!(f.rms_m < 1e-3, "{f:?}");
+        assert!(t.does_not_fit());
+        let m = t.message();
+        assert!(m.contains("yaw 13.960°"), "{m}");
+        let mut split = MountingTally::new(&Mounting::default(), true);
+        split.merge(&t);
+        assert_eq!(split.fit(), t.fit());
+    }
+}
