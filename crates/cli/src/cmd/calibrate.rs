@@ -334,6 +334,7 @@ pub(crate) fn load_all(
     gps_week: Option<i64>,
     crs: Option<UtmZone>,
 ) -> Result<(LocalFrame, UtmZone, Vec<LoadedStrip>)> {
+    lidarqa_io::check_distinct_inputs(paths)?;
     let mut infos = Vec::new();
     let mut zone: Option<UtmZone> = None;
     for p in paths {

@@ -44,6 +44,7 @@ pub fn run(a: OverlapArgs) -> Result<()> {
     if !(a.cell_m.is_finite() && a.cell_m > 0.0) {
         bail!("--cell-m must be a number > 0, got {}", a.cell_m);
     }
+    lidarqa_io::check_distinct_inputs(&a.strips)?;
     let mut strips = Vec::new();
     for path in &a.strips {
         let mut r = LasReader::from_path(path)?;

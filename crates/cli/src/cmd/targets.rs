@@ -256,6 +256,7 @@ pub fn run(args: TargetsArgs) -> Result<()> {
     {
         bail!("--radius-m must be > 0, got {r}");
     }
+    lidarqa_io::check_distinct_inputs(&args.inputs)?;
     let table = ControlPoints::from_path(&args.control)?;
     let control = control_for_targets(&table, args.radius_m)?;
     let report = find_targets(&args.inputs, &control, method, args.window_m)

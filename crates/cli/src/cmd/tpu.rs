@@ -177,6 +177,8 @@ impl TryFrom<TpuArgs> for Plan {
         let options = a.flags.options()?;
         let tiles = if a.input.is_dir() {
             let inputs = point_clouds_in(&a.input)?;
+            // Two links to one tile would count its points twice.
+            lidarqa_io::check_distinct_inputs(&inputs)?;
             if a.output.exists() && !a.output.is_dir() {
                 bail!(
                     "{}: the input is a directory, so the output must be one too",
