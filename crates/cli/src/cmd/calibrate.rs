@@ -11,10 +11,13 @@ use crate::format::{OutputFormat, print_json, print_text};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lidarqa_calib::{
-    AutoTieOptions, Calibration, CalibrationOptions, ControlPoint, LocalFrame, Param, PlaneOptions,
-    RawPoint, Strip, Tie, TieKind, TiePick, TrajectorySigma, auto_ties, calibrate_plane,
-    calibrate_vtpm,
+    AutoTieOptions, Calibration, CalibrationOptions, ControlPoint, LocalFrame, MAX_RADIUS_M,
+    MAX_RANSAC_ITERATIONS, Param, PlaneOptions, RawPoint, Strip, Tie, TieKind, TiePick,
+    TrajectorySigma, auto_ties, calibrate_plane, calibrate_vtpm,
 };
+
+/// Most Levenberg–Marquardt iterations: a calibration converges in tens.
+const MAX_LM_ITERATIONS: usize = 10_000;
 use lidarqa_io::{
     AtomicFile, ControlPoints, Geodetic, LasInfo, LasReader, LasTimeConverter, PointChunk,
     TiePicks, UtmZone,
@@ -391,9 +394,11 @@ impl TryFrom<CalibrateArgs> for Plan {
         options.vtpm.patch = args.tie_carrier == "patch";
         options.lm.max_iterations = args.max_iterations;
         if let Some(r) = args.radius_m
-            && !(r.is_finite() && r > 0.0)
+            && !(r.is_finite() && r > 0.0 && r <= MAX_RADIUS_M)
         {
-            bail!("--radius-m must be a number > 0, got {r}");
+            bail!(
+                "--radius-m must be a number > 0 and at most {MAX_RADIUS_M} m (a tie is a local surface), got {r}"
+            );
         }
         if !(args.ransac_threshold_m.is_finite() && args.ransac_threshold_m > 0.0) {
             bail!(
@@ -409,8 +414,17 @@ impl TryFrom<CalibrateArgs> for Plan {
                 bail!("{flag} must be a number of seconds > 0, got {t}");
             }
         }
-        if args.ransac_iterations == 0 || args.max_iterations == 0 {
-            bail!("--ransac-iterations and --max-iterations must be at least 1");
+        if !(1..=MAX_RANSAC_ITERATIONS).contains(&args.ransac_iterations) {
+            bail!(
+                "--ransac-iterations must be 1 to {MAX_RANSAC_ITERATIONS}, got {}",
+                args.ransac_iterations
+            );
+        }
+        if !(1..=MAX_LM_ITERATIONS).contains(&args.max_iterations) {
+            bail!(
+                "--max-iterations must be 1 to {MAX_LM_ITERATIONS}, got {}",
+                args.max_iterations
+            );
         }
         let dir = match args.output.parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),

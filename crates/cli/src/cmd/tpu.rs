@@ -87,7 +87,8 @@ pub struct TpuFlags {
     /// Points per chunk (memory grows with it; the result does not).
     #[arg(long, value_name = "N", default_value_t = TpuOptions::default().chunk_points)]
     chunk_points: usize,
-    /// Neighbours of the plane fit for the incidence angle.
+    /// Neighbours of the plane fit for the incidence angle (3 to 256; never more than the
+    /// points searched).
     #[arg(long, value_name = "K", default_value_t = TpuOptions::default().neighbours)]
     neighbours: usize,
 }
@@ -99,8 +100,12 @@ impl TpuFlags {
         if self.chunk_points == 0 {
             bail!("--chunk-points must be > 0");
         }
-        if self.neighbours < 3 {
-            bail!("--neighbours {} must be >= 3", self.neighbours);
+        let (lo, hi) = (lidarqa_tpu::MIN_NEIGHBOURS, lidarqa_tpu::MAX_NEIGHBOURS);
+        if !(lo..=hi).contains(&self.neighbours) {
+            bail!(
+                "--neighbours {} must be {lo} to {hi} (a plane fit over one footprint's surroundings)",
+                self.neighbours
+            );
         }
         Ok(TpuOptions {
             crs,
