@@ -254,6 +254,7 @@ fn input_file(base: &Path, path: &Path) -> Result<InputFile> {
 }
 
 /// Plans a TPU survey: one entry per tile, every input hashed; creates the output directory.
+/// The sensor file, trajectory and SMRMSG are read and checked as a run would.
 ///
 /// # Errors
 /// I/O errors naming the file; [`Error::Manifest`] for no tiles or two tiles with one file
@@ -263,6 +264,15 @@ pub fn plan_tpu(plan: &TpuPlan<'_>) -> Result<Manifest> {
     if plan.tiles.is_empty() {
         return Err(manifest_error(plan.manifest, "no tiles to plan"));
     }
+    // What every entry will read, read once now: a sensor file with a typo or a truncated
+    // trajectory is refused here, not by every array task.
+    TpuContext::from_files(
+        plan.sensor,
+        plan.trajectory,
+        plan.smrmsg,
+        plan.options.clone(),
+    )?;
+    lidarqa_io::check_distinct_inputs(plan.tiles)?;
     let base = base_dir(plan.manifest);
     std::fs::create_dir_all(&base).map_err(|e| io_error(&base, e))?;
     std::fs::create_dir_all(plan.output_dir).map_err(|e| io_error(plan.output_dir, e))?;
