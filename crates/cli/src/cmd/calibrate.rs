@@ -318,6 +318,71 @@ fn ties_from_csv(
         .collect())
 }
 
+/// A calibration error about a tie or control point, told in the CSV's own terms: file, line,
+/// and the projected x, y the user wrote, not the local frame the adjustment works in.
+fn in_csv_terms(
+    e: lidarqa_calib::Error,
+    picks: Option<&TiePicks>,
+    control: Option<(&ControlPoints, &Path)>,
+    strips: &[(String, String)],
+) -> anyhow::Error {
+    use lidarqa_calib::Error as E;
+    let same_strip = |csv: &str, id: &str| {
+        strips
+            .iter()
+            .any(|(i, stem)| i == id && (csv == i || csv == stem))
+    };
+    let pick = |tie: &str, strip: Option<&str>| {
+        picks.and_then(|p| {
+            p.picks
+                .iter()
+                .find(|k| k.tie == tie && strip.is_none_or(|s| same_strip(&k.strip, s)))
+                .map(|k| {
+                    format!(
+                        "{}: line {}: tie {} in strip {} at x {}, y {}",
+                        p.path.display(),
+                        k.line,
+                        k.tie,
+                        k.strip,
+                        k.x,
+                        k.y
+                    )
+                })
+        })
+    };
+    let told = match &e {
+        E::TieOutsideStrip {
+            tie,
+            strip,
+            radius_m,
+            ..
+        } => pick(tie, Some(strip))
+            .map(|w| format!("{w}: no point of the strip within {radius_m:.2} m of the pick")),
+        E::NoCoplanarTriangle { tie, strip, reason } => pick(tie, Some(strip))
+            .map(|w| format!("{w}: no coplanar triangle around the pick ({reason})")),
+        E::InvalidTie { tie, message } => pick(tie, None).map(|w| format!("{w}: {message}")),
+        E::OutsideEveryStrip { what, id, .. } if *what == "tie" => {
+            pick(id, None).map(|w| format!("{w}: outside every strip"))
+        }
+        E::OutsideEveryStrip { id, .. } => control.and_then(|(table, path)| {
+            table.records.iter().find(|c| &c.id == id).map(|c| {
+                format!(
+                    "{}: line {}: control point {id} at x {}, y {} is outside every strip",
+                    path.display(),
+                    c.line,
+                    c.x,
+                    c.y
+                )
+            })
+        }),
+        _ => None,
+    };
+    match told {
+        Some(t) => anyhow::anyhow!(t),
+        None => e.into(),
+    }
+}
+
 fn nearest_up(strip: &Strip, x: f64, y: f64) -> Option<f64> {
     strip
         .points
@@ -476,15 +541,16 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
     }
     let crs = crs_flags(a.utm_zone.as_deref(), a.epsg)?;
     let (frame, zone, loaded) = load_all(&a.strips, &ctx, a.gps_week, crs)?;
-    let picked = match &a.ties {
-        Some(p) => Some(ties_from_csv(
-            &TiePicks::from_path(p)?,
-            &loaded,
-            &frame,
-            &zone,
-        )?),
+    let tie_picks = a.ties.as_ref().map(TiePicks::from_path).transpose()?;
+    let picked = match &tie_picks {
+        Some(p) => Some(ties_from_csv(p, &loaded, &frame, &zone)?),
         None => None,
     };
+    // Strip id → the names a CSV may use for it (id and file stem).
+    let loaded_ids: Vec<(String, String)> = loaded
+        .iter()
+        .map(|l| (l.strip.id.clone(), l.stem.clone()))
+        .collect();
     let strips: Vec<Strip> = loaded.into_iter().map(|l| l.strip).collect();
     if a.radius_m.is_none() {
         let sparsest = strips
@@ -504,9 +570,13 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
             },
         )?,
     };
-    let control: Vec<ControlPoint> = match &a.control {
-        Some(p) => {
-            let table = ControlPoints::from_path(p)?;
+    let control_table = a
+        .control
+        .as_ref()
+        .map(ControlPoints::from_path)
+        .transpose()?;
+    let control: Vec<ControlPoint> = match &control_table {
+        Some(table) => {
             let mut out = Vec::with_capacity(table.records.len());
             for (i, c) in table.records.iter().enumerate() {
                 out.push(ControlPoint {
@@ -540,7 +610,14 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
                 &PlaneOptions::default(),
             )?
         }
-        _ => calibrate_vtpm(&strips, &ties, &control, &prior, &plan.options)?,
+        _ => calibrate_vtpm(&strips, &ties, &control, &prior, &plan.options).map_err(|e| {
+            in_csv_terms(
+                e,
+                tie_picks.as_ref(),
+                control_table.as_ref().zip(a.control.as_deref()),
+                &loaded_ids,
+            )
+        })?,
     };
     let mut inputs: Vec<PathBuf> = a.strips.clone();
     inputs.extend([a.trajectory.clone(), a.sensor.clone()]);
