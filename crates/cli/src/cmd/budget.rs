@@ -23,7 +23,9 @@ Examples:
   lidarqa budget --sensor my_sensor.toml --scan-angle 20 --height 1200 --roll 2
   lidarqa budget --preset czmil --print-sensor > my_sensor.toml
 
-Units: angles in degrees, lengths in metres; the table shows σ in cm, JSON in metres.";
+Units: angles in degrees, lengths in metres; the table shows σ in cm, JSON in metres.
+
+Writes nothing but stdout.";
 
 /// Flags of `lidarqa budget`, exactly as typed (converted and checked by [`Plan::try_from`]).
 #[derive(Debug, Args)]

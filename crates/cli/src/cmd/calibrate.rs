@@ -42,7 +42,10 @@ Tie picks CSV: tie,strip,x,y (projected metres; strip = LAS point source id or f
 Control CSV: id,x,y,z (projected metres, ellipsoidal height). A control id equal to a tie id
 observes all three coordinates; otherwise only its height. Without control the vertical lever
 arm is not observable and is held at the sensor file's value (\"observable\": false).
-Writes calibration_iterations.json (the convergence record) beside the output.";
+Writes calibration_iterations.json (the convergence record) beside the output.
+
+An existing -o file and calibration_iterations.json beside it are replaced; a strip given
+twice, or an output that is an input, is refused.";
 
 /// Flags of `lidarqa calibrate`.
 #[derive(Debug, Args)]

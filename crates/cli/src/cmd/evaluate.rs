@@ -26,7 +26,10 @@ formula (8). With --tpu, the predicted σ (the median per-point σ of the TPU su
 the measured RMSE, as seed 000's Table 3; with --sensor, the budget at --height (and --scan-angle)
 is. --ground with --checkpoints tests vertical checkpoints against a TIN of the ground points (ASPRS
 non-vegetated vertical accuracy, NVA), beside or instead of the targets; the JSON then has an
-\"nva\" block.";
+\"nva\" block.
+
+Writes nothing but stdout. Targets and control that cannot be in one projected frame (one
+side in degrees, residuals over 1 km) are refused.";
 
 /// Flags of `lidarqa evaluate`.
 #[derive(Debug, Args)]

@@ -15,7 +15,9 @@ Examples:
   lidarqa overlap corrected/*.laz -o overlap_after.json     also the dz grid and a profile
 
 dz = z(first strip) − z(second) per cell of --cell-m where both strips are smooth (plane-fit RMS
-≤ --max-roughness-m, slope ≤ --max-slope-deg). Coordinates as in the files (projected, z up).";
+≤ --max-roughness-m, slope ≤ --max-slope-deg). Coordinates as in the files (projected, z up).
+
+An existing -o file is replaced; a strip given twice, or an -o that is an input, is refused.";
 
 /// Flags of `lidarqa overlap`.
 #[derive(Debug, Args)]

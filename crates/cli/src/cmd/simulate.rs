@@ -20,7 +20,10 @@ Examples:
   lidarqa simulate --scenario calibration --print > my-survey.toml
   lidarqa simulate --scenario my-survey.toml --seed 7 --format las -o sim7/
 
-Built-in scenarios: demo, calibration, bathymetry.";
+Built-in scenarios: demo, calibration, bathymetry.
+
+Files of the same name in the output directory are replaced; an output that is an input
+(--scenario) is refused.";
 
 /// Point-cloud output format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

@@ -18,7 +18,9 @@ Example:
 Only points within --window-m of a control point are read (the seed paper segments the target area
 by hand); within those windows fuzzy c-means on intensity picks the bright points, clusters become
 targets, and each cluster is matched to the nearest control point. Clusters without a control point
-and control points without a target are listed, never dropped silently.";
+and control points without a target are listed, never dropped silently.
+
+An existing -o file is replaced; an input given twice, or an -o that is an input, is refused.";
 
 /// Flags of `lidarqa targets`.
 #[derive(Debug, Args)]

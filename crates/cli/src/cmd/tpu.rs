@@ -28,7 +28,10 @@ total_tvu at 95 %, and for bathymetric soundings, class 40, depth and iho_order:
 its pulse's water-surface return (class 41, same GPS time) or else at a plane fitted to the
 surface returns within 20 m; the summary gives the IHO S-44 Ed. 6 orders met by depth band.
 LAS Z must be ellipsoidal heights in the trajectory's datum. The table shows σ in cm; JSON is in
-metres. Skipped points are counted and not written.";
+metres. Skipped points are counted and not written.
+
+An existing output of the same name (file, tiles in DIR, --summary) is replaced; an output
+that is an input is refused, and so is a tile given twice under two names.";
 
 /// Flags of `lidarqa tpu`, exactly as typed (checked by [`Plan::try_from`]).
 #[derive(Debug, Args)]
