@@ -213,7 +213,7 @@ fn resolve<'a>(sensor: &'a Sensor, geometry: &Geometry) -> Result<Resolved<'a>> 
             };
             let p = LinearScanner.parameters(attitude, m, &obs);
             let f = LinearScanner.footprint_ned(&p);
-            if !(f.z > 0.0) {
+            if f.z.is_nan() || f.z <= 0.0 {
                 return Err(Error::Geometry(format!(
                     "the ray at scan angle {:.3}° (roll {:.3}°, pitch {:.3}°) does not point down: the footprint would be {:.3} m above the sensor; |scan angle + roll| must stay below 90°",
                     scan_angle_rad.to_degrees(),
