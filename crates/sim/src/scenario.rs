@@ -601,8 +601,8 @@ pub const MAX_PULSE_RATE_HZ: f64 = 5_000_000.0;
 pub const MAX_PULSES: u64 = 50_000_000;
 /// Most flight lines in one scenario.
 pub const MAX_LINES: usize = 1000;
-/// Highest trajectory rate (an SBET is usually 200 Hz).
-pub const MAX_TRAJECTORY_RATE_HZ: f64 = 1000.0;
+/// Highest trajectory rate (an SBET is usually 200 Hz; a simulation may sample finer).
+pub const MAX_TRAJECTORY_RATE_HZ: f64 = 10_000.0;
 /// Highest flying height above the ground, m.
 pub const MAX_HEIGHT_M: f64 = 10_000.0;
 

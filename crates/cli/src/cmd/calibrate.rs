@@ -802,9 +802,17 @@ mod tests {
 
     #[test]
     fn bad_radius_is_refused() {
-        let c = parse(&["--auto-ties", "--radius-m", "-1"]).unwrap();
-        let e = Plan::try_from(c.args).err().unwrap().to_string();
-        assert_eq!(e, "--radius-m must be a number > 0, got -1");
+        for r in ["-1", "1e6"] {
+            let c = parse(&["--auto-ties", "--radius-m", r]).unwrap();
+            let e = Plan::try_from(c.args).err().unwrap().to_string();
+            assert_eq!(
+                e,
+                format!(
+                    "--radius-m must be a number > 0 and at most 50 m (a tie is a local surface), got {}",
+                    r.parse::<f64>().unwrap()
+                )
+            );
+        }
     }
 
     #[test]
