@@ -340,9 +340,12 @@ fn manifests_never_write_out_of_their_directory_or_over_an_input() {
     let text = std::fs::read_to_string(&manifest).unwrap();
     let doc: serde_json::Value = serde_json::from_str(&text).unwrap();
     let sensor_before = std::fs::read(dir.path().join("sensor.toml")).unwrap();
-    let outside = std::env::temp_dir().join("lidarqa-hostile-outside.las");
+    // Unique names: an old binary that lets them escape must not fail a later run.
+    let pid = std::process::id();
+    let outside = std::env::temp_dir().join(format!("lidarqa-hostile-outside-{pid}.las"));
+    let escaped = format!("../escaped-{pid}.las");
     let cases = [
-        ("output", serde_json::json!("../escaped.las"), "`..`"),
+        ("output", serde_json::json!(escaped), "`..`"),
         ("report", serde_json::json!("tpu/../../x.json"), "`..`"),
         (
             "output",
@@ -373,7 +376,7 @@ fn manifests_never_write_out_of_their_directory_or_over_an_input() {
         run_fails(&["run", s(&bad), "--index", "0"], &[needle]);
         run_fails(&["collect", s(&bad)], &[needle]);
         assert!(!outside.exists());
-        assert!(!dir.path().parent().unwrap().join("escaped.las").exists());
+        assert!(!dir.path().parent().unwrap().join(&escaped[3..]).exists());
     }
     assert_eq!(
         std::fs::read(dir.path().join("sensor.toml")).unwrap(),
