@@ -129,7 +129,6 @@ fn invalid_options_and_one_strip() {
         e.to_string(),
         "option radius_m must be a finite number > 0 and at most 50 m, got 1000000"
     );
-    o.vtpm.radius_m = 1.0;
     let e = run(&s.strips[..1], &[], &[]);
     assert_eq!(e.to_string(), "calibration needs at least 2 strips, got 1");
 }
