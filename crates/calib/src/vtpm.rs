@@ -19,6 +19,12 @@ use crate::strip::{Georeferencing, GridIndex, Strip, TrajectoryOffset, within};
 use nalgebra::Vector3;
 use spade::{DelaunayTriangulation, HasPosition, Point2, PositionInTriangulation, Triangulation};
 
+/// Largest VTPM search radius, m: a tie is a local surface (seed 001: about the point spacing),
+/// and the points searched grow with the radius squared.
+pub const MAX_RADIUS_M: f64 = 50.0;
+/// Most RANSAC iterations per tie and strip.
+pub const MAX_RANSAC_ITERATIONS: usize = 100_000;
+
 /// Options of the virtual tie point model.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VtpmOptions {
@@ -57,8 +63,12 @@ impl VtpmOptions {
                 value,
             })
         };
-        if !(self.radius_m.is_finite() && self.radius_m > 0.0) {
-            return bad("radius_m", "a finite number > 0", self.radius_m);
+        if !(self.radius_m.is_finite() && self.radius_m > 0.0 && self.radius_m <= MAX_RADIUS_M) {
+            return bad(
+                "radius_m",
+                "a finite number > 0 and at most 50 m",
+                self.radius_m,
+            );
         }
         if !(self.ransac_threshold_m.is_finite() && self.ransac_threshold_m > 0.0) {
             return bad(
@@ -67,8 +77,12 @@ impl VtpmOptions {
                 self.ransac_threshold_m,
             );
         }
-        if self.ransac_iterations == 0 {
-            return bad("ransac_iterations", "at least 1", 0.0);
+        if !(1..=MAX_RANSAC_ITERATIONS).contains(&self.ransac_iterations) {
+            return bad(
+                "ransac_iterations",
+                "1 to 100000",
+                self.ransac_iterations as f64,
+            );
         }
         Ok(())
     }

@@ -120,7 +120,14 @@ fn invalid_options_and_one_strip() {
     let e = calibrate_vtpm(&s.strips, &[], &[], &Mounting::default(), &o).unwrap_err();
     assert_eq!(
         e.to_string(),
-        "option radius_m must be a finite number > 0, got -1"
+        "option radius_m must be a finite number > 0 and at most 50 m, got -1"
+    );
+    // An unbounded search radius (issue #25: 1e6 m ran for minutes).
+    o.vtpm.radius_m = 1e6;
+    let e = calibrate_vtpm(&s.strips, &[], &[], &Mounting::default(), &o).unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "option radius_m must be a finite number > 0 and at most 50 m, got 1000000"
     );
     let e = run(&s.strips[..1], &[], &[]);
     assert_eq!(e.to_string(), "calibration needs at least 2 strips, got 1");

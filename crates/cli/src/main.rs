@@ -31,22 +31,44 @@ fn main() -> ExitCode {
             }) {
                 return ExitCode::SUCCESS;
             }
-            eprintln!("lidarqa: {e:#}");
+            eprintln!("lidarqa: {}", message(&e));
             ExitCode::from(1)
         }
     }
 }
 
+/// The error and its causes on one line, `: `-separated, each said once: the library errors
+/// already print their source (`sbet.out: No such file or directory (os error 2)`), which
+/// anyhow's chain would otherwise repeat.
+fn message(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if out.contains(&text) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&text);
+    }
+    out
+}
+
 /// clap's own errors: help and version go to stdout with exit 0; a usage error becomes one line and
-/// exit code 1 (SPEC §6; clap's default would be 2 and several lines).
+/// exit code 1 (SPEC §6; clap's default would be 2 and several lines). `lidarqa` (or `lidarqa plan`)
+/// without a command prints the help and exits 2, as a shell tool does when it was not told what
+/// to do: a script that forgot the command must not pass.
 fn usage_error(e: clap::Error) -> ExitCode {
     use clap::error::ErrorKind;
     match e.kind() {
-        ErrorKind::DisplayHelp
-        | ErrorKind::DisplayVersion
-        | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
             let _ = e.print();
             ExitCode::SUCCESS
+        }
+        ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand | ErrorKind::MissingSubcommand => {
+            let _ = e.print();
+            ExitCode::from(2)
         }
         _ => {
             // The first paragraph of clap's message, folded onto one line.

@@ -206,33 +206,125 @@ fn resolve(path: &Path) -> PathBuf {
 /// # Errors
 /// [`Error::OutputIsInput`] naming the output and the input it equals.
 pub fn check_not_an_input<P: AsRef<Path>>(output: impl AsRef<Path>, inputs: &[P]) -> Result<()> {
-    let output = output.as_ref();
-    let resolved = resolve(output);
+    InputSet::new(inputs).check(output)
+}
+
+/// A run's inputs, resolved once, against which many outputs are checked (a manifest of
+/// thousands of tiles checks each output in constant time, not against every input).
+#[derive(Debug, Clone, Default)]
+pub struct InputSet {
+    by_path: std::collections::HashMap<PathBuf, PathBuf>,
+    by_id: std::collections::HashMap<(u64, u64), PathBuf>,
+}
+
+impl InputSet {
+    /// The inputs, as given (they are named so in messages).
+    pub fn new<P: AsRef<Path>>(inputs: &[P]) -> InputSet {
+        let mut set = InputSet::default();
+        for input in inputs {
+            let input = input.as_ref();
+            set.by_path
+                .entry(resolve(input))
+                .or_insert_with(|| input.to_path_buf());
+            if let Some(id) = file_id(input) {
+                set.by_id.entry(id).or_insert_with(|| input.to_path_buf());
+            }
+        }
+        set
+    }
+
+    /// Refuses `output` when it resolves to one of the inputs (another spelling, a link).
+    ///
+    /// # Errors
+    /// [`Error::OutputIsInput`] naming the output and the input it equals.
+    pub fn check(&self, output: impl AsRef<Path>) -> Result<()> {
+        let output = output.as_ref();
+        let hit = self
+            .by_path
+            .get(&resolve(output))
+            .or_else(|| file_id(output).and_then(|id| self.by_id.get(&id)));
+        match hit {
+            Some(input) => Err(Error::OutputIsInput {
+                path: output.to_path_buf(),
+                input: input.clone(),
+            }),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Refuses a file given twice among `inputs` (the same path, another spelling of it, a link to
+/// it), before any work: its points would count twice.
+///
+/// # Errors
+/// [`Error::DuplicateInput`] naming both spellings.
+pub fn check_distinct_inputs<P: AsRef<Path>>(inputs: &[P]) -> Result<()> {
+    let mut seen = InputSet::default();
     for input in inputs {
         let input = input.as_ref();
-        if resolve(input) == resolved || same_file(output, input) {
-            return Err(Error::OutputIsInput {
-                path: output.to_path_buf(),
-                input: input.to_path_buf(),
+        if let Err(Error::OutputIsInput { input: first, .. }) = seen.check(input) {
+            return Err(Error::DuplicateInput {
+                path: input.to_path_buf(),
+                first,
             });
+        }
+        seen.by_path.insert(resolve(input), input.to_path_buf());
+        if let Some(id) = file_id(input) {
+            seen.by_id.insert(id, input.to_path_buf());
         }
     }
     Ok(())
 }
 
+/// The output in `dir` of each input (`dir/<input's file name>`), refused before any work when
+/// two inputs would write one output, or an output would be any of `inputs` or `others`.
+///
+/// # Errors
+/// [`Error::OutputClash`] naming both inputs; [`Error::OutputIsInput`];
+/// [`Error::Io`] for an input path without a file name.
+pub fn outputs_in_dir<P: AsRef<Path>, Q: AsRef<Path>>(
+    dir: &Path,
+    inputs: &[P],
+    others: &[Q],
+) -> Result<Vec<PathBuf>> {
+    let mut all: Vec<&Path> = inputs.iter().map(AsRef::as_ref).collect();
+    all.extend(others.iter().map(AsRef::as_ref));
+    let all = InputSet::new(&all);
+    let mut outputs: Vec<PathBuf> = Vec::with_capacity(inputs.len());
+    let mut first_of: std::collections::HashMap<PathBuf, usize> = Default::default();
+    for (k, input) in inputs.iter().enumerate() {
+        let input = input.as_ref();
+        let name = input.file_name().ok_or_else(|| {
+            Error::io(
+                input,
+                std::io::Error::new(std::io::ErrorKind::InvalidInput, "no file name"),
+            )
+        })?;
+        let out = dir.join(name);
+        if let Some(&i) = first_of.get(&out) {
+            return Err(Error::OutputClash {
+                output: out,
+                first: inputs[i].as_ref().to_path_buf(),
+                second: input.to_path_buf(),
+            });
+        }
+        all.check(&out)?;
+        first_of.insert(out.clone(), k);
+        outputs.push(out);
+    }
+    Ok(outputs)
+}
+
 /// Hard links are different paths to one file; compare device and inode where we can.
 #[cfg(unix)]
-fn same_file(a: &Path, b: &Path) -> bool {
+fn file_id(p: &Path) -> Option<(u64, u64)> {
     use std::os::unix::fs::MetadataExt;
-    match (std::fs::metadata(a), std::fs::metadata(b)) {
-        (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
-        _ => false,
-    }
+    std::fs::metadata(p).ok().map(|m| (m.dev(), m.ino()))
 }
 
 #[cfg(not(unix))]
-fn same_file(_a: &Path, _b: &Path) -> bool {
-    false
+fn file_id(_p: &Path) -> Option<(u64, u64)> {
+    None
 }
 
 #[cfg(test)]
@@ -366,6 +458,58 @@ mod tests {
             AtomicFile::create(&link, &[&input]),
             Err(Error::OutputIsInput { .. })
         ));
+    }
+
+    #[test]
+    fn the_same_input_twice_is_refused_in_any_spelling() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("s1.las");
+        let b = dir.path().join("s2.las");
+        std::fs::write(&a, "1").unwrap();
+        std::fs::write(&b, "2").unwrap();
+        assert!(check_distinct_inputs(&[&a, &b]).is_ok());
+        let err = check_distinct_inputs(&[&a, &b, &a]).unwrap_err();
+        assert!(matches!(err, Error::DuplicateInput { .. }), "{err:?}");
+        let text = err.to_string();
+        assert!(
+            text.contains("s1.las") && text.contains("given twice"),
+            "{text}"
+        );
+        std::fs::create_dir(dir.path().join("sub")).unwrap();
+        let other = dir.path().join("sub").join("..").join("s2.las");
+        assert!(check_distinct_inputs(&[&b, &other]).is_err());
+        #[cfg(unix)]
+        {
+            let link = dir.path().join("link.las");
+            std::os::unix::fs::symlink(&a, &link).unwrap();
+            assert!(check_distinct_inputs(&[&a, &link]).is_err());
+        }
+    }
+
+    #[test]
+    fn two_inputs_with_one_file_name_are_refused_naming_both() {
+        let dir = tempfile::tempdir().unwrap();
+        for d in ["a", "b", "out"] {
+            std::fs::create_dir(dir.path().join(d)).unwrap();
+        }
+        let a = dir.path().join("a").join("s1.laz");
+        let b = dir.path().join("b").join("s1.laz");
+        let c = dir.path().join("b").join("s2.laz");
+        let out = dir.path().join("out");
+        let none: &[&Path] = &[];
+        let ok = outputs_in_dir(&out, &[&a, &c], none).unwrap();
+        assert_eq!(ok, vec![out.join("s1.laz"), out.join("s2.laz")]);
+        let err = outputs_in_dir(&out, &[&a, &c, &b], none).unwrap_err();
+        let text = err.to_string();
+        assert!(matches!(err, Error::OutputClash { .. }), "{err:?}");
+        assert!(
+            text.contains("a/s1.laz") && text.contains("b/s1.laz"),
+            "{text}"
+        );
+        // Writing into the inputs' own directory is writing over them.
+        std::fs::write(&a, "x").unwrap();
+        let err = outputs_in_dir(&dir.path().join("a"), &[&a], none).unwrap_err();
+        assert!(matches!(err, Error::OutputIsInput { .. }), "{err:?}");
     }
 
     #[test]

@@ -193,6 +193,31 @@ pub enum Error {
         input: PathBuf,
     },
 
+    /// The same input file given twice (same path, or two paths to one file): its points would
+    /// count twice (an overlap of a strip with itself, duplicated tiles).
+    #[error("{}: given twice (also as {}); give each input once", path.display(), first.display())]
+    DuplicateInput {
+        /// The second occurrence, as given.
+        path: PathBuf,
+        /// The first occurrence, as given.
+        first: PathBuf,
+    },
+
+    /// Two inputs whose per-input outputs would have one path (same file name, one output
+    /// directory): the second would replace the first.
+    #[error(
+        "{}: both {} and {} would be written here (same file name); rename one or run them separately",
+        output.display(), first.display(), second.display()
+    )]
+    OutputClash {
+        /// The output both map to.
+        output: PathBuf,
+        /// The first input.
+        first: PathBuf,
+        /// The second input.
+        second: PathBuf,
+    },
+
     /// A LAS time that cannot be put on the trajectory's seconds-of-week time base.
     #[error("{}: {message}", path.display())]
     GpsTime {

@@ -24,7 +24,7 @@ mod gpstime;
 mod pointcloud;
 mod sbet;
 
-pub use atomic::{AtomicFile, check_not_an_input};
+pub use atomic::{AtomicFile, InputSet, check_distinct_inputs, check_not_an_input, outputs_in_dir};
 pub use csv::{
     ControlPoint, ControlPoints, HasExtra, PointTable, Target, Targets, TiePick, TiePicks,
 };

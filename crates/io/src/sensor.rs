@@ -73,17 +73,8 @@ pub fn read_sensor_with_extras(path: &Path) -> Result<(Sensor, SensorExtras)> {
 pub fn parse_sensor_with_extras(text: &str, path: &Path) -> Result<(Sensor, SensorExtras)> {
     let sensor = parse_sensor(text, path)?;
     let file: SensorFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
-    let beam_divergence_rad = match file.scanner.beam_divergence_mrad {
-        None => None,
-        Some(v) if v.is_finite() && v >= 0.0 => Some(v * 1e-3),
-        Some(v) => {
-            return Err(config_error(
-                path,
-                Some("scanner.beam_divergence_mrad"),
-                format!("must be a finite number >= 0, got {v}"),
-            ));
-        }
-    };
+    // Checked by `parse_sensor`, the one validation every command's sensor goes through.
+    let beam_divergence_rad = file.scanner.beam_divergence_mrad.map(|v| v * 1e-3);
     Ok((
         sensor,
         SensorExtras {
@@ -176,6 +167,14 @@ pub fn parse_sensor(text: &str, path: &Path) -> Result<Sensor> {
     };
 
     let s = &file.scanner;
+    if let Some(v) = s.beam_divergence_mrad
+        && !(v.is_finite() && v >= 0.0)
+    {
+        return Err(err(
+            "scanner.beam_divergence_mrad",
+            format!("must be a finite number >= 0, got {v}"),
+        ));
+    }
     let scanner = match s.kind.as_str() {
         "linear" => {
             for (key, given) in [

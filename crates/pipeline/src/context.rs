@@ -89,10 +89,16 @@ impl TpuContext {
         smrmsg: Option<(PathBuf, Vec<SmrmsgSigma>)>,
         options: TpuOptions,
     ) -> Result<TpuContext> {
-        if options.chunk_points == 0 || options.neighbours < 3 {
+        if options.chunk_points == 0
+            || !(lidarqa_tpu::MIN_NEIGHBOURS..=lidarqa_tpu::MAX_NEIGHBOURS)
+                .contains(&options.neighbours)
+        {
             return Err(Error::InvalidOption(format!(
-                "chunk size {} must be > 0 and neighbours {} >= 3",
-                options.chunk_points, options.neighbours
+                "chunk size {} must be > 0 and neighbours {} in {}..={}",
+                options.chunk_points,
+                options.neighbours,
+                lidarqa_tpu::MIN_NEIGHBOURS,
+                lidarqa_tpu::MAX_NEIGHBOURS
             )));
         }
         let mut inputs = vec![trajectory_path.clone()];

@@ -254,6 +254,7 @@ fn input_file(base: &Path, path: &Path) -> Result<InputFile> {
 }
 
 /// Plans a TPU survey: one entry per tile, every input hashed; creates the output directory.
+/// The sensor file, trajectory and SMRMSG are read and checked as a run would.
 ///
 /// # Errors
 /// I/O errors naming the file; [`Error::Manifest`] for no tiles or two tiles with one file
@@ -263,6 +264,15 @@ pub fn plan_tpu(plan: &TpuPlan<'_>) -> Result<Manifest> {
     if plan.tiles.is_empty() {
         return Err(manifest_error(plan.manifest, "no tiles to plan"));
     }
+    // What every entry will read, read once now: a sensor file with a typo or a truncated
+    // trajectory is refused here, not by every array task.
+    TpuContext::from_files(
+        plan.sensor,
+        plan.trajectory,
+        plan.smrmsg,
+        plan.options.clone(),
+    )?;
+    lidarqa_io::check_distinct_inputs(plan.tiles)?;
     let base = base_dir(plan.manifest);
     std::fs::create_dir_all(&base).map_err(|e| io_error(&base, e))?;
     std::fs::create_dir_all(plan.output_dir).map_err(|e| io_error(plan.output_dir, e))?;
@@ -302,7 +312,7 @@ pub fn plan_tpu(plan: &TpuPlan<'_>) -> Result<Manifest> {
             report: PathBuf::from(report),
         });
     }
-    Ok(Manifest {
+    let m = Manifest {
         format: MANIFEST_FORMAT.into(),
         task: Task::Tpu,
         trajectory: input_file(&base, plan.trajectory)?,
@@ -310,7 +320,9 @@ pub fn plan_tpu(plan: &TpuPlan<'_>) -> Result<Manifest> {
         sensor: input_file(&base, plan.sensor)?,
         options: ManifestOptions::from_options(plan.options)?,
         entries,
-    })
+    };
+    m.check_paths(plan.manifest)?;
+    Ok(m)
 }
 
 impl Manifest {
@@ -335,7 +347,87 @@ impl Manifest {
                 format!("\"entries\"[{i}]: \"index\" is {}, not {i}", e.index),
             ));
         }
+        m.check_paths(path)?;
         Ok(m)
+    }
+
+    /// Refuses paths that would let a run write outside the manifest's directory or over a
+    /// file it reads (SPEC §7): a `..` component anywhere, an output or report that is
+    /// absolute outside the manifest's directory, or one equal to any entry's input, the
+    /// trajectory, the SMRMSG, the sensor file, the manifest itself, or another output or report.
+    ///
+    /// # Errors
+    /// [`Error::Manifest`] naming the entry and the key.
+    pub fn check_paths(&self, manifest: &Path) -> Result<()> {
+        let bad =
+            |what: String, message: String| manifest_error(manifest, format!("{what}: {message}"));
+        let mut inputs: Vec<(String, &Path)> = vec![
+            ("\"trajectory\"".into(), &self.trajectory.path),
+            ("\"sensor\"".into(), &self.sensor.path),
+        ];
+        if let Some(s) = &self.smrmsg {
+            inputs.push(("\"smrmsg\"".into(), &s.path));
+        }
+        for (i, e) in self.entries.iter().enumerate() {
+            inputs.push((format!("\"entries\"[{i}].\"input\""), &e.input.path));
+        }
+        let mut outputs: Vec<(String, &Path)> = Vec::new();
+        for (i, e) in self.entries.iter().enumerate() {
+            outputs.push((format!("\"entries\"[{i}].\"output\""), &e.output));
+            outputs.push((format!("\"entries\"[{i}].\"report\""), &e.report));
+        }
+        for (what, p) in inputs.iter().chain(&outputs) {
+            if p.components().any(|c| c == std::path::Component::ParentDir) {
+                return Err(bad(
+                    what.clone(),
+                    format!(
+                        "{} has a `..` component; a manifest's paths may not climb out of its directory",
+                        p.display()
+                    ),
+                ));
+            }
+        }
+        let root = base_dir(manifest);
+        let root_canon = root.canonicalize().unwrap_or_else(|_| root.clone());
+        for (what, p) in &outputs {
+            if p.is_absolute() && !p.starts_with(&root_canon) && !p.starts_with(&root) {
+                return Err(bad(
+                    what.clone(),
+                    format!(
+                        "{} is outside the manifest's directory {}; outputs must be written under it",
+                        p.display(),
+                        root_canon.display()
+                    ),
+                ));
+            }
+        }
+        let mut read: Vec<PathBuf> = inputs.iter().map(|(_, p)| resolve(manifest, p)).collect();
+        read.push(manifest.to_path_buf());
+        let read = lidarqa_io::InputSet::new(&read);
+        let mut written: std::collections::HashMap<PathBuf, &str> = Default::default();
+        for (what, p) in &outputs {
+            let out = resolve(manifest, p);
+            if let Err(lidarqa_io::Error::OutputIsInput { input, .. }) = read.check(&out) {
+                return Err(bad(
+                    what.clone(),
+                    format!(
+                        "{} is also an input ({}); a run would overwrite it",
+                        p.display(),
+                        input.display()
+                    ),
+                ));
+            }
+            if let Some(other) = written.insert(out, what) {
+                return Err(bad(
+                    what.clone(),
+                    format!(
+                        "{} is also {other}; one would overwrite the other",
+                        p.display()
+                    ),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Writes the manifest atomically (pretty JSON).

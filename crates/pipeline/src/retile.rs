@@ -8,6 +8,12 @@
 //! of a tile is the TPU of the same points in their strips. Tiles are named
 //! `tile_<col>_<row>.<ext>` (column from the west, row from the south, zero-padded to the
 //! grid's width) and written atomically; an empty cell writes no file and is counted.
+//!
+//! A directory of tiles is read whole (`lidarqa tpu DIR`, `lidarqa plan`), so tiles of an
+//! earlier grid left beside new ones would be read as well: a non-empty output directory is
+//! refused unless `overwrite`, and then the tiles of the earlier run that the new grid did not
+//! write are removed once the new ones are complete. Point clouds there that are not tiles are
+//! refused either way, and so is a strip given twice.
 
 use crate::error::{Error, Result};
 use lidarqa_io::{LasInfo, LasReader, LasWriteOptions, LasWriter, PointChunk};
@@ -51,15 +57,19 @@ pub struct RetileReport {
 }
 
 /// Cuts `inputs` into `grid` tiles in `out_dir` with extension `ext` (`laz` or `las`).
+/// `out_dir` must be empty or missing unless `overwrite` (module docs).
 ///
 /// # Errors
-/// [`Error::InvalidOption`] for an empty grid, no inputs, or inputs with different CRS, scale,
-/// offset or point format (a tile has one header); I/O and LAS errors naming the file.
+/// [`Error::InvalidOption`] for an empty grid, no inputs, inputs with different CRS, scale,
+/// offset or point format (a tile has one header), a non-empty `out_dir` without `overwrite`,
+/// or point clouds in it that are not tiles; lidarqa-io's `DuplicateInput`; I/O and LAS errors
+/// naming the file.
 pub fn retile(
     inputs: &[PathBuf],
     grid: TileGrid,
     out_dir: &Path,
     ext: &str,
+    overwrite: bool,
 ) -> Result<RetileReport> {
     if grid.nx == 0 || grid.ny == 0 {
         return Err(Error::InvalidOption(format!(
@@ -67,6 +77,8 @@ pub fn retile(
             grid.nx, grid.ny
         )));
     }
+    lidarqa_io::check_distinct_inputs(inputs)?;
+    let earlier = earlier_tiles(out_dir, inputs, overwrite)?;
     let infos: Vec<LasInfo> = inputs
         .iter()
         .map(|p| Ok(LasReader::from_path(p)?.info().clone()))
@@ -163,9 +175,99 @@ pub fn retile(
             }
         }
     }
+    for stale in earlier {
+        if !tiles.iter().any(|t| t.path == stale) {
+            std::fs::remove_file(&stale).map_err(|source| {
+                Error::Io(lidarqa_io::Error::Io {
+                    path: stale.clone(),
+                    source,
+                })
+            })?;
+        }
+    }
     Ok(RetileReport {
         tiles,
         empty_cells,
         points: total,
     })
+}
+
+/// `tile_<digits>_<digits>.las|laz`: a file [`retile`] writes.
+fn is_tile_name(name: &str) -> bool {
+    let Some(stem) = name
+        .strip_suffix(".laz")
+        .or_else(|| name.strip_suffix(".las"))
+    else {
+        return false;
+    };
+    let Some((c, r)) = stem.strip_prefix("tile_").and_then(|s| s.split_once('_')) else {
+        return false;
+    };
+    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+    digits(c) && digits(r)
+}
+
+/// The tiles an earlier run left in `out_dir` (to be removed after the new ones are written),
+/// after refusing a non-empty directory without `overwrite`, an input inside it, or point
+/// clouds there that are not tiles. Hidden files (an interrupted run's temporaries) do not count.
+fn earlier_tiles(out_dir: &Path, inputs: &[PathBuf], overwrite: bool) -> Result<Vec<PathBuf>> {
+    let io = |source| {
+        Error::Io(lidarqa_io::Error::Io {
+            path: out_dir.to_path_buf(),
+            source,
+        })
+    };
+    let entries = match std::fs::read_dir(out_dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(io(e)),
+    };
+    let mut names: Vec<String> = Vec::new();
+    for e in entries {
+        let name = e.map_err(io)?.file_name().to_string_lossy().into_owned();
+        if !name.starts_with('.') {
+            names.push(name);
+        }
+    }
+    names.sort();
+    if names.is_empty() {
+        return Ok(Vec::new());
+    }
+    if !overwrite {
+        return Err(Error::InvalidOption(format!(
+            "{}: the output directory is not empty ({} file(s), first {}); give a new or empty \
+             directory, or --overwrite to replace the tiles of an earlier run",
+            out_dir.display(),
+            names.len(),
+            names[0]
+        )));
+    }
+    let dir = out_dir.canonicalize().map_err(io)?;
+    if let Some(i) = inputs.iter().find(|i| {
+        i.canonicalize()
+            .ok()
+            .and_then(|c| c.parent().map(Path::to_path_buf))
+            == Some(dir.clone())
+    }) {
+        return Err(Error::InvalidOption(format!(
+            "{}: the input {} is in the output directory; tiles and strips would mix",
+            out_dir.display(),
+            i.display()
+        )));
+    }
+    let is_cloud = |n: &str| {
+        let l = n.to_ascii_lowercase();
+        l.ends_with(".las") || l.ends_with(".laz")
+    };
+    if let Some(other) = names.iter().find(|n| is_cloud(n) && !is_tile_name(n)) {
+        return Err(Error::InvalidOption(format!(
+            "{}: holds {other}, a point cloud that is not a tile; --overwrite replaces tiles only",
+            out_dir.display()
+        )));
+    }
+    Ok(names
+        .iter()
+        .filter(|n| is_tile_name(n))
+        .map(|n| out_dir.join(n))
+        .collect())
 }

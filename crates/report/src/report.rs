@@ -125,6 +125,8 @@ pub struct Report {
     pub(crate) generated: String,
     pub(crate) version: String,
     pub(crate) skipped: Vec<Error>,
+    /// The product files [`Report::from_dir`] read: [`Report::write`] never writes over one.
+    pub(crate) read: Vec<PathBuf>,
 }
 
 impl Report {
@@ -136,6 +138,7 @@ impl Report {
             generated: today_utc(),
             version: env!("CARGO_PKG_VERSION").to_string(),
             skipped: Vec::new(),
+            read: Vec::new(),
         }
     }
 
@@ -158,11 +161,18 @@ impl Report {
         }
         let mut skipped = Vec::new();
         let mut p = Products::default();
-        fn load<T: Product>(dir: &Path, name: &str, skipped: &mut Vec<Error>) -> Option<T> {
+        let mut read = Vec::new();
+        fn load<T: Product>(
+            dir: &Path,
+            name: &str,
+            skipped: &mut Vec<Error>,
+            read: &mut Vec<PathBuf>,
+        ) -> Option<T> {
             let path = dir.join(name);
             if !path.exists() {
                 return None;
             }
+            read.push(path.clone());
             match read_product::<T>(&path) {
                 Ok(v) => Some(v),
                 Err(e) => {
@@ -171,7 +181,7 @@ impl Report {
                 }
             }
         }
-        p.budget = load(dir, BUDGET_FILE, &mut skipped);
+        p.budget = load(dir, BUDGET_FILE, &mut skipped, &mut read);
         let entries = std::fs::read_dir(dir).map_err(|source| Error::Read {
             path: dir.to_path_buf(),
             source,
@@ -183,19 +193,19 @@ impl Report {
             .collect();
         sweep_names.sort();
         for name in sweep_names {
-            if let Some(s) = load::<Sweep>(dir, &name, &mut skipped) {
+            if let Some(s) = load::<Sweep>(dir, &name, &mut skipped, &mut read) {
                 p.sweeps.push((name, s));
             }
         }
-        p.tpu = load(dir, TPU_SUMMARY_FILE, &mut skipped);
-        p.evaluate_before = load(dir, EVALUATE_BEFORE_FILE, &mut skipped);
-        p.evaluate_after = load(dir, EVALUATE_AFTER_FILE, &mut skipped);
-        p.calibration = load(dir, CALIBRATION_FILE, &mut skipped);
-        p.calibration_iterations = load(dir, CALIBRATION_ITERATIONS_FILE, &mut skipped);
-        p.truth = load(dir, TRUTH_FILE, &mut skipped);
-        p.overlap_before = load(dir, OVERLAP_BEFORE_FILE, &mut skipped);
-        p.overlap_after = load(dir, OVERLAP_AFTER_FILE, &mut skipped);
-        p.iho = load(dir, IHO_FILE, &mut skipped);
+        p.tpu = load(dir, TPU_SUMMARY_FILE, &mut skipped, &mut read);
+        p.evaluate_before = load(dir, EVALUATE_BEFORE_FILE, &mut skipped, &mut read);
+        p.evaluate_after = load(dir, EVALUATE_AFTER_FILE, &mut skipped, &mut read);
+        p.calibration = load(dir, CALIBRATION_FILE, &mut skipped, &mut read);
+        p.calibration_iterations = load(dir, CALIBRATION_ITERATIONS_FILE, &mut skipped, &mut read);
+        p.truth = load(dir, TRUTH_FILE, &mut skipped, &mut read);
+        p.overlap_before = load(dir, OVERLAP_BEFORE_FILE, &mut skipped, &mut read);
+        p.overlap_after = load(dir, OVERLAP_AFTER_FILE, &mut skipped, &mut read);
+        p.iho = load(dir, IHO_FILE, &mut skipped, &mut read);
         for name in p.present() {
             let w = product_warnings(&dir.join(&name));
             p.warnings.extend(w.into_iter().map(|w| (name.clone(), w)));
@@ -203,6 +213,7 @@ impl Report {
         let mut r = Report::new(p);
         r.source = Some(dir.to_path_buf());
         r.skipped = skipped;
+        r.read = read;
         Ok(r)
     }
 
@@ -238,14 +249,16 @@ impl Report {
         crate::html::render(self)
     }
 
-    /// Writes [`Report::to_html`] to `path` atomically (a temporary file renamed when complete).
+    /// Writes [`Report::to_html`] to `path` atomically (a temporary file renamed when complete),
+    /// never over a product the report was read from.
     ///
     /// # Errors
-    /// [`Error::Write`] / [`Error::WriteIo`] naming `path`.
+    /// [`Error::Write`] / [`Error::WriteIo`] naming `path`; lidarqa-io's `OutputIsInput` when
+    /// `path` is one of the products read.
     pub fn write(&self, path: impl AsRef<Path>) -> Result<()> {
         let path = path.as_ref();
         let html = self.to_html();
-        let mut f = lidarqa_io::AtomicFile::create(path, &[] as &[&Path])?;
+        let mut f = lidarqa_io::AtomicFile::create(path, &self.read)?;
         f.write_all(html.as_bytes())
             .map_err(|source| Error::WriteIo {
                 path: path.to_path_buf(),

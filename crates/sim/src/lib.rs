@@ -54,9 +54,10 @@ pub use output::{
     SimPoint, Strip, StripTruth, Survey, TargetTruth, TrajectoryRecord, TrajectorySigma, Truth,
 };
 pub use scenario::{
-    BUILTIN_NAMES, BuildingFile, ErrorModel, ErrorsFile, Line, LineFile, Motion, MotionFile,
-    MountingFile, PavedFile, ScanPattern, ScanWave, ScannerSettingsFile, Scenario, ScenarioFile,
-    SceneFile, SensorFile, SensorScannerFile, TargetFile, WaterFile, WaveFile, builtin_toml,
+    BUILTIN_NAMES, BuildingFile, ErrorModel, ErrorsFile, Line, LineFile, MAX_HEIGHT_M, MAX_LINES,
+    MAX_PULSE_RATE_HZ, MAX_PULSES, MAX_TRAJECTORY_RATE_HZ, Motion, MotionFile, MountingFile,
+    PavedFile, ScanPattern, ScanWave, ScannerSettingsFile, Scenario, ScenarioFile, SceneFile,
+    SensorFile, SensorScannerFile, TargetFile, WaterFile, WaveFile, builtin_toml,
 };
 pub use scene::{
     Building, CLASS_BATHYMETRY, CLASS_BUILDING, CLASS_GROUND, CLASS_TARGET, CLASS_WATER_SURFACE,

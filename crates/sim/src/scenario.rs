@@ -594,6 +594,18 @@ pub struct Scenario {
     scene: Scene,
 }
 
+/// Highest pulse rate a scenario may fire: today's airborne scanners fire up to a few MHz.
+pub const MAX_PULSE_RATE_HZ: f64 = 5_000_000.0;
+/// Most pulses a scenario may fire in all: the simulated survey is held in memory until it is
+/// written (about 70 bytes a point), so this bounds the memory to a few GB.
+pub const MAX_PULSES: u64 = 50_000_000;
+/// Most flight lines in one scenario.
+pub const MAX_LINES: usize = 1000;
+/// Highest trajectory rate (an SBET is usually 200 Hz; a simulation may sample finer).
+pub const MAX_TRAJECTORY_RATE_HZ: f64 = 10_000.0;
+/// Highest flying height above the ground, m.
+pub const MAX_HEIGHT_M: f64 = 10_000.0;
+
 fn invalid(key: impl Into<String>, value: impl std::fmt::Display, reason: &str) -> Error {
     Error::InvalidValue {
         key: key.into(),
@@ -688,6 +700,13 @@ impl Scenario {
         let sensor = check_sensor(&file.sensor)?;
         let s = &file.scanner;
         let pulse_rate_hz = positive("scanner.pulse_rate_hz", s.pulse_rate_hz)?;
+        if pulse_rate_hz > MAX_PULSE_RATE_HZ {
+            return Err(invalid(
+                "scanner.pulse_rate_hz",
+                pulse_rate_hz,
+                &format!("must be at most {MAX_PULSE_RATE_HZ} Hz (a unit error?)"),
+            ));
+        }
         let freq = positive("scanner.scan_frequency_hz", s.scan_frequency_hz)?;
         let beam_divergence_rad = non_negative(
             "scanner.beam_divergence_mrad",
@@ -732,6 +751,17 @@ impl Scenario {
         let motion = check_motion(&file.motion)?;
         let scene = Scene::from_file(&file.scene)?;
         let lines = check_lines(&file.lines, file.scene.ground_height_m)?;
+        let pulses: f64 = lines.iter().map(|l| l.duration_s() * pulse_rate_hz).sum();
+        if pulses > MAX_PULSES as f64 {
+            return Err(invalid(
+                "scanner.pulse_rate_hz",
+                pulse_rate_hz,
+                &format!(
+                    "the lines' {:.0} s at this rate fire {pulses:.3e} pulses, more than the {MAX_PULSES} a scenario may (the survey is held in memory): lower the rate or shorten the lines",
+                    lines.iter().map(Line::duration_s).sum::<f64>()
+                ),
+            ));
+        }
         Ok(Scenario {
             file,
             zone,
@@ -997,6 +1027,13 @@ fn check_errors(f: &ErrorsFile, sensor: &Sensor) -> Result<ErrorModel> {
 
 fn check_motion(f: &MotionFile) -> Result<Motion> {
     let rate = positive("motion.trajectory_rate_hz", f.trajectory_rate_hz)?;
+    if rate > MAX_TRAJECTORY_RATE_HZ {
+        return Err(invalid(
+            "motion.trajectory_rate_hz",
+            rate,
+            &format!("must be at most {MAX_TRAJECTORY_RATE_HZ} Hz"),
+        ));
+    }
     let amp = [
         non_negative("motion.roll_amplitude_deg", f.roll_amplitude_deg)?,
         non_negative("motion.pitch_amplitude_deg", f.pitch_amplitude_deg)?,
@@ -1044,6 +1081,13 @@ fn check_lines(lines: &[LineFile], ground_height_m: f64) -> Result<Vec<Line>> {
             "a scenario needs at least one flight line",
         ));
     }
+    if lines.len() > MAX_LINES {
+        return Err(invalid(
+            "lines",
+            lines.len(),
+            &format!("a scenario may have at most {MAX_LINES} flight lines"),
+        ));
+    }
     let mut out = Vec::with_capacity(lines.len());
     for (i, l) in lines.iter().enumerate() {
         let key = |k: &str| format!("lines[{i}].{k}");
@@ -1070,6 +1114,13 @@ fn check_lines(lines: &[LineFile], ground_height_m: f64) -> Result<Vec<Line>> {
             ));
         }
         let h = positive(&key("height_m"), l.height_m)?;
+        if h > MAX_HEIGHT_M {
+            return Err(invalid(
+                key("height_m"),
+                h,
+                &format!("must be at most {MAX_HEIGHT_M} m above the ground"),
+            ));
+        }
         let v = positive(&key("speed_m_per_s"), l.speed_m_per_s)?;
         if !(l.start_time_s.is_finite()
             && l.start_time_s >= 0.0

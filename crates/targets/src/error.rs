@@ -1,5 +1,16 @@
 //! The crate's error type.
 
+/// Which input of an evaluation looks wrong (for the caller to name its file).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrameSide {
+    /// The control points.
+    Control,
+    /// The targets (lidar-measured points).
+    Targets,
+    /// Cannot tell which: they disagree.
+    Both,
+}
+
 /// Everything that can go wrong in `lidarqa-targets`.
 ///
 /// Each variant carries the value at fault; messages are lowercase without a final period
@@ -10,6 +21,16 @@ pub enum Error {
     /// The point cloud handed in is empty.
     #[error("no lidar points given")]
     NoPoints,
+
+    /// Targets and control that cannot be in one projected frame (one side in degrees, or
+    /// residuals of kilometres): folding them into an RMSE would be silently wrong.
+    #[error("{message}")]
+    NotOneFrame {
+        /// The side at fault: [`FrameSide::Control`], [`FrameSide::Targets`] or both.
+        side: FrameSide,
+        /// What was seen and the likely cause.
+        message: String,
+    },
     /// A coordinate, intensity or sigma is NaN or infinite.
     #[error("non-finite {what} at index {index}: {value}")]
     NonFinite {

@@ -48,7 +48,7 @@ use serde::Serialize;
 use spade::{DelaunayTriangulation, FloatTriangulation, HasPosition, Point2, Triangulation};
 
 use crate::extract::{ControlPoint, TargetResult, validate_control};
-use crate::{Error, Result};
+use crate::{Error, FrameSide, Result};
 
 /// Minimum number of checkpoints for an ASPRS Ed. 2 product accuracy assessment.
 pub const ASPRS_MIN_CHECKPOINTS: usize = 30;
@@ -497,11 +497,59 @@ fn check_class(key: &'static str, v: Option<f64>) -> Result<()> {
     }
 }
 
+/// Largest residual (any axis) of a target against its control point, m: a target is found
+/// within a few metres of its control point, so kilometres mean two frames (another UTM zone,
+/// degrees against metres, feet against metres), not an error to average.
+pub const MAX_RESIDUAL_M: f64 = 1000.0;
+
+/// True when (x, y) could be longitude, latitude in degrees.
+fn looks_like_degrees(x: f64, y: f64) -> bool {
+    x.abs() <= 360.0 && y.abs() <= 90.0
+}
+
+/// Refuses pairs whose coordinates cannot share one projected frame ([`MAX_RESIDUAL_M`]),
+/// naming the side that looks like degrees when one does.
+fn check_one_frame(points: &[PointResidual]) -> Result<()> {
+    let deg = |f: &dyn Fn(&PointResidual) -> &Position| {
+        points.iter().all(|p| looks_like_degrees(f(p).x, f(p).y))
+    };
+    let (control_deg, lidar_deg) = (deg(&|p| &p.control), deg(&|p| &p.lidar));
+    if control_deg != lidar_deg {
+        let (side, what, p) = if control_deg {
+            (FrameSide::Control, "control points", &points[0].control)
+        } else {
+            (FrameSide::Targets, "targets", &points[0].lidar)
+        };
+        return Err(Error::NotOneFrame {
+            side,
+            message: format!(
+                "the {what} look like longitude/latitude in degrees (id {}: x {}, y {}) while the others are projected metres; give both in the same projected CRS (UTM)",
+                points[0].id, p.x, p.y
+            ),
+        });
+    }
+    if let Some(p) = points.iter().find(|p| {
+        [p.residual.north, p.residual.east, p.residual.up]
+            .iter()
+            .any(|v| v.abs() > MAX_RESIDUAL_M)
+    }) {
+        return Err(Error::NotOneFrame {
+            side: FrameSide::Both,
+            message: format!(
+                "id {}: residual north {:.1} m, east {:.1} m, up {:.1} m (more than {MAX_RESIDUAL_M} m): the targets and the control are not in the same frame (another UTM zone or EPSG, feet against metres?)",
+                p.id, p.residual.north, p.residual.east, p.residual.up
+            ),
+        });
+    }
+    Ok(())
+}
+
 /// Compares measured points with control by id: residual = lidar − control (m).
 ///
 /// # Errors
 /// Bad control ([`validate_control`]), [`Error::DuplicateTargetId`], [`Error::NonFinite`],
-/// [`Error::InvalidConfig`] for a class ≤ 0, [`Error::NoCommonIds`] when no id matches.
+/// [`Error::InvalidConfig`] for a class ≤ 0, [`Error::NoCommonIds`] when no id matches,
+/// [`Error::NotOneFrame`] when targets and control cannot be in one frame.
 ///
 /// # Example
 /// ```
@@ -575,6 +623,7 @@ pub fn evaluate(
             control: control.len(),
         });
     }
+    check_one_frame(&points)?;
     let missing_control = control
         .iter()
         .filter(|c| !measured.iter().any(|m| m.id == c.id))

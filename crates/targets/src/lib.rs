@@ -52,12 +52,12 @@ pub use centre::{
     CentreEstimate, CentreMethod, CentreOptions, Elevation, TargetFlag, estimate_centre,
     estimate_centre_with_background,
 };
-pub use error::Error;
+pub use error::{Error, FrameSide};
 pub use evaluate::{
     ASPRS_MIN_CHECKPOINTS, Asprs, AsprsComponent, Axes, Components, EvaluateOptions, Evaluation,
-    MeasuredPoint, NSSDA_HORIZONTAL_APPROX_FACTOR, NSSDA_HORIZONTAL_FACTOR, NSSDA_VERTICAL_FACTOR,
-    Nssda, PointResidual, Position, VerticalEvaluation, VerticalResidual, asprs_combined_rmse,
-    evaluate, evaluate_vertical_tin, nssda_horizontal, nssda_vertical,
+    MAX_RESIDUAL_M, MeasuredPoint, NSSDA_HORIZONTAL_APPROX_FACTOR, NSSDA_HORIZONTAL_FACTOR,
+    NSSDA_VERTICAL_FACTOR, Nssda, PointResidual, Position, VerticalEvaluation, VerticalResidual,
+    asprs_combined_rmse, evaluate, evaluate_vertical_tin, nssda_horizontal, nssda_vertical,
 };
 pub use extract::{
     ControlPoint, LidarPoint, TargetConfig, TargetReport, TargetResult, UnmatchedCluster,

@@ -159,6 +159,25 @@ enum Resolved<'a> {
     Conic(&'a ConicScanner, SVector<f64, 25>, GeometryFacts),
 }
 
+/// Longest range (or height) a budget is computed for: airborne LiDAR ranges are a few km, so a
+/// larger value is a unit or typing error, and at 1e300 m the budget would print `inf`.
+pub const MAX_RANGE_M: f64 = 100_000.0;
+
+/// Refuses a range or height beyond [`MAX_RANGE_M`].
+fn within_reach(name: &str, v: f64) -> Result<()> {
+    if v > MAX_RANGE_M {
+        return Err(Error::Geometry(format!(
+            "{name} {} m is beyond the {MAX_RANGE_M} m an airborne LiDAR reaches (a unit error?)",
+            if v < 1e9 {
+                format!("{v}")
+            } else {
+                format!("{v:e}")
+            }
+        )));
+    }
+    Ok(())
+}
+
 fn resolve<'a>(sensor: &'a Sensor, geometry: &Geometry) -> Result<Resolved<'a>> {
     let m = &sensor.mounting;
     match (&sensor.scanner, geometry) {
@@ -182,14 +201,27 @@ fn resolve<'a>(sensor: &'a Sensor, geometry: &Geometry) -> Result<Resolved<'a>> 
                     }
                     r
                 }
-                LinearRange::Height(h) => linear_range_for_height(attitude, m, *scan_angle_rad, h)?,
+                LinearRange::Height(h) => {
+                    within_reach("height", h)?;
+                    linear_range_for_height(attitude, m, *scan_angle_rad, h)?
+                }
             };
+            within_reach("range", range_m)?;
             let obs = LinearObservation {
                 range_m,
                 scan_angle_rad: *scan_angle_rad,
             };
             let p = LinearScanner.parameters(attitude, m, &obs);
             let f = LinearScanner.footprint_ned(&p);
+            if f.z.is_nan() || f.z <= 0.0 {
+                return Err(Error::Geometry(format!(
+                    "the ray at scan angle {:.3}° (roll {:.3}°, pitch {:.3}°) does not point down: the footprint would be {:.3} m above the sensor; |scan angle + roll| must stay below 90°",
+                    scan_angle_rad.to_degrees(),
+                    attitude.roll_rad.to_degrees(),
+                    attitude.pitch_rad.to_degrees(),
+                    -f.z
+                )));
+            }
             let facts = GeometryFacts::Linear {
                 scan_angle_deg: scan_angle_rad.to_degrees(),
                 range_m,
@@ -225,9 +257,13 @@ fn resolve<'a>(sensor: &'a Sensor, geometry: &Geometry) -> Result<Resolved<'a>> 
                     (air_m, water_m)
                 }
                 ConicRanges::HeightDepth { height_m, depth_m } => {
+                    within_reach("height", height_m)?;
+                    within_reach("depth", depth_m)?;
                     c.ranges_for_height_depth(attitude, m, *azimuth_rad, height_m, depth_m)?
                 }
             };
+            within_reach("air range", air_m)?;
+            within_reach("water range", water_m)?;
             let obs = ConicObservation {
                 azimuth_rad: *azimuth_rad,
                 time_air_s: c.time_air_s(air_m),
@@ -337,13 +373,26 @@ pub fn evaluate(
     }
 }
 
+/// Most Monte Carlo samples [`evaluate_monte_carlo`] draws: the σ it estimates is then within
+/// ~0.1 % of its limit (relative error 1/√(2N)), and more samples only cost time.
+pub const MAX_MONTE_CARLO_SAMPLES: usize = 1_000_000;
+
 /// Monte Carlo cross-check of [`evaluate`]'s totals at `geometry`.
+///
+/// # Errors
+/// [`Error::Geometry`] for fewer than 2 or more than [`MAX_MONTE_CARLO_SAMPLES`] samples; as
+/// [`evaluate`].
 pub fn evaluate_monte_carlo(
     sensor: &Sensor,
     geometry: &Geometry,
     samples: usize,
     seed: u64,
 ) -> Result<MonteCarlo> {
+    if !(2..=MAX_MONTE_CARLO_SAMPLES).contains(&samples) {
+        return Err(Error::Geometry(format!(
+            "{samples} Monte Carlo samples: give 2 to {MAX_MONTE_CARLO_SAMPLES} (σ to ~0.1 % at the most)"
+        )));
+    }
     match resolve(sensor, geometry)? {
         Resolved::Linear(p, _) => {
             let cov = sensor.covariance(&LinearScanner::SOURCES);

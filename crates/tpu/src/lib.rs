@@ -51,14 +51,14 @@ pub use bias::{BiasEffect, Biases, bias_effect};
 pub use budget::{Budget, SourceTerm, budget, footprint_jacobian, propagate_covariance};
 pub use error::{Error, Result};
 pub use geometry::{
-    ConicRanges, Evaluation, Footprint, Geometry, GeometryFacts, LinearRange, evaluate,
-    evaluate_monte_carlo,
+    ConicRanges, Evaluation, Footprint, Geometry, GeometryFacts, LinearRange,
+    MAX_MONTE_CARLO_SAMPLES, MAX_RANGE_M, evaluate, evaluate_monte_carlo,
 };
 pub use iho::{
     IhoLimits, IhoOrder, THU_95_CBLUE, THU_95_CIRCULAR_PER_AXIS, TVU_95_FACTOR, thu_95_m,
 };
 pub use montecarlo::{MonteCarlo, monte_carlo};
-pub use normals::{MIN_NEIGHBOURS, fit_normal, incidence_angle, plane_normals};
+pub use normals::{MAX_NEIGHBOURS, MIN_NEIGHBOURS, fit_normal, incidence_angle, plane_normals};
 pub use point::{Incidence, MAX_INCIDENCE_RAD, PointPropagator, PointUncertainty};
 pub use presets::Preset;
 pub use recover::{ConicRecovery, LinearRecovery, Recoverer, nominal_l3};

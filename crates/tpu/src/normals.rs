@@ -26,6 +26,10 @@ use nalgebra::{Matrix3, Vector3};
 /// Fewest neighbours (the point included) a plane fit uses.
 pub const MIN_NEIGHBOURS: usize = 3;
 
+/// Most neighbours a plane fit uses: the fit describes the surface around one footprint, and
+/// the search keeps `k` candidates per query, so an unbounded `k` is unbounded memory and time.
+pub const MAX_NEIGHBOURS: usize = 256;
+
 /// Targets per parallel work item.
 const QUERY_BLOCK: usize = 2048;
 
@@ -42,10 +46,13 @@ pub fn plane_normals(
     k: usize,
 ) -> Vec<Option<Vector3<f64>>> {
     use rayon::prelude::*;
-    let k = k.max(MIN_NEIGHBOURS);
     if candidates.len() < MIN_NEIGHBOURS {
         return vec![None; targets.len()];
     }
+    // Never more neighbours than there are points.
+    let k = k
+        .clamp(MIN_NEIGHBOURS, MAX_NEIGHBOURS)
+        .min(candidates.len());
     let grid = Grid::new(candidates, k);
     let mut out = vec![None; targets.len()];
     out.par_chunks_mut(QUERY_BLOCK)

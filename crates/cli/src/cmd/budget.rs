@@ -23,7 +23,9 @@ Examples:
   lidarqa budget --sensor my_sensor.toml --scan-angle 20 --height 1200 --roll 2
   lidarqa budget --preset czmil --print-sensor > my_sensor.toml
 
-Units: angles in degrees, lengths in metres; the table shows σ in cm, JSON in metres.";
+Units: angles in degrees, lengths in metres; the table shows σ in cm, JSON in metres.
+
+Writes nothing but stdout.";
 
 /// Flags of `lidarqa budget`, exactly as typed (converted and checked by [`Plan::try_from`]).
 #[derive(Debug, Args)]
@@ -97,7 +99,8 @@ pub struct BudgetArgs {
     /// Adds the exact signed displacement (lidar − true) they cause.
     #[arg(long, value_name = "KEY=VALUE,...", allow_hyphen_values = true)]
     bias: Option<String>,
-    /// Also run a seeded Monte Carlo with this many samples and show its σ beside the linear ones.
+    /// Also run a seeded Monte Carlo with this many samples (2 to 1 000 000) and show its σ
+    /// beside the linear ones.
     #[arg(long, value_name = "N")]
     monte_carlo: Option<usize>,
     /// Seed of the Monte Carlo run.
@@ -123,6 +126,7 @@ struct Plan {
 /// Parse `KEY=VALUE,...` with sensor-file keys (`boresight_roll_deg`, `lever_x_m`, `time_water_ns`).
 fn parse_biases(text: &str) -> Result<Biases> {
     let mut biases = Biases::default();
+    let mut seen: Vec<Source> = Vec::new();
     for item in text.split(',').map(str::trim).filter(|s| !s.is_empty()) {
         let (key, value) = item
             .split_once('=')
@@ -137,6 +141,10 @@ fn parse_biases(text: &str) -> Result<Biases> {
             .ok()
             .filter(|v: &f64| v.is_finite())
             .with_context(|| format!("--bias: {key} = '{}' is not a number", value.trim()))?;
+        if seen.contains(&source) {
+            bail!("--bias: {key} is given twice; give each key once");
+        }
+        seen.push(source);
         biases.set(source, value * source.unit().config_to_si())?;
     }
     Ok(biases)
@@ -266,8 +274,14 @@ impl TryFrom<BudgetArgs> for Plan {
             (_, g) => g,
         };
         let biases = a.bias.as_deref().map(parse_biases).transpose()?;
-        if a.monte_carlo.is_some_and(|n| n < 2) {
-            bail!("--monte-carlo needs at least 2 samples");
+        if let Some(n) = a
+            .monte_carlo
+            .filter(|n| !(2..=lidarqa_tpu::MAX_MONTE_CARLO_SAMPLES).contains(n))
+        {
+            bail!(
+                "--monte-carlo {n}: give 2 to {} samples (σ to ~0.1 % at the most)",
+                lidarqa_tpu::MAX_MONTE_CARLO_SAMPLES
+            );
         }
         Ok(Plan {
             label,

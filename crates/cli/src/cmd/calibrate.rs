@@ -11,10 +11,13 @@ use crate::format::{OutputFormat, print_json, print_text};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lidarqa_calib::{
-    AutoTieOptions, Calibration, CalibrationOptions, ControlPoint, LocalFrame, Param, PlaneOptions,
-    RawPoint, Strip, Tie, TieKind, TiePick, TrajectorySigma, auto_ties, calibrate_plane,
-    calibrate_vtpm,
+    AutoTieOptions, Calibration, CalibrationOptions, ControlPoint, LocalFrame, MAX_RADIUS_M,
+    MAX_RANSAC_ITERATIONS, Param, PlaneOptions, RawPoint, Strip, Tie, TieKind, TiePick,
+    TrajectorySigma, auto_ties, calibrate_plane, calibrate_vtpm,
 };
+
+/// Most Levenberg–Marquardt iterations: a calibration converges in tens.
+const MAX_LM_ITERATIONS: usize = 10_000;
 use lidarqa_io::{
     AtomicFile, ControlPoints, Geodetic, LasInfo, LasReader, LasTimeConverter, PointChunk,
     TiePicks, UtmZone,
@@ -39,7 +42,10 @@ Tie picks CSV: tie,strip,x,y (projected metres; strip = LAS point source id or f
 Control CSV: id,x,y,z (projected metres, ellipsoidal height). A control id equal to a tie id
 observes all three coordinates; otherwise only its height. Without control the vertical lever
 arm is not observable and is held at the sensor file's value (\"observable\": false).
-Writes calibration_iterations.json (the convergence record) beside the output.";
+Writes calibration_iterations.json (the convergence record) beside the output.
+
+An existing -o file and calibration_iterations.json beside it are replaced; a strip given
+twice, or an output that is an input, is refused.";
 
 /// Flags of `lidarqa calibrate`.
 #[derive(Debug, Args)]
@@ -315,6 +321,71 @@ fn ties_from_csv(
         .collect())
 }
 
+/// A calibration error about a tie or control point, told in the CSV's own terms: file, line,
+/// and the projected x, y the user wrote, not the local frame the adjustment works in.
+fn in_csv_terms(
+    e: lidarqa_calib::Error,
+    picks: Option<&TiePicks>,
+    control: Option<(&ControlPoints, &Path)>,
+    strips: &[(String, String)],
+) -> anyhow::Error {
+    use lidarqa_calib::Error as E;
+    let same_strip = |csv: &str, id: &str| {
+        strips
+            .iter()
+            .any(|(i, stem)| i == id && (csv == i || csv == stem))
+    };
+    let pick = |tie: &str, strip: Option<&str>| {
+        picks.and_then(|p| {
+            p.picks
+                .iter()
+                .find(|k| k.tie == tie && strip.is_none_or(|s| same_strip(&k.strip, s)))
+                .map(|k| {
+                    format!(
+                        "{}: line {}: tie {} in strip {} at x {}, y {}",
+                        p.path.display(),
+                        k.line,
+                        k.tie,
+                        k.strip,
+                        k.x,
+                        k.y
+                    )
+                })
+        })
+    };
+    let told = match &e {
+        E::TieOutsideStrip {
+            tie,
+            strip,
+            radius_m,
+            ..
+        } => pick(tie, Some(strip))
+            .map(|w| format!("{w}: no point of the strip within {radius_m:.2} m of the pick")),
+        E::NoCoplanarTriangle { tie, strip, reason } => pick(tie, Some(strip))
+            .map(|w| format!("{w}: no coplanar triangle around the pick ({reason})")),
+        E::InvalidTie { tie, message } => pick(tie, None).map(|w| format!("{w}: {message}")),
+        E::OutsideEveryStrip { what, id, .. } if *what == "tie" => {
+            pick(id, None).map(|w| format!("{w}: outside every strip"))
+        }
+        E::OutsideEveryStrip { id, .. } => control.and_then(|(table, path)| {
+            table.records.iter().find(|c| &c.id == id).map(|c| {
+                format!(
+                    "{}: line {}: control point {id} at x {}, y {} is outside every strip",
+                    path.display(),
+                    c.line,
+                    c.x,
+                    c.y
+                )
+            })
+        }),
+        _ => None,
+    };
+    match told {
+        Some(t) => anyhow::anyhow!(t),
+        None => e.into(),
+    }
+}
+
 fn nearest_up(strip: &Strip, x: f64, y: f64) -> Option<f64> {
     strip
         .points
@@ -334,6 +405,7 @@ pub(crate) fn load_all(
     gps_week: Option<i64>,
     crs: Option<UtmZone>,
 ) -> Result<(LocalFrame, UtmZone, Vec<LoadedStrip>)> {
+    lidarqa_io::check_distinct_inputs(paths)?;
     let mut infos = Vec::new();
     let mut zone: Option<UtmZone> = None;
     for p in paths {
@@ -390,9 +462,11 @@ impl TryFrom<CalibrateArgs> for Plan {
         options.vtpm.patch = args.tie_carrier == "patch";
         options.lm.max_iterations = args.max_iterations;
         if let Some(r) = args.radius_m
-            && !(r.is_finite() && r > 0.0)
+            && !(r.is_finite() && r > 0.0 && r <= MAX_RADIUS_M)
         {
-            bail!("--radius-m must be a number > 0, got {r}");
+            bail!(
+                "--radius-m must be a number > 0 and at most {MAX_RADIUS_M} m (a tie is a local surface), got {r}"
+            );
         }
         if !(args.ransac_threshold_m.is_finite() && args.ransac_threshold_m > 0.0) {
             bail!(
@@ -408,8 +482,17 @@ impl TryFrom<CalibrateArgs> for Plan {
                 bail!("{flag} must be a number of seconds > 0, got {t}");
             }
         }
-        if args.ransac_iterations == 0 || args.max_iterations == 0 {
-            bail!("--ransac-iterations and --max-iterations must be at least 1");
+        if !(1..=MAX_RANSAC_ITERATIONS).contains(&args.ransac_iterations) {
+            bail!(
+                "--ransac-iterations must be 1 to {MAX_RANSAC_ITERATIONS}, got {}",
+                args.ransac_iterations
+            );
+        }
+        if !(1..=MAX_LM_ITERATIONS).contains(&args.max_iterations) {
+            bail!(
+                "--max-iterations must be 1 to {MAX_LM_ITERATIONS}, got {}",
+                args.max_iterations
+            );
         }
         let dir = match args.output.parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -462,15 +545,16 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
     }
     let crs = crs_flags(a.utm_zone.as_deref(), a.epsg)?;
     let (frame, zone, loaded) = load_all(&a.strips, &ctx, a.gps_week, crs)?;
-    let picked = match &a.ties {
-        Some(p) => Some(ties_from_csv(
-            &TiePicks::from_path(p)?,
-            &loaded,
-            &frame,
-            &zone,
-        )?),
+    let tie_picks = a.ties.as_ref().map(TiePicks::from_path).transpose()?;
+    let picked = match &tie_picks {
+        Some(p) => Some(ties_from_csv(p, &loaded, &frame, &zone)?),
         None => None,
     };
+    // Strip id → the names a CSV may use for it (id and file stem).
+    let loaded_ids: Vec<(String, String)> = loaded
+        .iter()
+        .map(|l| (l.strip.id.clone(), l.stem.clone()))
+        .collect();
     let strips: Vec<Strip> = loaded.into_iter().map(|l| l.strip).collect();
     if a.radius_m.is_none() {
         let sparsest = strips
@@ -490,9 +574,13 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
             },
         )?,
     };
-    let control: Vec<ControlPoint> = match &a.control {
-        Some(p) => {
-            let table = ControlPoints::from_path(p)?;
+    let control_table = a
+        .control
+        .as_ref()
+        .map(ControlPoints::from_path)
+        .transpose()?;
+    let control: Vec<ControlPoint> = match &control_table {
+        Some(table) => {
             let mut out = Vec::with_capacity(table.records.len());
             for (i, c) in table.records.iter().enumerate() {
                 out.push(ControlPoint {
@@ -526,7 +614,14 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
                 &PlaneOptions::default(),
             )?
         }
-        _ => calibrate_vtpm(&strips, &ties, &control, &prior, &plan.options)?,
+        _ => calibrate_vtpm(&strips, &ties, &control, &prior, &plan.options).map_err(|e| {
+            in_csv_terms(
+                e,
+                tie_picks.as_ref(),
+                control_table.as_ref().zip(a.control.as_deref()),
+                &loaded_ids,
+            )
+        })?,
     };
     let mut inputs: Vec<PathBuf> = a.strips.clone();
     inputs.extend([a.trajectory.clone(), a.sensor.clone()]);
@@ -713,9 +808,17 @@ mod tests {
 
     #[test]
     fn bad_radius_is_refused() {
-        let c = parse(&["--auto-ties", "--radius-m", "-1"]).unwrap();
-        let e = Plan::try_from(c.args).err().unwrap().to_string();
-        assert_eq!(e, "--radius-m must be a number > 0, got -1");
+        for r in ["-1", "1e6"] {
+            let c = parse(&["--auto-ties", "--radius-m", r]).unwrap();
+            let e = Plan::try_from(c.args).err().unwrap().to_string();
+            assert_eq!(
+                e,
+                format!(
+                    "--radius-m must be a number > 0 and at most 50 m (a tie is a local surface), got {}",
+                    r.parse::<f64>().unwrap()
+                )
+            );
+        }
     }
 
     #[test]

@@ -14,7 +14,9 @@ pub const AFTER_HELP: &str = "\
 Example:
   lidarqa collect manifest.json --summary summary.json
 
-Fails, listing the entries, when any entry is not complete (run them with `lidarqa run`).";
+Fails, listing the entries, when any entry is not complete (run them with `lidarqa run`).
+
+An existing --summary file is replaced, never an input.";
 
 /// Flags of `lidarqa collect`.
 #[derive(Debug, Args)]

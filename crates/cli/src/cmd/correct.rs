@@ -19,8 +19,10 @@ Example:
 Each point's range and scan angle are recovered with the sensor file's [mounting] (the one the
 strips were made with), then the point is georeferenced again with the calibrated mounting.
 Every other point record field is kept (extra-bytes dimensions and waveform packets are not
-carried over yet); DIR/<input file name> is written, never over an input. A strip
-without a CRS in its header needs --utm-zone or --epsg (which also override the header's).";
+carried over yet); DIR/<input file name> is written, never over an input; an existing file of
+that name in DIR is replaced. Two strips with one file name, or one strip given twice, are
+refused before any work. A strip without a CRS in its header needs --utm-zone or --epsg (which
+also override the header's).";
 
 /// Flags of `lidarqa correct`.
 #[derive(Debug, Args)]
@@ -52,6 +54,10 @@ pub struct CorrectArgs {
 }
 
 pub fn run(a: CorrectArgs) -> Result<()> {
+    // Before any work: each strip once, one output per strip, none over an input.
+    lidarqa_io::check_distinct_inputs(&a.strips)?;
+    let shared = [&a.calibration, &a.sensor, &a.trajectory];
+    let outputs = lidarqa_io::outputs_in_dir(&a.output, &a.strips, &shared)?;
     let text = std::fs::read_to_string(&a.calibration)
         .with_context(|| format!("{}", a.calibration.display()))?;
     let doc: serde_json::Value = serde_json::from_str(&text)
@@ -76,14 +82,10 @@ pub fn run(a: CorrectArgs) -> Result<()> {
     // No output may overwrite any strip (not only its own input) or the calibration.
     let mut others: Vec<&Path> = a.strips.iter().map(PathBuf::as_path).collect();
     others.push(&a.calibration);
-    for path in &a.strips {
-        let name = path
-            .file_name()
-            .with_context(|| format!("{}: no file name", path.display()))?;
-        let out = a.output.join(name);
+    for (path, out) in a.strips.iter().zip(&outputs) {
         let r = correct_tile(&CorrectTileJob {
             input: path,
-            output: &out,
+            output: out,
             context: &ctx,
             mounting: &mounting,
             other_inputs: &others,

@@ -7,8 +7,8 @@ use clap::Args;
 use lidarqa_io::{ControlPoints, LasReader, PointChunk, Targets};
 use lidarqa_model::{Attitude, Scanner};
 use lidarqa_targets::{
-    Components, EvaluateOptions, Evaluation, MeasuredPoint, VerticalEvaluation, evaluate,
-    evaluate_vertical_tin,
+    Components, EvaluateOptions, Evaluation, FrameSide, MeasuredPoint, VerticalEvaluation,
+    evaluate, evaluate_vertical_tin,
 };
 use lidarqa_tpu::{ConicRanges, Geometry, LinearRange};
 use serde::Serialize;
@@ -26,7 +26,10 @@ formula (8). With --tpu, the predicted σ (the median per-point σ of the TPU su
 the measured RMSE, as seed 000's Table 3; with --sensor, the budget at --height (and --scan-angle)
 is. --ground with --checkpoints tests vertical checkpoints against a TIN of the ground points (ASPRS
 non-vegetated vertical accuracy, NVA), beside or instead of the targets; the JSON then has an
-\"nva\" block.";
+\"nva\" block.
+
+Writes nothing but stdout. Targets and control that cannot be in one projected frame (one
+side in degrees, residuals over 1 km) are refused.";
 
 /// Flags of `lidarqa evaluate`.
 #[derive(Debug, Args)]
@@ -96,6 +99,7 @@ pub fn evaluate_files(
     options: &EvaluateOptions,
 ) -> Result<Evaluation> {
     let t = Targets::from_path(targets)?;
+    let control_path = control;
     let c = ControlPoints::from_path(control)?;
     let control = super::targets::control_for_targets(&c, None)?;
     let measured: Vec<MeasuredPoint> = t
@@ -103,7 +107,19 @@ pub fn evaluate_files(
         .iter()
         .map(|r| MeasuredPoint::new(r.id.clone(), r.x, r.y, r.z))
         .collect();
-    Ok(evaluate(&measured, &control, options)?)
+    evaluate(&measured, &control, options).map_err(|e| match &e {
+        lidarqa_targets::Error::NotOneFrame { side, .. } => {
+            let file = match side {
+                FrameSide::Control => control_path.display().to_string(),
+                FrameSide::Targets => targets.display().to_string(),
+                FrameSide::Both => {
+                    format!("{} against {}", targets.display(), control_path.display())
+                }
+            };
+            anyhow::anyhow!("{file}: {e}")
+        }
+        _ => e.into(),
+    })
 }
 
 /// The prediction from a sensor file: its budget at `height_m` above level ground, at the scan
@@ -278,20 +294,41 @@ pub fn nva_table(v: &VerticalEvaluation) -> String {
 /// The evaluation as text (also used by the demo).
 pub fn table(e: &Evaluation) -> String {
     let mut t = String::new();
+    // Columns as wide as their widest entry, one space apart at the least, so that a long id
+    // or a large residual never runs into its neighbour.
+    let id_w = e
+        .points
+        .iter()
+        .map(|p| p.id.chars().count())
+        .fold(6, usize::max);
+    let w = e
+        .points
+        .iter()
+        .flat_map(|p| {
+            [
+                p.residual.north,
+                p.residual.east,
+                p.residual.up,
+                p.horizontal,
+            ]
+        })
+        .map(|v| cm(v, 0).len())
+        .fold(8, usize::max)
+        + 1;
     let _ = writeln!(
         t,
-        "{:<10}{:>9}{:>9}{:>9}{:>9}   (residual lidar − control, cm)",
+        "{:<id_w$}{:>w$}{:>w$}{:>w$}{:>w$}   (residual lidar − control, cm)",
         "target", "north", "east", "up", "horiz"
     );
     for p in &e.points {
         let _ = writeln!(
             t,
-            "{:<10}{}{}{}{}",
+            "{:<id_w$}{}{}{}{}",
             p.id,
-            cm(p.residual.north, 9),
-            cm(p.residual.east, 9),
-            cm(p.residual.up, 9),
-            cm(p.horizontal, 9)
+            cm(p.residual.north, w),
+            cm(p.residual.east, w),
+            cm(p.residual.up, w),
+            cm(p.horizontal, w)
         );
     }
     let _ = writeln!(t);

@@ -15,7 +15,9 @@ Examples:
   lidarqa overlap corrected/*.laz -o overlap_after.json     also the dz grid and a profile
 
 dz = z(first strip) − z(second) per cell of --cell-m where both strips are smooth (plane-fit RMS
-≤ --max-roughness-m, slope ≤ --max-slope-deg). Coordinates as in the files (projected, z up).";
+≤ --max-roughness-m, slope ≤ --max-slope-deg). Coordinates as in the files (projected, z up).
+
+An existing -o file is replaced; a strip given twice, or an -o that is an input, is refused.";
 
 /// Flags of `lidarqa overlap`.
 #[derive(Debug, Args)]
@@ -44,6 +46,7 @@ pub fn run(a: OverlapArgs) -> Result<()> {
     if !(a.cell_m.is_finite() && a.cell_m > 0.0) {
         bail!("--cell-m must be a number > 0, got {}", a.cell_m);
     }
+    lidarqa_io::check_distinct_inputs(&a.strips)?;
     let mut strips = Vec::new();
     for path in &a.strips {
         let mut r = LasReader::from_path(path)?;

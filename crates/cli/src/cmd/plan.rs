@@ -17,7 +17,10 @@ Example:
 
 Every .las/.laz file of --tiles becomes one entry (in file-name order); its output is
 OUTPUT-DIR/<file name> and its report OUTPUT-DIR/<file name>.report.json. Inputs are hashed
-(BLAKE3) so that a run refuses an input changed since the plan.";
+(BLAKE3) so that a run refuses an input changed since the plan.
+
+An existing manifest is replaced. Outputs must lie in the manifest's directory and never on an
+input; the sensor file, trajectory and SMRMSG are read and checked now.";
 
 /// Flags of `lidarqa plan`.
 #[derive(Debug, Args)]

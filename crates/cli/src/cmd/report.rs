@@ -14,7 +14,8 @@ Reads whatever products DIR holds (budget.json, budget_sweep_*.json, tpu_summary
 evaluate_before.json / evaluate_after.json, calibration.json, calibration_iterations.json,
 truth.json, overlap_before.json / overlap_after.json, iho.json); a section appears only for the
 products present. A malformed product is skipped with a warning (an error with --strict).
-The report is one offline HTML file: inline CSS and SVG plots, no script, no network.";
+The report is one offline HTML file: inline CSS and SVG plots, no script, no network. An existing
+report of the same name is replaced, never over a product it reads.";
 
 /// Flags of `lidarqa report`.
 #[derive(Debug, Args)]

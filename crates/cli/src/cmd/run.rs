@@ -14,7 +14,10 @@ Examples:
 An entry is complete when its tile report exists, was written for this plan, and the output still
 has the size and BLAKE3 the report recorded; a complete entry is skipped (--force runs it anyway).
 The output is written atomically and the report after it, so a killed run never leaves a tile that
-looks complete. An input changed since `lidarqa plan` is refused.";
+looks complete. An input changed since `lidarqa plan` is refused.
+
+The entry's output and report are replaced when the entry is not complete; a manifest whose
+paths leave its directory or name an input is refused.";
 
 /// Environment variables that carry the index of a job array task, in the order tried.
 const INDEX_VARIABLES: [&str; 2] = ["SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_INDEX"];

@@ -21,7 +21,10 @@ Examples:
   lidarqa simulate --scenario my-survey.toml --seed 7 --format las -o sim7/
   lidarqa simulate --scenario bathymetry --truth -o bathy/   # + each point's actual error
 
-Built-in scenarios: demo, calibration, bathymetry.";
+Built-in scenarios: demo, calibration, bathymetry.
+
+Files of the same name in the output directory are replaced; an output that is an input
+(--scenario) is refused.";
 
 /// Point-cloud output format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]

@@ -18,7 +18,9 @@ Example:
 Only points within --window-m of a control point are read (the seed paper segments the target area
 by hand); within those windows fuzzy c-means on intensity picks the bright points, clusters become
 targets, and each cluster is matched to the nearest control point. Clusters without a control point
-and control points without a target are listed, never dropped silently.";
+and control points without a target are listed, never dropped silently.
+
+An existing -o file is replaced; an input given twice, or an -o that is an input, is refused.";
 
 /// Flags of `lidarqa targets`.
 #[derive(Debug, Args)]
@@ -256,6 +258,7 @@ pub fn run(args: TargetsArgs) -> Result<()> {
     {
         bail!("--radius-m must be > 0, got {r}");
     }
+    lidarqa_io::check_distinct_inputs(&args.inputs)?;
     let table = ControlPoints::from_path(&args.control)?;
     let control = control_for_targets(&table, args.radius_m)?;
     let report = find_targets(&args.inputs, &control, method, args.window_m)

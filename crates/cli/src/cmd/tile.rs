@@ -13,7 +13,10 @@ Example:
 
 The grid covers the strips' extent; each tile holds the points of every strip that fall in it,
 with all attributes (GPS time included), as tile_<column>_<row>.laz from the south-west.
-Empty cells write no file.";
+Empty cells write no file. The input strips are never overwritten, and a strip given twice is
+refused. A non-empty output directory is refused; with --overwrite the tiles of an earlier run
+are replaced, and those the new grid does not write are removed (other files are kept; point
+clouds that are not tiles are refused), so `lidarqa tpu DIR` reads only the new grid.";
 
 /// Flags of `lidarqa tile`.
 #[derive(Debug, Args)]
@@ -30,6 +33,10 @@ pub struct TileArgs {
     /// Point-cloud format of the tiles.
     #[arg(long, value_name = "laz|las", default_value = "laz", value_parser = ["laz", "las"])]
     format: String,
+    /// Replace the tiles of an earlier run in a non-empty output directory (and remove those
+    /// the new grid does not write).
+    #[arg(long)]
+    overwrite: bool,
 }
 
 /// `4x4` → 4 columns, 4 rows.
@@ -58,7 +65,7 @@ pub fn run(a: TileArgs) -> Result<()> {
     if a.output.is_file() {
         bail!("{}: the output must be a directory", a.output.display());
     }
-    let r = retile(&a.strips, a.grid, &a.output, &a.format)?;
+    let r = retile(&a.strips, a.grid, &a.output, &a.format, a.overwrite)?;
     eprintln!(
         "lidarqa: {} points in {} tiles ({} empty cells) in {}",
         r.points,

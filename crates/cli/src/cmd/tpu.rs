@@ -30,7 +30,10 @@ total_tvu at 95 %, and for bathymetric soundings, class 40, depth and iho_order:
 its pulse's water-surface return (class 41, same GPS time) or else at a plane fitted to the
 surface returns within 20 m; the summary gives the IHO S-44 Ed. 6 orders met by depth band.
 LAS Z must be ellipsoidal heights in the trajectory's datum. The table shows σ in cm; JSON is in
-metres. Skipped points are counted and not written.";
+metres. Skipped points are counted and not written.
+
+An existing output of the same name (file, tiles in DIR, --summary) is replaced; an output
+that is an input is refused, and so is a tile given twice under two names.";
 
 /// Flags of `lidarqa tpu`, exactly as typed (checked by [`Plan::try_from`]).
 #[derive(Debug, Args)]
@@ -93,7 +96,8 @@ pub struct TpuFlags {
     /// Points per chunk (memory grows with it; the result does not).
     #[arg(long, value_name = "N", default_value_t = TpuOptions::default().chunk_points)]
     chunk_points: usize,
-    /// Neighbours of the plane fit for the incidence angle.
+    /// Neighbours of the plane fit for the incidence angle (3 to 256; never more than the
+    /// points searched).
     #[arg(long, value_name = "K", default_value_t = TpuOptions::default().neighbours)]
     neighbours: usize,
 }
@@ -105,8 +109,12 @@ impl TpuFlags {
         if self.chunk_points == 0 {
             bail!("--chunk-points must be > 0");
         }
-        if self.neighbours < 3 {
-            bail!("--neighbours {} must be >= 3", self.neighbours);
+        let (lo, hi) = (lidarqa_tpu::MIN_NEIGHBOURS, lidarqa_tpu::MAX_NEIGHBOURS);
+        if !(lo..=hi).contains(&self.neighbours) {
+            bail!(
+                "--neighbours {} must be {lo} to {hi} (a plane fit over one footprint's surroundings)",
+                self.neighbours
+            );
         }
         Ok(TpuOptions {
             crs,
@@ -184,6 +192,8 @@ impl TryFrom<TpuArgs> for Plan {
         let options = a.flags.options()?;
         let tiles = if a.input.is_dir() {
             let inputs = point_clouds_in(&a.input)?;
+            // Two links to one tile would count its points twice.
+            lidarqa_io::check_distinct_inputs(&inputs)?;
             if a.output.exists() && !a.output.is_dir() {
                 bail!(
                     "{}: the input is a directory, so the output must be one too",
