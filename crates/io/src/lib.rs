@@ -2,7 +2,9 @@
 //!
 //! - LAS 1.2–1.4 / LAZ in chunks, LAS 1.4 out with extra-bytes dimensions and the CRS carried over
 //!   ([`LasReader`], [`LasWriter`]);
-//! - SBET and SMRMSG trajectories ([`read_sbet`], [`read_smrmsg`]);
+//! - SBET and SMRMSG trajectories ([`read_sbet`], [`read_smrmsg`]), text trajectories (PDAL
+//!   sritrajectory, cBLUE's PosPac ASCII, CSV with a header) and the detection between them
+//!   ([`read_trajectory`]);
 //! - control points, targets and tie picks as CSV ([`ControlPoints`], [`Targets`], [`TiePicks`]);
 //! - the sensor file of SPEC §5 ([`read_sensor`]);
 //! - WGS84 geodetic ↔ ECEF ↔ NED and UTM ([`UtmZone`]); GPS time bases ([`LasTimeConverter`]);
@@ -23,6 +25,7 @@ mod geodesy;
 mod gpstime;
 mod pointcloud;
 mod sbet;
+mod trajtext;
 
 pub use atomic::{AtomicFile, check_not_an_input};
 pub use csv::{
@@ -46,4 +49,8 @@ pub use sbet::{
     F64Record, RAD_PER_ARCMIN, RecordReader, RecordWriter, SbetPose, SbetReader, SbetWriter,
     SmrmsgReader, SmrmsgSigma, SmrmsgWriter, raw as sbet_raw, read_sbet, read_smrmsg,
     write_records_to_path,
+};
+pub use trajtext::{
+    HeadingReference, TextPose, TextSigma, TextTrajectory, TrajectoryFile, TrajectoryFormat,
+    TrajectoryPosition, parse_text_trajectory, read_trajectory,
 };
