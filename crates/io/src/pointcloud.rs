@@ -48,6 +48,8 @@ const EXTRA_BYTES_RECORD: u16 = 4;
 const EXTRA_BYTES_DESCRIPTOR_LEN: usize = 192;
 /// Extra-bytes data type code of f32 (table 25).
 const EB_F32: u8 = 9;
+/// Extra-bytes data type code of f64.
+const EB_F64: u8 = 10;
 
 /// One LAS point, decoded: what lidarqa reads from and writes to a point record.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -381,9 +383,9 @@ fn parse_extra_dims(path: &Path, header: &las::Header) -> Result<Vec<ExtraDim>> 
 }
 
 /// Builds one f32 extra-bytes descriptor (LAS 1.4 R15 table 24).
-fn f32_descriptor(name: &str, description: &str) -> [u8; EXTRA_BYTES_DESCRIPTOR_LEN] {
+fn descriptor(data_type: u8, name: &str, description: &str) -> [u8; EXTRA_BYTES_DESCRIPTOR_LEN] {
     let mut d = [0u8; EXTRA_BYTES_DESCRIPTOR_LEN];
-    d[2] = EB_F32;
+    d[2] = data_type;
     d[4..4 + name.len()].copy_from_slice(name.as_bytes());
     d[160..160 + description.len()].copy_from_slice(description.as_bytes());
     d
@@ -857,6 +859,9 @@ pub struct LasWriteOptions {
     pub crs_vlrs: Vec<RawVlr>,
     /// Extra-bytes dimensions, all f32: (name ≤ 32 bytes, description ≤ 32 bytes).
     pub extra_dims: Vec<(String, String)>,
+    /// Extra-bytes dimensions after those, all f64 (e.g. variances in m², which f32 would
+    /// round): (name, description) as for `extra_dims`.
+    pub extra_dims_f64: Vec<(String, String)>,
     /// File source id (LAS 1.1+), e.g. the strip's point source id.
     pub file_source_id: u16,
 }
@@ -893,6 +898,7 @@ impl LasWriteOptions {
                 .iter()
                 .map(|(n, d)| (n.to_string(), d.to_string()))
                 .collect(),
+            extra_dims_f64: Vec::new(),
             file_source_id: 0,
         }
     }
@@ -915,7 +921,7 @@ impl LasWriteOptions {
             )));
         }
         let mut seen = std::collections::HashSet::new();
-        for (name, description) in &self.extra_dims {
+        for (name, description) in self.extra_dims.iter().chain(&self.extra_dims_f64) {
             if name.is_empty() || name.len() > 32 || description.len() > 32 {
                 return Err(invalid(format!(
                     "extra-bytes name `{name}` / description `{description}` must be 1–32 and \
@@ -936,8 +942,9 @@ impl LasWriteOptions {
         }
         let mut format =
             las::point::Format::new(self.point_format).map_err(|e| Error::las(path, e))?;
-        format.extra_bytes = u16::try_from(4 * self.extra_dims.len())
-            .map_err(|_| invalid("too many extra-bytes dimensions".into()))?;
+        format.extra_bytes =
+            u16::try_from(4 * self.extra_dims.len() + 8 * self.extra_dims_f64.len())
+                .map_err(|_| invalid("too many extra-bytes dimensions".into()))?;
         format.is_compressed = is_laz(path);
         let mut b = las::Builder::from(las::Header::default());
         b.version = las::Version::new(1, self.version_minor);
@@ -964,10 +971,14 @@ impl LasWriteOptions {
         // The WKT bit is defined from LAS 1.4 on (and required there for formats 6–10).
         b.has_wkt_crs =
             self.version_minor >= 4 && self.crs_vlrs.iter().any(|v| v.record_id == 2112);
-        if !self.extra_dims.is_empty() {
-            let mut data = Vec::with_capacity(EXTRA_BYTES_DESCRIPTOR_LEN * self.extra_dims.len());
+        if !(self.extra_dims.is_empty() && self.extra_dims_f64.is_empty()) {
+            let n = self.extra_dims.len() + self.extra_dims_f64.len();
+            let mut data = Vec::with_capacity(EXTRA_BYTES_DESCRIPTOR_LEN * n);
             for (name, description) in &self.extra_dims {
-                data.extend_from_slice(&f32_descriptor(name, description));
+                data.extend_from_slice(&descriptor(EB_F32, name, description));
+            }
+            for (name, description) in &self.extra_dims_f64 {
+                data.extend_from_slice(&descriptor(EB_F64, name, description));
             }
             b.vlrs.push(las::Vlr {
                 user_id: EXTRA_BYTES_USER.into(),
@@ -1008,6 +1019,7 @@ pub struct LasWriter {
     path: PathBuf,
     format: las::point::Format,
     n_extra: usize,
+    n_extra_f64: usize,
     index: u64,
 }
 
@@ -1034,6 +1046,7 @@ impl LasWriter {
             path: path.to_path_buf(),
             format,
             n_extra: options.extra_dims.len(),
+            n_extra_f64: options.extra_dims_f64.len(),
             index: 0,
         })
     }
@@ -1046,16 +1059,27 @@ impl LasWriter {
     /// rejects it (coordinates beyond the i32 range of the scale/offset, a class or return
     /// number the format cannot hold).
     pub fn write_point(&mut self, p: &LasPoint, extra: &[f32]) -> Result<()> {
+        self.write_point_f64(p, extra, &[])
+    }
+
+    /// As [`LasWriter::write_point`], with the values of the f64 dimensions
+    /// ([`LasWriteOptions::extra_dims_f64`]) after the f32 ones.
+    ///
+    /// # Errors
+    /// As [`LasWriter::write_point`].
+    pub fn write_point_f64(&mut self, p: &LasPoint, extra: &[f32], extra64: &[f64]) -> Result<()> {
         let mismatch = |message: String| Error::PointMismatch {
             path: self.path.clone(),
             index: self.index,
             message,
         };
-        if extra.len() != self.n_extra {
+        if extra.len() != self.n_extra || extra64.len() != self.n_extra_f64 {
             return Err(mismatch(format!(
-                "{} extra-bytes values for {} dimensions",
+                "{} + {} extra-bytes values for {} + {} dimensions",
                 extra.len(),
-                self.n_extra
+                extra64.len(),
+                self.n_extra,
+                self.n_extra_f64
             )));
         }
         let f = &self.format;
@@ -1088,8 +1112,11 @@ impl LasWriter {
                 p.scan_angle_deg
             )));
         }
-        let mut extra_bytes = Vec::with_capacity(4 * extra.len());
+        let mut extra_bytes = Vec::with_capacity(4 * extra.len() + 8 * extra64.len());
         for v in extra {
+            extra_bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        for v in extra64 {
             extra_bytes.extend_from_slice(&v.to_le_bytes());
         }
         let point = las::Point {
@@ -1300,7 +1327,7 @@ mod tests {
 
     #[test]
     fn extra_bytes_descriptor_layout() {
-        let d = f32_descriptor("sigma_up", "1-sigma up (m)");
+        let d = descriptor(EB_F32, "sigma_up", "1-sigma up (m)");
         assert_eq!(d[2], EB_F32);
         assert_eq!(d[3], 0, "no options: no scale, offset, min, max or no-data");
         assert_eq!(&d[4..12], b"sigma_up");

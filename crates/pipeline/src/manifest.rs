@@ -88,6 +88,9 @@ pub struct ManifestOptions {
     pub neighbours: usize,
     /// Look-back / look-ahead margin across chunk borders, points.
     pub margin_points: usize,
+    /// Write the full covariance too.
+    #[serde(default)]
+    pub covariance: bool,
 }
 
 impl ManifestOptions {
@@ -111,6 +114,7 @@ impl ManifestOptions {
             chunk_points: o.chunk_points,
             neighbours: o.neighbours,
             margin_points: o.margin_points,
+            covariance: o.covariance,
         })
     }
 
@@ -127,6 +131,7 @@ impl ManifestOptions {
             chunk_points: self.chunk_points,
             neighbours: self.neighbours,
             margin_points: self.margin_points,
+            covariance: self.covariance,
         })
     }
 }

@@ -4,7 +4,8 @@
 //! its cooked types); f64 values round-trip bit for bit (serde_json's `float_roundtrip`).
 
 use crate::summary::{
-    AngleCheck, Histogram, IhoTally, ResidualCheck, SigmaMap, SkipReason, TpuSummary,
+    AngleCheck, Histogram, IhoTally, IncidenceTally, ResidualCheck, SigmaMap, SkipReason,
+    TpuSummary,
 };
 use lidarqa_model::Source;
 use serde::{Deserialize, Serialize};
@@ -59,6 +60,12 @@ pub struct StoredSummary {
     /// IHO S-44 counts of the bathymetric soundings (absent: none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub iho: Option<IhoTally>,
+    /// Incidence-term sources and reasons.
+    #[serde(default)]
+    pub incidence: IncidenceTally,
+    /// Warnings.
+    #[serde(default)]
+    pub warnings: Vec<lidarqa_model::Warning>,
 }
 
 impl From<&Histogram> for StoredHistogram {
@@ -147,6 +154,8 @@ impl From<&TpuSummary> for StoredSummary {
                 .map(|((i, j), (sum, n))| (*i, *j, *sum, *n))
                 .collect(),
             iho: (s.iho.soundings() > 0).then(|| s.iho.clone()),
+            incidence: s.incidence,
+            warnings: s.warnings.clone(),
         }
     }
 }
@@ -206,6 +215,8 @@ impl StoredSummary {
             sigma,
             share_sums,
             with_normal: self.with_normal,
+            incidence: self.incidence,
+            warnings: self.warnings.clone(),
             scan_angle: AngleCheck {
                 n,
                 sum_sq_deg2,

@@ -8,6 +8,7 @@
 //! (count, min, max, percentiles exactly; mean and shares up to floating-point summation order).
 //! Storing every value would give exact percentiles but memory proportional to the survey.
 
+use lidarqa_model::Warning;
 use lidarqa_tpu::{IhoLimits, IhoOrder};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -545,6 +546,10 @@ pub struct TpuSummary {
     pub share_sums: Vec<(&'static str, f64)>,
     /// Points whose incidence angle could be estimated (a plane through their neighbours).
     pub with_normal: u64,
+    /// Where each point's incidence term came from, or why it was left out.
+    pub incidence: IncidenceTally,
+    /// Doubtful findings (from the shared inputs and from the tiles).
+    pub warnings: Vec<Warning>,
     /// Scan-angle check: points, Σ d², max |d| (degrees), max |d| beyond the LAS quantisation.
     pub scan_angle: AngleCheck,
     /// Quality of recovery: Σ q², max |q| (m) of the out-of-plane (linear) or off-cone (conic)
@@ -554,6 +559,64 @@ pub struct TpuSummary {
     pub map: SigmaMap,
     /// IHO S-44 counts of the bathymetric soundings (conic scanner).
     pub iho: IhoTally,
+}
+
+/// Where the incidence term's surface normal came from, per point, or why there was none.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct IncidenceTally {
+    /// Normals read from the file's `NormalX/NormalY/NormalZ` (PDAL `filters.normal`).
+    pub file_normals: u64,
+    /// File normals that were zero or not finite (term left out).
+    pub invalid_file_normals: u64,
+    /// Planar neighbourhoods: a fitted normal.
+    pub planar: u64,
+    /// Linear neighbourhoods (e.g. one scan line): term left out.
+    pub linear: u64,
+    /// Scattered neighbourhoods (vegetation, noise): term left out.
+    pub scattered: u64,
+    /// Fewer neighbours than a plane needs: term left out.
+    pub too_few_points: u64,
+}
+
+impl IncidenceTally {
+    /// Adds another tally.
+    pub fn merge(&mut self, o: &IncidenceTally) {
+        self.file_normals += o.file_normals;
+        self.invalid_file_normals += o.invalid_file_normals;
+        self.planar += o.planar;
+        self.linear += o.linear;
+        self.scattered += o.scattered;
+        self.too_few_points += o.too_few_points;
+    }
+
+    /// Points whose term was left out.
+    pub fn left_out(&self) -> u64 {
+        self.invalid_file_normals + self.linear + self.scattered + self.too_few_points
+    }
+
+    /// Points judged.
+    pub fn total(&self) -> u64 {
+        self.left_out() + self.file_normals + self.planar
+    }
+
+    /// A warning when more than a tenth of the points have no incidence term.
+    pub fn warning(&self) -> Option<Warning> {
+        let (out, n) = (self.left_out(), self.total());
+        (n > 0 && out * 10 > n).then(|| {
+            let pc = |v: u64| 100.0 * v as f64 / n as f64;
+            Warning::new(
+                "incidence_left_out",
+                format!(
+                    "no surface is defined around {out} of {n} points ({:.1} %), so their                      incidence term is left out: linear {:.1} %, scattered {:.1} %, too few                      points {:.1} %, invalid file normals {:.1} %; the vertical sigma of those                      points lacks the beam-footprint term (more --neighbours, or NormalX/Y/Z                      from PDAL filters.normal, may define one)",
+                    pc(out),
+                    pc(self.linear),
+                    pc(self.scattered),
+                    pc(self.too_few_points),
+                    pc(self.invalid_file_normals)
+                ),
+            )
+        })
+    }
 }
 
 /// Recovered vs LAS-field scan angle, degrees.
@@ -630,6 +693,8 @@ impl TpuSummary {
             sigma: vec![Histogram::default(); n_sigma],
             share_sums: sources.into_iter().map(|s| (s, 0.0)).collect(),
             with_normal: 0,
+            incidence: IncidenceTally::default(),
+            warnings: Vec::new(),
             scan_angle: AngleCheck::default(),
             recovery_residual: ResidualCheck::default(),
             map: SigmaMap::default(),
@@ -654,6 +719,12 @@ impl TpuSummary {
             }
         }
         self.with_normal += o.with_normal;
+        self.incidence.merge(&o.incidence);
+        for w in &o.warnings {
+            if !self.warnings.contains(w) {
+                self.warnings.push(w.clone());
+            }
+        }
         self.map.merge(&o.map);
         self.scan_angle.merge(&o.scan_angle);
         self.recovery_residual.merge(&o.recovery_residual);
@@ -690,6 +761,13 @@ impl TpuSummary {
                 .map(|(s, v)| (*s, if n > 0 { v / n as f64 } else { 0.0 }))
                 .collect(),
             points_with_surface_normal: self.with_normal,
+            incidence: self.incidence,
+            warnings: self
+                .warnings
+                .iter()
+                .cloned()
+                .chain(self.incidence.warning())
+                .collect(),
             histogram: HistogramsView {
                 horizontal: self.sigma.get(3).and_then(|h| h.linear(40)),
                 vertical: self.sigma.get(4).and_then(|h| h.linear(40)),
@@ -739,6 +817,10 @@ pub struct SummaryView {
     pub source_share: BTreeMap<&'static str, f64>,
     /// Points whose incidence angle was estimated.
     pub points_with_surface_normal: u64,
+    /// Where the incidence term's normals came from and why some points have none.
+    pub incidence: IncidenceTally,
+    /// Doubtful findings, `{"code", "message"}` (SPEC §7); empty when none.
+    pub warnings: Vec<Warning>,
     /// Equal-width histograms of σ horizontal and vertical (40 bins).
     pub histogram: HistogramsView,
     /// Mean σ vertical per 10 m cell (coarsened to ≤ 200 cells a side).

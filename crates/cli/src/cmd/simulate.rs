@@ -229,6 +229,7 @@ fn write_strip(
         }],
         extra_dims: Vec::new(),
         file_source_id: strip.id,
+        extra_dims_f64: Vec::new(),
     };
     let mut w = LasWriter::create(path, &options, &[] as &[&Path])?;
     for p in &strip.points {

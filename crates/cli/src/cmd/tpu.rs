@@ -36,7 +36,8 @@ pub struct TpuArgs {
     /// LAS/LAZ strip, or a directory of .las/.laz tiles.
     #[arg(value_name = "INPUT")]
     input: PathBuf,
-    /// SBET trajectory (GPS seconds of week).
+    /// Trajectory: binary SBET, PDAL filters.sritrajectory text, cBLUE's PosPac ASCII export or
+    /// text with a header (told apart by content; GPS seconds of week).
     #[arg(long, value_name = "FILE")]
     trajectory: PathBuf,
     /// Sensor file (TOML, SPEC §5); `[scanner] beam_divergence_mrad` enables the incidence term.
@@ -87,9 +88,14 @@ pub struct TpuFlags {
     /// Points per chunk (memory grows with it; the result does not).
     #[arg(long, value_name = "N", default_value_t = TpuOptions::default().chunk_points)]
     chunk_points: usize,
-    /// Neighbours of the plane fit for the incidence angle.
+    /// Neighbours of the plane fit for the incidence angle (unused when the file has
+    /// NormalX/NormalY/NormalZ).
     #[arg(long, value_name = "K", default_value_t = TpuOptions::default().neighbours)]
     neighbours: usize,
+    /// Also write the full covariance per point: VarianceX/Y/Z, CovarianceXY/XZ/YZ (f64 m²,
+    /// projected axes easting, northing, up; PDAL filters.als_tpu's names).
+    #[arg(long)]
+    covariance: bool,
 }
 
 impl TpuFlags {
@@ -109,6 +115,7 @@ impl TpuFlags {
             skip_invalid: self.skip_invalid,
             chunk_points: self.chunk_points,
             neighbours: self.neighbours,
+            covariance: self.covariance,
             ..TpuOptions::default()
         })
     }
@@ -241,6 +248,11 @@ pub fn run(args: TpuArgs) -> Result<()> {
         plan.smrmsg.as_deref(),
         plan.options.clone(),
     )?;
+    eprintln!(
+        "{}: trajectory read as {}",
+        plan.trajectory.display(),
+        ctx.trajectory_format().describe()
+    );
     // Headers only, for the progress bar's length.
     let total: u64 = plan
         .tiles
@@ -262,6 +274,9 @@ pub fn run(args: TpuArgs) -> Result<()> {
     let reports = run_tiles(&plan.tiles, &ctx, &progress)?;
     bar.finish_and_clear();
     let (_, report) = TileReport::merge(&reports).context("no tiles")?;
+    for w in &report.summary.warnings {
+        eprintln!("{w}");
+    }
     if let Some(path) = &plan.summary {
         let mut inputs: Vec<&Path> = plan.tiles.iter().map(|t| t.input.as_path()).collect();
         inputs.push(&plan.trajectory);
@@ -383,6 +398,20 @@ pub(crate) fn table(r: &SurveyReport) -> String {
     shares.sort_by(|a, b| b.1.total_cmp(a.1));
     for (name, v) in shares {
         let _ = writeln!(out, "  {name:<26} {:>6.1} %", v * 100.0);
+    }
+    let inc = &s.incidence;
+    if inc.total() > 0 {
+        let _ = writeln!(
+            out,
+            "\nincidence term: {} normals from the file, {} planar neighbourhoods; left out: {} \
+             linear, {} scattered, {} too few points, {} invalid file normals",
+            inc.file_normals,
+            inc.planar,
+            inc.linear,
+            inc.scattered,
+            inc.too_few_points,
+            inc.invalid_file_normals
+        );
     }
     if let Some(c) = &s.scan_angle_check {
         let _ = writeln!(
