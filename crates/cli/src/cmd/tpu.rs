@@ -248,11 +248,6 @@ pub fn run(args: TpuArgs) -> Result<()> {
         plan.smrmsg.as_deref(),
         plan.options.clone(),
     )?;
-    eprintln!(
-        "{}: trajectory read as {}",
-        plan.trajectory.display(),
-        ctx.trajectory_format().describe()
-    );
     // Headers only, for the progress bar's length.
     let total: u64 = plan
         .tiles
@@ -290,7 +285,12 @@ pub fn run(args: TpuArgs) -> Result<()> {
     }
     match plan.format {
         OutputFormat::Json => print_json(&report),
-        OutputFormat::Table => print_text(&table(&report)),
+        OutputFormat::Table => print_text(&format!(
+            "trajectory {} read as {}\n{}",
+            plan.trajectory.display(),
+            ctx.trajectory_format().describe(),
+            table(&report)
+        )),
     }
 }
 
