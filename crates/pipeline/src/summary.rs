@@ -607,7 +607,11 @@ impl IncidenceTally {
             Warning::new(
                 "incidence_left_out",
                 format!(
-                    "no surface is defined around {out} of {n} points ({:.1} %), so their                      incidence term is left out: linear {:.1} %, scattered {:.1} %, too few                      points {:.1} %, invalid file normals {:.1} %; the vertical sigma of those                      points lacks the beam-footprint term (more --neighbours, or NormalX/Y/Z                      from PDAL filters.normal, may define one)",
+                    "no surface is defined around {out} of {n} points ({:.1} %), so their \
+                     incidence term is left out: linear {:.1} %, scattered {:.1} %, too few \
+                     points {:.1} %, invalid file normals {:.1} %; the vertical sigma of those \
+                     points lacks the beam-footprint term (more --neighbours, or NormalX/Y/Z \
+                     from PDAL filters.normal, may define one)",
                     pc(out),
                     pc(self.linear),
                     pc(self.scattered),
@@ -930,6 +934,30 @@ impl TileReport {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn incidence_left_out_warns_past_a_tenth_with_the_reasons() {
+        let mut t = IncidenceTally {
+            planar: 91,
+            linear: 9,
+            ..IncidenceTally::default()
+        };
+        assert_eq!(t.warning(), None);
+        t.merge(&IncidenceTally {
+            scattered: 20,
+            ..IncidenceTally::default()
+        });
+        let w = t.warning().unwrap();
+        assert_eq!(w.code, "incidence_left_out");
+        assert!(
+            w.message.starts_with(
+                "no surface is defined around 29 of 120 points (24.2 %), so their incidence \
+                 term is left out: linear 7.5 %, scattered 16.7 %, too few points 0.0 %"
+            ),
+            "{}",
+            w.message
+        );
+    }
 
     #[test]
     fn histogram_percentiles_are_within_a_bin_and_merge_exactly() {
