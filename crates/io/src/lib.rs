@@ -43,7 +43,7 @@ pub use gpstime::{
 };
 pub use pointcloud::{
     ExtraDim, LasCrs, LasInfo, LasPoint, LasReader, LasWriteOptions, LasWriter, PointChunk, RawVlr,
-    epsg_from_wkt,
+    epsg_from_wkt, orthometric_from_wkt,
 };
 pub use sbet::{
     F64Record, RAD_PER_ARCMIN, RecordReader, RecordWriter, SbetPose, SbetReader, SbetWriter,

@@ -147,6 +147,11 @@ pub struct LasCrs {
     pub epsg: Option<u32>,
     /// The WKT text (record 2112), when present.
     pub wkt: Option<String>,
+    /// The name of an orthometric (gravity-related) vertical CRS the file declares: a WKT
+    /// `VERT_CS` / `VERTCRS` that is not an ellipsoidal height, or a GeoTIFF
+    /// VerticalCSTypeGeoKey (4096) outside the ellipsoid codes 5001–5033; `None` when the file
+    /// declares none or ellipsoidal heights.
+    pub orthometric: Option<String>,
 }
 
 impl LasCrs {
@@ -170,7 +175,30 @@ impl LasCrs {
                 .or_else(|| user_defined_utm_epsg(&g))
         });
         let epsg = geokey.or_else(|| wkt.as_deref().and_then(epsg_from_wkt));
-        LasCrs { vlrs, epsg, wkt }
+        let geotiff_vertical = header.get_geotiff_crs().ok().flatten().and_then(|g| {
+            g.entries
+                .iter()
+                .find(|e| e.id == 4096)
+                .and_then(|e| match &e.data {
+                    las::crs::GeoTiffData::U16(v) => Some(*v),
+                    _ => None,
+                })
+                .and_then(|v| match v {
+                    0 | 5001..=5033 => None,
+                    32767 => Some("a user-defined vertical CRS (GeoKey 4096)".to_string()),
+                    v => Some(format!("EPSG:{v} (GeoKey 4096)")),
+                })
+        });
+        let orthometric = wkt
+            .as_deref()
+            .and_then(orthometric_from_wkt)
+            .or(geotiff_vertical);
+        LasCrs {
+            vlrs,
+            epsg,
+            wkt,
+            orthometric,
+        }
     }
 }
 
@@ -242,6 +270,18 @@ pub fn epsg_from_wkt(wkt: &str) -> Option<u32> {
         }
     }
     last.map(|(_, c)| c)
+}
+
+/// The name of the vertical CRS of a WKT1 `COMPD_CS` / WKT2 `COMPOUNDCRS`, unless it is an
+/// ellipsoidal height (a name with "ellipsoid").
+pub fn orthometric_from_wkt(wkt: &str) -> Option<String> {
+    let i = ["VERT_CS[", "VERTCRS[", "VERTICALCRS["]
+        .iter()
+        .filter_map(|k| wkt.find(k).map(|i| i + k.len()))
+        .min()?;
+    let rest = wkt[i..].trim_start().strip_prefix('"')?;
+    let name = &rest[..rest.find('"')?];
+    (!name.to_ascii_lowercase().contains("ellipsoid")).then(|| name.to_string())
 }
 
 /// Parses `"EPSG","32632"]` or `"EPSG",32632]`.
@@ -1074,13 +1114,21 @@ impl LasWriter {
             message,
         };
         if extra.len() != self.n_extra || extra64.len() != self.n_extra_f64 {
-            return Err(mismatch(format!(
-                "{} + {} extra-bytes values for {} + {} dimensions",
-                extra.len(),
-                extra64.len(),
-                self.n_extra,
-                self.n_extra_f64
-            )));
+            return Err(mismatch(if self.n_extra_f64 == 0 && extra64.is_empty() {
+                format!(
+                    "{} extra-bytes values for {} dimensions",
+                    extra.len(),
+                    self.n_extra
+                )
+            } else {
+                format!(
+                    "{} f32 + {} f64 extra-bytes values for {} + {} dimensions",
+                    extra.len(),
+                    extra64.len(),
+                    self.n_extra,
+                    self.n_extra_f64
+                )
+            }));
         }
         let f = &self.format;
         let gps_time = match (f.has_gps_time, p.gps_time_s) {
@@ -1287,6 +1335,30 @@ impl Seek for Sink {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn orthometric_vertical_crs_is_named_and_ellipsoidal_heights_are_not() {
+        let compound = "COMPD_CS[\"NAD83(2011) / UTM 15N + NAVD88 height\",PROJCS[\"NAD83(2011) / \
+                        UTM zone 15N\",AUTHORITY[\"EPSG\",\"6344\"]],VERT_CS[\"NAVD88 height\",\
+                        AUTHORITY[\"EPSG\",\"5703\"]]]";
+        assert_eq!(
+            orthometric_from_wkt(compound).as_deref(),
+            Some("NAVD88 height")
+        );
+        assert_eq!(epsg_from_wkt(compound), Some(6344));
+        let wkt2 =
+            "COMPOUNDCRS[\"x\",PROJCRS[\"y\"],VERTCRS[\"EGM2008 height\",ID[\"EPSG\",3855]]]";
+        assert_eq!(
+            orthometric_from_wkt(wkt2).as_deref(),
+            Some("EGM2008 height")
+        );
+        let ellipsoidal = "COMPD_CS[\"a\",PROJCS[\"b\"],VERT_CS[\"WGS 84 ellipsoidal height\"]]";
+        assert_eq!(orthometric_from_wkt(ellipsoidal), None);
+        assert_eq!(
+            orthometric_from_wkt("PROJCS[\"WGS 84 / UTM zone 15N\"]"),
+            None
+        );
+    }
 
     #[test]
     fn a_panic_inside_las_becomes_a_one_line_error_naming_the_file() {

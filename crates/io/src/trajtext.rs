@@ -144,20 +144,28 @@ impl TrajectoryFile {
     }
 }
 
-/// Reads a trajectory, telling binary SBET from text by the content: bytes that are not
-/// printable ASCII / UTF-8 text in the first 4 KiB mean SBET.
+/// Reads a trajectory, telling binary SBET from text by the content: a control byte other than
+/// whitespace in the first 4 KiB means SBET.
 ///
 /// # Errors
 /// The SBET reader's errors; for text, [`Error::Csv`], [`Error::MissingColumn`] and
 /// [`Error::BadValue`] naming the file and line.
 pub fn read_trajectory(path: impl AsRef<Path>) -> Result<TrajectoryFile> {
+    use std::io::Read;
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let head = &bytes[..bytes.len().min(4096)];
-    let texty = |b: &u8| b.is_ascii_graphic() || matches!(b, b' ' | b'\t' | b'\r' | b'\n');
-    if bytes.is_empty() || !head.iter().all(texty) {
+    // Only the head is read to decide: an SBET can be hundreds of MB, read by its own reader.
+    let mut head = Vec::with_capacity(4096);
+    std::fs::File::open(path)
+        .and_then(|f| f.take(4096).read_to_end(&mut head))
+        .map_err(|e| Error::io(path, e))?;
+    // Text: printable ASCII, whitespace and UTF-8 bytes (≥ 0x80); any other control byte (an
+    // SBET's zeros) means binary. 4 KiB of f64 records without one does not happen.
+    let texty =
+        |b: &u8| b.is_ascii_graphic() || *b >= 0x80 || matches!(b, b' ' | b'\t' | b'\r' | b'\n');
+    if head.is_empty() || !head.iter().all(texty) {
         return Ok(TrajectoryFile::Sbet(read_sbet(path)?));
     }
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let text = String::from_utf8(bytes).map_err(|e| Error::Csv {
         path: path.to_path_buf(),
         line: 1,

@@ -30,6 +30,9 @@ pub struct TpuOptions {
     /// Points of the previous and of the next chunk searched as neighbours of a chunk's points
     /// (the look-back / look-ahead margin across chunk borders).
     pub margin_points: usize,
+    /// Geoid separation N (ellipsoidal − orthometric height, m) added to LAS Z and to a projected
+    /// text trajectory's Z: required when the file declares an orthometric vertical CRS.
+    pub geoid_separation_m: Option<f64>,
     /// Also write the full 3 × 3 covariance in the projected axes (PDAL `filters.als_tpu`'s
     /// VarianceX/Y/Z, CovarianceXY/XZ/YZ, f64 m²).
     pub covariance: bool,
@@ -46,6 +49,7 @@ impl Default for TpuOptions {
             neighbours: 10,
             margin_points: 20_000,
             covariance: false,
+            geoid_separation_m: None,
         }
     }
 }
@@ -291,7 +295,9 @@ impl TpuContext {
                     )
                 })
                 .collect(),
-            TrajectoryFile::Text(t) => text_poses(t, &e, zone),
+            TrajectoryFile::Text(t) => {
+                text_poses(t, &e, zone, self.options.geoid_separation_m.unwrap_or(0.0))
+            }
         };
         let t = Arc::new(Trajectory::new(&poses).map_err(|source| Error::Input {
             path: self.trajectory_path.clone(),
@@ -318,7 +324,9 @@ fn pose(e: &Ellipsoid, time_s: f64, llh: [f64; 3], attitude: Attitude) -> Pose {
 }
 
 /// The poses of a text trajectory for points in `zone`.
-fn text_poses(t: &TextTrajectory, e: &Ellipsoid, zone: UtmZone) -> Vec<Pose> {
+/// A projected trajectory's Z is in the points' vertical CRS: `height_offset_m` (the geoid
+/// separation) makes it ellipsoidal like theirs.
+fn text_poses(t: &TextTrajectory, e: &Ellipsoid, zone: UtmZone, height_offset_m: f64) -> Vec<Pose> {
     t.poses
         .iter()
         .map(|p| {
@@ -332,7 +340,11 @@ fn text_poses(t: &TextTrajectory, e: &Ellipsoid, zone: UtmZone) -> Vec<Pose> {
                         .projection()
                         .inverse_series(p.position[0], p.position[1]);
                     (
-                        [u.latitude_rad(), u.longitude_rad(), p.position[2]],
+                        [
+                            u.latitude_rad(),
+                            u.longitude_rad(),
+                            p.position[2] + height_offset_m,
+                        ],
                         u.convergence_rad(),
                     )
                 }
@@ -363,6 +375,8 @@ pub(crate) struct OpenTile {
     pub(crate) zone: UtmZone,
     pub(crate) trajectory: Arc<Trajectory>,
     pub(crate) converter: LasTimeConverter,
+    /// Added to LAS Z to get ellipsoidal heights (the geoid separation, or 0).
+    pub(crate) height_offset_m: f64,
 }
 
 impl TpuContext {
@@ -390,6 +404,12 @@ impl TpuContext {
                 format: info.point_format,
             });
         }
+        if let (Some(v), None) = (&info.crs.orthometric, self.options.geoid_separation_m) {
+            return Err(Error::OrthometricHeights {
+                path: input.to_path_buf(),
+                vertical: v.clone(),
+            });
+        }
         let zone = self.zone_of(input, &info)?;
         let trajectory = self.trajectory_in(zone)?;
         let converter = LasTimeConverter::new(
@@ -403,6 +423,7 @@ impl TpuContext {
             zone,
             trajectory,
             converter,
+            height_offset_m: self.options.geoid_separation_m.unwrap_or(0.0),
         })
     }
 

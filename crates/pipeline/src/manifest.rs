@@ -71,7 +71,7 @@ impl InputFile {
 }
 
 /// The [`TpuOptions`] of a manifest, as stored (the CRS as an EPSG code).
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ManifestOptions {
     /// EPSG code of the points' UTM CRS when the files have none (or to override theirs).
@@ -91,6 +91,9 @@ pub struct ManifestOptions {
     /// Write the full covariance too.
     #[serde(default)]
     pub covariance: bool,
+    /// Geoid separation, m.
+    #[serde(default)]
+    pub geoid_separation_m: Option<f64>,
 }
 
 impl ManifestOptions {
@@ -115,6 +118,7 @@ impl ManifestOptions {
             neighbours: o.neighbours,
             margin_points: o.margin_points,
             covariance: o.covariance,
+            geoid_separation_m: o.geoid_separation_m,
         })
     }
 
@@ -132,6 +136,7 @@ impl ManifestOptions {
             neighbours: self.neighbours,
             margin_points: self.margin_points,
             covariance: self.covariance,
+            geoid_separation_m: self.geoid_separation_m,
         })
     }
 }

@@ -118,6 +118,7 @@ pub fn tpu_tile_with_progress(
         zone,
         trajectory,
         converter,
+        height_offset_m,
     } = ctx.open_tile(input)?;
     let kernel = Kernel::new(ctx)?;
     let n_sigma = kernel.n_sigma();
@@ -147,6 +148,7 @@ pub fn tpu_tile_with_progress(
         projection: zone.projection(),
         ellipsoid: zone.datum().ellipsoid(),
         converter,
+        height_offset_m,
     };
     let step_deg = if info.point_format >= 6 { 0.006 } else { 1.0 };
     let mut summary = TpuSummary::new(kernel.kind(), kernel.source_names(), n_sigma);
@@ -286,6 +288,8 @@ struct Prepare {
     projection: TransverseMercator,
     ellipsoid: Ellipsoid,
     converter: LasTimeConverter,
+    /// Added to LAS Z for the ellipsoidal height (geoid separation or 0).
+    height_offset_m: f64,
 }
 
 #[derive(Debug, Clone)]
@@ -325,11 +329,11 @@ impl Prepare {
         let (lat, lon) = self.projection.inverse(p.x, p.y);
         out.latitude_rad = lat;
         out.longitude_rad = lon;
-        // LAS Z is taken as the ellipsoidal height (no geoid model).
+        // LAS Z plus the geoid separation (0 unless given) is the ellipsoidal height.
         out.ecef = self.ellipsoid.geodetic_to_ecef(&Geodetic {
             latitude_rad: lat,
             longitude_rad: lon,
-            height_m: p.z,
+            height_m: p.z + self.height_offset_m,
         });
         match p.gps_time_s.map(|t| self.converter.to_seconds_of_week(t)) {
             Some(Ok(t)) => out.time_sow_s = t,

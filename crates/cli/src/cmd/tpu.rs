@@ -92,6 +92,11 @@ pub struct TpuFlags {
     /// NormalX/NormalY/NormalZ).
     #[arg(long, value_name = "K", default_value_t = TpuOptions::default().neighbours)]
     neighbours: usize,
+    /// Geoid separation N in metres (ellipsoidal − orthometric height), added to LAS Z (and to a
+    /// projected text trajectory's Z): required when the file's CRS has an orthometric vertical
+    /// datum (e.g. NAVD88 height); the TPU needs ellipsoidal heights.
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    geoid_separation_m: Option<f64>,
     /// Also write the full covariance per point: VarianceX/Y/Z, CovarianceXY/XZ/YZ (f64 m²,
     /// projected axes easting, northing, up; PDAL filters.als_tpu's names).
     #[arg(long)]
@@ -105,6 +110,15 @@ impl TpuFlags {
         if self.chunk_points == 0 {
             bail!("--chunk-points must be > 0");
         }
+        if self
+            .geoid_separation_m
+            .is_some_and(|n| !(n.is_finite() && n.abs() < 200.0))
+        {
+            bail!(
+                "--geoid-separation-m {:?} is not a geoid separation (|N| < 200 m)",
+                self.geoid_separation_m.unwrap_or_default()
+            );
+        }
         if self.neighbours < 3 {
             bail!("--neighbours {} must be >= 3", self.neighbours);
         }
@@ -116,6 +130,7 @@ impl TpuFlags {
             chunk_points: self.chunk_points,
             neighbours: self.neighbours,
             covariance: self.covariance,
+            geoid_separation_m: self.geoid_separation_m,
             ..TpuOptions::default()
         })
     }
