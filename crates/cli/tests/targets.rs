@@ -27,6 +27,7 @@ fn las_options() -> LasWriteOptions {
         crs_vlrs: Vec::new(),
         extra_dims: Vec::new(),
         file_source_id: 1,
+        extra_dims_f64: Vec::new(),
     }
 }
 

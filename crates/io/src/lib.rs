@@ -2,7 +2,9 @@
 //!
 //! - LAS 1.2–1.4 / LAZ in chunks, LAS 1.4 out with extra-bytes dimensions and the CRS carried over
 //!   ([`LasReader`], [`LasWriter`]);
-//! - SBET and SMRMSG trajectories ([`read_sbet`], [`read_smrmsg`]);
+//! - SBET and SMRMSG trajectories ([`read_sbet`], [`read_smrmsg`]), text trajectories (PDAL
+//!   sritrajectory, cBLUE's PosPac ASCII, CSV with a header) and the detection between them
+//!   ([`read_trajectory`]);
 //! - control points, targets and tie picks as CSV ([`ControlPoints`], [`Targets`], [`TiePicks`]);
 //! - the sensor file of SPEC §5 ([`read_sensor`]);
 //! - WGS84 geodetic ↔ ECEF ↔ NED and UTM ([`UtmZone`]); GPS time bases ([`LasTimeConverter`]);
@@ -23,6 +25,7 @@ mod geodesy;
 mod gpstime;
 mod pointcloud;
 mod sbet;
+mod trajtext;
 
 pub use atomic::{AtomicFile, InputSet, check_distinct_inputs, check_not_an_input, outputs_in_dir};
 pub use csv::{
@@ -40,10 +43,14 @@ pub use gpstime::{
 };
 pub use pointcloud::{
     ExtraDim, LasCrs, LasInfo, LasPoint, LasReader, LasWriteOptions, LasWriter, PointChunk, RawVlr,
-    epsg_from_wkt,
+    epsg_from_wkt, orthometric_from_wkt,
 };
 pub use sbet::{
     F64Record, RAD_PER_ARCMIN, RecordReader, RecordWriter, SbetPose, SbetReader, SbetWriter,
     SmrmsgReader, SmrmsgSigma, SmrmsgWriter, raw as sbet_raw, read_sbet, read_smrmsg,
     write_records_to_path,
+};
+pub use trajtext::{
+    HeadingReference, TextPose, TextSigma, TextTrajectory, TrajectoryFile, TrajectoryFormat,
+    TrajectoryPosition, parse_text_trajectory, read_trajectory,
 };

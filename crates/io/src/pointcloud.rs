@@ -48,6 +48,8 @@ const EXTRA_BYTES_RECORD: u16 = 4;
 const EXTRA_BYTES_DESCRIPTOR_LEN: usize = 192;
 /// Extra-bytes data type code of f32 (table 25).
 const EB_F32: u8 = 9;
+/// Extra-bytes data type code of f64.
+const EB_F64: u8 = 10;
 
 /// One LAS point, decoded: what lidarqa reads from and writes to a point record.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -145,6 +147,11 @@ pub struct LasCrs {
     pub epsg: Option<u32>,
     /// The WKT text (record 2112), when present.
     pub wkt: Option<String>,
+    /// The name of an orthometric (gravity-related) vertical CRS the file declares: a WKT
+    /// `VERT_CS` / `VERTCRS` that is not an ellipsoidal height, or a GeoTIFF
+    /// VerticalCSTypeGeoKey (4096) outside the ellipsoid codes 5001–5033; `None` when the file
+    /// declares none or ellipsoidal heights.
+    pub orthometric: Option<String>,
 }
 
 impl LasCrs {
@@ -168,7 +175,30 @@ impl LasCrs {
                 .or_else(|| user_defined_utm_epsg(&g))
         });
         let epsg = geokey.or_else(|| wkt.as_deref().and_then(epsg_from_wkt));
-        LasCrs { vlrs, epsg, wkt }
+        let geotiff_vertical = header.get_geotiff_crs().ok().flatten().and_then(|g| {
+            g.entries
+                .iter()
+                .find(|e| e.id == 4096)
+                .and_then(|e| match &e.data {
+                    las::crs::GeoTiffData::U16(v) => Some(*v),
+                    _ => None,
+                })
+                .and_then(|v| match v {
+                    0 | 5001..=5033 => None,
+                    32767 => Some("a user-defined vertical CRS (GeoKey 4096)".to_string()),
+                    v => Some(format!("EPSG:{v} (GeoKey 4096)")),
+                })
+        });
+        let orthometric = wkt
+            .as_deref()
+            .and_then(orthometric_from_wkt)
+            .or(geotiff_vertical);
+        LasCrs {
+            vlrs,
+            epsg,
+            wkt,
+            orthometric,
+        }
     }
 }
 
@@ -240,6 +270,18 @@ pub fn epsg_from_wkt(wkt: &str) -> Option<u32> {
         }
     }
     last.map(|(_, c)| c)
+}
+
+/// The name of the vertical CRS of a WKT1 `COMPD_CS` / WKT2 `COMPOUNDCRS`, unless it is an
+/// ellipsoidal height (a name with "ellipsoid").
+pub fn orthometric_from_wkt(wkt: &str) -> Option<String> {
+    let i = ["VERT_CS[", "VERTCRS[", "VERTICALCRS["]
+        .iter()
+        .filter_map(|k| wkt.find(k).map(|i| i + k.len()))
+        .min()?;
+    let rest = wkt[i..].trim_start().strip_prefix('"')?;
+    let name = &rest[..rest.find('"')?];
+    (!name.to_ascii_lowercase().contains("ellipsoid")).then(|| name.to_string())
 }
 
 /// Parses `"EPSG","32632"]` or `"EPSG",32632]`.
@@ -381,9 +423,9 @@ fn parse_extra_dims(path: &Path, header: &las::Header) -> Result<Vec<ExtraDim>> 
 }
 
 /// Builds one f32 extra-bytes descriptor (LAS 1.4 R15 table 24).
-fn f32_descriptor(name: &str, description: &str) -> [u8; EXTRA_BYTES_DESCRIPTOR_LEN] {
+fn descriptor(data_type: u8, name: &str, description: &str) -> [u8; EXTRA_BYTES_DESCRIPTOR_LEN] {
     let mut d = [0u8; EXTRA_BYTES_DESCRIPTOR_LEN];
-    d[2] = EB_F32;
+    d[2] = data_type;
     d[4..4 + name.len()].copy_from_slice(name.as_bytes());
     d[160..160 + description.len()].copy_from_slice(description.as_bytes());
     d
@@ -900,6 +942,9 @@ pub struct LasWriteOptions {
     pub crs_vlrs: Vec<RawVlr>,
     /// Extra-bytes dimensions, all f32: (name ≤ 32 bytes, description ≤ 32 bytes).
     pub extra_dims: Vec<(String, String)>,
+    /// Extra-bytes dimensions after those, all f64 (e.g. variances in m², which f32 would
+    /// round): (name, description) as for `extra_dims`.
+    pub extra_dims_f64: Vec<(String, String)>,
     /// File source id (LAS 1.1+), e.g. the strip's point source id.
     pub file_source_id: u16,
 }
@@ -936,6 +981,7 @@ impl LasWriteOptions {
                 .iter()
                 .map(|(n, d)| (n.to_string(), d.to_string()))
                 .collect(),
+            extra_dims_f64: Vec::new(),
             file_source_id: 0,
         }
     }
@@ -958,7 +1004,7 @@ impl LasWriteOptions {
             )));
         }
         let mut seen = std::collections::HashSet::new();
-        for (name, description) in &self.extra_dims {
+        for (name, description) in self.extra_dims.iter().chain(&self.extra_dims_f64) {
             if name.is_empty() || name.len() > 32 || description.len() > 32 {
                 return Err(invalid(format!(
                     "extra-bytes name `{name}` / description `{description}` must be 1–32 and \
@@ -979,8 +1025,9 @@ impl LasWriteOptions {
         }
         let mut format =
             las::point::Format::new(self.point_format).map_err(|e| Error::las(path, e))?;
-        format.extra_bytes = u16::try_from(4 * self.extra_dims.len())
-            .map_err(|_| invalid("too many extra-bytes dimensions".into()))?;
+        format.extra_bytes =
+            u16::try_from(4 * self.extra_dims.len() + 8 * self.extra_dims_f64.len())
+                .map_err(|_| invalid("too many extra-bytes dimensions".into()))?;
         format.is_compressed = is_laz(path);
         let mut b = las::Builder::from(las::Header::default());
         b.version = las::Version::new(1, self.version_minor);
@@ -1007,10 +1054,14 @@ impl LasWriteOptions {
         // The WKT bit is defined from LAS 1.4 on (and required there for formats 6–10).
         b.has_wkt_crs =
             self.version_minor >= 4 && self.crs_vlrs.iter().any(|v| v.record_id == 2112);
-        if !self.extra_dims.is_empty() {
-            let mut data = Vec::with_capacity(EXTRA_BYTES_DESCRIPTOR_LEN * self.extra_dims.len());
+        if !(self.extra_dims.is_empty() && self.extra_dims_f64.is_empty()) {
+            let n = self.extra_dims.len() + self.extra_dims_f64.len();
+            let mut data = Vec::with_capacity(EXTRA_BYTES_DESCRIPTOR_LEN * n);
             for (name, description) in &self.extra_dims {
-                data.extend_from_slice(&f32_descriptor(name, description));
+                data.extend_from_slice(&descriptor(EB_F32, name, description));
+            }
+            for (name, description) in &self.extra_dims_f64 {
+                data.extend_from_slice(&descriptor(EB_F64, name, description));
             }
             b.vlrs.push(las::Vlr {
                 user_id: EXTRA_BYTES_USER.into(),
@@ -1051,6 +1102,7 @@ pub struct LasWriter {
     path: PathBuf,
     format: las::point::Format,
     n_extra: usize,
+    n_extra_f64: usize,
     index: u64,
 }
 
@@ -1077,6 +1129,7 @@ impl LasWriter {
             path: path.to_path_buf(),
             format,
             n_extra: options.extra_dims.len(),
+            n_extra_f64: options.extra_dims_f64.len(),
             index: 0,
         })
     }
@@ -1089,17 +1142,36 @@ impl LasWriter {
     /// rejects it (coordinates beyond the i32 range of the scale/offset, a class or return
     /// number the format cannot hold).
     pub fn write_point(&mut self, p: &LasPoint, extra: &[f32]) -> Result<()> {
+        self.write_point_f64(p, extra, &[])
+    }
+
+    /// As [`LasWriter::write_point`], with the values of the f64 dimensions
+    /// ([`LasWriteOptions::extra_dims_f64`]) after the f32 ones.
+    ///
+    /// # Errors
+    /// As [`LasWriter::write_point`].
+    pub fn write_point_f64(&mut self, p: &LasPoint, extra: &[f32], extra64: &[f64]) -> Result<()> {
         let mismatch = |message: String| Error::PointMismatch {
             path: self.path.clone(),
             index: self.index,
             message,
         };
-        if extra.len() != self.n_extra {
-            return Err(mismatch(format!(
-                "{} extra-bytes values for {} dimensions",
-                extra.len(),
-                self.n_extra
-            )));
+        if extra.len() != self.n_extra || extra64.len() != self.n_extra_f64 {
+            return Err(mismatch(if self.n_extra_f64 == 0 && extra64.is_empty() {
+                format!(
+                    "{} extra-bytes values for {} dimensions",
+                    extra.len(),
+                    self.n_extra
+                )
+            } else {
+                format!(
+                    "{} f32 + {} f64 extra-bytes values for {} + {} dimensions",
+                    extra.len(),
+                    extra64.len(),
+                    self.n_extra,
+                    self.n_extra_f64
+                )
+            }));
         }
         let f = &self.format;
         let gps_time = match (f.has_gps_time, p.gps_time_s) {
@@ -1131,8 +1203,11 @@ impl LasWriter {
                 p.scan_angle_deg
             )));
         }
-        let mut extra_bytes = Vec::with_capacity(4 * extra.len());
+        let mut extra_bytes = Vec::with_capacity(4 * extra.len() + 8 * extra64.len());
         for v in extra {
+            extra_bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        for v in extra64 {
             extra_bytes.extend_from_slice(&v.to_le_bytes());
         }
         let point = las::Point {
@@ -1305,6 +1380,30 @@ mod tests {
     use super::*;
 
     #[test]
+    fn orthometric_vertical_crs_is_named_and_ellipsoidal_heights_are_not() {
+        let compound = "COMPD_CS[\"NAD83(2011) / UTM 15N + NAVD88 height\",PROJCS[\"NAD83(2011) / \
+                        UTM zone 15N\",AUTHORITY[\"EPSG\",\"6344\"]],VERT_CS[\"NAVD88 height\",\
+                        AUTHORITY[\"EPSG\",\"5703\"]]]";
+        assert_eq!(
+            orthometric_from_wkt(compound).as_deref(),
+            Some("NAVD88 height")
+        );
+        assert_eq!(epsg_from_wkt(compound), Some(6344));
+        let wkt2 =
+            "COMPOUNDCRS[\"x\",PROJCRS[\"y\"],VERTCRS[\"EGM2008 height\",ID[\"EPSG\",3855]]]";
+        assert_eq!(
+            orthometric_from_wkt(wkt2).as_deref(),
+            Some("EGM2008 height")
+        );
+        let ellipsoidal = "COMPD_CS[\"a\",PROJCS[\"b\"],VERT_CS[\"WGS 84 ellipsoidal height\"]]";
+        assert_eq!(orthometric_from_wkt(ellipsoidal), None);
+        assert_eq!(
+            orthometric_from_wkt("PROJCS[\"WGS 84 / UTM zone 15N\"]"),
+            None
+        );
+    }
+
+    #[test]
     fn a_panic_inside_las_becomes_a_one_line_error_naming_the_file() {
         let e = guard(Path::new("strip.laz"), "point 7", || -> u32 {
             panic!("index out of bounds: the len is 0 but the index is 0")
@@ -1343,7 +1442,7 @@ mod tests {
 
     #[test]
     fn extra_bytes_descriptor_layout() {
-        let d = f32_descriptor("sigma_up", "1-sigma up (m)");
+        let d = descriptor(EB_F32, "sigma_up", "1-sigma up (m)");
         assert_eq!(d[2], EB_F32);
         assert_eq!(d[3], 0, "no options: no scale, offset, min, max or no-data");
         assert_eq!(&d[4..12], b"sigma_up");

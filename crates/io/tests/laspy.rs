@@ -46,6 +46,7 @@ fn las_and_laz_for_laspy() {
             .map(|n| (n.to_string(), String::new()))
             .collect(),
         file_source_id: 3,
+        extra_dims_f64: Vec::new(),
     };
     let n = 40;
     let (mut xs, mut ys, mut zs, mut ts) = (vec![], vec![], vec![], vec![]);

@@ -5,8 +5,9 @@ use crate::plausibility::{
     TrajectoryFacts, TrajectorySample, check_trajectory, check_trajectory_sigmas,
 };
 use lidarqa_io::{
-    Ellipsoid, Geodetic, LasInfo, LasReader, LasTimeConverter, SbetPose, SensorExtras, SmrmsgSigma,
-    UtmDatum, UtmZone, read_sbet, read_sensor_with_extras, read_smrmsg,
+    Ellipsoid, Geodetic, HeadingReference, LasInfo, LasReader, LasTimeConverter, SbetPose,
+    SensorExtras, SmrmsgSigma, TextTrajectory, TrajectoryFile, TrajectoryFormat,
+    TrajectoryPosition, UtmDatum, UtmZone, read_sensor_with_extras, read_smrmsg, read_trajectory,
 };
 use lidarqa_model::{Attitude, Mounting, Sensor, Warning};
 use lidarqa_tpu::{Pose, PoseSigma, Trajectory, TrajectorySigmas};
@@ -32,6 +33,12 @@ pub struct TpuOptions {
     /// Points of the previous and of the next chunk searched as neighbours of a chunk's points
     /// (the look-back / look-ahead margin across chunk borders).
     pub margin_points: usize,
+    /// Geoid separation N (ellipsoidal − orthometric height, m) added to LAS Z and to a projected
+    /// text trajectory's Z: required when the file declares an orthometric vertical CRS.
+    pub geoid_separation_m: Option<f64>,
+    /// Also write the full 3 × 3 covariance in the projected axes (PDAL `filters.als_tpu`'s
+    /// VarianceX/Y/Z, CovarianceXY/XZ/YZ, f64 m²).
+    pub covariance: bool,
 }
 
 impl Default for TpuOptions {
@@ -44,6 +51,8 @@ impl Default for TpuOptions {
             chunk_points: 500_000,
             neighbours: 10,
             margin_points: 20_000,
+            covariance: false,
+            geoid_separation_m: None,
         }
     }
 }
@@ -58,7 +67,9 @@ pub struct TpuContext {
     /// are recovered with it, whatever calibration the propagation uses.
     pub(crate) recovery_mounting: Mounting,
     pub(crate) beam_divergence_rad: Option<f64>,
-    poses: Vec<SbetPose>,
+    poses: TrajectoryFile,
+    /// Doubtful findings about the inputs (a trajectory without roll), for every summary.
+    pub(crate) warnings: Vec<Warning>,
     pub(crate) trajectory_path: PathBuf,
     pub(crate) sigmas: Option<TrajectorySigmas>,
     pub(crate) options: TpuOptions,
@@ -66,13 +77,11 @@ pub struct TpuContext {
     pub(crate) inputs: Vec<PathBuf>,
     /// What the trajectory check found: gaps (judged per tile against the points' times).
     pub(crate) facts: TrajectoryFacts,
-    /// Warnings about the trajectory and its σ, given to every tile's summary.
-    pub(crate) warnings: Vec<Warning>,
     /// The trajectory σ's time span, s.
     pub(crate) sigma_span_s: Option<[f64; 2]>,
-    /// The trajectory in ECEF for each datum used so far (WGS 84, NAD83): the points and the
-    /// trajectory go to ECEF on the same ellipsoid.
-    trajectories: Mutex<Vec<(UtmDatum, Arc<Trajectory>)>>,
+    /// The trajectory in ECEF for each CRS used so far: the points and the trajectory go to ECEF
+    /// on the same ellipsoid, and a projected text trajectory through the points' projection.
+    trajectories: Mutex<Vec<(UtmZone, Arc<Trajectory>)>>,
 }
 
 impl TpuContext {
@@ -89,6 +98,29 @@ impl TpuContext {
         smrmsg: Option<(PathBuf, Vec<SmrmsgSigma>)>,
         options: TpuOptions,
     ) -> Result<TpuContext> {
+        TpuContext::with_trajectory(
+            sensor,
+            extras,
+            trajectory_path,
+            TrajectoryFile::Sbet(poses),
+            smrmsg,
+            options,
+        )
+    }
+
+    /// As [`TpuContext::new`] with a trajectory of any layout. A text trajectory's own σ
+    /// (PosPac exports) are used when no SMRMSG is given.
+    ///
+    /// # Errors
+    /// As [`TpuContext::new`].
+    pub fn with_trajectory(
+        sensor: Sensor,
+        extras: SensorExtras,
+        trajectory_path: PathBuf,
+        poses: TrajectoryFile,
+        smrmsg: Option<(PathBuf, Vec<SmrmsgSigma>)>,
+        options: TpuOptions,
+    ) -> Result<TpuContext> {
         if options.chunk_points == 0
             || !(lidarqa_tpu::MIN_NEIGHBOURS..=lidarqa_tpu::MAX_NEIGHBOURS)
                 .contains(&options.neighbours)
@@ -102,24 +134,71 @@ impl TpuContext {
             )));
         }
         let mut inputs = vec![trajectory_path.clone()];
-        let samples: Vec<TrajectorySample> = poses
-            .iter()
-            .map(|p| TrajectorySample {
-                time_s: p.time_s,
-                latitude_rad: p.latitude_rad,
-                longitude_rad: p.longitude_rad,
-                height_m: p.height_m,
-                attitude: Attitude {
-                    roll_rad: p.roll_rad,
-                    pitch_rad: p.pitch_rad,
-                    heading_rad: p.true_heading_rad(),
-                },
-            })
-            .collect();
-        let mut warnings = Vec::new();
+        // The plausibility checks need geodetic positions: an SBET's, or a geodetic text
+        // trajectory's (a projected one is checked for time only, its positions once the points'
+        // CRS is known, by the points-near-the-trajectory check of every tile).
+        let samples: Vec<TrajectorySample> = match &poses {
+            TrajectoryFile::Sbet(p) => p
+                .iter()
+                .map(|p| TrajectorySample {
+                    time_s: p.time_s,
+                    latitude_rad: p.latitude_rad,
+                    longitude_rad: p.longitude_rad,
+                    height_m: p.height_m,
+                    attitude: Attitude {
+                        roll_rad: p.roll_rad,
+                        pitch_rad: p.pitch_rad,
+                        heading_rad: p.true_heading_rad(),
+                    },
+                })
+                .collect(),
+            TrajectoryFile::Text(t) if t.position == TrajectoryPosition::Geodetic => t
+                .poses
+                .iter()
+                .map(|p| TrajectorySample {
+                    time_s: p.time_s,
+                    latitude_rad: p.position[0],
+                    longitude_rad: p.position[1],
+                    height_m: p.position[2],
+                    attitude: Attitude {
+                        roll_rad: p.roll_rad,
+                        pitch_rad: p.pitch_rad,
+                        heading_rad: p.heading_rad,
+                    },
+                })
+                .collect(),
+            TrajectoryFile::Text(_) => Vec::new(),
+        };
+        let mut sigma_warnings = Vec::new();
         let mut sigma_span_s = None;
+        let bad = |path: &PathBuf| {
+            let path = path.clone();
+            move |source| Error::Input { path, source }
+        };
         let sigmas = match smrmsg {
-            None => None,
+            None => match &poses {
+                TrajectoryFile::Text(t) if t.poses.iter().all(|p| p.sigma.is_some()) => {
+                    let r: Vec<PoseSigma> = t
+                        .poses
+                        .iter()
+                        .filter_map(|p| {
+                            p.sigma.map(|s| PoseSigma {
+                                time_s: p.time_s,
+                                north_m: s.north_m,
+                                east_m: s.east_m,
+                                down_m: s.up_m,
+                                roll_rad: s.roll_rad,
+                                pitch_rad: s.pitch_rad,
+                                heading_rad: s.heading_rad,
+                            })
+                        })
+                        .collect();
+                    (!r.is_empty())
+                        .then(|| TrajectorySigmas::new(r).map_err(bad(&trajectory_path)))
+                        .transpose()?
+                }
+                _ => None,
+            },
             Some((path, records)) => {
                 let r: Vec<PoseSigma> = records
                     .iter()
@@ -133,40 +212,53 @@ impl TpuContext {
                         heading_rad: s.sigma_heading_rad,
                     })
                     .collect();
-                warnings.extend(check_trajectory_sigmas(&path, &r));
+                sigma_warnings.extend(check_trajectory_sigmas(&path, &r));
                 sigma_span_s = r.first().zip(r.last()).map(|(a, b)| [a.time_s, b.time_s]);
-                let s = TrajectorySigmas::new(r).map_err(|source| Error::Input {
-                    path: path.clone(),
-                    source,
-                })?;
+                let s = TrajectorySigmas::new(r).map_err(bad(&path))?;
                 inputs.push(path);
                 Some(s)
             }
+        };
+        let warnings = match &poses {
+            TrajectoryFile::Text(t) => t.warnings.clone(),
+            TrajectoryFile::Sbet(_) => Vec::new(),
         };
         let ctx = TpuContext {
             recovery_mounting: sensor.mounting,
             sensor,
             beam_divergence_rad: extras.beam_divergence_rad,
             poses,
+            warnings,
             trajectory_path,
             sigmas,
             options,
             inputs,
             facts: TrajectoryFacts::default(),
-            warnings,
             sigma_span_s,
             trajectories: Mutex::new(Vec::new()),
         };
-        // Check the trajectory now, before any tile: well formed, then physically plausible.
+        // Check the trajectory now, before any tile (a projected one needs the points' CRS):
+        // well formed, then physically plausible.
         let mut ctx = ctx;
-        ctx.trajectory(UtmDatum::Wgs84)?;
-        ctx.facts = check_trajectory(&ctx.trajectory_path, &samples)?;
-        ctx.warnings
-            .splice(0..0, ctx.facts.warnings.iter().cloned());
+        match (ctx.options.crs, ctx.is_projected()) {
+            (Some(z), _) => {
+                ctx.trajectory_in(z)?;
+            }
+            (None, false) => {
+                ctx.trajectory(UtmDatum::Wgs84)?;
+            }
+            (None, true) => {}
+        }
+        if !samples.is_empty() {
+            ctx.facts = check_trajectory(&ctx.trajectory_path, &samples)?;
+        }
+        let found: Vec<Warning> = ctx.facts.warnings.iter().cloned().chain(sigma_warnings).collect();
+        ctx.warnings.splice(0..0, found);
         Ok(ctx)
     }
 
-    /// Reads the sensor file, the SBET and optionally the SMRMSG.
+    /// Reads the sensor file, the trajectory (SBET or text, told apart by content: see
+    /// [`lidarqa_io::read_trajectory`]) and optionally the SMRMSG.
     ///
     /// # Errors
     /// As the lidarqa-io readers (each names its file) and [`TpuContext::new`].
@@ -177,12 +269,13 @@ impl TpuContext {
         options: TpuOptions,
     ) -> Result<TpuContext> {
         let (s, extras) = read_sensor_with_extras(sensor)?;
-        let poses = read_sbet(sbet)?;
+        let poses = read_trajectory(sbet)?;
         let sig = match smrmsg {
             Some(p) => Some((p.to_path_buf(), read_smrmsg(p)?)),
             None => None,
         };
-        let mut ctx = TpuContext::new(s, extras, sbet.to_path_buf(), poses, sig, options)?;
+        let mut ctx =
+            TpuContext::with_trajectory(s, extras, sbet.to_path_buf(), poses, sig, options)?;
         ctx.inputs.push(sensor.to_path_buf());
         Ok(ctx)
     }
@@ -213,7 +306,8 @@ impl TpuContext {
         Ok(self)
     }
 
-    /// Warnings about the trajectory and its σ (every tile's summary carries them too).
+    /// Doubtful findings about the shared inputs: the trajectory (gaps, duplicates, a missing
+    /// roll) and its σ; every tile's summary carries them too.
     pub fn warnings(&self) -> &[Warning] {
         &self.warnings
     }
@@ -228,45 +322,144 @@ impl TpuContext {
         &self.sensor
     }
 
-    /// The trajectory with ECEF positions on `datum`'s ellipsoid (built once per datum).
+    /// The layout the trajectory file was read as.
+    pub fn trajectory_format(&self) -> TrajectoryFormat {
+        self.poses.format()
+    }
+
+    fn is_projected(&self) -> bool {
+        matches!(&self.poses, TrajectoryFile::Text(t) if t.position == TrajectoryPosition::Projected)
+    }
+
+    /// The trajectory with ECEF positions on `datum`'s ellipsoid, for a geodetic trajectory
+    /// (SBET, or text with latitude/longitude).
     ///
     /// # Errors
-    /// [`Error::Input`] naming the SBET when it has fewer than two poses or bad values.
+    /// [`Error::Input`] naming the trajectory when it has fewer than two poses or bad values;
+    /// [`Error::InvalidOption`] for a projected text trajectory (use
+    /// [`TpuContext::trajectory_in`] with the points' CRS).
     pub fn trajectory(&self, datum: UtmDatum) -> Result<Arc<Trajectory>> {
+        if self.is_projected() {
+            return Err(Error::InvalidOption(format!(
+                "{}: the trajectory is projected; it needs the points' CRS",
+                self.trajectory_path.display()
+            )));
+        }
+        // Any zone of the datum: a geodetic trajectory does not depend on the projection.
+        let zone = UtmZone::with_datum(1, lidarqa_io::Hemisphere::North, datum)?;
+        self.trajectory_in(zone)
+    }
+
+    /// The trajectory in ECEF for points in `zone` (built once per CRS): a geodetic trajectory on
+    /// the CRS's ellipsoid; a projected text trajectory taken back through the projection, its
+    /// grid azimuths turned to true headings by the grid convergence at each pose.
+    ///
+    /// # Errors
+    /// As [`TpuContext::trajectory`].
+    pub fn trajectory_in(&self, zone: UtmZone) -> Result<Arc<Trajectory>> {
         let mut cache = self
             .trajectories
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        if let Some((_, t)) = cache.iter().find(|(d, _)| *d == datum) {
+        let key = |z: &UtmZone| {
+            if self.is_projected() {
+                *z
+            } else {
+                // Geodetic: one trajectory per ellipsoid.
+                UtmZone::with_datum(1, lidarqa_io::Hemisphere::North, z.datum()).unwrap_or(*z)
+            }
+        };
+        if let Some((_, t)) = cache.iter().find(|(z, _)| key(z) == key(&zone)) {
             return Ok(Arc::clone(t));
         }
-        let e: Ellipsoid = datum.ellipsoid();
-        let poses: Vec<Pose> = self
-            .poses
-            .iter()
-            .map(|p| Pose {
-                time_s: p.time_s,
-                position_ecef_m: e.geodetic_to_ecef(&Geodetic {
-                    latitude_rad: p.latitude_rad,
-                    longitude_rad: p.longitude_rad,
-                    height_m: p.height_m,
-                }),
-                latitude_rad: p.latitude_rad,
-                longitude_rad: p.longitude_rad,
-                attitude: Attitude {
-                    roll_rad: p.roll_rad,
-                    pitch_rad: p.pitch_rad,
-                    heading_rad: p.true_heading_rad(),
-                },
-            })
-            .collect();
+        let e: Ellipsoid = zone.datum().ellipsoid();
+        let poses: Vec<Pose> = match &self.poses {
+            TrajectoryFile::Sbet(poses) => poses
+                .iter()
+                .map(|p| {
+                    pose(
+                        &e,
+                        p.time_s,
+                        [p.latitude_rad, p.longitude_rad, p.height_m],
+                        Attitude {
+                            roll_rad: p.roll_rad,
+                            pitch_rad: p.pitch_rad,
+                            heading_rad: p.true_heading_rad(),
+                        },
+                    )
+                })
+                .collect(),
+            TrajectoryFile::Text(t) => {
+                text_poses(t, &e, zone, self.options.geoid_separation_m.unwrap_or(0.0))
+            }
+        };
         let t = Arc::new(Trajectory::new(&poses).map_err(|source| Error::Input {
             path: self.trajectory_path.clone(),
             source,
         })?);
-        cache.push((datum, Arc::clone(&t)));
+        cache.push((zone, Arc::clone(&t)));
         Ok(t)
     }
+}
+
+/// A pose from geodetic coordinates on `e`.
+fn pose(e: &Ellipsoid, time_s: f64, llh: [f64; 3], attitude: Attitude) -> Pose {
+    Pose {
+        time_s,
+        position_ecef_m: e.geodetic_to_ecef(&Geodetic {
+            latitude_rad: llh[0],
+            longitude_rad: llh[1],
+            height_m: llh[2],
+        }),
+        latitude_rad: llh[0],
+        longitude_rad: llh[1],
+        attitude,
+    }
+}
+
+/// The poses of a text trajectory for points in `zone`.
+/// A projected trajectory's Z is in the points' vertical CRS: `height_offset_m` (the geoid
+/// separation) makes it ellipsoidal like theirs.
+fn text_poses(t: &TextTrajectory, e: &Ellipsoid, zone: UtmZone, height_offset_m: f64) -> Vec<Pose> {
+    t.poses
+        .iter()
+        .map(|p| {
+            let (llh, convergence_rad) = match t.position {
+                TrajectoryPosition::Geodetic => (
+                    p.position,
+                    zone.grid_convergence(p.position[0], p.position[1]),
+                ),
+                TrajectoryPosition::Projected => {
+                    let u = zone
+                        .projection()
+                        .inverse_series(p.position[0], p.position[1]);
+                    (
+                        [
+                            u.latitude_rad(),
+                            u.longitude_rad(),
+                            p.position[2] + height_offset_m,
+                        ],
+                        u.convergence_rad(),
+                    )
+                }
+            };
+            // A grid azimuth α_g is the true heading α_g + γ (γ: bearing of grid north).
+            let heading_rad = match t.heading {
+                HeadingReference::True => p.heading_rad,
+                HeadingReference::Grid => p.heading_rad + convergence_rad,
+            };
+            pose(
+                e,
+                p.time_s,
+                llh,
+                Attitude {
+                    roll_rad: p.roll_rad,
+                    pitch_rad: p.pitch_rad,
+                    heading_rad,
+                },
+            )
+        })
+        .collect()
 }
 
 /// What every per-point entry point needs from a tile's header, checked once: the header, the
@@ -276,6 +469,8 @@ pub(crate) struct OpenTile {
     pub(crate) zone: UtmZone,
     pub(crate) trajectory: Arc<Trajectory>,
     pub(crate) converter: LasTimeConverter,
+    /// Added to LAS Z to get ellipsoidal heights (the geoid separation, or 0).
+    pub(crate) height_offset_m: f64,
 }
 
 impl TpuContext {
@@ -303,8 +498,14 @@ impl TpuContext {
                 format: info.point_format,
             });
         }
+        if let (Some(v), None) = (&info.crs.orthometric, self.options.geoid_separation_m) {
+            return Err(Error::OrthometricHeights {
+                path: input.to_path_buf(),
+                vertical: v.clone(),
+            });
+        }
         let zone = self.zone_of(input, &info)?;
-        let trajectory = self.trajectory(zone.datum())?;
+        let trajectory = self.trajectory_in(zone)?;
         let converter = LasTimeConverter::new(
             input,
             info.time_base,
@@ -316,6 +517,7 @@ impl TpuContext {
             zone,
             trajectory,
             converter,
+            height_offset_m: self.options.geoid_separation_m.unwrap_or(0.0),
         })
     }
 

@@ -85,7 +85,15 @@ pub fn correct_tile(job: &CorrectTileJob<'_>) -> Result<CorrectTileReport> {
         zone,
         trajectory,
         converter,
+        height_offset_m,
     } = ctx.open_tile(input)?;
+    if height_offset_m != 0.0 {
+        // Re-georeferencing would have to write orthometric heights back: not done yet.
+        return Err(Error::InvalidOption(format!(
+            "{}: correct does not apply a geoid separation; give it ellipsoidal heights",
+            input.display()
+        )));
+    }
     let correction = Correction::new(&zone, &ctx.recovery_mounting, job.mounting);
     let mut inputs: Vec<&Path> = vec![input];
     inputs.extend(ctx.inputs.iter().map(PathBuf::as_path));

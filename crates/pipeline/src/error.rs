@@ -36,6 +36,19 @@ pub enum Error {
         /// Its point format.
         format: u8,
     },
+    /// The file's heights are orthometric and no geoid separation was given.
+    #[error(
+        "{}: heights are in the orthometric vertical CRS \"{vertical}\"; the TPU needs \
+         ellipsoidal heights: give the geoid separation N (ellipsoidal - orthometric, m) with \
+         --geoid-separation-m",
+        path.display()
+    )]
+    OrthometricHeights {
+        /// The LAS/LAZ file.
+        path: PathBuf,
+        /// The vertical CRS named by the file.
+        vertical: String,
+    },
     /// No usable CRS in the file and none given.
     #[error("{}: unknown CRS ({reason}); pass --utm-zone or --epsg", path.display())]
     UnknownCrs {

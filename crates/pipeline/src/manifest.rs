@@ -71,7 +71,7 @@ impl InputFile {
 }
 
 /// The [`TpuOptions`] of a manifest, as stored (the CRS as an EPSG code).
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ManifestOptions {
     /// EPSG code of the points' UTM CRS when the files have none (or to override theirs).
@@ -88,6 +88,12 @@ pub struct ManifestOptions {
     pub neighbours: usize,
     /// Look-back / look-ahead margin across chunk borders, points.
     pub margin_points: usize,
+    /// Write the full covariance too.
+    #[serde(default)]
+    pub covariance: bool,
+    /// Geoid separation, m.
+    #[serde(default)]
+    pub geoid_separation_m: Option<f64>,
 }
 
 impl ManifestOptions {
@@ -111,6 +117,8 @@ impl ManifestOptions {
             chunk_points: o.chunk_points,
             neighbours: o.neighbours,
             margin_points: o.margin_points,
+            covariance: o.covariance,
+            geoid_separation_m: o.geoid_separation_m,
         })
     }
 
@@ -127,6 +135,8 @@ impl ManifestOptions {
             chunk_points: self.chunk_points,
             neighbours: self.neighbours,
             margin_points: self.margin_points,
+            covariance: self.covariance,
+            geoid_separation_m: self.geoid_separation_m,
         })
     }
 }

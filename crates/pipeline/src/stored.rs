@@ -5,7 +5,8 @@
 
 use crate::plausibility::PlausibilityTally;
 use crate::summary::{
-    AngleCheck, Histogram, IhoTally, ResidualCheck, SigmaMap, SkipReason, TpuSummary,
+    AngleCheck, Histogram, IhoTally, IncidenceTally, ResidualCheck, SigmaMap, SkipReason,
+    TpuSummary,
 };
 use lidarqa_model::Source;
 use serde::{Deserialize, Serialize};
@@ -63,6 +64,12 @@ pub struct StoredSummary {
     /// Plausibility findings (absent in tile reports written before they existed).
     #[serde(default)]
     pub plausibility: PlausibilityTally,
+    /// Incidence-term sources and reasons.
+    #[serde(default)]
+    pub incidence: IncidenceTally,
+    /// Warnings.
+    #[serde(default)]
+    pub warnings: Vec<lidarqa_model::Warning>,
 }
 
 impl From<&Histogram> for StoredHistogram {
@@ -152,6 +159,8 @@ impl From<&TpuSummary> for StoredSummary {
                 .collect(),
             iho: (s.iho.soundings() > 0).then(|| s.iho.clone()),
             plausibility: s.plausibility.clone(),
+            incidence: s.incidence,
+            warnings: s.warnings.clone(),
         }
     }
 }
@@ -211,6 +220,8 @@ impl StoredSummary {
             sigma,
             share_sums,
             with_normal: self.with_normal,
+            incidence: self.incidence,
+            warnings: self.warnings.clone(),
             scan_angle: AngleCheck {
                 n,
                 sum_sq_deg2,

@@ -552,6 +552,10 @@ pub struct TpuSummary {
     pub share_sums: Vec<(&'static str, f64)>,
     /// Points whose incidence angle could be estimated (a plane through their neighbours).
     pub with_normal: u64,
+    /// Where each point's incidence term came from, or why it was left out.
+    pub incidence: IncidenceTally,
+    /// Doubtful findings (from the shared inputs and from the tiles).
+    pub warnings: Vec<Warning>,
     /// Scan-angle check: points, Σ d², max |d| (degrees), max |d| beyond the LAS quantisation.
     pub scan_angle: AngleCheck,
     /// Quality of recovery: Σ q², max |q| (m) of the out-of-plane (linear) or off-cone (conic)
@@ -563,6 +567,68 @@ pub struct TpuSummary {
     pub iho: IhoTally,
     /// Plausibility findings: warnings, implausible points, the mounting check's sums.
     pub plausibility: PlausibilityTally,
+}
+
+/// Where the incidence term's surface normal came from, per point, or why there was none.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct IncidenceTally {
+    /// Normals read from the file's `NormalX/NormalY/NormalZ` (PDAL `filters.normal`).
+    pub file_normals: u64,
+    /// File normals that were zero or not finite (term left out).
+    pub invalid_file_normals: u64,
+    /// Planar neighbourhoods: a fitted normal.
+    pub planar: u64,
+    /// Linear neighbourhoods (e.g. one scan line): term left out.
+    pub linear: u64,
+    /// Scattered neighbourhoods (vegetation, noise): term left out.
+    pub scattered: u64,
+    /// Fewer neighbours than a plane needs: term left out.
+    pub too_few_points: u64,
+}
+
+impl IncidenceTally {
+    /// Adds another tally.
+    pub fn merge(&mut self, o: &IncidenceTally) {
+        self.file_normals += o.file_normals;
+        self.invalid_file_normals += o.invalid_file_normals;
+        self.planar += o.planar;
+        self.linear += o.linear;
+        self.scattered += o.scattered;
+        self.too_few_points += o.too_few_points;
+    }
+
+    /// Points whose term was left out.
+    pub fn left_out(&self) -> u64 {
+        self.invalid_file_normals + self.linear + self.scattered + self.too_few_points
+    }
+
+    /// Points judged.
+    pub fn total(&self) -> u64 {
+        self.left_out() + self.file_normals + self.planar
+    }
+
+    /// A warning when more than a tenth of the points have no incidence term.
+    pub fn warning(&self) -> Option<Warning> {
+        let (out, n) = (self.left_out(), self.total());
+        (n > 0 && out * 10 > n).then(|| {
+            let pc = |v: u64| 100.0 * v as f64 / n as f64;
+            Warning::new(
+                "incidence_left_out",
+                format!(
+                    "no surface is defined around {out} of {n} points ({:.1} %), so their \
+                     incidence term is left out: linear {:.1} %, scattered {:.1} %, too few \
+                     points {:.1} %, invalid file normals {:.1} %; the vertical sigma of those \
+                     points lacks the beam-footprint term (more --neighbours, or NormalX/Y/Z \
+                     from PDAL filters.normal, may define one)",
+                    pc(out),
+                    pc(self.linear),
+                    pc(self.scattered),
+                    pc(self.too_few_points),
+                    pc(self.invalid_file_normals)
+                ),
+            )
+        })
+    }
 }
 
 /// Recovered vs LAS-field scan angle, degrees.
@@ -639,6 +705,8 @@ impl TpuSummary {
             sigma: vec![Histogram::default(); n_sigma],
             share_sums: sources.into_iter().map(|s| (s, 0.0)).collect(),
             with_normal: 0,
+            incidence: IncidenceTally::default(),
+            warnings: Vec::new(),
             scan_angle: AngleCheck::default(),
             recovery_residual: ResidualCheck::default(),
             map: SigmaMap::default(),
@@ -664,6 +732,12 @@ impl TpuSummary {
             }
         }
         self.with_normal += o.with_normal;
+        self.incidence.merge(&o.incidence);
+        for w in &o.warnings {
+            if !self.warnings.contains(w) {
+                self.warnings.push(w.clone());
+            }
+        }
         self.map.merge(&o.map);
         self.scan_angle.merge(&o.scan_angle);
         self.recovery_residual.merge(&o.recovery_residual);
@@ -671,10 +745,22 @@ impl TpuSummary {
         self.plausibility.merge(&o.plausibility);
     }
 
-    /// Every warning of the summary (see [`PlausibilityTally::all_warnings`]).
+    /// Every warning of the summary, each once: the shared inputs' and the tiles' own, the
+    /// plausibility findings (see [`PlausibilityTally::all_warnings`]) and the incidence term's.
     pub fn warnings(&self) -> Vec<Warning> {
         let skipped = self.skipped.contains_key(&SkipReason::Implausible);
-        self.plausibility.all_warnings(!skipped)
+        let mut all = self.warnings.clone();
+        for w in self
+            .plausibility
+            .all_warnings(!skipped)
+            .into_iter()
+            .chain(self.incidence.warning())
+        {
+            if !all.contains(&w) {
+                all.push(w);
+            }
+        }
+        all
     }
 
     /// Total skipped points.
@@ -707,6 +793,7 @@ impl TpuSummary {
                 .map(|(s, v)| (*s, if n > 0 { v / n as f64 } else { 0.0 }))
                 .collect(),
             points_with_surface_normal: self.with_normal,
+            incidence: self.incidence,
             histogram: HistogramsView {
                 horizontal: self.sigma.get(3).and_then(|h| h.linear(40)),
                 vertical: self.sigma.get(4).and_then(|h| h.linear(40)),
@@ -758,6 +845,8 @@ pub struct SummaryView {
     pub source_share: BTreeMap<&'static str, f64>,
     /// Points whose incidence angle was estimated.
     pub points_with_surface_normal: u64,
+    /// Where the incidence term's normals came from and why some points have none.
+    pub incidence: IncidenceTally,
     /// Equal-width histograms of σ horizontal and vertical (40 bins).
     pub histogram: HistogramsView,
     /// Mean σ vertical per 10 m cell (coarsened to ≤ 200 cells a side).
@@ -871,6 +960,30 @@ impl TileReport {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn incidence_left_out_warns_past_a_tenth_with_the_reasons() {
+        let mut t = IncidenceTally {
+            planar: 91,
+            linear: 9,
+            ..IncidenceTally::default()
+        };
+        assert_eq!(t.warning(), None);
+        t.merge(&IncidenceTally {
+            scattered: 20,
+            ..IncidenceTally::default()
+        });
+        let w = t.warning().unwrap();
+        assert_eq!(w.code, "incidence_left_out");
+        assert!(
+            w.message.starts_with(
+                "no surface is defined around 29 of 120 points (24.2 %), so their incidence \
+                 term is left out: linear 7.5 %, scattered 16.7 %, too few points 0.0 %"
+            ),
+            "{}",
+            w.message
+        );
+    }
 
     #[test]
     fn histogram_percentiles_are_within_a_bin_and_merge_exactly() {

@@ -6,7 +6,9 @@ use crate::plausibility::{
     DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, MOUNTING_ERROR_M, MountingTally, check_distance,
     check_gaps, crs_name, outside_zone, point_implausible,
 };
-use crate::summary::{SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary};
+use crate::summary::{
+    IncidenceTally, SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary,
+};
 use lidarqa_io::{
     Ellipsoid, Geodetic, LasPoint, LasReader, LasTimeConverter, LasWriteOptions, LasWriter,
     PointChunk, TransverseMercator,
@@ -16,9 +18,9 @@ use lidarqa_model::{
     rotation_zyx,
 };
 use lidarqa_tpu::{
-    IhoOrder, Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, SoundingRecovery,
+    IhoOrder, Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, SoundingRecovery, Surface,
     SurfaceSource, TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex, ecef_from_ned,
-    incidence_angle, plane_normals, thu_95_m,
+    incidence_angle, judge_surfaces, thu_95_m,
 };
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
@@ -54,6 +56,20 @@ const DESCRIPTIONS: [&str; 9] = [
 
 /// Names of the sounding dimensions written after the σ for conic sensors.
 pub const SOUNDING_DIMS: [&str; 2] = ["depth", "iho_order"];
+
+/// The full covariance (`--covariance`), f64 m² in the projected axes (easting, northing, up),
+/// PDAL `filters.als_tpu`'s names.
+pub const COVARIANCE_DIMS: [(&str, &str); 6] = [
+    ("VarianceX", "var easting, grid axes (m^2)"),
+    ("VarianceY", "var northing, grid axes (m^2)"),
+    ("VarianceZ", "var up (m^2)"),
+    ("CovarianceXY", "cov easting-northing (m^2)"),
+    ("CovarianceXZ", "cov easting-up (m^2)"),
+    ("CovarianceYZ", "cov northing-up (m^2)"),
+];
+
+/// PDAL's names of the surface-normal dimensions (`filters.normal`).
+const NORMAL_DIMS: [&str; 3] = ["NormalX", "NormalY", "NormalZ"];
 
 /// One tile to process: input, output and the survey's shared context.
 #[derive(Debug, Clone, Copy)]
@@ -110,6 +126,7 @@ pub fn tpu_tile_with_progress(
         zone,
         trajectory,
         converter,
+        height_offset_m,
     } = ctx.open_tile(input)?;
     let kernel = Kernel::new(ctx)?;
     let n_sigma = kernel.n_sigma();
@@ -121,7 +138,16 @@ pub fn tpu_tile_with_progress(
         .zip(DESCRIPTIONS)
         .map(|(n, d)| (*n, d))
         .collect();
-    let options = LasWriteOptions::for_input(&info, &dims);
+    let mut options = LasWriteOptions::for_input(&info, &dims);
+    if ctx.options.covariance {
+        options.extra_dims_f64 = COVARIANCE_DIMS
+            .iter()
+            .map(|(n, d)| (n.to_string(), d.to_string()))
+            .collect();
+    }
+    let file_normals = NORMAL_DIMS
+        .iter()
+        .all(|n| info.extra_dims.iter().any(|d| d.name == *n));
     let mut inputs: Vec<&Path> = vec![input];
     inputs.extend(ctx.inputs.iter().map(PathBuf::as_path));
     let writer = LasWriter::create(job.output, &options, &inputs)?;
@@ -130,11 +156,12 @@ pub fn tpu_tile_with_progress(
         projection: zone.projection(),
         ellipsoid: zone.datum().ellipsoid(),
         converter,
+        height_offset_m,
     };
     let step_deg = if info.point_format >= 6 { 0.006 } else { 1.0 };
     let mut summary = TpuSummary::new(kernel.kind(), kernel.source_names(), n_sigma);
+    summary.warnings = ctx.warnings.clone();
     summary.scan_angle.step_deg = step_deg;
-    summary.plausibility.warn(ctx.warnings.iter().cloned());
     summary.plausibility.sigma_span_s = ctx.sigma_span_s;
     let tally0 = MountingTally::new(&ctx.sensor.mounting, kernel.kind() == "linear");
     summary.plausibility.mounting = tally0;
@@ -153,10 +180,12 @@ pub fn tpu_tile_with_progress(
             read_loop(input, prep, chunk_points, tx_read, rx_spent_read);
         });
         let tx_spent_chunk = tx_spent_read.clone();
+        let covariance = ctx.options.covariance;
         let writer_thread = scope.spawn(move || {
             write_loop(
                 writer,
                 n_dims,
+                covariance,
                 rx_write,
                 progress,
                 &tx_spent_chunk,
@@ -179,6 +208,8 @@ pub fn tpu_tile_with_progress(
             tally0,
             central_meridian_rad: zone.central_meridian_rad(),
             crs_name: &crs_name,
+            projection: zone.projection(),
+            file_normals,
         };
         let spent = Recycle {
             preps: tx_spent_read,
@@ -290,6 +321,8 @@ struct Prepare {
     projection: TransverseMercator,
     ellipsoid: Ellipsoid,
     converter: LasTimeConverter,
+    /// Added to LAS Z for the ellipsoidal height (geoid separation or 0).
+    height_offset_m: f64,
 }
 
 #[derive(Debug, Clone)]
@@ -329,11 +362,11 @@ impl Prepare {
         let (lat, lon) = self.projection.inverse(p.x, p.y);
         out.latitude_rad = lat;
         out.longitude_rad = lon;
-        // LAS Z is taken as the ellipsoidal height (no geoid model).
+        // LAS Z plus the geoid separation (0 unless given) is the ellipsoidal height.
         out.ecef = self.ellipsoid.geodetic_to_ecef(&Geodetic {
             latitude_rad: lat,
             longitude_rad: lon,
-            height_m: p.z,
+            height_m: p.z + self.height_offset_m,
         });
         match p.gps_time_s.map(|t| self.converter.to_seconds_of_week(t)) {
             Some(Ok(t)) => out.time_sow_s = t,
@@ -423,6 +456,7 @@ enum WriteMsg {
 fn write_loop(
     mut writer: LasWriter,
     n_dims: usize,
+    covariance: bool,
     rx: Receiver<WriteMsg>,
     progress: &(dyn Fn(u64) + Sync),
     spent_chunks: &SyncSender<Spent>,
@@ -433,7 +467,7 @@ fn write_loop(
         match msg {
             WriteMsg::Chunk(chunk, slots) => {
                 for (p, s) in chunk.points.iter().zip(&slots) {
-                    if let Slot::Ok(sig, sounding) = s {
+                    if let Slot::Ok(sig, sounding, cov) = s {
                         for (e, v) in extra.iter_mut().zip(sig) {
                             *e = *v as f32;
                         }
@@ -452,7 +486,8 @@ fn write_loop(
                             ),
                             None => (0.0, -1.0),
                         };
-                        writer.write_point(p, &extra[..n_dims])?;
+                        let n64 = if covariance { cov.len() } else { 0 };
+                        writer.write_point_f64(p, &extra[..n_dims], &cov[..n64])?;
                     }
                 }
                 progress(chunk.len() as u64);
@@ -470,9 +505,10 @@ fn write_loop(
 enum Slot {
     #[default]
     Pending,
-    /// σ north, east, up, horizontal, vertical (m, local level frame at the point), and for a
-    /// sounding its depth and 95 % uncertainties.
-    Ok([f64; 5], Option<SoundingResult>),
+    /// σ north, east, up, horizontal, vertical (m, local level frame at the point), for a
+    /// sounding its depth and 95 % uncertainties, and the covariance in the projected axes
+    /// (xx, yy, zz, xy, xz, yz, m²; zeros unless asked for).
+    Ok([f64; 5], Option<SoundingResult>, [f64; 6]),
     Skipped(SkipReason),
     Failed(Box<Error>),
 }
@@ -482,6 +518,7 @@ enum Slot {
 struct Partial {
     shares: Vec<f64>,
     with_normal: u64,
+    incidence: IncidenceTally,
     scan: Vec<f64>,
     residual: Vec<f64>,
     mounting: MountingTally,
@@ -518,6 +555,10 @@ struct Run<'a> {
     central_meridian_rad: f64,
     /// The points' CRS, for messages.
     crs_name: &'a str,
+    /// The points' projection (grid convergence for file normals and the covariance).
+    projection: TransverseMercator,
+    /// The file has PDAL's NormalX/Y/Z.
+    file_normals: bool,
 }
 
 impl Run<'_> {
@@ -595,7 +636,11 @@ impl Run<'_> {
     ) -> Result<Vec<Slot>> {
         let n = cur.pts.len();
         self.check_chunk(cur, summary)?;
-        let normals: Vec<Option<Vector3<f64>>> = if self.kernel.has_incidence() {
+        let surfaces: Vec<Option<Surface>> = if !self.kernel.has_incidence() {
+            Vec::new()
+        } else if self.file_normals {
+            self.file_normals_of(cur)
+        } else {
             let origin = valid_ecef(&cur.pts).next().unwrap_or_else(Vector3::zeros);
             let rel = |v: &Vector3<f64>| {
                 let d = v - origin;
@@ -608,9 +653,10 @@ impl Run<'_> {
                 .map(rel)
                 .collect();
             let targets: Vec<[f64; 3]> = cur.pts.iter().map(|p| rel(&p.ecef)).collect();
-            plane_normals(&candidates, &targets, self.ctx.options.neighbours)
-        } else {
-            Vec::new()
+            judge_surfaces(&candidates, &targets, self.ctx.options.neighbours)
+                .into_iter()
+                .map(Some)
+                .collect()
         };
         let n_sources = summary.share_sums.len();
         slots.clear();
@@ -626,8 +672,8 @@ impl Run<'_> {
                 };
                 for (k, slot) in block.iter_mut().enumerate() {
                     let i = b * BLOCK + k;
-                    let normal = normals.get(i).copied().flatten();
-                    *slot = self.point(cur, i, normal, water, &mut acc);
+                    let surface = surfaces.get(i).copied().flatten();
+                    *slot = self.point(cur, i, surface, water, &mut acc);
                 }
                 acc
             })
@@ -649,6 +695,7 @@ impl Run<'_> {
                         *x += y;
                     }
                     a.with_normal += b.with_normal;
+                    a.incidence.merge(&b.incidence);
                     a.scan.extend(b.scan);
                     a.residual.extend(b.residual);
                     a
@@ -664,7 +711,7 @@ impl Run<'_> {
         let conic = matches!(self.kernel, Kernel::Conic(..));
         for (i, s) in slots.iter().enumerate() {
             match s {
-                Slot::Ok(sig, sounding) => {
+                Slot::Ok(sig, sounding, _) => {
                     summary.points_written += 1;
                     if let Some(r) = sounding {
                         summary.iho.add(r);
@@ -687,6 +734,7 @@ impl Run<'_> {
             *s += v;
         }
         summary.with_normal += partial.with_normal;
+        summary.incidence.merge(&partial.incidence);
         for d in partial.scan {
             summary.scan_angle.add(d);
         }
@@ -750,11 +798,39 @@ impl Run<'_> {
         Ok(())
     }
 
+    /// The file's NormalX/Y/Z (grid easting, northing, up, as PDAL's `filters.normal` computes
+    /// them from X, Y, Z) as ECEF unit vectors: turned from grid to true north by the grid
+    /// convergence at the point; `None` for a zero or non-finite normal.
+    fn file_normals_of(&self, cur: &Prepared) -> Vec<Option<Surface>> {
+        let cols: Vec<Vec<f64>> = NORMAL_DIMS
+            .iter()
+            .map(|n| cur.chunk.extra_column(n).unwrap_or_default())
+            .collect();
+        cur.pts
+            .par_iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let g = Vector3::new(*cols[0].get(i)?, *cols[1].get(i)?, *cols[2].get(i)?);
+                if !(g.iter().all(|v| v.is_finite()) && g.norm() > 0.0) {
+                    return Some(Surface::TooFew);
+                }
+                let gamma = self
+                    .projection
+                    .grid_convergence(p.latitude_rad, p.longitude_rad);
+                let (sg, cg) = gamma.sin_cos();
+                // Grid (E, N) → true (N, E): a grid azimuth α_g is the true azimuth α_g + γ.
+                let ned = Vector3::new(g.y * cg - g.x * sg, g.x * cg + g.y * sg, -g.z);
+                let ecef = ecef_from_ned(p.latitude_rad, p.longitude_rad) * ned;
+                Some(Surface::Planar(ecef / ecef.norm()))
+            })
+            .collect()
+    }
+
     fn point(
         &self,
         cur: &Prepared,
         i: usize,
-        normal: Option<Vector3<f64>>,
+        surface: Option<Surface>,
         water: Option<&WaterSurfaceIndex>,
         acc: &mut Partial,
     ) -> Slot {
@@ -817,6 +893,19 @@ impl Run<'_> {
             }
             _ => None,
         };
+        if sounding.is_none() {
+            let t = &mut acc.incidence;
+            match (surface, self.file_normals) {
+                (None, _) => {}
+                (Some(Surface::Planar(_)), true) => t.file_normals += 1,
+                (Some(_), true) => t.invalid_file_normals += 1,
+                (Some(Surface::Planar(_)), false) => t.planar += 1,
+                (Some(Surface::Linear), false) => t.linear += 1,
+                (Some(Surface::Scattered), false) => t.scattered += 1,
+                (Some(Surface::TooFew), false) => t.too_few_points += 1,
+            }
+        }
+        let normal = surface.and_then(|s| s.normal());
         // With skip_invalid an implausible point is dropped after propagation: its shares too.
         let shares_before = opts.skip_invalid.then(|| acc.shares.clone());
         let result = match sounding {
@@ -859,9 +948,30 @@ impl Run<'_> {
                     surface_modelled: matches!(r.surface, SurfaceSource::Modelled { .. }),
                     residual_m: r.residual_m,
                 });
+                let cov = if opts.covariance {
+                    // NED (true) → grid (easting, northing, up): a true azimuth α is the grid
+                    // azimuth α − γ. Ground metres, not scaled by the point scale factor.
+                    let (sg, cg) = self
+                        .projection
+                        .grid_convergence(p.latitude_rad, p.longitude_rad)
+                        .sin_cos();
+                    let t = Matrix3::new(-sg, cg, 0.0, cg, sg, 0.0, 0.0, 0.0, -1.0);
+                    let g = t * c * t.transpose();
+                    [
+                        g[(0, 0)],
+                        g[(1, 1)],
+                        g[(2, 2)],
+                        g[(0, 1)],
+                        g[(0, 2)],
+                        g[(1, 2)],
+                    ]
+                } else {
+                    [0.0; 6]
+                };
                 Slot::Ok(
                     [n2.sqrt(), e2.sqrt(), u2.sqrt(), (n2 + e2).sqrt(), u2.sqrt()],
                     result,
+                    cov,
                 )
             }
             Err(source) => {

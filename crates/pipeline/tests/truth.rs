@@ -176,16 +176,32 @@ fn smrmsg_sigma_replaces_gnss_and_attitude() {
 fn incidence_term_adds_variance_along_the_beam() {
     let dir = tempfile::tempdir().unwrap();
     let s = survey(dir.path(), 2000, "las", Some(0.5));
-    let ctx = context(&s, false, TpuOptions::default());
-    let out = dir.path().join("out.las");
-    let report = tpu_tile(&TpuTileJob {
-        input: &s.strip,
-        output: &out,
-        context: &ctx,
-    })
-    .unwrap();
-    let v = report.summary.view();
+    // Scan lines are 1.2 m apart along track and pulses tens of metres apart across: 10
+    // neighbours lie along one column (a line, no surface); 100 span several columns.
+    let run = |neighbours| {
+        let ctx = context(
+            &s,
+            false,
+            TpuOptions {
+                neighbours,
+                ..TpuOptions::default()
+            },
+        );
+        let out = dir.path().join("out.las");
+        tpu_tile(&TpuTileJob {
+            input: &s.strip,
+            output: &out,
+            context: &ctx,
+        })
+        .unwrap()
+        .summary
+    };
+    let few = run(10);
+    assert!(few.incidence.linear > 1500, "{:?}", few.incidence);
+    assert_eq!(few.with_normal, few.incidence.planar);
+    let v = run(100).view();
     assert_eq!(v.points_with_surface_normal, 2000);
+    assert_eq!(v.incidence.planar, 2000);
     // Level ground: α = the beam's off-nadir angle (up to ~31°), σ_inc ≤ 600 m · 0.25 mrad ·
     // tan 31° ≈ 9 cm; its share is positive but it does not dominate.
     let share = v.source_share["incidence"];

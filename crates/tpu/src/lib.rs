@@ -58,7 +58,10 @@ pub use iho::{
     IhoLimits, IhoOrder, THU_95_CBLUE, THU_95_CIRCULAR_PER_AXIS, TVU_95_FACTOR, thu_95_m,
 };
 pub use montecarlo::{MonteCarlo, monte_carlo};
-pub use normals::{MAX_NEIGHBOURS, MIN_NEIGHBOURS, fit_normal, incidence_angle, plane_normals};
+pub use normals::{
+    MAX_NEIGHBOURS, MIN_NEIGHBOURS, Surface, fit_normal, incidence_angle, judge_surfaces,
+    plane_normals,
+};
 pub use point::{Incidence, MAX_INCIDENCE_RAD, PointPropagator, PointUncertainty};
 pub use presets::Preset;
 pub use recover::{ConicRecovery, LinearRecovery, Recoverer, nominal_l3};

@@ -1,6 +1,18 @@
 //! Local surface normals from a plane fit to each point's k nearest neighbours, for the
 //! `incidence` term of the per-point TPU.
 //!
+//! # Is there a surface at all?
+//! A plane through any k points always exists; whether it means anything depends on the shape of
+//! the neighbourhood. [`judge_surfaces`] sorts each one by the dimensionality features of
+//! Demantke et al. (2011, "Dimensionality based scale selection in 3D lidar point clouds"):
+//! with σᵢ = √λᵢ of the scatter matrix (σ₁ ≥ σ₂ ≥ σ₃), linearity (σ₁ − σ₂)/σ₁, planarity
+//! (σ₂ − σ₃)/σ₁ and scattering σ₃/σ₁ sum to 1, and the largest names the neighbourhood:
+//! [`Surface::Planar`] (a normal is defined), [`Surface::Linear`] (e.g. k neighbours along one
+//! scan line: the "plane" is any plane through the line, and its normal is noise — the fit that
+//! put real strips at the 85° cap), [`Surface::Scattered`] (vegetation, noise) or
+//! [`Surface::TooFew`] (fewer than [`MIN_NEIGHBOURS`] points). Only planar neighbourhoods get an
+//! incidence term.
+//!
 //! The normal is the eigenvector of the smallest eigenvalue of the neighbours' 3 × 3 scatter
 //! matrix (total least squares plane), from the closed-form solver of [`crate::eigen3`] (its
 //! docs say why it is not nalgebra's). The caller decides which points are candidates
@@ -67,13 +79,81 @@ pub fn plane_normals(
     out
 }
 
-/// Plane normal from the neighbours of `q` (nearest first).
-fn normal_of_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Option<Vector3<f64>> {
-    if nn.len() < MIN_NEIGHBOURS {
-        return None;
+/// What a point's neighbourhood is (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Surface {
+    /// Planar: the unit normal (sign arbitrary).
+    Planar(Vector3<f64>),
+    /// Points along a line (one scan line, a wire): no surface normal.
+    Linear,
+    /// Points spread in 3-D (vegetation, noise): no surface normal.
+    Scattered,
+    /// Fewer than [`MIN_NEIGHBOURS`] points.
+    TooFew,
+}
+
+impl Surface {
+    /// The normal of a planar neighbourhood.
+    pub fn normal(&self) -> Option<Vector3<f64>> {
+        match self {
+            Surface::Planar(n) => Some(*n),
+            _ => None,
+        }
     }
-    // Scatter about the mean from sums of offsets to the query point (offsets of metres keep
-    // the sums well conditioned).
+}
+
+/// Each target's neighbourhood judged (see the module docs), with the `k` nearest neighbours
+/// among `candidates`; coordinates as for [`plane_normals`]. Parallel over targets (rayon).
+pub fn judge_surfaces(candidates: &[[f64; 3]], targets: &[[f64; 3]], k: usize) -> Vec<Surface> {
+    use rayon::prelude::*;
+    let k = k.max(MIN_NEIGHBOURS);
+    if candidates.len() < MIN_NEIGHBOURS {
+        return vec![Surface::TooFew; targets.len()];
+    }
+    let grid = Grid::new(candidates, k);
+    let mut out = vec![Surface::TooFew; targets.len()];
+    out.par_chunks_mut(QUERY_BLOCK)
+        .zip(targets.par_chunks(QUERY_BLOCK))
+        .for_each(|(out, targets)| {
+            let mut best = Best::new(k);
+            for (o, q) in out.iter_mut().zip(targets) {
+                grid.nearest(q, &mut best);
+                *o = judge_neighbours(q, best.points());
+            }
+        });
+    out
+}
+
+/// The neighbourhood of `q` judged by its dimensionality features.
+fn judge_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
+    if nn.len() < MIN_NEIGHBOURS {
+        return Surface::TooFew;
+    }
+    let scatter = scatter_of(q, nn);
+    let ([l3, l2, l1], [n, ..]) = symmetric_eigen3(&scatter);
+    let (s1, s2, s3) = (l1.max(0.0).sqrt(), l2.max(0.0).sqrt(), l3.max(0.0).sqrt());
+    if !(s1 > 0.0 && s1.is_finite()) {
+        return Surface::TooFew;
+    }
+    let linearity = (s1 - s2) / s1;
+    let planarity = (s2 - s3) / s1;
+    let scattering = s3 / s1;
+    if linearity >= planarity && linearity >= scattering {
+        Surface::Linear
+    } else if scattering > planarity {
+        Surface::Scattered
+    } else {
+        let norm = n.norm();
+        if norm > 0.0 && norm.is_finite() {
+            Surface::Planar(n / norm)
+        } else {
+            Surface::TooFew
+        }
+    }
+}
+
+/// Scatter matrix about the mean of `nn`, from offsets to `q`.
+fn scatter_of(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Matrix3<f64> {
     let q = Vector3::from(*q);
     let (mut sum, mut outer) = (Vector3::zeros(), Matrix3::zeros());
     for (_, p) in nn {
@@ -82,7 +162,17 @@ fn normal_of_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Option<Vector3<
         outer += d * d.transpose();
     }
     let k = nn.len() as f64;
-    normal_of_scatter(&(outer - sum * sum.transpose() / k))
+    outer - sum * sum.transpose() / k
+}
+
+/// Plane normal from the neighbours of `q` (nearest first).
+fn normal_of_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Option<Vector3<f64>> {
+    if nn.len() < MIN_NEIGHBOURS {
+        return None;
+    }
+    // Scatter about the mean from sums of offsets to the query point (offsets of metres keep
+    // the sums well conditioned).
+    normal_of_scatter(&scatter_of(q, nn))
 }
 
 /// The k best (squared distance, point) so far, nearest first, in a buffer reused across
@@ -381,6 +471,44 @@ pub fn incidence_angle(beam: &Vector3<f64>, normal: &Vector3<f64>) -> f64 {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    #[test]
+    fn judge_tells_planes_lines_and_clouds_apart() {
+        // A tilted grid (z = 0.2 x), one scan line (x only, 5 cm jitter-free), a 3-D blob.
+        let plane: Vec<[f64; 3]> = (0..100)
+            .map(|i| {
+                let (x, y) = (f64::from(i % 10), f64::from(i / 10));
+                [x, y, 0.2 * x]
+            })
+            .collect();
+        let s = judge_surfaces(&plane, &[[4.5, 4.5, 0.9]], 10);
+        let n = s[0].normal().expect("planar");
+        let expect = Vector3::new(-0.2, 0.0, 1.0).normalize();
+        assert_relative_eq!(n.dot(&expect).abs(), 1.0, epsilon = 1e-9);
+        // One scan line: points 0.5 m apart with a 1 cm wiggle across.
+        let line: Vec<[f64; 3]> = (0..50)
+            .map(|i| {
+                let x = 0.5 * f64::from(i);
+                [x, 0.01 * (x * 3.0).sin(), 0.01 * (x * 5.0).cos()]
+            })
+            .collect();
+        assert_eq!(
+            judge_surfaces(&line, &[[10.0, 0.0, 0.0]], 10)[0],
+            Surface::Linear
+        );
+        // A cube of points: scattered.
+        let cube: Vec<[f64; 3]> = (0..125)
+            .map(|i| [f64::from(i % 5), f64::from((i / 5) % 5), f64::from(i / 25)])
+            .collect();
+        assert_eq!(
+            judge_surfaces(&cube, &[[2.0, 2.0, 2.0]], 27)[0],
+            Surface::Scattered
+        );
+        assert_eq!(
+            judge_surfaces(&cube[..2], &[[0.0, 0.0, 0.0]], 10)[0],
+            Surface::TooFew
+        );
+    }
 
     #[test]
     fn tilted_plane_normal_and_incidence() {

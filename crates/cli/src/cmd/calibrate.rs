@@ -194,7 +194,7 @@ pub(crate) fn load_strip(
     frame: &LocalFrame,
     gps_week: Option<i64>,
 ) -> Result<LoadedStrip> {
-    let trajectory = ctx.trajectory(zone.datum())?;
+    let trajectory = ctx.trajectory_in(*zone)?;
     let converter = LasTimeConverter::new(path, info.time_base, gps_week, info.creation_date)?;
     let projection = zone.projection();
     let ellipsoid = zone.datum().ellipsoid();
@@ -730,6 +730,7 @@ mod tests {
             crs_vlrs: Vec::new(),
             extra_dims: Vec::new(),
             file_source_id: 0,
+            extra_dims_f64: Vec::new(),
         };
         let mut w = LasWriter::create(path, &opts, &[] as &[&Path]).unwrap();
         w.write_point(

@@ -249,6 +249,7 @@ fn write_strip(
                 .collect()
         },
         file_source_id: strip.id,
+        extra_dims_f64: Vec::new(),
     };
     let scale = options.scale;
     let offset = options.offset;

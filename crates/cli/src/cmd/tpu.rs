@@ -41,7 +41,8 @@ pub struct TpuArgs {
     /// LAS/LAZ strip, or a directory of .las/.laz tiles.
     #[arg(value_name = "INPUT")]
     input: PathBuf,
-    /// SBET trajectory (GPS seconds of week).
+    /// Trajectory: binary SBET, PDAL filters.sritrajectory text, cBLUE's PosPac ASCII export or
+    /// text with a header (told apart by content; GPS seconds of week).
     #[arg(long, value_name = "FILE")]
     trajectory: PathBuf,
     /// Sensor file (TOML, SPEC §5); `[scanner] beam_divergence_mrad` enables the incidence term.
@@ -97,9 +98,18 @@ pub struct TpuFlags {
     #[arg(long, value_name = "N", default_value_t = TpuOptions::default().chunk_points)]
     chunk_points: usize,
     /// Neighbours of the plane fit for the incidence angle (3 to 256; never more than the
-    /// points searched).
+    /// points searched; unused when the file has NormalX/NormalY/NormalZ).
     #[arg(long, value_name = "K", default_value_t = TpuOptions::default().neighbours)]
     neighbours: usize,
+    /// Geoid separation N in metres (ellipsoidal − orthometric height), added to LAS Z (and to a
+    /// projected text trajectory's Z): required when the file's CRS has an orthometric vertical
+    /// datum (e.g. NAVD88 height); the TPU needs ellipsoidal heights.
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    geoid_separation_m: Option<f64>,
+    /// Also write the full covariance per point: VarianceX/Y/Z, CovarianceXY/XZ/YZ (f64 m²,
+    /// projected axes easting, northing, up; PDAL filters.als_tpu's names).
+    #[arg(long)]
+    covariance: bool,
 }
 
 impl TpuFlags {
@@ -108,6 +118,15 @@ impl TpuFlags {
         let crs = crs_flags(self.utm_zone.as_deref(), self.epsg)?;
         if self.chunk_points == 0 {
             bail!("--chunk-points must be > 0");
+        }
+        if self
+            .geoid_separation_m
+            .is_some_and(|n| !(n.is_finite() && n.abs() < 200.0))
+        {
+            bail!(
+                "--geoid-separation-m {:?} is not a geoid separation (|N| < 200 m)",
+                self.geoid_separation_m.unwrap_or_default()
+            );
         }
         let (lo, hi) = (lidarqa_tpu::MIN_NEIGHBOURS, lidarqa_tpu::MAX_NEIGHBOURS);
         if !(lo..=hi).contains(&self.neighbours) {
@@ -123,6 +142,8 @@ impl TpuFlags {
             skip_invalid: self.skip_invalid,
             chunk_points: self.chunk_points,
             neighbours: self.neighbours,
+            covariance: self.covariance,
+            geoid_separation_m: self.geoid_separation_m,
             ..TpuOptions::default()
         })
     }
@@ -300,7 +321,12 @@ pub fn run(args: TpuArgs) -> Result<()> {
     }
     match plan.format {
         OutputFormat::Json => print_json(&report),
-        OutputFormat::Table => print_text(&table(&report)),
+        OutputFormat::Table => print_text(&format!(
+            "trajectory {} read as {}\n{}",
+            plan.trajectory.display(),
+            ctx.trajectory_format().describe(),
+            table(&report)
+        )),
     }
 }
 
@@ -408,6 +434,20 @@ pub(crate) fn table(r: &SurveyReport) -> String {
     shares.sort_by(|a, b| b.1.total_cmp(a.1));
     for (name, v) in shares {
         let _ = writeln!(out, "  {name:<26} {:>6.1} %", v * 100.0);
+    }
+    let inc = &s.incidence;
+    if inc.total() > 0 {
+        let _ = writeln!(
+            out,
+            "\nincidence term: {} normals from the file, {} planar neighbourhoods; left out: {} \
+             linear, {} scattered, {} too few points, {} invalid file normals",
+            inc.file_normals,
+            inc.planar,
+            inc.linear,
+            inc.scattered,
+            inc.too_few_points,
+            inc.invalid_file_normals
+        );
     }
     if let Some(c) = &s.scan_angle_check {
         let _ = writeln!(

@@ -164,6 +164,7 @@ pub fn las_options(with_crs: bool, point_format: u8) -> LasWriteOptions {
         crs_vlrs: if with_crs { vec![wkt_33n()] } else { vec![] },
         extra_dims: vec![],
         file_source_id: 1,
+        extra_dims_f64: Vec::new(),
     }
 }
 

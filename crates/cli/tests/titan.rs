@@ -1,0 +1,75 @@
+//! NCALM's Optech Titan sample as shipped (LAZ with NormalX/Y/Z + PDAL sritrajectory text), when
+//! `LIDARQA_TITAN_DIR` names a directory holding `112-one-scan-cycle.laz` and
+//! `112-trajectory.txt` (github.com/NCALM-UH/pdal-als-tpu @ 0305671, test/data; fetch step in
+//! docs/real-data.md). With `LIDARQA_PYTHON` too, docs/real-data/titan_check.py compares the σ
+//! of range, attitude and GNSS with its independent computation.
+
+mod binary;
+use binary::{lidarqa, s};
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+fn docs() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/real-data")
+}
+
+fn tpu(data: &Path, sensor: &str, out: &Path) -> Value {
+    let o = lidarqa(&[
+        "tpu",
+        s(&data.join("112-one-scan-cycle.laz")),
+        "--trajectory",
+        s(&data.join("112-trajectory.txt")),
+        "--sensor",
+        s(&docs().join(sensor)),
+        "-o",
+        s(out),
+        "--format",
+        "json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    serde_json::from_slice(&o.stdout).unwrap()
+}
+
+#[test]
+fn titan_sample_as_shipped() {
+    let Some(data) = std::env::var_os("LIDARQA_TITAN_DIR").map(PathBuf::from) else {
+        eprintln!("LIDARQA_TITAN_DIR not set: skipped");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let v = tpu(&data, "titan.toml", &dir.path().join("titan.laz"));
+    assert_eq!(v["points_written"], 6184);
+    assert_eq!(v["incidence"]["file_normals"], 6184);
+    let up = v["sigma"]["up"]["median"].as_f64().unwrap();
+    assert!(up <= 0.06, "median σ_up {up} m");
+    assert!(
+        v["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w["code"] == "trajectory_without_roll")
+    );
+    let Some(python) = std::env::var_os("LIDARQA_PYTHON") else {
+        return;
+    };
+    for g in ["range", "attitude", "gnss"] {
+        tpu(
+            &data,
+            &format!("titan-{g}.toml"),
+            &dir.path().join(format!("{g}.laz")),
+        );
+    }
+    let o = std::process::Command::new(python)
+        .arg(docs().join("titan_check.py"))
+        .arg(&data)
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
