@@ -68,5 +68,5 @@ pub use overlap::{
 pub use params::{PARAM_COUNT, Param, mounting_from_vector, mounting_to_vector};
 pub use plane::{PlaneOptions, calibrate_plane, check_plane_rms};
 pub use strip::{Georeferencing, LocalFrame, RawPoint, Strip, correct_strip, georeference};
-pub use vtpm::{ControlPoint, Tie, TieKind, TiePick, VtpmOptions};
+pub use vtpm::{ControlPoint, DroppedPick, Tie, TieKind, TiePick, VtpmOptions};
 pub use weighting::TrajectorySigma;
