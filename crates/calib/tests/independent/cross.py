@@ -12,7 +12,7 @@ P = P0 + R_N (R_M S + lever), S = [0, rho sin(theta), rho cos(theta)], R = Rz(ya
 NED. Writes strip_1..4.las (LAS 1.2, format 1, GPS week time), sbet.out, sensor.toml, ties.csv,
 control.csv and truth.json into the output directory.
 
-    python3 cross.py OUT_DIR [--seed N] [--bad-pick]
+    python3 cross.py OUT_DIR [--seed N] [--bad-pick] [--pick-sigma-m 0.01]
 
 --bad-pick moves tie M01's pick in strip 2 a kilometre away, off every strip's points.
 """
@@ -180,6 +180,8 @@ def main():
     ap.add_argument("out")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--bad-pick", action="store_true")
+    ap.add_argument("--pick-sigma-m", type=float, default=0.01,
+                    help="pick noise (and the control heights' noise), 1-sigma; 0: noise-free")
     a = ap.parse_args()
     rng = np.random.default_rng(a.seed)
     os.makedirs(a.out, exist_ok=True)
@@ -188,7 +190,7 @@ def main():
     strips = [Strip(*s, index=i) for i, s in enumerate(STRIPS)]
     # 20 markings (0.5 m x 1.5 m painted bars, picked at their centre) in the cross's centre,
     # where all four strips overlap; 6 control points on the open ground between them.
-    marks = np.column_stack([rng.uniform(-80, 80, 20), rng.uniform(-80, 80, 20), np.zeros(20)])
+    marks = np.column_stack([rng.uniform(-98, 98, 20), rng.uniform(-98, 98, 20), np.zeros(20)])
     control = np.column_stack([rng.uniform(-80, 80, 6), rng.uniform(-80, 80, 6), np.zeros(6)])
     for s in strips:
         t, theta = s.pulses()
@@ -215,7 +217,7 @@ def main():
         f.write("tie,strip,x,y\n")
         for i, m in enumerate(marks):
             for s in strips:
-                p = apparent(s, m, true_m, nominal_m) + np.append(rng.normal(0, 0.01, 2), 0.0)
+                p = apparent(s, m, true_m, nominal_m) + np.append(rng.normal(0, a.pick_sigma_m, 2), 0.0)
                 x, y, _ = ned0_to_utm(p)
                 if a.bad_pick and i == 0 and s.id == 2:
                     x, y = x + 1000.0, y + 1000.0
@@ -224,7 +226,7 @@ def main():
         f.write("id,x,y,z,sigma_h,sigma_v\n")
         for i, c in enumerate(control):
             x, y, h = ned0_to_utm(c)
-            z = float(h[0]) + rng.normal(0, 0.01)
+            z = float(h[0]) + rng.normal(0, a.pick_sigma_m)
             f.write(f"C{i + 1},{float(x[0]):.4f},{float(y[0]):.4f},{z:.4f},0.005,0.01\n")
     with open(os.path.join(a.out, "sensor.toml"), "w") as f:
         f.write("""[scanner]
