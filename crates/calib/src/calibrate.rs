@@ -462,9 +462,9 @@ struct WithPriors<M> {
 impl<M: LmModel> LmModel for WithPriors<M> {
     fn residuals(&self, x: &[f64; PARAM_COUNT]) -> Vec<f64> {
         let mut r = self.inner.residuals(x);
-        for i in 0..PARAM_COUNT {
-            if self.weight[i] > 0.0 {
-                r.push((x[i] - self.prior[i]) * self.weight[i]);
+        for ((xi, pi), wi) in x.iter().zip(&self.prior).zip(&self.weight) {
+            if *wi > 0.0 {
+                r.push((xi - pi) * wi);
             }
         }
         r

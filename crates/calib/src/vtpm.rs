@@ -208,6 +208,9 @@ pub(crate) type TieAt = (Vector3<f64>, Vec<Vector3<f64>>);
 /// 0.13 m); growing until the pick lies between two lines is the sampling's own answer.
 pub(crate) const MAX_WINDOW_GROWTH: f64 = 4.0;
 
+/// The coplanar points must be at least 1/this of the window's points.
+const MIN_COPLANAR_DENOMINATOR: usize = 3;
+
 /// Each growth step multiplies the window radius by this.
 const WINDOW_GROWTH_STEP: f64 = 1.5;
 
@@ -283,6 +286,15 @@ fn build_virtual_tie_within(
                 ))
             },
         )?;
+    // A "plane" through a small minority of the window is three random points, not the surface:
+    // the pick would be carried by noise.
+    if inliers.len() * MIN_COPLANAR_DENOMINATOR < pos.len() {
+        return Err(no_tri(format!(
+            "only {} of {} points within {radius_m:.2} m are coplanar",
+            inliers.len(),
+            pos.len()
+        )));
+    }
     let mut dt: DelaunayTriangulation<Vertex> = DelaunayTriangulation::new();
     for &i in &inliers {
         dt.insert(Vertex {
@@ -783,5 +795,102 @@ mod tests {
         assert!((v.at(&strips, &lowered, None).0.z + 0.4).abs() < 1e-12);
         // Too far from the surveyed centre: not observed.
         assert!(build_target_tie(&idx, 0, -3.5, -3.5, r, &g, &VtpmOptions::default()).is_none());
+    }
+
+    /// Flat ground sampled as a sawtooth scanner does: lines `line_m` apart along north, points
+    /// `point_m` apart along each line.
+    fn scan_lines(id: &str, line_m: f64, point_m: f64) -> Strip {
+        let mut points = Vec::new();
+        for i in -6..=6 {
+            for j in -40..=40 {
+                points.push(at(i as f64 * line_m, j as f64 * point_m, 0.0));
+            }
+        }
+        Strip {
+            id: id.into(),
+            points,
+        }
+    }
+
+    #[test]
+    fn the_window_grows_until_a_triangle_between_two_scan_lines_holds_the_pick() {
+        // Lines 1.36 m apart, points 0.13 m apart: a pick half-way between two lines has no
+        // point within 0.5 m; the window grows to reach both lines and a triangle holds it.
+        let strips = [scan_lines("1", 1.36, 0.13)];
+        let idx = Indexed::new(&strips, 0.5);
+        let g = Georeferencing::new(&Mounting::default());
+        let opts = VtpmOptions {
+            radius_m: 0.5,
+            ..VtpmOptions::default()
+        };
+        assert!(within(&idx.grids[0], &strips[0].points, 0.68, 0.05, 0.5).is_empty());
+        let v = build_virtual_tie(&idx, 0, "M01", 0.68, 0.05, &g, &opts, 1).unwrap();
+        assert_eq!(v.vertices.len(), 3);
+        assert!(v.coord.z.abs() < 1e-12);
+        let xs: Vec<f64> = v
+            .vertices
+            .iter()
+            .map(|&k| strips[0].points[k].position_m.x)
+            .collect();
+        assert!(xs.iter().any(|x| x.abs() < 1e-9) && xs.iter().any(|x| (x - 1.36).abs() < 1e-9));
+        // Beyond the growth limit: still an error for this one strip.
+        let far = VtpmOptions {
+            radius_m: 0.1,
+            ..VtpmOptions::default()
+        };
+        assert!(matches!(
+            build_virtual_tie(&idx, 0, "M01", 0.68, 0.05, &g, &far, 1),
+            Err(Error::TieOutsideStrip { .. })
+        ));
+    }
+
+    #[test]
+    fn a_pick_off_its_strip_is_dropped_and_listed_and_the_rest_of_the_tie_kept() {
+        let strips = [
+            scan_lines("1", 1.36, 0.13),
+            scan_lines("2", 1.36, 0.13),
+            scan_lines("3", 1.36, 0.13),
+        ];
+        let idx = Indexed::new(&strips, 1.0);
+        let pick = |strip: &str, n: f64, e: f64| TiePick {
+            strip: strip.into(),
+            north_m: n,
+            east_m: e,
+        };
+        let ties = [
+            Tie {
+                id: "M01".into(),
+                picks: vec![
+                    pick("1", 0.3, 0.2),
+                    pick("2", 1000.0, 0.2),
+                    pick("3", 0.3, 0.2),
+                ],
+                kind: TieKind::Feature,
+            },
+            Tie {
+                id: "M02".into(),
+                picks: vec![pick("1", 2.0, 1.0), pick("2", 2.0, 900.0)],
+                kind: TieKind::Feature,
+            },
+        ];
+        let model = build_tie_model(&idx, &ties, &[], &[0.0; 6], &VtpmOptions::default()).unwrap();
+        assert_eq!(model.ties.len(), 1);
+        assert_eq!(model.ties[0].virtuals.len(), 2);
+        let listed: Vec<(&str, &str)> = model
+            .dropped_picks
+            .iter()
+            .map(|d| (d.tie.as_str(), d.strip.as_str()))
+            .collect();
+        assert_eq!(listed, [("M01", "2"), ("M02", "2"), ("M02", "1")]);
+        assert!(
+            model.dropped_picks[0]
+                .reason
+                .contains("no point of the strip")
+        );
+        assert!(
+            model.dropped_picks[2]
+                .reason
+                .contains("other strips were dropped")
+        );
     }
 }
