@@ -57,7 +57,8 @@ pub struct CalibrationOptions {
     /// A-priori 1-σ of each parameter about the prior mounting (SI, [`Param::ALL`] order; `None`:
     /// no prior). A parameter with a prior enters the adjustment as one more observation
     /// `x − x_prior` with that σ: it is never held, a weakly determined one is shrunk toward the
-    /// prior with an honest σ, and it is "not observable" when the data barely reduce its σ.
+    /// prior with an honest σ, and it is "not observable" when the data alone would not determine
+    /// it within [`CalibrationOptions::max_sigma_lever_m`] / `max_sigma_angle_rad`.
     pub prior_sigma: [Option<f64>; PARAM_COUNT],
 }
 
@@ -474,10 +475,6 @@ impl<M: LmModel> LmModel for WithPriors<M> {
     }
 }
 
-/// A parameter whose posterior σ is above this fraction of its prior σ was not determined by the
-/// data (they reduced its σ by less than 5 %): reported not observable, at its prior-shrunk value.
-const PRIOR_RATIO_OBSERVABLE: f64 = 0.95;
-
 /// Solves, analyses observability at the solution, holds what is not determined or not separable
 /// and solves again, until every solved parameter is determined.
 ///
@@ -659,12 +656,23 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
             });
         let held: [bool; PARAM_COUNT] = std::array::from_fn(|i| !held_because[i].is_empty());
         for (i, q) in prior_ratio.iter().enumerate() {
-            if let Some(q) = q.filter(|q| *q > PRIOR_RATIO_OBSERVABLE) {
-                let p = Param::ALL[i];
+            let (Some(q), Some(sp)) = (*q, opts.prior_sigma[i]) else {
+                continue;
+            };
+            // What the data alone determine: 1/σ² = 1/σ_prior² + 1/σ_data².
+            let sigma_data = sp / (1.0 / (q * q) - 1.0).max(0.0).sqrt();
+            let p = Param::ALL[i];
+            if !(sigma_data <= opts.sigma_limit(p)) {
+                let unit = if p.is_angle() { "deg" } else { "m" };
                 held_because[i] = format!(
-                    "not observable: the data reduce its prior sigma {:.4} {} by {:.1} % only (value and sigma are the prior's)",
-                    p.to_display(opts.prior_sigma[i].unwrap_or(0.0)),
-                    if p.is_angle() { "deg" } else { "m" },
+                    "not observable: the data alone determine it to {} only (limit {:.4} {unit}); they reduce its prior sigma {:.4} {unit} by {:.1} %, so value and sigma are mostly the prior's",
+                    if sigma_data.is_finite() {
+                        format!("{:.4} {unit}", p.to_display(sigma_data))
+                    } else {
+                        "nothing".to_string()
+                    },
+                    p.to_display(opts.sigma_limit(p)),
+                    p.to_display(sp),
                     100.0 * (1.0 - q)
                 );
             }

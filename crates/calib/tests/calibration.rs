@@ -199,6 +199,43 @@ fn lever_x_correlated_with_pitch_is_solved_with_an_honest_sigma_not_held() {
 }
 
 #[test]
+fn a_prior_on_lever_z_without_control_is_kept_with_its_sigma_and_reported_not_observable() {
+    // Strip-to-strip ties flown level say nothing about lever z: with a prior (σ 0.05 m about 0)
+    // the estimate stays near the prior with about the prior's σ and is reported not observable
+    // (the data alone would not determine it within 0.05 m); nothing is held.
+    let (s, ties) = survey();
+    let opts = CalibrationOptions {
+        prior_sigma: [None, None, Some(0.05), None, None, None],
+        ..CalibrationOptions::default()
+    };
+    let cal = calibrate_vtpm(&s.strips, ties, &[], &Mounting::default(), &opts).unwrap();
+    assert!(
+        !cal.observable[2],
+        "{:?} {:?} {:?}",
+        cal.held_because, cal.sigma, cal.mounting
+    );
+    assert!(
+        cal.held_because[2].starts_with("not observable: the data alone determine it to"),
+        "{}",
+        cal.held_because[2]
+    );
+    let sz = cal.sigma[2].unwrap();
+    assert!(sz > 0.9 * 0.05 && sz <= 0.05 * 1.0001, "{sz}");
+    assert!(
+        cal.mounting.lever_arm_m.z.abs() < 0.1 * 0.05,
+        "{}",
+        cal.mounting.lever_arm_m.z
+    );
+    // Nothing is held: every other parameter is solved, with a σ.
+    assert!((0..6).all(|i| cal.sigma[i].is_some()));
+    assert!(cal.observable.iter().enumerate().all(|(i, o)| *o || i == 2));
+    let j = cal.to_json();
+    assert_eq!(j["prior_sigma"]["lever_z_m"], 0.05);
+    assert!(j["prior_sigma"]["lever_x_m"].is_null());
+    assert!(j["sigma_reduction_by_data"]["lever_z_m"].as_f64().unwrap() < 0.1);
+}
+
+#[test]
 fn convergence_record_converges() {
     let (s, ties) = survey();
     let cal = calibrate_vtpm(
