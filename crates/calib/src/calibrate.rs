@@ -662,7 +662,7 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
             // What the data alone determine: 1/σ² = 1/σ_prior² + 1/σ_data².
             let sigma_data = sp / (1.0 / (q * q) - 1.0).max(0.0).sqrt();
             let p = Param::ALL[i];
-            if !(sigma_data <= opts.sigma_limit(p)) {
+            if sigma_data.is_nan() || sigma_data > opts.sigma_limit(p) {
                 let unit = if p.is_angle() { "deg" } else { "m" };
                 held_because[i] = format!(
                     "not observable: the data alone determine it to {} only (limit {:.4} {unit}); they reduce its prior sigma {:.4} {unit} by {:.1} %, so value and sigma are mostly the prior's",
