@@ -4,9 +4,11 @@ use crate::error::{Error, Result};
 use crate::lm::{LmModel, LmOptions, Termination, jacobian, minimize};
 use crate::params::{PARAM_COUNT, Param, mounting_from_vector, mounting_to_vector};
 use crate::strip::{Strip, check_strips};
-use crate::vtpm::{ControlPoint, Indexed, Tie, TieModel, VtpmOptions, build_tie_model};
+use crate::vtpm::{
+    ControlPoint, DroppedPick, Indexed, Tie, TieModel, VtpmOptions, build_tie_model,
+};
 use crate::weighting::{TrajectorySensitivity, TrajectorySigma, Whitening};
-use lidarqa_model::Mounting;
+use lidarqa_model::{Mounting, Warning};
 use nalgebra::{DMatrix, Vector3};
 use serde_json::{Map, Value, json};
 
@@ -52,6 +54,12 @@ pub struct CalibrationOptions {
     /// Each strip's constant trajectory error (1-σ): when given, the VTPM adjustment weighs the
     /// ties by it (generalised least squares, [`TrajectorySigma`]) and the σ it reports include it.
     pub trajectory_sigma: Option<TrajectorySigma>,
+    /// A-priori 1-σ of each parameter about the prior mounting (SI, [`Param::ALL`] order; `None`:
+    /// no prior). A parameter with a prior enters the adjustment as one more observation
+    /// `x − x_prior` with that σ: it is never held, a weakly determined one is shrunk toward the
+    /// prior with an honest σ, and it is "not observable" when the data alone would not determine
+    /// it within [`CalibrationOptions::max_sigma_lever_m`] / `max_sigma_angle_rad`.
+    pub prior_sigma: [Option<f64>; PARAM_COUNT],
 }
 
 impl Default for CalibrationOptions {
@@ -60,11 +68,12 @@ impl Default for CalibrationOptions {
             vtpm: VtpmOptions::default(),
             lm: LmOptions::default(),
             solve: [true; PARAM_COUNT],
-            max_correlation: 0.95,
+            max_correlation: 0.999,
             max_sigma_lever_m: 0.05,
             max_sigma_angle_rad: 0.01f64.to_radians(),
             sigma_floor_m: 0.01,
             trajectory_sigma: None,
+            prior_sigma: [None; PARAM_COUNT],
         }
     }
 }
@@ -106,6 +115,9 @@ impl CalibrationOptions {
         pos("max_sigma_lever_m", self.max_sigma_lever_m)?;
         pos("max_sigma_angle_rad", self.max_sigma_angle_rad)?;
         pos("sigma_floor_m", self.sigma_floor_m)?;
+        for v in self.prior_sigma.iter().flatten() {
+            pos("prior_sigma", *v)?;
+        }
         pos("lever_step_m", self.lm.lever_step_m)?;
         pos("angle_step_rad", self.lm.angle_step_rad)?;
         if !(self.max_correlation > 0.0 && self.max_correlation <= 1.0) {
@@ -225,6 +237,12 @@ pub struct Calibration {
     pub skipped_control: Vec<String>,
     /// The per-strip trajectory σ the ties were weighted with, when they were.
     pub trajectory_sigma: Option<TrajectorySigma>,
+    /// The a-priori σ each parameter entered with (SI; `None`: no prior).
+    pub prior_sigma: [Option<f64>; PARAM_COUNT],
+    /// Picks no virtual tie could be formed from in their strip, left out (SPEC §8).
+    pub dropped_picks: Vec<DroppedPick>,
+    /// Doubtful findings about the inputs (one per dropped pick, ...), for the CLI to print.
+    pub warnings: Vec<Warning>,
 }
 
 fn enu(v: &Vector3<f64>) -> [f64; 3] {
@@ -265,6 +283,30 @@ impl Calibration {
                 "residual_after_m": t.residual_after_m,
             })).collect::<Vec<_>>(),
         });
+        if self.prior_sigma.iter().any(Option::is_some) {
+            doc["prior_sigma"] = param_map(|p| {
+                self.prior_sigma[p.index()].map_or(Value::Null, |s| json!(p.to_display(s)))
+            });
+            // 1 − posterior σ / prior σ: how much the data reduced each prior's σ.
+            doc["sigma_reduction_by_data"] =
+                param_map(
+                    |p| match (self.prior_sigma[p.index()], self.sigma[p.index()]) {
+                        (Some(sp), Some(s)) => json!(1.0 - s / sp),
+                        _ => Value::Null,
+                    },
+                );
+        }
+        if self.method == Method::Vtpm {
+            doc["dropped_picks"] = json!(
+                self.dropped_picks
+                    .iter()
+                    .map(
+                        |d| json!({"tie": d.tie, "strip": strip_json(&d.strip), "reason": d.reason})
+                    )
+                    .collect::<Vec<_>>()
+            );
+        }
+        doc["warnings"] = json!(self.warnings);
         // Beyond SPEC §8, only when it happened: control points no strip could triangulate.
         if !self.skipped_control.is_empty() {
             doc["skipped_control"] = json!(self.skipped_control);
@@ -405,17 +447,52 @@ pub(crate) struct Solved<M> {
     pub(crate) sigma0_m: f64,
     pub(crate) redundancy: usize,
     pub(crate) history: Vec<([f64; PARAM_COUNT], M)>,
+    /// Parameters held at the prior (never one with a prior σ).
+    pub(crate) held: [bool; PARAM_COUNT],
+}
+
+/// A model with prior observations appended: row `i` is `(x_i − x_prior_i) · weight_i`, where
+/// `weight_i = σ_obs / σ_prior_i` puts it on the scale of the model's own residuals.
+#[derive(Clone)]
+struct WithPriors<M> {
+    inner: M,
+    prior: [f64; PARAM_COUNT],
+    weight: [f64; PARAM_COUNT],
+}
+
+impl<M: LmModel> LmModel for WithPriors<M> {
+    fn residuals(&self, x: &[f64; PARAM_COUNT]) -> Vec<f64> {
+        let mut r = self.inner.residuals(x);
+        for ((xi, pi), wi) in x.iter().zip(&self.prior).zip(&self.weight) {
+            if *wi > 0.0 {
+                r.push((xi - pi) * wi);
+            }
+        }
+        r
+    }
+    fn accept(&mut self, x: &[f64; PARAM_COUNT]) {
+        self.inner.accept(x);
+    }
 }
 
 /// Solves, analyses observability at the solution, holds what is not determined or not separable
 /// and solves again, until every solved parameter is determined.
+///
+/// Parameters with a prior σ ([`CalibrationOptions::prior_sigma`]) are never held: their prior
+/// rows are scaled by `prior_scale_m`, the σ of one of the model's residuals (the tie noise the
+/// weighted model is whitened with), or, when `None`, by the σ0 of a first solve without priors.
 pub(crate) fn solve_with_observability<M: LmModel + Clone>(
     initial: &M,
     prior: [f64; PARAM_COUNT],
     observations: usize,
     opts: &CalibrationOptions,
     keep_history: bool,
+    prior_scale_m: Option<f64>,
 ) -> Result<Solved<M>> {
+    let has_prior: [bool; PARAM_COUNT] =
+        std::array::from_fn(|i| opts.solve[i] && opts.prior_sigma[i].is_some());
+    let any_prior = has_prior.iter().any(|b| *b);
+    let mut scale = prior_scale_m.filter(|_| any_prior);
     let mut held_because: [String; PARAM_COUNT] = Default::default();
     for p in Param::ALL {
         if !opts.solve[p.index()] {
@@ -437,26 +514,42 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
                 .collect();
             return Err(Error::NothingDetermined(reasons.join("; ")));
         }
-        if observations < free.len().max(1) {
+        let weight: [f64; PARAM_COUNT] =
+            std::array::from_fn(|i| match (scale, opts.prior_sigma[i]) {
+                (Some(s), Some(sp)) if has_prior[i] && held_because[i].is_empty() => s / sp,
+                _ => 0.0,
+            });
+        let prior_rows = weight.iter().filter(|w| **w > 0.0).count();
+        if observations + prior_rows < free.len().max(1) {
             return Err(Error::TooFewTies {
                 ties: 0,
                 observations,
                 unknowns: free.len(),
             });
         }
-        let mut model = initial.clone();
+        let mut model = WithPriors {
+            inner: initial.clone(),
+            prior,
+            weight,
+        };
         let mut history = Vec::new();
         let out = minimize(&mut model, prior, &free, &opts.lm, |_, x, m| {
             if keep_history {
-                history.push((*x, m.clone()));
+                history.push((*x, m.inner.clone()));
             }
         });
         if !out.x.iter().all(|v| v.is_finite()) {
             return Err(Error::Diverged(format!("parameters {:?}", out.x)));
         }
         let r = model.residuals(&out.x);
-        let redundancy = observations.saturating_sub(free.len());
+        let redundancy = (observations + prior_rows).saturating_sub(free.len());
         let sigma0 = (r.iter().map(|v| v * v).sum::<f64>() / redundancy.max(1) as f64).sqrt();
+        if any_prior && scale.is_none() {
+            // The priors' scale: the observation σ of a first solve on the data alone.
+            scale = Some(sigma0.max(MIN_TIE_SIGMA_M));
+            decision_sigma0 = Some(sigma0);
+            continue;
+        }
         let j = jacobian(&model, &out.x, &free, &opts.lm, r.len());
         let n = j.transpose() * &j;
         let e = n.clone().symmetric_eigen();
@@ -483,6 +576,9 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
         // again: with a near-null one held (lever z without control), the others' σ shrink.
         let mut worst_sigma: Option<(usize, f64, f64)> = None;
         for (c, &i) in free.iter().enumerate() {
+            if has_prior[i] {
+                continue;
+            }
             let p = Param::ALL[i];
             let s = if null_weight[c] > 1e-6 {
                 f64::INFINITY
@@ -515,7 +611,9 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
         for a in 0..k {
             for b in a + 1..k {
                 let rho = inv[(a, b)] / (inv[(a, a)] * inv[(b, b)]).sqrt();
-                if rho.abs() > opts.max_correlation
+                if !has_prior[free[a]]
+                    && !has_prior[free[b]]
+                    && rho.abs() > opts.max_correlation
                     && worst.is_none_or(|(_, _, w)| rho.abs() > w.abs())
                 {
                     worst = Some((a, b, rho));
@@ -551,10 +649,39 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
                 });
             }
         }
+        let prior_ratio: [Option<f64>; PARAM_COUNT] =
+            std::array::from_fn(|i| match (sigma[i], opts.prior_sigma[i]) {
+                (Some(s), Some(sp)) if has_prior[i] => Some(s / sp),
+                _ => None,
+            });
+        let held: [bool; PARAM_COUNT] = std::array::from_fn(|i| !held_because[i].is_empty());
+        for (i, q) in prior_ratio.iter().enumerate() {
+            let (Some(q), Some(sp)) = (*q, opts.prior_sigma[i]) else {
+                continue;
+            };
+            // What the data alone determine: 1/σ² = 1/σ_prior² + 1/σ_data².
+            let sigma_data = sp / (1.0 / (q * q) - 1.0).max(0.0).sqrt();
+            let p = Param::ALL[i];
+            if sigma_data.is_nan() || sigma_data > opts.sigma_limit(p) {
+                let unit = if p.is_angle() { "deg" } else { "m" };
+                held_because[i] = format!(
+                    "not observable: the data alone determine it to {} only (limit {:.4} {unit}); they reduce its prior sigma {:.4} {unit} by {:.1} %, so value and sigma are mostly the prior's",
+                    if sigma_data.is_finite() {
+                        format!("{:.4} {unit}", p.to_display(sigma_data))
+                    } else {
+                        "nothing".to_string()
+                    },
+                    p.to_display(opts.sigma_limit(p)),
+                    p.to_display(sp),
+                    100.0 * (1.0 - q)
+                );
+            }
+        }
         let observable = std::array::from_fn(|i| held_because[i].is_empty());
         return Ok(Solved {
+            held,
             x: out.x,
-            model,
+            model: model.inner,
             iterations: out.iterations,
             termination: out.termination,
             sigma,
@@ -661,6 +788,19 @@ pub fn calibrate_vtpm(
     let x0 = mounting_to_vector(prior);
     let idx = Indexed::new(strips, options.vtpm.radius_m.max(0.5));
     let mut model = build_tie_model(&idx, ties, control, &x0, &options.vtpm)?;
+    let warnings: Vec<Warning> = model
+        .dropped_picks
+        .iter()
+        .map(|d| {
+            Warning::new(
+                "tie_pick_dropped",
+                format!(
+                    "tie {}: the pick in strip {} is left out: {}",
+                    d.tie, d.strip, d.reason
+                ),
+            )
+        })
+        .collect();
     screen_outlier_ties(strips, &mut model, x0, options);
     let observations = model.observations();
     let unknowns = options.solve.iter().filter(|s| **s).count();
@@ -677,16 +817,17 @@ pub fn calibrate_vtpm(
         whitening: None,
     };
     let solved = match &options.trajectory_sigma {
-        None => solve_with_observability(&problem, x0, observations, options, true)?,
+        None => solve_with_observability(&problem, x0, observations, options, true, None)?,
         Some(ts) => {
             // What is determined is decided on the unweighted fit, by the same rules as without
             // the weighting (its σ0 holds the trajectory's share, so this is the cautious
             // choice); the weighted solves then free exactly those parameters and report σ that
             // include the trajectory. A parameter the weighting alone would call determined is
             // not trusted: the weighting models the trajectory, not a tie's systematic error.
-            let geometry = solve_with_observability(&problem, x0, observations, options, false)?;
+            let geometry =
+                solve_with_observability(&problem, x0, observations, options, false, None)?;
             let weighted = CalibrationOptions {
-                solve: geometry.observable,
+                solve: geometry.held.map(|h| !h),
                 ..options.holding_nothing()
             };
             let not_finite = || Error::Diverged("the trajectory weighting is not finite".into());
@@ -703,7 +844,14 @@ pub fn calibrate_vtpm(
             let mut pass = 1;
             let mut solved = loop {
                 problem.whitening = Some(whitening(tie_sigma_m)?);
-                let fit = solve_with_observability(&problem, x0, observations, &weighted, true)?;
+                let fit = solve_with_observability(
+                    &problem,
+                    x0,
+                    observations,
+                    &weighted,
+                    true,
+                    Some(tie_sigma_m),
+                )?;
                 let sigma0 = fit.sigma0_m.max(MIN_TIE_SIGMA_M);
                 if (sigma0 - tie_sigma_m).abs() <= NOISE_AGREEMENT * tie_sigma_m
                     || pass == MAX_NOISE_PASSES
@@ -713,8 +861,14 @@ pub fn calibrate_vtpm(
                 tie_sigma_m = sigma0;
                 pass += 1;
             };
-            solved.observable = geometry.observable;
-            solved.held_because = geometry.held_because;
+            // Holds are decided on the unweighted fit; what the data add to a prior, on the
+            // weighted one (its σ include the trajectory).
+            for i in 0..PARAM_COUNT {
+                if geometry.held[i] {
+                    solved.observable[i] = false;
+                    solved.held_because[i] = geometry.held_because[i].clone();
+                }
+            }
             solved
         }
     };
@@ -744,6 +898,9 @@ pub fn calibrate_vtpm(
         history,
         skipped_control: model.skipped_control.clone(),
         trajectory_sigma: options.trajectory_sigma,
+        prior_sigma: std::array::from_fn(|i| options.prior_sigma[i].filter(|_| options.solve[i])),
+        dropped_picks: model.dropped_picks.clone(),
+        warnings,
     })
 }
 
@@ -772,7 +929,7 @@ fn screen_outlier_ties(
             whitening: None,
         };
         let Ok(solved) =
-            solve_with_observability(&problem, x0, model.observations(), &screening, false)
+            solve_with_observability(&problem, x0, model.observations(), &screening, false, None)
         else {
             return;
         };

@@ -71,6 +71,7 @@ pub use params::{PARAM_COUNT, Param, mounting_from_vector, mounting_to_vector};
 pub use plane::{PlaneOptions, calibrate_plane, check_plane_rms};
 pub use strip::{Georeferencing, LocalFrame, RawPoint, Strip, correct_strip, georeference};
 pub use vtpm::{
-    ControlPoint, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Tie, TieKind, TiePick, VtpmOptions,
+    ControlPoint, DroppedPick, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Tie, TieKind, TiePick,
+    VtpmOptions,
 };
 pub use weighting::TrajectorySigma;

@@ -200,7 +200,7 @@ pub fn calibrate_plane(
     opts.solve = [false, false, false, true, true, true];
     let x0 = mounting_to_vector(prior);
     let problem = PlaneProblem { strips, patches };
-    let solved = solve_with_observability(&problem, x0, observations, &opts, false)?;
+    let solved = solve_with_observability(&problem, x0, observations, &opts, false, None)?;
     let before = problem.distances(&x0);
     let after = problem.distances(&solved.x);
     let ties = problem
@@ -236,6 +236,9 @@ pub fn calibrate_plane(
         history: Vec::new(),
         skipped_control: Vec::new(),
         trajectory_sigma: None,
+        prior_sigma: std::array::from_fn(|i| opts.prior_sigma[i].filter(|_| opts.solve[i])),
+        dropped_picks: Vec::new(),
+        warnings: Vec::new(),
     })
 }
 

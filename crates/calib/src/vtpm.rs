@@ -216,8 +216,25 @@ impl<'a> Indexed<'a> {
 /// A tie coordinate and its triangle, local NED.
 pub(crate) type TieAt = (Vector3<f64>, Vec<Vector3<f64>>);
 
+/// How far a VTPM window may grow around a pick no coplanar triangle holds, as a multiple of
+/// [`VtpmOptions::radius_m`]: the radius that holds ~20 points on average may hold one scan line
+/// only where lines are far apart and points along them close (a sawtooth scanner at 1.36 m by
+/// 0.13 m); growing until the pick lies between two lines is the sampling's own answer.
+pub(crate) const MAX_WINDOW_GROWTH: f64 = 4.0;
+
+/// The coplanar points must be at least 1/this of the window's points.
+const MIN_COPLANAR_DENOMINATOR: usize = 3;
+
+/// Each growth step multiplies the window radius by this.
+const WINDOW_GROWTH_STEP: f64 = 1.5;
+
 /// Builds the virtual tie of `tie_id` in strip `s` at the pick (x, y) with the mounting `g`
 /// (seed 001 step 2, then rule 1 for the initial height).
+///
+/// The window starts at [`VtpmOptions::radius_m`] and grows by [`WINDOW_GROWTH_STEP`] (up to
+/// [`MAX_WINDOW_GROWTH`] times) while RANSAC finds no plane or no Delaunay triangle of the
+/// coplanar points holds the pick: the window follows the strip's sampling, however anisotropic,
+/// and stays as small as the sampling allows (rule 2's rigid motion is best on a small patch).
 #[allow(clippy::too_many_arguments)] // internal; each argument is a distinct input
 pub(crate) fn build_virtual_tie(
     idx: &Indexed<'_>,
@@ -229,13 +246,41 @@ pub(crate) fn build_virtual_tie(
     opts: &VtpmOptions,
     seed: u64,
 ) -> Result<VirtualTie> {
+    let mut radius_m = opts.radius_m;
+    loop {
+        let out = build_virtual_tie_within(idx, s, tie_id, x, y, g, opts, seed, radius_m);
+        let grown = radius_m * WINDOW_GROWTH_STEP;
+        match out {
+            Err(Error::NoCoplanarTriangle { .. }) | Err(Error::TieOutsideStrip { .. })
+                if grown <= MAX_WINDOW_GROWTH * opts.radius_m * (1.0 + 1e-9) =>
+            {
+                radius_m = grown;
+            }
+            _ => return out,
+        }
+    }
+}
+
+/// [`build_virtual_tie`] with one window radius.
+#[allow(clippy::too_many_arguments)] // internal; each argument is a distinct input
+fn build_virtual_tie_within(
+    idx: &Indexed<'_>,
+    s: usize,
+    tie_id: &str,
+    x: f64,
+    y: f64,
+    g: &Georeferencing,
+    opts: &VtpmOptions,
+    seed: u64,
+    radius_m: f64,
+) -> Result<VirtualTie> {
     let strip = &idx.strips[s];
-    let near = within(&idx.grids[s], &strip.points, x, y, opts.radius_m);
+    let near = within(&idx.grids[s], &strip.points, x, y, radius_m);
     if near.is_empty() {
         return Err(Error::TieOutsideStrip {
             tie: tie_id.to_string(),
             strip: strip.id.clone(),
-            radius_m: opts.radius_m,
+            radius_m,
             north_m: x,
             east_m: y,
         });
@@ -250,12 +295,20 @@ pub(crate) fn build_virtual_tie(
         ransac_plane(&pos, opts.ransac_threshold_m, opts.ransac_iterations, seed).ok_or_else(
             || {
                 no_tri(format!(
-                    "ransac found no plane among {} points within {} m",
+                    "ransac found no plane among {} points within {radius_m:.2} m",
                     pos.len(),
-                    opts.radius_m
                 ))
             },
         )?;
+    // A "plane" through a small minority of the window is three random points, not the surface:
+    // the pick would be carried by noise.
+    if inliers.len() * MIN_COPLANAR_DENOMINATOR < pos.len() {
+        return Err(no_tri(format!(
+            "only {} of {} points within {radius_m:.2} m are coplanar",
+            inliers.len(),
+            pos.len()
+        )));
+    }
     let mut dt: DelaunayTriangulation<Vertex> = DelaunayTriangulation::new();
     for &i in &inliers {
         dt.insert(Vertex {
@@ -285,7 +338,7 @@ pub(crate) fn build_virtual_tie(
     }
     .ok_or_else(|| {
         no_tri(format!(
-            "the pick is outside the {} coplanar points",
+            "the pick is outside the {} coplanar points within {radius_m:.2} m",
             inliers.len()
         ))
     })?;
@@ -433,10 +486,25 @@ impl TieSpec {
     }
 }
 
+/// A pick left out of the adjustment because no virtual tie could be formed from it in its strip
+/// (SPEC §8 `dropped_picks`); the rest of the tie still counts when two strips (or one and a
+/// control point) remain.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DroppedPick {
+    /// The tie's id.
+    pub tie: String,
+    /// The strip's id.
+    pub strip: String,
+    /// Why, lowercase.
+    pub reason: String,
+}
+
 /// The tie set as the adjustment sees it (seed 001 steps 4–6).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct TieModel {
     pub(crate) ties: Vec<TieSpec>,
+    /// Picks no virtual tie could be formed from, in input order.
+    pub(crate) dropped_picks: Vec<DroppedPick>,
     /// Control points inside the strips that no strip could triangulate (a target seen by a scan
     /// line or two only): left out of the adjustment and reported.
     pub(crate) skipped_control: Vec<String>,
@@ -533,6 +601,7 @@ pub(crate) fn build_tie_model(
     let g = Georeferencing::new(&mounting_from_vector(prior));
     let axes = vec![Vector3::x(), Vector3::y(), Vector3::z()];
     let mut out = Vec::new();
+    let mut dropped = Vec::new();
     for (ti, tie) in ties.iter().enumerate() {
         if ties[..ti].iter().any(|o| o.id == tie.id) {
             return Err(Error::InvalidTie {
@@ -554,13 +623,13 @@ pub(crate) fn build_tie_model(
                     tie: tie.id.clone(),
                     strip: pick.strip.clone(),
                 })?;
-            if virtuals.iter().any(|v: &VirtualTie| v.strip == s) {
+            if tie.picks[..pi].iter().any(|o| o.strip == pick.strip) {
                 return Err(Error::InvalidTie {
                     tie: tie.id.clone(),
                     message: format!("picked twice in strip {}", pick.strip),
                 });
             }
-            virtuals.push(build_virtual_tie(
+            match build_virtual_tie(
                 idx,
                 s,
                 &tie.id,
@@ -569,17 +638,41 @@ pub(crate) fn build_tie_model(
                 &g,
                 opts,
                 mix_seed(opts.seed, ti, pi),
-            )?);
+            ) {
+                Ok(v) => virtuals.push(v),
+                Err(Error::NoCoplanarTriangle { reason, .. }) => dropped.push(DroppedPick {
+                    tie: tie.id.clone(),
+                    strip: pick.strip.clone(),
+                    reason: format!("no coplanar triangle around the pick: {reason}"),
+                }),
+                Err(Error::TieOutsideStrip { radius_m, .. }) => dropped.push(DroppedPick {
+                    tie: tie.id.clone(),
+                    strip: pick.strip.clone(),
+                    reason: format!("no point of the strip within {radius_m:.2} m of the pick"),
+                }),
+                Err(e) => return Err(e),
+            }
         }
         let c = control.iter().find(|c| c.id == tie.id);
-        if virtuals.len() < 2 && c.is_none() {
+        if tie.picks.len() < 2 && c.is_none() {
             return Err(Error::InvalidTie {
                 tie: tie.id.clone(),
                 message: format!(
                     "picked in {} strip(s); a tie needs at least 2",
-                    virtuals.len()
+                    tie.picks.len()
                 ),
             });
+        }
+        if virtuals.is_empty() || (virtuals.len() < 2 && c.is_none()) {
+            // What is left observes nothing: the remaining pick goes too, and says why.
+            for v in &virtuals {
+                dropped.push(DroppedPick {
+                    tie: tie.id.clone(),
+                    strip: idx.strips[v.strip].id.clone(),
+                    reason: "the tie's picks in the other strips were dropped".into(),
+                });
+            }
+            continue;
         }
         let directions = match tie.kind {
             TieKind::Feature => axes.clone(),
@@ -658,6 +751,7 @@ pub(crate) fn build_tie_model(
     }
     Ok(TieModel {
         ties: out,
+        dropped_picks: dropped,
         skipped_control,
     })
 }
@@ -715,5 +809,102 @@ mod tests {
         assert!((v.at(&strips, &lowered, None).0.z + 0.4).abs() < 1e-12);
         // Too far from the surveyed centre: not observed.
         assert!(build_target_tie(&idx, 0, -3.5, -3.5, r, &g, &VtpmOptions::default()).is_none());
+    }
+
+    /// Flat ground sampled as a sawtooth scanner does: lines `line_m` apart along north, points
+    /// `point_m` apart along each line.
+    fn scan_lines(id: &str, line_m: f64, point_m: f64) -> Strip {
+        let mut points = Vec::new();
+        for i in -6..=6 {
+            for j in -40..=40 {
+                points.push(at(i as f64 * line_m, j as f64 * point_m, 0.0));
+            }
+        }
+        Strip {
+            id: id.into(),
+            points,
+        }
+    }
+
+    #[test]
+    fn the_window_grows_until_a_triangle_between_two_scan_lines_holds_the_pick() {
+        // Lines 1.36 m apart, points 0.13 m apart: a pick half-way between two lines has no
+        // point within 0.5 m; the window grows to reach both lines and a triangle holds it.
+        let strips = [scan_lines("1", 1.36, 0.13)];
+        let idx = Indexed::new(&strips, 0.5);
+        let g = Georeferencing::new(&Mounting::default());
+        let opts = VtpmOptions {
+            radius_m: 0.5,
+            ..VtpmOptions::default()
+        };
+        assert!(within(&idx.grids[0], &strips[0].points, 0.68, 0.05, 0.5).is_empty());
+        let v = build_virtual_tie(&idx, 0, "M01", 0.68, 0.05, &g, &opts, 1).unwrap();
+        assert_eq!(v.vertices.len(), 3);
+        assert!(v.coord.z.abs() < 1e-12);
+        let xs: Vec<f64> = v
+            .vertices
+            .iter()
+            .map(|&k| strips[0].points[k].position_m.x)
+            .collect();
+        assert!(xs.iter().any(|x| x.abs() < 1e-9) && xs.iter().any(|x| (x - 1.36).abs() < 1e-9));
+        // Beyond the growth limit: still an error for this one strip.
+        let far = VtpmOptions {
+            radius_m: 0.1,
+            ..VtpmOptions::default()
+        };
+        assert!(matches!(
+            build_virtual_tie(&idx, 0, "M01", 0.68, 0.05, &g, &far, 1),
+            Err(Error::TieOutsideStrip { .. })
+        ));
+    }
+
+    #[test]
+    fn a_pick_off_its_strip_is_dropped_and_listed_and_the_rest_of_the_tie_kept() {
+        let strips = [
+            scan_lines("1", 1.36, 0.13),
+            scan_lines("2", 1.36, 0.13),
+            scan_lines("3", 1.36, 0.13),
+        ];
+        let idx = Indexed::new(&strips, 1.0);
+        let pick = |strip: &str, n: f64, e: f64| TiePick {
+            strip: strip.into(),
+            north_m: n,
+            east_m: e,
+        };
+        let ties = [
+            Tie {
+                id: "M01".into(),
+                picks: vec![
+                    pick("1", 0.3, 0.2),
+                    pick("2", 1000.0, 0.2),
+                    pick("3", 0.3, 0.2),
+                ],
+                kind: TieKind::Feature,
+            },
+            Tie {
+                id: "M02".into(),
+                picks: vec![pick("1", 2.0, 1.0), pick("2", 2.0, 900.0)],
+                kind: TieKind::Feature,
+            },
+        ];
+        let model = build_tie_model(&idx, &ties, &[], &[0.0; 6], &VtpmOptions::default()).unwrap();
+        assert_eq!(model.ties.len(), 1);
+        assert_eq!(model.ties[0].virtuals.len(), 2);
+        let listed: Vec<(&str, &str)> = model
+            .dropped_picks
+            .iter()
+            .map(|d| (d.tie.as_str(), d.strip.as_str()))
+            .collect();
+        assert_eq!(listed, [("M01", "2"), ("M02", "2"), ("M02", "1")]);
+        assert!(
+            model.dropped_picks[0]
+                .reason
+                .contains("no point of the strip")
+        );
+        assert!(
+            model.dropped_picks[2]
+                .reason
+                .contains("other strips were dropped")
+        );
     }
 }

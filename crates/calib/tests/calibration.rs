@@ -136,7 +136,10 @@ fn vtpm_with_control_recovers_lever_z() {
 }
 
 #[test]
-fn heights_too_close_make_lever_x_inseparable_from_pitch() {
+fn lever_x_correlated_with_pitch_is_solved_with_an_honest_sigma_not_held() {
+    // Issue #19: at 300/500 m lever x and pitch correlate at about −0.98. That is no reason to
+    // hold lever x at a wrong prior (its 0.05 m would go into pitch); solved, both come out within
+    // 3 of their own σ, and their σ show the correlation's cost.
     let s = simulate(
         &Scene::new(60.0),
         &lines(300.0, 500.0),
@@ -146,22 +149,90 @@ fn heights_too_close_make_lever_x_inseparable_from_pitch() {
         4,
     );
     let ties = s.hand_ties(0.01, 5);
+    // With control, so that no held lever z (0.2 m off) leaks into lever x through the pitch.
+    let control = s.control_for(&ties, 4);
     let cal = calibrate_vtpm(
         &s.strips,
         &ties,
-        &[],
+        &control,
         &Mounting::default(),
         &CalibrationOptions::default(),
     )
     .unwrap();
-    // lever_x is held at the prior, with the reason; no silent number.
-    assert!(!cal.observable[0], "{:?}", cal.held_because);
+    assert!(cal.observable.iter().all(|o| *o), "{:?}", cal.held_because);
+    let rho = cal.correlation[0][4].unwrap();
+    assert!(rho.abs() > 0.9, "lever x / pitch correlation {rho}");
+    let e = errors(&cal, &s.truth);
+    for k in [0, 4] {
+        let sigma = cal.sigma[k].unwrap();
+        assert!(
+            e[k].abs() < 3.0 * sigma,
+            "parameter {k}: error {} sigma {sigma}",
+            e[k]
+        );
+    }
+    // A prior on lever x (σ 0.1 m about 0) leaves it determined by the data: its σ falls well
+    // below the prior's and the JSON says by how much.
+    let with_prior = CalibrationOptions {
+        prior_sigma: [Some(0.1), None, None, None, None, None],
+        ..CalibrationOptions::default()
+    };
+    let cal = calibrate_vtpm(
+        &s.strips,
+        &ties,
+        &control,
+        &Mounting::default(),
+        &with_prior,
+    )
+    .unwrap();
+    let j = cal.to_json();
+    assert_eq!(j["prior_sigma"]["lever_x_m"], 0.1);
+    let reduction = j["sigma_reduction_by_data"]["lever_x_m"].as_f64().unwrap();
+    assert!(reduction > 0.5 && cal.observable[0], "{reduction}");
+    let e = errors(&cal, &s.truth);
     assert!(
-        cal.held_because[0].contains("boresight_pitch_deg"),
-        "{}",
-        cal.held_because[0]
+        e[0].abs() < 3.0 * cal.sigma[0].unwrap(),
+        "{} {:?}",
+        e[0],
+        cal.sigma[0]
     );
-    assert!(cal.to_json()["sigma"]["lever_x_m"].is_null());
+}
+
+#[test]
+fn a_prior_on_lever_z_without_control_is_kept_with_its_sigma_and_reported_not_observable() {
+    // Strip-to-strip ties flown level say nothing about lever z: with a prior (σ 0.05 m about 0)
+    // the estimate stays near the prior with about the prior's σ and is reported not observable
+    // (the data alone would not determine it within 0.05 m); nothing is held.
+    let (s, ties) = survey();
+    let opts = CalibrationOptions {
+        prior_sigma: [None, None, Some(0.05), None, None, None],
+        ..CalibrationOptions::default()
+    };
+    let cal = calibrate_vtpm(&s.strips, ties, &[], &Mounting::default(), &opts).unwrap();
+    assert!(
+        !cal.observable[2],
+        "{:?} {:?} {:?}",
+        cal.held_because, cal.sigma, cal.mounting
+    );
+    assert!(
+        cal.held_because[2].starts_with("not observable: the data alone determine it to"),
+        "{}",
+        cal.held_because[2]
+    );
+    let sz = cal.sigma[2].unwrap();
+    assert!(sz > 0.9 * 0.05 && sz <= 0.05 * 1.0001, "{sz}");
+    assert!(
+        cal.mounting.lever_arm_m.z.abs() < 0.1 * 0.05,
+        "{}",
+        cal.mounting.lever_arm_m.z
+    );
+    // Nothing is held: every other parameter is solved, with a σ.
+    assert!((0..6).all(|i| cal.sigma[i].is_some()));
+    assert!(cal.observable.iter().enumerate().all(|(i, o)| *o || i == 2));
+    let j = cal.to_json();
+    assert_eq!(j["prior_sigma"]["lever_z_m"], 0.05);
+    assert!(j["prior_sigma"]["lever_x_m"].is_null());
+    assert!(j["sigma_reduction_by_data"]["lever_z_m"].as_f64().unwrap() < 0.1);
 }
 
 #[test]
@@ -222,7 +293,9 @@ fn calibration_json_has_exactly_the_spec_keys() {
             "correlation",
             "observable",
             "iterations",
-            "ties"
+            "ties",
+            "dropped_picks",
+            "warnings"
         ]
     );
     let pk: Vec<&str> = j["parameters"]

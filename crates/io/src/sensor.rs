@@ -26,6 +26,20 @@ struct SensorFile {
     #[serde(default)]
     sigma: BTreeMap<String, f64>,
     covariance: Option<CovarianceSection>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    mounting_sigma: Option<MountingSigmaSection>,
+}
+
+/// `[mounting_sigma]`: how well the nominal mounting is known before calibration.
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct MountingSigmaSection {
+    lever_x_m: Option<f64>,
+    lever_y_m: Option<f64>,
+    lever_z_m: Option<f64>,
+    boresight_roll_deg: Option<f64>,
+    boresight_pitch_deg: Option<f64>,
+    boresight_yaw_deg: Option<f64>,
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -51,6 +65,11 @@ pub struct SensorExtras {
     /// `[scanner] beam_divergence_mrad`, converted to radians: the full beam divergence γ.
     /// `None` when the key is absent.
     pub beam_divergence_rad: Option<f64>,
+    /// `[mounting_sigma]`: the a-priori 1-σ of the nominal mounting that calibration takes as
+    /// prior observations, SI, in the order lever x, y, z (m), boresight roll, pitch, yaw (rad);
+    /// `None` for a key that is absent (no prior on that parameter). Kept apart from `[sigma]`,
+    /// whose mounting keys are the TPU's σ of a mounting already calibrated.
+    pub mounting_sigma: [Option<f64>; 6],
 }
 
 /// Read and check a sensor file, with the settings outside the model ([`SensorExtras`]).
@@ -75,10 +94,43 @@ pub fn parse_sensor_with_extras(text: &str, path: &Path) -> Result<(Sensor, Sens
     let file: SensorFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
     // Checked by `parse_sensor`, the one validation every command's sensor goes through.
     let beam_divergence_rad = file.scanner.beam_divergence_mrad.map(|v| v * 1e-3);
+    let mut mounting_sigma = [None; 6];
+    if let Some(m) = &file.mounting_sigma {
+        let keys = [
+            ("lever_x_m", m.lever_x_m, 1.0),
+            ("lever_y_m", m.lever_y_m, 1.0),
+            ("lever_z_m", m.lever_z_m, 1.0),
+            (
+                "boresight_roll_deg",
+                m.boresight_roll_deg,
+                1f64.to_radians(),
+            ),
+            (
+                "boresight_pitch_deg",
+                m.boresight_pitch_deg,
+                1f64.to_radians(),
+            ),
+            ("boresight_yaw_deg", m.boresight_yaw_deg, 1f64.to_radians()),
+        ];
+        for (slot, (key, v, to_si)) in mounting_sigma.iter_mut().zip(keys) {
+            match v {
+                None => {}
+                Some(v) if v.is_finite() && v > 0.0 => *slot = Some(v * to_si),
+                Some(v) => {
+                    return Err(config_error(
+                        path,
+                        Some(&format!("mounting_sigma.{key}")),
+                        format!("must be a finite number > 0 (omit the key for no prior), got {v}"),
+                    ));
+                }
+            }
+        }
+    }
     Ok((
         sensor,
         SensorExtras {
             beam_divergence_rad,
+            mounting_sigma,
         },
     ))
 }

@@ -1120,6 +1120,53 @@ fn calibration_section(
                     c.ties.len()
                 );
             }
+            // The same residuals as a plot, per tie (the largest before first).
+            let length_cm = |r: Option<[f64; 3]>| {
+                r.map_or(f64::NAN, |r| {
+                    100.0 * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt()
+                })
+            };
+            let mut order: Vec<&crate::products::CalibrationTie> = c.ties.iter().collect();
+            order.sort_by(|a, b| {
+                length_cm(b.residual_before_m).total_cmp(&length_cm(a.residual_before_m))
+            });
+            order.truncate(MAX);
+            let names: Vec<String> = order.iter().map(|t| t.id.0.clone()).collect();
+            o.push_str(&plot::hbars(
+                "plot-tie-residuals",
+                "Tie residuals before and after the calibration, per tie",
+                "length of the x/y/z residual (cm)",
+                &names,
+                &[
+                    (
+                        "before",
+                        order
+                            .iter()
+                            .map(|t| length_cm(t.residual_before_m))
+                            .collect(),
+                    ),
+                    (
+                        "after",
+                        order
+                            .iter()
+                            .map(|t| length_cm(t.residual_after_m))
+                            .collect(),
+                    ),
+                ],
+            ));
+        }
+        if !c.dropped_picks.is_empty() {
+            o.push_str("<table id=\"dropped-picks\"><caption>Picks left out: no virtual tie could be formed in that strip</caption><thead><tr><th class=\"text\">tie</th><th class=\"text\">strip</th><th class=\"text\">why</th></tr></thead><tbody>\n");
+            for d in &c.dropped_picks {
+                let _ = writeln!(
+                    o,
+                    "<tr><td class=\"text\">{}</td><td class=\"text\">{}</td><td class=\"text\">{}</td></tr>",
+                    esc(&d.tie.0),
+                    esc(&d.strip.0),
+                    esc(&d.reason)
+                );
+            }
+            o.push_str("</tbody></table>\n");
         }
         let unobs: Vec<String> = c
             .parameters
@@ -1338,13 +1385,27 @@ fn overlap_section(before: Option<&Overlap>, after: Option<&Overlap>) -> String 
         .filter_map(|(n, r)| r.profile.as_ref().map(|p| (*n, p)))
         .collect();
     if !profs.is_empty() {
+        // Each strip's height minus the mean of the strips at that distance, cm: centimetre
+        // differences vanish in a plot of heights in metres.
+        let dz_cm = |p: &Profile, s: &crate::products::ProfileStrip| -> Vec<Option<f64>> {
+            (0..p.distance_m.len())
+                .map(|k| {
+                    let here: Vec<f64> = p
+                        .strips
+                        .iter()
+                        .filter_map(|o| o.z_m.get(k).copied().flatten())
+                        .collect();
+                    let z = s.z_m.get(k).copied().flatten()?;
+                    (here.len() >= 2)
+                        .then(|| 100.0 * (z - here.iter().sum::<f64>() / here.len() as f64))
+                })
+                .collect()
+        };
         let yr = plot::span(
-            profs.iter().flat_map(|(_, p)| {
-                p.strips
-                    .iter()
-                    .flat_map(|s| s.z_m.iter().flatten().copied())
-            }),
-            false,
+            profs
+                .iter()
+                .flat_map(|(_, p)| p.strips.iter().flat_map(|s| dz_cm(p, s)).flatten()),
+            true,
             0.08,
         );
         for (n, p) in &profs {
@@ -1355,12 +1416,7 @@ fn overlap_section(before: Option<&Overlap>, after: Option<&Overlap>) -> String 
                 .map(|(i, s)| Line {
                     name: format!("strip {}", s.id),
                     color: i,
-                    points: p
-                        .distance_m
-                        .iter()
-                        .copied()
-                        .zip(s.z_m.iter().copied())
-                        .collect(),
+                    points: p.distance_m.iter().copied().zip(dz_cm(p, s)).collect(),
                     dashed: false,
                     markers: false,
                 })
@@ -1372,9 +1428,9 @@ fn overlap_section(before: Option<&Overlap>, after: Option<&Overlap>) -> String 
             };
             o.push_str(&plot::lines(
                 &format!("plot-profile-{slug}"),
-                &format!("Height profile across the overlapping strips, {n}"),
+                &format!("Height differences between the overlapping strips along a profile, {n}"),
                 "distance along the profile (m)",
-                "height (m)",
+                "height − mean of the strips there (cm)",
                 &lines,
                 Some(yr),
                 false,

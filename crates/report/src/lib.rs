@@ -48,8 +48,8 @@ pub use error::{Error, Result};
 pub use products::{
     Asprs, AsprsComponent, BUDGET_FILE, Budget, BudgetSource, CALIBRATION_FILE,
     CALIBRATION_ITERATIONS_FILE, Calibration, CalibrationIterations, CalibrationTie, Components,
-    Displacement, DzGrid, EVALUATE_AFTER_FILE, EVALUATE_BEFORE_FILE, Evaluation, GridGeometry,
-    Histogram, IHO_FILE, Id, Iho, IhoDepthBand, IhoOrder, Iteration, Neu, Nssda,
+    Displacement, DroppedPick, DzGrid, EVALUATE_AFTER_FILE, EVALUATE_BEFORE_FILE, Evaluation,
+    GridGeometry, Histogram, IHO_FILE, Id, Iho, IhoDepthBand, IhoOrder, Iteration, Neu, Nssda,
     OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE, Ordered, Overlap, OverlapPair, PartialComponents,
     Product, Profile, ProfileStrip, REPORT_FILE, ResidualPoint, SWEEP_FILE_PREFIX, SigmaGrid,
     Stats, Sweep, SweepPoint, TPU_SUMMARY_FILE, TRUTH_FILE, TiePosition, TpuHistograms, TpuSigmas,

@@ -668,6 +668,21 @@ pub struct Calibration {
     /// The ties.
     #[serde(default)]
     pub ties: Vec<CalibrationTie>,
+    /// Picks no virtual tie could be formed from in their strip, left out (SPEC §8).
+    #[serde(default)]
+    pub dropped_picks: Vec<DroppedPick>,
+}
+
+/// A pick the calibration left out (SPEC §8 `dropped_picks`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DroppedPick {
+    /// Tie id.
+    pub tie: Id,
+    /// Strip id.
+    pub strip: Id,
+    /// Why.
+    #[serde(default)]
+    pub reason: String,
 }
 
 impl Product for Calibration {

@@ -360,7 +360,11 @@ fn full_report_has_every_section_and_plot() {
     has_label(&html, "plot-residuals", "residual (vectors ×");
     has_label(&html, "plot-convergence", "(cm)");
     has_label(&html, "plot-overlap-maps", "dz (cm)");
-    has_label(&html, "plot-profile-before", "height (m)");
+    has_label(
+        &html,
+        "plot-profile-before",
+        "height − mean of the strips there (cm)",
+    );
     // Legends where there are several series.
     has_label(&html, "plot-sweep-azimuth", "vertical σ");
     has_label(&html, "plot-residuals", "residual after calibration");

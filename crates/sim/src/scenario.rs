@@ -164,7 +164,8 @@ pub struct ScannerSettingsFile {
 #[serde(deny_unknown_fields)]
 pub struct ErrorsFile {
     /// Draw the random errors of `[sensor.sigma]` (GNSS and attitude as Gauss–Markov processes,
-    /// range / scan angle / scan azimuth / travel times white per pulse).
+    /// range / scan angle / scan azimuth / travel times white per pulse) and the control
+    /// survey's noise.
     #[serde(default = "yes")]
     pub random: bool,
     /// Also draw one constant boresight / lever-arm error per run from their σ (added to the true

@@ -161,14 +161,17 @@ pub fn simulate_with_progress(
     let scene = scenario.scene();
     let mut rng = stream(seed, PURPOSE_CONTROL, 0, 0);
     let [sh, sv] = scene.control_sigma_m;
+    // The survey's own noise is one of the random errors: off with them, so that a run with
+    // `random = false` is noise-free end to end (the calibration's numerical floor is tested so).
+    let survey = if scenario.errors().random { 1.0 } else { 0.0 };
     let control = scene
         .targets
         .iter()
         .map(|t| ControlPoint {
             id: t.id.clone(),
-            easting_m: origin[0] + t.center_m[0] + sh * normal(&mut rng),
-            northing_m: origin[1] + t.center_m[1] + sh * normal(&mut rng),
-            height_m: t.height_m + sv * normal(&mut rng),
+            easting_m: origin[0] + t.center_m[0] + survey * sh * normal(&mut rng),
+            northing_m: origin[1] + t.center_m[1] + survey * sh * normal(&mut rng),
+            height_m: t.height_m + survey * sv * normal(&mut rng),
             sigma_horizontal_m: sh,
             sigma_vertical_m: sv,
             radius_m: t.radius_m,

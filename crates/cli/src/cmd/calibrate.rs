@@ -532,6 +532,9 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
     )?;
     crate::format::print_warnings(ctx.warnings());
     let prior: Mounting = ctx.sensor().mounting;
+    plan.options.prior_sigma = lidarqa_io::read_sensor_with_extras(&a.sensor)?
+        .1
+        .mounting_sigma;
     if !a.no_trajectory_weighting {
         let sigma = &ctx.sensor().sigma;
         let t = TrajectorySigma {
@@ -627,10 +630,14 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
     inputs.extend([a.trajectory.clone(), a.sensor.clone()]);
     inputs.extend(a.ties.clone());
     inputs.extend(a.control.clone());
-    // SPEC §7: the trajectory's warnings go into the JSON too.
+    // SPEC §7: the trajectory's warnings and the calibration's own (dropped picks) go to
+    // stderr and into the JSON.
+    crate::format::print_warnings(&cal.warnings);
     let mut doc = cal.to_json();
+    let mut warnings = ctx.warnings().to_vec();
+    warnings.extend(cal.warnings.iter().cloned());
     if let Some(m) = doc.as_object_mut() {
-        m.insert("warnings".into(), serde_json::to_value(ctx.warnings())?);
+        m.insert("warnings".into(), serde_json::to_value(&warnings)?);
     }
     write_json(&a.output, &doc, &inputs)?;
     if cal.method == lidarqa_calib::Method::Vtpm {
@@ -646,23 +653,27 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
 fn table(cal: &Calibration) -> String {
     let x = lidarqa_calib::mounting_to_vector(&cal.mounting);
     let mut s = format!(
-        "method {}  iterations {}  ({})  sigma0 {:.4} m\n{:<22} {:>12} {:>12}  observable\n",
+        "method {}  iterations {}  ({})  sigma0 {:.4} m\n{:<22} {:>12} {:>12} {:>12}  observable\n",
         cal.method.name(),
         cal.iterations,
         cal.termination.name(),
         cal.sigma0_m,
         "parameter",
         "value",
-        "sigma"
+        "sigma",
+        "prior sigma"
     );
     for p in Param::ALL {
         let i = p.index();
         let sig = cal.sigma[i].map_or("-".to_string(), |v| format!("{:.5}", p.to_display(v)));
+        let prior_sig =
+            cal.prior_sigma[i].map_or("-".to_string(), |v| format!("{:.5}", p.to_display(v)));
         s += &format!(
-            "{:<22} {:>12.5} {:>12}  {}\n",
+            "{:<22} {:>12.5} {:>12} {:>12}  {}\n",
             p.key(),
             p.to_display(x[i]),
             sig,
+            prior_sig,
             if cal.observable[i] {
                 "yes".to_string()
             } else {
@@ -680,6 +691,12 @@ fn table(cal: &Calibration) -> String {
             t.attitude_rad[1].to_degrees(),
             t.attitude_rad[2].to_degrees(),
             correlation_phrase(t),
+        );
+    }
+    for d in &cal.dropped_picks {
+        s += &format!(
+            "dropped pick: tie {} in strip {}: {}\n",
+            d.tie, d.strip, d.reason
         );
     }
     let ((h0, v0), (h1, v1)) = cal.tie_rms_m();

@@ -392,11 +392,7 @@ fn summary(dir: &Path, strips: &Path) -> Result<String> {
             rec,
             rec - inj,
             sig,
-            if observable {
-                ""
-            } else {
-                "  (not observable: held)"
-            }
+            if observable { "" } else { "  (not observable)" }
         );
     }
     let _ = writeln!(t);
