@@ -146,7 +146,9 @@ fn read_json(path: &Path) -> Result<Value> {
 /// Run `lidarqa demo`.
 pub fn run(args: DemoArgs) -> Result<()> {
     if args.bathymetry {
-        let dir = args.output.unwrap_or_else(|| "lidarqa-demo-bathymetry".into());
+        let dir = args
+            .output
+            .unwrap_or_else(|| "lidarqa-demo-bathymetry".into());
         return bathymetry::run(&dir, args.quick, args.seed);
     }
     let dir = &args.output.unwrap_or_else(|| "lidarqa-demo".into());

@@ -17,7 +17,8 @@ const HEIGHT_ABOVE_WATER_M: &str = "400";
 fn scenario_file(dir: &Path, quick: bool, seed: u64) -> Result<PathBuf> {
     let text =
         lidarqa_sim::builtin_toml("bathymetry").context("the built-in bathymetry scenario")?;
-    let mut table: toml::Table = toml::from_str(text).context("the built-in bathymetry scenario")?;
+    let mut table: toml::Table =
+        toml::from_str(text).context("the built-in bathymetry scenario")?;
     table.insert("seed".into(), toml::Value::Integer(seed as i64));
     if quick {
         let scanner = table
@@ -45,19 +46,25 @@ pub(super) fn run(dir: &Path, quick: bool, seed: u64) -> Result<()> {
     let s_dir = d("strips");
     let sensor = format!("{s_dir}/sensor.toml");
     let budget = |extra: &[&str]| -> Vec<String> {
-        ["budget", "--sensor", &sensor, "--height", HEIGHT_ABOVE_WATER_M]
-            .iter()
-            .chain(extra)
-            .chain(&["--format", "json"])
-            .map(|s| s.to_string())
-            .collect()
+        [
+            "budget",
+            "--sensor",
+            &sensor,
+            "--height",
+            HEIGHT_ABOVE_WATER_M,
+        ]
+        .iter()
+        .chain(extra)
+        .chain(&["--format", "json"])
+        .map(|s| s.to_string())
+        .collect()
     };
     let own = |what: &'static str, args: Vec<String>, stdout: Option<PathBuf>| super::Step {
         what,
         args,
         stdout,
     };
-    let steps = vec![
+    let steps = [
         step(
             "simulate the conic bathymetric survey (a lake 2 to 50 m deep under waves)",
             &["simulate", "--scenario", &scen, "-o", &s_dir],
@@ -144,7 +151,11 @@ fn summary(dir: &Path) -> Result<String> {
         };
         let met = orders
             .iter()
-            .find(|o| b["percent_meeting"][**o].as_f64().is_some_and(|p| p >= 95.0))
+            .find(|o| {
+                b["percent_meeting"][**o]
+                    .as_f64()
+                    .is_some_and(|p| p >= 95.0)
+            })
             .copied()
             .unwrap_or("none");
         let _ = writeln!(
