@@ -59,6 +59,14 @@ fn best_met(percent: &Ordered<f64>) -> Option<&'static str> {
         .map(|(_, name)| *name)
 }
 
+/// An order's name in a sentence: "Special Order", "Order 1a".
+fn order_phrase(short: &str) -> String {
+    match short {
+        "Exclusive" | "Special" => format!("{short} Order"),
+        s => format!("Order {s}"),
+    }
+}
+
 fn band_name(b: &TpuIhoBand) -> String {
     if b.depth_m[1] < 0.0 {
         format!("{}+", b.depth_m[0])
@@ -138,7 +146,7 @@ fn band_table(iho: &TpuIho, o: &mut String) {
             format!(
                 "{} m: {}",
                 band_name(b),
-                best_met(&b.percent_meeting).map_or("no order".into(), |n| format!("Order {n}"))
+                best_met(&b.percent_meeting).map_or("no order".into(), order_phrase)
             )
         })
         .collect();
@@ -152,14 +160,15 @@ fn band_table(iho: &TpuIho, o: &mut String) {
             let thu = b.percent_thu.get(k).copied().unwrap_or(f64::NAN);
             let tvu = b.percent_tvu.get(k).copied().unwrap_or(f64::NAN);
             Some(format!(
-                "in {} m, {name} is missed with {thu:.1} % meeting its THU and {tvu:.1} % its TVU",
-                band_name(b)
+                "in {} m, {} is missed with {thu:.1} % meeting its THU and {tvu:.1} % its TVU",
+                band_name(b),
+                order_phrase(name)
             ))
         })
         .collect();
     let mut text = format!(
         "Overall the survey meets {}. By depth: {}.",
-        best.map_or("no IHO S-44 order".into(), |n| format!("Order {n}")),
+        best.map_or("no IHO S-44 order".into(), order_phrase),
         per_band.join("; ")
     );
     if !fails.is_empty() {
@@ -360,13 +369,18 @@ fn across_azimuth(s: &Sweep, o: &mut String) {
     };
     let (h0, h1) = range(|t| t.horizontal);
     let (v0, v1) = range(|t| t.vertical);
-    let text = format!(
-        "Around the scan the predicted σ varies from {} to {} cm horizontally and {} to {} cm vertically: the north and east parts trade places as the beam turns, while their sum changes little (seed 004 §3 (1)).",
+    let mut text = format!(
+        "Around the scan the predicted σ varies from {} to {} cm horizontally and {} to {} cm vertically.",
         cm(h0),
         cm(h1),
         cm(v0),
         cm(v1)
     );
+    if h1 - h0 < 0.05 * h1 && v1 - v0 < 0.05 * v1 {
+        text.push_str(" The conic scan meets the water at the same incidence angle at every azimuth, so only the attitude, boresight and emitter-angle terms make σ vary around the circle (seed 004 §3 (1)); here they are small next to the water-time, wave-slope and GNSS terms, and every azimuth is about equally good.");
+    } else {
+        text.push_str(" The attitude, boresight and emitter-angle terms make σ vary around the circle (seed 004 §3 (1)): the scan's footprint becomes an oval.");
+    }
     meaning(o, &esc(&text));
 }
 
@@ -480,7 +494,7 @@ fn order_map(g: &OrderGrid, o: &mut String) {
         "IHO S-44 order achieved (≥ 95 % of the cell's soundings)",
         &[(String::new(), r)],
         Scale::Sequential { min: 0.0, max: 4.0 },
-        "0 Excl. 1 Spec. 2 1a/b 3 Ord. 2 4 none",
+        "order code",
     ));
     let mut counts: Vec<(&str, usize)> = Vec::new();
     for v in g.order.iter().flatten() {
