@@ -411,3 +411,200 @@ fn bad_input_is_refused_with_clear_errors() {
         "{err}"
     );
 }
+
+/// The cells of one row of the HTML table `id`: `(header or first cell, the other cells)`.
+fn table_rows(html: &str, id: &str) -> Vec<Vec<String>> {
+    let start = html
+        .find(&format!("<table id=\"{id}\""))
+        .unwrap_or_else(|| panic!("no table {id}"));
+    let table = &html[start..start + html[start..].find("</table>").unwrap()];
+    let body = &table[table.find("<tbody>").unwrap()..];
+    body.split("<tr>")
+        .skip(1)
+        .map(|row| {
+            let mut cells = Vec::new();
+            let mut rest = row;
+            while let Some(i) = rest.find("<t") {
+                let after = &rest[i + 2..];
+                if !(after.starts_with('d') || after.starts_with('h')) {
+                    rest = after;
+                    continue;
+                }
+                let open = after.find('>').unwrap();
+                let close = after.find("</t").unwrap();
+                cells.push(after[open + 1..close].to_string());
+                rest = &after[close + 3..];
+            }
+            cells
+        })
+        .collect()
+}
+
+/// Issue #23: the report's bathymetry section shows what `lidarqa tpu` measured. The per-band
+/// RMS σ and the map of the order achieved in the summary are recomputed here from the tpu
+/// output's own per-sounding extra bytes (sigma_*, depth, iho_order); the report's IHO table
+/// shows the summary's numbers; without soundings there is no section.
+#[test]
+fn report_bathymetry_section_shows_the_tpu_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = scenario("level", false);
+    let (_, _, n, summary, _) = run(&f, dir.path());
+    let iho = &summary["iho_s44"];
+
+    // Per depth band RMS σ and the order map, from the points.
+    let c = read_all(&dir.path().join("tpu.las"));
+    let col = |name: &str| c.extra_column(name).unwrap();
+    let (sh, sv, depth, order) = (
+        col("sigma_horizontal"),
+        col("sigma_vertical"),
+        col("depth"),
+        col("iho_order"),
+    );
+    let bands = [[0.0, 5.0], [5.0, 10.0], [10.0, 20.0], [20.0, 50.0]];
+    let mut acc = [(0u64, 0.0f64, 0.0f64); 5];
+    let mut cells: std::collections::BTreeMap<(i64, i64), [u64; 6]> = Default::default();
+    for (i, p) in c.points.iter().enumerate() {
+        if p.classification != CLASS_BATHYMETRY {
+            assert_eq!(order[i], -1.0);
+            continue;
+        }
+        let b = bands
+            .iter()
+            .position(|[lo, hi]| depth[i] >= *lo && depth[i] < *hi)
+            .unwrap_or(4);
+        acc[b].0 += 1;
+        acc[b].1 += sh[i] * sh[i];
+        acc[b].2 += sv[i] * sv[i];
+        // iho_order: 1 exclusive … 5 order 2, 0 none → slots 0 … 4, 5.
+        let slot = if order[i] == 0.0 {
+            5
+        } else {
+            order[i] as usize - 1
+        };
+        cells
+            .entry(((p.x / 10.0).floor() as i64, (p.y / 10.0).floor() as i64))
+            .or_default()[slot] += 1;
+    }
+    let bands_json = iho["bands"].as_array().unwrap();
+    let with: Vec<&(u64, f64, f64)> = acc.iter().filter(|a| a.0 > 0).collect();
+    assert_eq!(bands_json.len(), with.len());
+    assert!(bands_json.len() >= 3, "{bands_json:?}");
+    for (b, a) in bands_json.iter().zip(&with) {
+        assert_eq!(b["soundings"].as_u64().unwrap(), a.0);
+        let rh = (a.1 / a.0 as f64).sqrt();
+        let rv = (a.2 / a.0 as f64).sqrt();
+        // The file stores σ as f32.
+        let got_h = b["rms_sigma_horizontal_m"].as_f64().unwrap();
+        let got_v = b["rms_sigma_vertical_m"].as_f64().unwrap();
+        assert!((got_h - rh).abs() < 1e-6 * rh.max(1.0), "{got_h} vs {rh}");
+        assert!((got_v - rv).abs() < 1e-6 * rv.max(1.0), "{got_v} vs {rv}");
+    }
+    // σ_H grows with depth (the water leg lengthens; seed 004 §3).
+    let rms_h: Vec<f64> = bands_json
+        .iter()
+        .map(|b| b["rms_sigma_horizontal_m"].as_f64().unwrap())
+        .collect();
+    assert!(rms_h.windows(2).all(|w| w[1] > w[0]), "{rms_h:?}");
+
+    let g = &iho["order_grid"];
+    let (nx, ny) = (
+        g["nx"].as_u64().unwrap() as i64,
+        g["ny"].as_u64().unwrap() as i64,
+    );
+    let i0 = (g["origin_x"].as_f64().unwrap() / 10.0).round() as i64;
+    let j0 = (g["origin_y"].as_f64().unwrap() / 10.0).round() as i64;
+    assert_eq!(g["cell_m"], 10.0, "a 500 m line is not coarsened");
+    let names = ["exclusive", "special", "1a", "1b", "2"];
+    let grid = g["order"].as_array().unwrap();
+    assert_eq!(grid.len() as i64, nx * ny);
+    let mut seen = 0;
+    for j in 0..ny {
+        for i in 0..nx {
+            let got = &grid[(j * nx + i) as usize];
+            match cells.get(&(i0 + i, j0 + j)) {
+                None => assert!(got.is_null(), "cell {i},{j}: {got}"),
+                Some(c) => {
+                    seen += 1;
+                    let total: u64 = c.iter().sum();
+                    let mut met = 0;
+                    let expected = (0..5)
+                        .find(|k| {
+                            met += c[*k];
+                            met as f64 >= 0.95 * total as f64
+                        })
+                        .map_or("none", |k| names[k]);
+                    assert_eq!(got, expected, "cell {i},{j}: {c:?}");
+                }
+            }
+        }
+    }
+    assert_eq!(seen, cells.len());
+
+    // The report, with the depth and azimuth sweeps of the simulated sensor.
+    let rep = dir.path().join("report");
+    std::fs::create_dir(&rep).unwrap();
+    std::fs::write(
+        rep.join("tpu_summary.json"),
+        serde_json::to_string(&summary).unwrap(),
+    )
+    .unwrap();
+    let sensor = dir.path().join("sim/sensor.toml");
+    for (file, sweep) in [
+        ("budget_sweep_depth.json", "depth=0:50:10"),
+        ("budget_sweep_azimuth.json", "azimuth=0:360:30"),
+    ] {
+        let json = ok(&[
+            "budget",
+            "--sensor",
+            sensor.to_str().unwrap(),
+            "--height",
+            "400",
+            "--depth",
+            "20",
+            "--sweep",
+            sweep,
+            "--format",
+            "json",
+        ]);
+        std::fs::write(rep.join(file), json).unwrap();
+    }
+    ok(&["report", rep.to_str().unwrap()]);
+    let html = std::fs::read_to_string(rep.join("report.html")).unwrap();
+    assert!(html.contains("<section id=\"sec-bathymetry\">"));
+    for plot in [
+        "plot-bathy-sigma-v",
+        "plot-bathy-sigma-h",
+        "plot-bathy-azimuth",
+        "plot-bathy-shares",
+        "plot-bathy-order-map",
+    ] {
+        assert!(html.contains(&format!("<svg id=\"{plot}\"")), "{plot}");
+    }
+    let rows = table_rows(&html, "iho-bands");
+    assert_eq!(rows.len(), bands_json.len() + 1);
+    for (row, b) in rows.iter().zip(bands_json) {
+        assert_eq!(row[1], b["soundings"].to_string());
+        let cm = |k: &str| format!("{:.2}", b[k].as_f64().unwrap() * 100.0);
+        assert_eq!(row[2], cm("rms_sigma_horizontal_m"));
+        assert_eq!(row[3], cm("rms_sigma_vertical_m"));
+        for (k, name) in names.iter().enumerate() {
+            let p = b["percent_meeting"][name].as_f64().unwrap();
+            assert_eq!(row[4 + k], format!("{p:.1}"), "{name}");
+        }
+    }
+    let all = rows.last().unwrap();
+    assert_eq!(all[0], "all");
+    assert_eq!(all[1], n.to_string());
+    for (k, name) in names.iter().enumerate() {
+        let p = iho["orders"][name]["percent_meeting"].as_f64().unwrap();
+        assert_eq!(all[4 + k], format!("{p:.1}"), "{name}");
+    }
+
+    // Without soundings (no iho_s44 block) there is no bathymetry section.
+    let mut dry = summary.clone();
+    dry.as_object_mut().unwrap().remove("iho_s44");
+    std::fs::write(rep.join("tpu_summary.json"), dry.to_string()).unwrap();
+    ok(&["report", rep.to_str().unwrap()]);
+    let html = std::fs::read_to_string(rep.join("report.html")).unwrap();
+    assert!(!html.contains("sec-bathymetry"));
+}

@@ -124,3 +124,71 @@ fn a_failed_step_stops_the_demo_and_keeps_the_products_before_it() {
     assert!(!dir.path().join("tpu_summary.json").exists());
     assert!(!dir.path().join("report.html").exists());
 }
+
+/// `lidarqa demo --bathymetry --quick`: every step's product, the IHO table the demo prints
+/// equal to the tpu summary's, and the report's bathymetry section.
+#[test]
+fn bathymetric_demo_reports_the_iho_orders_per_depth_band() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_lidarqa"))
+        .args(["demo", "--bathymetry", "--quick", "-o"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    // Every step is printed as a command that can be re-run by hand.
+    for cmd in [
+        "$ lidarqa simulate --scenario",
+        "--sweep depth=0:50:5",
+        "--sweep azimuth=0:360:10",
+        "$ lidarqa tpu",
+        "$ lidarqa report",
+    ] {
+        assert!(stderr.contains(cmd), "{cmd} not printed: {stderr}");
+    }
+    let d = dir.path();
+    for product in [
+        "report.html",
+        "budget.json",
+        "budget_sweep_depth.json",
+        "budget_sweep_azimuth.json",
+        "tpu_summary.json",
+        "strips/strip_001.laz",
+    ] {
+        assert!(d.join(product).exists(), "{product} missing");
+    }
+    let summary = String::from_utf8_lossy(&out.stdout);
+    let tpu = json(&d.join("tpu_summary.json"));
+    let iho = &tpu["iho_s44"];
+    let bands = iho["bands"].as_array().unwrap();
+    assert!(bands.len() >= 4, "{bands:?}");
+    for b in bands {
+        let (lo, hi) = (
+            b["depth_m"][0].as_f64().unwrap(),
+            b["depth_m"][1].as_f64().unwrap(),
+        );
+        let line = format!(
+            "{:<10}{:>10}{:>12.2}{:>12.2}",
+            format!("{lo}–{hi}"),
+            b["soundings"].as_u64().unwrap(),
+            b["rms_sigma_horizontal_m"].as_f64().unwrap() * 100.0,
+            b["rms_sigma_vertical_m"].as_f64().unwrap() * 100.0,
+        );
+        assert!(summary.contains(&line), "{line:?} not in\n{summary}");
+        // The built-in survey (σ_V ≈ 12.5 cm from the 0.9 ns water time and GNSS) meets
+        // Special Order at every depth (TVU 1.96·σ_V < 0.25 m from 0 m on).
+        assert!(b["percent_meeting"]["special"].as_f64().unwrap() >= 95.0);
+    }
+    let html = std::fs::read_to_string(d.join("report.html")).unwrap();
+    assert!(html.contains("<section id=\"sec-bathymetry\">"));
+    assert!(html.contains(&format!(
+        "{} soundings (class 40)",
+        iho["soundings"].as_u64().unwrap()
+    )));
+    assert!(html.contains("Overall the survey meets Special Order."));
+}

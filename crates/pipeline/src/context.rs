@@ -252,7 +252,13 @@ impl TpuContext {
         if !samples.is_empty() {
             ctx.facts = check_trajectory(&ctx.trajectory_path, &samples)?;
         }
-        let found: Vec<Warning> = ctx.facts.warnings.iter().cloned().chain(sigma_warnings).collect();
+        let found: Vec<Warning> = ctx
+            .facts
+            .warnings
+            .iter()
+            .cloned()
+            .chain(sigma_warnings)
+            .collect();
         ctx.warnings.splice(0..0, found);
         Ok(ctx)
     }

@@ -76,9 +76,9 @@ pub use retile::{RetileReport, TileFile, TileGrid, retile};
 pub use stored::{StoredHistogram, StoredSummary};
 pub use summary::{
     AngleCheck, BandView, DEPTH_BANDS_M, Histogram, HistogramsView, IhoTally, IhoView,
-    IncidenceTally, LinearHistogram, OrderView, ResidualCheck, ResidualView, SIGMA_MAP_CELL_M,
-    SIGMA_MAP_MAX_SIDE, SIGMA_NAMES, ScanAngleView, SigmaGridView, SigmaMap, SkipReason,
-    SoundingResult, Stats, SummaryView, SurveyReport, TileLine, TileReport, TpuSummary,
+    IncidenceTally, LinearHistogram, OrderGridView, OrderView, ResidualCheck, ResidualView,
+    SIGMA_MAP_CELL_M, SIGMA_MAP_MAX_SIDE, SIGMA_NAMES, ScanAngleView, SigmaGridView, SigmaMap,
+    SkipReason, SoundingResult, Stats, SummaryView, SurveyReport, TileLine, TileReport, TpuSummary,
 };
 pub use targets_tile::{TargetsTileJob, TargetsTileReport, extract_targets_tile};
 pub use tile::{TpuTileJob, tpu_tile, tpu_tile_with_progress};

@@ -345,6 +345,10 @@ pub struct SoundingResult {
     pub surface_modelled: bool,
     /// Recovery residual, m.
     pub residual_m: f64,
+    /// 1σ horizontal, m (for σ vs depth).
+    pub sigma_horizontal_m: f64,
+    /// 1σ vertical, m.
+    pub sigma_vertical_m: f64,
 }
 
 /// Counts of one depth band.
@@ -355,6 +359,12 @@ struct BandTally {
     both: [u64; 5],
     thu: [u64; 5],
     tvu: [u64; 5],
+    /// Σ σ_H², m² (tile reports written before it: 0).
+    #[serde(default)]
+    sum_sq_sigma_h_m2: f64,
+    /// Σ σ_V², m².
+    #[serde(default)]
+    sum_sq_sigma_v_m2: f64,
 }
 
 /// Mergeable IHO S-44 counts of soundings by depth band and order (stored as they are in tile
@@ -365,11 +375,37 @@ pub struct IhoTally {
     bands: [BandTally; 5],
     modelled: u64,
     residual: ResidualCheck,
+    /// Per map cell (i, j) of [`SIGMA_MAP_CELL_M`]: soundings by the most stringent order they
+    /// meet (index in [`IhoOrder::ALL`]; the last slot: none). The orders are nested (each
+    /// order's THU and TVU allowances contain the stricter one's), so "meets order k" is
+    /// "best ≤ k", and a cell's share meeting any order follows from these counts.
+    #[serde(default, with = "order_cells")]
+    order_map: BTreeMap<(i64, i64), [u64; 6]>,
+}
+
+/// The order map as a list `[i, j, counts]` in JSON (map keys must be strings there).
+mod order_cells {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use std::collections::BTreeMap;
+
+    type Cells = BTreeMap<(i64, i64), [u64; 6]>;
+
+    pub fn serialize<S: Serializer>(m: &Cells, s: S) -> Result<S::Ok, S::Error> {
+        m.iter()
+            .map(|(k, v)| (k.0, k.1, *v))
+            .collect::<Vec<_>>()
+            .serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Cells, D::Error> {
+        let v: Vec<(i64, i64, [u64; 6])> = Vec::deserialize(d)?;
+        Ok(v.into_iter().map(|(i, j, c)| ((i, j), c)).collect())
+    }
 }
 
 impl IhoTally {
-    /// Counts one sounding.
-    pub fn add(&mut self, r: &SoundingResult) {
+    /// Counts one sounding at projected (x, y), m.
+    pub fn add(&mut self, r: &SoundingResult, x: f64, y: f64) {
         let b = DEPTH_BANDS_M
             .iter()
             .position(|[lo, hi]| r.depth_m >= *lo && r.depth_m < *hi)
@@ -381,6 +417,18 @@ impl IhoTally {
             band.thu[k] += u64::from(h);
             band.tvu[k] += u64::from(v);
             band.both[k] += u64::from(h && v);
+        }
+        band.sum_sq_sigma_h_m2 += r.sigma_horizontal_m * r.sigma_horizontal_m;
+        band.sum_sq_sigma_v_m2 += r.sigma_vertical_m * r.sigma_vertical_m;
+        if x.is_finite() && y.is_finite() {
+            let key = (
+                (x / SIGMA_MAP_CELL_M).floor() as i64,
+                (y / SIGMA_MAP_CELL_M).floor() as i64,
+            );
+            let best = IhoOrder::best(r.depth_m, r.thu_95_m, r.tvu_95_m)
+                .and_then(|o| IhoOrder::ALL.iter().position(|x| *x == o))
+                .unwrap_or(5);
+            self.order_map.entry(key).or_default()[best] += 1;
         }
         self.modelled += u64::from(r.surface_modelled);
         self.residual.add(r.residual_m);
@@ -394,6 +442,14 @@ impl IhoTally {
                 a.both[k] += b.both[k];
                 a.thu[k] += b.thu[k];
                 a.tvu[k] += b.tvu[k];
+            }
+            a.sum_sq_sigma_h_m2 += b.sum_sq_sigma_h_m2;
+            a.sum_sq_sigma_v_m2 += b.sum_sq_sigma_v_m2;
+        }
+        for (k, c) in &o.order_map {
+            let e = self.order_map.entry(*k).or_default();
+            for (a, b) in e.iter_mut().zip(c) {
+                *a += b;
             }
         }
         self.modelled += o.modelled;
@@ -469,10 +525,84 @@ impl IhoTally {
                     percent_meeting: per_order(b.both, b.n),
                     percent_thu: per_order(b.thu, b.n),
                     percent_tvu: per_order(b.tvu, b.n),
+                    rms_sigma_horizontal_m: (b.sum_sq_sigma_h_m2 / b.n as f64).sqrt(),
+                    rms_sigma_vertical_m: (b.sum_sq_sigma_v_m2 / b.n as f64).sqrt(),
+                })
+                .collect(),
+            order_grid: self.order_grid(),
+        })
+    }
+
+    /// Dense view of the order map, coarsened like the σ map: per cell, the most stringent
+    /// order met by at least 95 % of its soundings (S-44's confidence level).
+    fn order_grid(&self) -> Option<OrderGridView> {
+        let (i0, i1) = self
+            .order_map
+            .keys()
+            .fold((i64::MAX, i64::MIN), |a, k| (a.0.min(k.0), a.1.max(k.0)));
+        let (j0, j1) = self
+            .order_map
+            .keys()
+            .fold((i64::MAX, i64::MIN), |a, k| (a.0.min(k.1), a.1.max(k.1)));
+        if i0 > i1 {
+            return None;
+        }
+        let mut f = 1;
+        while (i1 - i0) / f + 1 > SIGMA_MAP_MAX_SIDE || (j1 - j0) / f + 1 > SIGMA_MAP_MAX_SIDE {
+            f *= 2;
+        }
+        let (nx, ny) = (((i1 - i0) / f + 1) as usize, ((j1 - j0) / f + 1) as usize);
+        let mut acc = vec![[0u64; 6]; nx * ny];
+        for ((i, j), c) in &self.order_map {
+            let (a, b) = (((i - i0) / f) as usize, ((j - j0) / f) as usize);
+            for (x, y) in acc[b * nx + a].iter_mut().zip(c) {
+                *x += y;
+            }
+        }
+        Some(OrderGridView {
+            cell_m: SIGMA_MAP_CELL_M * f as f64,
+            origin_x: i0 as f64 * SIGMA_MAP_CELL_M,
+            origin_y: j0 as f64 * SIGMA_MAP_CELL_M,
+            nx,
+            ny,
+            order: acc
+                .into_iter()
+                .map(|c| {
+                    let n: u64 = c.iter().sum();
+                    (n > 0).then(|| {
+                        let mut met = 0;
+                        IhoOrder::ALL
+                            .iter()
+                            .zip(c)
+                            .find_map(|(o, k)| {
+                                met += k;
+                                (met as f64 >= 0.95 * n as f64).then_some(o.name())
+                            })
+                            .unwrap_or("none")
+                    })
                 })
                 .collect(),
         })
     }
+}
+
+/// The map of the IHO order achieved: the summary's `iho_s44.order_grid`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OrderGridView {
+    /// Cell size, m.
+    pub cell_m: f64,
+    /// Easting of the west edge, m.
+    pub origin_x: f64,
+    /// Northing of the south edge, m.
+    pub origin_y: f64,
+    /// Columns (west → east).
+    pub nx: usize,
+    /// Rows (south → north).
+    pub ny: usize,
+    /// Per cell, row-major from the south-west: the most stringent order (`exclusive`,
+    /// `special`, `1a`, `2`; 1a and 1b share their limits) met by ≥ 95 % of the cell's soundings,
+    /// `none`, or null where there is no sounding.
+    pub order: Vec<Option<&'static str>>,
 }
 
 /// JSON view of an [`IhoTally`]: the summary's `iho_s44` block.
@@ -496,6 +626,8 @@ pub struct IhoView {
     pub orders: BTreeMap<&'static str, OrderView>,
     /// Per depth band with soundings.
     pub bands: Vec<BandView>,
+    /// Map of the order achieved.
+    pub order_grid: Option<OrderGridView>,
 }
 
 /// One order's line.
@@ -521,6 +653,10 @@ pub struct BandView {
     pub percent_thu: BTreeMap<&'static str, f64>,
     /// Per order, percentage meeting TVU.
     pub percent_tvu: BTreeMap<&'static str, f64>,
+    /// RMS over the band's soundings of their 1σ horizontal, m.
+    pub rms_sigma_horizontal_m: f64,
+    /// RMS of their 1σ vertical, m.
+    pub rms_sigma_vertical_m: f64,
 }
 
 /// The σ reported per point, in output order: the extra-bytes dimension names.

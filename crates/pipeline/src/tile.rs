@@ -713,10 +713,10 @@ impl Run<'_> {
             match s {
                 Slot::Ok(sig, sounding, _) => {
                     summary.points_written += 1;
-                    if let Some(r) = sounding {
-                        summary.iho.add(r);
-                    }
                     let p = &cur.chunk.points[i];
+                    if let Some(r) = sounding {
+                        summary.iho.add(r, p.x, p.y);
+                    }
                     summary.map.add(p.x, p.y, sig[4]);
                     for (h, v) in summary.sigma.iter_mut().zip(sig) {
                         h.add(*v);
@@ -947,6 +947,8 @@ impl Run<'_> {
                     tvu_95_m: TVU_95_FACTOR * u2.sqrt(),
                     surface_modelled: matches!(r.surface, SurfaceSource::Modelled { .. }),
                     residual_m: r.residual_m,
+                    sigma_horizontal_m: (n2 + e2).sqrt(),
+                    sigma_vertical_m: u2.sqrt(),
                 });
                 let cov = if opts.covariance {
                     // NED (true) → grid (easting, northing, up): a true azimuth α is the grid

@@ -22,7 +22,7 @@ pub(crate) fn esc(s: &str) -> String {
 }
 
 /// Metres → centimetres, two decimals ("—" for a non-finite value).
-fn cm(m: f64) -> String {
+pub(crate) fn cm(m: f64) -> String {
     if m.is_finite() {
         format!("{:.2}", m * 100.0)
     } else {
@@ -131,6 +131,7 @@ pub(crate) fn render(r: &Report) -> String {
     if let Some(i) = &p.iho {
         sections.push(("iho", "IHO S-44 statement", iho_section(i)));
     }
+    sections.extend(crate::bathymetry::section(p));
 
     let mut o = String::new();
     o.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n");
@@ -250,7 +251,7 @@ fn what(name: &str) -> &'static str {
     }
 }
 
-fn meaning(o: &mut String, text: &str) {
+pub(crate) fn meaning(o: &mut String, text: &str) {
     let _ = writeln!(
         o,
         "<p class=\"meaning\"><strong>What this means:</strong> {text}</p>"

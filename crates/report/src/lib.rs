@@ -14,6 +14,7 @@
 //! | [`CALIBRATION_FILE`] (+ [`CALIBRATION_ITERATIONS_FILE`], [`TRUTH_FILE`]) | [`Calibration`] (SPEC §8) | mounting ± σ (vs truth), correlations, convergence |
 //! | [`OVERLAP_BEFORE_FILE`], [`OVERLAP_AFTER_FILE`] | [`Overlap`] | dz maps and height profiles before / after |
 //! | [`IHO_FILE`] `iho.json` | [`Iho`] | IHO S-44 table |
+//! | [`TPU_SUMMARY_FILE`] with soundings ([`TpuIho`]; + `budget_sweep_depth.json`, `budget_sweep_azimuth.json`) | bathymetry | IHO table per depth band, σ vs depth with the IHO allowances, budget around the scan, variance shares, order map |
 //!
 //! A product that is present but malformed does not stop the report: its section is skipped,
 //! the error (naming the file and the key) is shown in the report's inputs table and returned
@@ -38,6 +39,7 @@
 //! report.write(dir.path().join("report.html")).unwrap();
 //! ```
 
+mod bathymetry;
 mod error;
 mod html;
 mod plot;
@@ -50,9 +52,10 @@ pub use products::{
     CALIBRATION_ITERATIONS_FILE, Calibration, CalibrationIterations, CalibrationTie, Components,
     Displacement, DroppedPick, DzGrid, EVALUATE_AFTER_FILE, EVALUATE_BEFORE_FILE, Evaluation,
     GridGeometry, Histogram, IHO_FILE, Id, Iho, IhoDepthBand, IhoOrder, Iteration, Neu, Nssda,
-    OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE, Ordered, Overlap, OverlapPair, PartialComponents,
-    Product, Profile, ProfileStrip, REPORT_FILE, ResidualPoint, SWEEP_FILE_PREFIX, SigmaGrid,
-    Stats, Sweep, SweepPoint, TPU_SUMMARY_FILE, TRUTH_FILE, TiePosition, TpuHistograms, TpuSigmas,
-    TpuSummary, Truth, Xyz, sweep_file_name,
+    OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE, OrderGrid, Ordered, Overlap, OverlapPair,
+    PartialComponents, Product, Profile, ProfileStrip, REPORT_FILE, ResidualPoint,
+    SWEEP_FILE_PREFIX, SigmaGrid, Stats, Sweep, SweepPoint, TPU_SUMMARY_FILE, TRUTH_FILE,
+    TiePosition, TpuHistograms, TpuIho, TpuIhoBand, TpuIhoOrder, TpuSigmas, TpuSummary, Truth, Xyz,
+    sweep_file_name,
 };
 pub use report::{Products, Report, read_product};

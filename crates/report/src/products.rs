@@ -470,6 +470,9 @@ pub struct TpuSummary {
     /// Each source's share of the total variance (3-D), fractions summing to about 1.
     #[serde(default)]
     pub source_share: Ordered<f64>,
+    /// IHO S-44 statement of the bathymetric soundings (a conic survey with soundings).
+    #[serde(default)]
+    pub iho_s44: Option<TpuIho>,
 }
 
 impl Product for TpuSummary {
@@ -483,6 +486,9 @@ impl Product for TpuSummary {
         }
         if let Some(g) = &self.grid {
             g.geometry.check("grid", g.sigma_vertical_m.len())?;
+        }
+        if let Some(i) = &self.iho_s44 {
+            i.check()?;
         }
         Ok(())
     }
@@ -907,6 +913,100 @@ impl Product for Iho {
                     format!("{} is not a percentage", o.percent_meeting),
                 ));
             }
+        }
+        Ok(())
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// tpu_summary.json's `iho_s44` block (lidarqa-pipeline's `IhoView`)
+
+/// The limits of one order and the share of all soundings meeting it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TpuIhoOrder {
+    /// Constant part of the THU, m.
+    pub thu_m: f64,
+    /// Depth-proportional part of the THU (0.05 = 5 % of depth).
+    pub thu_depth_fraction: f64,
+    /// TVU constant `a`, m.
+    pub tvu_a_m: f64,
+    /// TVU depth factor `b`.
+    pub tvu_b: f64,
+    /// Percentage of the soundings meeting THU and TVU at 95 %.
+    pub percent_meeting: f64,
+}
+
+/// One depth band of [`TpuIho`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TpuIhoBand {
+    /// `[from, to)`, m; `to` = −1 for "and deeper".
+    pub depth_m: [f64; 2],
+    /// Soundings in the band.
+    pub soundings: u64,
+    /// Per order, percentage meeting THU and TVU.
+    pub percent_meeting: Ordered<f64>,
+    /// Per order, percentage meeting THU.
+    #[serde(default)]
+    pub percent_thu: Ordered<f64>,
+    /// Per order, percentage meeting TVU.
+    #[serde(default)]
+    pub percent_tvu: Ordered<f64>,
+    /// RMS of the soundings' 1σ horizontal, m.
+    #[serde(default)]
+    pub rms_sigma_horizontal_m: Option<f64>,
+    /// RMS of their 1σ vertical, m.
+    #[serde(default)]
+    pub rms_sigma_vertical_m: Option<f64>,
+}
+
+/// The order achieved per map cell (≥ 95 % of its soundings), as `lidarqa tpu` writes it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OrderGrid {
+    /// The grid.
+    #[serde(flatten)]
+    pub geometry: GridGeometry,
+    /// `exclusive`, `special`, `1a`, `1b`, `2`, `none`; null without soundings.
+    pub order: Vec<Option<String>>,
+}
+
+/// `iho_s44` of `tpu_summary.json`: IHO S-44 orders met by the soundings, by depth band.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TpuIho {
+    /// The standard and table the limits come from.
+    #[serde(default)]
+    pub standard: Option<String>,
+    /// Soundings with a TPU.
+    pub soundings: u64,
+    /// Per order (`exclusive`, `special`, `1a`, `1b`, `2`): limits and share meeting them.
+    pub orders: Ordered<TpuIhoOrder>,
+    /// Per depth band with soundings.
+    #[serde(default)]
+    pub bands: Vec<TpuIhoBand>,
+    /// Map of the order achieved.
+    #[serde(default)]
+    pub order_grid: Option<OrderGrid>,
+}
+
+impl TpuIho {
+    fn check(&self) -> std::result::Result<(), Invalid> {
+        for (name, o) in self.orders.iter() {
+            if !(0.0..=100.0).contains(&o.percent_meeting) {
+                return Err(invalid(
+                    format!("iho_s44.orders.{name}.percent_meeting"),
+                    format!("{} is not a percentage", o.percent_meeting),
+                ));
+            }
+        }
+        for (i, b) in self.bands.iter().enumerate() {
+            if !(b.depth_m[0].is_finite() && b.depth_m[0] >= 0.0) {
+                return Err(invalid(
+                    format!("iho_s44.bands[{i}].depth_m"),
+                    format!("{} is not a depth", b.depth_m[0]),
+                ));
+            }
+        }
+        if let Some(g) = &self.order_grid {
+            g.geometry.check("iho_s44.order_grid", g.order.len())?;
         }
         Ok(())
     }

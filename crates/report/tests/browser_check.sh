@@ -4,7 +4,8 @@
 # Usage: crates/report/tests/browser_check.sh [REPORT.html] [OUT_DIR]
 #
 # Without REPORT.html, builds the full fixture report of crates/report/tests/report.rs (every
-# product present) with `cargo test`. Checks, in the browser's own layout:
+# product present, the bathymetry section included) with `cargo test`; the report of
+# `lidarqa demo --bathymetry` can be given as REPORT.html. Checks, in the browser's own layout:
 #   - every <svg id="plot-…"> of the file is in the DOM, with a non-zero size;
 #   - every non-empty <text> label of every plot has a non-zero box, inside its plot;
 #   - no two labels of one plot overlap;

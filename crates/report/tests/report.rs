@@ -4,7 +4,9 @@
 
 use lidarqa_model::Source;
 use lidarqa_report::*;
-use lidarqa_tpu::{Biases, Geometry, LinearRange, Preset, Sweep as TpuSweep, evaluate};
+use lidarqa_tpu::{
+    Biases, ConicRanges, Geometry, LinearRange, Preset, Sweep as TpuSweep, evaluate,
+};
 use serde_json::{Value, json};
 use std::path::Path;
 
@@ -80,7 +82,32 @@ fn tpu_json() -> Value {
         },
         "grid": {"cell_m": 10.0, "origin_x": 500000.0, "origin_y": 4100000.0, "nx": nx, "ny": ny,
                  "sigma_vertical_m": cells},
-        "source_share": {"gnss_up": 0.62, "gnss_north": 0.1, "range": 0.05, "boresight_roll": 0.23}
+        "source_share": {"gnss_up": 0.62, "gnss_north": 0.1, "range": 0.05, "boresight_roll": 0.23},
+        // The block `lidarqa tpu` writes for soundings (lidarqa-pipeline's IhoView).
+        "iho_s44": {
+            "standard": "IHO S-44 Edition 6.0.0 (2020), Table 1", "soundings": 3000,
+            "orders": {
+                "exclusive": {"thu_m": 0.5, "thu_depth_fraction": 0.0, "tvu_a_m": 0.15, "tvu_b": 0.0075, "percent_meeting": 40.0},
+                "special": {"thu_m": 2.0, "thu_depth_fraction": 0.0, "tvu_a_m": 0.25, "tvu_b": 0.0075, "percent_meeting": 99.5},
+                "1a": {"thu_m": 5.0, "thu_depth_fraction": 0.05, "tvu_a_m": 0.5, "tvu_b": 0.013, "percent_meeting": 100.0},
+                "1b": {"thu_m": 5.0, "thu_depth_fraction": 0.05, "tvu_a_m": 0.5, "tvu_b": 0.013, "percent_meeting": 100.0},
+                "2": {"thu_m": 20.0, "thu_depth_fraction": 0.1, "tvu_a_m": 1.0, "tvu_b": 0.023, "percent_meeting": 100.0}
+            },
+            "bands": [
+                {"depth_m": [0.0, 5.0], "soundings": 1000,
+                 "percent_meeting": {"exclusive": 0.0, "special": 98.5, "1a": 100.0, "1b": 100.0, "2": 100.0},
+                 "percent_thu": {"exclusive": 100.0, "special": 100.0, "1a": 100.0, "1b": 100.0, "2": 100.0},
+                 "percent_tvu": {"exclusive": 0.0, "special": 98.5, "1a": 100.0, "1b": 100.0, "2": 100.0},
+                 "rms_sigma_horizontal_m": 0.0928, "rms_sigma_vertical_m": 0.1247},
+                {"depth_m": [20.0, 50.0], "soundings": 2000,
+                 "percent_meeting": {"exclusive": 60.0, "special": 100.0, "1a": 100.0, "1b": 100.0, "2": 100.0},
+                 "percent_thu": {"exclusive": 86.7, "special": 100.0, "1a": 100.0, "1b": 100.0, "2": 100.0},
+                 "percent_tvu": {"exclusive": 70.6, "special": 100.0, "1a": 100.0, "1b": 100.0, "2": 100.0},
+                 "rms_sigma_horizontal_m": 0.2365, "rms_sigma_vertical_m": 0.1312}
+            ],
+            "order_grid": {"cell_m": 10.0, "origin_x": 500000.0, "origin_y": 4100000.0, "nx": 3, "ny": 2,
+                           "order": ["exclusive", "special", null, "special", "2", "none"]}
+        }
     })
 }
 
@@ -226,6 +253,30 @@ fn full_dir() -> tempfile::TempDir {
             None,
         ),
     );
+    write(
+        d,
+        &sweep_file_name("depth"),
+        &sweep_json(
+            Preset::Czmil,
+            match Preset::Czmil.geometry() {
+                Geometry::Conic {
+                    attitude,
+                    azimuth_rad,
+                    ..
+                } => Geometry::Conic {
+                    attitude,
+                    azimuth_rad,
+                    ranges: ConicRanges::HeightDepth {
+                        height_m: 400.0,
+                        depth_m: 0.0,
+                    },
+                },
+                g => g,
+            },
+            "depth=0:50:10",
+            None,
+        ),
+    );
     let mut biases = Biases::default();
     biases
         .set(
@@ -320,6 +371,7 @@ fn full_report_has_every_section_and_plot() {
         "calibration",
         "overlap",
         "iho",
+        "bathymetry",
     ] {
         assert!(
             html.contains(&format!("<section id=\"sec-{sec}\">")),
@@ -340,6 +392,11 @@ fn full_report_has_every_section_and_plot() {
         "plot-overlap-maps",
         "plot-profile-before",
         "plot-profile-after",
+        "plot-bathy-sigma-v",
+        "plot-bathy-sigma-h",
+        "plot-bathy-azimuth",
+        "plot-bathy-shares",
+        "plot-bathy-order-map",
     ] {
         assert!(ids.iter().any(|i| i == id), "missing {id} in {ids:?}");
     }
@@ -384,6 +441,36 @@ fn full_report_has_every_section_and_plot() {
     assert!(
         html.contains("<tr><td>horizontal</td><td>10.14</td>"),
         "budget totals"
+    );
+    // The bathymetry section: the IHO table per depth band shows the summary's numbers, and
+    // the order met is the most stringent one with ≥ 95 % (Special in 0–5 m at 98.5 %).
+    assert!(html.contains("<tr><td>0–5</td><td>1000</td><td>9.28</td><td>12.47</td><td>0.0</td><td>98.5</td><td>100.0</td><td>100.0</td><td>100.0</td><td class=\"text ok\">Special</td></tr>"), "band 0–5");
+    assert!(
+        html.contains(
+            "<tr><td>20–50</td><td>2000</td><td>23.65</td><td>13.12</td><td>60.0</td><td>100.0</td>"
+        ),
+        "band 20–50"
+    );
+    assert!(
+        html.contains("<tr><th>all</th><td>3000</td><td></td><td></td><td>40.0</td><td>99.5</td>"),
+        "all"
+    );
+    assert!(html.contains(
+        "in 20–50 m, Exclusive Order is missed with 86.7 % meeting its THU and 70.6 % its TVU"
+    ));
+    // Map cells: 1 Exclusive, 2 Special, 1 Order 2, 1 none of 5.
+    assert!(html.contains("<td class=\"text\">Special</td><td>2</td><td>40.0</td>"));
+    assert!(html.contains("<td class=\"text\">none</td><td>1</td><td>20.0</td>"));
+    has_label(&html, "plot-bathy-sigma-v", "Special allowance (as 1σ)");
+    has_label(
+        &html,
+        "plot-bathy-sigma-v",
+        "depth below the water surface (m)",
+    );
+    has_label(
+        &html,
+        "plot-bathy-azimuth",
+        "scan azimuth (deg, 0 forward, 90 right wing)",
     );
     assert!(html.matches("What this means").count() >= 8);
     report_write_is_atomic(&report_from(dir.path()), dir.path());

@@ -5,6 +5,8 @@
 //! step can be re-run by hand, and a failed step stops the demo with the products of the steps before
 //! it left in place.
 
+mod bathymetry;
+
 use crate::format::print_text;
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -17,6 +19,7 @@ pub const AFTER_HELP: &str = "\
 Example:
   lidarqa demo                 writes every product and report.html to lidarqa-demo/
   lidarqa demo -o /tmp/demo --quick
+  lidarqa demo --bathymetry    the conic bathymetric survey (seed 004) to lidarqa-demo-bathymetry/
 
 Steps: simulate (a survey with injected boresight and lever-arm errors and six surveyed targets) →
 budget → tpu → targets → evaluate → calibrate → correct → targets → evaluate → overlap → report.";
@@ -24,9 +27,14 @@ budget → tpu → targets → evaluate → calibrate → correct → targets �
 /// Flags of `lidarqa demo`.
 #[derive(Debug, Args)]
 pub struct DemoArgs {
-    /// Output directory (created; files of an earlier demo are replaced).
-    #[arg(short, long, value_name = "DIR", default_value = "lidarqa-demo")]
-    output: PathBuf,
+    /// Output directory (created; files of an earlier demo are replaced) [default: lidarqa-demo,
+    /// lidarqa-demo-bathymetry with --bathymetry].
+    #[arg(short, long, value_name = "DIR")]
+    output: Option<PathBuf>,
+    /// The bathymetric demo instead: simulate the conic survey (seed 004) → budget vs depth and
+    /// azimuth → tpu with IHO S-44 → report.
+    #[arg(long)]
+    bathymetry: bool,
     /// A smaller survey (half the pulses): for tests and slow machines.
     #[arg(long)]
     quick: bool,
@@ -137,7 +145,13 @@ fn read_json(path: &Path) -> Result<Value> {
 
 /// Run `lidarqa demo`.
 pub fn run(args: DemoArgs) -> Result<()> {
-    let dir = &args.output;
+    if args.bathymetry {
+        let dir = args
+            .output
+            .unwrap_or_else(|| "lidarqa-demo-bathymetry".into());
+        return bathymetry::run(&dir, args.quick, args.seed);
+    }
+    let dir = &args.output.unwrap_or_else(|| "lidarqa-demo".into());
     std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
     let exe = std::env::current_exe().context("locating the lidarqa binary")?;
     let d = |name: &str| dir.join(name).display().to_string();
