@@ -47,6 +47,7 @@ mod evaluate;
 mod extract;
 mod fcm;
 mod mec;
+mod plate;
 
 pub use centre::{
     CentreEstimate, CentreMethod, CentreOptions, Elevation, TargetFlag, estimate_centre,
@@ -68,6 +69,7 @@ pub use fcm::{
     select_high_intensity,
 };
 pub use mec::{Circle, min_enclosing_circle};
+pub use plate::PlateModel;
 
 /// The crate's result type.
 pub type Result<T> = std::result::Result<T, Error>;
