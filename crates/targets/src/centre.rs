@@ -682,19 +682,19 @@ fn posterior_mean(
         }
         l
     };
-    grid_posterior(loss, c0, half_width)
+    grid_posterior(loss, c0, half_width, 20)
 }
 
 /// Posterior mean and covariance of a 2-D position under the negative log-likelihood `loss`
-/// with a flat prior, on two nested 41 × 41 grids: the first ±`half_width` around `c0`, the
+/// with a flat prior, on two nested (2k + 1)² grids: the first ±`half_width` around `c0`, the
 /// second ±4σ around the first mean. The grid step's own spread (step²/12) is added to the
 /// covariance as the floor of what the grid resolves.
 pub(crate) fn grid_posterior(
     loss: impl Fn(f64, f64) -> f64,
     c0: [f64; 2],
     half_width: f64,
+    k: i32,
 ) -> ([f64; 2], [[f64; 2]; 2]) {
-    let k = 20i32;
     let grid = |centre: [f64; 2], h: f64| {
         let step = h / f64::from(k);
         let mut vals = Vec::with_capacity(((2 * k + 1) * (2 * k + 1)) as usize);

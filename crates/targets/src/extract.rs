@@ -342,7 +342,7 @@ pub fn extract_targets(
         let Some(radius) = c.radius_m.or(config.centre.radius_m) else {
             continue;
         };
-        let reach = config.search_radius_m + radius + RING_OUT_M + 0.35;
+        let reach = config.search_radius_m + radius + RING_OUT_M + 0.5;
         let local: Vec<LidarPoint> = all_tree
             .within_unsorted::<SquaredEuclidean>(&[c.x, c.y], reach * reach)
             .into_iter()
@@ -508,9 +508,10 @@ fn plate_estimate(
         flags.push(TargetFlag::TooFewPoints);
     }
     let m = &fit.model;
-    // A plate is bright inside (≥ 95 % of its returns at 30 % noise) and dark around (≤ 5 %).
+    // A plate is bright inside (≥ 95 % of its returns at 30 % noise) and dark around (≤ 5 %);
+    // a line through the circle is bright on a fraction of it and in the ring.
     if m.inside_bright_fraction.is_nan()
-        || m.inside_bright_fraction < 0.7
+        || m.inside_bright_fraction < 0.5
         || m.ring_bright_fraction > 0.25
     {
         flags.push(TargetFlag::NotADisc);

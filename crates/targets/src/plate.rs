@@ -4,10 +4,12 @@
 //! A target is a disc of radius R, brighter than the ground around it and, for a raised plate,
 //! higher. Every return within R + 0.6 m of the disc obeys one model:
 //!
-//! * intensity `I = a + b·f(R − |p − c|)`, with `f` the logistic of scale τ: the fraction of the
-//!   laser footprint on the plate (footprint mixing at the rim) smoothed by the horizontal
-//!   noise; noise σ_I (Gaussian, with a 1 % outlier component so that a stray bright return or
-//!   the edge of a nearby painted line cannot dominate);
+//! * intensity `I = a + b·f(R − |p − c|)`, with `f` the fraction of the laser footprint on the
+//!   plate (footprint mixing at the rim: a logistic for a Gaussian beam or the area fraction of
+//!   a uniform disc, chosen by likelihood); noise σ_I, plus a share of b·f(1 − f) on mixed
+//!   returns, Gaussian with a 1 % outlier component so that a stray bright return or the edge of
+//!   a nearby painted line cannot dominate; the return's horizontal position error σ_xy is
+//!   integrated over (it moves the intensity and the height label together);
 //! * for a raised plate, which surface a return came from (a height label: above or below the
 //!   middle of the height step), on the plate with probability `σ((R − |p − c|)/τ_z)`.
 //!
@@ -17,8 +19,8 @@
 //! line only a fraction); (2) levels a, b by least squares at the detected centre, σ_I from the
 //! MAD of the residuals, the height step by least squares on a sloped ground plane plus a step;
 //! (3) the posterior mean and covariance of c under the model's likelihood (flat prior, nested
-//! grids, [`grid_posterior`]), with τ chosen by likelihood among a few footprint scales and
-//! the levels refitted there; (4) the elevation from the plate itself: the mean Z of the points
+//! grids, [`grid_posterior`]), with the ramp, σ_xy and the mixed-return share chosen by
+//! likelihood at a first posterior mean and the levels refitted there; (4) the elevation from the plate itself: the mean Z of the points
 //! inside the fitted circle minus the rim band (mixed returns), for a raised plate only those on
 //! the upper surface; (5) shape checks: the disc must be bright inside and dark in the ring.
 //!
@@ -36,13 +38,19 @@ use crate::extract::LidarPoint;
 const RING_IN_M: f64 = 0.15;
 /// Outer edge of that ring, and of the points the fit uses, beyond R (m).
 pub(crate) const RING_OUT_M: f64 = 0.6;
-/// Detection threshold: the disc-minus-ring contrast in standard errors. Pure noise gives at
-/// most ≈ 4 over the search grid.
-const DETECTION_T: f64 = 6.0;
+/// Detection threshold: the disc-minus-ring contrast in standard errors. Pure noise rarely
+/// exceeds 4 over the search grid.
+const DETECTION_T: f64 = 5.0;
 /// Weight of the outlier component of the intensity and height-label likelihoods.
 const OUTLIER_WEIGHT: f64 = 0.01;
-/// Footprint-mixing scales (logistic τ, m) the fit chooses from by likelihood.
-const EDGE_SCALES_M: [f64; 5] = [0.005, 0.01, 0.02, 0.04, 0.08];
+/// Horizontal position noises of the returns (m) the fit chooses from by likelihood.
+const POSITION_NOISES_M: [f64; 4] = [0.0, 0.01, 0.02, 0.04];
+/// Intensity noise of mixed returns, a fraction of b·f(1 − f) (the area-fraction model of a
+/// mixed return is only approximate: beam profile, incidence, the plate's bevel).
+const MIXED_NOISES: [f64; 4] = [0.0, 0.15, 0.3, 0.6];
+/// Half the steps of each posterior grid: 25 × 25, a step of 3.3 cm on the first (±0.4 m) grid
+/// and of σ/3 on the second (±4σ).
+const GRID_HALF_STEPS: i32 = 12;
 
 /// What the plate model found at one target (serialised as `plate` in the JSON report).
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -53,8 +61,10 @@ pub struct PlateModel {
     pub ground_intensity: f64,
     /// 1σ intensity noise (1.4826 × MAD of the model residuals).
     pub intensity_noise: f64,
-    /// Logistic scale τ of the intensity edge (footprint mixing and noise), m.
-    pub edge_scale_m: f64,
+    /// 1σ width of the intensity ramp at the edge (footprint mixing) the fit chose, m.
+    pub edge_sd_m: f64,
+    /// Horizontal position noise of the returns the edge fit chose, m.
+    pub position_noise_m: f64,
     /// Height of the plate above the ground plane around it (m).
     pub height_step_m: f64,
     /// Whether the height step was significant, so the height labels took part in the fit.
@@ -88,6 +98,55 @@ pub(crate) struct PlateFit {
     /// inside the circle.
     pub elevation_fallback: bool,
 }
+
+/// The intensity ramp across the plate's edge: the fraction of a return's footprint on the
+/// plate at signed distance t (m, > 0 inside) from the edge.
+#[derive(Debug, Clone, Copy)]
+enum Ramp {
+    /// A Gaussian-like beam: the logistic of scale τ (m).
+    Logistic(f64),
+    /// A uniform disc footprint of radius ρ (m): its area fraction inside a straight edge.
+    Footprint(f64),
+}
+
+impl Ramp {
+    fn f(self, t: f64) -> f64 {
+        match self {
+            Self::Logistic(tau) => sigmoid(t / tau),
+            Self::Footprint(rho) => {
+                if t >= rho {
+                    1.0
+                } else if t <= -rho {
+                    0.0
+                } else {
+                    let u = t / rho;
+                    1.0 - (u.acos() - u * (1.0 - u * u).sqrt()) / std::f64::consts::PI
+                }
+            }
+        }
+    }
+
+    /// 1σ width of the ramp (m).
+    fn sd(self) -> f64 {
+        match self {
+            Self::Logistic(tau) => tau * std::f64::consts::PI / 3f64.sqrt(),
+            Self::Footprint(rho) => 0.5 * rho,
+        }
+    }
+}
+
+/// The ramps the fit chooses from by likelihood.
+const RAMPS: [Ramp; 9] = [
+    Ramp::Logistic(0.005),
+    Ramp::Logistic(0.01),
+    Ramp::Logistic(0.02),
+    Ramp::Logistic(0.04),
+    Ramp::Logistic(0.08),
+    Ramp::Footprint(0.05),
+    Ramp::Footprint(0.075),
+    Ramp::Footprint(0.1),
+    Ramp::Footprint(0.15),
+];
 
 fn sigmoid(x: f64) -> f64 {
     1.0 / (1.0 + (-x).exp())
@@ -132,28 +191,16 @@ fn robust_lstsq(rows: &[Vec<f64>], y: &[f64]) -> Option<(Vec<f64>, f64)> {
     out
 }
 
-/// −ln of the intensity likelihood of a standardised residual r: Gaussian with an outlier
-/// floor at 4σ.
-fn intensity_nll(r: f64) -> f64 {
-    let g = (1.0 - OUTLIER_WEIGHT) * (-0.5 * r * r).exp();
-    -(g + OUTLIER_WEIGHT * (-8.0f64).exp()).ln()
-}
-
 /// Local intensity levels (a, b) of `I ≈ a + b f` at centre `c`, and the noise σ_I.
 fn intensity_levels(
     pts: &[LidarPoint],
     c: [f64; 2],
     radius: f64,
-    tau: f64,
+    ramp: Ramp,
 ) -> Option<(f64, f64, f64)> {
     let rows: Vec<Vec<f64>> = pts
         .iter()
-        .map(|p| {
-            vec![
-                1.0,
-                sigmoid((radius - (p.x - c[0]).hypot(p.y - c[1])) / tau),
-            ]
-        })
+        .map(|p| vec![1.0, ramp.f(radius - (p.x - c[0]).hypot(p.y - c[1]))])
         .collect();
     let y: Vec<f64> = pts.iter().map(|p| p.intensity).collect();
     let (beta, sigma) = robust_lstsq(&rows, &y)?;
@@ -218,9 +265,9 @@ pub(crate) fn fit_plate(
         return None;
     }
 
-    // The fit's points: within R + 0.6 m of the detected centre, plus the 0.3 m the posterior
+    // The fit's points: within R + 0.6 m of the detected centre, plus the 0.45 m the posterior
     // grid may move it.
-    let reach = outer + 0.3;
+    let reach = outer + 0.45;
     let near: Vec<usize> = tree
         .within_unsorted::<SquaredEuclidean>(&c0, reach * reach)
         .into_iter()
@@ -252,43 +299,77 @@ pub(crate) fn fit_plate(
         .collect();
     let tau_z = (edge_width_m * 3f64.sqrt() / std::f64::consts::PI).max(1e-3);
 
-    // (3) Posterior of the centre under the model.
-    let loss_at = |c: [f64; 2], a: f64, b: f64, s: f64, tau: f64| {
+    // (3) Posterior of the centre under the model. A return's horizontal position error σ_xy
+    // moves it across the edge in both channels at once (its intensity and its height label are
+    // not independent): the likelihood integrates over it.
+    let loss_at = |c: [f64; 2], a: f64, b: f64, s: f64, ramp: Ramp, (sxy, kappa): (f64, f64)| {
         let mut l = 0.0;
+        // Three-point Gauss–Hermite rule over the radial position error: nodes 0, ±√3 σ_xy.
+        let nodes = [
+            (0.0, 2.0 / 3.0),
+            (3f64.sqrt() * sxy, 1.0 / 6.0),
+            (-(3f64.sqrt()) * sxy, 1.0 / 6.0),
+        ];
         for (p, &top) in pts.iter().zip(&on_top) {
             let d = (p.x - c[0]).hypot(p.y - c[1]);
-            let r = (p.intensity - a - b * sigmoid((radius - d) / tau)) / s;
-            l += intensity_nll(r);
-            if raised {
-                let g = sigmoid((radius - d) / tau_z);
-                let q = if top { g } else { 1.0 - g };
-                l -= (OUTLIER_WEIGHT + (1.0 - 2.0 * OUTLIER_WEIGHT) * q).ln();
+            let mut lik = 0.0;
+            for (e, w) in nodes {
+                let f = ramp.f(radius - d - e);
+                let mixed = kappa * b * f * (1.0 - f);
+                let v = s * s + mixed * mixed;
+                let mut term = w * (-0.5 * (p.intensity - a - b * f).powi(2) / v).exp() / v.sqrt();
+                if raised {
+                    let g = sigmoid((radius - d - e) / tau_z);
+                    term *= if top { g } else { 1.0 - g };
+                }
+                lik += term;
             }
+            let floor =
+                OUTLIER_WEIGHT * (-8.0f64).exp() / s * if raised { OUTLIER_WEIGHT } else { 1.0 };
+            l -= ((1.0 - OUTLIER_WEIGHT) * lik + floor).ln();
         }
         l
     };
-    let mut tau = 0.02;
-    let (mut a, mut b, mut s) = intensity_levels(&pts, c0, radius, tau)?;
-    s = s.max(1e-9 * scale.max(1.0));
-    let (c1, _) = grid_posterior(|x, y| loss_at([x, y], a, b, s, tau), c0, 0.3);
-    // Footprint scale by likelihood at c1, each with its own levels.
-    let mut best_tau = (f64::INFINITY, tau, a, b, s);
-    for t in EDGE_SCALES_M {
+    let floor = 1e-9 * scale.max(1.0);
+    let (mut ramp, mut sxy) = (Ramp::Logistic(0.02), (0.02, 0.0));
+    let (mut a, mut b, mut s) = intensity_levels(&pts, c0, radius, ramp)?;
+    s = s.max(floor);
+    let (c1, cov1) = grid_posterior(
+        |x, y| loss_at([x, y], a, b, s, ramp, sxy),
+        c0,
+        0.4,
+        GRID_HALF_STEPS,
+    );
+    // Footprint scale and position noise by likelihood at c1, each scale with its own levels.
+    let mut best = (f64::INFINITY, ramp, sxy, a, b, s);
+    for t in RAMPS {
         if let Some((at, bt, st)) = intensity_levels(&pts, c1, radius, t) {
-            let st = st.max(1e-9 * scale.max(1.0));
-            // Full negative log-likelihood, including the noise term n ln σ.
-            let l = loss_at(c1, at, bt, st, t) + pts.len() as f64 * st.ln();
-            if l < best_tau.0 {
-                best_tau = (l, t, at, bt, st);
+            let st = st.max(floor);
+            for sx in POSITION_NOISES_M {
+                for kappa in MIXED_NOISES {
+                    let l = loss_at(c1, at, bt, st, t, (sx, kappa));
+                    if l < best.0 {
+                        best = (l, t, (sx, kappa), at, bt, st);
+                    }
+                }
             }
         }
     }
-    (_, tau, a, b, s) = best_tau;
-    let (centre, cov) = grid_posterior(|x, y| loss_at([x, y], a, b, s, tau), c1, 0.15);
+    (_, ramp, sxy, a, b, s) = best;
+    // The second posterior spans ±5σ of the first (never narrower than 5 cm): a sparse target's
+    // posterior can be 10 cm wide and must not be cut by the grid.
+    let sd1 = (0.5 * (cov1[0][0] + cov1[1][1])).sqrt();
+    let (centre, cov) = grid_posterior(
+        |x, y| loss_at([x, y], a, b, s, ramp, sxy),
+        c1,
+        (5.0 * sd1).clamp(0.05, 0.5),
+        GRID_HALF_STEPS,
+    );
+    let (sxy, _) = sxy;
     let sd_c = (0.5 * (cov[0][0] + cov[1][1])).sqrt();
 
     // (4) Elevation from the plate: inside the circle minus the rim band.
-    let edge_sd = tau * std::f64::consts::PI / 3f64.sqrt();
+    let edge_sd = ramp.sd().hypot(sxy);
     let rim_m = (3.0 * edge_sd + 2.0 * sd_c).max(0.1);
     let dist = |p: &LidarPoint| (p.x - centre[0]).hypot(p.y - centre[1]);
     let pick = |limit: f64| -> Vec<f64> {
@@ -371,7 +452,8 @@ pub(crate) fn fit_plate(
             plate_intensity: a + b,
             ground_intensity: a,
             intensity_noise: s,
-            edge_scale_m: tau,
+            edge_sd_m: ramp.sd(),
+            position_noise_m: sxy,
             height_step_m,
             raised,
             detection_t,

@@ -126,6 +126,13 @@ fn flag_scene_flags_every_doubtful_target() {
         return;
     };
     let (report, control) = run(&dir, "flags");
+    for t in &report.targets {
+        eprintln!(
+            "{}: flags {:?}, plate {:?}",
+            t.id, t.centre.flags, t.centre.plate
+        );
+    }
+    eprintln!("missing: {:?}", report.missing_control);
     let get = |id: &str| report.targets.iter().find(|t| t.id == id);
     // Good discs: found, unflagged, within 3 cm.
     for id in ["G1", "G2"] {
