@@ -508,12 +508,10 @@ fn plate_estimate(
         flags.push(TargetFlag::TooFewPoints);
     }
     let m = &fit.model;
-    // A plate is bright inside (≥ 95 % of its returns at 30 % noise) and dark around (≤ 5 %);
-    // a line through the circle is bright on a fraction of it and in the ring.
-    if m.inside_bright_fraction.is_nan()
-        || m.inside_bright_fraction < 0.5
-        || m.ring_bright_fraction > 0.25
-    {
+    // A plate is dark around (≤ 5 % of the ring's returns bright at 30 % noise); a line through
+    // the circle, or a neighbouring target, is bright in the ring too. (A circle mostly dark
+    // inside is no target at all: `fit_plate` finds none.)
+    if m.ring_bright_fraction > 0.25 {
         flags.push(TargetFlag::NotADisc);
     }
     if fit.elevation_fallback {

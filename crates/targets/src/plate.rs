@@ -417,6 +417,10 @@ pub(crate) fn fit_plate(
     };
     let inside_bright_fraction = frac(0.0, radius - rim_m.min(0.5 * radius));
     let ring_bright_fraction = frac(radius + 0.2, outer);
+    // A disc mostly dark inside is no plate: the contrast came from a few glints.
+    if inside_bright_fraction.is_nan() || inside_bright_fraction < 0.5 {
+        return None;
+    }
 
     // Segmentation for the other estimators: plate labels within R + 0.3 m of the detected
     // centre (height labels on a raised plate, intensity elsewhere).
