@@ -196,9 +196,14 @@ pub struct ErrorsFile {
     /// Injected scan-angle scale error (linear only): measured θ = true θ · (1 + ppm·10⁻⁶).
     #[serde(default)]
     pub scan_angle_scale_ppm: f64,
-    /// Relative 1-sigma noise of the intensity, percent.
+    /// Relative 1-sigma noise of the intensity, percent (receiver gain, speckle).
     #[serde(default = "default_intensity_noise")]
     pub intensity_noise_percent: f64,
+    /// Additive 1-sigma intensity noise as a percentage of the target–ground contrast at the
+    /// return's range and incidence (real intensity is far noisier than a few percent of the
+    /// return; issue #18). Default 15.
+    #[serde(default = "default_intensity_contrast_noise")]
+    pub intensity_contrast_noise_percent: f64,
 }
 
 fn yes() -> bool {
@@ -212,6 +217,9 @@ fn default_attitude_tau() -> f64 {
 }
 fn default_intensity_noise() -> f64 {
     3.0
+}
+fn default_intensity_contrast_noise() -> f64 {
+    15.0
 }
 
 impl Default for ErrorsFile {
@@ -228,6 +236,7 @@ impl Default for ErrorsFile {
             range_offset_m: 0.0,
             scan_angle_scale_ppm: 0.0,
             intensity_noise_percent: default_intensity_noise(),
+            intensity_contrast_noise_percent: default_intensity_contrast_noise(),
         }
     }
 }
@@ -425,6 +434,10 @@ pub struct TargetFile {
     /// Height of the plate above the ground at its centre, m.
     #[serde(default = "default_target_height")]
     pub height_above_ground_m: f64,
+    /// A flat disc of white paint on the ground instead of a raised plate (then
+    /// `height_above_ground_m` must be 0).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub painted: bool,
 }
 
 fn default_target_radius() -> f64 {
@@ -563,6 +576,8 @@ pub struct ErrorModel {
     pub scan_angle_scale: f64,
     /// Relative intensity noise, dimensionless.
     pub intensity_noise: f64,
+    /// Additive intensity noise, a fraction of the target–ground contrast.
+    pub intensity_contrast_noise: f64,
 }
 
 /// Checked platform motion, SI.
@@ -1008,6 +1023,10 @@ fn check_errors(f: &ErrorsFile, sensor: &Sensor) -> Result<ErrorModel> {
         ));
     }
     let noise = non_negative("errors.intensity_noise_percent", f.intensity_noise_percent)?;
+    let contrast_noise = non_negative(
+        "errors.intensity_contrast_noise_percent",
+        f.intensity_contrast_noise_percent,
+    )?;
     let injected = MountingFile {
         boresight_roll_deg: f.boresight_roll_deg,
         boresight_pitch_deg: f.boresight_pitch_deg,
@@ -1023,6 +1042,7 @@ fn check_errors(f: &ErrorsFile, sensor: &Sensor) -> Result<ErrorModel> {
         range_offset_m: f.range_offset_m,
         scan_angle_scale: f.scan_angle_scale_ppm * 1e-6,
         intensity_noise: noise / 100.0,
+        intensity_contrast_noise: contrast_noise / 100.0,
     })
 }
 

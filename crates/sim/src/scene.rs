@@ -106,8 +106,10 @@ pub struct Target {
     pub center_m: [f64; 2],
     /// Radius, m.
     pub radius_m: f64,
-    /// Ellipsoidal height of the plate, m.
+    /// Ellipsoidal height of the plate, m (the ground's at the centre for a painted disc).
     pub height_m: f64,
+    /// A disc of paint on the ground rather than a raised plate.
+    pub painted: bool,
 }
 
 /// The water basin.
@@ -488,12 +490,20 @@ impl Scene {
                 &format!("{key}.height_above_ground_m"),
                 t.height_above_ground_m,
             )?;
+            if t.painted && above != 0.0 {
+                return Err(Error::InvalidValue {
+                    key: format!("{key}.height_above_ground_m"),
+                    value: format!("{above}"),
+                    reason: "a painted disc lies on the ground: set 0 or drop `painted`".into(),
+                });
+            }
             let h = scene.ground_height(t.center_m[0], t.center_m[1]) + above;
             scene.targets.push(Target {
                 id: t.id.clone(),
                 center_m: t.center_m,
                 radius_m: r,
                 height_m: h,
+                painted: t.painted,
             });
         }
         Ok(scene)
@@ -601,7 +611,7 @@ impl Scene {
                 best = h;
             }
         }
-        for t in &self.targets {
+        for t in self.targets.iter().filter(|t| !t.painted) {
             let n = [0.0, 0.0, 1.0];
             let Some(r) = curve.plane(n, t.height_m) else {
                 continue;
@@ -633,6 +643,23 @@ impl Scene {
             && h.range_m < best.range_m
         {
             best = h;
+        }
+        // Painted discs: paint on the ground under the footprint, blended by its area fraction.
+        if best.class == CLASS_GROUND {
+            let rf = 0.5 * footprint_per_m * best.range_m;
+            for t in self.targets.iter().filter(|t| t.painted) {
+                let p = best.position;
+                let dist = (p[0] - t.center_m[0]).hypot(p[1] - t.center_m[1]);
+                if dist > t.radius_m + rf {
+                    continue;
+                }
+                let frac = if rf > 0.0 {
+                    segment_fraction((t.radius_m - dist) / rf)
+                } else {
+                    f64::from(u8::from(dist <= t.radius_m))
+                };
+                best.reflectivity = frac * REFLECTIVITY_PAINT + (1.0 - frac) * best.reflectivity;
+            }
         }
         // Mixed pixel: the footprint straddles a target edge; the single return's intensity
         // blends the plate and what lies beside it.
@@ -936,6 +963,47 @@ mod tests {
         let mixed = s.trace(&off, 1e-3).unwrap();
         assert_eq!(plain.class, CLASS_GROUND);
         assert!(mixed.reflectivity > plain.reflectivity + 0.1);
+    }
+
+    #[test]
+    fn painted_disc_is_paint_on_the_ground() {
+        let text = crate::scenario::builtin_toml("demo").unwrap();
+        let mut f: crate::scenario::ScenarioFile = toml::from_str(text).unwrap();
+        let mut disc = f.scene.targets[0].clone();
+        disc.id = "P1".into();
+        disc.center_m[0] += 10.0;
+        disc.height_above_ground_m = 0.5;
+        disc.painted = true;
+        f.scene.targets.push(disc.clone());
+        // A painted disc with a height is a contradiction, named by key.
+        let e = Scene::from_file(&f.scene).unwrap_err().to_string();
+        assert!(e.contains("height_above_ground_m"), "{e}");
+        f.scene.targets.last_mut().unwrap().height_above_ground_m = 0.0;
+        let s = Scene::from_file(&f.scene).unwrap();
+        let t = s.targets.last().unwrap();
+        assert!(t.painted);
+        let (x, y) = (t.center_m[0] + 0.3, t.center_m[1]);
+        let hit = s.trace(&straight_down(x, y, 500.0), 0.0).unwrap();
+        // On the ground, at the ground's height, as bright as paint.
+        assert_eq!(hit.class, CLASS_GROUND);
+        assert!((hit.position[2] - s.ground_height(x, y)).abs() < 1e-6);
+        assert!((hit.reflectivity - REFLECTIVITY_PAINT).abs() < 1e-12);
+        assert!((t.height_m - s.ground_height(t.center_m[0], t.center_m[1])).abs() < 1e-9);
+        // Half a footprint across the edge: the paint's and the ground's mean.
+        let edge = straight_down(t.center_m[0] + t.radius_m, t.center_m[1], 500.0);
+        let mixed = s.trace(&edge, 1e-3).unwrap();
+        let plain = s
+            .trace(
+                &straight_down(t.center_m[0] + t.radius_m + 1.0, t.center_m[1], 500.0),
+                0.0,
+            )
+            .unwrap();
+        let mid = 0.5 * (REFLECTIVITY_PAINT + plain.reflectivity);
+        assert!(
+            (mixed.reflectivity - mid).abs() < 0.01,
+            "{} vs {mid}",
+            mixed.reflectivity
+        );
     }
 
     #[test]

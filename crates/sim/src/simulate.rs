@@ -23,7 +23,8 @@ use crate::output::{
 };
 use crate::scenario::{Line, ScanPattern, ScanWave, Scenario};
 use crate::scene::{
-    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, REFLECTIVITY_BED, WATER_ATTENUATION_PER_M,
+    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, REFLECTIVITY_BED, REFLECTIVITY_TARGET,
+    REFLECTIVITY_TERRAIN, WATER_ATTENUATION_PER_M,
 };
 use crate::trajectory::{self, Pose, StripTrajectory, trajectory_sigmas};
 use lidarqa_model::{
@@ -386,16 +387,25 @@ impl Kernel<'_> {
         range_m: f64,
         rng: &mut ChaCha8Rng,
     ) -> u16 {
-        let noise = self.scenario.errors().intensity_noise;
+        let errors = self.scenario.errors();
+        let noise = errors.intensity_noise;
         let n = if noise > 0.0 {
             1.0 + noise * normal(rng)
         } else {
             1.0
         };
+        // Additive noise, a fraction of the target–ground contrast at this range and incidence.
+        let contrast =
+            errors.intensity_contrast_noise * (REFLECTIVITY_TARGET - REFLECTIVITY_TERRAIN);
+        let add = if contrast > 0.0 {
+            contrast * normal(rng)
+        } else {
+            0.0
+        };
         // Range normalised to 150 m: no saturation of the u16 scale above ~110 m even for the
         // target plates (reflectivity ~0.9), and still a 1/ρ² fall-off.
         let r = 150.0 / range_m;
-        let i = 0.8 * reflectivity * cos_incidence.abs().max(0.02) * r * r * n;
+        let i = 0.8 * (reflectivity * n + add) * cos_incidence.abs().max(0.02) * r * r;
         (i.clamp(0.0, 1.0) * 65535.0).round().max(1.0) as u16
     }
 

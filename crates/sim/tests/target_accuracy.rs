@@ -47,6 +47,7 @@ fn target_rmse_agrees_with_predicted_sigma() {
                 center_m: [x, 15.0],
                 radius_m: 0.8,
                 height_above_ground_m: 0.5,
+                painted: false,
             })
             .collect();
         let scenario = Scenario::from_file(f).unwrap();

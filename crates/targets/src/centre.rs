@@ -177,6 +177,16 @@ pub enum TargetFlag {
     /// The fitted plane was steeper than [`CentreOptions::max_tilt_deg`]; the horizontal plane
     /// was used.
     SteepPlane,
+    /// The bright pattern at the fitted position is not a disc of the target's radius: too few
+    /// bright returns inside the circle or too many in the ring around it (a painted line, a
+    /// neighbouring target, a wrong radius). The centre is not to be trusted.
+    NotADisc,
+    /// Another control point or fitted target lies closer than the diameter plus 0.6 m: the
+    /// targets' fit windows overlap and either may have been taken for the other.
+    NeighbourTooClose,
+    /// Fewer than 3 returns inside the circle minus the rim band: the elevation is the mean of
+    /// every return inside the circle, mixed rim returns included.
+    ElevationFallback,
 }
 
 /// A fitted target centre.
@@ -216,6 +226,10 @@ pub struct CentreEstimate {
     pub iterations: usize,
     /// Quality flags (empty when all is well).
     pub flags: Vec<TargetFlag>,
+    /// The plate model behind the estimate, when [`extract_targets`](crate::extract_targets)
+    /// fitted one (known radius).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plate: Option<crate::plate::PlateModel>,
 }
 
 struct Plane {
@@ -332,7 +346,7 @@ fn sector_edges(q: &[[f64; 2]], active: &[bool], c: [f64; 2], sectors: usize) ->
 }
 
 /// 360° minus the largest azimuth gap of `pts` around `c` (degrees).
-fn coverage_deg(pts: &[[f64; 2]], c: [f64; 2]) -> f64 {
+pub(crate) fn coverage_deg(pts: &[[f64; 2]], c: [f64; 2]) -> f64 {
     let mut az: Vec<f64> = pts
         .iter()
         .filter(|p| p[0] != c[0] || p[1] != c[1])
@@ -668,7 +682,19 @@ fn posterior_mean(
         }
         l
     };
-    let k = 20i32;
+    grid_posterior(loss, c0, half_width, 20)
+}
+
+/// Posterior mean and covariance of a 2-D position under the negative log-likelihood `loss`
+/// with a flat prior, on two nested (2k + 1)² grids: the first ±`half_width` around `c0`, the
+/// second ±4σ around the first mean. The grid step's own spread (step²/12) is added to the
+/// covariance as the floor of what the grid resolves.
+pub(crate) fn grid_posterior(
+    loss: impl Fn(f64, f64) -> f64,
+    c0: [f64; 2],
+    half_width: f64,
+    k: i32,
+) -> ([f64; 2], [[f64; 2]; 2]) {
     let grid = |centre: [f64; 2], h: f64| {
         let step = h / f64::from(k);
         let mut vals = Vec::with_capacity(((2 * k + 1) * (2 * k + 1)) as usize);
@@ -1026,6 +1052,7 @@ pub fn estimate_centre_with_background(
         covariance: cov,
         iterations,
         flags,
+        plate: None,
     })
 }
 

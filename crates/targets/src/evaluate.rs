@@ -397,22 +397,25 @@ fn component(
 const STANDARD: &str =
     "ASPRS Positional Accuracy Standards for Digital Geospatial Data, Edition 2 (2023)";
 
-fn statement_part(c: &AsprsComponent, kind: &str, symbol: &str, what: &str) -> String {
+/// One component's clause of the statement: its RMSE once, and the class verdict when a class
+/// was given. The standard is named once, in the sentence that opens the statement.
+fn statement_part(c: &AsprsComponent, symbol: &str, what: &str) -> String {
+    let found = format!(
+        "the tested {what} was found to be {symbol} = {}",
+        cm(c.rmse_m)
+    );
     match (c.class_m, c.meets_class) {
-        (Some(class), Some(true)) => format!(
-            "This data set was tested to meet {STANDARD} for a {} {symbol} {kind} accuracy class. The tested {what} was found to be {symbol} = {}.",
-            cm(class),
-            cm(c.rmse_m)
-        ),
+        (Some(class), Some(true)) => {
+            format!(
+                "{found}, which meets the {} {symbol} accuracy class",
+                cm(class)
+            )
+        }
         (Some(class), _) => format!(
-            "This data set was tested against {STANDARD} for a {} {symbol} {kind} accuracy class and does not meet it: the tested {what} was found to be {symbol} = {}.",
-            cm(class),
-            cm(c.rmse_m)
+            "{found}, which does not meet the {} {symbol} accuracy class",
+            cm(class)
         ),
-        _ => format!(
-            "This data set was tested following {STANDARD} (no accuracy class given): the tested {what} was found to be {symbol} = {}.",
-            cm(c.rmse_m)
-        ),
+        _ => format!("{found} (no accuracy class given)"),
     }
 }
 
@@ -438,24 +441,23 @@ fn warnings_for(c: &AsprsComponent, name: &str, warnings: &mut Vec<String>) {
 }
 
 fn asprs(n: usize, horizontal: Option<AsprsComponent>, vertical: AsprsComponent) -> Asprs {
-    let mut statement = String::new();
+    let mut statement = format!("This data set was tested following {STANDARD}: ");
     let mut warnings = Vec::new();
     if let Some(h) = &horizontal {
         statement.push_str(&statement_part(
             h,
-            "horizontal positional",
             "RMSE_H",
             "horizontal positional accuracy",
         ));
-        statement.push(' ');
+        statement.push_str("; ");
         warnings_for(h, "horizontal", &mut warnings);
     }
     statement.push_str(&statement_part(
         &vertical,
-        "vertical",
         "RMSE_V",
         "non-vegetated vertical accuracy (NVA)",
     ));
+    statement.push('.');
     warnings_for(&vertical, "vertical", &mut warnings);
     let rmse_3d_m = horizontal.as_ref().map(|h| h.rmse_m.hypot(vertical.rmse_m));
     if let Some(r3) = rmse_3d_m {

@@ -4,8 +4,12 @@
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use serde::Serialize;
 
-use crate::centre::{CentreEstimate, CentreOptions, estimate_centre_with_background};
+use crate::centre::{
+    CentreEstimate, CentreMethod, CentreOptions, TargetFlag, estimate_centre,
+    estimate_centre_with_background,
+};
 use crate::fcm::{ExtractionReport, FcmConfig, ThresholdRule, select_high_intensity};
+use crate::plate::{PlateFit, RING_OUT_M, fit_plate};
 use crate::{Error, Result};
 
 /// One lidar return, in projected coordinates.
@@ -328,25 +332,60 @@ pub fn extract_targets(
         let nn = tree.nearest_one::<SquaredEuclidean>(&[c[0], c[1]]);
         candidates.push((k, c, nn.item as usize, nn.distance.sqrt()));
     }
-    if clusters.len() == small_clusters {
-        // Every bright point is isolated: report it as no target at all.
-        return Err(Error::NoHighIntensityPoints {
-            n: points.len(),
-            threshold: extraction.threshold,
-            rule: format!(
-                "{}; only clusters smaller than {} points",
-                extraction.rule, config.min_cluster_points
-            ),
+    // Control points with a known radius: the plate model (module `plate`) on every return
+    // around them. Without a radius: the nearest intensity cluster wins the control point.
+    let all_xy: Vec<[f64; 2]> = points.iter().map(|p| [p.x, p.y]).collect();
+    let all_tree: ImmutableKdTree<f64, 2> = ImmutableKdTree::new_from_slice(&all_xy);
+    let mut found: Vec<Option<TargetResult>> = vec![None; control.len()];
+    let mut owner: Vec<Option<(usize, f64)>> = vec![None; control.len()];
+    for (ctrl_idx, c) in control.iter().enumerate() {
+        let Some(radius) = c.radius_m.or(config.centre.radius_m) else {
+            continue;
+        };
+        let reach = config.search_radius_m + radius + RING_OUT_M + 0.5;
+        let local: Vec<LidarPoint> = all_tree
+            .within_unsorted::<SquaredEuclidean>(&[c.x, c.y], reach * reach)
+            .into_iter()
+            .map(|nb| points[nb.item as usize])
+            .collect();
+        let Some(fit) = fit_plate(
+            &local,
+            [c.x, c.y],
+            radius,
+            config.search_radius_m,
+            config.centre.edge_width_m,
+        ) else {
+            continue;
+        };
+        let mut opts = config.centre.clone();
+        opts.radius_m = Some(radius);
+        found[ctrl_idx] = Some(TargetResult {
+            id: c.id.clone(),
+            match_distance_m: (fit.centre[0] - c.x).hypot(fit.centre[1] - c.y),
+            centre: plate_estimate(&local, fit, radius, &opts)?,
         });
     }
-    // Nearest cluster wins each control point.
-    let mut owner: Vec<Option<(usize, f64)>> = vec![None; control.len()];
     for (ci, cand) in candidates.iter().enumerate() {
+        let ctrl = &control[cand.2];
+        if ctrl.radius_m.or(config.centre.radius_m).is_some() {
+            continue;
+        }
         if cand.3 <= config.search_radius_m && owner[cand.2].is_none_or(|(_, d)| cand.3 < d) {
             owner[cand.2] = Some((ci, cand.3));
         }
     }
-    if owner.iter().all(Option::is_none) {
+    if found.iter().all(Option::is_none) && owner.iter().all(Option::is_none) {
+        if clusters.len() == small_clusters {
+            // Every bright point is isolated: report it as no target at all.
+            return Err(Error::NoHighIntensityPoints {
+                n: points.len(),
+                threshold: extraction.threshold,
+                rule: format!(
+                    "{}; only clusters smaller than {} points",
+                    extraction.rule, config.min_cluster_points
+                ),
+            });
+        }
         let nearest = candidates.iter().map(|c| c.3).fold(f64::INFINITY, f64::min);
         return Err(Error::NoTargetNearControl {
             clusters: candidates.len(),
@@ -370,6 +409,10 @@ pub fn extract_targets(
     let mut targets = Vec::new();
     let mut missing_control = Vec::new();
     for (ctrl_idx, own) in owner.iter().enumerate() {
+        if let Some(t) = found[ctrl_idx].take() {
+            targets.push(t);
+            continue;
+        }
         let Some((ci, dist)) = *own else {
             missing_control.push(control[ctrl_idx].id.clone());
             continue;
@@ -382,10 +425,7 @@ pub fn extract_targets(
                 [p.x, p.y, p.z]
             })
             .collect();
-        let mut opts = config.centre.clone();
-        if control[ctrl_idx].radius_m.is_some() {
-            opts.radius_m = control[ctrl_idx].radius_m;
-        }
+        let opts = config.centre.clone();
         let centroid = candidates[ci].1;
         let extent = pts
             .iter()
@@ -411,9 +451,17 @@ pub fn extract_targets(
             centre,
         });
     }
+    flag_neighbours(&mut targets, control, config.centre.radius_m);
     let mut unmatched_clusters = Vec::new();
     for (ci, cand) in candidates.iter().enumerate() {
         if owner[cand.2].is_some_and(|(o, _)| o == ci) {
+            continue;
+        }
+        // A cluster on a plate-model target is that target's.
+        if targets.iter().any(|t| {
+            let r = t.centre.radius_m.unwrap_or(0.0);
+            (t.centre.x - cand.1[0]).hypot(t.centre.y - cand.1[1]) <= r + 0.5
+        }) {
             continue;
         }
         let reason = if cand.3 <= config.search_radius_m {
@@ -439,4 +487,100 @@ pub fn extract_targets(
         small_clusters,
         small_cluster_points,
     })
+}
+
+/// The target's [`CentreEstimate`] from its plate fit: `circle-fit` takes the plate model's
+/// posterior centre and its elevation from the plate; `sector-mec` and `centroid` run on the
+/// plate's segmented points (seed 000: their elevation is the mean Z of those points, eq. 8).
+fn plate_estimate(
+    local: &[LidarPoint],
+    fit: PlateFit,
+    radius: f64,
+    options: &CentreOptions,
+) -> Result<CentreEstimate> {
+    let plate_pts: Vec<[f64; 3]> = fit
+        .plate_points
+        .iter()
+        .map(|&i| [local[i].x, local[i].y, local[i].z])
+        .collect();
+    let mut flags = Vec::new();
+    if plate_pts.len() < options.min_points {
+        flags.push(TargetFlag::TooFewPoints);
+    }
+    let m = &fit.model;
+    // A plate is dark around (≤ 5 % of the ring's returns bright at 30 % noise); a line through
+    // the circle, or a neighbouring target, is bright in the ring too. (A circle mostly dark
+    // inside is no target at all: `fit_plate` finds none.)
+    if m.ring_bright_fraction > 0.25 {
+        flags.push(TargetFlag::NotADisc);
+    }
+    if fit.elevation_fallback {
+        flags.push(TargetFlag::ElevationFallback);
+    }
+    let mut est = if options.method == CentreMethod::CircleFit || plate_pts.is_empty() {
+        if fit.coverage_deg < options.min_coverage_deg {
+            flags.push(TargetFlag::PoorCoverage);
+        }
+        let cov = [
+            [fit.cov[0][0], fit.cov[0][1], 0.0],
+            [fit.cov[1][0], fit.cov[1][1], 0.0],
+            [0.0, 0.0, fit.var_z],
+        ];
+        CentreEstimate {
+            x: fit.centre[0],
+            y: fit.centre[1],
+            z: fit.z,
+            method: CentreMethod::CircleFit,
+            n_points: plate_pts.len(),
+            n_edge_points: fit.n_edge,
+            n_outliers: 0,
+            n_background_points: 0,
+            coverage_deg: fit.coverage_deg,
+            radius_m: Some(radius),
+            radius_estimated: false,
+            sigma_horizontal_m: (cov[0][0] + cov[1][1]).max(0.0).sqrt(),
+            covariance: cov,
+            iterations: 0,
+            flags: Vec::new(),
+            plate: None,
+        }
+    } else {
+        estimate_centre(&plate_pts, options)?
+    };
+    for f in flags {
+        if !est.flags.contains(&f) {
+            est.flags.push(f);
+        }
+    }
+    est.plate = Some(fit.model);
+    Ok(est)
+}
+
+/// Sets [`TargetFlag::NeighbourTooClose`] on every target with another control point or
+/// another fitted target within its diameter plus 0.6 m (the fit windows overlap).
+fn flag_neighbours(targets: &mut [TargetResult], control: &[ControlPoint], radius: Option<f64>) {
+    let centres: Vec<(String, [f64; 2])> = targets
+        .iter()
+        .map(|t| (t.id.clone(), [t.centre.x, t.centre.y]))
+        .collect();
+    for t in targets.iter_mut() {
+        let Some(me) = control.iter().find(|c| c.id == t.id) else {
+            continue;
+        };
+        let Some(r) = t.centre.radius_m.or(me.radius_m).or(radius) else {
+            continue;
+        };
+        let limit = 2.0 * r + RING_OUT_M;
+        let close_control = control
+            .iter()
+            .any(|c| c.id != me.id && (c.x - me.x).hypot(c.y - me.y) < limit);
+        let close_target = centres
+            .iter()
+            .any(|(id, c)| *id != t.id && (c[0] - t.centre.x).hypot(c[1] - t.centre.y) < limit);
+        if (close_control || close_target)
+            && !t.centre.flags.contains(&TargetFlag::NeighbourTooClose)
+        {
+            t.centre.flags.push(TargetFlag::NeighbourTooClose);
+        }
+    }
 }

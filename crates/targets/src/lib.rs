@@ -7,13 +7,16 @@
 //!    cluster's max and min) is available as [`ThresholdRule::Paper`] but keeps no target point
 //!    on realistic data; the default is the midpoint between the two top cluster centres (see
 //!    the `fcm` module docs for the measurement).
-//! 2. [`segment_clusters`]: connected components in XY (k-d tree); each cluster is matched to
-//!    the nearest control point within a search radius; unmatched clusters and control points
-//!    without a target are reported ([`TargetReport`]).
-//! 3. [`estimate_centre`]: `sector-mec` (seed 000 §3.2, with Welzl's
-//!    [`min_enclosing_circle`]), `centroid`, or the default `circle-fit` (robust known-radius
-//!    fit in the target plane using edge, interior and surrounding background points), with
-//!    covariance, coverage and flags. [`extract_targets`] runs 1–3.
+//! 2. [`segment_clusters`]: connected components in XY (k-d tree); with an unknown radius each
+//!    cluster is matched to the nearest control point within a search radius; unmatched
+//!    clusters and control points without a target are reported ([`TargetReport`]).
+//! 3. With a known radius, the plate model at every control point (module `plate`, issue #18):
+//!    a matched filter finds the disc, the centre is the posterior mean of an intensity
+//!    (footprint mixing) and height-step likelihood over every return around it, the elevation
+//!    the mean Z inside the circle minus the rim ([`PlateModel`]), with shape and neighbour
+//!    flags. Otherwise [`estimate_centre`]: `sector-mec` (seed 000 §3.2, with Welzl's
+//!    [`min_enclosing_circle`]), `centroid`, or `circle-fit` (robust circle fit in the target
+//!    plane), with covariance, coverage and flags. [`extract_targets`] runs 1–3.
 //! 4. [`evaluate`]: residuals lidar − control in north/east/up, RMSE (seed 000 formulas 7 and
 //!    8), ASPRS Positional Accuracy Standards Ed. 2 (2023), NSSDA 95 %; and
 //!    [`evaluate_vertical_tin`] for vertical checkpoints against a TIN of ground points.
@@ -47,6 +50,7 @@ mod evaluate;
 mod extract;
 mod fcm;
 mod mec;
+mod plate;
 
 pub use centre::{
     CentreEstimate, CentreMethod, CentreOptions, Elevation, TargetFlag, estimate_centre,
@@ -68,6 +72,7 @@ pub use fcm::{
     select_high_intensity,
 };
 pub use mec::{Circle, min_enclosing_circle};
+pub use plate::PlateModel;
 
 /// The crate's result type.
 pub type Result<T> = std::result::Result<T, Error>;

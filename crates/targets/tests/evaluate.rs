@@ -127,14 +127,16 @@ fn asprs_checkpoint_accuracy_in_quadrature() {
     assert!(v.mean_error_ok && h.mean_error_ok);
     assert_eq!(
         e.asprs.statement,
-        "This data set was tested to meet ASPRS Positional Accuracy Standards for Digital Geospatial Data, \
-         Edition 2 (2023) for a 6.0 cm RMSE_H horizontal positional accuracy class. The tested horizontal \
-         positional accuracy was found to be RMSE_H = 5.0 cm. This data set was tested against ASPRS \
-         Positional Accuracy Standards for Digital Geospatial Data, Edition 2 (2023) for a 2.0 cm RMSE_V \
-         vertical accuracy class and does not meet it: the tested non-vegetated vertical accuracy (NVA) \
-         was found to be RMSE_V = 2.2 cm. The three-dimensional positional accuracy was found to be \
-         RMSE_3D = 5.5 cm."
+        "This data set was tested following ASPRS Positional Accuracy Standards for Digital Geospatial \
+         Data, Edition 2 (2023): the tested horizontal positional accuracy was found to be RMSE_H = 5.0 cm, \
+         which meets the 6.0 cm RMSE_H accuracy class; the tested non-vegetated vertical accuracy (NVA) \
+         was found to be RMSE_V = 2.2 cm, which does not meet the 2.0 cm RMSE_V accuracy class. The \
+         three-dimensional positional accuracy was found to be RMSE_3D = 5.5 cm."
     );
+    // Issue #18: the standard and each accuracy are stated once.
+    assert_eq!(e.asprs.statement.matches("was tested").count(), 1);
+    assert_eq!(e.asprs.statement.matches("RMSE_H = ").count(), 1);
+    assert_eq!(e.asprs.statement.matches("RMSE_V = ").count(), 1);
     // 29 checkpoints: flagged.
     let e29 = evaluate(&lidar[..29], &control, &opts).unwrap();
     assert!(!e29.asprs.sufficient_checkpoints);

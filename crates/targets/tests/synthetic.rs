@@ -1,7 +1,8 @@
 //! Synthetic targets with known truth: the extraction measurement and the centre-method table.
 //!
-//! The README table comes from
-//! `cargo test -p lidarqa-targets --release --test synthetic -- --nocapture method_table`.
+//! The README table (issue #18) comes from
+//! `cargo test -p lidarqa-targets --release --test synthetic -- --ignored --nocapture method_table_full`;
+//! CI runs `method_table_subset`.
 
 use lidarqa_targets::{
     CentreMethod, ControlPoint, FcmConfig, LidarPoint, TargetConfig, ThresholdRule,
@@ -9,7 +10,7 @@ use lidarqa_targets::{
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
+use rand_distr::{Distribution, Normal, Poisson};
 
 /// Seed 000 §4.1: disks of radius 0.8 m, 0.5 m above the ground.
 const RADIUS_M: f64 = 0.8;
@@ -109,95 +110,251 @@ fn scene(density: f64, n: usize, seed: u64) -> Scene {
 }
 
 const DENSITIES: [f64; 3] = [4.0, 16.0, 50.0];
-const TARGETS: usize = 100;
 
-/// RMS horizontal and vertical centre error (m) of one method on one scene, and the number of
-/// targets found.
-fn score(s: &Scene, method: CentreMethod, radius: Option<f64>) -> (f64, f64, usize) {
-    let mut cfg = TargetConfig::default();
-    cfg.centre.method = method;
-    cfg.centre.radius_m = radius;
-    let rep = extract_targets(&s.points, &s.truth, &cfg).unwrap();
-    let (mut sh, mut sv) = (0.0, 0.0);
-    for t in &rep.targets {
-        let c = s.truth.iter().find(|c| c.id == t.id).unwrap();
-        sh += (t.centre.x - c.x).powi(2) + (t.centre.y - c.y).powi(2);
-        sv += (t.centre.z - c.z).powi(2);
-    }
-    let n = rep.targets.len();
-    ((sh / n as f64).sqrt(), (sv / n as f64).sqrt(), n)
+/// One cell of the issue #18 table.
+#[derive(Debug, Clone, Copy)]
+struct Cell {
+    /// Intensity noise, a fraction of the plate–ground contrast.
+    noise: f64,
+    /// Points per m².
+    density: f64,
+    /// Raised plate (0.5 m step) or flat painted disc.
+    raised: bool,
+    /// Scan lines 0.45 : 0.22 (across : along) instead of uniform random points.
+    anisotropic: bool,
 }
 
-#[test]
-fn method_table() {
-    let variants: [(&str, CentreMethod, Option<f64>); 4] = [
-        (
-            "sector-mec (seed 000)",
-            CentreMethod::SectorMec,
-            Some(RADIUS_M),
-        ),
-        ("centroid", CentreMethod::Centroid, Some(RADIUS_M)),
-        (
-            "circle-fit, radius given (default)",
-            CentreMethod::CircleFit,
-            Some(RADIUS_M),
-        ),
-        (
-            "circle-fit, radius estimated",
-            CentreMethod::CircleFit,
-            None,
-        ),
-    ];
-    let scenes: Vec<Scene> = DENSITIES
-        .iter()
-        .enumerate()
-        .map(|(k, &d)| scene(d, TARGETS, 1000 + k as u64))
-        .collect();
-    let mut table = vec![vec![(0.0, 0.0, 0usize); DENSITIES.len()]; variants.len()];
-    for (vi, v) in variants.iter().enumerate() {
-        for (di, s) in scenes.iter().enumerate() {
-            table[vi][di] = score(s, v.1, v.2);
+/// Ground and plate intensity levels of the table's scenes.
+const GROUND_I: f64 = 40.0;
+const CONTRAST_I: f64 = 160.0;
+/// The table's footprint radius (m): a 15 cm footprint.
+const TABLE_FOOTPRINT_M: f64 = 0.075;
+
+/// `n` targets 10 m apart, each in a 6 × 6 m window, sampled as `cell` says. Written for this
+/// test from the issue's description (not the simulator's code): intensity = ground + contrast ×
+/// the footprint's area fraction on the plate + N(0, (noise × contrast)²); heights of the surface
+/// under the footprint centre + N(0, 2 cm); horizontal noise 2 cm.
+fn cell_scene(cell: Cell, n: usize, seed: u64) -> Scene {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let noise = Normal::new(0.0, cell.noise * CONTRAST_I).unwrap();
+    let pos = Normal::new(0.0, 0.02).unwrap();
+    let (mut points, mut on_target, mut truth) = (Vec::new(), Vec::new(), Vec::new());
+    let cols = (n as f64).sqrt().ceil() as usize;
+    let half = 3.0;
+    for k in 0..n {
+        let ground_z = 100.0 + rng.random_range(-2.0..2.0);
+        let cx = E0 + 10.0 * (k % cols) as f64 + rng.random_range(-1.0..1.0);
+        let cy = N0 + 10.0 * (k / cols) as f64 + rng.random_range(-1.0..1.0);
+        let step = if cell.raised { HEIGHT_M } else { 0.0 };
+        truth.push(ControlPoint::new(
+            format!("T{k:03}"),
+            cx,
+            cy,
+            ground_z + step,
+        ));
+        let mut local: Vec<(f64, f64)> = Vec::new();
+        if cell.anisotropic {
+            let across = (2.045 / cell.density).sqrt();
+            let along = across / 2.045;
+            let heading = rng.random_range(0.0..std::f64::consts::TAU);
+            let (sh, ch) = heading.sin_cos();
+            let (pa, pb) = (rng.random_range(0.0..across), rng.random_range(0.0..along));
+            let reach = half * 1.5;
+            let nl = (reach / across) as i64 + 1;
+            let nb = (reach / along) as i64 + 1;
+            for l in -nl..=nl {
+                let off = rng.random_range(0.0..along);
+                for m in -nb..=nb {
+                    let u = l as f64 * across + pa;
+                    let v = m as f64 * along + pb + off;
+                    let (dx, dy) = (v * ch - u * sh, v * sh + u * ch);
+                    if dx.abs() <= half && dy.abs() <= half {
+                        local.push((dx, dy));
+                    }
+                }
+            }
+        } else {
+            let count = Poisson::new(cell.density * 4.0 * half * half)
+                .unwrap()
+                .sample(&mut rng) as usize;
+            for _ in 0..count {
+                local.push((rng.random_range(-half..half), rng.random_range(-half..half)));
+            }
+        }
+        for (dx, dy) in local {
+            let f = inside_fraction(RADIUS_M - dx.hypot(dy), TABLE_FOOTPRINT_M);
+            let on = dx.hypot(dy) <= RADIUS_M;
+            points.push(LidarPoint {
+                x: cx + dx + pos.sample(&mut rng),
+                y: cy + dy + pos.sample(&mut rng),
+                z: ground_z + if on { step } else { 0.0 } + pos.sample(&mut rng),
+                intensity: GROUND_I + CONTRAST_I * f + noise.sample(&mut rng),
+            });
+            on_target.push(on);
         }
     }
-    println!("\nRMS horizontal centre error over {TARGETS} targets per density (cm):\n");
-    println!(
-        "| method | {} |",
-        DENSITIES.map(|d| format!("{d} pts/m²")).join(" | ")
-    );
-    println!("|---|{}", "---:|".repeat(DENSITIES.len()));
-    for (vi, v) in variants.iter().enumerate() {
-        let cells: Vec<String> = table[vi]
-            .iter()
-            .map(|c| format!("{:.2}", c.0 * 100.0))
-            .collect();
-        println!("| {} | {} |", v.0, cells.join(" | "));
+    Scene {
+        points,
+        on_target,
+        truth,
     }
-    let cells: Vec<String> = table[2]
-        .iter()
-        .map(|c| format!("{:.2}", c.1 * 100.0))
-        .collect();
-    println!("| elevation (mean Z), RMS | {} |", cells.join(" | "));
-    let found: Vec<String> = table[2].iter().map(|c| c.2.to_string()).collect();
-    println!("| targets found (of {TARGETS}) | {} |", found.join(" | "));
+}
 
-    for di in 0..DENSITIES.len() {
-        // Every target is found at every density.
-        assert_eq!(table[2][di].2, TARGETS, "density {}", DENSITIES[di]);
-        // The default beats the paper's method at every density.
-        assert!(
-            table[2][di].0 < table[0][di].0,
-            "density {}: circle-fit {:.4} m vs sector-mec {:.4} m",
-            DENSITIES[di],
-            table[2][di].0,
-            table[0][di].0
-        );
-        // Mean Z (seed 000 eq. 8): noise 2 cm/√n, plus the odd edge point whose footprint is
-        // mostly on the ground but bright enough to pass the threshold; its Z is the ground's,
-        // 0.5 m lower, which at 4 pts/m² (8 points per target) costs a few cm.
-        assert!(table[2][di].1 < 0.04, "elevation rms {}", table[2][di].1);
+/// One method on one scene: RMSE east, north, up (m), RMS σ east, north, up (m), targets found,
+/// targets flagged.
+struct Score {
+    rmse: [f64; 3],
+    rms_sigma: [f64; 3],
+    found: usize,
+    flagged: usize,
+}
+
+fn score(s: &Scene, method: CentreMethod) -> Score {
+    let mut cfg = TargetConfig::default();
+    cfg.centre.method = method;
+    cfg.centre.radius_m = Some(RADIUS_M);
+    let rep = extract_targets(&s.points, &s.truth, &cfg).unwrap();
+    let (mut e2, mut s2) = ([0.0; 3], [0.0; 3]);
+    for t in &rep.targets {
+        let c = s.truth.iter().find(|c| c.id == t.id).unwrap();
+        let d = [t.centre.x - c.x, t.centre.y - c.y, t.centre.z - c.z];
+        for k in 0..3 {
+            e2[k] += d[k] * d[k];
+            s2[k] += t.centre.covariance[k][k];
+        }
     }
-    // Centre error shrinks with density for the default.
-    assert!(table[2][2].0 < table[2][0].0);
+    let n = rep.targets.len().max(1) as f64;
+    Score {
+        rmse: e2.map(|v| (v / n).sqrt()),
+        rms_sigma: s2.map(|v| (v / n).sqrt()),
+        found: rep.targets.len(),
+        flagged: rep
+            .targets
+            .iter()
+            .filter(|t| !t.centre.flags.is_empty())
+            .count(),
+    }
+}
+
+fn horizontal(v: [f64; 3]) -> f64 {
+    v[0].hypot(v[1])
+}
+
+/// Runs the cells, prints the README table (cm) and asserts the issue's goals per cell: every
+/// target found, the default's horizontal RMSE below seed 000's sector-MEC and the centroid,
+/// and its RMSE / RMS σ within 0.7–1.4 per axis.
+fn method_table(cells: &[Cell], targets: usize) {
+    println!(
+        "\n| noise | pts/m² | plate | sampling | default H | sector-mec H | centroid H | 0.3 s | default V | sector-mec V | centroid V | RMSE/σ east, north, up | flagged |"
+    );
+    println!("|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|");
+    let mut failures = Vec::new();
+    for (k, &cell) in cells.iter().enumerate() {
+        let s = cell_scene(cell, targets, 5000 + k as u64);
+        let [mec, cen, def] = [
+            CentreMethod::SectorMec,
+            CentreMethod::Centroid,
+            CentreMethod::CircleFit,
+        ]
+        .map(|m| score(&s, m));
+        let ratio: Vec<f64> = (0..3).map(|a| def.rmse[a] / def.rms_sigma[a]).collect();
+        let bound = 0.3 / cell.density.sqrt();
+        println!(
+            "| {:.0} % | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2}, {:.2}, {:.2} | {} |",
+            cell.noise * 100.0,
+            cell.density,
+            if cell.raised { "raised" } else { "flat" },
+            if cell.anisotropic {
+                "scan lines"
+            } else {
+                "isotropic"
+            },
+            100.0 * horizontal(def.rmse),
+            100.0 * horizontal(mec.rmse),
+            100.0 * horizontal(cen.rmse),
+            100.0 * bound,
+            100.0 * def.rmse[2],
+            100.0 * mec.rmse[2],
+            100.0 * cen.rmse[2],
+            ratio[0],
+            ratio[1],
+            ratio[2],
+            def.flagged
+        );
+        if def.found != targets {
+            failures.push(format!("{cell:?}: found {} of {targets}", def.found));
+        }
+        for (name, other) in [("sector-mec", &mec), ("centroid", &cen)] {
+            if horizontal(def.rmse) >= horizontal(other.rmse) {
+                failures.push(format!(
+                    "{cell:?}: default {:.4} m not below {name} {:.4} m",
+                    horizontal(def.rmse),
+                    horizontal(other.rmse)
+                ));
+            }
+        }
+        for (axis, r) in ["east", "north", "up"].iter().zip(&ratio) {
+            if !(0.7..=1.4).contains(r) {
+                failures.push(format!("{cell:?}: RMSE/σ {axis} {r:.2}"));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// The CI subset of the issue #18 table: the hardest and easiest corners, 40 targets a cell.
+#[test]
+fn method_table_subset() {
+    let cells = [
+        Cell {
+            noise: 0.30,
+            density: 4.0,
+            raised: false,
+            anisotropic: true,
+        },
+        Cell {
+            noise: 0.30,
+            density: 50.0,
+            raised: true,
+            anisotropic: false,
+        },
+        Cell {
+            noise: 0.15,
+            density: 10.0,
+            raised: false,
+            anisotropic: true,
+        },
+        Cell {
+            noise: 0.05,
+            density: 10.0,
+            raised: true,
+            anisotropic: true,
+        },
+    ];
+    method_table(&cells, 40);
+}
+
+/// The full issue #18 table (36 cells, 100 targets each) for the README:
+/// `cargo test -p lidarqa-targets --release --test synthetic -- --ignored --nocapture method_table_full`.
+#[test]
+#[ignore = "the full table takes minutes; CI runs method_table_subset"]
+fn method_table_full() {
+    let mut cells = Vec::new();
+    for noise in [0.05, 0.15, 0.30] {
+        for density in [4.0, 10.0, 50.0] {
+            for raised in [true, false] {
+                for anisotropic in [false, true] {
+                    cells.push(Cell {
+                        noise,
+                        density,
+                        raised,
+                        anisotropic,
+                    });
+                }
+            }
+        }
+    }
+    method_table(&cells, 100);
 }
 
 #[test]

@@ -106,6 +106,8 @@ pub fn targets_table(path: &Path, report: &TargetReport) -> Targets {
         "coverage_deg",
         "radius_m",
         "sigma_h_m",
+        "sigma_v_m",
+        "n_elevation_points",
         "method",
         "flags",
     ]
@@ -128,6 +130,11 @@ pub fn targets_table(path: &Path, report: &TargetReport) -> Targets {
                     format!("{:.1}", c.coverage_deg),
                     c.radius_m.map(|r| format!("{r:.4}")).unwrap_or_default(),
                     format!("{:.4}", c.sigma_horizontal_m),
+                    format!("{:.4}", c.covariance[2][2].max(0.0).sqrt()),
+                    c.plate
+                        .as_ref()
+                        .map(|p| p.n_elevation_points.to_string())
+                        .unwrap_or_default(),
                     c.method.to_string(),
                     c.flags
                         .iter()

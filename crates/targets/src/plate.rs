@@ -1,0 +1,474 @@
+//! The plate model: find a disc of known radius near a control point and fit its centre from
+//! every point around it (issue #18).
+//!
+//! A target is a disc of radius R, brighter than the ground around it and, for a raised plate,
+//! higher. Every return within R + 0.6 m of the disc obeys one model:
+//!
+//! * intensity `I = a + b·f(R − |p − c|)`, with `f` the fraction of the laser footprint on the
+//!   plate (footprint mixing at the rim: a logistic for a Gaussian beam or the area fraction of
+//!   a uniform disc, chosen by likelihood); noise σ_I, plus a share of b·f(1 − f) on mixed
+//!   returns, Gaussian with a 1 % outlier component so that a stray bright return or the edge of
+//!   a nearby painted line cannot dominate; the return's horizontal position error σ_xy is
+//!   integrated over (it moves the intensity and the height label together);
+//! * for a raised plate, which surface a return came from (a height label: above or below the
+//!   middle of the height step), on the plate with probability `σ((R − |p − c|)/τ_z)`.
+//!
+//! Steps: (1) detection: on a grid over the search disc around the control point, the mean
+//! intensity inside a disc of radius R minus that of the ring R + 0.15 … R + 0.6 m, in units of
+//! its standard error (a matched filter: a plate scores highest where the disc covers it, a
+//! line only a fraction); (2) levels a, b by least squares at the detected centre, σ_I from the
+//! MAD of the residuals, the height step by least squares on a sloped ground plane plus a step;
+//! (3) the posterior mean and covariance of c under the model's likelihood (flat prior, nested
+//! grids, [`grid_posterior`]), with the ramp, σ_xy and the mixed-return share chosen by
+//! likelihood at a first posterior mean and the levels refitted there; (4) the elevation from the plate itself: the mean Z of the points
+//! inside the fitted circle minus the rim band (mixed returns), for a raised plate only those on
+//! the upper surface; (5) shape checks: the disc must be bright inside and dark in the ring.
+//!
+//! Written by hand: it is a small model-specific likelihood; the generic parts (k-d tree,
+//! least squares) come from kiddo and nalgebra.
+
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use nalgebra::{DMatrix, DVector};
+use serde::Serialize;
+
+use crate::centre::{coverage_deg, grid_posterior};
+use crate::extract::LidarPoint;
+
+/// Inner edge of the ring the detection compares the disc with, beyond R (m).
+const RING_IN_M: f64 = 0.15;
+/// Outer edge of that ring, and of the points the fit uses, beyond R (m).
+pub(crate) const RING_OUT_M: f64 = 0.6;
+/// Detection threshold: the disc-minus-ring contrast in standard errors. Pure noise rarely
+/// exceeds 4 over the search grid.
+const DETECTION_T: f64 = 5.0;
+/// Weight of the outlier component of the intensity and height-label likelihoods.
+const OUTLIER_WEIGHT: f64 = 0.01;
+/// Horizontal position noises of the returns (m) the fit chooses from by likelihood.
+const POSITION_NOISES_M: [f64; 4] = [0.0, 0.01, 0.02, 0.04];
+/// Intensity noise of mixed returns, a fraction of b·f(1 − f) (the area-fraction model of a
+/// mixed return is only approximate: beam profile, incidence, the plate's bevel).
+const MIXED_NOISES: [f64; 4] = [0.0, 0.15, 0.3, 0.6];
+/// Half the steps of each posterior grid: 25 × 25, a step of 3.3 cm on the first (±0.4 m) grid
+/// and of σ/3 on the second (±4σ).
+const GRID_HALF_STEPS: i32 = 12;
+
+/// What the plate model found at one target (serialised as `plate` in the JSON report).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PlateModel {
+    /// Intensity on the plate (fitted level a + b, sensor units).
+    pub plate_intensity: f64,
+    /// Intensity of the ground around it (fitted level a).
+    pub ground_intensity: f64,
+    /// 1σ intensity noise (1.4826 × MAD of the model residuals).
+    pub intensity_noise: f64,
+    /// 1σ width of the intensity ramp at the edge (footprint mixing) the fit chose, m.
+    pub edge_sd_m: f64,
+    /// Horizontal position noise of the returns the edge fit chose, m.
+    pub position_noise_m: f64,
+    /// Height of the plate above the ground plane around it (m).
+    pub height_step_m: f64,
+    /// Whether the height step was significant, so the height labels took part in the fit.
+    pub raised: bool,
+    /// Detection statistic: disc-minus-ring contrast in standard errors.
+    pub detection_t: f64,
+    /// Fraction of the points inside the circle (minus the rim) brighter than mid-contrast.
+    pub inside_bright_fraction: f64,
+    /// Fraction of the points in the ring R + 0.2 … R + 0.6 m brighter than mid-contrast.
+    pub ring_bright_fraction: f64,
+    /// Points averaged for the elevation: inside the fitted circle minus the rim band.
+    pub n_elevation_points: usize,
+    /// Width of the rim band left out of the elevation (m).
+    pub rim_m: f64,
+}
+
+/// The fit of [`fit_plate`].
+pub(crate) struct PlateFit {
+    pub centre: [f64; 2],
+    pub cov: [[f64; 2]; 2],
+    pub z: f64,
+    pub var_z: f64,
+    pub model: PlateModel,
+    /// Indices into the local points classified as plate within R + 0.3 m of the detected
+    /// centre (the segmentation the other estimators get).
+    pub plate_points: Vec<usize>,
+    /// Points within 0.1 m of the fitted edge.
+    pub n_edge: usize,
+    pub coverage_deg: f64,
+    /// Fewer than 3 points inside the circle minus the rim: the elevation used every point
+    /// inside the circle.
+    pub elevation_fallback: bool,
+}
+
+/// The intensity ramp across the plate's edge: the fraction of a return's footprint on the
+/// plate at signed distance t (m, > 0 inside) from the edge.
+#[derive(Debug, Clone, Copy)]
+enum Ramp {
+    /// A Gaussian-like beam: the logistic of scale τ (m).
+    Logistic(f64),
+    /// A uniform disc footprint of radius ρ (m): its area fraction inside a straight edge.
+    Footprint(f64),
+}
+
+impl Ramp {
+    fn f(self, t: f64) -> f64 {
+        match self {
+            Self::Logistic(tau) => sigmoid(t / tau),
+            Self::Footprint(rho) => {
+                if t >= rho {
+                    1.0
+                } else if t <= -rho {
+                    0.0
+                } else {
+                    let u = t / rho;
+                    1.0 - (u.acos() - u * (1.0 - u * u).sqrt()) / std::f64::consts::PI
+                }
+            }
+        }
+    }
+
+    /// 1σ width of the ramp (m).
+    fn sd(self) -> f64 {
+        match self {
+            Self::Logistic(tau) => tau * std::f64::consts::PI / 3f64.sqrt(),
+            Self::Footprint(rho) => 0.5 * rho,
+        }
+    }
+}
+
+/// The ramps the fit chooses from by likelihood.
+const RAMPS: [Ramp; 9] = [
+    Ramp::Logistic(0.005),
+    Ramp::Logistic(0.01),
+    Ramp::Logistic(0.02),
+    Ramp::Logistic(0.04),
+    Ramp::Logistic(0.08),
+    Ramp::Footprint(0.05),
+    Ramp::Footprint(0.075),
+    Ramp::Footprint(0.1),
+    Ramp::Footprint(0.15),
+];
+
+fn sigmoid(x: f64) -> f64 {
+    1.0 / (1.0 + (-x).exp())
+}
+
+/// 1.4826 × the median absolute deviation from the median.
+fn mad_sigma(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let med = s[s.len() / 2];
+    let mut d: Vec<f64> = s.iter().map(|x| (x - med).abs()).collect();
+    d.sort_by(f64::total_cmp);
+    1.4826 * d[d.len() / 2]
+}
+
+/// Least squares `y ≈ X β`, with one pass of rejecting residuals beyond 3.5 robust σ.
+fn robust_lstsq(rows: &[Vec<f64>], y: &[f64]) -> Option<(Vec<f64>, f64)> {
+    let np = rows.first()?.len();
+    let mut keep = vec![true; y.len()];
+    let mut out = None;
+    for _pass in 0..2 {
+        let idx: Vec<usize> = (0..y.len()).filter(|&i| keep[i]).collect();
+        if idx.len() <= np {
+            return out;
+        }
+        let x = DMatrix::from_fn(idx.len(), np, |r, c| rows[idx[r]][c]);
+        let yy = DVector::from_iterator(idx.len(), idx.iter().map(|&i| y[i]));
+        let beta = x.clone().svd(true, true).solve(&yy, 1e-12).ok()?;
+        let res: Vec<f64> = (0..y.len())
+            .map(|i| y[i] - (0..np).map(|c| rows[i][c] * beta[c]).sum::<f64>())
+            .collect();
+        let kept: Vec<f64> = idx.iter().map(|&i| res[i]).collect();
+        let sigma = mad_sigma(&kept);
+        for (i, r) in res.iter().enumerate() {
+            keep[i] = r.abs() <= 3.5 * sigma.max(1e-12);
+        }
+        out = Some((beta.iter().copied().collect(), sigma));
+    }
+    out
+}
+
+/// Local intensity levels (a, b) of `I ≈ a + b f` at centre `c`, and the noise σ_I.
+fn intensity_levels(
+    pts: &[LidarPoint],
+    c: [f64; 2],
+    radius: f64,
+    ramp: Ramp,
+) -> Option<(f64, f64, f64)> {
+    let rows: Vec<Vec<f64>> = pts
+        .iter()
+        .map(|p| vec![1.0, ramp.f(radius - (p.x - c[0]).hypot(p.y - c[1]))])
+        .collect();
+    let y: Vec<f64> = pts.iter().map(|p| p.intensity).collect();
+    let (beta, sigma) = robust_lstsq(&rows, &y)?;
+    Some((beta[0], beta[1], sigma))
+}
+
+/// Finds and fits the plate of radius `radius` whose centre lies within `search_m` of `seed`.
+/// `local` must hold the points within `search_m + radius + 0.6` m of `seed`. `None` when no
+/// disc brighter than its surroundings is there.
+pub(crate) fn fit_plate(
+    local: &[LidarPoint],
+    seed: [f64; 2],
+    radius: f64,
+    search_m: f64,
+    edge_width_m: f64,
+) -> Option<PlateFit> {
+    if local.len() < 6 {
+        return None;
+    }
+    let xy: Vec<[f64; 2]> = local.iter().map(|p| [p.x, p.y]).collect();
+    let tree: ImmutableKdTree<f64, 2> = ImmutableKdTree::new_from_slice(&xy);
+    let intensities: Vec<f64> = local.iter().map(|p| p.intensity).collect();
+    let scale = intensities.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let sigma0 = mad_sigma(&intensities).max(1e-9 * scale.max(1.0));
+
+    // (1) Detection: disc-minus-ring contrast over a grid on the search disc.
+    let step = (radius / 8.0).min(0.1);
+    let k = (search_m / step).ceil() as i32;
+    let outer = radius + RING_OUT_M;
+    let mut best: Option<([f64; 2], f64)> = None;
+    for i in -k..=k {
+        for j in -k..=k {
+            let (dx, dy) = (f64::from(i) * step, f64::from(j) * step);
+            if dx.hypot(dy) > search_m {
+                continue;
+            }
+            let c = [seed[0] + dx, seed[1] + dy];
+            let (mut si, mut ni, mut sr, mut nr) = (0.0, 0usize, 0.0, 0usize);
+            for nb in tree.within_unsorted::<SquaredEuclidean>(&c, outer * outer) {
+                let d = nb.distance.sqrt();
+                let v = intensities[nb.item as usize];
+                if d < radius {
+                    si += v;
+                    ni += 1;
+                } else if d > radius + RING_IN_M {
+                    sr += v;
+                    nr += 1;
+                }
+            }
+            if ni < 3 || nr < 3 {
+                continue;
+            }
+            let (ni, nr) = (ni as f64, nr as f64);
+            let t = (si / ni - sr / nr) / (sigma0 * (1.0 / ni + 1.0 / nr).sqrt());
+            if best.is_none_or(|(_, bt)| t > bt) {
+                best = Some((c, t));
+            }
+        }
+    }
+    let (c0, detection_t) = best?;
+    if detection_t < DETECTION_T {
+        return None;
+    }
+
+    // The fit's points: within R + 0.6 m of the detected centre, plus the 0.45 m the posterior
+    // grid may move it.
+    let reach = outer + 0.45;
+    let near: Vec<usize> = tree
+        .within_unsorted::<SquaredEuclidean>(&c0, reach * reach)
+        .into_iter()
+        .map(|nb| nb.item as usize)
+        .collect();
+    let pts: Vec<LidarPoint> = near.iter().map(|&i| local[i]).collect();
+
+    // (2) Height step: z ≈ g0 + gx·dx + gy·dy + h·[inside], the ground a plane.
+    let inside0 = |p: &LidarPoint| (p.x - c0[0]).hypot(p.y - c0[1]) < radius;
+    let rows: Vec<Vec<f64>> = pts
+        .iter()
+        .map(|p| {
+            vec![
+                1.0,
+                p.x - c0[0],
+                p.y - c0[1],
+                if inside0(p) { 1.0 } else { 0.0 },
+            ]
+        })
+        .collect();
+    let zs: Vec<f64> = pts.iter().map(|p| p.z).collect();
+    let (zb, sigma_z) = robust_lstsq(&rows, &zs)?;
+    let height_step_m = zb[3];
+    let raised = height_step_m > 0.05 && height_step_m > 8.0 * sigma_z;
+    // Height labels: above the middle of the step over the ground plane.
+    let on_top: Vec<bool> = pts
+        .iter()
+        .map(|p| p.z - (zb[0] + zb[1] * (p.x - c0[0]) + zb[2] * (p.y - c0[1])) > 0.5 * zb[3])
+        .collect();
+    let tau_z = (edge_width_m * 3f64.sqrt() / std::f64::consts::PI).max(1e-3);
+
+    // (3) Posterior of the centre under the model. A return's horizontal position error σ_xy
+    // moves it across the edge in both channels at once (its intensity and its height label are
+    // not independent): the likelihood integrates over it.
+    let loss_at = |c: [f64; 2], a: f64, b: f64, s: f64, ramp: Ramp, (sxy, kappa): (f64, f64)| {
+        let mut l = 0.0;
+        // Three-point Gauss–Hermite rule over the radial position error: nodes 0, ±√3 σ_xy.
+        let nodes = [
+            (0.0, 2.0 / 3.0),
+            (3f64.sqrt() * sxy, 1.0 / 6.0),
+            (-(3f64.sqrt()) * sxy, 1.0 / 6.0),
+        ];
+        for (p, &top) in pts.iter().zip(&on_top) {
+            let d = (p.x - c[0]).hypot(p.y - c[1]);
+            let mut lik = 0.0;
+            for (e, w) in nodes {
+                let f = ramp.f(radius - d - e);
+                let mixed = kappa * b * f * (1.0 - f);
+                let v = s * s + mixed * mixed;
+                let mut term = w * (-0.5 * (p.intensity - a - b * f).powi(2) / v).exp() / v.sqrt();
+                if raised {
+                    let g = sigmoid((radius - d - e) / tau_z);
+                    term *= if top { g } else { 1.0 - g };
+                }
+                lik += term;
+            }
+            let floor =
+                OUTLIER_WEIGHT * (-8.0f64).exp() / s * if raised { OUTLIER_WEIGHT } else { 1.0 };
+            l -= ((1.0 - OUTLIER_WEIGHT) * lik + floor).ln();
+        }
+        l
+    };
+    let floor = 1e-9 * scale.max(1.0);
+    let (mut ramp, mut sxy) = (Ramp::Logistic(0.02), (0.02, 0.0));
+    let (mut a, mut b, mut s) = intensity_levels(&pts, c0, radius, ramp)?;
+    s = s.max(floor);
+    let (c1, cov1) = grid_posterior(
+        |x, y| loss_at([x, y], a, b, s, ramp, sxy),
+        c0,
+        0.4,
+        GRID_HALF_STEPS,
+    );
+    // Footprint scale and position noise by likelihood at c1, each scale with its own levels.
+    let mut best = (f64::INFINITY, ramp, sxy, a, b, s);
+    for t in RAMPS {
+        if let Some((at, bt, st)) = intensity_levels(&pts, c1, radius, t) {
+            let st = st.max(floor);
+            for sx in POSITION_NOISES_M {
+                for kappa in MIXED_NOISES {
+                    let l = loss_at(c1, at, bt, st, t, (sx, kappa));
+                    if l < best.0 {
+                        best = (l, t, (sx, kappa), at, bt, st);
+                    }
+                }
+            }
+        }
+    }
+    (_, ramp, sxy, a, b, s) = best;
+    // The second posterior spans ±5σ of the first (never narrower than 5 cm): a sparse target's
+    // posterior can be 10 cm wide and must not be cut by the grid.
+    let sd1 = (0.5 * (cov1[0][0] + cov1[1][1])).sqrt();
+    let (centre, cov) = grid_posterior(
+        |x, y| loss_at([x, y], a, b, s, ramp, sxy),
+        c1,
+        (5.0 * sd1).clamp(0.05, 0.5),
+        GRID_HALF_STEPS,
+    );
+    let (sxy, _) = sxy;
+    let sd_c = (0.5 * (cov[0][0] + cov[1][1])).sqrt();
+
+    // (4) Elevation from the plate: inside the circle minus the rim band.
+    let edge_sd = ramp.sd().hypot(sxy);
+    let rim_m = (3.0 * edge_sd + 2.0 * sd_c).max(0.1);
+    let dist = |p: &LidarPoint| (p.x - centre[0]).hypot(p.y - centre[1]);
+    let pick = |limit: f64| -> Vec<f64> {
+        pts.iter()
+            .zip(&on_top)
+            .filter(|(p, top)| dist(p) < limit && (!raised || **top))
+            .map(|(p, _)| p.z)
+            .collect()
+    };
+    let mut zs_core = pick(radius - rim_m);
+    let elevation_fallback = zs_core.len() < 3;
+    if elevation_fallback {
+        zs_core = pick(radius);
+    }
+    if zs_core.is_empty() {
+        return None;
+    }
+    // Gate stray returns (a bird, a person on the plate) at 5 robust σ, never tighter than 3 cm.
+    let mut sorted = zs_core.clone();
+    sorted.sort_by(f64::total_cmp);
+    let med = sorted[sorted.len() / 2];
+    let gate = (5.0 * mad_sigma(&zs_core)).max(0.03);
+    zs_core.retain(|z| (z - med).abs() <= gate);
+    let nz = zs_core.len() as f64;
+    let z = zs_core.iter().sum::<f64>() / nz;
+    let var_sample = if zs_core.len() > 1 {
+        zs_core.iter().map(|v| (v - z).powi(2)).sum::<f64>() / (nz - 1.0)
+    } else {
+        sigma_z * sigma_z
+    };
+    let var_z = var_sample.max(sigma_z * sigma_z * 0.25) / nz;
+
+    // (5) Shape: bright inside, dark in the ring.
+    let mid = a + 0.5 * b;
+    let frac = |lo: f64, hi: f64| {
+        let sel: Vec<&LidarPoint> = pts.iter().filter(|p| (lo..hi).contains(&dist(p))).collect();
+        if sel.is_empty() {
+            return f64::NAN;
+        }
+        let bright = sel
+            .iter()
+            .filter(|p| (p.intensity > mid) == (b > 0.0))
+            .count();
+        bright as f64 / sel.len() as f64
+    };
+    let inside_bright_fraction = frac(0.0, radius - rim_m.min(0.5 * radius));
+    let ring_bright_fraction = frac(radius + 0.2, outer);
+    // A disc mostly dark inside is no plate: the contrast came from a few glints.
+    if inside_bright_fraction.is_nan() || inside_bright_fraction < 0.5 {
+        return None;
+    }
+
+    // Segmentation for the other estimators: plate labels within R + 0.3 m of the detected
+    // centre (height labels on a raised plate, intensity elsewhere).
+    let plate_points: Vec<usize> = pts
+        .iter()
+        .zip(&on_top)
+        .enumerate()
+        .filter(|(_, (p, top))| {
+            (p.x - c0[0]).hypot(p.y - c0[1]) < radius + 0.3
+                && if raised {
+                    **top
+                } else {
+                    (p.intensity > mid) == (b > 0.0)
+                }
+        })
+        .map(|(k, _)| near[k])
+        .collect();
+    let edge_zone: Vec<[f64; 2]> = plate_points
+        .iter()
+        .map(|&i| [local[i].x, local[i].y])
+        .filter(|q| (q[0] - centre[0]).hypot(q[1] - centre[1]) > radius - 0.3)
+        .collect();
+    let n_edge = pts
+        .iter()
+        .filter(|p| (dist(p) - radius).abs() < 0.1)
+        .count();
+    Some(PlateFit {
+        centre,
+        cov,
+        z,
+        var_z,
+        model: PlateModel {
+            plate_intensity: a + b,
+            ground_intensity: a,
+            intensity_noise: s,
+            edge_sd_m: ramp.sd(),
+            position_noise_m: sxy,
+            height_step_m,
+            raised,
+            detection_t,
+            inside_bright_fraction,
+            ring_bright_fraction,
+            n_elevation_points: zs_core.len(),
+            rim_m,
+        },
+        plate_points,
+        n_edge,
+        coverage_deg: coverage_deg(&edge_zone, centre),
+        elevation_fallback,
+    })
+}
