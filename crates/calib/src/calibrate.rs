@@ -525,6 +525,7 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
                 ties: 0,
                 observations,
                 unknowns: free.len(),
+                dropped: Vec::new(),
             });
         }
         let mut model = WithPriors {
@@ -809,6 +810,7 @@ pub fn calibrate_vtpm(
             ties: model.ties.len(),
             observations,
             unknowns,
+            dropped: model.dropped_picks.clone(),
         });
     }
     let mut problem = VtpmProblem {

@@ -108,7 +108,8 @@ pub enum Error {
     },
     /// Not enough independent observations for the unknowns.
     #[error(
-        "too few ties: {ties} ties give {observations} independent observations, {unknowns} unknowns need at least {unknowns}"
+        "too few ties: {ties} ties give {observations} independent observations, {unknowns} unknowns need at least {unknowns}{}",
+        dropped_note(dropped)
     )]
     TooFewTies {
         /// Number of ties (control points included).
@@ -117,6 +118,8 @@ pub enum Error {
         observations: usize,
         /// Number of unknowns.
         unknowns: usize,
+        /// The picks that could not be formed, and why (they are why so few remain).
+        dropped: Vec<crate::DroppedPick>,
     },
     /// No planar patch usable by the plane-based baseline or the automatic tie search.
     #[error("no usable {what}: {reason}")]
@@ -142,3 +145,17 @@ pub enum Error {
 
 /// Result with the lidarqa-calib [`Error`].
 pub type Result<T> = std::result::Result<T, Error>;
+
+/// ` (N picks dropped; the first: tie T in strip S: why)`, or nothing.
+fn dropped_note(dropped: &[crate::DroppedPick]) -> String {
+    match dropped.first() {
+        None => String::new(),
+        Some(d) => format!(
+            " ({} picks dropped; the first: tie {} in strip {}: {})",
+            dropped.len(),
+            d.tie,
+            d.strip,
+            d.reason
+        ),
+    }
+}

@@ -364,6 +364,24 @@ fn in_csv_terms(
         E::NoCoplanarTriangle { tie, strip, reason } => pick(tie, Some(strip))
             .map(|w| format!("{w}: no coplanar triangle around the pick ({reason})")),
         E::InvalidTie { tie, message } => pick(tie, None).map(|w| format!("{w}: {message}")),
+        // Too few ties remain because picks were dropped: name the first in the CSV's terms.
+        E::TooFewTies {
+            ties,
+            observations,
+            unknowns,
+            dropped,
+        } if !dropped.is_empty() => {
+            let d = &dropped[0];
+            pick(&d.tie, Some(&d.strip)).map(|w| {
+                format!(
+                    "{w}: {}; with this and {} other dropped picks, {ties} ties give \
+                     {observations} independent observations, {unknowns} unknowns need at least \
+                     {unknowns}",
+                    d.reason,
+                    dropped.len() - 1
+                )
+            })
+        }
         E::OutsideEveryStrip { what, id, .. } if *what == "tie" => {
             pick(id, None).map(|w| format!("{w}: outside every strip"))
         }

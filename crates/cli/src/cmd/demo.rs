@@ -318,6 +318,26 @@ pub fn run(args: DemoArgs) -> Result<()> {
             ),
             None,
         ),
+        step(
+            "predict again: the per-point TPU with the calibrated mounting and its σ",
+            &[
+                "tpu",
+                &s_dir,
+                "--trajectory",
+                &sbet,
+                "--smrmsg",
+                &smrmsg,
+                "--sensor",
+                &sensor,
+                "--calibration",
+                &d("calibration.json"),
+                "-o",
+                &d("tpu_calibrated"),
+                "--summary",
+                &d(CALIBRATED_TPU_SUMMARY),
+            ],
+            None,
+        ),
         own(
             "measure again: the targets in the corrected strips",
             with(
@@ -328,7 +348,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
             None,
         ),
         step(
-            "measure again: accuracy against control after calibration",
+            "measure again: accuracy against control after calibration, beside the calibrated prediction",
             &[
                 "evaluate",
                 "--targets",
@@ -336,7 +356,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
                 "--control",
                 &control,
                 "--tpu",
-                &d("tpu_summary.json"),
+                &d(CALIBRATED_TPU_SUMMARY),
                 "--format",
                 "json",
             ],
@@ -367,6 +387,9 @@ pub fn run(args: DemoArgs) -> Result<()> {
     }
     print_text(&summary(dir, &strips)?)
 }
+
+/// The TPU summary of the raw strips with `--calibration`: the prediction after calibration.
+const CALIBRATED_TPU_SUMMARY: &str = "tpu_calibrated_summary.json";
 
 fn summary(dir: &Path, strips: &Path) -> Result<String> {
     let truth = read_json(&strips.join("truth.json"))?;
@@ -414,10 +437,11 @@ fn summary(dir: &Path, strips: &Path) -> Result<String> {
         v.as_f64()
             .map_or("-".to_string(), |x| format!("{:.2}", x * 100.0))
     };
+    // Predicted σ from the sensor file's mounting σ before, from the calibration's after.
     let _ = writeln!(
         t,
-        "{:<34}{:>12}{:>10}{:>10}",
-        "accuracy at the targets (cm)", "predicted σ", "before", "after"
+        "{:<34}{:>10}{:>10}{:>10}{:>10}",
+        "accuracy at the targets (cm)", "σ before", "before", "σ after", "after"
     );
     for (name, key) in [
         ("plane RMSE (seed 000 eq. 7)", "horizontal"),
@@ -425,10 +449,11 @@ fn summary(dir: &Path, strips: &Path) -> Result<String> {
     ] {
         let _ = writeln!(
             t,
-            "{:<34}{:>12}{:>10}{:>10}",
+            "{:<34}{:>10}{:>10}{:>10}{:>10}",
             name,
             cm(&before["predicted"][key]),
             cm(&before["rmse"][key]),
+            cm(&after["predicted"][key]),
             cm(&after["rmse"][key])
         );
     }
