@@ -801,6 +801,16 @@ pub fn calibrate_vtpm(
                 ),
             )
         })
+        .chain(model.plain_ties.iter().map(|t| {
+            Warning::new(
+                "tie_on_plain_surface",
+                format!(
+                    "tie {t}: every strip shows one plain plane around the picks (no edge or \
+                     marking), so only its position across that plane is used, not where on it \
+                     it was picked"
+                ),
+            )
+        }))
         .collect();
     screen_outlier_ties(strips, &mut model, x0, options);
     let observations = model.observations();

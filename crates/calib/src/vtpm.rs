@@ -179,6 +179,36 @@ pub(crate) struct VirtualTie {
     /// not one triangle's: its height is observed with √n less range noise, and a target crossed
     /// by one or two scan lines (no triangle around its centre) still counts.
     pub(crate) target_mean: bool,
+    /// The window around the pick is one plain level plane: (nearly) every point coplanar, no
+    /// intensity edge ([`is_featureless`]), within 5° of level. Nothing there fixes where on
+    /// the ground the pick was made.
+    pub(crate) featureless: bool,
+}
+
+/// Level ground: a plane whose normal is within 5° of the vertical. Only there is a plain
+/// window judged to locate nothing horizontally; on a sloped face the height along the slope
+/// still ties the pick to the surface's position.
+const LEVEL_MIN_COS: f64 = 0.996_194_698; // cos 5°
+
+/// Share of a window's points that must be coplanar for it to be one plain plane.
+const FEATURELESS_MIN_COPLANAR: f64 = 0.95;
+/// Largest spread of a window's intensities, (p95 − p5) / median, for it to hold no marking: a
+/// painted line or a target is several times as bright as the surface it is painted on, while
+/// one surface's own intensity varies by tens of per cent.
+const FEATURELESS_MAX_INTENSITY_SPREAD: f64 = 0.5;
+
+/// Whether a window (its points' intensities, and how many of them are coplanar) is one plain
+/// plane with no edge or marking: a hand pick there locates nothing horizontally, however
+/// carefully the same x, y was typed into every strip.
+fn is_featureless(intensities: &mut [u16], coplanar: usize) -> bool {
+    let n = intensities.len();
+    if n == 0 || (coplanar as f64) < FEATURELESS_MIN_COPLANAR * n as f64 {
+        return false;
+    }
+    intensities.sort_unstable();
+    let q = |f: f64| f64::from(intensities[((n - 1) as f64 * f).round() as usize]);
+    let median = q(0.5);
+    median > 0.0 && (q(0.95) - q(0.05)) / median <= FEATURELESS_MAX_INTENSITY_SPREAD
 }
 
 /// Strip indices and grids, built once.
@@ -345,6 +375,9 @@ fn build_virtual_tie_within(
     let tri = local.map(|i| pos[i]);
     let z = interpolate_z(&tri, x, y)
         .ok_or_else(|| no_tri("the enclosing triangle is degenerate".into()))?;
+    let mut intensities: Vec<u16> = near.iter().map(|&k| strip.points[k].intensity).collect();
+    let featureless =
+        plane.normal.z.abs() >= LEVEL_MIN_COS && is_featureless(&mut intensities, inliers.len());
     if opts.patch {
         let z = (plane.d - plane.normal.x * x - plane.normal.y * y) / plane.normal.z;
         if !z.is_finite() {
@@ -357,6 +390,7 @@ fn build_virtual_tie_within(
             coord: Vector3::new(x, y, z),
             normal: plane.normal,
             target_mean: false,
+            featureless,
         });
     }
     Ok(VirtualTie {
@@ -366,6 +400,7 @@ fn build_virtual_tie_within(
         coord: Vector3::new(x, y, z),
         normal: plane.normal,
         target_mean: false,
+        featureless,
     })
 }
 
@@ -430,6 +465,7 @@ fn build_target_tie(
         coord,
         normal: -Vector3::z(),
         target_mean: true,
+        featureless: false,
     })
 }
 
@@ -505,6 +541,9 @@ pub(crate) struct TieModel {
     pub(crate) ties: Vec<TieSpec>,
     /// Picks no virtual tie could be formed from, in input order.
     pub(crate) dropped_picks: Vec<DroppedPick>,
+    /// Feature ties whose picks lie on one plain plane in every strip: observed across that
+    /// plane only (as a [`TieKind::Surface`] tie), in input order.
+    pub(crate) plain_ties: Vec<String>,
     /// Control points inside the strips that no strip could triangulate (a target seen by a scan
     /// line or two only): left out of the adjustment and reported.
     pub(crate) skipped_control: Vec<String>,
@@ -602,6 +641,7 @@ pub(crate) fn build_tie_model(
     let axes = vec![Vector3::x(), Vector3::y(), Vector3::z()];
     let mut out = Vec::new();
     let mut dropped = Vec::new();
+    let mut plain_ties = Vec::new();
     for (ti, tie) in ties.iter().enumerate() {
         if ties[..ti].iter().any(|o| o.id == tie.id) {
             return Err(Error::InvalidTie {
@@ -674,7 +714,16 @@ pub(crate) fn build_tie_model(
             }
             continue;
         }
+        // A "feature" picked where every strip shows one plain plane fixes nothing along the
+        // plane: the same x, y typed into each strip would tie the strips horizontally where the
+        // data say nothing, and the horizontal parameters would follow the typing.
+        let plain = matches!(tie.kind, TieKind::Feature)
+            && virtuals.iter().all(|v| v.featureless && !v.target_mean);
+        if plain {
+            plain_ties.push(tie.id.clone());
+        }
         let directions = match tie.kind {
+            TieKind::Feature if plain => vec![virtuals[0].normal],
             TieKind::Feature => axes.clone(),
             TieKind::Surface => vec![virtuals[0].normal],
             TieKind::Line([n, e]) => vec![Vector3::new(n, e, 0.0), Vector3::z()],
@@ -752,6 +801,7 @@ pub(crate) fn build_tie_model(
     Ok(TieModel {
         ties: out,
         dropped_picks: dropped,
+        plain_ties,
         skipped_control,
     })
 }
