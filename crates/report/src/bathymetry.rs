@@ -52,6 +52,18 @@ pub(crate) fn section(p: &Products) -> Option<(&'static str, &'static str, Strin
 }
 
 /// The most stringent order met (≥ 95 %) given per-order percentages.
+/// The strictest IHO S-44 order the survey's soundings meet as a whole, as a phrase ("Special
+/// Order", "Order 1a"); `None` when they meet none.
+pub(crate) fn overall_order(iho: &TpuIho) -> Option<String> {
+    let all = Ordered(
+        iho.orders
+            .iter()
+            .map(|(k, v)| (k.clone(), v.percent_meeting))
+            .collect(),
+    );
+    best_met(&all).map(order_phrase)
+}
+
 fn best_met(percent: &Ordered<f64>) -> Option<&'static str> {
     ORDERS
         .iter()

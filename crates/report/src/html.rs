@@ -139,8 +139,16 @@ pub(crate) fn render(r: &Report) -> String {
     o.push_str("<title>LiDAR accuracy report — lidarqa</title>\n<style>");
     o.push_str(CSS);
     o.push_str("</style>\n</head>\n<body>\n<main>\n");
-    header(r, &sections, &mut o);
+    header(r, &mut o);
+    // The first screen answers the client's questions; the inputs and contents follow.
+    if let Some(v) = crate::verdict::verdict(p) {
+        let _ = write!(
+            o,
+            "<section id=\"sec-verdict\">\n<h2>Verdict</h2>\n{v}</section>\n"
+        );
+    }
     warnings_block(&p.warnings, &mut o);
+    inputs_and_contents(r, &sections, &mut o);
     for (id, title, body) in &sections {
         let _ = write!(
             o,
@@ -176,7 +184,7 @@ fn warnings_block(warnings: &[(String, lidarqa_model::Warning)], o: &mut String)
     o.push_str("</ul>\n</section>\n");
 }
 
-fn header(r: &Report, sections: &[(&str, &str, String)], o: &mut String) {
+fn header(r: &Report, o: &mut String) {
     o.push_str("<header>\n<h1>LiDAR accuracy report</h1>\n");
     let from = r
         .source
@@ -194,6 +202,12 @@ fn header(r: &Report, sections: &[(&str, &str, String)], o: &mut String) {
         esc(&r.version),
         esc(&r.generated)
     );
+    o.push_str("</header>\n");
+}
+
+/// The input files found (and any skipped) and the table of contents.
+fn inputs_and_contents(r: &Report, sections: &[(&str, &str, String)], o: &mut String) {
+    o.push_str("<section id=\"sec-inputs\">\n");
     let present = r.products.present();
     if present.is_empty() && r.skipped.is_empty() {
         o.push_str("<p class=\"warn\">No lidarqa products were found, so this report is empty. Run <code>lidarqa demo</code>, or write products such as <code>budget.json</code> (<code>lidarqa budget --format json</code>) into the directory.</p>\n");
@@ -231,7 +245,7 @@ fn header(r: &Report, sections: &[(&str, &str, String)], o: &mut String) {
         }
         o.push_str("</ol></nav>\n");
     }
-    o.push_str("</header>\n");
+    o.push_str("</section>\n");
 }
 
 fn what(name: &str) -> &'static str {

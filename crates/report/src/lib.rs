@@ -45,6 +45,7 @@ mod html;
 mod plot;
 mod products;
 mod report;
+mod verdict;
 
 pub use error::{Error, Result};
 pub use products::{

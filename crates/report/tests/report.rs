@@ -646,3 +646,40 @@ fn products_round_trip_through_serde() {
     assert_eq!(s.points.len(), 3);
     assert_eq!(s.unit.as_deref(), Some("deg"));
 }
+
+#[test]
+fn the_report_opens_with_its_verdict() {
+    // Issue #23: the first screen answers the client's questions; the inputs table follows.
+    let dir = full_dir();
+    let html = report_from(dir.path()).to_html();
+    let at = |needle: &str| {
+        html.find(needle)
+            .unwrap_or_else(|| panic!("{needle} missing"))
+    };
+    assert!(at("<section id=\"sec-verdict\">") < at("<section id=\"sec-inputs\">"));
+    assert!(at("<section id=\"sec-verdict\">") < at("<section id=\"sec-budget\">"));
+    let verdict = &html[at("<section id=\"sec-verdict\">")..at("<section id=\"sec-inputs\">")];
+    // evaluate_after is the fixture's residuals × 0.3: its radial RMSE beside the predicted 7.40 cm.
+    let res: [(f64, f64); 5] = [
+        (-0.072, 0.129),
+        (0.095, 0.143),
+        (0.138, -0.167),
+        (-0.131, 0.089),
+        (0.05, 0.11),
+    ];
+    let h = 0.3 * (res.iter().map(|(e, n)| e * e + n * n).sum::<f64>() / 5.0).sqrt();
+    assert!(
+        verdict.contains(&format!("<td>{:.2}</td>", h * 100.0)),
+        "{verdict}"
+    );
+    assert!(verdict.contains("<td>7.40</td>"), "{verdict}");
+    let ratio = format!("({:.2}× the prediction)", h / 0.0740);
+    assert!(verdict.contains(&ratio), "{ratio} not in {verdict}");
+    assert!(verdict.contains("<strong>ASPRS</strong>: This data set was tested"));
+    assert!(
+        verdict.contains("5 of 6 mounting parameters determined"),
+        "{verdict}"
+    );
+    assert!(verdict.contains("not determined: lever_z_m"), "{verdict}");
+    assert!(verdict.contains("<strong>IHO S-44</strong>"), "{verdict}");
+}
