@@ -199,22 +199,7 @@ impl SigmaMap {
     /// Dense row-major view (south-west origin, rows north), coarsened to at most
     /// [`SIGMA_MAP_MAX_SIDE`] cells a side; `None` when empty.
     pub fn view(&self) -> Option<SigmaGridView> {
-        let (i0, i1) = self
-            .cells
-            .keys()
-            .fold((i64::MAX, i64::MIN), |a, k| (a.0.min(k.0), a.1.max(k.0)));
-        let (j0, j1) = self
-            .cells
-            .keys()
-            .fold((i64::MAX, i64::MIN), |a, k| (a.0.min(k.1), a.1.max(k.1)));
-        if i0 > i1 {
-            return None;
-        }
-        let mut f = 1;
-        while (i1 - i0) / f + 1 > SIGMA_MAP_MAX_SIDE || (j1 - j0) / f + 1 > SIGMA_MAP_MAX_SIDE {
-            f *= 2;
-        }
-        let (nx, ny) = (((i1 - i0) / f + 1) as usize, ((j1 - j0) / f + 1) as usize);
+        let Coarse { i0, j0, f, nx, ny } = Coarse::of(self.cells.keys())?;
         let mut acc = vec![(0.0, 0u64); nx * ny];
         for ((i, j), (s, n)) in &self.cells {
             let (a, b) = (((i - i0) / f) as usize, ((j - j0) / f) as usize);
@@ -231,6 +216,41 @@ impl SigmaMap {
                 .into_iter()
                 .map(|(s, n)| (n > 0).then(|| s / n as f64))
                 .collect(),
+        })
+    }
+}
+
+/// The extent of a sparse grid of cells `(i, j)` coarsened by a power-of-two factor `f` until
+/// neither side exceeds [`SIGMA_MAP_MAX_SIDE`] cells: the dense view's origin cell, factor and
+/// size. Cell `(i, j)` falls in dense cell `((i − i0) / f, (j − j0) / f)`.
+struct Coarse {
+    i0: i64,
+    j0: i64,
+    f: i64,
+    nx: usize,
+    ny: usize,
+}
+
+impl Coarse {
+    /// `None` for no cells.
+    fn of<'a>(keys: impl Iterator<Item = &'a (i64, i64)> + Clone) -> Option<Coarse> {
+        let (i0, i1) = keys
+            .clone()
+            .fold((i64::MAX, i64::MIN), |a, k| (a.0.min(k.0), a.1.max(k.0)));
+        let (j0, j1) = keys.fold((i64::MAX, i64::MIN), |a, k| (a.0.min(k.1), a.1.max(k.1)));
+        if i0 > i1 {
+            return None;
+        }
+        let mut f = 1;
+        while (i1 - i0) / f + 1 > SIGMA_MAP_MAX_SIDE || (j1 - j0) / f + 1 > SIGMA_MAP_MAX_SIDE {
+            f *= 2;
+        }
+        Some(Coarse {
+            i0,
+            j0,
+            f,
+            nx: ((i1 - i0) / f + 1) as usize,
+            ny: ((j1 - j0) / f + 1) as usize,
         })
     }
 }
@@ -536,22 +556,7 @@ impl IhoTally {
     /// Dense view of the order map, coarsened like the σ map: per cell, the most stringent
     /// order met by at least 95 % of its soundings (S-44's confidence level).
     fn order_grid(&self) -> Option<OrderGridView> {
-        let (i0, i1) = self
-            .order_map
-            .keys()
-            .fold((i64::MAX, i64::MIN), |a, k| (a.0.min(k.0), a.1.max(k.0)));
-        let (j0, j1) = self
-            .order_map
-            .keys()
-            .fold((i64::MAX, i64::MIN), |a, k| (a.0.min(k.1), a.1.max(k.1)));
-        if i0 > i1 {
-            return None;
-        }
-        let mut f = 1;
-        while (i1 - i0) / f + 1 > SIGMA_MAP_MAX_SIDE || (j1 - j0) / f + 1 > SIGMA_MAP_MAX_SIDE {
-            f *= 2;
-        }
-        let (nx, ny) = (((i1 - i0) / f + 1) as usize, ((j1 - j0) / f + 1) as usize);
+        let Coarse { i0, j0, f, nx, ny } = Coarse::of(self.order_map.keys())?;
         let mut acc = vec![[0u64; 6]; nx * ny];
         for ((i, j), c) in &self.order_map {
             let (a, b) = (((i - i0) / f) as usize, ((j - j0) / f) as usize);

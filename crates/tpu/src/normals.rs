@@ -57,26 +57,7 @@ pub fn plane_normals(
     targets: &[[f64; 3]],
     k: usize,
 ) -> Vec<Option<Vector3<f64>>> {
-    use rayon::prelude::*;
-    if candidates.len() < MIN_NEIGHBOURS {
-        return vec![None; targets.len()];
-    }
-    // Never more neighbours than there are points.
-    let k = k
-        .clamp(MIN_NEIGHBOURS, MAX_NEIGHBOURS)
-        .min(candidates.len());
-    let grid = Grid::new(candidates, k);
-    let mut out = vec![None; targets.len()];
-    out.par_chunks_mut(QUERY_BLOCK)
-        .zip(targets.par_chunks(QUERY_BLOCK))
-        .for_each(|(out, targets)| {
-            let mut best = Best::new(k);
-            for (o, q) in out.iter_mut().zip(targets) {
-                grid.nearest(q, &mut best);
-                *o = normal_of_neighbours(q, best.points());
-            }
-        });
-    out
+    for_each_neighbourhood(candidates, targets, k, None, normal_of_neighbours)
 }
 
 /// What a point's neighbourhood is (see the module docs).
@@ -105,20 +86,36 @@ impl Surface {
 /// Each target's neighbourhood judged (see the module docs), with the `k` nearest neighbours
 /// among `candidates`; coordinates as for [`plane_normals`]. Parallel over targets (rayon).
 pub fn judge_surfaces(candidates: &[[f64; 3]], targets: &[[f64; 3]], k: usize) -> Vec<Surface> {
+    for_each_neighbourhood(candidates, targets, k, Surface::TooFew, judge_neighbours)
+}
+
+/// `f(target, its k nearest candidates as (squared distance, point))` for every target, in parallel over blocks of targets
+/// (rayon); `none` for every target when there are fewer than [`MIN_NEIGHBOURS`] candidates.
+/// `k` is clamped to [`MIN_NEIGHBOURS`]..=[`MAX_NEIGHBOURS`] and to the candidates, so no caller
+/// can make a neighbour buffer larger than the data.
+fn for_each_neighbourhood<T: Clone + Send + Sync>(
+    candidates: &[[f64; 3]],
+    targets: &[[f64; 3]],
+    k: usize,
+    none: T,
+    f: impl Fn(&[f64; 3], &[(f64, [f64; 3])]) -> T + Sync,
+) -> Vec<T> {
     use rayon::prelude::*;
-    let k = k.max(MIN_NEIGHBOURS);
     if candidates.len() < MIN_NEIGHBOURS {
-        return vec![Surface::TooFew; targets.len()];
+        return vec![none; targets.len()];
     }
+    let k = k
+        .clamp(MIN_NEIGHBOURS, MAX_NEIGHBOURS)
+        .min(candidates.len());
     let grid = Grid::new(candidates, k);
-    let mut out = vec![Surface::TooFew; targets.len()];
+    let mut out = vec![none; targets.len()];
     out.par_chunks_mut(QUERY_BLOCK)
         .zip(targets.par_chunks(QUERY_BLOCK))
         .for_each(|(out, targets)| {
             let mut best = Best::new(k);
             for (o, q) in out.iter_mut().zip(targets) {
                 grid.nearest(q, &mut best);
-                *o = judge_neighbours(q, best.points());
+                *o = f(q, best.points());
             }
         });
     out
