@@ -42,8 +42,8 @@ pub use gpstime::{
     week_to_adjusted_standard,
 };
 pub use pointcloud::{
-    ExtraDim, LasCrs, LasInfo, LasPoint, LasReader, LasWriteOptions, LasWriter, PointChunk, RawVlr,
-    epsg_from_wkt, orthometric_from_wkt,
+    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, ExtraDim, LasCrs, LasInfo, LasPoint, LasReader,
+    LasWriteOptions, LasWriter, PointChunk, RawVlr, epsg_from_wkt, orthometric_from_wkt,
 };
 pub use sbet::{
     F64Record, RAD_PER_ARCMIN, RecordReader, RecordWriter, SbetPose, SbetReader, SbetWriter,

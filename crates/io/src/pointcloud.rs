@@ -43,6 +43,11 @@ use std::path::{Path, PathBuf};
 mod laz_layout;
 
 /// Extra-bytes VLR: user id, record id and descriptor length (LAS 1.4 R15 §2.5.8).
+/// ASPRS LAS 1.4 R15 (topo-bathy domain profile) class of bathymetric (seabed) returns.
+pub const CLASS_BATHYMETRY: u8 = 40;
+/// ASPRS LAS 1.4 R15 class of water-surface returns.
+pub const CLASS_WATER_SURFACE: u8 = 41;
+
 const EXTRA_BYTES_USER: &str = "LASF_Spec";
 const EXTRA_BYTES_RECORD: u16 = 4;
 const EXTRA_BYTES_DESCRIPTOR_LEN: usize = 192;

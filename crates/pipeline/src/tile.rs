@@ -10,8 +10,8 @@ use crate::summary::{
     IncidenceTally, SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary,
 };
 use lidarqa_io::{
-    Ellipsoid, Geodetic, LasPoint, LasReader, LasTimeConverter, LasWriteOptions, LasWriter,
-    PointChunk, TransverseMercator,
+    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, Ellipsoid, Geodetic, LasPoint, LasReader,
+    LasTimeConverter, LasWriteOptions, LasWriter, PointChunk, TransverseMercator,
 };
 use lidarqa_model::{
     ConicScanner, Georeferencer, LinearObservation, LinearScanner, Mounting, Scanner, Source,
@@ -19,25 +19,16 @@ use lidarqa_model::{
 };
 use lidarqa_tpu::{
     IhoOrder, Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, SoundingRecovery, Surface,
-    SurfaceSource, TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex, ecef_from_ned,
-    incidence_angle, judge_surfaces, thu_95_m,
+    SurfaceSource, THU_95_CBLUE, TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex,
+    ecef_from_ned, incidence_angle, judge_surfaces, thu_95_m,
 };
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
-/// Classification code of a bathymetric point (ASPRS LAS 1.4 R15 / topobathy domain profile).
-const CLASS_BATHYMETRY: u8 = 40;
-/// NSSDA factor: 95 % radial from σ_H = √(σN² + σE²) (cBLUE's total_thu).
-const THU_95: f64 = 1.7308;
-/// 95 % vertical from σ_V (cBLUE's total_tvu).
-const TVU_95: f64 = 1.96;
 /// Points per parallel work item.
 const BLOCK: usize = 4096;
-
-/// Classification code of a water-surface return.
-const CLASS_WATER_SURFACE: u8 = 41;
 
 /// σ overrides for a conic return without a water leg: no water travel time.
 const NO_WATER_LEG: [(Source, f64); 1] = [(Source::TimeWater, 0.0)];
@@ -471,8 +462,8 @@ fn write_loop(
                         for (e, v) in extra.iter_mut().zip(sig) {
                             *e = *v as f32;
                         }
-                        extra[5] = (THU_95 * sig[3]) as f32;
-                        extra[6] = (TVU_95 * sig[4]) as f32;
+                        extra[5] = (THU_95_CBLUE * sig[3]) as f32;
+                        extra[6] = (TVU_95_FACTOR * sig[4]) as f32;
                         (extra[7], extra[8]) = match sounding {
                             Some(r) => (
                                 r.depth_m as f32,
@@ -722,8 +713,8 @@ impl Run<'_> {
                         h.add(*v);
                     }
                     if conic {
-                        summary.sigma[5].add(THU_95 * sig[3]);
-                        summary.sigma[6].add(TVU_95 * sig[4]);
+                        summary.sigma[5].add(THU_95_CBLUE * sig[3]);
+                        summary.sigma[6].add(TVU_95_FACTOR * sig[4]);
                     }
                 }
                 Slot::Skipped(r) => *summary.skipped.entry(*r).or_default() += 1,

@@ -19,10 +19,7 @@ const ORDERS: [(&str, &str); 5] = [
     ("2", "2"),
 ];
 
-/// Factor of σ_V for TVU at 95 % (normal).
-const TVU_95: f64 = 1.96;
-/// Factor of σ_H for THU at 95 % of a circular error (cBLUE's `total_thu`, SPEC §7).
-const THU_95_CIRCULAR: f64 = 1.7308;
+use lidarqa_tpu::{THU_95_CBLUE as THU_95_CIRCULAR, TVU_95_FACTOR as TVU_95};
 
 /// S-44 requires the allowance to be met at 95 % confidence.
 const MEETS_PERCENT: f64 = 95.0;

@@ -3,6 +3,7 @@
 use crate::plot::{self, Line, Raster, Scale, Vectors};
 use crate::products::*;
 use crate::report::Report;
+use lidarqa_tpu::{THU_95_CBLUE, TVU_95_FACTOR};
 use std::fmt::Write as _;
 
 /// Escapes text for HTML content and attribute values.
@@ -341,11 +342,11 @@ fn budget_section(b: &Budget) -> String {
     let t = &b.total;
     o.push_str("<table id=\"budget-totals\"><caption>Total propagated uncertainty</caption><thead><tr><th>component</th><th>σ (cm, 1σ)</th><th>95 % (cm)</th></tr></thead><tbody>\n");
     for (name, v, k) in [
-        ("north", t.north, 1.96),
-        ("east", t.east, 1.96),
-        ("up", t.up, 1.96),
-        ("horizontal", t.horizontal, 1.7308),
-        ("vertical", t.vertical, 1.96),
+        ("north", t.north, TVU_95_FACTOR),
+        ("east", t.east, TVU_95_FACTOR),
+        ("up", t.up, TVU_95_FACTOR),
+        ("horizontal", t.horizontal, THU_95_CBLUE),
+        ("vertical", t.vertical, TVU_95_FACTOR),
     ] {
         let _ = writeln!(
             o,
@@ -402,8 +403,8 @@ fn budget_section(b: &Budget) -> String {
             "At this geometry the points should be accurate to {} cm horizontally and {} cm vertically (1σ): 95 % of them within {} cm horizontally and {} cm vertically of their true position.{top}",
             cm(t.horizontal),
             cm(t.vertical),
-            cm(1.7308 * t.horizontal),
-            cm(1.96 * t.vertical)
+            cm(THU_95_CBLUE * t.horizontal),
+            cm(TVU_95_FACTOR * t.vertical)
         ),
     );
     o

@@ -18,10 +18,7 @@ use std::f64::consts::PI;
 pub const CLASS_GROUND: u8 = 2;
 /// ASPRS class of building roofs and walls.
 pub const CLASS_BUILDING: u8 = 6;
-/// ASPRS LAS 1.4 R15 class of bathymetric (seabed) returns.
-pub const CLASS_BATHYMETRY: u8 = 40;
-/// ASPRS LAS 1.4 R15 class of water-surface returns.
-pub const CLASS_WATER_SURFACE: u8 = 41;
+pub use lidarqa_io::{CLASS_BATHYMETRY, CLASS_WATER_SURFACE};
 /// Class of target-plate returns: 64, the first user-definable class of LAS 1.4.
 pub const CLASS_TARGET: u8 = 64;
 
