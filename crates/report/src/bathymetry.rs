@@ -368,16 +368,8 @@ fn across_azimuth(s: &Sweep, o: &mut String) {
         true,
         400,
     ));
-    let range = |f: fn(&Components) -> f64| {
-        s.points
-            .iter()
-            .map(|p| f(&p.budget.total))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, v| {
-                (a.0.min(v), a.1.max(v))
-            })
-    };
-    let (h0, h1) = range(|t| t.horizontal);
-    let (v0, v1) = range(|t| t.vertical);
+    let (h0, h1) = s.total_range(|t| t.horizontal);
+    let (v0, v1) = s.total_range(|t| t.vertical);
     let mut text = format!(
         "Around the scan the predicted σ varies from {} to {} cm horizontally and {} to {} cm vertically.",
         cm(h0),

@@ -492,15 +492,8 @@ fn sweep_section(sweeps: &[(String, Sweep)]) -> String {
             s.points.first().map(|p| p.at).unwrap_or(0.0),
             s.points.last().map(|p| p.at).unwrap_or(0.0),
         );
-        let range = |f: fn(&Components) -> f64| {
-            let v: Vec<f64> = s.points.iter().map(|p| f(&p.budget.total)).collect();
-            (
-                v.iter().copied().fold(f64::INFINITY, f64::min),
-                v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-            )
-        };
-        let (h0, h1) = range(|t| t.horizontal);
-        let (v0, v1) = range(|t| t.vertical);
+        let (h0, h1) = s.total_range(|t| t.horizontal);
+        let (v0, v1) = s.total_range(|t| t.vertical);
         let mut text = format!(
             "Across {name} from {first} to {last} {unit}, the predicted horizontal uncertainty ranges from {} to {} cm and the vertical from {} to {} cm (1σ).",
             cm(h0),

@@ -286,6 +286,19 @@ pub struct Sweep {
     pub points: Vec<SweepPoint>,
 }
 
+impl Sweep {
+    /// Smallest and largest of one total (`f`, e.g. horizontal σ) over the sweep, m;
+    /// (∞, −∞) for no points.
+    pub fn total_range(&self, f: fn(&Components) -> f64) -> (f64, f64) {
+        self.points
+            .iter()
+            .map(|p| f(&p.budget.total))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, v| {
+                (a.0.min(v), a.1.max(v))
+            })
+    }
+}
+
 impl Product for Sweep {
     const WHAT: &'static str = "error budget sweep";
     fn validate(&self) -> std::result::Result<(), Invalid> {
