@@ -237,6 +237,15 @@ pub enum Error {
         epsg: u32,
     },
 
+    /// A CRS lidarqa cannot compute in.
+    #[error("{crs}: {message}")]
+    UnsupportedCrs {
+        /// The CRS, e.g. `EPSG:4326 (WGS 84)`.
+        crs: String,
+        /// Why, lowercase.
+        message: String,
+    },
+
     /// A UTM zone number outside 1–60.
     #[error("UTM zone {zone} is not in 1–60")]
     InvalidUtmZone {

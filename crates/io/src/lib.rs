@@ -7,7 +7,8 @@
 //!   ([`read_trajectory`]);
 //! - control points, targets and tie picks as CSV ([`ControlPoints`], [`Targets`], [`TiePicks`]);
 //! - the sensor file of SPEC §5 ([`read_sensor`]);
-//! - WGS84 geodetic ↔ ECEF ↔ NED and UTM ([`UtmZone`]); GPS time bases ([`LasTimeConverter`]);
+//! - WGS84 geodetic ↔ ECEF ↔ NED, UTM ([`UtmZone`]) and any projected CRS in metres or feet
+//!   ([`Crs`]); GPS time bases ([`LasTimeConverter`]);
 //! - atomic outputs: a temporary file beside the target, renamed when complete ([`AtomicFile`]).
 //!
 //! Every error names the file and, where there is one, the line, record or key at fault.
@@ -19,6 +20,7 @@ pub use sensor::{
 };
 
 mod atomic;
+mod crs;
 mod csv;
 mod error;
 mod geodesy;
@@ -28,6 +30,7 @@ mod sbet;
 mod trajtext;
 
 pub use atomic::{AtomicFile, InputSet, check_distinct_inputs, check_not_an_input, outputs_in_dir};
+pub use crs::{Crs, LasCrs, LinearUnit, epsg_from_wkt, orthometric_from_wkt};
 pub use csv::{
     ControlPoint, ControlPoints, HasExtra, PointTable, Target, Targets, TiePick, TiePicks,
 };
@@ -42,8 +45,8 @@ pub use gpstime::{
     week_to_adjusted_standard,
 };
 pub use pointcloud::{
-    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, ExtraDim, LasCrs, LasInfo, LasPoint, LasReader,
-    LasWriteOptions, LasWriter, PointChunk, RawVlr, epsg_from_wkt, orthometric_from_wkt,
+    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, ExtraDim, LasInfo, LasPoint, LasReader, LasWriteOptions,
+    LasWriter, PointChunk, RawVlr,
 };
 pub use sbet::{
     F64Record, RAD_PER_ARCMIN, RecordReader, RecordWriter, SbetPose, SbetReader, SbetWriter,

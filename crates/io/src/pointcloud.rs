@@ -17,11 +17,7 @@
 //! names and types them. This module therefore encodes and decodes that VLR's 192-byte
 //! descriptors itself (LAS 1.4 R15 §2.5.8, table 24) and packs the values into
 //! `Point::extra_bytes`; everything else (headers, VLR storage, point records, LAZ) is the crate's.
-//! The EPSG code is read from the GeoKey directory with the crate's `get_geotiff_crs` (including a
-//! user-defined projected CRS that is a WGS 84 UTM zone by its ProjectionGeoKey, as PDAL writes
-//! one from a PROJ string), and from a WKT VLR by taking the last `AUTHORITY["EPSG","…"]` of the
-//! horizontal part (the crate has no WKT parser, and the outermost authority is the last one of a
-//! WKT1 CRS).
+//! The CRS VLRs are read by the crs module ([`LasCrs`]).
 //!
 //! An input's own extra bytes are readable by name but are not carried into outputs: an output
 //! has exactly the dimensions its caller names.
@@ -34,6 +30,7 @@
 //! `las` sizes anything from them, and turns a panic inside `las`/`laz` into an error.
 
 use crate::atomic::AtomicFile;
+use crate::crs::{Crs, LasCrs};
 use crate::error::{Error, Result};
 use crate::gpstime::{CivilDate, LasTimeBase};
 use std::fs::File;
@@ -138,168 +135,6 @@ impl From<&RawVlr> for las::Vlr {
             data: v.data.clone(),
         }
     }
-}
-
-/// The CRS of a LAS file.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct LasCrs {
-    /// The CRS VLRs/EVLRs as found (`LASF_Projection` 2112, 34735, 34736, 34737), to copy into
-    /// outputs unchanged.
-    pub vlrs: Vec<RawVlr>,
-    /// The horizontal CRS's EPSG code, from ProjectedCSTypeGeoKey (3072), a user-defined WGS 84
-    /// UTM zone (ProjectionGeoKey 3074 = 160zz / 161zz), or the WKT's last
-    /// `AUTHORITY["EPSG","…"]`; `None` when the file has no CRS or a CRS without a code.
-    pub epsg: Option<u32>,
-    /// The WKT text (record 2112), when present.
-    pub wkt: Option<String>,
-    /// The name of an orthometric (gravity-related) vertical CRS the file declares: a WKT
-    /// `VERT_CS` / `VERTCRS` that is not an ellipsoidal height, or a GeoTIFF
-    /// VerticalCSTypeGeoKey (4096) outside the ellipsoid codes 5001–5033; `None` when the file
-    /// declares none or ellipsoidal heights.
-    pub orthometric: Option<String>,
-}
-
-impl LasCrs {
-    fn from_header(header: &las::Header) -> Self {
-        let vlrs: Vec<RawVlr> = header
-            .all_vlrs()
-            .filter(|v| v.is_crs())
-            .map(RawVlr::from)
-            .collect();
-        let wkt = header.get_wkt_crs_bytes().map(|b| {
-            String::from_utf8_lossy(b)
-                .trim_end_matches('\0')
-                .to_string()
-        });
-        // A GeoKey directory that las cannot parse is no EPSG code, not an error: the VLRs are
-        // still copied, and a caller that needs the code reports its absence.
-        let geokey = header.get_geotiff_crs().ok().flatten().and_then(|g| {
-            g.get_projected_crs_geo_key_value()
-                .filter(|&c| c != 0 && c != 32767) // 32767 = user-defined
-                .map(u32::from)
-                .or_else(|| user_defined_utm_epsg(&g))
-        });
-        let epsg = geokey.or_else(|| wkt.as_deref().and_then(epsg_from_wkt));
-        let geotiff_vertical = header.get_geotiff_crs().ok().flatten().and_then(|g| {
-            g.entries
-                .iter()
-                .find(|e| e.id == 4096)
-                .and_then(|e| match &e.data {
-                    las::crs::GeoTiffData::U16(v) => Some(*v),
-                    _ => None,
-                })
-                .and_then(|v| match v {
-                    0 | 5001..=5033 => None,
-                    32767 => Some("a user-defined vertical CRS (GeoKey 4096)".to_string()),
-                    v => Some(format!("EPSG:{v} (GeoKey 4096)")),
-                })
-        });
-        let orthometric = wkt
-            .as_deref()
-            .and_then(orthometric_from_wkt)
-            .or(geotiff_vertical);
-        LasCrs {
-            vlrs,
-            epsg,
-            wkt,
-            orthometric,
-        }
-    }
-}
-
-/// The EPSG code (326zz / 327zz) of a user-defined projected CRS that is plainly a WGS 84 UTM
-/// zone, as PDAL and others write it from a PROJ string (`+proj=utm +zone=11 +datum=WGS84`):
-/// ProjectedCSTypeGeoKey 32767 (user-defined) with ProjectionGeoKey (3074) = 16000 + zone (north)
-/// or 16100 + zone (south), metres (ProjLinearUnitsGeoKey 3076 = 9001 or absent), Greenwich, and
-/// a geographic CRS that is EPSG 4326 or user-defined with the WGS 84 datum (6326), ellipsoid
-/// (7030) or ellipsoid parameters (a = 6378137 m, 1/f = 298.257223563), taken as WGS 84. Anything
-/// else (another datum, other units, another projection) is `None`: the caller then asks for
-/// `--utm-zone` / `--epsg` as before.
-fn user_defined_utm_epsg(g: &las::crs::GeoTiffCrs) -> Option<u32> {
-    use las::crs::GeoTiffData;
-    let key = |id: u16| g.entries.iter().find(|e| e.id == id).map(|e| &e.data);
-    let short = |id: u16| match key(id) {
-        Some(GeoTiffData::U16(v)) => Some(*v),
-        _ => None,
-    };
-    let double = |id: u16| match key(id) {
-        Some(GeoTiffData::Doubles(v)) if v.len() == 1 => Some(v[0]),
-        _ => None,
-    };
-    if !matches!(short(3072), None | Some(32767)) || !matches!(short(3076), None | Some(9001)) {
-        return None;
-    }
-    // GeogPrimeMeridianGeoKey (2051) Greenwich, GeogPrimeMeridianLongGeoKey (2061) 0.
-    if !matches!(short(2051), None | Some(8901)) || double(2061).is_some_and(|l| l != 0.0) {
-        return None;
-    }
-    let (zone, north) = match short(3074)? {
-        p @ 16001..=16060 => (u32::from(p - 16000), true),
-        p @ 16101..=16160 => (u32::from(p - 16100), false),
-        _ => return None,
-    };
-    let wgs84_ellipsoid = || {
-        short(2056) == Some(7030)
-            || (double(2057) == Some(6_378_137.0)
-                && double(2059).is_some_and(|f| (f - 298.257_223_563).abs() < 1e-9))
-    };
-    match short(2048) {
-        Some(4326) => {}
-        Some(32767) | None if short(2050) == Some(6326) || wgs84_ellipsoid() => {}
-        _ => return None,
-    }
-    Some(if north { 32600 } else { 32700 } + zone)
-}
-
-/// The EPSG code of a WKT1 or WKT2 horizontal CRS: the last `AUTHORITY["EPSG","n"]` (WKT1) or
-/// `ID["EPSG",n]` (WKT2) before any vertical part of a compound CRS.
-pub fn epsg_from_wkt(wkt: &str) -> Option<u32> {
-    // In a COMPD_CS / COMPOUNDCRS the vertical CRS comes after the horizontal one.
-    let horizontal = ["VERT_CS", "VERTCRS", "VERTICALCRS"]
-        .iter()
-        .filter_map(|k| wkt.find(k))
-        .min()
-        .map_or(wkt, |i| &wkt[..i]);
-    let mut last = None;
-    for key in ["AUTHORITY[", "ID["] {
-        let mut rest = horizontal;
-        while let Some(i) = rest.find(key) {
-            let after = &rest[i + key.len()..];
-            if let Some(code) = parse_epsg_authority(after) {
-                let pos = horizontal.len() - rest.len() + i;
-                if last.is_none_or(|(p, _)| pos > p) {
-                    last = Some((pos, code));
-                }
-            }
-            rest = after;
-        }
-    }
-    last.map(|(_, c)| c)
-}
-
-/// The name of the vertical CRS of a WKT1 `COMPD_CS` / WKT2 `COMPOUNDCRS`, unless it is an
-/// ellipsoidal height (a name with "ellipsoid").
-pub fn orthometric_from_wkt(wkt: &str) -> Option<String> {
-    let i = ["VERT_CS[", "VERTCRS[", "VERTICALCRS["]
-        .iter()
-        .filter_map(|k| wkt.find(k).map(|i| i + k.len()))
-        .min()?;
-    let rest = wkt[i..].trim_start().strip_prefix('"')?;
-    let name = &rest[..rest.find('"')?];
-    (!name.to_ascii_lowercase().contains("ellipsoid")).then(|| name.to_string())
-}
-
-/// Parses `"EPSG","32632"]` or `"EPSG",32632]`.
-fn parse_epsg_authority(s: &str) -> Option<u32> {
-    let s = s.trim_start();
-    let s = s
-        .strip_prefix("\"EPSG\"")?
-        .trim_start()
-        .strip_prefix(',')?
-        .trim_start();
-    let s = s.trim_start_matches('"');
-    let end = s.find(|c: char| !c.is_ascii_digit())?;
-    s[..end].parse().ok()
 }
 
 /// One extra-bytes dimension of a file.
@@ -505,17 +340,17 @@ impl LasInfo {
         })
     }
 
-    /// The UTM zone of the file's CRS.
+    /// The projected CRS of the file (see [`Crs::from_epsg`]).
     ///
     /// # Errors
-    /// [`Error::Crs`] naming the file when it has no EPSG code or one that is not a supported
-    /// UTM zone.
-    pub fn utm_zone(&self) -> Result<crate::geodesy::UtmZone> {
+    /// [`Error::Crs`] naming the file when it has no EPSG code or one lidarqa cannot project
+    /// with.
+    pub fn projected_crs(&self) -> Result<Crs> {
         let epsg = self.crs.epsg.ok_or_else(|| Error::Crs {
             path: self.path.clone(),
             message: "no EPSG code in the CRS VLRs (GeoKey 3072 or WKT AUTHORITY)".into(),
         })?;
-        crate::geodesy::UtmZone::from_epsg(epsg).map_err(|e| Error::Crs {
+        Crs::from_epsg(epsg).map_err(|e| Error::Crs {
             path: self.path.clone(),
             message: e.to_string(),
         })
@@ -1383,30 +1218,6 @@ impl Seek for Sink {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn orthometric_vertical_crs_is_named_and_ellipsoidal_heights_are_not() {
-        let compound = "COMPD_CS[\"NAD83(2011) / UTM 15N + NAVD88 height\",PROJCS[\"NAD83(2011) / \
-                        UTM zone 15N\",AUTHORITY[\"EPSG\",\"6344\"]],VERT_CS[\"NAVD88 height\",\
-                        AUTHORITY[\"EPSG\",\"5703\"]]]";
-        assert_eq!(
-            orthometric_from_wkt(compound).as_deref(),
-            Some("NAVD88 height")
-        );
-        assert_eq!(epsg_from_wkt(compound), Some(6344));
-        let wkt2 =
-            "COMPOUNDCRS[\"x\",PROJCRS[\"y\"],VERTCRS[\"EGM2008 height\",ID[\"EPSG\",3855]]]";
-        assert_eq!(
-            orthometric_from_wkt(wkt2).as_deref(),
-            Some("EGM2008 height")
-        );
-        let ellipsoidal = "COMPD_CS[\"a\",PROJCS[\"b\"],VERT_CS[\"WGS 84 ellipsoidal height\"]]";
-        assert_eq!(orthometric_from_wkt(ellipsoidal), None);
-        assert_eq!(
-            orthometric_from_wkt("PROJCS[\"WGS 84 / UTM zone 15N\"]"),
-            None
-        );
-    }
 
     #[test]
     fn a_panic_inside_las_becomes_a_one_line_error_naming_the_file() {

@@ -210,7 +210,7 @@ fn output_for_input_carries_crs_and_transform() {
     write(&input, &opts, &plain);
     let info = LasReader::from_path(&input).unwrap().info().clone();
     assert!(info.extra_dims.is_empty());
-    assert_eq!(info.utm_zone().unwrap().epsg(), Some(32632));
+    assert_eq!(info.projected_crs().unwrap().epsg(), Some(32632));
 
     let out_opts = LasWriteOptions::for_input(&info, EXTRA);
     assert_eq!((out_opts.version_minor, out_opts.point_format), (4, 1));

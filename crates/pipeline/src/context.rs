@@ -5,7 +5,7 @@ use crate::plausibility::{
     TrajectoryFacts, TrajectorySample, check_trajectory, check_trajectory_sigmas,
 };
 use lidarqa_io::{
-    Ellipsoid, Geodetic, HeadingReference, LasInfo, LasReader, LasTimeConverter, SbetPose,
+    Crs, Ellipsoid, Geodetic, HeadingReference, LasInfo, LasReader, LasTimeConverter, SbetPose,
     SensorExtras, SmrmsgSigma, TextTrajectory, TrajectoryFile, TrajectoryFormat,
     TrajectoryPosition, UtmDatum, UtmZone, read_sensor_with_extras, read_smrmsg, read_trajectory,
 };
@@ -18,7 +18,7 @@ use std::sync::{Arc, Mutex};
 #[derive(Debug, Clone, PartialEq)]
 pub struct TpuOptions {
     /// The points' CRS when the files have none (or to override theirs).
-    pub crs: Option<UtmZone>,
+    pub crs: Option<Crs>,
     /// GPS week of the survey (for LAS adjusted standard GPS time).
     pub gps_week: Option<i64>,
     /// Skip (and count) points outside the trajectory's time span instead of failing.
@@ -81,7 +81,7 @@ pub struct TpuContext {
     pub(crate) sigma_span_s: Option<[f64; 2]>,
     /// The trajectory in ECEF for each CRS used so far: the points and the trajectory go to ECEF
     /// on the same ellipsoid, and a projected text trajectory through the points' projection.
-    trajectories: Mutex<Vec<(UtmZone, Arc<Trajectory>)>>,
+    trajectories: Mutex<Vec<(Crs, Arc<Trajectory>)>>,
 }
 
 impl TpuContext {
@@ -240,7 +240,7 @@ impl TpuContext {
         // Check the trajectory now, before any tile (a projected one needs the points' CRS):
         // well formed, then physically plausible.
         let mut ctx = ctx;
-        match (ctx.options.crs, ctx.is_projected()) {
+        match (&ctx.options.crs, ctx.is_projected()) {
             (Some(z), _) => {
                 ctx.trajectory_in(z)?;
             }
@@ -352,33 +352,37 @@ impl TpuContext {
             )));
         }
         // Any zone of the datum: a geodetic trajectory does not depend on the projection.
-        let zone = UtmZone::with_datum(1, lidarqa_io::Hemisphere::North, datum)?;
-        self.trajectory_in(zone)
+        let crs = Crs::from(UtmZone::with_datum(
+            1,
+            lidarqa_io::Hemisphere::North,
+            datum,
+        )?);
+        self.trajectory_in(&crs)
     }
 
-    /// The trajectory in ECEF for points in `zone` (built once per CRS): a geodetic trajectory on
+    /// The trajectory in ECEF for points in `crs` (built once per CRS): a geodetic trajectory on
     /// the CRS's ellipsoid; a projected text trajectory taken back through the projection, its
     /// grid azimuths turned to true headings by the grid convergence at each pose.
     ///
     /// # Errors
     /// As [`TpuContext::trajectory`].
-    pub fn trajectory_in(&self, zone: UtmZone) -> Result<Arc<Trajectory>> {
+    pub fn trajectory_in(&self, crs: &Crs) -> Result<Arc<Trajectory>> {
         let mut cache = self
             .trajectories
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let key = |z: &UtmZone| {
+        // A geodetic trajectory: one per ellipsoid; a projected one: one per CRS.
+        let same = |c: &Crs| {
             if self.is_projected() {
-                *z
+                c == crs
             } else {
-                // Geodetic: one trajectory per ellipsoid.
-                UtmZone::with_datum(1, lidarqa_io::Hemisphere::North, z.datum()).unwrap_or(*z)
+                c.ellipsoid() == crs.ellipsoid()
             }
         };
-        if let Some((_, t)) = cache.iter().find(|(z, _)| key(z) == key(&zone)) {
+        if let Some((_, t)) = cache.iter().find(|(c, _)| same(c)) {
             return Ok(Arc::clone(t));
         }
-        let e: Ellipsoid = zone.datum().ellipsoid();
+        let e: Ellipsoid = crs.ellipsoid();
         let poses: Vec<Pose> = match &self.poses {
             TrajectoryFile::Sbet(poses) => poses
                 .iter()
@@ -396,14 +400,14 @@ impl TpuContext {
                 })
                 .collect(),
             TrajectoryFile::Text(t) => {
-                text_poses(t, &e, zone, self.options.geoid_separation_m.unwrap_or(0.0))
+                text_poses(t, &e, crs, self.options.geoid_separation_m.unwrap_or(0.0))
             }
         };
         let t = Arc::new(Trajectory::new(&poses).map_err(|source| Error::Input {
             path: self.trajectory_path.clone(),
             source,
         })?);
-        cache.push((zone, Arc::clone(&t)));
+        cache.push((crs.clone(), Arc::clone(&t)));
         Ok(t)
     }
 }
@@ -423,27 +427,27 @@ fn pose(e: &Ellipsoid, time_s: f64, llh: [f64; 3], attitude: Attitude) -> Pose {
     }
 }
 
-/// The poses of a text trajectory for points in `zone`.
-/// A projected trajectory's Z is in the points' vertical CRS: `height_offset_m` (the geoid
-/// separation) makes it ellipsoidal like theirs.
-fn text_poses(t: &TextTrajectory, e: &Ellipsoid, zone: UtmZone, height_offset_m: f64) -> Vec<Pose> {
+/// The poses of a text trajectory for points in `crs`.
+/// A projected trajectory's X/Y/Z are in the CRS's unit (feet become metres here) and its Z in
+/// the points' vertical CRS: `height_offset_m` (the geoid separation) makes it ellipsoidal like
+/// theirs.
+fn text_poses(t: &TextTrajectory, e: &Ellipsoid, crs: &Crs, height_offset_m: f64) -> Vec<Pose> {
+    let unit_m = crs.unit().metres();
     t.poses
         .iter()
         .map(|p| {
             let (llh, convergence_rad) = match t.position {
                 TrajectoryPosition::Geodetic => (
                     p.position,
-                    zone.grid_convergence(p.position[0], p.position[1]),
+                    crs.grid_convergence(p.position[0], p.position[1]),
                 ),
                 TrajectoryPosition::Projected => {
-                    let u = zone
-                        .projection()
-                        .inverse_series(p.position[0], p.position[1]);
+                    let u = crs.unproject(p.position[0] * unit_m, p.position[1] * unit_m);
                     (
                         [
                             u.latitude_rad(),
                             u.longitude_rad(),
-                            p.position[2] + height_offset_m,
+                            p.position[2] * unit_m + height_offset_m,
                         ],
                         u.convergence_rad(),
                     )
@@ -469,10 +473,10 @@ fn text_poses(t: &TextTrajectory, e: &Ellipsoid, zone: UtmZone, height_offset_m:
 }
 
 /// What every per-point entry point needs from a tile's header, checked once: the header, the
-/// points' UTM zone, the trajectory on that zone's ellipsoid and the GPS time converter.
+/// points' CRS, the trajectory on its ellipsoid and the GPS time converter.
 pub(crate) struct OpenTile {
     pub(crate) info: LasInfo,
-    pub(crate) zone: UtmZone,
+    pub(crate) crs: Crs,
     pub(crate) trajectory: Arc<Trajectory>,
     pub(crate) converter: LasTimeConverter,
     /// Added to LAS Z to get ellipsoidal heights (the geoid separation, or 0).
@@ -510,8 +514,8 @@ impl TpuContext {
                 vertical: v.clone(),
             });
         }
-        let zone = self.zone_of(input, &info)?;
-        let trajectory = self.trajectory_in(zone)?;
+        let crs = self.crs_of(input, &info)?;
+        let trajectory = self.trajectory_in(&crs)?;
         let converter = LasTimeConverter::new(
             input,
             info.time_base,
@@ -520,22 +524,22 @@ impl TpuContext {
         )?;
         Ok(OpenTile {
             info,
-            zone,
+            crs,
             trajectory,
             converter,
             height_offset_m: self.options.geoid_separation_m.unwrap_or(0.0),
         })
     }
 
-    /// The UTM zone of the points of `input`: the options' `crs` when set (it overrides the
+    /// The CRS of the points of `input`: the options' `crs` when set (it overrides the
     /// file's), else the one in the file's header.
     ///
     /// # Errors
-    /// [`Error::UnknownCrs`] naming the file when neither gives a UTM zone.
-    pub(crate) fn zone_of(&self, input: &Path, info: &LasInfo) -> Result<UtmZone> {
-        match self.options.crs {
-            Some(z) => Ok(z),
-            None => info.utm_zone().map_err(|e| Error::UnknownCrs {
+    /// [`Error::UnknownCrs`] naming the file when neither gives a projected CRS lidarqa knows.
+    pub(crate) fn crs_of(&self, input: &Path, info: &LasInfo) -> Result<Crs> {
+        match &self.options.crs {
+            Some(c) => Ok(c.clone()),
+            None => info.projected_crs().map_err(|e| Error::UnknownCrs {
                 path: input.to_path_buf(),
                 reason: crs_reason(info, &e),
             }),

@@ -19,14 +19,17 @@
 //! exactly; only Δ is approximated. The point's geodetic position comes from Krüger's β series
 //! without the final Newton step of the exact inverse (a few nanometres), half its cost.
 //!
+//! A CRS that is not conformal (e.g. LAEA) has no single scale at a point: there the corrected
+//! point takes the exact round trip (ECEF → geodetic → projection). Feet are converted to
+//! metres on the way in and back on the way out.
+//!
 //! Reading (LAZ decoding), correcting (rayon) and writing (LAZ coding) run as three stages on
 //! bounded channels, so the coding of one chunk overlaps the computation of the next.
 
 use crate::context::{OpenTile, TpuContext};
 use crate::error::{Error, Result};
 use lidarqa_io::{
-    LasPoint, LasReader, LasTimeConverter, LasWriteOptions, LasWriter, PointChunk,
-    TransverseMercator, UtmZone,
+    Crs, LasPoint, LasReader, LasTimeConverter, LasWriteOptions, LasWriter, PointChunk,
 };
 use lidarqa_model::{Mounting, rotation_zyx};
 use lidarqa_tpu::{Recoverer, Trajectory};
@@ -82,7 +85,7 @@ pub fn correct_tile(job: &CorrectTileJob<'_>) -> Result<CorrectTileReport> {
     let ctx = job.context;
     let OpenTile {
         info,
-        zone,
+        crs,
         trajectory,
         converter,
         height_offset_m,
@@ -94,7 +97,7 @@ pub fn correct_tile(job: &CorrectTileJob<'_>) -> Result<CorrectTileReport> {
             input.display()
         )));
     }
-    let correction = Correction::new(&zone, &ctx.recovery_mounting, job.mounting);
+    let correction = Correction::new(&crs, &ctx.recovery_mounting, job.mounting);
     let mut inputs: Vec<&Path> = vec![input];
     inputs.extend(ctx.inputs.iter().map(PathBuf::as_path));
     inputs.extend(job.other_inputs);
@@ -104,7 +107,7 @@ pub fn correct_tile(job: &CorrectTileJob<'_>) -> Result<CorrectTileReport> {
         correction: &correction,
         trajectory: &trajectory,
         converter: &converter,
-        zone,
+        crs,
     };
     std::thread::scope(|scope| {
         let (tx_read, rx_read) = sync_channel::<Result<PointChunk>>(1);
@@ -197,7 +200,7 @@ struct Run<'a> {
     correction: &'a Correction,
     trajectory: &'a Trajectory,
     converter: &'a LasTimeConverter,
-    zone: UtmZone,
+    crs: Crs,
 }
 
 impl Run<'_> {
@@ -238,7 +241,7 @@ impl Run<'_> {
     /// Points hundreds of kilometres from the trajectory (a wrong zone) are refused before any
     /// is moved (see [`crate::plausibility::check_distance`]).
     fn check_distance(&self, chunk: &PointChunk) -> Result<()> {
-        let (projection, ellipsoid) = (self.zone.projection(), self.zone.datum().ellipsoid());
+        let (ellipsoid, unit_m) = (self.crs.ellipsoid(), self.crs.unit().metres());
         let step = chunk
             .len()
             .div_ceil(crate::plausibility::DISTANCE_SAMPLES)
@@ -251,11 +254,11 @@ impl Run<'_> {
             .filter_map(|p| {
                 let sow = self.converter.to_seconds_of_week(p.gps_time_s?).ok()?;
                 let pose = self.trajectory.at(sow).ok()?;
-                let (lat, lon) = projection.inverse(p.x, p.y);
+                let (lat, lon) = self.crs.inverse(p.x * unit_m, p.y * unit_m);
                 let ecef = ellipsoid.geodetic_to_ecef(&lidarqa_io::Geodetic {
                     latitude_rad: lat,
                     longitude_rad: lon,
-                    height_m: p.z,
+                    height_m: p.z * unit_m,
                 });
                 Some((
                     ecef,
@@ -267,7 +270,7 @@ impl Run<'_> {
             .collect();
         crate::plausibility::check_distance(
             self.path,
-            &crate::plausibility::crs_name(&self.zone),
+            &crate::plausibility::crs_name(&self.crs),
             &samples,
         )
     }
@@ -312,10 +315,14 @@ impl Run<'_> {
     }
 }
 
-/// The correction of one tile, prepared once: the projection, the ellipsoid and both mountings.
-#[derive(Debug, Clone, Copy)]
+/// The correction of one tile, prepared once: the CRS, the ellipsoid and both mountings.
+#[derive(Debug, Clone)]
 pub(crate) struct Correction {
-    projection: TransverseMercator,
+    crs: Crs,
+    /// One unit of the CRS's X/Y/Z in metres.
+    unit_m: f64,
+    /// The CRS is conformal (transverse Mercator): Δ goes to the grid through γ and k.
+    conformal: bool,
     /// Semi-major axis a, m, and first eccentricity squared e².
     a_m: f64,
     e2: f64,
@@ -327,11 +334,13 @@ pub(crate) struct Correction {
 }
 
 impl Correction {
-    /// From the points' zone, the mounting they were made with and the calibrated one.
-    pub(crate) fn new(zone: &UtmZone, old: &Mounting, new: &Mounting) -> Correction {
-        let ellipsoid = zone.datum().ellipsoid();
+    /// From the points' CRS, the mounting they were made with and the calibrated one.
+    pub(crate) fn new(crs: &Crs, old: &Mounting, new: &Mounting) -> Correction {
+        let ellipsoid = crs.ellipsoid();
         Correction {
-            projection: zone.projection(),
+            crs: crs.clone(),
+            unit_m: crs.unit().metres(),
+            conformal: crs.central_meridian_rad().is_some(),
             a_m: ellipsoid.a_m,
             e2: ellipsoid.e2(),
             old: Recoverer::new(old),
@@ -355,8 +364,8 @@ impl Correction {
         p0: &Vector3<f64>,
         r_be: &Matrix3<f64>,
     ) -> std::result::Result<[f64; 3], lidarqa_tpu::Error> {
-        let [x, y, h] = xyz;
-        let u = self.projection.inverse_series(x, y);
+        let [x, y, h] = xyz.map(|v| v * self.unit_m);
+        let u = self.crs.unproject(x, y);
         let (sp, cp) = (u.sin_latitude, u.cos_latitude);
         let (sl, cl) = (u.sin_longitude, u.cos_longitude);
         // Radii of curvature: prime vertical N and meridian M.
@@ -392,13 +401,21 @@ impl Correction {
         let down = -cp * cl * d.x - cp * sl * d.y - sp * d.z;
         let g_north = north * m_m / (m_m + h);
         let g_east = east * n_m / (n_m + h);
-        let (sg, cg) = (u.sin_convergence, u.cos_convergence);
-        let k = u.scale;
-        Ok([
-            x + k * (cg * g_east - sg * g_north),
-            y + k * (cg * g_north + sg * g_east),
-            h - down,
-        ])
+        let [x, y, h] = if self.conformal {
+            let (sg, cg) = (u.sin_convergence, u.cos_convergence);
+            let k = u.scale;
+            [
+                x + k * (cg * g_east - sg * g_north),
+                y + k * (cg * g_north + sg * g_east),
+                h - down,
+            ]
+        } else {
+            // Not conformal (scale depends on direction): the exact round trip.
+            let g = self.crs.ellipsoid().ecef_to_geodetic(&(point + d));
+            let q = self.crs.forward(g.latitude_rad, g.longitude_rad);
+            [q.easting_m, q.northing_m, g.height_m]
+        };
+        Ok([x, y, h].map(|v| v / self.unit_m))
     }
 }
 
@@ -406,7 +423,7 @@ impl Correction {
 mod tests {
     use super::*;
     use lidarqa_calib::{Georeferencing, LocalFrame, RawPoint};
-    use lidarqa_io::{Geodetic, Hemisphere, UtmDatum};
+    use lidarqa_io::{Geodetic, Hemisphere, UtmDatum, UtmZone};
     use lidarqa_model::Attitude;
     use lidarqa_tpu::Pose;
 
@@ -566,7 +583,7 @@ mod tests {
             let pts = points(&zone, &trajectory);
             for d in changes {
                 let new = changed(d);
-                let c = Correction::new(&zone, &old(), &new);
+                let c = Correction::new(&Crs::from(zone), &old(), &new);
                 for &(t, xyz) in &pts {
                     let want = exact(&zone, &trajectory.at(t).unwrap(), xyz, &old(), &new);
                     let (p0, r_be) = trajectory.body_to_ecef_at(t, &mut 0).unwrap();

@@ -29,7 +29,7 @@ use crate::error::{Error, Result};
 use crate::stored::StoredSummary;
 use crate::summary::{SurveyReport, TileReport, TpuSummary};
 use crate::tile::{TpuTileJob, tpu_tile};
-use lidarqa_io::{AtomicFile, UtmZone};
+use lidarqa_io::{AtomicFile, Crs};
 use serde::{Deserialize, Serialize};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -102,13 +102,12 @@ impl ManifestOptions {
     /// # Errors
     /// [`Error::InvalidOption`] for a CRS without an EPSG code.
     pub fn from_options(o: &TpuOptions) -> Result<ManifestOptions> {
-        let epsg =
-            match &o.crs {
-                None => None,
-                Some(z) => Some(z.epsg().ok_or_else(|| {
-                    Error::InvalidOption(format!("the CRS {z:?} has no EPSG code"))
-                })?),
-            };
+        let epsg = match &o.crs {
+            None => None,
+            Some(z) => Some(z.epsg().ok_or_else(|| {
+                Error::InvalidOption(format!("the CRS {} has no EPSG code", z.name()))
+            })?),
+        };
         Ok(ManifestOptions {
             epsg,
             gps_week: o.gps_week,
@@ -125,10 +124,10 @@ impl ManifestOptions {
     /// Back to run options.
     ///
     /// # Errors
-    /// [`Error::Io`] (lidarqa-io's message) for an EPSG code that is not a UTM CRS.
+    /// [`Error::Io`] (lidarqa-io's message) for an EPSG code lidarqa cannot project with.
     pub fn to_options(&self) -> Result<TpuOptions> {
         Ok(TpuOptions {
-            crs: self.epsg.map(UtmZone::from_epsg).transpose()?,
+            crs: self.epsg.map(Crs::from_epsg).transpose()?,
             gps_week: self.gps_week,
             skip_outside: self.skip_outside,
             skip_invalid: self.skip_invalid,

@@ -435,13 +435,20 @@ pub fn check_distance(
     Ok(())
 }
 
-/// A UTM zone's name for messages, e.g. `UTM zone 50N`.
-pub fn crs_name(zone: &lidarqa_io::UtmZone) -> String {
-    let h = match zone.hemisphere() {
-        lidarqa_io::Hemisphere::North => 'N',
-        lidarqa_io::Hemisphere::South => 'S',
-    };
-    format!("UTM zone {}{h}", zone.zone())
+/// A CRS's name for messages: `UTM zone 50N` for a UTM zone, else `EPSG:2180 (ETRS89 / Poland
+/// CS92)` or the CRS's name.
+pub fn crs_name(crs: &lidarqa_io::Crs) -> String {
+    if let Some(zone) = crs.utm_zone() {
+        let h = match zone.hemisphere() {
+            lidarqa_io::Hemisphere::North => 'N',
+            lidarqa_io::Hemisphere::South => 'S',
+        };
+        return format!("UTM zone {}{h}", zone.zone());
+    }
+    match crs.epsg() {
+        Some(code) => format!("EPSG:{code} ({})", crs.name()),
+        None => crs.name().to_string(),
+    }
 }
 
 /// Whether a point at `longitude_rad` lies outside a UTM zone with central meridian

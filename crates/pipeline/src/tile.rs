@@ -10,8 +10,8 @@ use crate::summary::{
     IncidenceTally, SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary,
 };
 use lidarqa_io::{
-    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, Ellipsoid, Geodetic, LasPoint, LasReader,
-    LasTimeConverter, LasWriteOptions, LasWriter, PointChunk, TransverseMercator,
+    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, Crs, Geodetic, LasPoint, LasReader, LasTimeConverter,
+    LasWriteOptions, LasWriter, PointChunk,
 };
 use lidarqa_model::{
     ConicScanner, Georeferencer, LinearObservation, LinearScanner, Mounting, Scanner, Source,
@@ -114,7 +114,7 @@ pub fn tpu_tile_with_progress(
     // las's reader is not `Send`: read the header here, the points in the reader thread.
     let OpenTile {
         info,
-        zone,
+        crs,
         trajectory,
         converter,
         height_offset_m,
@@ -144,8 +144,8 @@ pub fn tpu_tile_with_progress(
     let writer = LasWriter::create(job.output, &options, &inputs)?;
 
     let prep = Prepare {
-        projection: zone.projection(),
-        ellipsoid: zone.datum().ellipsoid(),
+        crs: crs.clone(),
+        unit_m: crs.unit().metres(),
         converter,
         height_offset_m,
     };
@@ -156,7 +156,7 @@ pub fn tpu_tile_with_progress(
     summary.plausibility.sigma_span_s = ctx.sigma_span_s;
     let tally0 = MountingTally::new(&ctx.sensor.mounting, kernel.kind() == "linear");
     summary.plausibility.mounting = tally0;
-    let crs_name = crs_name(&zone);
+    let crs_name = crs_name(&crs);
 
     let chunk_points = ctx.options.chunk_points;
     let path = input.to_path_buf();
@@ -197,9 +197,9 @@ pub fn tpu_tile_with_progress(
                 ctx.recovery_mounting.boresight_yaw_rad,
             ),
             tally0,
-            central_meridian_rad: zone.central_meridian_rad(),
+            central_meridian_rad: crs.utm_zone().map(|z| z.central_meridian_rad()),
             crs_name: &crs_name,
-            projection: zone.projection(),
+            crs: &crs,
             file_normals,
         };
         let spent = Recycle {
@@ -309,8 +309,9 @@ impl Kernel {
 
 /// Per-point conversion done by the reader thread.
 struct Prepare {
-    projection: TransverseMercator,
-    ellipsoid: Ellipsoid,
+    crs: Crs,
+    /// One unit of the CRS's X/Y/Z in metres (feet become metres here).
+    unit_m: f64,
     converter: LasTimeConverter,
     /// Added to LAS Z for the ellipsoidal height (geoid separation or 0).
     height_offset_m: f64,
@@ -325,6 +326,8 @@ enum PrepState {
 
 struct Prep {
     ecef: Vector3<f64>,
+    /// X, Y, Z of the CRS in metres (feet converted).
+    xyz_m: [f64; 3],
     latitude_rad: f64,
     longitude_rad: f64,
     time_sow_s: f64,
@@ -341,6 +344,7 @@ impl Prepare {
     fn point(&self, p: &LasPoint) -> Prep {
         let mut out = Prep {
             ecef: Vector3::zeros(),
+            xyz_m: [p.x, p.y, p.z].map(|v| v * self.unit_m),
             latitude_rad: 0.0,
             longitude_rad: 0.0,
             time_sow_s: f64::NAN,
@@ -350,14 +354,15 @@ impl Prepare {
             out.state = PrepState::NonFinite;
             return out;
         }
-        let (lat, lon) = self.projection.inverse(p.x, p.y);
+        let [x_m, y_m, z_m] = out.xyz_m;
+        let (lat, lon) = self.crs.inverse(x_m, y_m);
         out.latitude_rad = lat;
         out.longitude_rad = lon;
         // LAS Z plus the geoid separation (0 unless given) is the ellipsoidal height.
-        out.ecef = self.ellipsoid.geodetic_to_ecef(&Geodetic {
+        out.ecef = self.crs.ellipsoid().geodetic_to_ecef(&Geodetic {
             latitude_rad: lat,
             longitude_rad: lon,
-            height_m: p.z + self.height_offset_m,
+            height_m: z_m + self.height_offset_m,
         });
         match p.gps_time_s.map(|t| self.converter.to_seconds_of_week(t)) {
             Some(Ok(t)) => out.time_sow_s = t,
@@ -542,12 +547,12 @@ struct Run<'a> {
     r_m: Matrix3<f64>,
     /// An empty mounting tally for this sensor.
     tally0: MountingTally,
-    /// The points' zone's central meridian, rad.
-    central_meridian_rad: f64,
+    /// The central meridian of the points' UTM zone, rad (no zone-area check for other CRSs).
+    central_meridian_rad: Option<f64>,
     /// The points' CRS, for messages.
     crs_name: &'a str,
-    /// The points' projection (grid convergence for file normals and the covariance).
-    projection: TransverseMercator,
+    /// The points' CRS (grid convergence for file normals and the covariance).
+    crs: &'a Crs,
     /// The file has PDAL's NormalX/Y/Z.
     file_normals: bool,
 }
@@ -704,11 +709,11 @@ impl Run<'_> {
             match s {
                 Slot::Ok(sig, sounding, _) => {
                     summary.points_written += 1;
-                    let p = &cur.chunk.points[i];
+                    let [x_m, y_m, _] = cur.pts[i].xyz_m;
                     if let Some(r) = sounding {
-                        summary.iho.add(r, p.x, p.y);
+                        summary.iho.add(r, x_m, y_m);
                     }
-                    summary.map.add(p.x, p.y, sig[4]);
+                    summary.map.add(x_m, y_m, sig[4]);
                     for (h, v) in summary.sigma.iter_mut().zip(sig) {
                         h.add(*v);
                     }
@@ -779,7 +784,10 @@ impl Run<'_> {
         let p = &mut summary.plausibility;
         p.warn(w);
         p.outside_zone += ok()
-            .filter(|q| outside_zone(q.longitude_rad, self.central_meridian_rad))
+            .filter(|q| {
+                self.central_meridian_rad
+                    .is_some_and(|c| outside_zone(q.longitude_rad, c))
+            })
             .count() as u64;
         if let Some([a, b]) = self.ctx.sigma_span_s {
             p.outside_sigma_span += ok()
@@ -805,9 +813,7 @@ impl Run<'_> {
                 if !(g.iter().all(|v| v.is_finite()) && g.norm() > 0.0) {
                     return Some(Surface::TooFew);
                 }
-                let gamma = self
-                    .projection
-                    .grid_convergence(p.latitude_rad, p.longitude_rad);
+                let gamma = self.crs.grid_convergence(p.latitude_rad, p.longitude_rad);
                 let (sg, cg) = gamma.sin_cos();
                 // Grid (E, N) → true (N, E): a grid azimuth α_g is the true azimuth α_g + γ.
                 let ned = Vector3::new(g.y * cg - g.x * sg, g.x * cg + g.y * sg, -g.z);
@@ -880,7 +886,7 @@ impl Run<'_> {
         let sigma = self.ctx.sigmas.as_ref().map(|s| s.at(p.time_sow_s));
         let sounding = match (self.kernel, water) {
             (Kernel::Conic(_, scanner), Some(w)) if lp.classification == CLASS_BATHYMETRY => {
-                Some(self.recover_sounding(scanner, &pose, p, lp, w))
+                Some(self.recover_sounding(scanner, &pose, p, w))
             }
             _ => None,
         };
@@ -945,7 +951,7 @@ impl Run<'_> {
                     // NED (true) → grid (easting, northing, up): a true azimuth α is the grid
                     // azimuth α − γ. Ground metres, not scaled by the point scale factor.
                     let (sg, cg) = self
-                        .projection
+                        .crs
                         .grid_convergence(p.latitude_rad, p.longitude_rad)
                         .sin_cos();
                     let t = Matrix3::new(-sg, cg, 0.0, cg, sg, 0.0, 0.0, 0.0, -1.0);
@@ -991,7 +997,6 @@ impl Run<'_> {
         scanner: &ConicScanner,
         pose: &PoseAt,
         p: &Prep,
-        lp: &LasPoint,
         water: &WaterSurfaceIndex,
     ) -> lidarqa_tpu::Result<SoundingRecovery> {
         match water.same_pulse(p.time_sow_s) {
@@ -1000,18 +1005,18 @@ impl Run<'_> {
                 &self.recovery_mounting,
                 pose,
                 &p.ecef,
-                lp.z,
+                p.xyz_m[2],
                 &s.ecef_m,
                 s.xyh[2],
             ),
             None => {
-                let plane = water.plane_at(lp.x, lp.y)?;
+                let plane = water.plane_at(p.xyz_m[0], p.xyz_m[1])?;
                 self.recoverer.sounding_from_plane(
                     scanner,
                     &self.recovery_mounting,
                     pose,
                     &p.ecef,
-                    [lp.x, lp.y, lp.z],
+                    p.xyz_m,
                     &plane,
                 )
             }
@@ -1155,13 +1160,13 @@ fn water_returns(c: &Prepared, limit: usize) -> impl Iterator<Item = (u64, Water
         .filter(|(_, (p, lp))| {
             lp.classification == CLASS_WATER_SURFACE && matches!(p.state, PrepState::Ok)
         })
-        .map(move |(k, (p, lp))| {
+        .map(move |(k, (p, _))| {
             (
                 c.first_index + k as u64,
                 WaterReturn {
                     time_s: p.time_sow_s,
                     ecef_m: p.ecef,
-                    xyh: [lp.x, lp.y, lp.z],
+                    xyh: p.xyz_m,
                 },
             )
         })

@@ -106,7 +106,7 @@ fn a_tile_without_crs_takes_the_context_zone() {
 
     // With the zone given, the points are those of the same strip with its CRS in the header.
     let options = TpuOptions {
-        crs: Some(UtmZone::new(33, Hemisphere::North).unwrap()),
+        crs: Some(UtmZone::new(33, Hemisphere::North).unwrap().into()),
         ..TpuOptions::default()
     };
     let ctx33 = TpuContext::from_files(&sv.sensor, &sv.sbet, None, options).unwrap();

@@ -8,7 +8,7 @@
 //! file, key or value) on failure.
 
 use lidarqa_calib::mounting_from_json;
-use lidarqa_io::{ControlPoints, UtmZone};
+use lidarqa_io::{ControlPoints, Crs};
 use lidarqa_pipeline::{
     CorrectTileJob, Manifest, TargetsTileJob, TileReport, TpuContext, TpuOptions, TpuTileJob,
     collect as collect_manifest, correct_tile as correct_one, extract_targets_tile as targets_one,
@@ -42,7 +42,7 @@ fn options(
     skip_invalid: bool,
 ) -> PyResult<TpuOptions> {
     Ok(TpuOptions {
-        crs: epsg.map(UtmZone::from_epsg).transpose().map_err(err)?,
+        crs: epsg.map(Crs::from_epsg).transpose().map_err(err)?,
         gps_week,
         skip_outside,
         skip_invalid,

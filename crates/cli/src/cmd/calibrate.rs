@@ -19,8 +19,8 @@ use lidarqa_calib::{
 /// Most Levenberg–Marquardt iterations: a calibration converges in tens.
 const MAX_LM_ITERATIONS: usize = 10_000;
 use lidarqa_io::{
-    AtomicFile, ControlPoints, Geodetic, LasInfo, LasReader, LasTimeConverter, PointChunk,
-    TiePicks, UtmZone,
+    AtomicFile, ControlPoints, Crs, Geodetic, LasInfo, LasReader, LasTimeConverter, PointChunk,
+    TiePicks,
 };
 use lidarqa_model::{Mounting, Source};
 use lidarqa_pipeline::{TpuContext, TpuOptions};
@@ -131,7 +131,7 @@ pub struct CalibrateArgs {
     /// the header's.
     #[arg(long, value_name = "ZONE", conflicts_with = "epsg")]
     utm_zone: Option<String>,
-    /// EPSG code of the points' UTM CRS when the files have none (326xx, 327xx, 269xx).
+    /// EPSG code of the points' projected CRS when the files have none (any projected EPSG CRS).
     #[arg(long, value_name = "CODE")]
     epsg: Option<u32>,
     /// Output format of the summary on stdout.
@@ -146,7 +146,7 @@ pub(crate) struct LoadedStrip {
 }
 
 /// Survey centre of the files (from their headers) as a local frame, on `zone`'s ellipsoid.
-pub(crate) fn frame_for(infos: &[LasInfo], zone: &UtmZone) -> LocalFrame {
+pub(crate) fn frame_for(infos: &[LasInfo], zone: &Crs) -> LocalFrame {
     let n = infos.len().max(1) as f64;
     let c = |k: usize| {
         infos
@@ -155,8 +155,8 @@ pub(crate) fn frame_for(infos: &[LasInfo], zone: &UtmZone) -> LocalFrame {
             .sum::<f64>()
             / n
     };
-    let (lat, lon) = zone.projection().inverse(c(0), c(1));
-    let e = zone.datum().ellipsoid();
+    let (lat, lon) = zone.inverse(c(0), c(1));
+    let e = zone.ellipsoid();
     let ecef = e.geodetic_to_ecef(&Geodetic {
         latitude_rad: lat,
         longitude_rad: lon,
@@ -167,7 +167,7 @@ pub(crate) fn frame_for(infos: &[LasInfo], zone: &UtmZone) -> LocalFrame {
 
 /// The strip's header and CRS: `crs` (from `--utm-zone` / `--epsg`) when given, else the
 /// header's.
-pub(crate) fn read_info(path: &Path, crs: Option<UtmZone>) -> Result<(LasInfo, UtmZone)> {
+pub(crate) fn read_info(path: &Path, crs: Option<Crs>) -> Result<(LasInfo, Crs)> {
     let info = LasReader::from_path(path)?.info().clone();
     if !info.has_gps_time {
         bail!(
@@ -179,9 +179,17 @@ pub(crate) fn read_info(path: &Path, crs: Option<UtmZone>) -> Result<(LasInfo, U
     let zone = match crs {
         Some(z) => z,
         None => info
-            .utm_zone()
-            .context("pass --utm-zone or --epsg for points without a UTM CRS")?,
+            .projected_crs()
+            .context("pass --utm-zone or --epsg for points without a usable CRS")?,
     };
+    if zone.unit() != lidarqa_io::LinearUnit::Metre {
+        bail!(
+            "{}: the CRS {} is in {}s; calibrate works on metre CRSs only",
+            path.display(),
+            zone.name(),
+            zone.unit().name()
+        );
+    }
     Ok((info, zone))
 }
 
@@ -189,15 +197,15 @@ pub(crate) fn read_info(path: &Path, crs: Option<UtmZone>) -> Result<(LasInfo, U
 /// point's raw observation (module docs).
 pub(crate) fn load_strip(
     path: &Path,
-    (info, zone): (&LasInfo, &UtmZone),
+    (info, zone): (&LasInfo, &Crs),
     ctx: &TpuContext,
     frame: &LocalFrame,
     gps_week: Option<i64>,
 ) -> Result<LoadedStrip> {
-    let trajectory = ctx.trajectory_in(*zone)?;
+    let trajectory = ctx.trajectory_in(zone)?;
     let converter = LasTimeConverter::new(path, info.time_base, gps_week, info.creation_date)?;
-    let projection = zone.projection();
-    let ellipsoid = zone.datum().ellipsoid();
+    let projection = zone;
+    let ellipsoid = zone.ellipsoid();
     let recoverer = Recoverer::new(&ctx.sensor().mounting);
     let mut reader = LasReader::from_path(path)?;
     let mut chunk = PointChunk::new();
@@ -247,22 +255,22 @@ pub(crate) fn load_strip(
 }
 
 /// Local NED → projected `[easting, northing, ellipsoidal height]` in `zone`.
-pub(crate) fn local_to_projected(frame: &LocalFrame, zone: &UtmZone, v: &Vector3<f64>) -> [f64; 3] {
-    let g = zone.datum().ellipsoid().ecef_to_geodetic(&frame.to_ecef(v));
-    let p = zone.projection().forward(g.latitude_rad, g.longitude_rad);
+pub(crate) fn local_to_projected(frame: &LocalFrame, zone: &Crs, v: &Vector3<f64>) -> [f64; 3] {
+    let g = zone.ellipsoid().ecef_to_geodetic(&frame.to_ecef(v));
+    let p = zone.forward(g.latitude_rad, g.longitude_rad);
     [p.easting_m, p.northing_m, g.height_m]
 }
 
 /// Projected position → local NED.
 pub(crate) fn projected_to_local(
     frame: &LocalFrame,
-    zone: &UtmZone,
+    zone: &Crs,
     x: f64,
     y: f64,
     h: f64,
 ) -> Vector3<f64> {
-    let (lat, lon) = zone.projection().inverse(x, y);
-    let ecef = zone.datum().ellipsoid().geodetic_to_ecef(&Geodetic {
+    let (lat, lon) = zone.inverse(x, y);
+    let ecef = zone.ellipsoid().geodetic_to_ecef(&Geodetic {
         latitude_rad: lat,
         longitude_rad: lon,
         height_m: h,
@@ -270,7 +278,7 @@ pub(crate) fn projected_to_local(
     frame.to_local(&ecef)
 }
 
-fn frame_height(frame: &LocalFrame, zone: &UtmZone) -> f64 {
+fn frame_height(frame: &LocalFrame, zone: &Crs) -> f64 {
     local_to_projected(frame, zone, &Vector3::zeros())[2]
 }
 
@@ -280,7 +288,7 @@ fn ties_from_csv(
     picks: &TiePicks,
     loaded: &[LoadedStrip],
     frame: &LocalFrame,
-    zone: &UtmZone,
+    zone: &Crs,
 ) -> Result<Vec<Tie>> {
     let mut by_id: HashMap<&str, usize> = HashMap::new();
     for (k, l) in loaded.iter().enumerate() {
@@ -421,15 +429,15 @@ pub(crate) fn load_all(
     paths: &[PathBuf],
     ctx: &TpuContext,
     gps_week: Option<i64>,
-    crs: Option<UtmZone>,
-) -> Result<(LocalFrame, UtmZone, Vec<LoadedStrip>)> {
+    crs: Option<Crs>,
+) -> Result<(LocalFrame, Crs, Vec<LoadedStrip>)> {
     lidarqa_io::check_distinct_inputs(paths)?;
     let mut infos = Vec::new();
-    let mut zone: Option<UtmZone> = None;
+    let mut zone: Option<Crs> = None;
     for p in paths {
-        let (info, z) = read_info(p, crs)?;
-        if let Some(z0) = zone
-            && z0 != z
+        let (info, z) = read_info(p, crs.clone())?;
+        if let Some(z0) = &zone
+            && *z0 != z
         {
             bail!(
                 "{}: CRS EPSG {:?} differs from the first strip's",

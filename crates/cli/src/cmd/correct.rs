@@ -48,7 +48,7 @@ pub struct CorrectArgs {
     /// UTM zone of the points when the files have no CRS, e.g. 33N or 17S (WGS 84).
     #[arg(long, value_name = "ZONE", conflicts_with = "epsg")]
     utm_zone: Option<String>,
-    /// EPSG code of the points' UTM CRS when the files have none (326xx, 327xx, 269xx).
+    /// EPSG code of the points' projected CRS when the files have none (any projected EPSG CRS).
     #[arg(long, value_name = "CODE")]
     epsg: Option<u32>,
 }

@@ -6,7 +6,7 @@ use crate::format::{OutputFormat, cm, print_json, print_text, print_warnings};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use lidarqa_io::{AtomicFile, Hemisphere, LasReader, UtmZone};
+use lidarqa_io::{AtomicFile, Crs, Hemisphere, LasReader, UtmZone};
 use lidarqa_pipeline::{
     SurveyReport, TileReport, TpuContext, TpuOptions, TpuTileJob, tpu_tile_with_progress,
 };
@@ -83,7 +83,8 @@ pub struct TpuFlags {
     /// UTM zone of the points when the files have no CRS, e.g. 33N or 17S (WGS 84).
     #[arg(long, value_name = "ZONE", conflicts_with = "epsg")]
     utm_zone: Option<String>,
-    /// EPSG code of the points' UTM CRS when the files have none (326xx, 327xx, 269xx).
+    /// EPSG code of the points' projected CRS when the files have none (any projected EPSG
+    /// CRS: UTM, national transverse Mercator grids, LAEA, state planes in feet, ...).
     #[arg(long, value_name = "CODE")]
     epsg: Option<u32>,
     /// Skip and count points outside the trajectory's time span instead of failing.
@@ -176,12 +177,10 @@ struct Plan {
 }
 
 /// The CRS given by `--utm-zone` or `--epsg` (clap refuses both), if any.
-pub(crate) fn crs_flags(utm_zone: Option<&str>, epsg: Option<u32>) -> Result<Option<UtmZone>> {
+pub(crate) fn crs_flags(utm_zone: Option<&str>, epsg: Option<u32>) -> Result<Option<Crs>> {
     Ok(match (utm_zone, epsg) {
-        (Some(z), _) => Some(parse_utm_zone(z)?),
-        (None, Some(code)) => {
-            Some(UtmZone::from_epsg(code).with_context(|| format!("--epsg {code}"))?)
-        }
+        (Some(z), _) => Some(Crs::from(parse_utm_zone(z)?)),
+        (None, Some(code)) => Some(Crs::from_epsg(code).with_context(|| format!("--epsg {code}"))?),
         (None, None) => None,
     })
 }
