@@ -739,4 +739,66 @@ mod tests {
         assert!(Crs::from_epsg(4326).is_err());
         assert!(Crs::from_epsg(1).is_err());
     }
+
+    /// proj4rs's transverse Mercator (etmerc, Poder/Engsager) and the numerical convergence and
+    /// scale against lidarqa's Krüger series with its closed forms, over Poland in CS92.
+    #[test]
+    fn proj4rs_path_agrees_with_the_kruger_series() {
+        let def = crs_definitions::EPSG_2180.proj4.replace("tmerc", "etmerc");
+        let exact = Crs::from_epsg(2180).unwrap();
+        assert!(
+            exact.central_meridian_rad().is_some(),
+            "CS92 takes the Krüger series"
+        );
+        // The same definition forced through proj4rs (a latitude of origin of 1e-12°).
+        let forced = def.replace("+lat_0=0", "+lat_0=0.000000000001");
+        let numeric = Crs::from_proj_string(&forced, None, "CS92 via proj4rs").unwrap();
+        assert!(numeric.central_meridian_rad().is_none());
+        let (mut d_xy, mut d_gamma, mut d_k, mut d_inv) = (0f64, 0f64, 0f64, 0f64);
+        for i in 0..=20 {
+            for j in 0..=20 {
+                let lat = (49.0 + 6.0 * f64::from(i) / 20.0).to_radians();
+                let lon = (14.0 + 10.0 * f64::from(j) / 20.0).to_radians();
+                let a = exact.forward(lat, lon);
+                let b = numeric.forward(lat, lon);
+                d_xy = d_xy.max((a.easting_m - b.easting_m).hypot(a.northing_m - b.northing_m));
+                d_gamma = d_gamma.max((a.convergence_rad - b.convergence_rad).abs());
+                d_k = d_k.max((a.scale - b.scale).abs());
+                let (la, lo) = numeric.inverse(a.easting_m, a.northing_m);
+                d_inv = d_inv.max((la - lat).abs().max((lo - lon).abs()));
+                let u = numeric.unproject(a.easting_m, a.northing_m);
+                assert!((u.convergence_rad() - a.convergence_rad).abs() < 1e-8);
+            }
+        }
+        assert!(d_xy < 1e-3, "position {d_xy} m");
+        assert!(d_gamma < 1e-8, "convergence {d_gamma} rad");
+        assert!(d_k < 1e-8, "scale {d_k}");
+        assert!(d_inv < 1e-9, "inverse {d_inv} rad");
+        eprintln!(
+            "proj4rs etmerc vs Krüger: {d_xy:e} m, γ {d_gamma:e} rad, k {d_k:e}, inverse {d_inv:e} rad"
+        );
+    }
+
+    /// LAEA Europe: the centre maps to the false origin, convergence is zero on the central
+    /// meridian and grows east of it, and the geometric-mean scale is 1 at the centre.
+    #[test]
+    fn laea_through_proj4rs() {
+        let c = Crs::from_epsg(3035).unwrap();
+        let o = c.forward(52f64.to_radians(), 10f64.to_radians());
+        assert!(
+            (o.easting_m - 4_321_000.0).abs() < 1e-6 && (o.northing_m - 3_210_000.0).abs() < 1e-6
+        );
+        assert!(
+            o.convergence_rad.abs() < 1e-9 && (o.scale - 1.0).abs() < 1e-9,
+            "{o:?}"
+        );
+        let p = c.forward(52f64.to_radians(), 16f64.to_radians());
+        assert!(p.convergence_rad > 0.0, "{p:?}");
+        let (lat, lon) = c.inverse(p.easting_m, p.northing_m);
+        let d = (lat - 52f64.to_radians())
+            .abs()
+            .max((lon - 16f64.to_radians()).abs());
+        eprintln!("LAEA round trip {d:e} rad");
+        assert!(d < 1e-10, "{d}");
+    }
 }

@@ -801,8 +801,8 @@ mod tests {
             "{e}"
         );
         let zone = crs_flags(Some("33N"), None).unwrap();
-        let (_, z) = read_info(&path, zone).unwrap();
-        assert_eq!(Some(z), zone);
+        let (_, z) = read_info(&path, zone.clone()).unwrap();
+        assert_eq!(Some(z.clone()), zone);
         assert_eq!(z.epsg(), Some(32633));
     }
 

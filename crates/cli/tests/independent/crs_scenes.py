@@ -5,6 +5,7 @@ Independent of lidarqa's simulator and geodesy: numpy for the geometry, pyproj f
 projection (PROJ), laspy for the LAS files. Usage:
 
     python3 crs_scenes.py OUT_DIR [N_POINTS]
+    python3 crs_scenes.py --compare OUT_DIR   # after `lidarqa tpu` wrote OUT_DIR/out_<name>.las
 
 writes into OUT_DIR, for each CRS in CRSS, `<name>.las` (LAS 1.4, point format 6, the CRS as a
 WKT VLR with its EPSG code, GPS seconds of week) and `<name>.csv` (the trajectory: time,
@@ -229,5 +230,33 @@ boresight_yaw_deg = 0.001
     print(f"{len(t)} points, {len(tt)} poses, {len(CRSS)} CRSs in {out}")
 
 
+def compare(out):
+    """Largest relative difference of each σ from the first CRS's, per CRS; exit 1 beyond 0.5 %."""
+    names = ["sigma_north", "sigma_east", "sigma_up", "sigma_horizontal"]
+    ref = None
+    worst = 0.0
+    for name, _ in CRSS:
+        o = laspy.read(out / f"out_{name}.las")
+        s = np.column_stack([np.asarray(o[n], dtype=float) for n in names])
+        if ref is None:
+            ref = s
+        rel = np.abs(s / ref - 1.0).max(axis=0)
+        worst = max(worst, rel.max())
+        med = np.median(s, axis=0) * 100
+        print(
+            f"{name:<7} {len(s)} points; median σ N/E/up/h "
+            + " / ".join(f"{m:.3f}" for m in med)
+            + " cm; max |rel diff| vs "
+            + CRSS[0][0]
+            + " "
+            + " / ".join(f"{r * 100:.4f}" for r in rel)
+            + " %"
+        )
+    print(f"largest relative difference {worst * 100:.4f} %")
+    return 0 if worst <= 0.005 else 1
+
+
 if __name__ == "__main__":
+    if sys.argv[1] == "--compare":
+        sys.exit(compare(Path(sys.argv[2])))
     main()
