@@ -202,6 +202,85 @@ fn proj_ellipsoid(params: &[(&str, Option<&str>)]) -> Option<Ellipsoid> {
     })
 }
 
+/// The PROJ string of a WKT1 `PROJCS` by its projection, parameters, spheroid and linear unit,
+/// for a file whose CRS has no usable EPSG code. `None` for a projection not mapped here.
+fn proj_from_wkt1(wkt: &str) -> Option<String> {
+    let start = wkt.find("PROJCS[")?;
+    // The horizontal part only: a compound CRS's vertical part has its own UNIT.
+    let end = ["VERT_CS[", "VERTCRS["]
+        .iter()
+        .filter_map(|k| wkt.find(k))
+        .min()
+        .unwrap_or(wkt.len())
+        .max(start);
+    let w = &wkt[start..end];
+    // `KEY["name",v1,v2,...]` → the name and the numbers (nested brackets are not needed here).
+    let items = |key: &str| -> Vec<(String, Vec<f64>)> {
+        let mut out = Vec::new();
+        let mut rest = w;
+        while let Some(i) = rest.find(key) {
+            let body = &rest[i + key.len()..];
+            let end = body.find(']').unwrap_or(body.len());
+            let mut parts = body[..end].split(',');
+            let name = parts
+                .next()
+                .unwrap_or("")
+                .trim()
+                .trim_matches('"')
+                .to_string();
+            let nums = parts.filter_map(|p| p.trim().parse::<f64>().ok()).collect();
+            out.push((name, nums));
+            rest = &body[end..];
+        }
+        out
+    };
+    let projection = items("PROJECTION[").first()?.0.to_ascii_lowercase();
+    let params = items("PARAMETER[");
+    let param = |names: &[&str]| {
+        params
+            .iter()
+            .find(|(n, _)| names.iter().any(|k| n.eq_ignore_ascii_case(k)))
+            .and_then(|(_, v)| v.first().copied())
+    };
+    let (_, spheroid) = items("SPHEROID[").into_iter().next()?;
+    let (a_m, rf) = (*spheroid.first()?, *spheroid.get(1)?);
+    // The linear unit is the PROJCS's own UNIT, the last one before any AXIS / AUTHORITY.
+    let unit_m = items("UNIT[")
+        .last()
+        .and_then(|(_, v)| v.first().copied())
+        .unwrap_or(1.0);
+    let fe_m = param(&["false_easting"]).unwrap_or(0.0) * unit_m;
+    let fn_m = param(&["false_northing"]).unwrap_or(0.0) * unit_m;
+    let lat0 = param(&["latitude_of_origin", "latitude_of_center"]).unwrap_or(0.0);
+    let lon0 = param(&["central_meridian", "longitude_of_center"]).unwrap_or(0.0);
+    let k0 = param(&["scale_factor"]).unwrap_or(1.0);
+    let body = match projection.as_str() {
+        "transverse_mercator" => format!("+proj=tmerc +lat_0={lat0} +lon_0={lon0} +k_0={k0}"),
+        "lambert_conformal_conic_2sp" | "lambert_conformal_conic" => format!(
+            "+proj=lcc +lat_1={} +lat_2={} +lat_0={lat0} +lon_0={lon0}",
+            param(&["standard_parallel_1"])?,
+            param(&["standard_parallel_2"]).or(param(&["standard_parallel_1"]))?
+        ),
+        "lambert_conformal_conic_1sp" => {
+            format!("+proj=lcc +lat_1={lat0} +lat_0={lat0} +lon_0={lon0} +k_0={k0}")
+        }
+        "lambert_azimuthal_equal_area" => format!("+proj=laea +lat_0={lat0} +lon_0={lon0}"),
+        "albers_conic_equal_area" => format!(
+            "+proj=aea +lat_1={} +lat_2={} +lat_0={lat0} +lon_0={lon0}",
+            param(&["standard_parallel_1"])?,
+            param(&["standard_parallel_2"])?
+        ),
+        "polar_stereographic" => format!(
+            "+proj=stere +lat_0={} +lat_ts={lat0} +lon_0={lon0} +k_0={k0}",
+            if lat0 < 0.0 { -90 } else { 90 }
+        ),
+        _ => return None,
+    };
+    Some(format!(
+        "{body} +x_0={fe_m} +y_0={fn_m} +a={a_m} +rf={rf} +to_meter={unit_m}"
+    ))
+}
+
 /// The name of a WKT1 `PROJCS["name", ...]` or WKT2 `PROJCRS["name", ...]`.
 fn wkt_name(wkt: &str) -> Option<&str> {
     let i = ["PROJCS[", "PROJCRS[", "PROJECTEDCRS["]
@@ -247,6 +326,30 @@ impl Crs {
         Crs::from_proj_string(def.proj4, Some(epsg), name)
     }
 
+    /// The CRS of a WKT VLR: its EPSG code when that names a projected CRS lidarqa knows, else
+    /// the WKT1 `PROJCS` itself (transverse Mercator, Lambert conformal conic 1SP/2SP, LAEA,
+    /// Albers, polar stereographic; spheroid and linear unit from the WKT).
+    ///
+    /// # Errors
+    /// [`Error::UnsupportedCrs`] naming the CRS when neither works.
+    pub fn from_wkt(wkt: &str) -> Result<Crs> {
+        let name = wkt_name(wkt).unwrap_or("unnamed");
+        let by_code = epsg_from_wkt(wkt).map(Crs::from_epsg);
+        if let Some(Ok(crs)) = by_code {
+            return Ok(crs);
+        }
+        match proj_from_wkt1(wkt) {
+            Some(def) => Crs::from_proj_string(&def, None, name),
+            None => Err(match by_code {
+                Some(Err(e)) => e,
+                _ => Error::UnsupportedCrs {
+                    crs: format!("WKT \"{name}\""),
+                    message: "no EPSG code and a projection lidarqa does not read from WKT".into(),
+                },
+            }),
+        }
+    }
+
     /// The CRS of a PROJ string (`+proj=... +ellps=... +units=...`), with its EPSG code when
     /// known and a name for messages.
     ///
@@ -256,7 +359,7 @@ impl Crs {
     pub fn from_proj_string(definition: &str, epsg: Option<u32>, name: &str) -> Result<Crs> {
         let label = match epsg {
             Some(c) => format!("EPSG:{c} ({name})"),
-            None => format!("'{definition}'"),
+            None => format!("{name} ('{definition}')"),
         };
         let refuse = |message: String| Error::UnsupportedCrs {
             crs: label.clone(),
@@ -800,5 +903,42 @@ mod tests {
             .max((lon - 16f64.to_radians()).abs());
         eprintln!("LAEA round trip {d:e} rad");
         assert!(d < 1e-10, "{d}");
+    }
+
+    /// A WKT1 PROJCS without EPSG codes: the state plane's own definition, in US feet, gives the
+    /// same projection as its EPSG code.
+    #[test]
+    fn wkt1_without_a_code_is_read_from_its_parameters() {
+        let by_code = Crs::from_epsg(2264).unwrap();
+        let wkt = "PROJCS[\"NC ftUS\",GEOGCS[\"NAD83\",DATUM[\"North_American_Datum_1983\",\
+                   SPHEROID[\"GRS 1980\",6378137,298.257222101]],PRIMEM[\"Greenwich\",0],\
+                   UNIT[\"degree\",0.0174532925199433]],PROJECTION[\"Lambert_Conformal_Conic_2SP\"],\
+                   PARAMETER[\"standard_parallel_1\",36.16666666666666],\
+                   PARAMETER[\"standard_parallel_2\",34.33333333333334],\
+                   PARAMETER[\"latitude_of_origin\",33.75],PARAMETER[\"central_meridian\",-79],\
+                   PARAMETER[\"false_easting\",2000000],PARAMETER[\"false_northing\",0],\
+                   UNIT[\"US survey foot\",0.3048006096012192]]";
+        let by_wkt = Crs::from_wkt(wkt).unwrap();
+        assert_eq!(by_wkt.unit(), LinearUnit::UsSurveyFoot);
+        assert_eq!(by_wkt.epsg(), None);
+        let (lat, lon) = (35.5f64.to_radians(), (-80.2f64).to_radians());
+        let (a, b) = (by_code.forward(lat, lon), by_wkt.forward(lat, lon));
+        assert!((a.easting_m - b.easting_m).abs() < 1e-6, "{a:?} {b:?}");
+        assert!((a.northing_m - b.northing_m).abs() < 1e-6, "{a:?} {b:?}");
+        assert!((a.convergence_rad - b.convergence_rad).abs() < 1e-12);
+        // CS92 as WKT1 TM without codes takes the Krüger series.
+        let tm = "PROJCS[\"x\",GEOGCS[\"ETRS89\",DATUM[\"d\",SPHEROID[\"GRS 1980\",6378137,\
+                  298.257222101]]],PROJECTION[\"Transverse_Mercator\"],\
+                  PARAMETER[\"latitude_of_origin\",0],PARAMETER[\"central_meridian\",19],\
+                  PARAMETER[\"scale_factor\",0.9993],PARAMETER[\"false_easting\",500000],\
+                  PARAMETER[\"false_northing\",-5300000],UNIT[\"metre\",1]]";
+        let tm = Crs::from_wkt(tm).unwrap();
+        assert!(tm.central_meridian_rad().is_some());
+        let c92 = Crs::from_epsg(2180).unwrap();
+        let (p, q) = (tm.forward(lat + 0.3, 0.3), c92.forward(lat + 0.3, 0.3));
+        assert!(
+            (p.easting_m - q.easting_m).abs() < 1e-9 && (p.northing_m - q.northing_m).abs() < 1e-9
+        );
+        assert!(Crs::from_wkt("PROJCS[\"y\",PROJECTION[\"Cassini\"]]").is_err());
     }
 }

@@ -340,17 +340,25 @@ impl LasInfo {
         })
     }
 
-    /// The projected CRS of the file (see [`Crs::from_epsg`]).
+    /// The projected CRS of the file: from its WKT ([`Crs::from_wkt`]) when it has one, else from
+    /// the GeoKeys' EPSG code ([`Crs::from_epsg`]).
     ///
     /// # Errors
-    /// [`Error::Crs`] naming the file when it has no EPSG code or one lidarqa cannot project
-    /// with.
+    /// [`Error::Crs`] naming the file when it has no CRS lidarqa can project with.
     pub fn projected_crs(&self) -> Result<Crs> {
-        let epsg = self.crs.epsg.ok_or_else(|| Error::Crs {
-            path: self.path.clone(),
-            message: "no EPSG code in the CRS VLRs (GeoKey 3072 or WKT AUTHORITY)".into(),
-        })?;
-        Crs::from_epsg(epsg).map_err(|e| Error::Crs {
+        let crs = match (&self.crs.wkt, self.crs.epsg) {
+            (Some(wkt), epsg) => {
+                Crs::from_wkt(wkt).or_else(|e| epsg.map_or(Err(e), Crs::from_epsg))
+            }
+            (None, Some(epsg)) => Crs::from_epsg(epsg),
+            (None, None) => {
+                return Err(Error::Crs {
+                    path: self.path.clone(),
+                    message: "no EPSG code in the CRS VLRs (GeoKey 3072 or WKT AUTHORITY)".into(),
+                });
+            }
+        };
+        crs.map_err(|e| Error::Crs {
             path: self.path.clone(),
             message: e.to_string(),
         })
