@@ -6,6 +6,8 @@ projection (PROJ), laspy for the LAS files. Usage:
 
     python3 crs_scenes.py OUT_DIR [N_POINTS]
     python3 crs_scenes.py --compare OUT_DIR   # after `lidarqa tpu` wrote OUT_DIR/out_<name>.las
+    python3 crs_scenes.py --compare-correct OUT_DIR  # after `lidarqa correct` wrote
+                                                     # OUT_DIR/corr_<name>/<name>.las
 
 writes into OUT_DIR, for each CRS in CRSS, `<name>.las` (LAS 1.4, point format 6, the CRS as a
 WKT VLR with its EPSG code, GPS seconds of week) and `<name>.csv` (the trajectory: time,
@@ -45,16 +47,16 @@ E2 = F * (2.0 - F)
 GPS_WEEK_S0 = 300_000.0
 
 
+_lla_to_ecef = pyproj.Transformer.from_crs(
+    pyproj.CRS.from_proj4("+proj=longlat +ellps=GRS80"),
+    pyproj.CRS.from_proj4("+proj=geocent +ellps=GRS80"),
+    always_xy=True,
+)
+
+
 def geodetic_to_ecef(lat, lon, h):
-    n = A / np.sqrt(1.0 - E2 * np.sin(lat) ** 2)
-    return np.stack(
-        [
-            (n + h) * np.cos(lat) * np.cos(lon),
-            (n + h) * np.cos(lat) * np.sin(lon),
-            (n * (1.0 - E2) + h) * np.sin(lat),
-        ],
-        axis=-1,
-    )
+    x, y, z = _lla_to_ecef.transform(lon, lat, h, radians=True)
+    return np.stack([x, y, z], axis=-1)
 
 
 _ecef_to_lla = pyproj.Transformer.from_crs(
@@ -256,7 +258,29 @@ def compare(out):
     return 0 if worst <= 0.005 else 1
 
 
+def compare_correct(out):
+    """Corrected points of every CRS taken to ECEF with pyproj: largest distance from the first's."""
+    ref = None
+    worst = 0.0
+    for name, epsg in CRSS:
+        crs = pyproj.CRS.from_epsg(epsg)
+        unit = crs.axis_info[0].unit_conversion_factor
+        o = laspy.read(out / f"corr_{name}" / f"{name}.las")
+        lon, lat = pyproj.Transformer.from_crs(crs, crs.geodetic_crs, always_xy=True).transform(
+            np.asarray(o.x), np.asarray(o.y), radians=True
+        )
+        p = np.column_stack(_lla_to_ecef.transform(lon, lat, np.asarray(o.z) * unit, radians=True))
+        if ref is None:
+            ref = p
+        d = np.linalg.norm(p - ref, axis=1).max()
+        worst = max(worst, d)
+        print(f"{name:<7} {len(p)} corrected points; largest distance from {CRSS[0][0]}'s {d * 1000:.2f} mm")
+    return 0 if worst <= 0.005 else 1
+
+
 if __name__ == "__main__":
+    if sys.argv[1] == "--compare-correct":
+        sys.exit(compare_correct(Path(sys.argv[2])))
     if sys.argv[1] == "--compare":
         sys.exit(compare(Path(sys.argv[2])))
     main()
