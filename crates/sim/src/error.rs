@@ -50,6 +50,15 @@ pub enum Error {
         max_m: [f64; 2],
     },
 
+    /// The scenario's `[sensor]` is not a valid sensor file (lidarqa-io's one sensor check).
+    #[error("{key}: {message}")]
+    Sensor {
+        /// The TOML path of the key at fault, e.g. `sensor.sigma.range_deg`.
+        key: String,
+        /// What is wrong (io's message).
+        message: String,
+    },
+
     /// lidarqa-model refused a sensor value.
     #[error("{key}: {source}")]
     Model {

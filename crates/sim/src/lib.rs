@@ -55,9 +55,9 @@ pub use output::{
 };
 pub use scenario::{
     BUILTIN_NAMES, BuildingFile, ErrorModel, ErrorsFile, Line, LineFile, MAX_HEIGHT_M, MAX_LINES,
-    MAX_PULSE_RATE_HZ, MAX_PULSES, MAX_TRAJECTORY_RATE_HZ, Motion, MotionFile, MountingFile,
-    PavedFile, ScanPattern, ScanWave, ScannerSettingsFile, Scenario, ScenarioFile, SceneFile,
-    SensorFile, SensorScannerFile, TargetFile, WaterFile, WaveFile, builtin_toml,
+    MAX_PULSE_RATE_HZ, MAX_PULSES, MAX_TRAJECTORY_RATE_HZ, Motion, MotionFile, PavedFile,
+    ScanPattern, ScanWave, ScannerSettingsFile, Scenario, ScenarioFile, SceneFile, SensorFile,
+    TargetFile, WaterFile, WaveFile, builtin_toml,
 };
 pub use scene::{
     Building, CLASS_BATHYMETRY, CLASS_BUILDING, CLASS_GROUND, CLASS_TARGET, CLASS_WATER_SURFACE,

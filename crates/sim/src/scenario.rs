@@ -6,14 +6,12 @@
 
 use crate::error::{Error, Result};
 use crate::scene::Scene;
+pub use lidarqa_io::SensorFile;
 use lidarqa_io::UtmZone;
-use lidarqa_model::{
-    ConicScanner, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER, Mounting, Refraction, Scanner,
-    Sensor, Sigmas, Source,
-};
+use lidarqa_model::{Mounting, Scanner, Sensor};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
+use std::path::Path;
 
 /// The names of the built-in scenarios, for [`Scenario::builtin`].
 pub const BUILTIN_NAMES: [&str; 3] = ["demo", "calibration", "bathymetry"];
@@ -49,7 +47,9 @@ pub struct ScenarioFile {
     /// GPS week of the survey (for LAS adjusted standard GPS time; trajectory times are seconds
     /// of this week).
     pub gps_week: u32,
-    /// The nominal sensor, laid out as a sensor file (SPEC §5).
+    /// The nominal sensor: exactly a SPEC §5 sensor file (lidarqa-io's [`SensorFile`], checked by
+    /// the same [`SensorFile::check`]), so that [`Scenario::sensor_toml_string`] is the file a user
+    /// of the simulated survey would have.
     pub sensor: SensorFile,
     /// Scanner settings (rates and angles).
     pub scanner: ScannerSettingsFile,
@@ -65,76 +65,14 @@ pub struct ScenarioFile {
     pub scene: SceneFile,
 }
 
-/// The `[sensor]` table: exactly the layout of a SPEC §5 sensor file (`[scanner]`, `[mounting]`,
-/// `[sigma]`), so that [`Scenario::sensor_toml_string`] is the file a user of the simulated
-/// survey would have.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SensorFile {
-    /// Scanner type and constants.
-    pub scanner: SensorScannerFile,
-    /// Nominal mounting, applied when georeferencing.
-    #[serde(default)]
-    pub mounting: MountingFile,
-    /// 1-sigma of each source by SPEC §4/§5 key (`range_m`, `heading_deg`, ...); missing = 0.
-    #[serde(default)]
-    pub sigma: BTreeMap<String, f64>,
-}
-
-/// `[sensor.scanner]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SensorScannerFile {
-    /// `"linear"` or `"conic"`.
-    #[serde(rename = "type")]
-    pub kind: String,
-    /// Conic: angle of the beam leaving the prism from the scanner Z axis, degrees.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub exit_angle_deg: Option<f64>,
-    /// Conic: prism top-surface slope, degrees (instead of `exit_angle_deg`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub prism_slope_deg: Option<f64>,
-    /// Conic: refraction index of the prism (default 1.461).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub n_prism: Option<f64>,
-    /// Conic: refraction index of air (default 1.0003).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub n_air: Option<f64>,
-    /// Conic: refraction index of water (default 1.33).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub n_water: Option<f64>,
-    /// Conic: `"scanner-frame"` or `"level"` water-surface refraction in the georeferencing.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub refraction: Option<String>,
-}
-
-/// `[sensor.mounting]` and the injected part of `[errors]`: boresight in degrees, lever arm in
-/// metres (body frame X forward, Y right, Z down).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MountingFile {
-    /// Boresight roll (about scanner X), degrees.
-    #[serde(default)]
-    pub boresight_roll_deg: f64,
-    /// Boresight pitch (about scanner Y), degrees.
-    #[serde(default)]
-    pub boresight_pitch_deg: f64,
-    /// Boresight yaw (about scanner Z), degrees.
-    #[serde(default)]
-    pub boresight_yaw_deg: f64,
-    /// Lever arm `[x, y, z]`, body frame, metres.
-    #[serde(default)]
-    pub lever_arm_m: [f64; 3],
-}
-
-impl MountingFile {
-    fn to_mounting(self) -> Mounting {
-        Mounting {
-            boresight_roll_rad: self.boresight_roll_deg.to_radians(),
-            boresight_pitch_rad: self.boresight_pitch_deg.to_radians(),
-            boresight_yaw_rad: self.boresight_yaw_deg.to_radians(),
-            lever_arm_m: Vector3::from(self.lever_arm_m),
-        }
+/// Degrees and metres of a mounting (boresight about scanner X, Y, Z; lever arm in the body frame,
+/// X forward, Y right, Z down) to SI.
+fn mounting_si(roll_deg: f64, pitch_deg: f64, yaw_deg: f64, lever_arm_m: [f64; 3]) -> Mounting {
+    Mounting {
+        boresight_roll_rad: roll_deg.to_radians(),
+        boresight_pitch_rad: pitch_deg.to_radians(),
+        boresight_yaw_rad: yaw_deg.to_radians(),
+        lever_arm_m: Vector3::from(lever_arm_m),
     }
 }
 
@@ -724,10 +662,24 @@ impl Scenario {
             ));
         }
         let freq = positive("scanner.scan_frequency_hz", s.scan_frequency_hz)?;
-        let beam_divergence_rad = non_negative(
-            "scanner.beam_divergence_mrad",
-            s.beam_divergence_mrad.unwrap_or(0.5),
-        )? * 1e-3;
+        // The sensor file may carry the divergence too (io checked it); two different values
+        // would simulate one beam and describe another in sensor.toml.
+        let beam_divergence_mrad = match (
+            s.beam_divergence_mrad,
+            file.sensor.scanner.beam_divergence_mrad,
+        ) {
+            (Some(a), Some(b)) if a != b => {
+                return Err(invalid(
+                    "scanner.beam_divergence_mrad",
+                    a,
+                    &format!("differs from sensor.scanner.beam_divergence_mrad = {b}: give one"),
+                ));
+            }
+            (Some(v), _) | (None, Some(v)) => v,
+            (None, None) => 0.5,
+        };
+        let beam_divergence_rad =
+            non_negative("scanner.beam_divergence_mrad", beam_divergence_mrad)? * 1e-3;
         let pattern = match sensor.scanner {
             Scanner::Linear => {
                 let fov = s.field_of_view_deg.ok_or_else(|| {
@@ -881,112 +833,22 @@ impl Scenario {
     }
 }
 
+/// The scenario's `[sensor]` through io's one sensor check; its errors name the key under
+/// `sensor.`.
 fn check_sensor(f: &SensorFile) -> Result<Sensor> {
-    let k = &f.scanner;
-    let scanner = match k.kind.as_str() {
-        "linear" => {
-            let extra = [
-                ("exit_angle_deg", k.exit_angle_deg.is_some()),
-                ("prism_slope_deg", k.prism_slope_deg.is_some()),
-                ("n_prism", k.n_prism.is_some()),
-                ("n_air", k.n_air.is_some()),
-                ("n_water", k.n_water.is_some()),
-                ("refraction", k.refraction.is_some()),
-            ];
-            if let Some((name, _)) = extra.iter().find(|(_, set)| *set) {
-                return Err(invalid(
-                    format!("sensor.scanner.{name}"),
-                    "(set)",
-                    "applies to the conic scanner only",
-                ));
-            }
-            Scanner::Linear
-        }
-        "conic" => {
-            let refraction = match k.refraction.as_deref() {
-                None => Refraction::default(),
-                Some(r) => Refraction::from_name(r).ok_or_else(|| {
-                    invalid(
-                        "sensor.scanner.refraction",
-                        format!("{r:?}"),
-                        "must be \"scanner-frame\" or \"level\"",
-                    )
-                })?,
-            };
-            let n_prism = k.n_prism.unwrap_or(DEFAULT_N_PRISM);
-            let n_air = k.n_air.unwrap_or(DEFAULT_N_AIR);
-            let n_water = k.n_water.unwrap_or(DEFAULT_N_WATER);
-            let model = |key: &str, e| Error::Model {
-                key: format!("sensor.scanner.{key}"),
-                source: e,
-            };
-            let conic = match (k.exit_angle_deg, k.prism_slope_deg) {
-                (Some(_), Some(_)) => {
-                    return Err(invalid(
-                        "sensor.scanner.prism_slope_deg",
-                        "(set)",
-                        "give exit_angle_deg or prism_slope_deg, not both",
-                    ));
-                }
-                (Some(exit), None) => ConicScanner::from_exit_angle(
-                    exit.to_radians(),
-                    n_prism,
-                    n_air,
-                    n_water,
-                    refraction,
-                )
-                .map_err(|e| model("exit_angle_deg", e))?,
-                (None, slope) => ConicScanner::new(
-                    slope.unwrap_or(39.1603).to_radians(),
-                    n_prism,
-                    n_air,
-                    n_water,
-                    refraction,
-                )
-                .map_err(|e| model("prism_slope_deg", e))?,
-            };
-            Scanner::Conic(conic)
-        }
-        other => {
-            return Err(invalid(
-                "sensor.scanner.type",
-                format!("{other:?}"),
-                "must be \"linear\" or \"conic\"",
-            ));
-        }
-    };
-    let m = &f.mounting;
-    for (key, v) in [
-        ("boresight_roll_deg", m.boresight_roll_deg),
-        ("boresight_pitch_deg", m.boresight_pitch_deg),
-        ("boresight_yaw_deg", m.boresight_yaw_deg),
-        ("lever_arm_m[0]", m.lever_arm_m[0]),
-        ("lever_arm_m[1]", m.lever_arm_m[1]),
-        ("lever_arm_m[2]", m.lever_arm_m[2]),
-    ] {
-        finite(&format!("sensor.mounting.{key}"), v)?;
-    }
-    let mut sigma = Sigmas::zero();
-    for (key, &v) in &f.sigma {
-        let source = Source::from_config_key(key).ok_or_else(|| {
-            invalid(
-                format!("sensor.sigma.{key}"),
-                v,
-                "unknown sigma key (SPEC §4 name plus unit suffix, e.g. range_m, heading_deg, time_water_ns)",
-            )
-        })?;
-        sigma
-            .set(source, v * source.unit().config_to_si())
-            .map_err(|e| Error::Model {
-                key: format!("sensor.sigma.{key}"),
-                source: e,
-            })?;
-    }
-    Ok(Sensor {
-        scanner,
-        mounting: m.to_mounting(),
-        sigma,
-        correlation: None,
+    f.check(Path::new("[sensor]")).map_err(|e| match e {
+        lidarqa_io::Error::Config {
+            key: Some(key),
+            message,
+            ..
+        } => Error::Sensor {
+            key: format!("sensor.{key}"),
+            message,
+        },
+        other => Error::Sensor {
+            key: "sensor".into(),
+            message: other.to_string(),
+        },
     })
 }
 
@@ -1027,18 +889,18 @@ fn check_errors(f: &ErrorsFile, sensor: &Sensor) -> Result<ErrorModel> {
         "errors.intensity_contrast_noise_percent",
         f.intensity_contrast_noise_percent,
     )?;
-    let injected = MountingFile {
-        boresight_roll_deg: f.boresight_roll_deg,
-        boresight_pitch_deg: f.boresight_pitch_deg,
-        boresight_yaw_deg: f.boresight_yaw_deg,
-        lever_arm_m: f.lever_arm_m,
-    };
+    let injected = mounting_si(
+        f.boresight_roll_deg,
+        f.boresight_pitch_deg,
+        f.boresight_yaw_deg,
+        f.lever_arm_m,
+    );
     Ok(ErrorModel {
         random: f.random,
         random_mounting: f.random_mounting,
         gnss_correlation_time_s: gnss_tau,
         attitude_correlation_time_s: att_tau,
-        injected_mounting: injected.to_mounting(),
+        injected_mounting: injected,
         range_offset_m: f.range_offset_m,
         scan_angle_scale: f.scan_angle_scale_ppm * 1e-6,
         intensity_noise: noise / 100.0,
