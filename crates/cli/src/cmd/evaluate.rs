@@ -101,7 +101,7 @@ pub fn evaluate_files(
     let t = Targets::from_path(targets)?;
     let control_path = control;
     let c = ControlPoints::from_path(control)?;
-    let control = super::targets::control_for_targets(&c, None)?;
+    let control = lidarqa_pipeline::control_for_targets(&c, None)?;
     let measured: Vec<MeasuredPoint> = t
         .records
         .iter()
@@ -193,7 +193,7 @@ pub fn evaluate_nva(
     options: &EvaluateOptions,
 ) -> Result<VerticalEvaluation> {
     let table = ControlPoints::from_path(checkpoints)?;
-    let cps = super::targets::control_for_targets(&table, None)?;
+    let cps = lidarqa_pipeline::control_for_targets(&table, None)?;
     let points = ground_points(ground, class)?;
     evaluate_vertical_tin(&points, &cps, options)
         .with_context(|| format!("{}: vertical checkpoints", checkpoints.display()))
