@@ -40,11 +40,13 @@
 //! assert_eq!(survey.truth.mounting.boresight_roll_deg, 0.0);
 //! ```
 
+mod check;
 mod error;
 mod geo;
 mod output;
 mod scenario;
 mod scene;
+mod scene_file;
 mod simulate;
 mod trajectory;
 
