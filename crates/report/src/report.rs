@@ -243,12 +243,6 @@ impl Report {
         &self.skipped
     }
 
-    /// The whole report: one self-contained HTML document (inline CSS, inline SVG, no script,
-    /// no external reference).
-    pub fn to_html(&self) -> String {
-        crate::html::render(self)
-    }
-
     /// Writes [`Report::to_html`] to `path` atomically (a temporary file renamed when complete),
     /// never over a product the report was read from.
     ///
