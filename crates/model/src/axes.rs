@@ -1,0 +1,70 @@
+//! Per-axis values in the local level frame at the point: north, east, up, and the derived
+//! horizontal = √(north² + east²), vertical = |up|, three_d = √(horizontal² + vertical²) (SPEC §3).
+
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// Values per axis, metres: σ, |displacement| or an RMSE (the magnitudes of
+/// [`Axes::from_magnitudes`]), or signed components with derived magnitudes
+/// ([`Axes::from_components`]). The one six-axis struct of the workspace: tpu, targets and the
+/// report's JSON share it.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Axes {
+    /// North, m.
+    pub north: f64,
+    /// East, m.
+    pub east: f64,
+    /// Up, m.
+    pub up: f64,
+    /// √(north² + east²), m. Seed 004's σxy.
+    pub horizontal: f64,
+    /// |up|, m. Seed 004's σz.
+    pub vertical: f64,
+    /// √(horizontal² + vertical²), m. Seed 004's σxyz.
+    pub three_d: f64,
+}
+
+impl Axes {
+    /// From the absolute per-axis magnitudes (north, east, up), metres.
+    pub fn from_magnitudes(north: f64, east: f64, up: f64) -> Axes {
+        let (north, east, up) = (north.abs(), east.abs(), up.abs());
+        let horizontal = north.hypot(east);
+        Axes {
+            north,
+            east,
+            up,
+            horizontal,
+            vertical: up,
+            three_d: horizontal.hypot(up),
+        }
+    }
+
+    /// From north, east, up (m) as given (signed, e.g. a mean error), with horizontal =
+    /// √(north² + east²), vertical = |up|, three_d = √(horizontal² + up²).
+    #[must_use]
+    pub fn from_components(north: f64, east: f64, up: f64) -> Axes {
+        let horizontal = north.hypot(east);
+        Axes {
+            north,
+            east,
+            up,
+            horizontal,
+            vertical: up.abs(),
+            three_d: horizontal.hypot(up),
+        }
+    }
+
+    /// σ per axis from an NED covariance matrix (m²); the up variance equals the down variance.
+    pub fn from_ned_covariance(c: &Matrix3<f64>) -> Axes {
+        Axes::from_magnitudes(
+            c[(0, 0)].max(0.0).sqrt(),
+            c[(1, 1)].max(0.0).sqrt(),
+            c[(2, 2)].max(0.0).sqrt(),
+        )
+    }
+
+    /// Magnitudes of an NED vector (m), reported as north / east / up.
+    pub fn from_ned(v: &Vector3<f64>) -> Axes {
+        Axes::from_magnitudes(v.x, v.y, v.z)
+    }
+}
