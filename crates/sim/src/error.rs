@@ -59,6 +59,10 @@ pub enum Error {
         message: String,
     },
 
+    /// A file of the survey could not be written (lidarqa-io's message names it).
+    #[error(transparent)]
+    Io(#[from] lidarqa_io::Error),
+
     /// lidarqa-model refused a sensor value.
     #[error("{key}: {source}")]
     Model {

@@ -49,6 +49,7 @@ mod scene;
 mod scene_file;
 mod simulate;
 mod trajectory;
+mod write;
 
 pub use error::{Error, Result};
 pub use output::{
@@ -66,3 +67,4 @@ pub use scene::{
     Curve, Hit, Markings, Paved, Scene, Target, Water, Wave,
 };
 pub use simulate::{SimOptions, simulate, simulate_with_progress};
+pub use write::{survey_file_names, write_survey};
