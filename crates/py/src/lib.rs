@@ -15,7 +15,7 @@ use lidarqa_pipeline::{
     extract_targets_tile as targets_one, find_targets as find_targets_in, run_entry,
     tpu_tile as tpu_one,
 };
-use lidarqa_targets::{CentreMethod, TargetConfig};
+use lidarqa_targets::{CentreMethod, ControlPoint, TargetConfig};
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
@@ -128,6 +128,19 @@ fn correct_tile(
     })
 }
 
+/// The control points of a control CSV and the extraction settings of `method`.
+fn targets_setup(
+    control: &Path,
+    radius_m: Option<f64>,
+    method: CentreMethod,
+) -> PyResult<(Vec<ControlPoint>, TargetConfig)> {
+    let table = ControlPoints::from_path(control).map_err(err)?;
+    let points = control_for_targets(&table, radius_m).map_err(err)?;
+    let mut config = TargetConfig::default();
+    config.centre.method = method;
+    Ok((points, config))
+}
+
 /// Target extraction in one tile near the control points of `control` (CSV
 /// `id,x,y,z[,sigma_h,sigma_v,radius_m]`); writes the tile's report JSON to `output` and
 /// returns it.
@@ -144,10 +157,7 @@ fn extract_targets_tile(
 ) -> PyResult<String> {
     let method: CentreMethod = method.parse().map_err(|e| err(format!("method: {e}")))?;
     py.allow_threads(|| {
-        let table = ControlPoints::from_path(&control).map_err(err)?;
-        let points = control_for_targets(&table, radius_m).map_err(err)?;
-        let mut config = TargetConfig::default();
-        config.centre.method = method;
+        let (points, config) = targets_setup(&control, radius_m, method)?;
         let r = targets_one(&TargetsTileJob {
             input: &input,
             output: &output,
@@ -177,10 +187,7 @@ fn find_targets(
 ) -> PyResult<String> {
     let method: CentreMethod = method.parse().map_err(|e| err(format!("method: {e}")))?;
     py.allow_threads(|| {
-        let table = ControlPoints::from_path(&control).map_err(err)?;
-        let points = control_for_targets(&table, radius_m).map_err(err)?;
-        let mut config = TargetConfig::default();
-        config.centre.method = method;
+        let (points, config) = targets_setup(&control, radius_m, method)?;
         let (report, warnings) =
             find_targets_in(&inputs, &points, &config, window_m).map_err(err)?;
         json(&serde_json::json!({ "report": report, "warnings": warnings }))
