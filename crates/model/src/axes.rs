@@ -27,16 +27,7 @@ pub struct Axes {
 impl Axes {
     /// From the absolute per-axis magnitudes (north, east, up), metres.
     pub fn from_magnitudes(north: f64, east: f64, up: f64) -> Axes {
-        let (north, east, up) = (north.abs(), east.abs(), up.abs());
-        let horizontal = north.hypot(east);
-        Axes {
-            north,
-            east,
-            up,
-            horizontal,
-            vertical: up,
-            three_d: horizontal.hypot(up),
-        }
+        Axes::from_components(north.abs(), east.abs(), up.abs())
     }
 
     /// From north, east, up (m) as given (signed, e.g. a mean error), with horizontal =
@@ -66,5 +57,23 @@ impl Axes {
     /// Magnitudes of an NED vector (m), reported as north / east / up.
     pub fn from_ned(v: &Vector3<f64>) -> Axes {
         Axes::from_magnitudes(v.x, v.y, v.z)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn signed_components_and_magnitudes() {
+        // 3-4-5 and 5-12-13 triangles.
+        let c = Axes::from_components(-3.0, 4.0, -12.0);
+        assert_eq!((c.north, c.east, c.up), (-3.0, 4.0, -12.0));
+        assert_eq!((c.horizontal, c.vertical, c.three_d), (5.0, 12.0, 13.0));
+        let m = Axes::from_magnitudes(-3.0, 4.0, -12.0);
+        assert_eq!((m.north, m.up), (3.0, 12.0));
+        assert_eq!((m.horizontal, m.vertical, m.three_d), (5.0, 12.0, 13.0));
+        let cov = Matrix3::from_diagonal(&Vector3::new(9.0, 16.0, 144.0));
+        assert_eq!(Axes::from_ned_covariance(&cov), m);
     }
 }
