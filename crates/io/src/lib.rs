@@ -15,7 +15,8 @@
 
 mod sensor;
 pub use sensor::{
-    SensorExtras, parse_sensor, parse_sensor_with_extras, read_sensor, read_sensor_with_extras,
+    CovarianceSection, MountingSection, MountingSigmaSection, ScannerSection, SensorExtras,
+    SensorFile, parse_sensor, parse_sensor_with_extras, read_sensor, read_sensor_with_extras,
     sensor_to_toml,
 };
 

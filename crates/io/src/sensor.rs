@@ -16,47 +16,77 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// The sensor file as written on disk (units in the key names).
-#[derive(Debug, Clone, Deserialize, Serialize)]
+/// The sensor file as written on disk (SPEC §5; units in the key names): the one raw layout of a
+/// sensor, also embedded as `[sensor]` in a simulator scenario. [`SensorFile::check`] turns it into
+/// the checked [`Sensor`] the computation crates accept (las-rs's raw/cooked split).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
-struct SensorFile {
-    scanner: ScannerSection,
+pub struct SensorFile {
+    /// `[scanner]`: the scanner type and its constants.
+    pub scanner: ScannerSection,
+    /// `[mounting]`: the nominal mounting applied when georeferencing.
     #[serde(default)]
-    mounting: MountingSection,
+    pub mounting: MountingSection,
+    /// `[sigma]`: 1-σ of each source by SPEC §4/§5 key (`range_m`, `heading_deg`, ...); missing = 0.
     #[serde(default)]
-    sigma: BTreeMap<String, f64>,
-    covariance: Option<CovarianceSection>,
+    pub sigma: BTreeMap<String, f64>,
+    /// `[covariance]`: correlations between sources (optional).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    mounting_sigma: Option<MountingSigmaSection>,
+    pub covariance: Option<CovarianceSection>,
+    /// `[mounting_sigma]`: a-priori σ of the nominal mounting, for calibration (optional).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mounting_sigma: Option<MountingSigmaSection>,
 }
 
 /// `[mounting_sigma]`: how well the nominal mounting is known before calibration.
-#[derive(Debug, Clone, Default, Deserialize, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
-struct MountingSigmaSection {
-    lever_x_m: Option<f64>,
-    lever_y_m: Option<f64>,
-    lever_z_m: Option<f64>,
-    boresight_roll_deg: Option<f64>,
-    boresight_pitch_deg: Option<f64>,
-    boresight_yaw_deg: Option<f64>,
+pub struct MountingSigmaSection {
+    /// 1-σ of the lever arm's x (forward), m.
+    pub lever_x_m: Option<f64>,
+    /// 1-σ of the lever arm's y (right), m.
+    pub lever_y_m: Option<f64>,
+    /// 1-σ of the lever arm's z (down), m.
+    pub lever_z_m: Option<f64>,
+    /// 1-σ of the boresight roll, degrees.
+    pub boresight_roll_deg: Option<f64>,
+    /// 1-σ of the boresight pitch, degrees.
+    pub boresight_pitch_deg: Option<f64>,
+    /// 1-σ of the boresight yaw, degrees.
+    pub boresight_yaw_deg: Option<f64>,
 }
 
-#[derive(Debug, Clone, Deserialize, Serialize)]
+/// `[scanner]`.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
-struct ScannerSection {
+pub struct ScannerSection {
+    /// `"linear"` or `"conic"`.
     #[serde(rename = "type")]
-    kind: String,
-    exit_angle_deg: Option<f64>,
-    prism_slope_deg: Option<f64>,
-    n_prism: Option<f64>,
-    n_air: Option<f64>,
-    n_water: Option<f64>,
-    refraction: Option<String>,
+    pub kind: String,
+    /// Conic: angle of the beam leaving the prism from the scanner Z axis, degrees; the prism
+    /// slope is derived from it and the indices (default 20° when neither this nor
+    /// `prism_slope_deg` is given).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exit_angle_deg: Option<f64>,
+    /// Conic: prism top-surface slope, degrees (instead of `exit_angle_deg`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prism_slope_deg: Option<f64>,
+    /// Conic: refraction index of the prism (default [`DEFAULT_N_PRISM`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub n_prism: Option<f64>,
+    /// Conic: refraction index of air (default [`DEFAULT_N_AIR`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub n_air: Option<f64>,
+    /// Conic: refraction index of water (default [`DEFAULT_N_WATER`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub n_water: Option<f64>,
+    /// Conic: `"scanner-frame"` (default) or `"level"` water-surface refraction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refraction: Option<String>,
     /// Full beam divergence γ, milliradians (optional; used by the per-point TPU's `incidence`
     /// term, `σ = ρ · γ/2 · tan α`). Any scanner type.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    beam_divergence_mrad: Option<f64>,
+    pub beam_divergence_mrad: Option<f64>,
 }
 
 /// Sensor-file settings that are not part of the georeferencing model ([`Sensor`]).
@@ -90,70 +120,87 @@ pub fn read_sensor_with_extras(path: &Path) -> Result<(Sensor, SensorExtras)> {
 /// # Errors
 /// As [`parse_sensor`].
 pub fn parse_sensor_with_extras(text: &str, path: &Path) -> Result<(Sensor, SensorExtras)> {
-    let sensor = parse_sensor(text, path)?;
     let file: SensorFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
-    // Checked by `parse_sensor`, the one validation every command's sensor goes through.
-    let beam_divergence_rad = file.scanner.beam_divergence_mrad.map(|v| v * 1e-3);
-    let mut mounting_sigma = [None; 6];
-    if let Some(m) = &file.mounting_sigma {
-        let keys = [
-            ("lever_x_m", m.lever_x_m, 1.0),
-            ("lever_y_m", m.lever_y_m, 1.0),
-            ("lever_z_m", m.lever_z_m, 1.0),
-            (
-                "boresight_roll_deg",
-                m.boresight_roll_deg,
-                1f64.to_radians(),
-            ),
-            (
-                "boresight_pitch_deg",
-                m.boresight_pitch_deg,
-                1f64.to_radians(),
-            ),
-            ("boresight_yaw_deg", m.boresight_yaw_deg, 1f64.to_radians()),
-        ];
-        for (slot, (key, v, to_si)) in mounting_sigma.iter_mut().zip(keys) {
-            match v {
-                None => {}
-                Some(v) if v.is_finite() && v > 0.0 => *slot = Some(v * to_si),
-                Some(v) => {
-                    return Err(config_error(
-                        path,
-                        Some(&format!("mounting_sigma.{key}")),
-                        format!("must be a finite number > 0 (omit the key for no prior), got {v}"),
-                    ));
+    let sensor = file.check(path)?;
+    Ok((sensor, file.extras(path)?))
+}
+
+impl SensorFile {
+    /// The settings outside the model ([`SensorExtras`]), checked; `path` names the file in errors.
+    ///
+    /// # Errors
+    /// [`Error::Config`] naming the `mounting_sigma` key that is not a finite number > 0.
+    pub fn extras(&self, path: &Path) -> Result<SensorExtras> {
+        let file = self;
+        // Checked by `check`, the one validation every command's sensor goes through.
+        let beam_divergence_rad = file.scanner.beam_divergence_mrad.map(|v| v * 1e-3);
+        let mut mounting_sigma = [None; 6];
+        if let Some(m) = &file.mounting_sigma {
+            let keys = [
+                ("lever_x_m", m.lever_x_m, 1.0),
+                ("lever_y_m", m.lever_y_m, 1.0),
+                ("lever_z_m", m.lever_z_m, 1.0),
+                (
+                    "boresight_roll_deg",
+                    m.boresight_roll_deg,
+                    1f64.to_radians(),
+                ),
+                (
+                    "boresight_pitch_deg",
+                    m.boresight_pitch_deg,
+                    1f64.to_radians(),
+                ),
+                ("boresight_yaw_deg", m.boresight_yaw_deg, 1f64.to_radians()),
+            ];
+            for (slot, (key, v, to_si)) in mounting_sigma.iter_mut().zip(keys) {
+                match v {
+                    None => {}
+                    Some(v) if v.is_finite() && v > 0.0 => *slot = Some(v * to_si),
+                    Some(v) => {
+                        return Err(config_error(
+                            path,
+                            Some(&format!("mounting_sigma.{key}")),
+                            format!(
+                                "must be a finite number > 0 (omit the key for no prior), got {v}"
+                            ),
+                        ));
+                    }
                 }
             }
         }
-    }
-    Ok((
-        sensor,
-        SensorExtras {
+        Ok(SensorExtras {
             beam_divergence_rad,
             mounting_sigma,
-        },
-    ))
+        })
+    }
 }
 
-#[derive(Debug, Clone, Default, Deserialize, Serialize)]
+/// `[mounting]`: boresight in degrees, lever arm in metres (body frame X forward, Y right, Z down).
+#[derive(Debug, Clone, Default, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
-struct MountingSection {
+pub struct MountingSection {
+    /// Boresight roll (about scanner X), degrees.
     #[serde(default)]
-    boresight_roll_deg: f64,
+    pub boresight_roll_deg: f64,
+    /// Boresight pitch (about scanner Y), degrees.
     #[serde(default)]
-    boresight_pitch_deg: f64,
+    pub boresight_pitch_deg: f64,
+    /// Boresight yaw (about scanner Z), degrees.
     #[serde(default)]
-    boresight_yaw_deg: f64,
+    pub boresight_yaw_deg: f64,
+    /// Lever arm `[x, y, z]`, body frame, metres.
     #[serde(default)]
-    lever_arm_m: [f64; 3],
+    pub lever_arm_m: [f64; 3],
 }
 
 /// Correlations between sources; the σ stay in `[sigma]`, so the matrix is unitless.
-#[derive(Debug, Clone, Deserialize, Serialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
-struct CovarianceSection {
-    sources: Vec<String>,
-    correlation: Vec<Vec<f64>>,
+pub struct CovarianceSection {
+    /// The correlated sources, SPEC §4 names without unit.
+    pub sources: Vec<String>,
+    /// Correlation matrix, one row per source (symmetric, unit diagonal).
+    pub correlation: Vec<Vec<f64>>,
 }
 
 /// Sources that only the conic scanner has.
@@ -209,166 +256,180 @@ pub(crate) fn toml_error(path: &Path, text: &str, e: &toml::de::Error) -> Error 
 /// Parse and check the text of a sensor file; `path` names the file in errors.
 pub fn parse_sensor(text: &str, path: &Path) -> Result<Sensor> {
     let file: SensorFile = toml::from_str(text).map_err(|e| toml_error(path, text, &e))?;
-    let err = |key: &str, msg: String| config_error(path, Some(key), msg);
-    let finite = |key: &str, v: f64| {
-        if v.is_finite() {
-            Ok(v)
-        } else {
-            Err(err(key, format!("must be a finite number, got {v}")))
-        }
-    };
+    file.check(path)
+}
 
-    let s = &file.scanner;
-    if let Some(v) = s.beam_divergence_mrad
-        && !(v.is_finite() && v >= 0.0)
-    {
-        return Err(err(
-            "scanner.beam_divergence_mrad",
-            format!("must be a finite number >= 0, got {v}"),
-        ));
-    }
-    let scanner = match s.kind.as_str() {
-        "linear" => {
-            for (key, given) in [
-                ("exit_angle_deg", s.exit_angle_deg.is_some()),
-                ("prism_slope_deg", s.prism_slope_deg.is_some()),
-                ("n_prism", s.n_prism.is_some()),
-                ("n_air", s.n_air.is_some()),
-                ("n_water", s.n_water.is_some()),
-                ("refraction", s.refraction.is_some()),
-            ] {
-                if given {
-                    return Err(err(
-                        &format!("scanner.{key}"),
-                        "applies to a conic scanner only".into(),
-                    ));
-                }
+impl SensorFile {
+    /// Check the file and convert it to SI: the one validation of a sensor, for every command and
+    /// for the simulator's scenario. `path` names the file in errors.
+    ///
+    /// # Errors
+    /// [`Error::Config`] naming the key at fault: a source the scanner does not have, a wrong unit
+    /// suffix, a negative σ, a non-finite value, an impossible prism or refraction index.
+    pub fn check(&self, path: &Path) -> Result<Sensor> {
+        let file = self;
+        let err = |key: &str, msg: String| config_error(path, Some(key), msg);
+        let finite = |key: &str, v: f64| {
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(err(key, format!("must be a finite number, got {v}")))
             }
-            Scanner::Linear
-        }
-        "conic" => {
-            let refraction = match &s.refraction {
-                None => Refraction::ScannerFrame,
-                Some(name) => Refraction::from_name(name).ok_or_else(|| {
-                    err(
-                        "scanner.refraction",
-                        format!("'{name}' is not one of scanner-frame, level"),
-                    )
-                })?,
-            };
-            let n_prism = s.n_prism.unwrap_or(DEFAULT_N_PRISM);
-            let n_air = s.n_air.unwrap_or(DEFAULT_N_AIR);
-            let n_water = s.n_water.unwrap_or(DEFAULT_N_WATER);
-            let built = match (s.exit_angle_deg, s.prism_slope_deg) {
-                (Some(_), Some(_)) => {
-                    return Err(err(
-                        "scanner.exit_angle_deg",
-                        "give exit_angle_deg or prism_slope_deg, not both".into(),
-                    ));
-                }
-                (Some(exit), None) => ConicScanner::from_exit_angle(
-                    finite("scanner.exit_angle_deg", exit)?.to_radians(),
-                    n_prism,
-                    n_air,
-                    n_water,
-                    refraction,
-                ),
-                (None, Some(slope)) => ConicScanner::new(
-                    finite("scanner.prism_slope_deg", slope)?.to_radians(),
-                    n_prism,
-                    n_air,
-                    n_water,
-                    refraction,
-                ),
-                (None, None) => ConicScanner::from_exit_angle(
-                    20f64.to_radians(),
-                    n_prism,
-                    n_air,
-                    n_water,
-                    refraction,
-                ),
-            };
-            Scanner::Conic(built.map_err(|e| err("scanner", e.to_string()))?)
-        }
-        other => {
-            return Err(err(
-                "scanner.type",
-                format!("'{other}' is not one of linear, conic"),
-            ));
-        }
-    };
-
-    let m = &file.mounting;
-    let lever = m.lever_arm_m;
-    for (i, v) in lever.iter().enumerate() {
-        finite(&format!("mounting.lever_arm_m[{i}]"), *v)?;
-    }
-    let mounting = Mounting {
-        boresight_roll_rad: finite("mounting.boresight_roll_deg", m.boresight_roll_deg)?
-            .to_radians(),
-        boresight_pitch_rad: finite("mounting.boresight_pitch_deg", m.boresight_pitch_deg)?
-            .to_radians(),
-        boresight_yaw_rad: finite("mounting.boresight_yaw_deg", m.boresight_yaw_deg)?.to_radians(),
-        lever_arm_m: Vector3::new(lever[0], lever[1], lever[2]),
-    };
-
-    let mut sigma = Sigmas::zero();
-    for (key, value) in &file.sigma {
-        let dotted = format!("sigma.{key}");
-        let source = source_for_key(key).map_err(|m| err(&dotted, m))?;
-        let not_here: &[Source] = match scanner {
-            Scanner::Linear => &CONIC_ONLY,
-            Scanner::Conic(_) => &LINEAR_ONLY,
         };
-        if not_here.contains(&source) {
+
+        let s = &file.scanner;
+        if let Some(v) = s.beam_divergence_mrad
+            && !(v.is_finite() && v >= 0.0)
+        {
             return Err(err(
-                &dotted,
-                format!("a {} scanner has no {} source", scanner.kind(), source),
+                "scanner.beam_divergence_mrad",
+                format!("must be a finite number >= 0, got {v}"),
             ));
         }
-        sigma
-            .set(source, value * source.unit().config_to_si())
-            .map_err(|_| {
-                err(
-                    &dotted,
-                    format!("must be a finite number >= 0, got {value}"),
-                )
-            })?;
-    }
-
-    let correlation = match &file.covariance {
-        None => None,
-        Some(c) => {
-            let mut sources = Vec::with_capacity(c.sources.len());
-            for name in &c.sources {
-                sources.push(Source::from_name(name).ok_or_else(|| {
-                    err(
-                        "covariance.sources",
-                        format!("unknown source '{name}' (a name of SPEC §4 without unit)"),
-                    )
-                })?);
+        let scanner = match s.kind.as_str() {
+            "linear" => {
+                for (key, given) in [
+                    ("exit_angle_deg", s.exit_angle_deg.is_some()),
+                    ("prism_slope_deg", s.prism_slope_deg.is_some()),
+                    ("n_prism", s.n_prism.is_some()),
+                    ("n_air", s.n_air.is_some()),
+                    ("n_water", s.n_water.is_some()),
+                    ("refraction", s.refraction.is_some()),
+                ] {
+                    if given {
+                        return Err(err(
+                            &format!("scanner.{key}"),
+                            "applies to a conic scanner only".into(),
+                        ));
+                    }
+                }
+                Scanner::Linear
             }
-            let n = sources.len();
-            if c.correlation.len() != n || c.correlation.iter().any(|r| r.len() != n) {
+            "conic" => {
+                let refraction = match &s.refraction {
+                    None => Refraction::ScannerFrame,
+                    Some(name) => Refraction::from_name(name).ok_or_else(|| {
+                        err(
+                            "scanner.refraction",
+                            format!("'{name}' is not one of scanner-frame, level"),
+                        )
+                    })?,
+                };
+                let n_prism = s.n_prism.unwrap_or(DEFAULT_N_PRISM);
+                let n_air = s.n_air.unwrap_or(DEFAULT_N_AIR);
+                let n_water = s.n_water.unwrap_or(DEFAULT_N_WATER);
+                let built = match (s.exit_angle_deg, s.prism_slope_deg) {
+                    (Some(_), Some(_)) => {
+                        return Err(err(
+                            "scanner.exit_angle_deg",
+                            "give exit_angle_deg or prism_slope_deg, not both".into(),
+                        ));
+                    }
+                    (Some(exit), None) => ConicScanner::from_exit_angle(
+                        finite("scanner.exit_angle_deg", exit)?.to_radians(),
+                        n_prism,
+                        n_air,
+                        n_water,
+                        refraction,
+                    ),
+                    (None, Some(slope)) => ConicScanner::new(
+                        finite("scanner.prism_slope_deg", slope)?.to_radians(),
+                        n_prism,
+                        n_air,
+                        n_water,
+                        refraction,
+                    ),
+                    (None, None) => ConicScanner::from_exit_angle(
+                        20f64.to_radians(),
+                        n_prism,
+                        n_air,
+                        n_water,
+                        refraction,
+                    ),
+                };
+                Scanner::Conic(built.map_err(|e| err("scanner", e.to_string()))?)
+            }
+            other => {
                 return Err(err(
-                    "covariance.correlation",
-                    format!("must be a {n}x{n} matrix, one row per source"),
+                    "scanner.type",
+                    format!("'{other}' is not one of linear, conic"),
                 ));
             }
-            let matrix = DMatrix::from_fn(n, n, |i, j| c.correlation[i][j]);
-            Some(
-                Correlation::new(sources, matrix)
-                    .map_err(|e| err("covariance.correlation", e.to_string()))?,
-            )
-        }
-    };
+        };
 
-    Ok(Sensor {
-        scanner,
-        mounting,
-        sigma,
-        correlation,
-    })
+        let m = &file.mounting;
+        let lever = m.lever_arm_m;
+        for (i, v) in lever.iter().enumerate() {
+            finite(&format!("mounting.lever_arm_m[{i}]"), *v)?;
+        }
+        let mounting = Mounting {
+            boresight_roll_rad: finite("mounting.boresight_roll_deg", m.boresight_roll_deg)?
+                .to_radians(),
+            boresight_pitch_rad: finite("mounting.boresight_pitch_deg", m.boresight_pitch_deg)?
+                .to_radians(),
+            boresight_yaw_rad: finite("mounting.boresight_yaw_deg", m.boresight_yaw_deg)?
+                .to_radians(),
+            lever_arm_m: Vector3::new(lever[0], lever[1], lever[2]),
+        };
+
+        let mut sigma = Sigmas::zero();
+        for (key, value) in &file.sigma {
+            let dotted = format!("sigma.{key}");
+            let source = source_for_key(key).map_err(|m| err(&dotted, m))?;
+            let not_here: &[Source] = match scanner {
+                Scanner::Linear => &CONIC_ONLY,
+                Scanner::Conic(_) => &LINEAR_ONLY,
+            };
+            if not_here.contains(&source) {
+                return Err(err(
+                    &dotted,
+                    format!("a {} scanner has no {} source", scanner.kind(), source),
+                ));
+            }
+            sigma
+                .set(source, value * source.unit().config_to_si())
+                .map_err(|_| {
+                    err(
+                        &dotted,
+                        format!("must be a finite number >= 0, got {value}"),
+                    )
+                })?;
+        }
+
+        let correlation = match &file.covariance {
+            None => None,
+            Some(c) => {
+                let mut sources = Vec::with_capacity(c.sources.len());
+                for name in &c.sources {
+                    sources.push(Source::from_name(name).ok_or_else(|| {
+                        err(
+                            "covariance.sources",
+                            format!("unknown source '{name}' (a name of SPEC §4 without unit)"),
+                        )
+                    })?);
+                }
+                let n = sources.len();
+                if c.correlation.len() != n || c.correlation.iter().any(|r| r.len() != n) {
+                    return Err(err(
+                        "covariance.correlation",
+                        format!("must be a {n}x{n} matrix, one row per source"),
+                    ));
+                }
+                let matrix = DMatrix::from_fn(n, n, |i, j| c.correlation[i][j]);
+                Some(
+                    Correlation::new(sources, matrix)
+                        .map_err(|e| err("covariance.correlation", e.to_string()))?,
+                )
+            }
+        };
+
+        Ok(Sensor {
+            scanner,
+            mounting,
+            sigma,
+            correlation,
+        })
+    }
 }
 
 /// The source of a `[sigma]` key, or why it is not one.

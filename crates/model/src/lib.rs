@@ -24,6 +24,7 @@
 //! assert!((j[(0, 7)] - 80.0).abs() < 1e-9);
 //! ```
 
+mod axes;
 mod conic;
 mod error;
 mod frames;
@@ -35,6 +36,7 @@ mod sensor;
 mod source;
 mod warning;
 
+pub use axes::Axes;
 pub use conic::{
     CONIC_N, ConicObservation, ConicScanner, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER,
     Refraction, SPEED_OF_LIGHT_AIR_M_PER_S, refract,

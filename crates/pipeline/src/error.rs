@@ -124,6 +124,14 @@ pub enum Error {
         /// lidarqa-io's message.
         message: String,
     },
+    /// No input file has a point within the window of any control point.
+    #[error(
+        "no points within {window_m} m of any control point: are the control coordinates in the same CRS as the point clouds?"
+    )]
+    NoTargetPoints {
+        /// Half-width of the window searched around each control point, m.
+        window_m: f64,
+    },
     /// Options that cannot be used.
     #[error("{0}")]
     InvalidOption(String),

@@ -60,6 +60,7 @@ pub mod plausibility;
 mod retile;
 mod stored;
 mod summary;
+mod targets_files;
 mod targets_tile;
 mod tile;
 
@@ -80,5 +81,6 @@ pub use summary::{
     SIGMA_MAP_CELL_M, SIGMA_MAP_MAX_SIDE, SIGMA_NAMES, ScanAngleView, SigmaGridView, SigmaMap,
     SkipReason, SoundingResult, Stats, SummaryView, SurveyReport, TileLine, TileReport, TpuSummary,
 };
+pub use targets_files::{control_for_targets, find_targets, points_near_control};
 pub use targets_tile::{TargetsTileJob, TargetsTileReport, extract_targets_tile};
 pub use tile::{TpuTileJob, tpu_tile, tpu_tile_with_progress};

@@ -2,8 +2,8 @@
 
 use crate::digest::seed_for_tile;
 use crate::error::{Error, Result};
-use lidarqa_io::{AtomicFile, LasReader, PointChunk};
-use lidarqa_targets::{ControlPoint, LidarPoint, TargetConfig, TargetReport, extract_targets};
+use lidarqa_io::AtomicFile;
+use lidarqa_targets::{ControlPoint, TargetConfig, TargetReport, extract_targets};
 use serde::Serialize;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -58,25 +58,7 @@ pub fn extract_targets_tile(job: &TargetsTileJob<'_>) -> Result<TargetsTileRepor
     let mut inputs: Vec<&Path> = vec![job.input];
     inputs.extend(job.other_inputs);
     lidarqa_io::check_not_an_input(job.output, &inputs)?;
-    let mut reader = LasReader::from_path(job.input)?;
-    let mut chunk = PointChunk::new();
-    let mut near = Vec::new();
-    while reader.fill(&mut chunk, 1 << 20)? > 0 {
-        for p in &chunk.points {
-            if job
-                .control
-                .iter()
-                .any(|c| (p.x - c.x).abs() <= job.window_m && (p.y - c.y).abs() <= job.window_m)
-            {
-                near.push(LidarPoint {
-                    x: p.x,
-                    y: p.y,
-                    z: p.z,
-                    intensity: f64::from(p.intensity),
-                });
-            }
-        }
-    }
+    let near = crate::points_near_control(job.input, job.control, job.window_m)?;
     let id = job
         .input
         .file_stem()

@@ -11,8 +11,9 @@ use lidarqa_calib::mounting_from_json;
 use lidarqa_io::{ControlPoints, Crs};
 use lidarqa_pipeline::{
     CorrectTileJob, Manifest, TargetsTileJob, TileReport, TpuContext, TpuOptions, TpuTileJob,
-    collect as collect_manifest, correct_tile as correct_one, extract_targets_tile as targets_one,
-    run_entry, tpu_tile as tpu_one,
+    collect as collect_manifest, control_for_targets, correct_tile as correct_one,
+    extract_targets_tile as targets_one, find_targets as find_targets_in, run_entry,
+    tpu_tile as tpu_one,
 };
 use lidarqa_targets::{CentreMethod, ControlPoint, TargetConfig};
 use pyo3::create_exception;
@@ -127,6 +128,19 @@ fn correct_tile(
     })
 }
 
+/// The control points of a control CSV and the extraction settings of `method`.
+fn targets_setup(
+    control: &Path,
+    radius_m: Option<f64>,
+    method: CentreMethod,
+) -> PyResult<(Vec<ControlPoint>, TargetConfig)> {
+    let table = ControlPoints::from_path(control).map_err(err)?;
+    let points = control_for_targets(&table, radius_m).map_err(err)?;
+    let mut config = TargetConfig::default();
+    config.centre.method = method;
+    Ok((points, config))
+}
+
 /// Target extraction in one tile near the control points of `control` (CSV
 /// `id,x,y,z[,sigma_h,sigma_v,radius_m]`); writes the tile's report JSON to `output` and
 /// returns it.
@@ -143,17 +157,7 @@ fn extract_targets_tile(
 ) -> PyResult<String> {
     let method: CentreMethod = method.parse().map_err(|e| err(format!("method: {e}")))?;
     py.allow_threads(|| {
-        let table = ControlPoints::from_path(&control).map_err(err)?;
-        let mut points = Vec::with_capacity(table.records.len());
-        for (i, c) in table.records.iter().enumerate() {
-            let mut p = ControlPoint::new(c.id.clone(), c.x, c.y, c.z);
-            p.sigma_h_m = c.sigma_h_m;
-            p.sigma_v_m = c.sigma_v_m;
-            p.radius_m = table.extra_f64(i, "radius_m").map_err(err)?.or(radius_m);
-            points.push(p);
-        }
-        let mut config = TargetConfig::default();
-        config.centre.method = method;
+        let (points, config) = targets_setup(&control, radius_m, method)?;
         let r = targets_one(&TargetsTileJob {
             input: &input,
             output: &output,
@@ -164,6 +168,29 @@ fn extract_targets_tile(
         })
         .map_err(err)?;
         json(&r)
+    })
+}
+
+/// Targets in several files (strips or tiles) near the control points of `control` (CSV
+/// `id,x,y,z[,sigma_h,sigma_v,radius_m]`), each file searched on its own and the per-file centres
+/// merged per control id (what `lidarqa targets` does). Returns the merged report and its
+/// warnings as JSON (`{"report": ..., "warnings": [...]}`); writes nothing.
+#[pyfunction]
+#[pyo3(signature = (inputs, control, radius_m=None, method="circle-fit", window_m=6.0))]
+fn find_targets(
+    py: Python<'_>,
+    inputs: Vec<PathBuf>,
+    control: PathBuf,
+    radius_m: Option<f64>,
+    method: &str,
+    window_m: f64,
+) -> PyResult<String> {
+    let method: CentreMethod = method.parse().map_err(|e| err(format!("method: {e}")))?;
+    py.allow_threads(|| {
+        let (points, config) = targets_setup(&control, radius_m, method)?;
+        let (report, warnings) =
+            find_targets_in(&inputs, &points, &config, window_m).map_err(err)?;
+        json(&serde_json::json!({ "report": report, "warnings": warnings }))
     })
 }
 
@@ -234,6 +261,7 @@ fn _lidarqa(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tpu_tile, m)?)?;
     m.add_function(wrap_pyfunction!(correct_tile, m)?)?;
     m.add_function(wrap_pyfunction!(extract_targets_tile, m)?)?;
+    m.add_function(wrap_pyfunction!(find_targets, m)?)?;
     m.add_function(wrap_pyfunction!(run_manifest_entry, m)?)?;
     m.add_function(wrap_pyfunction!(manifest_len, m)?)?;
     m.add_function(wrap_pyfunction!(collect, m)?)?;

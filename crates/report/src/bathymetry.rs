@@ -4,10 +4,10 @@
 //! the conic scan (seed 004 Fig. 4, from `budget_sweep_azimuth.json`), which sources dominate,
 //! and where each order is achieved.
 
-use crate::html::{cm, esc, meaning};
 use crate::plot::{self, Line, Raster, Scale};
 use crate::products::*;
 use crate::report::Products;
+use crate::text::{cm, esc, meaning};
 use std::fmt::Write as _;
 
 /// The orders in the table's column order, with their display names.

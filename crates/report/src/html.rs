@@ -3,33 +3,9 @@
 use crate::plot::{self, Line, Raster, Scale, Vectors};
 use crate::products::*;
 use crate::report::Report;
+use crate::text::{cm, esc, meaning};
 use lidarqa_tpu::{THU_95_CBLUE, TVU_95_FACTOR};
 use std::fmt::Write as _;
-
-/// Escapes text for HTML content and attribute values.
-pub(crate) fn esc(s: &str) -> String {
-    let mut o = String::with_capacity(s.len());
-    for c in s.chars() {
-        match c {
-            '&' => o.push_str("&amp;"),
-            '<' => o.push_str("&lt;"),
-            '>' => o.push_str("&gt;"),
-            '"' => o.push_str("&quot;"),
-            '\'' => o.push_str("&#39;"),
-            c => o.push(c),
-        }
-    }
-    o
-}
-
-/// Metres → centimetres, two decimals ("—" for a non-finite value).
-pub(crate) fn cm(m: f64) -> String {
-    if m.is_finite() {
-        format!("{:.2}", m * 100.0)
-    } else {
-        "—".into()
-    }
-}
 
 fn cm_opt(m: Option<f64>) -> String {
     m.map(cm).unwrap_or_else(|| "—".into())
@@ -76,7 +52,15 @@ footer { margin-top: 40px; color: #777; font-size: 13px; }
 "#;
 
 /// Renders the whole page.
-pub(crate) fn render(r: &Report) -> String {
+impl Report {
+    /// The whole report: one self-contained HTML document (inline CSS, inline SVG, no script,
+    /// no external reference).
+    pub fn to_html(&self) -> String {
+        render(self)
+    }
+}
+
+fn render(r: &Report) -> String {
     let p = &r.products;
     let mut sections: Vec<(&str, &str, String)> = Vec::new();
     if let Some(b) = &p.budget {
@@ -264,13 +248,6 @@ fn what(name: &str) -> &'static str {
         n if n.starts_with(SWEEP_FILE_PREFIX) => Sweep::WHAT,
         _ => "",
     }
-}
-
-pub(crate) fn meaning(o: &mut String, text: &str) {
-    let _ = writeln!(
-        o,
-        "<p class=\"meaning\"><strong>What this means:</strong> {text}</p>"
-    );
 }
 
 // ---------------------------------------------------------------------------------------------

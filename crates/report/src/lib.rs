@@ -45,6 +45,7 @@ mod html;
 mod plot;
 mod products;
 mod report;
+mod text;
 mod verdict;
 
 pub use error::{Error, Result};

@@ -4,7 +4,7 @@
 //! Every function returns the `<svg>` element (with an `id`, `class="plot"` and an `aria-label`),
 //! or, if plotters fails, a short HTML note: a plot never panics the report.
 
-use crate::html::esc;
+use crate::text::esc;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};

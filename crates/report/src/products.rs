@@ -147,23 +147,9 @@ impl fmt::Display for Id {
 // ---------------------------------------------------------------------------------------------
 // budget.json and budget_sweep_*.json (SPEC §6)
 
-/// Per-axis values, metres: north, east, up and the derived horizontal = √(north² + east²),
-/// vertical = |up|, three_d = √(horizontal² + vertical²) (SPEC §3).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct Components {
-    /// North, m.
-    pub north: f64,
-    /// East, m.
-    pub east: f64,
-    /// Up, m.
-    pub up: f64,
-    /// Horizontal, m.
-    pub horizontal: f64,
-    /// Vertical, m.
-    pub vertical: f64,
-    /// 3-D, m.
-    pub three_d: f64,
-}
+/// Per-axis values, metres (SPEC §3): lidarqa-model's one six-axis struct, as the products
+/// write it.
+pub use lidarqa_model::Axes as Components;
 
 /// Like [`Components`], every value optional (`evaluate`'s `predicted` may give only some).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]

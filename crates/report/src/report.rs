@@ -243,12 +243,6 @@ impl Report {
         &self.skipped
     }
 
-    /// The whole report: one self-contained HTML document (inline CSS, inline SVG, no script,
-    /// no external reference).
-    pub fn to_html(&self) -> String {
-        crate::html::render(self)
-    }
-
     /// Writes [`Report::to_html`] to `path` atomically (a temporary file renamed when complete),
     /// never over a product the report was read from.
     ///
@@ -278,19 +272,9 @@ fn today_utc() -> String {
     civil_date((secs / 86_400) as i64)
 }
 
-/// `days` since 1970-01-01 → `YYYY-MM-DD` (H. Hinnant's algorithm).
+/// `days` since 1970-01-01 → `YYYY-MM-DD` (lidarqa-io's one calendar: [`lidarqa_io::CivilDate`]).
 pub(crate) fn civil_date(days: i64) -> String {
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let y = yoe + era * 400;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = if m <= 2 { y + 1 } else { y };
-    format!("{y:04}-{m:02}-{d:02}")
+    lidarqa_io::CivilDate::from_unix_days(days).to_string()
 }
 
 #[cfg(test)]

@@ -3,9 +3,9 @@
 //! calibration determined, and whether anything needs a second look (the warnings).
 
 use crate::bathymetry::overall_order;
-use crate::html::{cm, esc};
 use crate::products::Evaluation;
 use crate::report::Products;
+use crate::text::{cm, esc};
 use std::fmt::Write as _;
 
 /// Measured RMSE up to this multiple of the predicted σ agrees with the prediction: an RMSE

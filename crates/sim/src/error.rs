@@ -50,6 +50,19 @@ pub enum Error {
         max_m: [f64; 2],
     },
 
+    /// The scenario's `[sensor]` is not a valid sensor file (lidarqa-io's one sensor check).
+    #[error("{key}: {message}")]
+    Sensor {
+        /// The TOML path of the key at fault, e.g. `sensor.sigma.range_deg`.
+        key: String,
+        /// What is wrong (io's message).
+        message: String,
+    },
+
+    /// A file of the survey could not be written (lidarqa-io's message names it).
+    #[error(transparent)]
+    Io(#[from] lidarqa_io::Error),
+
     /// lidarqa-model refused a sensor value.
     #[error("{key}: {source}")]
     Model {

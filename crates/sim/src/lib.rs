@@ -40,13 +40,16 @@
 //! assert_eq!(survey.truth.mounting.boresight_roll_deg, 0.0);
 //! ```
 
+mod check;
 mod error;
 mod geo;
 mod output;
 mod scenario;
 mod scene;
+mod scene_file;
 mod simulate;
 mod trajectory;
+mod write;
 
 pub use error::{Error, Result};
 pub use output::{
@@ -55,12 +58,13 @@ pub use output::{
 };
 pub use scenario::{
     BUILTIN_NAMES, BuildingFile, ErrorModel, ErrorsFile, Line, LineFile, MAX_HEIGHT_M, MAX_LINES,
-    MAX_PULSE_RATE_HZ, MAX_PULSES, MAX_TRAJECTORY_RATE_HZ, Motion, MotionFile, MountingFile,
-    PavedFile, ScanPattern, ScanWave, ScannerSettingsFile, Scenario, ScenarioFile, SceneFile,
-    SensorFile, SensorScannerFile, TargetFile, WaterFile, WaveFile, builtin_toml,
+    MAX_PULSE_RATE_HZ, MAX_PULSES, MAX_TRAJECTORY_RATE_HZ, Motion, MotionFile, PavedFile,
+    ScanPattern, ScanWave, ScannerSettingsFile, Scenario, ScenarioFile, SceneFile, SensorFile,
+    TargetFile, WaterFile, WaveFile, builtin_toml,
 };
 pub use scene::{
     Building, CLASS_BATHYMETRY, CLASS_BUILDING, CLASS_GROUND, CLASS_TARGET, CLASS_WATER_SURFACE,
     Curve, Hit, Markings, Paved, Scene, Target, Water, Wave,
 };
 pub use simulate::{SimOptions, simulate, simulate_with_progress};
+pub use write::{survey_file_names, write_survey};

@@ -4,16 +4,16 @@
 //! `_ppm`, `_percent`); unknown keys are refused by serde (`deny_unknown_fields`), and the
 //! checked form converts to SI once, so the simulator never sees a degree.
 
+use crate::check::{finite, invalid, non_negative, positive};
 use crate::error::{Error, Result};
 use crate::scene::Scene;
+pub use crate::scene_file::{BuildingFile, PavedFile, SceneFile, TargetFile, WaterFile, WaveFile};
+pub use lidarqa_io::SensorFile;
 use lidarqa_io::UtmZone;
-use lidarqa_model::{
-    ConicScanner, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER, Mounting, Refraction, Scanner,
-    Sensor, Sigmas, Source,
-};
+use lidarqa_model::{Mounting, Scanner, Sensor};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
+use std::path::Path;
 
 /// The names of the built-in scenarios, for [`Scenario::builtin`].
 pub const BUILTIN_NAMES: [&str; 3] = ["demo", "calibration", "bathymetry"];
@@ -49,7 +49,9 @@ pub struct ScenarioFile {
     /// GPS week of the survey (for LAS adjusted standard GPS time; trajectory times are seconds
     /// of this week).
     pub gps_week: u32,
-    /// The nominal sensor, laid out as a sensor file (SPEC §5).
+    /// The nominal sensor: exactly a SPEC §5 sensor file (lidarqa-io's [`SensorFile`], checked by
+    /// the same [`SensorFile::check`]), so that [`Scenario::sensor_toml_string`] is the file a user
+    /// of the simulated survey would have.
     pub sensor: SensorFile,
     /// Scanner settings (rates and angles).
     pub scanner: ScannerSettingsFile,
@@ -65,76 +67,14 @@ pub struct ScenarioFile {
     pub scene: SceneFile,
 }
 
-/// The `[sensor]` table: exactly the layout of a SPEC §5 sensor file (`[scanner]`, `[mounting]`,
-/// `[sigma]`), so that [`Scenario::sensor_toml_string`] is the file a user of the simulated
-/// survey would have.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SensorFile {
-    /// Scanner type and constants.
-    pub scanner: SensorScannerFile,
-    /// Nominal mounting, applied when georeferencing.
-    #[serde(default)]
-    pub mounting: MountingFile,
-    /// 1-sigma of each source by SPEC §4/§5 key (`range_m`, `heading_deg`, ...); missing = 0.
-    #[serde(default)]
-    pub sigma: BTreeMap<String, f64>,
-}
-
-/// `[sensor.scanner]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SensorScannerFile {
-    /// `"linear"` or `"conic"`.
-    #[serde(rename = "type")]
-    pub kind: String,
-    /// Conic: angle of the beam leaving the prism from the scanner Z axis, degrees.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub exit_angle_deg: Option<f64>,
-    /// Conic: prism top-surface slope, degrees (instead of `exit_angle_deg`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub prism_slope_deg: Option<f64>,
-    /// Conic: refraction index of the prism (default 1.461).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub n_prism: Option<f64>,
-    /// Conic: refraction index of air (default 1.0003).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub n_air: Option<f64>,
-    /// Conic: refraction index of water (default 1.33).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub n_water: Option<f64>,
-    /// Conic: `"scanner-frame"` or `"level"` water-surface refraction in the georeferencing.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub refraction: Option<String>,
-}
-
-/// `[sensor.mounting]` and the injected part of `[errors]`: boresight in degrees, lever arm in
-/// metres (body frame X forward, Y right, Z down).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MountingFile {
-    /// Boresight roll (about scanner X), degrees.
-    #[serde(default)]
-    pub boresight_roll_deg: f64,
-    /// Boresight pitch (about scanner Y), degrees.
-    #[serde(default)]
-    pub boresight_pitch_deg: f64,
-    /// Boresight yaw (about scanner Z), degrees.
-    #[serde(default)]
-    pub boresight_yaw_deg: f64,
-    /// Lever arm `[x, y, z]`, body frame, metres.
-    #[serde(default)]
-    pub lever_arm_m: [f64; 3],
-}
-
-impl MountingFile {
-    fn to_mounting(self) -> Mounting {
-        Mounting {
-            boresight_roll_rad: self.boresight_roll_deg.to_radians(),
-            boresight_pitch_rad: self.boresight_pitch_deg.to_radians(),
-            boresight_yaw_rad: self.boresight_yaw_deg.to_radians(),
-            lever_arm_m: Vector3::from(self.lever_arm_m),
-        }
+/// Degrees and metres of a mounting (boresight about scanner X, Y, Z; lever arm in the body frame,
+/// X forward, Y right, Z down) to SI.
+fn mounting_si(roll_deg: f64, pitch_deg: f64, yaw_deg: f64, lever_arm_m: [f64; 3]) -> Mounting {
+    Mounting {
+        boresight_roll_rad: roll_deg.to_radians(),
+        boresight_pitch_rad: pitch_deg.to_radians(),
+        boresight_yaw_rad: yaw_deg.to_radians(),
+        lever_arm_m: Vector3::from(lever_arm_m),
     }
 }
 
@@ -334,173 +274,6 @@ pub struct LineFile {
     pub start_time_s: f64,
 }
 
-/// `[scene]`: the analytic scene, in local grid coordinates and ellipsoidal heights.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SceneFile {
-    /// Minimum corner (local easting, northing), m.
-    pub min_m: [f64; 2],
-    /// Maximum corner (local easting, northing), m.
-    pub max_m: [f64; 2],
-    /// Ellipsoidal height of the undisturbed ground, m.
-    pub ground_height_m: f64,
-    /// Amplitude of the gentle terrain relief, m.
-    #[serde(default)]
-    pub relief_m: f64,
-    /// Wavelength of the relief, m.
-    #[serde(default = "default_relief_wavelength")]
-    pub relief_wavelength_m: f64,
-    /// 1-sigma of the surveyed control-point coordinates, horizontal, m (seed 000: 5 mm).
-    #[serde(default = "default_control_h")]
-    pub control_sigma_horizontal_m: f64,
-    /// 1-sigma of the surveyed control-point coordinates, vertical, m (seed 000: 2 cm).
-    #[serde(default = "default_control_v")]
-    pub control_sigma_vertical_m: f64,
-    /// Flat paved areas with painted markings.
-    #[serde(default)]
-    pub paved: Vec<PavedFile>,
-    /// Buildings with gable roofs.
-    #[serde(default)]
-    pub buildings: Vec<BuildingFile>,
-    /// Circular high-reflectivity targets.
-    #[serde(default)]
-    pub targets: Vec<TargetFile>,
-    /// An optional water body with a sloping bottom.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub water: Option<WaterFile>,
-}
-
-fn default_relief_wavelength() -> f64 {
-    400.0
-}
-fn default_control_h() -> f64 {
-    0.005
-}
-fn default_control_v() -> f64 {
-    0.02
-}
-
-/// `[[scene.paved]]`: a flat rectangle (its height is the terrain's at its centre) blended into
-/// the terrain over `blend_m`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PavedFile {
-    /// Centre, local easting / northing, m.
-    pub center_m: [f64; 2],
-    /// `[length, width]`, m; the length runs along `azimuth_deg`.
-    pub size_m: [f64; 2],
-    /// Grid bearing of the length axis, degrees clockwise from grid north.
-    #[serde(default)]
-    pub azimuth_deg: f64,
-    /// `"zebra"` (a 4 m crossing of 0.5 m stripes across the middle, plus edge lines),
-    /// `"centre-line"` (3 m dashes, 0.15 m wide, plus edge lines) or `"none"`.
-    #[serde(default = "default_markings")]
-    pub markings: String,
-}
-
-fn default_markings() -> String {
-    "zebra".into()
-}
-
-/// `[[scene.buildings]]`: a rectangular building with a symmetric gable roof.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct BuildingFile {
-    /// Centre, local easting / northing, m.
-    pub center_m: [f64; 2],
-    /// `[length, width]`, m; the ridge runs along the length.
-    pub size_m: [f64; 2],
-    /// Grid bearing of the ridge, degrees clockwise from grid north.
-    #[serde(default)]
-    pub azimuth_deg: f64,
-    /// Eave height above the ground at the centre, m.
-    pub eave_height_m: f64,
-    /// Roof slope, degrees.
-    pub roof_slope_deg: f64,
-}
-
-/// `[[scene.targets]]`: a horizontal circular plate of high reflectivity (seed 000: radius
-/// 0.8 m, 0.5 m above the ground).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct TargetFile {
-    /// Target id (control-point id).
-    pub id: String,
-    /// Centre, local easting / northing, m.
-    pub center_m: [f64; 2],
-    /// Radius, m.
-    #[serde(default = "default_target_radius")]
-    pub radius_m: f64,
-    /// Height of the plate above the ground at its centre, m.
-    #[serde(default = "default_target_height")]
-    pub height_above_ground_m: f64,
-    /// A flat disc of white paint on the ground instead of a raised plate (then
-    /// `height_above_ground_m` must be 0).
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub painted: bool,
-}
-
-fn default_target_radius() -> f64 {
-    0.8
-}
-fn default_target_height() -> f64 {
-    0.5
-}
-
-/// `[scene.water]`: a basin cut into the terrain inside a rectangle, filled to `level_m`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct WaterFile {
-    /// Minimum corner of the basin, local m.
-    pub min_m: [f64; 2],
-    /// Maximum corner of the basin, local m.
-    pub max_m: [f64; 2],
-    /// Water level relative to the ground height, m (negative: below the surrounding ground).
-    pub level_m: f64,
-    /// Depth of the basin cut below the ground at its west edge, m.
-    pub shore_depth_m: f64,
-    /// Depth of the basin cut at its east edge, m (the bottom slopes linearly between).
-    pub max_depth_m: f64,
-    /// Width of the smooth bank around the basin, m.
-    #[serde(default = "default_bank")]
-    pub bank_width_m: f64,
-    /// Amplitude of the surface waves, m (0 = flat).
-    #[serde(default)]
-    pub wave_amplitude_m: f64,
-    /// Wavelength of the surface waves, m.
-    #[serde(default = "default_wave_length")]
-    pub wave_length_m: f64,
-    /// Grid bearing the waves travel towards, degrees.
-    #[serde(default)]
-    pub wave_azimuth_deg: f64,
-    /// More wave trains, summed with the one above: a sea of several directions and lengths
-    /// (its slope σ per axis is [`Water::slope_sigma_rad`](crate::Water::slope_sigma_rad)).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub waves: Vec<WaveFile>,
-}
-
-/// `[[scene.water.waves]]`: one sinusoidal wave train `A sin(k (x, y)·d + φ)`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct WaveFile {
-    /// Amplitude A, m.
-    pub amplitude_m: f64,
-    /// Wavelength 2π/k, m.
-    pub length_m: f64,
-    /// Grid bearing the train travels towards, degrees.
-    pub azimuth_deg: f64,
-    /// Phase φ at the local origin, degrees.
-    #[serde(default)]
-    pub phase_deg: f64,
-}
-
-fn default_bank() -> f64 {
-    20.0
-}
-fn default_wave_length() -> f64 {
-    8.0
-}
-
 /// How a linear scanner's mirror moves.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ScanWave {
@@ -622,38 +395,6 @@ pub const MAX_TRAJECTORY_RATE_HZ: f64 = 10_000.0;
 /// Highest flying height above the ground, m.
 pub const MAX_HEIGHT_M: f64 = 10_000.0;
 
-fn invalid(key: impl Into<String>, value: impl std::fmt::Display, reason: &str) -> Error {
-    Error::InvalidValue {
-        key: key.into(),
-        value: value.to_string(),
-        reason: reason.into(),
-    }
-}
-
-pub(crate) fn positive(key: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(invalid(key, v, "must be a finite number > 0"))
-    }
-}
-
-pub(crate) fn non_negative(key: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(v)
-    } else {
-        Err(invalid(key, v, "must be a finite number >= 0"))
-    }
-}
-
-pub(crate) fn finite(key: &str, v: f64) -> Result<f64> {
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        Err(invalid(key, v, "must be a finite number"))
-    }
-}
-
 fn fmt2(v: [f64; 2]) -> String {
     format!("[{}, {}]", v[0], v[1])
 }
@@ -724,10 +465,24 @@ impl Scenario {
             ));
         }
         let freq = positive("scanner.scan_frequency_hz", s.scan_frequency_hz)?;
-        let beam_divergence_rad = non_negative(
-            "scanner.beam_divergence_mrad",
-            s.beam_divergence_mrad.unwrap_or(0.5),
-        )? * 1e-3;
+        // The sensor file may carry the divergence too (io checked it); two different values
+        // would simulate one beam and describe another in sensor.toml.
+        let beam_divergence_mrad = match (
+            s.beam_divergence_mrad,
+            file.sensor.scanner.beam_divergence_mrad,
+        ) {
+            (Some(a), Some(b)) if a != b => {
+                return Err(invalid(
+                    "scanner.beam_divergence_mrad",
+                    a,
+                    &format!("differs from sensor.scanner.beam_divergence_mrad = {b}: give one"),
+                ));
+            }
+            (Some(v), _) | (None, Some(v)) => v,
+            (None, None) => 0.5,
+        };
+        let beam_divergence_rad =
+            non_negative("scanner.beam_divergence_mrad", beam_divergence_mrad)? * 1e-3;
         let pattern = match sensor.scanner {
             Scanner::Linear => {
                 let fov = s.field_of_view_deg.ok_or_else(|| {
@@ -881,112 +636,22 @@ impl Scenario {
     }
 }
 
+/// The scenario's `[sensor]` through io's one sensor check; its errors name the key under
+/// `sensor.`.
 fn check_sensor(f: &SensorFile) -> Result<Sensor> {
-    let k = &f.scanner;
-    let scanner = match k.kind.as_str() {
-        "linear" => {
-            let extra = [
-                ("exit_angle_deg", k.exit_angle_deg.is_some()),
-                ("prism_slope_deg", k.prism_slope_deg.is_some()),
-                ("n_prism", k.n_prism.is_some()),
-                ("n_air", k.n_air.is_some()),
-                ("n_water", k.n_water.is_some()),
-                ("refraction", k.refraction.is_some()),
-            ];
-            if let Some((name, _)) = extra.iter().find(|(_, set)| *set) {
-                return Err(invalid(
-                    format!("sensor.scanner.{name}"),
-                    "(set)",
-                    "applies to the conic scanner only",
-                ));
-            }
-            Scanner::Linear
-        }
-        "conic" => {
-            let refraction = match k.refraction.as_deref() {
-                None => Refraction::default(),
-                Some(r) => Refraction::from_name(r).ok_or_else(|| {
-                    invalid(
-                        "sensor.scanner.refraction",
-                        format!("{r:?}"),
-                        "must be \"scanner-frame\" or \"level\"",
-                    )
-                })?,
-            };
-            let n_prism = k.n_prism.unwrap_or(DEFAULT_N_PRISM);
-            let n_air = k.n_air.unwrap_or(DEFAULT_N_AIR);
-            let n_water = k.n_water.unwrap_or(DEFAULT_N_WATER);
-            let model = |key: &str, e| Error::Model {
-                key: format!("sensor.scanner.{key}"),
-                source: e,
-            };
-            let conic = match (k.exit_angle_deg, k.prism_slope_deg) {
-                (Some(_), Some(_)) => {
-                    return Err(invalid(
-                        "sensor.scanner.prism_slope_deg",
-                        "(set)",
-                        "give exit_angle_deg or prism_slope_deg, not both",
-                    ));
-                }
-                (Some(exit), None) => ConicScanner::from_exit_angle(
-                    exit.to_radians(),
-                    n_prism,
-                    n_air,
-                    n_water,
-                    refraction,
-                )
-                .map_err(|e| model("exit_angle_deg", e))?,
-                (None, slope) => ConicScanner::new(
-                    slope.unwrap_or(39.1603).to_radians(),
-                    n_prism,
-                    n_air,
-                    n_water,
-                    refraction,
-                )
-                .map_err(|e| model("prism_slope_deg", e))?,
-            };
-            Scanner::Conic(conic)
-        }
-        other => {
-            return Err(invalid(
-                "sensor.scanner.type",
-                format!("{other:?}"),
-                "must be \"linear\" or \"conic\"",
-            ));
-        }
-    };
-    let m = &f.mounting;
-    for (key, v) in [
-        ("boresight_roll_deg", m.boresight_roll_deg),
-        ("boresight_pitch_deg", m.boresight_pitch_deg),
-        ("boresight_yaw_deg", m.boresight_yaw_deg),
-        ("lever_arm_m[0]", m.lever_arm_m[0]),
-        ("lever_arm_m[1]", m.lever_arm_m[1]),
-        ("lever_arm_m[2]", m.lever_arm_m[2]),
-    ] {
-        finite(&format!("sensor.mounting.{key}"), v)?;
-    }
-    let mut sigma = Sigmas::zero();
-    for (key, &v) in &f.sigma {
-        let source = Source::from_config_key(key).ok_or_else(|| {
-            invalid(
-                format!("sensor.sigma.{key}"),
-                v,
-                "unknown sigma key (SPEC §4 name plus unit suffix, e.g. range_m, heading_deg, time_water_ns)",
-            )
-        })?;
-        sigma
-            .set(source, v * source.unit().config_to_si())
-            .map_err(|e| Error::Model {
-                key: format!("sensor.sigma.{key}"),
-                source: e,
-            })?;
-    }
-    Ok(Sensor {
-        scanner,
-        mounting: m.to_mounting(),
-        sigma,
-        correlation: None,
+    f.check(Path::new("[sensor]")).map_err(|e| match e {
+        lidarqa_io::Error::Config {
+            key: Some(key),
+            message,
+            ..
+        } => Error::Sensor {
+            key: format!("sensor.{key}"),
+            message,
+        },
+        other => Error::Sensor {
+            key: "sensor".into(),
+            message: other.to_string(),
+        },
     })
 }
 
@@ -1027,18 +692,18 @@ fn check_errors(f: &ErrorsFile, sensor: &Sensor) -> Result<ErrorModel> {
         "errors.intensity_contrast_noise_percent",
         f.intensity_contrast_noise_percent,
     )?;
-    let injected = MountingFile {
-        boresight_roll_deg: f.boresight_roll_deg,
-        boresight_pitch_deg: f.boresight_pitch_deg,
-        boresight_yaw_deg: f.boresight_yaw_deg,
-        lever_arm_m: f.lever_arm_m,
-    };
+    let injected = mounting_si(
+        f.boresight_roll_deg,
+        f.boresight_pitch_deg,
+        f.boresight_yaw_deg,
+        f.lever_arm_m,
+    );
     Ok(ErrorModel {
         random: f.random,
         random_mounting: f.random_mounting,
         gnss_correlation_time_s: gnss_tau,
         attitude_correlation_time_s: att_tau,
-        injected_mounting: injected.to_mounting(),
+        injected_mounting: injected,
         range_offset_m: f.range_offset_m,
         scan_angle_scale: f.scan_angle_scale_ppm * 1e-6,
         intensity_noise: noise / 100.0,

@@ -10,8 +10,9 @@
 //! `g(ρ) = A + B ρ + C ρ²` in (x, y, h) (see `geo.rs`), which planes meet at the root of a
 //! quadratic and the terrain at the root found by the secant method to 1 µm.
 
+use crate::check::{finite, non_negative, positive};
 use crate::error::{Error, Result};
-use crate::scenario::{SceneFile, finite, non_negative, positive};
+use crate::scene_file::SceneFile;
 use std::f64::consts::PI;
 
 /// ASPRS class of terrain and paved areas (ground).

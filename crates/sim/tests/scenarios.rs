@@ -39,10 +39,7 @@ fn unknown_keys_are_named() {
     let e = err(&demo_text().replace("range_offset_m = 0.0", "range_ofset_m = 0.0"));
     assert!(e.contains("range_ofset_m"), "{e}");
     let e = err(&demo_text().replace("range_m = 0.005", "rang_m = 0.005"));
-    assert!(
-        e.starts_with("sensor.sigma.rang_m = 0.005: unknown sigma key"),
-        "{e}"
-    );
+    assert!(e.starts_with("sensor.sigma.rang_m: unknown source"), "{e}");
 }
 
 #[test]
@@ -63,7 +60,69 @@ fn bad_values_name_key_and_value() {
     let e = err(&demo_text().replace("epsg = 32649", "epsg = 4326"));
     assert!(e.starts_with("epsg: "), "{e}");
     let e = err(&demo_text().replace("type = \"linear\"", "type = \"helical\""));
-    assert!(e.contains("sensor.scanner.type = \"helical\""), "{e}");
+    assert_eq!(
+        e,
+        "sensor.scanner.type: 'helical' is not one of linear, conic"
+    );
     let e = err(&demo_text().replace("scan_angle_scale_ppm = 0.0", "scan_angle_scale_ppm = nan"));
     assert!(e.starts_with("errors.scan_angle_scale_ppm = NaN"), "{e}");
+}
+
+/// The scenario's `[sensor]` is io's sensor file, checked by io: a conic sensor with a custom
+/// prism index and no prism slope gets the slope io derives from the 20° exit angle, and the
+/// `sensor.toml` that `simulate` writes reads back through io as the same sensor.
+#[test]
+fn scenario_sensor_is_the_sensor_io_reads() {
+    use lidarqa_model::Scanner;
+    let mut f = Scenario::builtin("bathymetry").unwrap().file().clone();
+    f.sensor.scanner.exit_angle_deg = None;
+    f.sensor.scanner.n_prism = Some(1.52);
+    let s = Scenario::from_file(f).unwrap();
+    let path = std::path::Path::new("sensor.toml");
+    // The raw table and the file `simulate` writes (lidarqa_io::sensor_to_toml) both read back
+    // through io as the scenario's sensor.
+    let raw = lidarqa_io::parse_sensor(&s.sensor_toml_string(), path).unwrap();
+    assert_eq!(&raw, s.sensor());
+    let written = lidarqa_io::parse_sensor(&lidarqa_io::sensor_to_toml(s.sensor()), path).unwrap();
+    let (Scanner::Conic(a), Scanner::Conic(b)) = (&written.scanner, &s.sensor().scanner) else {
+        panic!("conic expected");
+    };
+    assert!((a.exit_angle_rad() - 20f64.to_radians()).abs() < 1e-12);
+    assert!((a.prism_slope_rad() - b.prism_slope_rad()).abs() < 1e-12);
+    assert_eq!(a.n_prism(), 1.52);
+    // Snell at the sloped top face (incidence = slope), then at the flat bottom face:
+    // n_air sin(slope) = n_prism sin(r), n_prism sin(slope − r) = n_air sin(exit).
+    let (slope, n_air) = (b.prism_slope_rad(), b.n_air());
+    let r = (n_air / 1.52 * slope.sin()).asin();
+    let exit = (1.52 / n_air * (slope - r).sin()).asin();
+    assert!(
+        (exit - 20f64.to_radians()).abs() < 1e-9,
+        "{}",
+        exit.to_degrees()
+    );
+    // The old hard-coded 39.1603° holds for n_prism = 1.461 only.
+    assert!(
+        (slope.to_degrees() - 39.1603).abs() > 1.0,
+        "{}",
+        slope.to_degrees()
+    );
+}
+
+#[test]
+fn scenario_sensor_refuses_what_io_refuses_and_takes_a_covariance() {
+    // A conic-only σ on the linear scanner.
+    let e = err(&demo_text().replace("range_m = 0.005", "range_m = 0.005\ntime_water_ns = 1.0"));
+    assert_eq!(
+        e,
+        "sensor.sigma.time_water_ns: a linear scanner has no time_water source"
+    );
+    let mut f = Scenario::builtin("demo").unwrap().file().clone();
+    f.sensor.covariance = Some(lidarqa_io::CovarianceSection {
+        sources: vec!["roll".into(), "pitch".into()],
+        correlation: vec![vec![1.0, 0.4], vec![0.4, 1.0]],
+    });
+    let s = Scenario::from_file(f).unwrap();
+    let c = s.sensor().correlation.as_ref().unwrap();
+    assert_eq!(c.matrix()[(0, 1)], 0.4);
+    assert!(s.sensor_toml_string().contains("[covariance]"));
 }

@@ -107,39 +107,9 @@ pub struct Axes {
     pub up: f64,
 }
 
-/// Per-axis and combined values (m), SPEC §3: horizontal = √(north² + east²),
-/// vertical = up, three_d = √(horizontal² + vertical²).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
-pub struct Components {
-    /// North (m).
-    pub north: f64,
-    /// East (m).
-    pub east: f64,
-    /// Up (m).
-    pub up: f64,
-    /// Horizontal (m).
-    pub horizontal: f64,
-    /// Vertical (m).
-    pub vertical: f64,
-    /// Three-dimensional (m).
-    pub three_d: f64,
-}
-
-impl Components {
-    /// Builds the combined values from north, east, up (m).
-    #[must_use]
-    pub fn from_axes(north: f64, east: f64, up: f64) -> Self {
-        let horizontal = north.hypot(east);
-        Self {
-            north,
-            east,
-            up,
-            horizontal,
-            vertical: up.abs(),
-            three_d: horizontal.hypot(up),
-        }
-    }
-}
+/// Per-axis and combined values (m), SPEC §3: lidarqa-model's one six-axis struct
+/// ([`lidarqa_model::Axes`]; signed components via [`lidarqa_model::Axes::from_components`]).
+pub use lidarqa_model::Axes as Components;
 
 /// A position (projected m).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -635,7 +605,7 @@ pub fn evaluate(
     let dn: Vec<f64> = points.iter().map(|p| p.residual.north).collect();
     let de: Vec<f64> = points.iter().map(|p| p.residual.east).collect();
     let du: Vec<f64> = points.iter().map(|p| p.residual.up).collect();
-    let rmse = Components::from_axes(
+    let rmse = Components::from_components(
         rms(dn.iter().copied()),
         rms(de.iter().copied()),
         rms(du.iter().copied()),

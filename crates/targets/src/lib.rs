@@ -50,6 +50,7 @@ mod evaluate;
 mod extract;
 mod fcm;
 mod mec;
+mod merge;
 mod plate;
 
 pub use centre::{
@@ -72,6 +73,7 @@ pub use fcm::{
     select_high_intensity,
 };
 pub use mec::{Circle, min_enclosing_circle};
+pub use merge::merge_reports;
 pub use plate::PlateModel;
 
 /// The crate's result type.

@@ -6,7 +6,7 @@
 
 use lidarqa_targets::{
     CentreMethod, ControlPoint, FcmConfig, LidarPoint, TargetConfig, ThresholdRule,
-    extract_targets, select_high_intensity,
+    extract_targets, merge_reports, select_high_intensity,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -401,4 +401,56 @@ fn paper_threshold_discards_the_targets() {
         );
         assert!(rep.fcm.converged);
     }
+}
+
+/// Two files seeing the same targets (the scene's points split in two halves, as two strips
+/// would): the merged centre is the point-count-weighted mean of the two, σ_H combines by inverse
+/// variance, the counts add, and the merged centre stays on the truth.
+#[test]
+fn merging_two_files_weights_by_points_and_combines_sigma() {
+    let s = scene(40.0, 4, 7);
+    let halves: [Vec<LidarPoint>; 2] = [0, 1].map(|h| {
+        s.points
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| i % 2 == h)
+            .map(|(_, p)| *p)
+            .collect()
+    });
+    let config = TargetConfig::default();
+    let reports: Vec<_> = halves
+        .iter()
+        .map(|p| extract_targets(p, &s.truth, &config).unwrap())
+        .collect();
+    let merged = merge_reports(&reports, &s.truth).unwrap();
+    assert!(merge_reports(&[], &s.truth).is_none());
+    assert_eq!(merged.targets.len(), s.truth.len());
+    assert!(merged.missing_control.is_empty());
+    for (c, m) in s.truth.iter().zip(&merged.targets) {
+        assert_eq!(m.id, c.id);
+        let [a, b] = [0, 1].map(|k| {
+            reports[k]
+                .targets
+                .iter()
+                .find(|t| t.id == c.id)
+                .unwrap()
+                .centre
+                .clone()
+        });
+        let (na, nb) = (a.n_points as f64, b.n_points as f64);
+        assert_eq!(m.centre.n_points, a.n_points + b.n_points);
+        assert!((m.centre.x - (a.x * na + b.x * nb) / (na + nb)).abs() < 1e-9);
+        assert!((m.centre.z - (a.z * na + b.z * nb) / (na + nb)).abs() < 1e-9);
+        let sigma = (a.sigma_horizontal_m.powi(-2) + b.sigma_horizontal_m.powi(-2)).powf(-0.5);
+        assert!((m.centre.sigma_horizontal_m - sigma).abs() < 1e-12);
+        assert!(m.centre.sigma_horizontal_m < a.sigma_horizontal_m.min(b.sigma_horizontal_m));
+        assert_eq!(m.centre.coverage_deg, a.coverage_deg.max(b.coverage_deg));
+        // Each half alone fits the disc to a few cm; so does their mean.
+        assert!((m.centre.x - c.x).hypot(m.centre.y - c.y) < 0.05);
+    }
+    // A control point neither file saw is listed, never dropped.
+    let mut control = s.truth.clone();
+    control.push(ControlPoint::new("far", E0 + 1e4, N0, 100.0));
+    let merged = merge_reports(&reports, &control).unwrap();
+    assert_eq!(merged.missing_control, vec!["far".to_string()]);
 }

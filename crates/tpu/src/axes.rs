@@ -1,55 +1,12 @@
-//! Per-axis values in the local level frame at the point: north, east, up, and the derived
-//! horizontal = √(north² + east²), vertical = |up|, three_d = √(horizontal² + vertical²) (SPEC §3).
+//! Per-axis values in the local level frame at the point ([`Axes`], defined in lidarqa-model) and
+//! signed displacements along and across track ([`Displacement`]).
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 use serde::Serialize;
 
-/// Magnitudes (σ or |displacement|) per axis, metres.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
-pub struct Axes {
-    /// North, m.
-    pub north: f64,
-    /// East, m.
-    pub east: f64,
-    /// Up, m.
-    pub up: f64,
-    /// √(north² + east²), m. Seed 004's σxy.
-    pub horizontal: f64,
-    /// |up|, m. Seed 004's σz.
-    pub vertical: f64,
-    /// √(horizontal² + vertical²), m. Seed 004's σxyz.
-    pub three_d: f64,
-}
-
-impl Axes {
-    /// From the absolute per-axis magnitudes (north, east, up), metres.
-    pub fn from_magnitudes(north: f64, east: f64, up: f64) -> Axes {
-        let (north, east, up) = (north.abs(), east.abs(), up.abs());
-        let horizontal = north.hypot(east);
-        Axes {
-            north,
-            east,
-            up,
-            horizontal,
-            vertical: up,
-            three_d: horizontal.hypot(up),
-        }
-    }
-
-    /// σ per axis from an NED covariance matrix (m²); the up variance equals the down variance.
-    pub fn from_ned_covariance(c: &Matrix3<f64>) -> Axes {
-        Axes::from_magnitudes(
-            c[(0, 0)].max(0.0).sqrt(),
-            c[(1, 1)].max(0.0).sqrt(),
-            c[(2, 2)].max(0.0).sqrt(),
-        )
-    }
-
-    /// Magnitudes of an NED vector (m), reported as north / east / up.
-    pub fn from_ned(v: &Vector3<f64>) -> Axes {
-        Axes::from_magnitudes(v.x, v.y, v.z)
-    }
-}
+/// The one six-axis struct of the workspace (σ, |displacement|, RMSE per axis), from
+/// lidarqa-model.
+pub use lidarqa_model::Axes;
 
 /// A signed displacement, metres: north / east / up, and along / across track (across positive towards
 /// the right wing).

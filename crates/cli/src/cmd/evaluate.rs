@@ -77,19 +77,21 @@ pub struct EvaluateArgs {
     format: OutputFormat,
 }
 
-/// The prediction from a TPU summary: median σ north / east / up / horizontal / vertical.
-pub fn predicted_from_tpu_summary(path: &PathBuf) -> Result<Components> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-    let v: serde_json::Value =
-        serde_json::from_str(&text).with_context(|| format!("{}: not JSON", path.display()))?;
-    let median = |axis: &str| -> Result<f64> {
-        v["sigma"][axis]["median"]
-            .as_f64()
-            .or_else(|| v["sigma"][axis]["median_m"].as_f64())
+/// The prediction from a TPU summary: median σ north / east / up / horizontal / vertical, read
+/// through the report's typed [`lidarqa_report::TpuSummary`] (one reader of that file).
+pub fn predicted_from_tpu_summary(path: &Path) -> Result<Components> {
+    let summary: lidarqa_report::TpuSummary = lidarqa_report::read_product(path)?;
+    let median = |axis: &str, stats: Option<lidarqa_report::Stats>| -> Result<f64> {
+        stats
+            .map(|s| s.median)
             .with_context(|| format!("{}: no sigma.{axis}.median", path.display()))
     };
-    let (n, e, u) = (median("north")?, median("east")?, median("up")?);
-    Ok(Components::from_axes(n, e, u))
+    let s = summary.sigma;
+    Ok(Components::from_components(
+        median("north", s.north)?,
+        median("east", s.east)?,
+        median("up", s.up)?,
+    ))
 }
 
 /// Run the evaluation (shared with `lidarqa demo`).
@@ -101,7 +103,7 @@ pub fn evaluate_files(
     let t = Targets::from_path(targets)?;
     let control_path = control;
     let c = ControlPoints::from_path(control)?;
-    let control = super::targets::control_for_targets(&c, None)?;
+    let control = lidarqa_pipeline::control_for_targets(&c, None)?;
     let measured: Vec<MeasuredPoint> = t
         .records
         .iter()
@@ -152,7 +154,7 @@ pub fn predicted_from_sensor(
     };
     let e = lidarqa_tpu::evaluate(&sensor, &geometry, None)
         .with_context(|| format!("{}: --height {height_m}", path.display()))?;
-    Ok(Components::from_axes(
+    Ok(Components::from_components(
         e.total.north,
         e.total.east,
         e.total.up,
@@ -193,7 +195,7 @@ pub fn evaluate_nva(
     options: &EvaluateOptions,
 ) -> Result<VerticalEvaluation> {
     let table = ControlPoints::from_path(checkpoints)?;
-    let cps = super::targets::control_for_targets(&table, None)?;
+    let cps = lidarqa_pipeline::control_for_targets(&table, None)?;
     let points = ground_points(ground, class)?;
     evaluate_vertical_tin(&points, &cps, options)
         .with_context(|| format!("{}: vertical checkpoints", checkpoints.display()))

@@ -1,13 +1,12 @@
 //! `lidarqa targets`: find the high-reflectivity targets near each control point, fit their
 //! centres, and write the targets CSV (SPEC §6).
 
-use crate::format::{OutputFormat, print_json, print_text};
+use crate::format::{OutputFormat, print_json, print_text, print_warnings};
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lidarqa_io::{ControlPoints, LasReader, PointChunk, Target, Targets};
-use lidarqa_targets::{
-    CentreMethod, ControlPoint, LidarPoint, TargetConfig, TargetReport, extract_targets,
-};
+use lidarqa_io::{ControlPoints, Target, Targets};
+use lidarqa_pipeline::{control_for_targets, find_targets};
+use lidarqa_targets::{CentreMethod, TargetConfig, TargetReport};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -47,55 +46,6 @@ pub struct TargetsArgs {
     /// Output format of the summary on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
     format: OutputFormat,
-}
-
-/// Control points of the io CSV in the targets crate's form (radius from `radius_m` or `--radius-m`).
-pub fn control_for_targets(
-    table: &ControlPoints,
-    default_radius_m: Option<f64>,
-) -> Result<Vec<ControlPoint>> {
-    let mut out = Vec::with_capacity(table.records.len());
-    for (i, c) in table.records.iter().enumerate() {
-        let mut p = ControlPoint::new(c.id.clone(), c.x, c.y, c.z);
-        p.sigma_h_m = c.sigma_h_m;
-        p.sigma_v_m = c.sigma_v_m;
-        p.radius_m = table.extra_f64(i, "radius_m")?.or(default_radius_m);
-        out.push(p);
-    }
-    Ok(out)
-}
-
-/// Read the points of `inputs` that fall within `window_m` of any control point.
-pub fn points_near(
-    inputs: &[PathBuf],
-    control: &[ControlPoint],
-    window_m: f64,
-) -> Result<Vec<LidarPoint>> {
-    let mut kept = Vec::new();
-    let mut chunk = PointChunk::new();
-    for path in inputs {
-        let mut reader = LasReader::from_path(path)?;
-        loop {
-            let n = reader.fill(&mut chunk, 1 << 20)?;
-            if n == 0 {
-                break;
-            }
-            for p in &chunk.points {
-                if control
-                    .iter()
-                    .any(|c| (p.x - c.x).abs() <= window_m && (p.y - c.y).abs() <= window_m)
-                {
-                    kept.push(LidarPoint {
-                        x: p.x,
-                        y: p.y,
-                        z: p.z,
-                        intensity: f64::from(p.intensity),
-                    });
-                }
-            }
-        }
-    }
-    Ok(kept)
 }
 
 /// The targets as the io CSV table (`id,x,y,z` plus quality columns).
@@ -153,104 +103,6 @@ pub fn targets_table(path: &Path, report: &TargetReport) -> Targets {
     }
 }
 
-/// Run target extraction and return the report (shared with `lidarqa demo`).
-///
-/// Each input is searched on its own and the per-file centres of a target are then averaged
-/// (weighted by their point counts): intensity falls with range, so strips flown at different
-/// heights cannot share one fuzzy c-means split of bright and dark.
-pub fn find_targets(
-    inputs: &[PathBuf],
-    control: &[ControlPoint],
-    method: CentreMethod,
-    window_m: f64,
-) -> Result<TargetReport> {
-    let mut config = TargetConfig::default();
-    config.centre.method = method;
-    let mut reports = Vec::new();
-    let mut unresolved = Vec::new();
-    for path in inputs {
-        let points = points_near(std::slice::from_ref(path), control, window_m)?;
-        if points.is_empty() {
-            continue;
-        }
-        match extract_targets(&points, control, &config) {
-            Ok(r) => reports.push(r),
-            // A strip that sees none of the targets well enough is not an error of the survey.
-            Err(lidarqa_targets::Error::NoPoints) => {}
-            // Nor is one too sparse to resolve them (a high strip of a two-height flight), as
-            // long as another strip does: said on stderr, the error if none does.
-            Err(e @ lidarqa_targets::Error::NoHighIntensityPoints { .. }) if inputs.len() > 1 => {
-                unresolved.push(anyhow::Error::new(e).context(format!("{}", path.display())));
-            }
-            Err(e) => return Err(anyhow::Error::new(e).context(format!("{}", path.display()))),
-        }
-    }
-    if reports.is_empty() && !unresolved.is_empty() {
-        return Err(unresolved.swap_remove(0));
-    }
-    for e in &unresolved {
-        eprintln!("lidarqa: targets: skipped {e:#}");
-    }
-    if reports.is_empty() {
-        bail!(
-            "no points within {window_m} m of any control point: are the control coordinates in the same CRS as the point clouds?"
-        );
-    }
-    Ok(merge_reports(reports, control))
-}
-
-/// One target per control id: the point-count-weighted mean of the per-file centres.
-fn merge_reports(reports: Vec<TargetReport>, control: &[ControlPoint]) -> TargetReport {
-    let mut merged = reports[0].clone();
-    merged.targets.clear();
-    merged.unmatched_clusters = reports
-        .iter()
-        .flat_map(|r| r.unmatched_clusters.iter().cloned())
-        .collect();
-    merged.small_clusters = reports.iter().map(|r| r.small_clusters).sum();
-    merged.small_cluster_points = reports.iter().map(|r| r.small_cluster_points).sum();
-    for c in control {
-        let found: Vec<&lidarqa_targets::TargetResult> = reports
-            .iter()
-            .flat_map(|r| r.targets.iter())
-            .filter(|t| t.id == c.id)
-            .collect();
-        let Some(first) = found.first() else {
-            continue;
-        };
-        let w: f64 = found.iter().map(|t| t.centre.n_points as f64).sum();
-        let mean = |f: fn(&lidarqa_targets::TargetResult) -> f64| {
-            found
-                .iter()
-                .map(|t| f(t) * t.centre.n_points as f64)
-                .sum::<f64>()
-                / w
-        };
-        let mut t = (*first).clone();
-        t.centre.x = mean(|t| t.centre.x);
-        t.centre.y = mean(|t| t.centre.y);
-        t.centre.z = mean(|t| t.centre.z);
-        t.centre.n_points = found.iter().map(|t| t.centre.n_points).sum();
-        t.centre.n_edge_points = found.iter().map(|t| t.centre.n_edge_points).sum();
-        t.centre.coverage_deg = found
-            .iter()
-            .map(|t| t.centre.coverage_deg)
-            .fold(0.0, f64::max);
-        let info: f64 = found
-            .iter()
-            .map(|t| 1.0 / t.centre.sigma_horizontal_m.max(1e-6).powi(2))
-            .sum();
-        t.centre.sigma_horizontal_m = 1.0 / info.sqrt();
-        merged.targets.push(t);
-    }
-    merged.missing_control = control
-        .iter()
-        .filter(|c| !merged.targets.iter().any(|t| t.id == c.id))
-        .map(|c| c.id.clone())
-        .collect();
-    merged
-}
-
 /// Run `lidarqa targets`.
 pub fn run(args: TargetsArgs) -> Result<()> {
     let method: CentreMethod = args
@@ -268,13 +120,20 @@ pub fn run(args: TargetsArgs) -> Result<()> {
     lidarqa_io::check_distinct_inputs(&args.inputs)?;
     let table = ControlPoints::from_path(&args.control)?;
     let control = control_for_targets(&table, args.radius_m)?;
-    let report = find_targets(&args.inputs, &control, method, args.window_m)
+    let mut config = TargetConfig::default();
+    config.centre.method = method;
+    let (report, warnings) = find_targets(&args.inputs, &control, &config, args.window_m)
         .with_context(|| format!("targets in {}", args.inputs[0].display()))?;
+    print_warnings(&warnings);
     let mut inputs: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
     inputs.push(&args.control);
     targets_table(&args.output, &report).write_path(&args.output, &inputs)?;
     match args.format {
-        OutputFormat::Json => print_json(&report),
+        OutputFormat::Json => {
+            let mut value = serde_json::to_value(&report)?;
+            value["warnings"] = serde_json::to_value(&warnings)?;
+            print_json(&value)
+        }
         OutputFormat::Table => print_text(&summary(&report, &args.output)),
     }
 }

@@ -24,6 +24,7 @@ __all__ = [
     "tpu_tile",
     "correct_tile",
     "extract_targets_tile",
+    "find_targets",
     "run_manifest_entry",
     "manifest_len",
     "collect",
@@ -52,6 +53,13 @@ def extract_targets_tile(input, output, control, radius_m=None, method="circle-f
     """Targets near the control points in one tile; writes and returns the tile's report."""
     return _json.loads(_lidarqa.extract_targets_tile(str(input), str(output), str(control),
                                                      radius_m, method, window_m))
+
+
+def find_targets(inputs, control, radius_m=None, method="circle-fit", window_m=6.0):
+    """Targets in several files, each searched on its own and the centres merged per control id
+    (as ``lidarqa targets``); returns ``{"report": ..., "warnings": [...]}``, writes nothing."""
+    return _json.loads(_lidarqa.find_targets([str(p) for p in inputs], str(control), radius_m,
+                                             method, window_m))
 
 
 def run_manifest_entry(manifest, index, force=False):
