@@ -47,6 +47,7 @@ mod scenario;
 mod scene;
 mod simulate;
 mod trajectory;
+mod vegetation;
 
 pub use error::{Error, Result};
 pub use output::{
@@ -64,3 +65,4 @@ pub use scene::{
     Curve, Hit, Markings, Paved, Scene, Target, Water, Wave,
 };
 pub use simulate::{SimOptions, simulate, simulate_with_progress};
+pub use vegetation::{CLASS_HIGH_VEGETATION, REFLECTIVITY_CANOPY, Vegetation, VegetationFile};
