@@ -62,6 +62,7 @@ mod stored;
 mod summary;
 mod targets_tile;
 mod tile;
+pub mod trajectory_from_returns;
 
 pub use context::{TpuContext, TpuOptions};
 pub use correct_tile::{CorrectTileJob, CorrectTileReport, correct_tile};
