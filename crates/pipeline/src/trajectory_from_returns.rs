@@ -18,7 +18,8 @@
 //! 3. **Attitude.** A linear scanner's beams lie in a plane whose normal is the body's x axis:
 //!    the smallest eigenvector of `Σ uᵢ uᵢᵀ` over the unit vectors from `S(tᵢ)` to every return
 //!    of the block gives the heading (a grid azimuth: the points are projected) and the pitch,
-//!    whatever the crab angle. Their σ is the spread of the same fit over eight sub-blocks.
+//!    whatever the crab angle. Their σ is the standard error of the same fit over eight
+//!    sub-blocks.
 //!    **Roll is not determined**: rolling turns every beam within that plane about the scanner,
 //!    which moves no line off the scanner and no beam out of the plane. It is carried as 0 with
 //!    the σ [`ROLL_SIGMA_RAD`].
@@ -30,9 +31,13 @@
 //! scanner and navigation centre is not known here. Written by hand: a 6 × 6 solve, a 3 × 3
 //! eigenproblem (nalgebra) and a local polynomial; no crate does the line geometry.
 
+use crate::error::{Error, Result};
+use lidarqa_io::{LasReader, LasTimeBase, PointChunk, TextPose, TextSigma};
 use lidarqa_model::Warning;
 use nalgebra::{Matrix3, Matrix6, SymmetricEigen, Vector3, Vector6};
+use serde::Serialize;
 use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
 
 /// σ carried for the undetermined roll, rad (3°: the roll excursions of a survey aircraft on a
 /// straight line are a few degrees; the data say nothing better).
@@ -83,7 +88,7 @@ impl Default for ReconstructOptions {
 }
 
 /// What the pulse checks found (counts of pulses, i.e. of distinct (strip, GPS time)).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 pub struct PulseChecks {
     /// Returns read.
     pub returns: u64,
@@ -185,7 +190,7 @@ struct Line {
 pub fn reconstruct(
     points: &[ReturnPoint],
     options: &ReconstructOptions,
-) -> Result<Reconstruction, ReconstructError> {
+) -> std::result::Result<Reconstruction, ReconstructError> {
     if !(options.block_s > 0.0 && options.smoothing_window_s >= 0.0 && options.min_lines >= 8) {
         return Err(ReconstructError::Option(format!(
             "block {} s must be > 0, smoothing window {} s >= 0 and min lines {} >= 8",
@@ -207,7 +212,11 @@ pub fn reconstruct(
             .filter(|p| p.strip == *strip)
             .collect();
         let blocks = fit_blocks(lines, &strip_points, options, &mut checks);
-        epochs.extend(smooth(&blocks, *strip, options.smoothing_window_s));
+        let span = [
+            strip_points.first().map_or(0.0, |p| p.time_s),
+            strip_points.last().map_or(0.0, |p| p.time_s),
+        ];
+        epochs.extend(smooth(&blocks, *strip, options.smoothing_window_s, span));
     }
     if epochs.is_empty() {
         return Err(ReconstructError::TooFewPulses {
@@ -223,6 +232,137 @@ pub fn reconstruct(
         epochs,
         warnings: check_warnings(&checks),
         checks,
+    })
+}
+
+/// What [`rebuild_trajectory`] did, for people and JSON.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TrajectoryReport {
+    /// The trajectory written.
+    pub output: PathBuf,
+    /// The point files read.
+    pub inputs: Vec<PathBuf>,
+    /// Epochs written.
+    pub epochs: usize,
+    /// First and last epoch time (the points' time base), s.
+    pub time_span_s: [f64; 2],
+    /// Pulse counts.
+    pub checks: PulseChecks,
+    /// Median σ of x, y, z over the epochs, m.
+    pub median_sigma_position_m: [f64; 3],
+    /// Median σ of pitch and azimuth over the epochs, degrees.
+    pub median_sigma_pitch_azimuth_deg: [f64; 2],
+    /// The σ carried for the undetermined roll, degrees.
+    pub roll_sigma_deg: f64,
+    /// Doubtful findings.
+    pub warnings: Vec<Warning>,
+}
+
+/// Reads the returns of LAS/LAZ strips: the strip is the point source id, so a strip cut
+/// into several files stays one strip.
+///
+/// # Errors
+/// The reader's errors naming the file; [`Error::NoGpsTime`] for a point format without time;
+/// [`Error::Implausible`] when the files mix GPS week time and adjusted standard time.
+pub fn read_returns(paths: &[PathBuf]) -> Result<Vec<ReturnPoint>> {
+    let mut out = Vec::new();
+    let mut base: Option<(LasTimeBase, &Path)> = None;
+    for path in paths {
+        let mut r = LasReader::from_path(path)?;
+        let info = r.info().clone();
+        if !info.has_gps_time {
+            return Err(Error::NoGpsTime {
+                path: path.clone(),
+                format: info.point_format,
+            });
+        }
+        match base {
+            None => base = Some((info.time_base, path)),
+            Some((b, first)) if b != info.time_base => {
+                return Err(Error::Implausible {
+                    path: path.clone(),
+                    message: format!(
+                        "GPS time base {:?} differs from {:?} of {}: pulses cannot be matched \
+                         across the files",
+                        info.time_base,
+                        b,
+                        first.display()
+                    ),
+                });
+            }
+            Some(_) => {}
+        }
+        let mut chunk = PointChunk::new();
+        while r.fill(&mut chunk, 1 << 16)? > 0 {
+            out.extend(chunk.points.iter().map(|p| ReturnPoint {
+                time_s: p.gps_time_s.unwrap_or(f64::NAN),
+                position_m: [p.x, p.y, p.z],
+                return_number: p.return_number,
+                number_of_returns: p.number_of_returns,
+                strip: u32::from(p.point_source_id),
+            }));
+        }
+    }
+    Ok(out)
+}
+
+/// The epochs as text-trajectory poses (projected position, grid azimuth, σ).
+pub fn epochs_to_poses(epochs: &[Epoch]) -> Vec<TextPose> {
+    epochs
+        .iter()
+        .map(|e| TextPose {
+            time_s: e.time_s,
+            position: e.position_m,
+            roll_rad: 0.0,
+            pitch_rad: e.pitch_rad,
+            heading_rad: e.azimuth_rad,
+            sigma: Some(TextSigma {
+                north_m: e.sigma_position_m[1],
+                east_m: e.sigma_position_m[0],
+                up_m: e.sigma_position_m[2],
+                roll_rad: e.sigma_attitude_rad[0],
+                pitch_rad: e.sigma_attitude_rad[1],
+                heading_rad: e.sigma_attitude_rad[2],
+            }),
+        })
+        .collect()
+}
+
+/// `lidarqa trajectory`: read the strips, rebuild the trajectory, write it as the text
+/// trajectory `lidarqa tpu` reads (with the reconstruction σ columns).
+///
+/// # Errors
+/// As [`read_returns`]; [`Error::Implausible`] naming the first input when no trajectory can
+/// be built (with the pulse counts); the writer's errors naming the output.
+pub fn rebuild_trajectory(
+    inputs: &[PathBuf],
+    output: &Path,
+    options: &ReconstructOptions,
+) -> Result<TrajectoryReport> {
+    lidarqa_io::check_distinct_inputs(inputs)?;
+    lidarqa_io::check_not_an_input(output, inputs)?;
+    let points = read_returns(inputs)?;
+    let r = reconstruct(&points, options).map_err(|e| Error::Implausible {
+        path: inputs.first().cloned().unwrap_or_default(),
+        message: e.to_string(),
+    })?;
+    lidarqa_io::write_reconstructed_trajectory(output, &epochs_to_poses(&r.epochs), inputs)?;
+    let median = |f: &dyn Fn(&Epoch) -> f64| {
+        let mut v: Vec<f64> = r.epochs.iter().map(f).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    Ok(TrajectoryReport {
+        output: output.to_path_buf(),
+        inputs: inputs.to_vec(),
+        epochs: r.epochs.len(),
+        time_span_s: [r.epochs[0].time_s, r.epochs[r.epochs.len() - 1].time_s],
+        checks: r.checks,
+        median_sigma_position_m: [0, 1, 2].map(|k| median(&|e| e.sigma_position_m[k])),
+        median_sigma_pitch_azimuth_deg: [1, 2]
+            .map(|k| median(&|e| e.sigma_attitude_rad[k]).to_degrees()),
+        roll_sigma_deg: ROLL_SIGMA_RAD.to_degrees(),
+        warnings: r.warnings,
     })
 }
 
@@ -544,9 +684,11 @@ fn scan_plane(
     if dp.len() < 2 {
         return None;
     }
+    // σ of the block's value: the standard error of the sub-block values' mean.
     let spread = |d: &[f64]| {
         let m = d.iter().sum::<f64>() / d.len() as f64;
-        (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (d.len() - 1) as f64).sqrt()
+        let var = d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (d.len() - 1) as f64;
+        (var / d.len() as f64).sqrt()
     };
     Some((pitch, az, spread(&dp), spread(&da)))
 }
@@ -594,8 +736,14 @@ fn local_poly(samples: &[(f64, f64, f64)], t0: f64) -> Option<(f64, f64, f64)> {
     Some((coef[0], (inv[(0, 0)] * factor).sqrt(), slope))
 }
 
-fn smooth(blocks: &[Block], strip: u32, window_s: f64) -> Vec<Epoch> {
-    let mut out = Vec::with_capacity(blocks.len());
+/// Epochs at the block centres and at the strip's first and last return (so that every point
+/// of the strip lies within the trajectory), each from a local fit over the blocks within
+/// `window_s` (the two nearest when none is).
+fn smooth(blocks: &[Block], strip: u32, window_s: f64, span_s: [f64; 2]) -> Vec<Epoch> {
+    let mut out = Vec::with_capacity(blocks.len() + 2);
+    let (Some(first), Some(last)) = (blocks.first(), blocks.last()) else {
+        return out;
+    };
     // Unwrapped azimuths, so that the fit never straddles ±π.
     let mut az = Vec::with_capacity(blocks.len());
     for b in blocks {
@@ -605,10 +753,37 @@ fn smooth(blocks: &[Block], strip: u32, window_s: f64) -> Vec<Epoch> {
         };
         az.push(a);
     }
-    for (i, b) in blocks.iter().enumerate() {
-        let near: Vec<usize> = (0..blocks.len())
-            .filter(|&j| (blocks[j].time_s - b.time_s).abs() <= window_s)
+    let mut times: Vec<f64> = Vec::with_capacity(blocks.len() + 2);
+    if span_s[0] < first.time_s {
+        times.push(span_s[0]);
+    }
+    times.extend(blocks.iter().map(|b| b.time_s));
+    if span_s[1] > last.time_s {
+        times.push(span_s[1]);
+    }
+    for t in times {
+        let mut near: Vec<usize> = (0..blocks.len())
+            .filter(|&j| (blocks[j].time_s - t).abs() <= window_s)
             .collect();
+        if near.len() < 2 {
+            let mut by: Vec<usize> = (0..blocks.len()).collect();
+            by.sort_by(|&a, &b| {
+                (blocks[a].time_s - t)
+                    .abs()
+                    .total_cmp(&(blocks[b].time_s - t).abs())
+            });
+            near = by.into_iter().take(2).collect();
+        }
+        let nearest = near
+            .iter()
+            .copied()
+            .min_by(|&a, &b| {
+                (blocks[a].time_s - t)
+                    .abs()
+                    .total_cmp(&(blocks[b].time_s - t).abs())
+            })
+            .unwrap_or(0);
+        let b = &blocks[nearest];
         let fit = |value: &dyn Fn(usize) -> (f64, f64)| {
             let s: Vec<(f64, f64, f64)> = near
                 .iter()
@@ -617,15 +792,20 @@ fn smooth(blocks: &[Block], strip: u32, window_s: f64) -> Vec<Epoch> {
                     (blocks[j].time_s, y, sd)
                 })
                 .collect();
-            local_poly(&s, b.time_s)
+            local_poly(&s, t)
         };
         let mut pos = [0.0; 3];
         let mut sig = [0.0; 3];
         let mut vel = [b.velocity.x, b.velocity.y, b.velocity.z];
         for k in 0..3 {
             let (y, s, slope) =
-                fit(&|j| (blocks[j].position[k], blocks[j].cov_position[(k, k)].sqrt()))
-                    .unwrap_or((b.position[k], b.cov_position[(k, k)].sqrt(), f64::NAN));
+                fit(&|j| (blocks[j].position[k], blocks[j].cov_position[(k, k)].sqrt())).unwrap_or(
+                    (
+                        b.position[k] + vel[k] * (t - b.time_s),
+                        b.cov_position[(k, k)].sqrt(),
+                        f64::NAN,
+                    ),
+                );
             pos[k] = y;
             sig[k] = s;
             if slope.is_finite() {
@@ -635,12 +815,12 @@ fn smooth(blocks: &[Block], strip: u32, window_s: f64) -> Vec<Epoch> {
         let (pitch, sp, _) = fit(&|j| (blocks[j].pitch_rad, blocks[j].sigma_pitch_rad.max(1e-7)))
             .unwrap_or((b.pitch_rad, b.sigma_pitch_rad, 0.0));
         let (a, sa, _) = fit(&|j| (az[j], blocks[j].sigma_azimuth_rad.max(1e-7))).unwrap_or((
-            az[i],
+            az[nearest],
             b.sigma_azimuth_rad,
             0.0,
         ));
         out.push(Epoch {
-            time_s: b.time_s,
+            time_s: t,
             strip,
             position_m: pos,
             velocity_m_per_s: vel,
@@ -717,7 +897,9 @@ mod tests {
         let pitch = 2f64.to_radians();
         let (pts, sensor) = flight(pitch, 0.0);
         let r = reconstruct(&pts, &ReconstructOptions::default()).unwrap();
-        assert_eq!(r.epochs.len(), 4);
+        // Four blocks and the two ends.
+        assert_eq!(r.epochs.len(), 6);
+        assert_eq!(r.epochs[0].time_s, 0.0);
         for e in &r.epochs {
             let s = sensor(e.time_s);
             for k in 0..3 {
