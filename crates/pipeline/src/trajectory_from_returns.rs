@@ -212,9 +212,10 @@ pub fn reconstruct(
             .filter(|p| p.strip == *strip)
             .collect();
         let blocks = fit_blocks(lines, &strip_points, options, &mut checks);
+        // 1 ms beyond the first and last return: the file's times are written to 1 µs.
         let span = [
-            strip_points.first().map_or(0.0, |p| p.time_s),
-            strip_points.last().map_or(0.0, |p| p.time_s),
+            strip_points.first().map_or(0.0, |p| p.time_s) - 1e-3,
+            strip_points.last().map_or(0.0, |p| p.time_s) + 1e-3,
         ];
         epochs.extend(smooth(&blocks, *strip, options.smoothing_window_s, span));
     }
@@ -510,6 +511,8 @@ struct Block {
     position: Vector3<f64>,
     velocity: Vector3<f64>,
     cov_position: Matrix3<f64>,
+    /// Covariance of [S₀, V].
+    cov: Matrix6<f64>,
     pitch_rad: f64,
     azimuth_rad: f64,
     sigma_pitch_rad: f64,
@@ -557,6 +560,7 @@ fn fit_blocks(
             position: s0,
             velocity: v,
             cov_position: cov.fixed_view::<3, 3>(0, 0).into_owned(),
+            cov,
             pitch_rad: att.0,
             azimuth_rad: att.1,
             sigma_pitch_rad: att.2,
@@ -797,6 +801,32 @@ fn smooth(blocks: &[Block], strip: u32, window_s: f64, span_s: [f64; 2]) -> Vec<
         let mut pos = [0.0; 3];
         let mut sig = [0.0; 3];
         let mut vel = [b.velocity.x, b.velocity.y, b.velocity.z];
+        if blocks.len() == 1 {
+            // One block: its own straight motion, S₀ + V τ, with σ from [S₀, V]'s covariance.
+            let tau = t - b.time_s;
+            let mut j = nalgebra::Matrix3x6::<f64>::zeros();
+            for k in 0..3 {
+                j[(k, k)] = 1.0;
+                j[(k, k + 3)] = tau;
+            }
+            let c = j * b.cov * j.transpose();
+            for k in 0..3 {
+                pos[k] = b.position[k] + tau * vel[k];
+                sig[k] = c[(k, k)].sqrt();
+            }
+            out.push(Epoch {
+                time_s: t,
+                strip,
+                position_m: pos,
+                velocity_m_per_s: vel,
+                pitch_rad: b.pitch_rad,
+                azimuth_rad: b.azimuth_rad,
+                sigma_position_m: sig,
+                sigma_attitude_rad: [ROLL_SIGMA_RAD, b.sigma_pitch_rad, b.sigma_azimuth_rad],
+                lines: b.lines,
+            });
+            continue;
+        }
         for k in 0..3 {
             let (y, s, slope) =
                 fit(&|j| (blocks[j].position[k], blocks[j].cov_position[(k, k)].sqrt())).unwrap_or(
@@ -899,7 +929,7 @@ mod tests {
         let r = reconstruct(&pts, &ReconstructOptions::default()).unwrap();
         // Four blocks and the two ends.
         assert_eq!(r.epochs.len(), 6);
-        assert_eq!(r.epochs[0].time_s, 0.0);
+        assert_eq!(r.epochs[0].time_s, -1e-3);
         for e in &r.epochs {
             let s = sensor(e.time_s);
             for k in 0..3 {
