@@ -571,9 +571,11 @@ fn fit_blocks(
     out
 }
 
-/// IRLS fit of `S₀`, `V` to a block's lines: (centre time, [S₀, V], covariance, final robust
-/// weights).
-fn fit_block(block: &[Line]) -> Option<(f64, Vector6<f64>, Matrix6<f64>, Vec<f64>)> {
+/// A block fit: centre time, [S₀, V], their covariance, the final robust weights.
+type BlockFit = (f64, Vector6<f64>, Matrix6<f64>, Vec<f64>);
+
+/// IRLS fit of `S₀`, `V` to a block's lines.
+fn fit_block(block: &[Line]) -> Option<BlockFit> {
     let n = block.len() as f64;
     let tc = block.iter().map(|l| l.time_s).sum::<f64>() / n;
     let mut robust = vec![1.0; block.len()];
@@ -931,9 +933,8 @@ mod tests {
         assert_eq!(r.epochs.len(), 6);
         assert_eq!(r.epochs[0].time_s, -1e-3);
         for e in &r.epochs {
-            let s = sensor(e.time_s);
-            for k in 0..3 {
-                assert!((e.position_m[k] - s[k]).abs() < 1e-3, "{e:?}");
+            for (p, s) in e.position_m.iter().zip(sensor(e.time_s)) {
+                assert!((p - s).abs() < 1e-3, "{e:?}");
             }
             assert!((e.velocity_m_per_s[0] - 60.0).abs() < 1e-2, "{e:?}");
             assert!((e.pitch_rad - pitch).abs() < 1e-6, "{e:?}");
@@ -978,10 +979,10 @@ mod tests {
         assert!(codes.contains(&"pulse_split_across_strips"), "{codes:?}");
         for e in r.epochs.iter().filter(|e| e.strip == 1) {
             let s = sensor(e.time_s);
-            for k in 0..3 {
-                let err = e.position_m[k] - s[k];
+            for (k, (p, sigma)) in e.position_m.iter().zip(e.sigma_position_m).enumerate() {
+                let err = p - s[k];
                 assert!(err.abs() < 0.2, "{k}: {err} {e:?}");
-                assert!(err.abs() < 5.0 * e.sigma_position_m[k], "{k}: {err} {e:?}");
+                assert!(err.abs() < 5.0 * sigma, "{k}: {err} {e:?}");
             }
         }
     }
