@@ -211,3 +211,30 @@ fn forest_strip_trajectory_matches_the_truth_and_its_tpu() {
     assert!(n_small > 10_000, "{n_small} points with a small rebuilt σ");
     assert!(worst <= 0.10, "TPU ratio off by {worst}");
 }
+
+/// The independent witness: `tests/trajectory_generator.py` writes multi-return pulses with
+/// numpy + laspy from the description (not with lidarqa's simulator), runs
+/// `lidarqa trajectory` and checks it against the flight it made (when `LIDARQA_PYTHON` names an
+/// interpreter with laspy, lazrs, numpy and pyproj).
+#[test]
+fn independent_generator_flight_is_recovered() {
+    let Some(python) = std::env::var_os("LIDARQA_PYTHON") else {
+        eprintln!("LIDARQA_PYTHON not set: the independent generator is skipped");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/trajectory_generator.py");
+    let o = std::process::Command::new(python)
+        .arg(script)
+        .arg(env!("CARGO_BIN_EXE_lidarqa"))
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(stdout.contains(" passed, 0 failed"), "{stdout}");
+}
