@@ -73,3 +73,57 @@ fn titan_sample_as_shipped() {
         String::from_utf8_lossy(&o.stderr)
     );
 }
+
+/// `lidarqa trajectory` on the sample's ~500 multi-return pulses (one scan cycle, 36 ms): the
+/// scanner position at the middle of the cycle against the shipped `filters.sritrajectory`
+/// output at that time, per axis within 2 σ of what lidarqa reports.
+#[test]
+fn titan_trajectory_from_returns_matches_sritrajectory() {
+    let Some(data) = std::env::var_os("LIDARQA_TITAN_DIR").map(PathBuf::from) else {
+        eprintln!("LIDARQA_TITAN_DIR not set: skipped");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("trajectory.csv");
+    let o = lidarqa(&[
+        "trajectory",
+        s(&data.join("112-one-scan-cycle.laz")),
+        "-o",
+        s(&out),
+        "--format",
+        "json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["checks"]["multi_return_pulses"], 504);
+    assert_eq!(v["checks"]["ambiguous_times"], 0);
+    let table = |path: &Path, skip_quotes: bool| -> Vec<Vec<f64>> {
+        std::fs::read_to_string(path)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| {
+                l.split(',')
+                    .map(|c| {
+                        let c = if skip_quotes { c.trim_matches('"') } else { c };
+                        c.parse().unwrap()
+                    })
+                    .collect()
+            })
+            .collect()
+    };
+    let ours = table(&out, false);
+    let sri = table(&data.join("112-trajectory.txt"), true);
+    // The middle epoch: the block's centre, where one cycle determines the position best.
+    let mid = &ours[ours.len() / 2];
+    let t = mid[0];
+    let i = sri.partition_point(|r| r[0] <= t);
+    let (a, b) = (&sri[i - 1], &sri[i]);
+    let w = (t - a[0]) / (b[0] - a[0]);
+    for k in 0..3 {
+        let theirs = a[k + 1] + w * (b[k + 1] - a[k + 1]);
+        let (d, sigma) = (mid[k + 1] - theirs, mid[k + 7]);
+        eprintln!("axis {k}: lidarqa - sritrajectory {d:+.3} m, sigma {sigma:.3} m");
+        assert!(d.abs() <= 2.0 * sigma, "axis {k}: {d} m vs sigma {sigma} m");
+    }
+}

@@ -56,5 +56,5 @@ pub use sbet::{
 };
 pub use trajtext::{
     HeadingReference, TextPose, TextSigma, TextTrajectory, TrajectoryFile, TrajectoryFormat,
-    TrajectoryPosition, parse_text_trajectory, read_trajectory,
+    TrajectoryPosition, parse_text_trajectory, read_trajectory, write_reconstructed_trajectory,
 };

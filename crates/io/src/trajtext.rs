@@ -19,7 +19,12 @@
 //!   in the points' CRS (`x`/`easting`, `y`/`northing`, `z`/`height`); attitude in degrees
 //!   (`roll`, `pitch`, and `heading` | `yaw` | `azimuth`). `heading` and `yaw` are true headings;
 //!   `azimuth` with a projected position is a grid azimuth (PDAL's meaning), with a geodetic one a
-//!   true heading. A missing roll is 0 with a warning (its σ still propagates).
+//!   true heading. A missing roll is 0 with a warning (its σ still propagates). Six optional
+//!   columns `reconstruction_sigma_x_m`, `_y_m`, `_z_m`, `reconstruction_sigma_roll_deg`,
+//!   `_pitch_deg`, `_azimuth_deg` (all or none) hold the σ of a trajectory rebuilt from the
+//!   points (`lidarqa trajectory`, [`write_reconstructed_trajectory`]): they are **added** in
+//!   quadrature to the sensor file's GNSS and attitude σ ([`TextTrajectory::sigma_added`]),
+//!   where a PosPac export's σ replace them.
 //!
 //! Times are GPS seconds of week; a time above one week is taken as adjusted standard GPS time
 //! (as cBLUE does) and put on seconds of week. Every bad row is an error naming the file and line.
@@ -123,6 +128,9 @@ pub struct TextTrajectory {
     pub poses: Vec<TextPose>,
     /// Doubtful findings (a missing roll column).
     pub warnings: Vec<Warning>,
+    /// The poses' σ are those of a reconstruction, to be added to the sensor's GNSS and
+    /// attitude σ (not an SMRMSG-like σ that replaces them).
+    pub sigma_added: bool,
 }
 
 /// A trajectory file of any supported layout.
@@ -294,6 +302,22 @@ pub fn parse_text_trajectory(path: &Path, text: &str) -> Result<TextTrajectory> 
                 }
             };
             let roll = find(&["roll"]);
+            let sigma_names = [
+                "reconstruction_sigma_y_m",
+                "reconstruction_sigma_x_m",
+                "reconstruction_sigma_z_m",
+                "reconstruction_sigma_roll_deg",
+                "reconstruction_sigma_pitch_deg",
+                "reconstruction_sigma_azimuth_deg",
+            ];
+            let found: Vec<Option<usize>> = sigma_names.iter().map(|n| find(&[*n])).collect();
+            let sigma = match found.iter().position(Option::is_none) {
+                None => Some([0, 1, 2, 3, 4, 5].map(|k| found[k].unwrap_or_default())),
+                Some(k) if found.iter().any(Option::is_some) => {
+                    return Err(missing(sigma_names[k]));
+                }
+                Some(_) => None,
+            };
             if roll.is_none() {
                 warnings.push(Warning::new(
                     "trajectory_without_roll",
@@ -322,7 +346,7 @@ pub fn parse_text_trajectory(path: &Path, text: &str) -> Result<TextTrajectory> 
                     roll,
                     pitch,
                     heading,
-                    sigma: None,
+                    sigma,
                 },
                 names,
                 Some(first_no),
@@ -435,12 +459,65 @@ pub fn parse_text_trajectory(path: &Path, text: &str) -> Result<TextTrajectory> 
         });
     }
     Ok(TextTrajectory {
+        sigma_added: format == TrajectoryFormat::Csv && cols.sigma.is_some(),
         format,
         position,
         heading,
         poses,
         warnings,
     })
+}
+
+/// Header of [`write_reconstructed_trajectory`].
+const RECONSTRUCTED_HEADER: &str = "time,x,y,z,roll,pitch,azimuth,reconstruction_sigma_x_m,\
+reconstruction_sigma_y_m,reconstruction_sigma_z_m,reconstruction_sigma_roll_deg,\
+reconstruction_sigma_pitch_deg,reconstruction_sigma_azimuth_deg";
+
+/// Writes a trajectory rebuilt from the points (`lidarqa trajectory`) as CSV that
+/// [`read_trajectory`] reads back: time (s, the points' time base), x, y, z in the points' CRS,
+/// roll, pitch and grid azimuth (degrees), and the six reconstruction σ columns (x, y, z in m,
+/// `TextSigma::east_m` / `north_m` / `up_m`; angles in degrees). Replaced atomically, never one
+/// of `inputs`.
+///
+/// # Errors
+/// [`Error::Io`] (and the atomic-file checks) naming the file; [`Error::BadValue`] for a pose
+/// without σ.
+pub fn write_reconstructed_trajectory<P: AsRef<Path>>(
+    path: &Path,
+    poses: &[TextPose],
+    inputs: &[P],
+) -> Result<()> {
+    use std::io::Write as _;
+    let mut f = crate::AtomicFile::create(path, inputs)?;
+    let io = |e| Error::io(path, e);
+    writeln!(f, "{RECONSTRUCTED_HEADER}").map_err(io)?;
+    for (i, p) in poses.iter().enumerate() {
+        let s = p.sigma.ok_or_else(|| Error::BadValue {
+            path: path.to_path_buf(),
+            line: i as u64 + 2,
+            column: "reconstruction_sigma_x_m".into(),
+            message: "a reconstructed pose has no σ".into(),
+        })?;
+        writeln!(
+            f,
+            "{:.6},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6}",
+            p.time_s,
+            p.position[0],
+            p.position[1],
+            p.position[2],
+            p.roll_rad.to_degrees(),
+            p.pitch_rad.to_degrees(),
+            p.heading_rad.to_degrees(),
+            s.east_m,
+            s.north_m,
+            s.up_m,
+            s.roll_rad.to_degrees(),
+            s.pitch_rad.to_degrees(),
+            s.heading_rad.to_degrees(),
+        )
+        .map_err(io)?;
+    }
+    f.commit()
 }
 
 /// Cells of one row: comma-separated when the row has a comma, else whitespace-separated.
@@ -458,6 +535,49 @@ mod tests {
 
     fn parse(text: &str) -> Result<TextTrajectory> {
         parse_text_trajectory(Path::new("t.txt"), text)
+    }
+
+    #[test]
+    fn reconstructed_trajectory_round_trips_with_its_added_sigma() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.csv");
+        let pose = TextPose {
+            time_s: 407109.44,
+            position: [276093.5, 3289430.25, 540.125],
+            roll_rad: 0.0,
+            pitch_rad: 0.03,
+            heading_rad: -1.57,
+            sigma: Some(TextSigma {
+                north_m: 0.25,
+                east_m: 0.5,
+                up_m: 0.125,
+                roll_rad: 0.05,
+                pitch_rad: 0.001,
+                heading_rad: 0.002,
+            }),
+        };
+        let mut next = pose;
+        next.time_s += 0.5;
+        write_reconstructed_trajectory(&path, &[pose, next], &[dir.path().join("in.laz")]).unwrap();
+        let TrajectoryFile::Text(t) = read_trajectory(&path).unwrap() else {
+            panic!("not text")
+        };
+        assert!(t.sigma_added);
+        assert_eq!(t.format, TrajectoryFormat::Csv);
+        assert_eq!(t.position, TrajectoryPosition::Projected);
+        assert_eq!(t.heading, HeadingReference::Grid);
+        let (a, b) = (t.poses[0], pose);
+        assert!((a.position[2] - b.position[2]).abs() < 1e-9);
+        assert!((a.heading_rad - b.heading_rad).abs() < 1e-6);
+        let (sa, sb) = (a.sigma.unwrap(), b.sigma.unwrap());
+        assert_eq!((sa.east_m, sa.north_m, sa.up_m), (0.5, 0.25, 0.125));
+        assert!((sa.roll_rad - sb.roll_rad).abs() < 1e-6);
+        assert!((sa.heading_rad - sb.heading_rad).abs() < 1e-6);
+        // Some σ columns but not all: named.
+        let e = parse("time,x,y,z,pitch,azimuth,reconstruction_sigma_x_m\n1,2,3,4,5,6,7\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("reconstruction_sigma_y_m"), "{e}");
     }
 
     #[test]

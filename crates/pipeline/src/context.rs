@@ -190,6 +190,7 @@ impl TpuContext {
                                 roll_rad: s.roll_rad,
                                 pitch_rad: s.pitch_rad,
                                 heading_rad: s.heading_rad,
+                                added: t.sigma_added,
                             })
                         })
                         .collect();
@@ -210,6 +211,7 @@ impl TpuContext {
                         roll_rad: s.sigma_roll_rad,
                         pitch_rad: s.sigma_pitch_rad,
                         heading_rad: s.sigma_heading_rad,
+                        added: false,
                     })
                     .collect();
                 sigma_warnings.extend(check_trajectory_sigmas(&path, &r));

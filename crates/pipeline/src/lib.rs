@@ -63,6 +63,7 @@ mod summary;
 mod targets_files;
 mod targets_tile;
 mod tile;
+pub mod trajectory_from_returns;
 
 pub use context::{TpuContext, TpuOptions};
 pub use correct_tile::{CorrectTileJob, CorrectTileReport, correct_tile};

@@ -49,6 +49,7 @@ mod scene;
 mod scene_file;
 mod simulate;
 mod trajectory;
+mod vegetation;
 mod write;
 
 pub use error::{Error, Result};
@@ -67,4 +68,5 @@ pub use scene::{
     Curve, Hit, Markings, Paved, Scene, Target, Water, Wave,
 };
 pub use simulate::{SimOptions, simulate, simulate_with_progress};
+pub use vegetation::{CLASS_HIGH_VEGETATION, REFLECTIVITY_CANOPY, Vegetation, VegetationFile};
 pub use write::{survey_file_names, write_survey};

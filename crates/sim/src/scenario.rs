@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// The names of the built-in scenarios, for [`Scenario::builtin`].
-pub const BUILTIN_NAMES: [&str; 3] = ["demo", "calibration", "bathymetry"];
+pub const BUILTIN_NAMES: [&str; 4] = ["demo", "calibration", "bathymetry", "forest"];
 
 /// The commented TOML source of a built-in scenario (what `lidarqa simulate --scenario NAME
 /// --print` prints), or `None` for an unknown name.
@@ -25,6 +25,7 @@ pub fn builtin_toml(name: &str) -> Option<&'static str> {
         "demo" => Some(include_str!("builtin/demo.toml")),
         "calibration" => Some(include_str!("builtin/calibration.toml")),
         "bathymetry" => Some(include_str!("builtin/bathymetry.toml")),
+        "forest" => Some(include_str!("builtin/forest.toml")),
         _ => None,
     }
 }

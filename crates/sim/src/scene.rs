@@ -13,6 +13,7 @@
 use crate::check::{finite, non_negative, positive};
 use crate::error::{Error, Result};
 use crate::scene_file::SceneFile;
+use crate::vegetation::Vegetation;
 use std::f64::consts::PI;
 
 /// ASPRS class of terrain and paved areas (ground).
@@ -196,6 +197,8 @@ pub struct Scene {
     pub water: Option<Water>,
     /// Survey σ of control points (horizontal, vertical), m.
     pub control_sigma_m: [f64; 2],
+    /// Vegetation layer (canopy returns above the ground return).
+    pub vegetation: Option<Vegetation>,
 }
 
 /// What a ray met.
@@ -322,6 +325,11 @@ impl Scene {
             targets: Vec::new(),
             water: None,
             control_sigma_m: [sh, sv],
+            vegetation: f
+                .vegetation
+                .as_ref()
+                .map(Vegetation::from_file)
+                .transpose()?,
         };
         let inside = |key: &str, what: &str, p: [f64; 2]| -> Result<()> {
             let ok = p[0].is_finite()
@@ -670,6 +678,16 @@ impl Scene {
             best.reflectivity = frac * inner + (1.0 - frac) * outer;
         }
         Some(best)
+    }
+
+    /// The canopy return of a beam whose first surface `hit` is the ground, if the scene has
+    /// vegetation and the beam passes through a crown above it (see [`Vegetation`]).
+    pub fn canopy_hit(&self, curve: &Curve, hit: &Hit) -> Option<Hit> {
+        let v = self.vegetation.as_ref()?;
+        if hit.class != CLASS_GROUND {
+            return None;
+        }
+        v.canopy_hit(curve, hit, |x, y| self.ground_height(x, y))
     }
 
     /// The ground (terrain, pavement or basin bottom) along `curve`, ignoring everything above

@@ -38,6 +38,9 @@ pub struct SceneFile {
     /// An optional water body with a sloping bottom.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub water: Option<WaterFile>,
+    /// An optional vegetation layer (multi-return pulses); absent: no canopy.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vegetation: Option<crate::vegetation::VegetationFile>,
 }
 
 fn default_relief_wavelength() -> f64 {

@@ -506,16 +506,43 @@ impl Kernel<'_> {
                     range_m: hit.range_m + errors.range_offset_m + draw(rng, s0),
                     scan_angle_rad: theta * (1.0 + errors.scan_angle_scale) + draw(rng, s1),
                 };
-                let p = LinearScanner.parameters(&att_meas, &self.nominal, &obs);
-                let v = p_meas + c_meas * LinearScanner.footprint_ned(&p);
+                let georef = |o: &LinearObservation| {
+                    let p = LinearScanner.parameters(&att_meas, &self.nominal, o);
+                    to_point(&(p_meas + c_meas * LinearScanner.footprint_ned(&p)))
+                };
                 let cos_inc = cos_incidence(&curve.direction(hit.range_m), &hit.normal);
                 let intensity = self.intensity(hit.reflectivity, cos_inc, hit.range_m, rng);
+                // A crown above the ground return: the first of two returns of this pulse (its
+                // draws come after the ground's, so a scene without vegetation is unchanged).
+                let canopy = sc.scene().canopy_hit(&curve, &hit);
+                let n_ret = 1 + u8::from(canopy.is_some());
+                if let Some(c) = canopy {
+                    let true_c = LinearObservation {
+                        range_m: c.range_m,
+                        scan_angle_rad: theta,
+                    };
+                    let obs_c = LinearObservation {
+                        range_m: c.range_m + errors.range_offset_m + draw(rng, s0),
+                        scan_angle_rad: obs.scan_angle_rad,
+                    };
+                    let intensity = self.intensity(c.reflectivity, 1.0, c.range_m, rng);
+                    emit(
+                        georef(&obs_c),
+                        c.position,
+                        intensity,
+                        obs.scan_angle_rad.to_degrees(),
+                        (1, 2),
+                        c.class,
+                        Observation::Linear(true_c),
+                        Observation::Linear(obs_c),
+                    );
+                }
                 emit(
-                    to_point(&v),
+                    georef(&obs),
                     hit.position,
                     intensity,
                     obs.scan_angle_rad.to_degrees(),
-                    (1, 1),
+                    (n_ret, n_ret),
                     hit.class,
                     Observation::Linear(true_obs),
                     Observation::Linear(obs),

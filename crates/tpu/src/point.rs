@@ -158,9 +158,13 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
                 t.pitch_rad,
                 t.heading_rad,
             ];
-            for (idx, v) in self.trajectory_index.iter().zip(values) {
+            for (k, (idx, v)) in self.trajectory_index.iter().zip(values).enumerate() {
                 if let Some(i) = idx {
-                    sigma[*i] = v;
+                    sigma[*i] = match (t.added, k) {
+                        (false, _) => v,
+                        (true, 3) => sigma[*i],
+                        (true, _) => sigma[*i].hypot(v),
+                    };
                 }
             }
         }
@@ -349,6 +353,13 @@ mod tests {
         assert_relative_eq!(c[(5, 5)], 9e-10);
         // Range keeps the sensor file's 5 mm.
         assert_relative_eq!(c[(12, 12)], 0.005 * 0.005);
+        // A rebuilt trajectory's σ add to the sensor's, except roll's.
+        let s = |src: Source| sensor.sigma.get(src);
+        let c = pp.covariance(Some(&PoseSigma { added: true, ..t }));
+        assert_relative_eq!(c[(0, 0)], s(Source::GnssNorth).powi(2) + 1e-4);
+        assert_relative_eq!(c[(2, 2)], s(Source::GnssUp).powi(2) + 9e-4);
+        assert_relative_eq!(c[(3, 3)], s(Source::Roll).powi(2));
+        assert_relative_eq!(c[(5, 5)], s(Source::Heading).powi(2) + 9e-10);
     }
 
     #[test]

@@ -283,6 +283,11 @@ pub struct PoseSigma {
     pub pitch_rad: f64,
     /// σ of heading, rad (replaces `heading`).
     pub heading_rad: f64,
+    /// The σ are those of a trajectory rebuilt from the points: added in quadrature to the
+    /// sensor's GNSS, pitch and heading σ instead of replacing them, and roll's is left out
+    /// (a roll error of the rebuilt trajectory turns the beam within the scan plane, which the
+    /// recovered scan angle absorbs: the propagated point σ does not depend on it).
+    pub added: bool,
 }
 
 /// Time-sorted trajectory σ, linearly interpolated. SMRMSG files are often written at 1 Hz and
@@ -361,6 +366,7 @@ impl TrajectorySigmas {
             roll_rad: l(a.roll_rad, b.roll_rad),
             pitch_rad: l(a.pitch_rad, b.pitch_rad),
             heading_rad: l(a.heading_rad, b.heading_rad),
+            added: a.added,
         }
     }
 }

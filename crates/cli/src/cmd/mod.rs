@@ -15,6 +15,7 @@ mod simulate;
 mod targets;
 mod tile;
 mod tpu;
+mod trajectory;
 
 use clap::Subcommand;
 
@@ -40,6 +41,9 @@ pub enum Command {
     /// Per-point TPU of a LAS/LAZ strip (or a directory of tiles) with its trajectory.
     #[command(after_help = tpu::AFTER_HELP)]
     Tpu(tpu::TpuArgs),
+    /// Rebuild the trajectory of strips without one from their multi-return pulses.
+    #[command(after_help = trajectory::AFTER_HELP)]
+    Trajectory(trajectory::TrajectoryArgs),
     /// HTML report from the JSON products in a directory (one offline file, inline SVG plots).
     #[command(after_help = report::AFTER_HELP)]
     Report(report::ReportArgs),
@@ -78,6 +82,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Targets(args) => targets::run(args),
         Command::Evaluate(args) => evaluate::run(args),
         Command::Tpu(args) => tpu::run(args),
+        Command::Trajectory(args) => trajectory::run(args),
         Command::Report(args) => report::run(args),
         Command::Tile(args) => tile::run(args),
         Command::Plan(args) => plan::run(args),

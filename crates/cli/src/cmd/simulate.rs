@@ -17,7 +17,7 @@ Examples:
   lidarqa simulate --scenario my-survey.toml --seed 7 --format las -o sim7/
   lidarqa simulate --scenario bathymetry --truth -o bathy/   # + each point's actual error
 
-Built-in scenarios: demo, calibration, bathymetry.
+Built-in scenarios: demo, calibration, bathymetry, forest.
 
 Files of the same name in the output directory are replaced; an output that is an input
 (--scenario) is refused.";
@@ -34,7 +34,7 @@ pub enum CloudFormat {
 /// Flags of `lidarqa simulate`.
 #[derive(Debug, clap::Args)]
 pub struct SimulateArgs {
-    /// Built-in scenario (demo, calibration, bathymetry) or a scenario TOML file.
+    /// Built-in scenario (demo, calibration, bathymetry, forest) or a scenario TOML file.
     #[arg(long, value_name = "NAME|FILE", default_value = "demo")]
     pub scenario: String,
     /// Print the scenario as TOML (a starting point for your own) and exit.
@@ -73,7 +73,7 @@ fn load(args: &SimulateArgs) -> anyhow::Result<(Scenario, String)> {
             let path = Path::new(&args.scenario);
             let text = std::fs::read_to_string(path).with_context(|| {
                 format!(
-                    "{}: not a built-in scenario (demo, calibration, bathymetry) and not a readable file",
+                    "{}: not a built-in scenario (demo, calibration, bathymetry, forest) and not a readable file",
                     path.display()
                 )
             })?;

@@ -1,0 +1,1002 @@
+//! The sensor trajectory rebuilt from the point cloud alone, for data that come without their
+//! SBET (issue #24; the idea of Gatziolis & McGaughey 2019, Remote Sensing 11(19) 2258, as in
+//! lidR's `track_sensor` and PDAL's `filters.sritrajectory`).
+//!
+//! 1. **Pulses.** Points are grouped by (strip, GPS time). A pulse with several returns gives a
+//!    line through its first and last return; the beam left the scanner on that line. Files that
+//!    break this are counted, never guessed at: GPS times shared by more returns than the pulse
+//!    has (times that do not identify pulses), return numbers out of order or a first return
+//!    below the last, one GPS time in two strips (a pulse split across strips), first and last
+//!    returns too close for a direction ([`PulseChecks`]).
+//! 2. **Blocks.** In each short time block the scanner moves on a straight line,
+//!    `S(t) = S₀ + V (t − t_c)`; `S₀`, `V` minimise the squared perpendicular distances of the
+//!    block's lines from `S(tᵢ)` (a 6 × 6 linear system), each line weighted by
+//!    (separation / range)² (the miss distance of a line grows with the range over the length
+//!    it was measured on), then re-weighted (IRLS, Tukey's biweight on the MAD scale) so that bad
+//!    pulses drop out. `V` gets a weak prior (`VELOCITY_PRIOR_M_PER_S`): one scan cycle hardly
+//!    determines it. The covariance is the scaled inverse normal matrix.
+//! 3. **Attitude.** A linear scanner's beams lie in a plane whose normal is the body's x axis:
+//!    the smallest eigenvector of `Σ uᵢ uᵢᵀ` over the unit vectors from `S(tᵢ)` to every return
+//!    of the block gives the heading (a grid azimuth: the points are projected) and the pitch,
+//!    whatever the crab angle. Their σ is the standard error of the same fit over eight
+//!    sub-blocks.
+//!    **Roll is not determined**: rolling turns every beam within that plane about the scanner,
+//!    which moves no line off the scanner and no beam out of the plane. It is carried as 0 with
+//!    the σ [`ROLL_SIGMA_RAD`].
+//! 4. **Smoothing.** The block estimates are smoothed by a weighted local quadratic in time over
+//!    `smoothing_window_s`; each epoch's σ is that fit's, scaled up by √(χ²/dof) when the blocks
+//!    scatter more than their σ says.
+//!
+//! Positions are the scanner's (where the beams start), in the points' CRS; a lever arm between
+//! scanner and navigation centre is not known here. Written by hand: a 6 × 6 solve, a 3 × 3
+//! eigenproblem (nalgebra) and a local polynomial; no crate does the line geometry.
+
+use crate::error::{Error, Result};
+use lidarqa_io::{LasReader, LasTimeBase, PointChunk, TextPose, TextSigma};
+use lidarqa_model::Warning;
+use nalgebra::{Matrix3, Matrix6, SymmetricEigen, Vector3, Vector6};
+use serde::Serialize;
+use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
+
+/// σ carried for the undetermined roll, rad (3°: the roll excursions of a survey aircraft on a
+/// straight line are a few degrees; the data say nothing better).
+pub const ROLL_SIGMA_RAD: f64 = 3.0 * PI / 180.0;
+/// 1-σ of the weak prior on each velocity component of a block, m/s (zero mean): keeps the
+/// block solvable when its time span is too short to see the motion.
+pub const VELOCITY_PRIOR_M_PER_S: f64 = 100.0;
+/// Tukey biweight tuning constant on the normalised miss distance.
+const TUKEY_C: f64 = 4.685;
+
+/// One return as the reconstruction needs it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReturnPoint {
+    /// GPS time, s (any time base, the same for all points).
+    pub time_s: f64,
+    /// x, y, z in the points' projected CRS, m.
+    pub position_m: [f64; 3],
+    /// Return number, 1-based.
+    pub return_number: u8,
+    /// Number of returns of the pulse.
+    pub number_of_returns: u8,
+    /// The strip: e.g. the point source id, or (file, point source id) packed.
+    pub strip: u32,
+}
+
+/// Options of [`reconstruct`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReconstructOptions {
+    /// Length of a block, s.
+    pub block_s: f64,
+    /// Half-width of the local-polynomial smoothing window, s.
+    pub smoothing_window_s: f64,
+    /// Shortest first-to-last return distance that gives a line, m.
+    pub min_separation_m: f64,
+    /// Fewest lines a block needs.
+    pub min_lines: usize,
+}
+
+impl Default for ReconstructOptions {
+    fn default() -> Self {
+        ReconstructOptions {
+            block_s: 0.5,
+            smoothing_window_s: 1.5,
+            min_separation_m: 1.0,
+            min_lines: 30,
+        }
+    }
+}
+
+/// What the pulse checks found (counts of pulses, i.e. of distinct (strip, GPS time)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct PulseChecks {
+    /// Returns read.
+    pub returns: u64,
+    /// Distinct (strip, GPS time).
+    pub pulses: u64,
+    /// Pulses with more than one return and a first and a last return.
+    pub multi_return_pulses: u64,
+    /// GPS times shared by more returns than the pulse has, or by two returns with the same
+    /// return number (the times do not identify pulses).
+    pub ambiguous_times: u64,
+    /// Pulses with a return number of 0 or above the number of returns, differing numbers of
+    /// returns, or the first return not above the last.
+    pub out_of_order: u64,
+    /// GPS times found in more than one strip.
+    pub split_across_strips: u64,
+    /// Multi-return pulses without their first or last return (thinned or clipped data).
+    pub incomplete: u64,
+    /// Multi-return pulses whose first and last return are closer than the minimum separation.
+    pub too_short: u64,
+    /// Lines that entered a block fit.
+    pub lines: u64,
+    /// Lines the robust fit gave (near) zero weight.
+    pub rejected: u64,
+}
+
+/// One epoch of the reconstructed trajectory.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Epoch {
+    /// GPS time (the points' time base), s.
+    pub time_s: f64,
+    /// Strip the epoch belongs to.
+    pub strip: u32,
+    /// Scanner position x, y, z in the points' CRS, m.
+    pub position_m: [f64; 3],
+    /// Velocity in the CRS axes, m/s.
+    pub velocity_m_per_s: [f64; 3],
+    /// Pitch, rad, nose up positive.
+    pub pitch_rad: f64,
+    /// Heading as a grid azimuth, rad, clockwise from grid north.
+    pub azimuth_rad: f64,
+    /// σ of x, y, z, m.
+    pub sigma_position_m: [f64; 3],
+    /// σ of roll (not determined: [`ROLL_SIGMA_RAD`]), pitch, azimuth, rad.
+    pub sigma_attitude_rad: [f64; 3],
+    /// Lines in the block.
+    pub lines: usize,
+}
+
+/// The result of [`reconstruct`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Reconstruction {
+    /// Epochs in time order (strip by strip).
+    pub epochs: Vec<Epoch>,
+    /// Pulse counts.
+    pub checks: PulseChecks,
+    /// Doubtful findings (pulse checks that found something).
+    pub warnings: Vec<Warning>,
+}
+
+/// Why no trajectory could be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReconstructError {
+    /// Too few usable multi-return pulses.
+    #[error(
+        "{lines} usable multi-return pulses (first and last return at least {min_separation_m} m \
+         apart) where one block needs {min_lines}: the data need vegetation or other \
+         multi-return targets, and their GPS times and return numbers (checks: {checks:?})"
+    )]
+    TooFewPulses {
+        /// Lines found.
+        lines: u64,
+        /// Lines needed.
+        min_lines: usize,
+        /// Separation asked for, m.
+        min_separation_m: f64,
+        /// What the checks found.
+        checks: PulseChecks,
+    },
+    /// An option out of range.
+    #[error("{0}")]
+    Option(String),
+}
+
+/// A first–last return line: through `a` (the last return) along the unit vector `d` towards
+/// the sensor.
+#[derive(Debug, Clone, Copy)]
+struct Line {
+    time_s: f64,
+    a: Vector3<f64>,
+    d: Vector3<f64>,
+    separation_m: f64,
+}
+
+/// Rebuild the trajectory from the returns of one or more strips (see the module docs).
+///
+/// # Errors
+/// [`ReconstructError::TooFewPulses`] when no block has enough lines;
+/// [`ReconstructError::Option`] for a non-positive block or window.
+pub fn reconstruct(
+    points: &[ReturnPoint],
+    options: &ReconstructOptions,
+) -> std::result::Result<Reconstruction, ReconstructError> {
+    if !(options.block_s > 0.0 && options.smoothing_window_s >= 0.0 && options.min_lines >= 8) {
+        return Err(ReconstructError::Option(format!(
+            "block {} s must be > 0, smoothing window {} s >= 0 and min lines {} >= 8",
+            options.block_s, options.smoothing_window_s, options.min_lines
+        )));
+    }
+    let (lines_by_strip, mut checks) = pulse_lines(points, options.min_separation_m);
+    let mut epochs = Vec::new();
+    let mut order: Vec<usize> = (0..points.len()).collect();
+    order.sort_by(|&i, &j| {
+        (points[i].strip, points[i].time_s)
+            .partial_cmp(&(points[j].strip, points[j].time_s))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    for (strip, lines) in &lines_by_strip {
+        let strip_points: Vec<&ReturnPoint> = order
+            .iter()
+            .map(|&i| &points[i])
+            .filter(|p| p.strip == *strip)
+            .collect();
+        let blocks = fit_blocks(lines, &strip_points, options, &mut checks);
+        // 1 ms beyond the first and last return: the file's times are written to 1 µs.
+        let span = [
+            strip_points.first().map_or(0.0, |p| p.time_s) - 1e-3,
+            strip_points.last().map_or(0.0, |p| p.time_s) + 1e-3,
+        ];
+        epochs.extend(smooth(&blocks, *strip, options.smoothing_window_s, span));
+    }
+    if epochs.is_empty() {
+        return Err(ReconstructError::TooFewPulses {
+            lines: checks
+                .lines
+                .max(lines_by_strip.iter().map(|(_, l)| l.len() as u64).sum()),
+            min_lines: options.min_lines,
+            min_separation_m: options.min_separation_m,
+            checks,
+        });
+    }
+    Ok(Reconstruction {
+        epochs,
+        warnings: check_warnings(&checks),
+        checks,
+    })
+}
+
+/// What [`rebuild_trajectory`] did, for people and JSON.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TrajectoryReport {
+    /// The trajectory written.
+    pub output: PathBuf,
+    /// The point files read.
+    pub inputs: Vec<PathBuf>,
+    /// Epochs written.
+    pub epochs: usize,
+    /// First and last epoch time (the points' time base), s.
+    pub time_span_s: [f64; 2],
+    /// Pulse counts.
+    pub checks: PulseChecks,
+    /// Median σ of x, y, z over the epochs, m.
+    pub median_sigma_position_m: [f64; 3],
+    /// Median σ of pitch and azimuth over the epochs, degrees.
+    pub median_sigma_pitch_azimuth_deg: [f64; 2],
+    /// The σ carried for the undetermined roll, degrees.
+    pub roll_sigma_deg: f64,
+    /// Doubtful findings.
+    pub warnings: Vec<Warning>,
+}
+
+/// Reads the returns of LAS/LAZ strips: the strip is the point source id, so a strip cut
+/// into several files stays one strip.
+///
+/// # Errors
+/// The reader's errors naming the file; [`Error::NoGpsTime`] for a point format without time;
+/// [`Error::Implausible`] when the files mix GPS week time and adjusted standard time.
+pub fn read_returns(paths: &[PathBuf]) -> Result<Vec<ReturnPoint>> {
+    let mut out = Vec::new();
+    let mut base: Option<(LasTimeBase, &Path)> = None;
+    for path in paths {
+        let mut r = LasReader::from_path(path)?;
+        let info = r.info().clone();
+        if !info.has_gps_time {
+            return Err(Error::NoGpsTime {
+                path: path.clone(),
+                format: info.point_format,
+            });
+        }
+        match base {
+            None => base = Some((info.time_base, path)),
+            Some((b, first)) if b != info.time_base => {
+                return Err(Error::Implausible {
+                    path: path.clone(),
+                    message: format!(
+                        "GPS time base {:?} differs from {:?} of {}: pulses cannot be matched \
+                         across the files",
+                        info.time_base,
+                        b,
+                        first.display()
+                    ),
+                });
+            }
+            Some(_) => {}
+        }
+        let mut chunk = PointChunk::new();
+        while r.fill(&mut chunk, 1 << 16)? > 0 {
+            out.extend(chunk.points.iter().map(|p| ReturnPoint {
+                time_s: p.gps_time_s.unwrap_or(f64::NAN),
+                position_m: [p.x, p.y, p.z],
+                return_number: p.return_number,
+                number_of_returns: p.number_of_returns,
+                strip: u32::from(p.point_source_id),
+            }));
+        }
+    }
+    Ok(out)
+}
+
+/// The epochs as text-trajectory poses (projected position, grid azimuth, σ).
+pub fn epochs_to_poses(epochs: &[Epoch]) -> Vec<TextPose> {
+    epochs
+        .iter()
+        .map(|e| TextPose {
+            time_s: e.time_s,
+            position: e.position_m,
+            roll_rad: 0.0,
+            pitch_rad: e.pitch_rad,
+            heading_rad: e.azimuth_rad,
+            sigma: Some(TextSigma {
+                north_m: e.sigma_position_m[1],
+                east_m: e.sigma_position_m[0],
+                up_m: e.sigma_position_m[2],
+                roll_rad: e.sigma_attitude_rad[0],
+                pitch_rad: e.sigma_attitude_rad[1],
+                heading_rad: e.sigma_attitude_rad[2],
+            }),
+        })
+        .collect()
+}
+
+/// `lidarqa trajectory`: read the strips, rebuild the trajectory, write it as the text
+/// trajectory `lidarqa tpu` reads (with the reconstruction σ columns).
+///
+/// # Errors
+/// As [`read_returns`]; [`Error::Implausible`] naming the first input when no trajectory can
+/// be built (with the pulse counts); the writer's errors naming the output.
+pub fn rebuild_trajectory(
+    inputs: &[PathBuf],
+    output: &Path,
+    options: &ReconstructOptions,
+) -> Result<TrajectoryReport> {
+    lidarqa_io::check_distinct_inputs(inputs)?;
+    lidarqa_io::check_not_an_input(output, inputs)?;
+    let points = read_returns(inputs)?;
+    let r = reconstruct(&points, options).map_err(|e| Error::Implausible {
+        path: inputs.first().cloned().unwrap_or_default(),
+        message: e.to_string(),
+    })?;
+    lidarqa_io::write_reconstructed_trajectory(output, &epochs_to_poses(&r.epochs), inputs)?;
+    let median = |f: &dyn Fn(&Epoch) -> f64| {
+        let mut v: Vec<f64> = r.epochs.iter().map(f).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    Ok(TrajectoryReport {
+        output: output.to_path_buf(),
+        inputs: inputs.to_vec(),
+        epochs: r.epochs.len(),
+        time_span_s: [r.epochs[0].time_s, r.epochs[r.epochs.len() - 1].time_s],
+        checks: r.checks,
+        median_sigma_position_m: [0, 1, 2].map(|k| median(&|e| e.sigma_position_m[k])),
+        median_sigma_pitch_azimuth_deg: [1, 2]
+            .map(|k| median(&|e| e.sigma_attitude_rad[k]).to_degrees()),
+        roll_sigma_deg: ROLL_SIGMA_RAD.to_degrees(),
+        warnings: r.warnings,
+    })
+}
+
+fn check_warnings(c: &PulseChecks) -> Vec<Warning> {
+    let mut w = Vec::new();
+    let share = |n: u64| 100.0 * n as f64 / c.pulses.max(1) as f64;
+    if c.ambiguous_times > 0 {
+        w.push(Warning::new(
+            "gps_time_not_unique",
+            format!(
+                "{} of {} GPS times ({:.1} %) carry more returns than their pulse has or two \
+                 returns with the same number: the times do not identify pulses (rounded times, \
+                 merged channels?); those pulses are not used",
+                c.ambiguous_times,
+                c.pulses,
+                share(c.ambiguous_times)
+            ),
+        ));
+    }
+    if c.out_of_order > 0 {
+        w.push(Warning::new(
+            "returns_out_of_order",
+            format!(
+                "{} pulses ({:.1} %) have return numbers out of range or disagreeing, or a first \
+                 return below the last; not used",
+                c.out_of_order,
+                share(c.out_of_order)
+            ),
+        ));
+    }
+    if c.split_across_strips > 0 {
+        w.push(Warning::new(
+            "pulse_split_across_strips",
+            format!(
+                "{} GPS times occur in more than one strip (point source id or file): each \
+                 strip's returns are used as separate pulses; check that the strips are not \
+                 copies or retiled pieces of one another",
+                c.split_across_strips
+            ),
+        ));
+    }
+    if c.incomplete > 0 {
+        w.push(Warning::new(
+            "pulse_returns_missing",
+            format!(
+                "{} multi-return pulses lack their first or last return (thinned or clipped \
+                 data); not used",
+                c.incomplete
+            ),
+        ));
+    }
+    w
+}
+
+/// Groups returns into pulses, checks them, and returns the lines per strip (time order).
+fn pulse_lines(points: &[ReturnPoint], min_sep: f64) -> (Vec<(u32, Vec<Line>)>, PulseChecks) {
+    let mut c = PulseChecks {
+        returns: points.len() as u64,
+        ..PulseChecks::default()
+    };
+    let mut idx: Vec<usize> = (0..points.len()).collect();
+    let key = |i: usize| (points[i].strip, points[i].time_s, points[i].return_number);
+    idx.sort_by(|&i, &j| {
+        key(i)
+            .partial_cmp(&key(j))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    let mut out: Vec<(u32, Vec<Line>)> = Vec::new();
+    let mut start = 0;
+    while start < idx.len() {
+        let p0 = &points[idx[start]];
+        let mut end = start + 1;
+        while end < idx.len() {
+            let p = &points[idx[end]];
+            if p.strip != p0.strip || p.time_s != p0.time_s {
+                break;
+            }
+            end += 1;
+        }
+        c.pulses += 1;
+        let group: Vec<&ReturnPoint> = idx[start..end].iter().map(|&i| &points[i]).collect();
+        start = end;
+        let n = group[0].number_of_returns;
+        let numbers_bad = group
+            .iter()
+            .any(|p| p.return_number == 0 || p.return_number > p.number_of_returns)
+            || group.iter().any(|p| p.number_of_returns != n);
+        let duplicate = group
+            .windows(2)
+            .any(|w| w[0].return_number == w[1].return_number);
+        if group.len() > usize::from(n.max(1)) || duplicate {
+            c.ambiguous_times += 1;
+            continue;
+        }
+        if numbers_bad {
+            c.out_of_order += 1;
+            continue;
+        }
+        if n < 2 {
+            continue;
+        }
+        let (Some(first), Some(last)) = (
+            group.iter().find(|p| p.return_number == 1),
+            group.iter().find(|p| p.return_number == n),
+        ) else {
+            c.incomplete += 1;
+            continue;
+        };
+        let f = Vector3::from(first.position_m);
+        let l = Vector3::from(last.position_m);
+        let v = f - l;
+        if v.z <= 0.0 {
+            c.out_of_order += 1;
+            continue;
+        }
+        c.multi_return_pulses += 1;
+        let sep = v.norm();
+        if sep < min_sep {
+            c.too_short += 1;
+            continue;
+        }
+        let line = Line {
+            time_s: first.time_s,
+            a: l,
+            d: v / sep,
+            separation_m: sep,
+        };
+        match out.last_mut() {
+            Some((s, v)) if *s == first.strip => v.push(line),
+            _ => out.push((first.strip, vec![line])),
+        }
+    }
+    // The same GPS time in two strips.
+    let mut times: Vec<(f64, u32)> = points.iter().map(|p| (p.time_s, p.strip)).collect();
+    times.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+    times.dedup();
+    c.split_across_strips = times.windows(2).filter(|w| w[0].0 == w[1].0).count() as u64;
+    (out, c)
+}
+
+/// One block's estimate.
+#[derive(Debug, Clone, Copy)]
+struct Block {
+    time_s: f64,
+    position: Vector3<f64>,
+    velocity: Vector3<f64>,
+    cov_position: Matrix3<f64>,
+    /// Covariance of [S₀, V].
+    cov: Matrix6<f64>,
+    pitch_rad: f64,
+    azimuth_rad: f64,
+    sigma_pitch_rad: f64,
+    sigma_azimuth_rad: f64,
+    lines: usize,
+}
+
+fn fit_blocks(
+    lines: &[Line],
+    points: &[&ReturnPoint],
+    o: &ReconstructOptions,
+    checks: &mut PulseChecks,
+) -> Vec<Block> {
+    let mut out = Vec::new();
+    let Some(t0) = lines.first().map(|l| l.time_s) else {
+        return out;
+    };
+    let mut i = 0;
+    while i < lines.len() {
+        let k = ((lines[i].time_s - t0) / o.block_s).floor();
+        let mut j = i;
+        while j < lines.len() && ((lines[j].time_s - t0) / o.block_s).floor() == k {
+            j += 1;
+        }
+        let block = &lines[i..j];
+        i = j;
+        if block.len() < o.min_lines {
+            continue;
+        }
+        checks.lines += block.len() as u64;
+        let Some((tc, x, cov, weights)) = fit_block(block) else {
+            continue;
+        };
+        checks.rejected += weights.iter().filter(|w| **w < 0.05).count() as u64;
+        let s0 = Vector3::new(x[0], x[1], x[2]);
+        let v = Vector3::new(x[3], x[4], x[5]);
+        let (lo, hi) = (block[0].time_s, block[block.len() - 1].time_s);
+        let a = points.partition_point(|p| p.time_s < lo);
+        let b = points.partition_point(|p| p.time_s <= hi);
+        let Some(att) = scan_plane(&points[a..b], tc, &s0, &v) else {
+            continue;
+        };
+        out.push(Block {
+            time_s: tc,
+            position: s0,
+            velocity: v,
+            cov_position: cov.fixed_view::<3, 3>(0, 0).into_owned(),
+            cov,
+            pitch_rad: att.0,
+            azimuth_rad: att.1,
+            sigma_pitch_rad: att.2,
+            sigma_azimuth_rad: att.3,
+            lines: block.len(),
+        });
+    }
+    out
+}
+
+/// A block fit: centre time, [S₀, V], their covariance, the final robust weights.
+type BlockFit = (f64, Vector6<f64>, Matrix6<f64>, Vec<f64>);
+
+/// IRLS fit of `S₀`, `V` to a block's lines.
+fn fit_block(block: &[Line]) -> Option<BlockFit> {
+    let n = block.len() as f64;
+    let tc = block.iter().map(|l| l.time_s).sum::<f64>() / n;
+    let mut robust = vec![1.0; block.len()];
+    let mut x = Vector6::zeros();
+    let mut scale2 = 1.0;
+    let mut cov = Matrix6::zeros();
+    let mut base = vec![1.0; block.len()];
+    for iter in 0..12 {
+        let mut nm = Matrix6::<f64>::zeros();
+        let mut rhs = Vector6::<f64>::zeros();
+        for ((l, w_r), w_b) in block.iter().zip(&robust).zip(&base) {
+            let w = w_r * w_b;
+            if w <= 0.0 {
+                continue;
+            }
+            let tau = l.time_s - tc;
+            let p = Matrix3::identity() - l.d * l.d.transpose();
+            let pa = p * l.a;
+            for (r, c, m) in [(0, 0, 1.0), (0, 3, tau), (3, 0, tau), (3, 3, tau * tau)] {
+                let mut v = nm.fixed_view_mut::<3, 3>(r, c);
+                v += p * (w * m);
+            }
+            let mut top = rhs.fixed_rows_mut::<3>(0);
+            top += pa * w;
+            let mut bot = rhs.fixed_rows_mut::<3>(3);
+            bot += pa * (w * tau);
+        }
+        // Weak zero-mean prior on V, in the units of the unit-weight variance.
+        for k in 3..6 {
+            nm[(k, k)] += scale2 / VELOCITY_PRIOR_M_PER_S.powi(2);
+        }
+        let inv = nm.try_inverse()?;
+        x = inv * rhs;
+        let s = Vector3::new(x[0], x[1], x[2]);
+        let v = Vector3::new(x[3], x[4], x[5]);
+        // Miss distances, normalised by each line's lever (range / separation).
+        let mut resid = Vec::with_capacity(block.len());
+        for (l, b) in block.iter().zip(base.iter_mut()) {
+            let pos = s + v * (l.time_s - tc);
+            let e = pos - l.a;
+            let miss = (e - l.d * l.d.dot(&e)).norm();
+            let range = e.norm().max(l.separation_m);
+            *b = (l.separation_m / range).powi(2);
+            resid.push(miss * l.separation_m / range);
+        }
+        let mut sorted: Vec<f64> = resid.clone();
+        sorted.sort_by(f64::total_cmp);
+        // A 2-D Gaussian miss of σ per axis has a median norm of σ √(2 ln 2).
+        let sigma = (sorted[sorted.len() / 2] / (2.0 * 2f64.ln()).sqrt()).max(1e-9);
+        if iter >= 1 {
+            for (w, r) in robust.iter_mut().zip(&resid) {
+                let u = r / (TUKEY_C * sigma);
+                *w = if u < 1.0 { (1.0 - u * u).powi(2) } else { 0.0 };
+            }
+        }
+        let (mut chi2, mut wsum) = (0.0, 0.0);
+        for (w, r) in robust.iter().zip(&resid) {
+            chi2 += w * r * r;
+            wsum += w;
+        }
+        let dof = (2.0 * wsum - 6.0).max(1.0);
+        scale2 = (chi2 / dof).max(1e-18);
+        cov = inv * scale2;
+    }
+    Some((tc, x, cov, robust))
+}
+
+/// Pitch, grid azimuth and their σ from the plane of the beams (see the module docs).
+fn scan_plane(
+    points: &[&ReturnPoint],
+    tc: f64,
+    s0: &Vector3<f64>,
+    v: &Vector3<f64>,
+) -> Option<(f64, f64, f64, f64)> {
+    if points.len() < 16 {
+        return None;
+    }
+    let normal = |ps: &[&ReturnPoint]| -> Option<Vector3<f64>> {
+        let mut m = Matrix3::<f64>::zeros();
+        for p in ps {
+            let u = (Vector3::from(p.position_m) - (s0 + v * (p.time_s - tc))).normalize();
+            m += u * u.transpose();
+        }
+        let e = SymmetricEigen::new(m);
+        let k = e.eigenvalues.imin();
+        let mut n: Vector3<f64> = e.eigenvectors.column(k).into_owned();
+        // Forward: along the horizontal motion when it is known, else the sign as found.
+        if n.x * v.x + n.y * v.y < 0.0 {
+            n = -n;
+        }
+        n.iter().all(|c| c.is_finite()).then_some(n)
+    };
+    let angles = |n: &Vector3<f64>| (n.z.clamp(-1.0, 1.0).asin(), n.x.atan2(n.y));
+    let n = normal(points)?;
+    let (pitch, az) = angles(&n);
+    // Spread over eight sub-blocks of the block.
+    let k = 8;
+    let size = points.len() / k;
+    let mut dp = Vec::new();
+    let mut da = Vec::new();
+    for c in 0..k {
+        let sub = &points[c * size..((c + 1) * size).min(points.len())];
+        if sub.len() < 8 {
+            continue;
+        }
+        if let Some(ns) = normal(sub) {
+            let (p, a) = angles(&ns);
+            dp.push(p - pitch);
+            da.push(wrap(a - az));
+        }
+    }
+    if dp.len() < 2 {
+        return None;
+    }
+    // σ of the block's value: the standard error of the sub-block values' mean.
+    let spread = |d: &[f64]| {
+        let m = d.iter().sum::<f64>() / d.len() as f64;
+        let var = d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (d.len() - 1) as f64;
+        (var / d.len() as f64).sqrt()
+    };
+    Some((pitch, az, spread(&dp), spread(&da)))
+}
+
+fn wrap(a: f64) -> f64 {
+    (a + PI).rem_euclid(2.0 * PI) - PI
+}
+
+/// Weighted local polynomial of degree ≤ 2 at `t0` over (t, value, σ) samples: (value, σ,
+/// slope). The σ is scaled by √(χ²/dof) when that exceeds 1.
+fn local_poly(samples: &[(f64, f64, f64)], t0: f64) -> Option<(f64, f64, f64)> {
+    let deg = match samples.len() {
+        0 => return None,
+        1 => 0,
+        2 | 3 => 1,
+        _ => 2,
+    };
+    let m = deg + 1;
+    let mut nm = nalgebra::DMatrix::<f64>::zeros(m, m);
+    let mut rhs = nalgebra::DVector::<f64>::zeros(m);
+    for &(t, y, s) in samples {
+        let w = 1.0 / (s * s).max(1e-24);
+        let basis: Vec<f64> = (0..m).map(|k| (t - t0).powi(k as i32)).collect();
+        for r in 0..m {
+            rhs[r] += w * basis[r] * y;
+            for c in 0..m {
+                nm[(r, c)] += w * basis[r] * basis[c];
+            }
+        }
+    }
+    let inv = nm.try_inverse()?;
+    let coef = &inv * rhs;
+    let mut chi2 = 0.0;
+    for &(t, y, s) in samples {
+        let f: f64 = (0..m).map(|k| coef[k] * (t - t0).powi(k as i32)).sum();
+        chi2 += ((y - f) / s.max(1e-12)).powi(2);
+    }
+    let dof = samples.len().saturating_sub(m);
+    let factor = if dof > 0 {
+        (chi2 / dof as f64).max(1.0)
+    } else {
+        1.0
+    };
+    let slope = if m > 1 { coef[1] } else { f64::NAN };
+    Some((coef[0], (inv[(0, 0)] * factor).sqrt(), slope))
+}
+
+/// Epochs at the block centres and at the strip's first and last return (so that every point
+/// of the strip lies within the trajectory), each from a local fit over the blocks within
+/// `window_s` (the two nearest when none is).
+fn smooth(blocks: &[Block], strip: u32, window_s: f64, span_s: [f64; 2]) -> Vec<Epoch> {
+    let mut out = Vec::with_capacity(blocks.len() + 2);
+    let (Some(first), Some(last)) = (blocks.first(), blocks.last()) else {
+        return out;
+    };
+    // Unwrapped azimuths, so that the fit never straddles ±π.
+    let mut az = Vec::with_capacity(blocks.len());
+    for b in blocks {
+        let a = match az.last() {
+            Some(&prev) => prev + wrap(b.azimuth_rad - prev),
+            None => b.azimuth_rad,
+        };
+        az.push(a);
+    }
+    let mut times: Vec<f64> = Vec::with_capacity(blocks.len() + 2);
+    if span_s[0] < first.time_s {
+        times.push(span_s[0]);
+    }
+    times.extend(blocks.iter().map(|b| b.time_s));
+    if span_s[1] > last.time_s {
+        times.push(span_s[1]);
+    }
+    for t in times {
+        let mut near: Vec<usize> = (0..blocks.len())
+            .filter(|&j| (blocks[j].time_s - t).abs() <= window_s)
+            .collect();
+        if near.len() < 2 {
+            let mut by: Vec<usize> = (0..blocks.len()).collect();
+            by.sort_by(|&a, &b| {
+                (blocks[a].time_s - t)
+                    .abs()
+                    .total_cmp(&(blocks[b].time_s - t).abs())
+            });
+            near = by.into_iter().take(2).collect();
+        }
+        let nearest = near
+            .iter()
+            .copied()
+            .min_by(|&a, &b| {
+                (blocks[a].time_s - t)
+                    .abs()
+                    .total_cmp(&(blocks[b].time_s - t).abs())
+            })
+            .unwrap_or(0);
+        let b = &blocks[nearest];
+        let fit = |value: &dyn Fn(usize) -> (f64, f64)| {
+            let s: Vec<(f64, f64, f64)> = near
+                .iter()
+                .map(|&j| {
+                    let (y, sd) = value(j);
+                    (blocks[j].time_s, y, sd)
+                })
+                .collect();
+            local_poly(&s, t)
+        };
+        let mut pos = [0.0; 3];
+        let mut sig = [0.0; 3];
+        let mut vel = [b.velocity.x, b.velocity.y, b.velocity.z];
+        if blocks.len() == 1 {
+            // One block: its own straight motion, S₀ + V τ, with σ from [S₀, V]'s covariance.
+            let tau = t - b.time_s;
+            let mut j = nalgebra::Matrix3x6::<f64>::zeros();
+            for k in 0..3 {
+                j[(k, k)] = 1.0;
+                j[(k, k + 3)] = tau;
+            }
+            let c = j * b.cov * j.transpose();
+            for k in 0..3 {
+                pos[k] = b.position[k] + tau * vel[k];
+                sig[k] = c[(k, k)].sqrt();
+            }
+            out.push(Epoch {
+                time_s: t,
+                strip,
+                position_m: pos,
+                velocity_m_per_s: vel,
+                pitch_rad: b.pitch_rad,
+                azimuth_rad: b.azimuth_rad,
+                sigma_position_m: sig,
+                sigma_attitude_rad: [ROLL_SIGMA_RAD, b.sigma_pitch_rad, b.sigma_azimuth_rad],
+                lines: b.lines,
+            });
+            continue;
+        }
+        for k in 0..3 {
+            let (y, s, slope) =
+                fit(&|j| (blocks[j].position[k], blocks[j].cov_position[(k, k)].sqrt())).unwrap_or(
+                    (
+                        b.position[k] + vel[k] * (t - b.time_s),
+                        b.cov_position[(k, k)].sqrt(),
+                        f64::NAN,
+                    ),
+                );
+            pos[k] = y;
+            sig[k] = s;
+            if slope.is_finite() {
+                vel[k] = slope;
+            }
+        }
+        let (pitch, sp, _) = fit(&|j| (blocks[j].pitch_rad, blocks[j].sigma_pitch_rad.max(1e-7)))
+            .unwrap_or((b.pitch_rad, b.sigma_pitch_rad, 0.0));
+        let (a, sa, _) = fit(&|j| (az[j], blocks[j].sigma_azimuth_rad.max(1e-7))).unwrap_or((
+            az[nearest],
+            b.sigma_azimuth_rad,
+            0.0,
+        ));
+        out.push(Epoch {
+            time_s: t,
+            strip,
+            position_m: pos,
+            velocity_m_per_s: vel,
+            pitch_rad: pitch,
+            azimuth_rad: wrap(a),
+            sigma_position_m: sig,
+            sigma_attitude_rad: [ROLL_SIGMA_RAD, sp, sa],
+            lines: b.lines,
+        });
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A straight flight east at 60 m/s, 300 m up; beams in the across-track plane, pitched by
+    /// `pitch`; each pulse a canopy return 15 m above the ground return.
+    fn flight(pitch: f64, noise_m: f64) -> (Vec<ReturnPoint>, impl Fn(f64) -> [f64; 3]) {
+        let sensor = |t: f64| [60.0 * t, 0.0, 300.0];
+        let mut pts = Vec::new();
+        let mut state = 1u64;
+        let mut rand = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+        };
+        for i in 0..20000 {
+            let t = i as f64 * 1e-4;
+            let theta = 0.4 * (2.0 * PI * 40.0 * t).sin();
+            // Body x = (cos p, 0, sin p) in (east, north, up), body down = (sin p, 0, −cos p),
+            // right wing = south: the beam is cos θ · down + sin θ · right.
+            let d = Vector3::new(
+                pitch.sin() * theta.cos(),
+                -theta.sin(),
+                -pitch.cos() * theta.cos(),
+            );
+            let s = Vector3::from(sensor(t));
+            let ground = s + d * (300.0 / -d.z);
+            let mut q = |p: Vector3<f64>| {
+                [
+                    p.x + noise_m * rand(),
+                    p.y + noise_m * rand(),
+                    p.z + noise_m * rand(),
+                ]
+            };
+            let multi = i % 3 == 0;
+            let n = if multi { 2 } else { 1 };
+            if multi {
+                let canopy = ground - d * (15.0 / -d.z);
+                pts.push(ReturnPoint {
+                    time_s: t,
+                    position_m: q(canopy),
+                    return_number: 1,
+                    number_of_returns: 2,
+                    strip: 1,
+                });
+            }
+            pts.push(ReturnPoint {
+                time_s: t,
+                position_m: q(ground),
+                return_number: n,
+                number_of_returns: n,
+                strip: 1,
+            });
+        }
+        (pts, sensor)
+    }
+
+    #[test]
+    fn straight_flight_is_recovered_with_its_pitch_and_azimuth() {
+        let pitch = 2f64.to_radians();
+        let (pts, sensor) = flight(pitch, 0.0);
+        let r = reconstruct(&pts, &ReconstructOptions::default()).unwrap();
+        // Four blocks and the two ends.
+        assert_eq!(r.epochs.len(), 6);
+        assert_eq!(r.epochs[0].time_s, -1e-3);
+        for e in &r.epochs {
+            for (p, s) in e.position_m.iter().zip(sensor(e.time_s)) {
+                assert!((p - s).abs() < 1e-3, "{e:?}");
+            }
+            assert!((e.velocity_m_per_s[0] - 60.0).abs() < 1e-2, "{e:?}");
+            assert!((e.pitch_rad - pitch).abs() < 1e-6, "{e:?}");
+            assert!((e.azimuth_rad - PI / 2.0).abs() < 1e-6, "{e:?}");
+        }
+        assert_eq!(r.checks.multi_return_pulses, 6667);
+        assert!(r.warnings.is_empty());
+    }
+
+    #[test]
+    fn bad_pulses_are_counted_and_outliers_rejected() {
+        let (mut pts, sensor) = flight(0.0, 0.01);
+        // 5 % of the canopy returns moved 3 m sideways: wrong lines the fit must reject.
+        let mut k = 0;
+        for p in pts
+            .iter_mut()
+            .filter(|p| p.number_of_returns == 2 && p.return_number == 1)
+        {
+            k += 1;
+            if k % 20 == 0 {
+                p.position_m[1] += 3.0;
+            }
+        }
+        // A duplicated time, a swapped pair and a pulse copied into another strip.
+        let dup = pts[0];
+        pts.push(dup);
+        let (i, j) = (3, 4);
+        let (zi, zj) = (pts[i].position_m[2], pts[j].position_m[2]);
+        pts[i].position_m[2] = zj;
+        pts[j].position_m[2] = zi;
+        let mut other = pts[10];
+        other.strip = 2;
+        pts.push(other);
+        let r = reconstruct(&pts, &ReconstructOptions::default()).unwrap();
+        assert_eq!(r.checks.ambiguous_times, 1);
+        assert_eq!(r.checks.out_of_order, 1);
+        assert_eq!(r.checks.split_across_strips, 1);
+        assert!(r.checks.rejected >= 300, "{:?}", r.checks);
+        let codes: Vec<&str> = r.warnings.iter().map(|w| w.code.as_str()).collect();
+        assert!(codes.contains(&"gps_time_not_unique"), "{codes:?}");
+        assert!(codes.contains(&"returns_out_of_order"), "{codes:?}");
+        assert!(codes.contains(&"pulse_split_across_strips"), "{codes:?}");
+        for e in r.epochs.iter().filter(|e| e.strip == 1) {
+            let s = sensor(e.time_s);
+            for (k, (p, sigma)) in e.position_m.iter().zip(e.sigma_position_m).enumerate() {
+                let err = p - s[k];
+                assert!(err.abs() < 0.2, "{k}: {err} {e:?}");
+                assert!(err.abs() < 5.0 * sigma, "{k}: {err} {e:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn too_few_lines_is_an_error_with_the_counts() {
+        let (pts, _) = flight(0.0, 0.0);
+        let single: Vec<ReturnPoint> = pts
+            .into_iter()
+            .filter(|p| p.number_of_returns == 1)
+            .collect();
+        let e = reconstruct(&single, &ReconstructOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("0 usable multi-return pulses"), "{e}");
+    }
+}
