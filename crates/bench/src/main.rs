@@ -81,9 +81,11 @@ fn parse_args() -> Result<Args> {
     Ok(args)
 }
 
-/// One timed child: wall seconds and peak resident memory in MB (when `/usr/bin/time` exists).
+/// One timed child: wall seconds, and CPU seconds (user + system) and peak resident memory in
+/// MB when `/usr/bin/time` exists.
 struct Run {
     seconds: f64,
+    cpu_s: Option<f64>,
     peak_mb: Option<f64>,
 }
 
@@ -92,7 +94,7 @@ fn run(dir: &Path, lidarqa: &Path, args: &[&str]) -> Result<Run> {
     let rss = dir.join("rss.txt");
     let mut cmd = if time.is_file() {
         let mut c = Command::new(time);
-        c.arg("-f").arg("%M").arg("-o").arg(&rss).arg(lidarqa);
+        c.arg("-f").arg("%M %U %S").arg("-o").arg(&rss).arg(lidarqa);
         c
     } else {
         Command::new(lidarqa)
@@ -110,16 +112,34 @@ fn run(dir: &Path, lidarqa: &Path, args: &[&str]) -> Result<Run> {
             String::from_utf8_lossy(&out.stderr).trim()
         );
     }
-    let peak_mb = std::fs::read_to_string(&rss)
+    let fields: Vec<f64> = std::fs::read_to_string(&rss)
         .ok()
-        .and_then(|s| s.lines().last()?.trim().parse::<f64>().ok())
-        .map(|kb| kb / 1024.0);
+        .and_then(|s| {
+            let line = s.lines().last()?.to_string();
+            line.split_whitespace().map(|v| v.parse().ok()).collect()
+        })
+        .unwrap_or_default();
     let _ = std::fs::remove_file(&rss);
-    Ok(Run { seconds, peak_mb })
+    Ok(Run {
+        seconds,
+        cpu_s: (fields.len() == 3).then(|| fields[1] + fields[2]),
+        peak_mb: fields.first().map(|kb| kb / 1024.0),
+    })
 }
 
-/// The baseline: las-rs's streaming copy of `input` to `output` (seconds, points).
-fn copy(input: &Path, output: &Path) -> Result<(f64, u64)> {
+/// This process's CPU seconds so far (user + system, /proc/self/stat, 100 ticks a second).
+fn own_cpu_s() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command name, which is in parentheses and may hold spaces.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
+/// The baseline: las-rs's streaming copy of `input` to `output`.
+fn laz_copy(input: &Path, output: &Path) -> Result<CopyRun> {
+    let cpu0 = own_cpu_s();
     let t = Instant::now();
     let mut reader =
         Reader::from_path(input).with_context(|| format!("{}: cannot read", input.display()))?;
@@ -137,24 +157,41 @@ fn copy(input: &Path, output: &Path) -> Result<(f64, u64)> {
     }
     writer.close()?;
     let seconds = t.elapsed().as_secs_f64();
+    let cpu_s = own_cpu_s().zip(cpu0).map(|(b, a)| b - a);
     std::fs::remove_file(output)?;
-    Ok((seconds, n))
+    Ok(CopyRun {
+        seconds,
+        cpu_s,
+        points: n,
+    })
 }
 
-/// Copies every LAZ in `dir` (the outputs of a tile run): total seconds and points.
-fn copy_dir(dir: &Path, scratch: &Path) -> Result<(f64, u64)> {
+/// The baseline's wall and CPU seconds, and the points it copied.
+#[derive(Default)]
+struct CopyRun {
+    seconds: f64,
+    cpu_s: Option<f64>,
+    points: u64,
+}
+
+/// Copies every LAZ in `dir` (the outputs of a tile run): the totals.
+fn copy_dir(dir: &Path, scratch: &Path) -> Result<CopyRun> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|e| e == "laz"))
         .collect();
     files.sort();
-    let (mut s, mut n) = (0.0, 0);
+    let mut total = CopyRun {
+        cpu_s: Some(0.0),
+        ..CopyRun::default()
+    };
     for f in files {
-        let (fs, fnn) = copy(&f, scratch)?;
-        s += fs;
-        n += fnn;
+        let c = laz_copy(&f, scratch)?;
+        total.seconds += c.seconds;
+        total.cpu_s = total.cpu_s.zip(c.cpu_s).map(|(a, b)| a + b);
+        total.points += c.points;
     }
-    Ok((s, n))
+    Ok(total)
 }
 
 /// The scenario cut to `points` pulses: the line keeps its start, speed and rate.
@@ -181,9 +218,8 @@ fn scenario(points: u64) -> Result<String> {
 
 struct Row {
     what: &'static str,
-    points: u64,
     command: Run,
-    copy_s: f64,
+    copy: CopyRun,
     bar: f64,
 }
 
@@ -224,12 +260,11 @@ fn main() -> Result<()> {
         &["simulate", "--scenario", s(&scen), "-o", s(&sim)],
     )?;
     let strip = sim.join("strip_001.laz");
-    let (copy_s, points) = copy(&strip, &scratch)?;
+    let copy = laz_copy(&strip, &scratch)?;
     rows.push(Row {
         what: "simulate",
-        points,
         command,
-        copy_s,
+        copy,
         bar: 0.7,
     });
 
@@ -273,12 +308,11 @@ fn main() -> Result<()> {
             s(&out),
         ];
         let command = run(&dir, bin, &cmd)?;
-        let (copy_s, points) = copy(&out, &scratch)?;
+        let copy = laz_copy(&out, &scratch)?;
         rows.push(Row {
             what,
-            points,
             command,
-            copy_s,
+            copy,
             bar: 0.7,
         });
         std::fs::remove_file(&out)?;
@@ -305,12 +339,11 @@ fn main() -> Result<()> {
         s(&corrected),
     ];
     let command = run(&dir, bin, &cmd)?;
-    let (copy_s, points) = copy_dir(&corrected, &scratch)?;
+    let copy = copy_dir(&corrected, &scratch)?;
     rows.push(Row {
         what: "correct",
-        points,
         command,
-        copy_s,
+        copy,
         bar: 0.8,
     });
     std::fs::remove_dir_all(&corrected)?;
@@ -334,29 +367,33 @@ fn main() -> Result<()> {
         s(&bathy_tpu),
     ];
     let command = run(&dir, bin, &cmd)?;
-    let (copy_s, points) = copy_dir(&bathy_tpu, &scratch)?;
+    let copy = copy_dir(&bathy_tpu, &scratch)?;
     rows.push(Row {
         what: "tpu, conic (bathymetry scenario)",
-        points,
         command,
-        copy_s,
+        copy,
         bar: 0.7,
     });
 
     println!();
-    println!("| command | points | command s | copy s | ratio | bar | peak MB |");
-    println!("|---|---|---|---|---|---|---|");
+    println!(
+        "| command | points | command s | copy s | ratio | bar | command CPU s | copy CPU s | peak MB |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let secs = |v: Option<f64>| v.map_or("?".into(), |v| format!("{v:.2}"));
     for r in &rows {
-        let ratio = r.copy_s / r.command.seconds;
+        let ratio = r.copy.seconds / r.command.seconds;
         println!(
-            "| {} | {} | {:.2} | {:.2} | {:.2} | ≥ {} {} | {} |",
+            "| {} | {} | {:.2} | {:.2} | {:.2} | ≥ {} {} | {} | {} | {} |",
             r.what,
-            r.points,
+            r.copy.points,
             r.command.seconds,
-            r.copy_s,
+            r.copy.seconds,
             ratio,
             r.bar,
             if ratio >= r.bar { "✓" } else { "✗" },
+            secs(r.command.cpu_s),
+            secs(r.copy.cpu_s),
             r.command.peak_mb.map_or("?".into(), |m| format!("{m:.0}")),
         );
     }
