@@ -78,6 +78,17 @@ const CHUNK: usize = 200_000;
 /// time) and [`Error::Point`] (a point at the scanner origin), each naming the file and the first such
 /// point; I/O errors naming the file.
 pub fn correct_tile(job: &CorrectTileJob<'_>) -> Result<CorrectTileReport> {
+    correct_tile_with_progress(job, &|_| {})
+}
+
+/// As [`correct_tile`], calling `progress(n)` after each chunk of `n` points is corrected.
+///
+/// # Errors
+/// As [`correct_tile`].
+pub fn correct_tile_with_progress(
+    job: &CorrectTileJob<'_>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<CorrectTileReport> {
     let input = job.input;
     let ctx = job.context;
     let OpenTile {
@@ -113,7 +124,7 @@ pub fn correct_tile(job: &CorrectTileJob<'_>) -> Result<CorrectTileReport> {
         // las's reader is not `Send`: it is opened in its thread.
         let reader_thread = scope.spawn(move || read_loop(input, tx_read, rx_spent));
         let writer_thread = scope.spawn(move || write_loop(writer, rx_write, &tx_spent));
-        let main = run.correct_all(&rx_read, &tx_write);
+        let main = run.correct_all(&rx_read, &tx_write, progress);
         if main.is_ok() {
             // The writer commits only on this message; any other end drops the temporary file.
             let _ = tx_write.send(WriteMsg::Finish);
@@ -206,6 +217,7 @@ impl Run<'_> {
         &self,
         rx: &Receiver<Result<PointChunk>>,
         tx: &SyncSender<WriteMsg>,
+        progress: &(dyn Fn(u64) + Sync),
     ) -> Result<()> {
         let mut first_index = 0u64;
         for msg in rx {
@@ -227,6 +239,7 @@ impl Run<'_> {
                 return Err(e);
             }
             first_index += chunk.len() as u64;
+            progress(chunk.len() as u64);
             if tx.send(WriteMsg::Chunk(chunk)).is_err() {
                 // The writer stopped; its own error is reported by the caller.
                 return Ok(());

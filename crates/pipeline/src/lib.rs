@@ -64,7 +64,9 @@ mod targets_tile;
 mod tile;
 
 pub use context::{TpuContext, TpuOptions};
-pub use correct_tile::{CorrectTileJob, CorrectTileReport, correct_tile};
+pub use correct_tile::{
+    CorrectTileJob, CorrectTileReport, correct_tile, correct_tile_with_progress,
+};
 pub use digest::{FileDigest, seed_for_tile};
 pub use error::{Error, Result};
 pub use manifest::{
