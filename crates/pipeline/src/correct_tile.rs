@@ -24,6 +24,7 @@
 
 use crate::context::{OpenTile, TpuContext};
 use crate::error::{Error, Result};
+use crate::stages::run_stages;
 use lidarqa_io::{
     LasPoint, LasReader, LasTimeConverter, LasWriteOptions, LasWriter, PointChunk,
     TransverseMercator, UtmZone,
@@ -117,45 +118,25 @@ pub fn correct_tile_with_progress(
         converter: &converter,
         zone,
     };
-    std::thread::scope(|scope| {
-        let (tx_read, rx_read) = sync_channel::<Result<PointChunk>>(1);
-        let (tx_write, rx_write) = sync_channel::<WriteMsg>(1);
-        let (tx_spent, rx_spent) = sync_channel::<PointChunk>(SPARES);
+    let (tx_spent, rx_spent) = sync_channel::<PointChunk>(SPARES);
+    let points = run_stages(
+        input,
         // las's reader is not `Send`: it is opened in its thread.
-        let reader_thread = scope.spawn(move || read_loop(input, tx_read, rx_spent));
-        let writer_thread = scope.spawn(move || write_loop(writer, rx_write, &tx_spent));
-        let main = run.correct_all(&rx_read, &tx_write, progress);
-        if main.is_ok() {
-            // The writer commits only on this message; any other end drops the temporary file.
-            let _ = tx_write.send(WriteMsg::Finish);
-        }
-        drop(tx_write);
-        drop(rx_read);
-        let written = writer_thread.join();
-        let _ = reader_thread.join();
-        let worker = |what: &str| Error::Worker {
-            path: input.to_path_buf(),
-            message: format!("the {what} thread panicked"),
-        };
-        main?;
-        match written.map_err(|_| worker("writer"))?? {
-            Some(points) => Ok(CorrectTileReport {
-                input: input.to_path_buf(),
-                output: job.output.to_path_buf(),
-                points,
-            }),
-            None => Err(worker("writer")),
-        }
+        move |tx_read| read_loop(input, tx_read, rx_spent),
+        move |rx_write| write_loop(writer, rx_write, &tx_spent),
+        |rx_read, tx_write| run.correct_all(rx_read, tx_write, progress),
+    )?;
+    Ok(CorrectTileReport {
+        input: input.to_path_buf(),
+        output: job.output.to_path_buf(),
+        points,
     })
 }
 
 /// Spare chunks handed back from the writer to the reader (their vectors are reused).
 const SPARES: usize = 2;
 
-enum WriteMsg {
-    Chunk(PointChunk),
-    Finish,
-}
+type WriteMsg = crate::stages::WriteMsg<PointChunk>;
 
 fn read_loop(input: &Path, tx: SyncSender<Result<PointChunk>>, spent: Receiver<PointChunk>) {
     let mut reader = match LasReader::from_path(input) {

@@ -58,6 +58,7 @@ mod error;
 mod manifest;
 pub mod plausibility;
 mod retile;
+mod stages;
 mod stored;
 mod summary;
 mod targets_tile;
