@@ -223,6 +223,38 @@ struct Row {
     bar: f64,
 }
 
+/// Runs `[command, input, trajectory, sensor]` with `extra` flags writing into the directory
+/// `out`, copies what it wrote, and removes it.
+fn measure_dir(
+    dir: &Path,
+    bin: &Path,
+    (what, bar): (&'static str, f64),
+    [command, input, trajectory, sensor]: [&str; 4],
+    extra: &[&str],
+    out: &Path,
+) -> Result<Row> {
+    let mut args = vec![
+        command,
+        input,
+        "--trajectory",
+        trajectory,
+        "--sensor",
+        sensor,
+        "-o",
+        s(out),
+    ];
+    args.extend(extra);
+    let command = run(dir, bin, &args)?;
+    let copy = copy_dir(out, &dir.join("copy.laz"))?;
+    std::fs::remove_dir_all(out)?;
+    Ok(Row {
+        what,
+        command,
+        copy,
+        bar,
+    })
+}
+
 fn load() -> String {
     std::fs::read_to_string("/proc/loadavg")
         .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
@@ -326,27 +358,15 @@ fn main() -> Result<()> {
     "boresight_roll_deg": 0.05, "boresight_pitch_deg": -0.03, "boresight_yaw_deg": 0.04}}"#,
     )?;
     let corrected = dir.join("corrected");
-    let cmd = [
-        "correct",
-        s(&strip),
-        "--trajectory",
-        s(&sbet),
-        "--sensor",
-        s(&sensor),
-        "--calibration",
-        s(&cal),
-        "-o",
-        s(&corrected),
-    ];
-    let command = run(&dir, bin, &cmd)?;
-    let copy = copy_dir(&corrected, &scratch)?;
-    rows.push(Row {
-        what: "correct",
-        command,
-        copy,
-        bar: 0.8,
-    });
-    std::fs::remove_dir_all(&corrected)?;
+    let calibration = ["--calibration", s(&cal)];
+    rows.push(measure_dir(
+        &dir,
+        bin,
+        ("correct", 0.8),
+        ["correct", s(&strip), s(&sbet), s(&sensor)],
+        &calibration,
+        &corrected,
+    )?);
 
     let bathy = dir.join("bathymetry");
     run(
@@ -354,26 +374,15 @@ fn main() -> Result<()> {
         bin,
         &["simulate", "--scenario", "bathymetry", "-o", s(&bathy)],
     )?;
-    let bathy_tpu = dir.join("bathymetry-tpu");
     let (bathy_sbet, bathy_sensor) = (bathy.join("sbet.out"), bathy.join("sensor.toml"));
-    let cmd = [
-        "tpu",
-        s(&bathy),
-        "--trajectory",
-        s(&bathy_sbet),
-        "--sensor",
-        s(&bathy_sensor),
-        "-o",
-        s(&bathy_tpu),
-    ];
-    let command = run(&dir, bin, &cmd)?;
-    let copy = copy_dir(&bathy_tpu, &scratch)?;
-    rows.push(Row {
-        what: "tpu, conic (bathymetry scenario)",
-        command,
-        copy,
-        bar: 0.7,
-    });
+    rows.push(measure_dir(
+        &dir,
+        bin,
+        ("tpu, conic (bathymetry scenario)", 0.7),
+        ["tpu", s(&bathy), s(&bathy_sbet), s(&bathy_sensor)],
+        &[],
+        &dir.join("bathymetry-tpu"),
+    )?);
 
     println!();
     println!(
