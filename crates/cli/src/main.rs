@@ -3,6 +3,7 @@
 
 mod cmd;
 mod format;
+mod progress;
 
 use clap::Parser;
 use std::process::ExitCode;
@@ -12,6 +13,9 @@ use std::process::ExitCode;
 #[derive(Debug, Parser)]
 #[command(name = "lidarqa", version, about, long_about = None, propagate_version = true)]
 struct Cli {
+    /// No progress bars (they are drawn only when stderr is a terminal anyway)
+    #[arg(long, short, global = true)]
+    quiet: bool,
     #[command(subcommand)]
     command: cmd::Command,
 }
@@ -21,6 +25,7 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(e) => return usage_error(e),
     };
+    progress::set_quiet(cli.quiet);
     match cmd::run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

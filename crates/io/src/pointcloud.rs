@@ -952,7 +952,16 @@ pub struct LasWriter {
     n_extra: usize,
     n_extra_f64: usize,
     index: u64,
+    /// Encoded records not yet handed to `las`: they go in batches of [`WRITE_BATCH_POINTS`]
+    /// so that the parallel LAZ compressor has whole chunks to spread over the cores.
+    pending: Vec<u8>,
+    pending_points: usize,
 }
+
+/// Points a [`LasWriter`] encodes before it hands them to `las` in one slab: several LAZ chunks
+/// (50 000 points each), so `las`'s parallel compressor (`laz-parallel`) uses every core, and a
+/// bounded buffer (a few tens of MB).
+pub const WRITE_BATCH_POINTS: usize = 200_000;
 
 impl LasWriter {
     /// Starts writing `path` (LAZ when it ends in `.laz`, any case), refusing to overwrite any
@@ -979,6 +988,8 @@ impl LasWriter {
             n_extra: options.extra_dims.len(),
             n_extra_f64: options.extra_dims_f64.len(),
             index: 0,
+            pending: Vec::new(),
+            pending_points: 0,
         })
     }
 
@@ -1086,23 +1097,56 @@ impl LasWriter {
             nir,
             extra_bytes,
         };
-        // Convert first so that a bad point leaves the writer usable.
-        if let Err(source) = point.clone().into_raw(self.inner.header().transforms()) {
+        if !point.matches(&self.format) {
+            return Err(mismatch(format!(
+                "the point's attributes do not match point format {}",
+                self.format
+            )));
+        }
+        // A point that does not convert (a coordinate beyond the i32 range) leaves the writer
+        // usable: nothing of it is buffered.
+        let raw = point
+            .into_raw(self.inner.header().transforms())
+            .map_err(|source| Error::LasPoint {
+                path: self.path.clone(),
+                index: self.index,
+                source,
+            })?;
+        let start = self.pending.len();
+        if let Err(source) = raw.write_to(&mut self.pending, &self.format) {
+            self.pending.truncate(start);
             return Err(Error::LasPoint {
                 path: self.path.clone(),
                 index: self.index,
                 source,
             });
         }
-        self.inner
-            .write_point(point)
+        self.pending_points += 1;
+        self.index += 1;
+        if self.pending_points >= WRITE_BATCH_POINTS {
+            self.flush_pending()?;
+        }
+        Ok(())
+    }
+
+    /// Hands the buffered records to `las` in one slab (header statistics and LAZ chunks).
+    fn flush_pending(&mut self) -> Result<()> {
+        if self.pending_points == 0 {
+            return Ok(());
+        }
+        let capacity = self.pending.capacity();
+        let bytes = std::mem::replace(&mut self.pending, Vec::with_capacity(capacity));
+        let first = self.index - self.pending_points as u64;
+        self.pending_points = 0;
+        las::PointDataBuilder::new()
+            .for_header(self.inner.header())
+            .build_from_bytes(bytes)
+            .and_then(|data| self.inner.write_points(&data))
             .map_err(|source| Error::LasPoint {
                 path: self.path.clone(),
-                index: self.index,
+                index: first,
                 source,
-            })?;
-        self.index += 1;
-        Ok(())
+            })
     }
 
     /// Points written so far.
@@ -1119,7 +1163,8 @@ impl LasWriter {
     ///
     /// # Errors
     /// [`Error::Las`] / [`Error::Io`] naming the file; nothing is left at the path then.
-    pub fn finish(self) -> Result<u64> {
+    pub fn finish(mut self) -> Result<u64> {
+        self.flush_pending()?;
         let LasWriter {
             inner, path, index, ..
         } = self;

@@ -28,6 +28,7 @@
 
 use crate::context::{OpenTile, TpuContext};
 use crate::error::{Error, Result};
+use crate::stages::run_stages;
 use lidarqa_io::{
     Crs, LasPoint, LasReader, LasTimeConverter, LasWriteOptions, LasWriter, PointChunk,
 };
@@ -81,6 +82,17 @@ const CHUNK: usize = 200_000;
 /// time) and [`Error::Point`] (a point at the scanner origin), each naming the file and the first such
 /// point; I/O errors naming the file.
 pub fn correct_tile(job: &CorrectTileJob<'_>) -> Result<CorrectTileReport> {
+    correct_tile_with_progress(job, &|_| {})
+}
+
+/// As [`correct_tile`], calling `progress(n)` after each chunk of `n` points is corrected.
+///
+/// # Errors
+/// As [`correct_tile`].
+pub fn correct_tile_with_progress(
+    job: &CorrectTileJob<'_>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<CorrectTileReport> {
     let input = job.input;
     let ctx = job.context;
     let OpenTile {
@@ -109,45 +121,25 @@ pub fn correct_tile(job: &CorrectTileJob<'_>) -> Result<CorrectTileReport> {
         converter: &converter,
         crs,
     };
-    std::thread::scope(|scope| {
-        let (tx_read, rx_read) = sync_channel::<Result<PointChunk>>(1);
-        let (tx_write, rx_write) = sync_channel::<WriteMsg>(1);
-        let (tx_spent, rx_spent) = sync_channel::<PointChunk>(SPARES);
+    let (tx_spent, rx_spent) = sync_channel::<PointChunk>(SPARES);
+    let points = run_stages(
+        input,
         // las's reader is not `Send`: it is opened in its thread.
-        let reader_thread = scope.spawn(move || read_loop(input, tx_read, rx_spent));
-        let writer_thread = scope.spawn(move || write_loop(writer, rx_write, &tx_spent));
-        let main = run.correct_all(&rx_read, &tx_write);
-        if main.is_ok() {
-            // The writer commits only on this message; any other end drops the temporary file.
-            let _ = tx_write.send(WriteMsg::Finish);
-        }
-        drop(tx_write);
-        drop(rx_read);
-        let written = writer_thread.join();
-        let _ = reader_thread.join();
-        let worker = |what: &str| Error::Worker {
-            path: input.to_path_buf(),
-            message: format!("the {what} thread panicked"),
-        };
-        main?;
-        match written.map_err(|_| worker("writer"))?? {
-            Some(points) => Ok(CorrectTileReport {
-                input: input.to_path_buf(),
-                output: job.output.to_path_buf(),
-                points,
-            }),
-            None => Err(worker("writer")),
-        }
+        move |tx_read| read_loop(input, tx_read, rx_spent),
+        move |rx_write| write_loop(writer, rx_write, &tx_spent),
+        |rx_read, tx_write| run.correct_all(rx_read, tx_write, progress),
+    )?;
+    Ok(CorrectTileReport {
+        input: input.to_path_buf(),
+        output: job.output.to_path_buf(),
+        points,
     })
 }
 
 /// Spare chunks handed back from the writer to the reader (their vectors are reused).
 const SPARES: usize = 2;
 
-enum WriteMsg {
-    Chunk(PointChunk),
-    Finish,
-}
+type WriteMsg = crate::stages::WriteMsg<PointChunk>;
 
 fn read_loop(input: &Path, tx: SyncSender<Result<PointChunk>>, spent: Receiver<PointChunk>) {
     let mut reader = match LasReader::from_path(input) {
@@ -209,6 +201,7 @@ impl Run<'_> {
         &self,
         rx: &Receiver<Result<PointChunk>>,
         tx: &SyncSender<WriteMsg>,
+        progress: &(dyn Fn(u64) + Sync),
     ) -> Result<()> {
         let mut first_index = 0u64;
         for msg in rx {
@@ -230,6 +223,7 @@ impl Run<'_> {
                 return Err(e);
             }
             first_index += chunk.len() as u64;
+            progress(chunk.len() as u64);
             if tx.send(WriteMsg::Chunk(chunk)).is_err() {
                 // The writer stopped; its own error is reported by the caller.
                 return Ok(());

@@ -58,6 +58,7 @@ mod error;
 mod manifest;
 pub mod plausibility;
 mod retile;
+mod stages;
 mod stored;
 mod summary;
 mod targets_files;
@@ -66,7 +67,9 @@ mod tile;
 pub mod trajectory_from_returns;
 
 pub use context::{TpuContext, TpuOptions};
-pub use correct_tile::{CorrectTileJob, CorrectTileReport, correct_tile};
+pub use correct_tile::{
+    CorrectTileJob, CorrectTileReport, correct_tile, correct_tile_with_progress,
+};
 pub use digest::{FileDigest, seed_for_tile};
 pub use error::{Error, Result};
 pub use manifest::{

@@ -6,6 +6,7 @@ use crate::plausibility::{
     DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, MOUNTING_ERROR_M, MountingTally, check_distance,
     check_gaps, crs_name, outside_zone, point_implausible,
 };
+use crate::stages::run_stages;
 use crate::summary::{
     IncidenceTally, SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary,
 };
@@ -160,19 +161,39 @@ pub fn tpu_tile_with_progress(
 
     let chunk_points = ctx.options.chunk_points;
     let path = input.to_path_buf();
-    std::thread::scope(|scope| {
-        let (tx_read, rx_read) = sync_channel::<Result<Prepared>>(1);
-        let (tx_write, rx_write) = sync_channel::<WriteMsg>(1);
-        // Spent buffers go back to the stage that fills them (see `Spent`).
-        let (tx_spent_read, rx_spent_read) = sync_channel::<Spent>(SPARES);
-        let (tx_spent_slots, rx_spent_slots) = sync_channel::<Vec<Slot>>(SPARES);
-        let prep = &prep;
-        let reader_thread = scope.spawn(move || {
-            read_loop(input, prep, chunk_points, tx_read, rx_spent_read);
-        });
-        let tx_spent_chunk = tx_spent_read.clone();
-        let covariance = ctx.options.covariance;
-        let writer_thread = scope.spawn(move || {
+    // Spent buffers go back to the stage that fills them (see `Spent`).
+    let (tx_spent_read, rx_spent_read) = sync_channel::<Spent>(SPARES);
+    let (tx_spent_slots, rx_spent_slots) = sync_channel::<Vec<Slot>>(SPARES);
+    let prep = &prep;
+    let tx_spent_chunk = tx_spent_read.clone();
+    let covariance = ctx.options.covariance;
+    let run = Run {
+        ctx,
+        path: &path,
+        trajectory: &trajectory,
+        kernel: &kernel,
+        recoverer: Recoverer::new(&ctx.recovery_mounting),
+        recovery_mounting: ctx.recovery_mounting,
+        mounting: ctx.sensor.mounting,
+        r_m: rotation_zyx(
+            ctx.recovery_mounting.boresight_roll_rad,
+            ctx.recovery_mounting.boresight_pitch_rad,
+            ctx.recovery_mounting.boresight_yaw_rad,
+        ),
+        tally0,
+        central_meridian_rad: crs.utm_zone().map(|z| z.central_meridian_rad()),
+        crs_name: &crs_name,
+        crs: &crs,
+        file_normals,
+    };
+    let spent = Recycle {
+        preps: tx_spent_read,
+        slots: rx_spent_slots,
+    };
+    run_stages(
+        &path,
+        move |tx_read| read_loop(input, prep, chunk_points, tx_read, rx_spent_read),
+        move |rx_write| {
             write_loop(
                 writer,
                 n_dims,
@@ -182,64 +203,20 @@ pub fn tpu_tile_with_progress(
                 &tx_spent_chunk,
                 &tx_spent_slots,
             )
-        });
-        let run = Run {
-            ctx,
-            path: &path,
-            trajectory: &trajectory,
-            kernel: &kernel,
-            recoverer: Recoverer::new(&ctx.recovery_mounting),
-            recovery_mounting: ctx.recovery_mounting,
-            mounting: ctx.sensor.mounting,
-            r_m: rotation_zyx(
-                ctx.recovery_mounting.boresight_roll_rad,
-                ctx.recovery_mounting.boresight_pitch_rad,
-                ctx.recovery_mounting.boresight_yaw_rad,
-            ),
-            tally0,
-            central_meridian_rad: crs.utm_zone().map(|z| z.central_meridian_rad()),
-            crs_name: &crs_name,
-            crs: &crs,
-            file_normals,
-        };
-        let spent = Recycle {
-            preps: tx_spent_read,
-            slots: rx_spent_slots,
-        };
-        let main = run
-            .compute_all(&rx_read, &tx_write, &spent, &mut summary)
-            .and_then(|()| {
-                // Kilometres off the scan plane: an error, before the output is committed.
-                let m = &summary.plausibility.mounting;
-                if m.rms_residual_m() > MOUNTING_ERROR_M {
-                    return Err(Error::Implausible {
-                        path: path.clone(),
-                        message: m.message(),
-                    });
-                }
-                Ok(())
-            });
-        if main.is_ok() {
-            // The writer commits only on this message; any other end drops the temporary file.
-            let _ = tx_write.send(WriteMsg::Finish);
-        }
-        drop(tx_write);
-        drop(rx_read);
-        let written = writer_thread.join();
-        let _ = reader_thread.join();
-        let worker = |what: &str| Error::Worker {
-            path: path.clone(),
-            message: format!("the {what} thread panicked"),
-        };
-        match (main, written) {
-            (_, Err(_)) => Err(worker("writer")),
-            // A writer error is the cause when the compute stage only saw the channel close.
-            (_, Ok(Err(e))) => Err(e),
-            (Err(e), _) => Err(e),
-            (Ok(()), Ok(Ok(Some(_)))) => Ok(()),
-            (Ok(()), Ok(Ok(None))) => Err(worker("writer")),
-        }
-    })?;
+        },
+        |rx_read, tx_write| {
+            run.compute_all(rx_read, tx_write, &spent, &mut summary)?;
+            // Kilometres off the scan plane: an error, before the output is committed.
+            let m = &summary.plausibility.mounting;
+            if m.rms_residual_m() > MOUNTING_ERROR_M {
+                return Err(Error::Implausible {
+                    path: path.clone(),
+                    message: m.message(),
+                });
+            }
+            Ok(())
+        },
+    )?;
     Ok(TileReport {
         input: input.to_path_buf(),
         output: job.output.to_path_buf(),
@@ -442,10 +419,8 @@ fn read_loop(
     }
 }
 
-enum WriteMsg {
-    Chunk(PointChunk, Vec<Slot>),
-    Finish,
-}
+/// A chunk and its computed slots, one per point.
+type WriteMsg = crate::stages::WriteMsg<(PointChunk, Vec<Slot>)>;
 
 /// Writes; returns `Some(count)` after a commit, `None` when the channel closed without
 /// [`WriteMsg::Finish`] (the temporary file is then dropped).
@@ -461,7 +436,7 @@ fn write_loop(
     let mut extra = [0f32; 9];
     for msg in rx {
         match msg {
-            WriteMsg::Chunk(chunk, slots) => {
+            WriteMsg::Chunk((chunk, slots)) => {
                 for (p, s) in chunk.points.iter().zip(&slots) {
                     if let Slot::Ok(sig, sounding, cov) = s {
                         for (e, v) in extra.iter_mut().zip(sig) {
@@ -611,7 +586,7 @@ impl Run<'_> {
                 water_tail.retain(|(i, _)| i + margin as u64 >= end);
             }
             let Prepared { chunk, pts, .. } = cur;
-            if tx.send(WriteMsg::Chunk(chunk, slots)).is_err() {
+            if tx.send(WriteMsg::Chunk((chunk, slots))).is_err() {
                 // The writer stopped; its error is reported by the caller.
                 return Ok(());
             }

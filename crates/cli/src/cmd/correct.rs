@@ -8,7 +8,7 @@ use super::tpu::crs_flags;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lidarqa_calib::mounting_from_json;
-use lidarqa_pipeline::{CorrectTileJob, TpuContext, TpuOptions, correct_tile};
+use lidarqa_pipeline::{CorrectTileJob, TpuContext, TpuOptions, correct_tile_with_progress};
 use std::path::{Path, PathBuf};
 
 pub const AFTER_HELP: &str = "\
@@ -82,20 +82,31 @@ pub fn run(a: CorrectArgs) -> Result<()> {
     // No output may overwrite any strip (not only its own input) or the calibration.
     let mut others: Vec<&Path> = a.strips.iter().map(PathBuf::as_path).collect();
     others.push(&a.calibration);
+    // Headers only, for the progress bar's length.
+    let total: u64 = a
+        .strips
+        .iter()
+        .map(|p| lidarqa_io::LasReader::from_path(p).map(|r| r.info().point_count))
+        .sum::<lidarqa_io::Result<u64>>()?;
+    let bar = crate::progress::bar("correct", total, "points");
     for (path, out) in a.strips.iter().zip(&outputs) {
-        let r = correct_tile(&CorrectTileJob {
+        let job = CorrectTileJob {
             input: path,
             output: out,
             context: &ctx,
             mounting: &mounting,
             other_inputs: &others,
-        })?;
-        eprintln!(
-            "lidarqa: {} -> {} ({} points)",
-            path.display(),
-            out.display(),
-            r.points
-        );
+        };
+        let r = correct_tile_with_progress(&job, &|n| bar.inc(n))?;
+        bar.suspend(|| {
+            eprintln!(
+                "lidarqa: {} -> {} ({} points)",
+                path.display(),
+                out.display(),
+                r.points
+            )
+        });
     }
+    bar.finish_and_clear();
     Ok(())
 }

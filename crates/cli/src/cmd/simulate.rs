@@ -6,7 +6,7 @@
 
 use anyhow::Context;
 use lidarqa_sim::{Scenario, SimOptions, builtin_toml, simulate_with_progress, write_survey};
-use std::io::{IsTerminal, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Example shown after `lidarqa simulate --help`.
@@ -107,18 +107,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     let dir = &args.output;
     std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
 
-    let bar = if std::io::stderr().is_terminal() {
-        let bar = indicatif::ProgressBar::new(scenario.pulse_count());
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(
-                "simulating {bar:40} {human_pos}/{human_len} pulses ({per_sec}, eta {eta})",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        bar
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
+    let bar = crate::progress::bar("simulating", scenario.pulse_count(), "pulses");
     let options = SimOptions {
         keep_truth: args.truth,
         ..SimOptions::default()

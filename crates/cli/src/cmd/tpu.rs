@@ -5,13 +5,12 @@
 use crate::format::{OutputFormat, cm, print_json, print_text, print_warnings};
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lidarqa_io::{AtomicFile, Crs, Hemisphere, LasReader, UtmZone};
 use lidarqa_pipeline::{
     SurveyReport, TileReport, TpuContext, TpuOptions, TpuTileJob, tpu_tile_with_progress,
 };
 use std::fmt::Write as _;
-use std::io::{IsTerminal, Write as _};
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 pub const AFTER_HELP: &str = "\
@@ -290,17 +289,7 @@ pub fn run(args: TpuArgs) -> Result<()> {
         .iter()
         .map(|t| LasReader::from_path(&t.input).map(|r| r.info().point_count))
         .sum::<lidarqa_io::Result<u64>>()?;
-    let bar = if std::io::stderr().is_terminal() {
-        ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr())
-    } else {
-        ProgressBar::hidden()
-    };
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} tpu [{elapsed_precise}] {wide_bar} {human_pos}/{human_len} points ({eta})",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let bar = crate::progress::bar("tpu", total, "points");
     let progress = |n: u64| bar.inc(n);
     let reports = run_tiles(&plan.tiles, &ctx, &progress)?;
     bar.finish_and_clear();
