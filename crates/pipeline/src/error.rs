@@ -151,6 +151,10 @@ pub enum Error {
         /// Why.
         source: lidarqa_calib::Error,
     },
+    /// A calibration that cannot be computed (lidarqa-calib's message, told in the tie or control
+    /// CSV's terms — file, line, the x, y written there — when it is about a pick or a point).
+    #[error("{0}")]
+    Calibration(String),
     /// Target extraction in a tile failed (lidarqa-targets' message).
     #[error("{}: {source}", path.display())]
     Targets {
