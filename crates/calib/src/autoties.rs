@@ -428,7 +428,6 @@ fn bright_components(points: &[[f64; 2]], link_m: f64) -> usize {
 mod tests {
     use super::*;
     use crate::strip::RawPoint;
-    use lidarqa_model::{Attitude, LinearObservation};
 
     /// Flat ground, every point its own origin, with a 0.4 m painted stripe along east at north 0;
     /// points `north_m` apart across the stripe and `east_m` along it, starting at `phase_m`.
@@ -438,18 +437,8 @@ mod tests {
         for i in -ni..=ni {
             for j in -ej..=ej {
                 let (x, y) = (phase_m + i as f64 * north_m, j as f64 * east_m);
-                let p = Vector3::new(x, y, 0.0);
-                points.push(RawPoint {
-                    position_m: p,
-                    origin_m: p,
-                    attitude: Attitude::default(),
-                    observation: LinearObservation {
-                        range_m: 0.0,
-                        scan_angle_rad: 0.0,
-                    },
-                    time_s: 0.0,
-                    intensity: if x.abs() <= 0.2 { 4000 } else { 500 },
-                });
+                let intensity = if x.abs() <= 0.2 { 4000 } else { 500 };
+                points.push(RawPoint::own_origin(Vector3::new(x, y, 0.0), intensity));
             }
         }
         Strip {

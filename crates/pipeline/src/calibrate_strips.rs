@@ -296,16 +296,8 @@ fn load_strip(path: &Path, ctx: &TpuContext, frame: &LocalFrame) -> Result<Loade
     };
     while reader.fill(&mut chunk, 200_000)? > 0 {
         for p in &chunk.points {
+            crate::error::check_finite(path, index, p.x, p.y, p.z)?;
             let z = p.z + tile.height_offset_m;
-            if !(p.x.is_finite() && p.y.is_finite() && z.is_finite()) {
-                return Err(Error::NonFiniteCoordinates {
-                    path: path.to_path_buf(),
-                    index,
-                    x: p.x,
-                    y: p.y,
-                    z: p.z,
-                });
-            }
             let sow = match p.gps_time_s.map(|t| tile.converter.to_seconds_of_week(t)) {
                 Some(Ok(s)) => s,
                 Some(Err(e)) => {

@@ -165,5 +165,26 @@ pub enum Error {
     },
 }
 
+/// [`Error::NonFiniteCoordinates`] for point `index` of `path` when x, y or z (as read) is NaN or
+/// infinite.
+pub(crate) fn check_finite(
+    path: &std::path::Path,
+    index: u64,
+    x: f64,
+    y: f64,
+    z: f64,
+) -> Result<()> {
+    if x.is_finite() && y.is_finite() && z.is_finite() {
+        return Ok(());
+    }
+    Err(Error::NonFiniteCoordinates {
+        path: path.to_path_buf(),
+        index,
+        x,
+        y,
+        z,
+    })
+}
+
 /// Result with the lidarqa-pipeline [`Error`].
 pub type Result<T> = std::result::Result<T, Error>;
