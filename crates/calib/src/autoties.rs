@@ -14,6 +14,10 @@
 //!    points are elongated (eigenvalue ratio > 4: a centre line, a stripe), a [`TieKind::Line`] tie
 //!    observing across the line and in height only (along the line the centroid only follows the
 //!    window: on simulated centre lines it scattered by 0.2–0.4 m and spoiled the solution).
+//!    A marking with fewer than 12 bright points in some strip is no horizontal tie: when the
+//!    points across it are farther apart than it is wide, the centroid is wherever the scan
+//!    lines happened to cross it, a few cm off in each strip and the same along the whole strip
+//!    (a bias, not noise); such a patch becomes a [`TieKind::Surface`] tie at one place.
 //! 4. **Roofs** — planar patches sloped 10–60°: a [`TieKind::Surface`] tie at the grid centre in
 //!    every strip, observing only along the plane normal (nothing fixes a point within a roof face);
 //!    the patch must be the same face in every strip (normals within 3°).
@@ -64,6 +68,9 @@ impl Default for AutoTieOptions {
         }
     }
 }
+
+/// Fewest bright points of a marking in every strip for its centroid to locate it horizontally.
+const MIN_BRIGHT_POINTS: usize = 12;
 
 struct Candidate {
     tie: Tie,
@@ -219,6 +226,7 @@ fn candidate(
         let mut picks = Vec::new();
         let mut shape: Option<TieKind> = None;
         let mut score = f64::INFINITY;
+        let mut fewest_bright = usize::MAX;
         for (s, near, pos, _) in &patches {
             let mut inten: Vec<u16> = near
                 .iter()
@@ -333,18 +341,27 @@ fn candidate(
                 return None;
             }
             score = score.min((p95 - p5) / p95 - (x1 - x).hypot(y1 - y));
+            fewest_bright = fewest_bright.min(c1);
             picks.push(TiePick {
                 strip: idx.strips[*s].id.clone(),
                 north_m: x1,
                 east_m: y1,
             });
         }
+        // Too few bright points in a strip: their centroid is where the scan lines happened to
+        // cross the marking, not the marking (module docs, step 3): the patch ties heights only,
+        // at one place.
+        let kind = if fewest_bright < MIN_BRIGHT_POINTS {
+            let (n0, e0) = (picks[0].north_m, picks[0].east_m);
+            for p in &mut picks {
+                (p.north_m, p.east_m) = (n0, e0);
+            }
+            TieKind::Surface
+        } else {
+            shape.unwrap_or(TieKind::Feature)
+        };
         Some(Candidate {
-            tie: Tie {
-                id,
-                picks,
-                kind: shape.unwrap_or(TieKind::Feature),
-            },
+            tie: Tie { id, picks, kind },
             score,
             bin: (0, 0, theta_bin, 0),
         })
@@ -405,4 +422,55 @@ fn bright_components(points: &[[f64; 2]], link_m: f64) -> usize {
         *sizes.entry(root(&mut parent, i)).or_insert(0usize) += 1;
     }
     sizes.values().filter(|&&c| c >= 3).count()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::strip::RawPoint;
+
+    /// Flat ground, every point its own origin, with a 0.4 m painted stripe along east at north 0;
+    /// points `north_m` apart across the stripe and `east_m` along it, starting at `phase_m`.
+    fn striped(id: &str, north_m: f64, east_m: f64, phase_m: f64) -> Strip {
+        let mut points = Vec::new();
+        let (ni, ej) = ((6.0 / north_m) as i64, (6.0 / east_m) as i64);
+        for i in -ni..=ni {
+            for j in -ej..=ej {
+                let (x, y) = (phase_m + i as f64 * north_m, j as f64 * east_m);
+                let intensity = if x.abs() <= 0.2 { 4000 } else { 500 };
+                points.push(RawPoint::own_origin(Vector3::new(x, y, 0.0), intensity));
+            }
+        }
+        Strip {
+            id: id.into(),
+            points,
+        }
+    }
+
+    fn kinds(strips: &[Strip]) -> Vec<TieKind> {
+        auto_ties(strips, &Mounting::default(), &AutoTieOptions::default())
+            .unwrap()
+            .into_iter()
+            .map(|t| t.kind)
+            .collect()
+    }
+
+    #[test]
+    fn a_marking_crossed_by_few_points_ties_heights_only() {
+        // Both strips sample the stripe densely: located across it.
+        let fine = [striped("1", 0.1, 0.1, 0.0), striped("2", 0.1, 0.12, 0.03)];
+        let k = kinds(&fine);
+        assert!(
+            !k.is_empty() && k.iter().all(|k| matches!(k, TieKind::Line(_))),
+            "{k:?}"
+        );
+        // The second strip's points are 0.5 m apart across the 0.4 m stripe: one point per scan
+        // line falls on it, where the phase puts it, and the tie observes heights only.
+        let sparse = [striped("1", 0.1, 0.1, 0.0), striped("2", 0.5, 0.55, 0.13)];
+        let k = kinds(&sparse);
+        assert!(
+            !k.is_empty() && k.iter().all(|k| *k == TieKind::Surface),
+            "{k:?}"
+        );
+    }
 }

@@ -138,6 +138,22 @@ impl RawPoint {
         ))
     }
 
+    /// A test point whose georeferencing is itself (zero range, level, no lever arm).
+    #[cfg(test)]
+    pub(crate) fn own_origin(p: Vector3<f64>, intensity: u16) -> RawPoint {
+        RawPoint {
+            position_m: p,
+            origin_m: p,
+            attitude: Attitude::default(),
+            observation: LinearObservation {
+                range_m: 0.0,
+                scan_angle_rad: 0.0,
+            },
+            time_s: 0.0,
+            intensity,
+        }
+    }
+
     /// Local north, east and up of [`RawPoint::position_m`], m.
     pub fn neu_m(&self) -> [f64; 3] {
         [self.position_m.x, self.position_m.y, -self.position_m.z]

@@ -809,22 +809,11 @@ pub(crate) fn build_tie_model(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use lidarqa_model::{Attitude, LinearObservation, Mounting};
+    use lidarqa_model::Mounting;
 
     /// A point whose georeferencing is its own origin (zero range, level, no lever arm).
     fn at(x: f64, y: f64, up: f64) -> crate::strip::RawPoint {
-        let p = Vector3::new(x, y, -up);
-        crate::strip::RawPoint {
-            position_m: p,
-            origin_m: p,
-            attitude: Attitude::default(),
-            observation: LinearObservation {
-                range_m: 0.0,
-                scan_angle_rad: 0.0,
-            },
-            time_s: 0.0,
-            intensity: 0,
-        }
+        crate::strip::RawPoint::own_origin(Vector3::new(x, y, -up), 0)
     }
 
     #[test]

@@ -67,6 +67,8 @@ pub struct TpuContext {
     /// are recovered with it, whatever calibration the propagation uses.
     pub(crate) recovery_mounting: Mounting,
     pub(crate) beam_divergence_rad: Option<f64>,
+    /// The sensor file's `[mounting_sigma]`: calibration's prior observations.
+    pub(crate) mounting_sigma: [Option<f64>; 6],
     poses: TrajectoryFile,
     /// Doubtful findings about the inputs (a trajectory without roll), for every summary.
     pub(crate) warnings: Vec<Warning>,
@@ -229,6 +231,7 @@ impl TpuContext {
             recovery_mounting: sensor.mounting,
             sensor,
             beam_divergence_rad: extras.beam_divergence_rad,
+            mounting_sigma: extras.mounting_sigma,
             poses,
             warnings,
             trajectory_path,

@@ -272,15 +272,7 @@ impl Run<'_> {
     /// Corrects one point in place.
     fn point(&self, index: u64, p: &mut LasPoint, hint: &mut usize) -> Result<()> {
         let path = self.path;
-        if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
-            return Err(Error::NonFiniteCoordinates {
-                path: path.to_path_buf(),
-                index,
-                x: p.x,
-                y: p.y,
-                z: p.z,
-            });
-        }
+        crate::error::check_finite(path, index, p.x, p.y, p.z)?;
         let t = p.gps_time_s.ok_or_else(|| Error::BadTime {
             index,
             message: format!("{}: point without GPS time", path.display()),

@@ -159,6 +159,10 @@ pub enum Error {
         /// Why.
         source: lidarqa_calib::Error,
     },
+    /// A calibration that cannot be computed (lidarqa-calib's message, told in the tie or control
+    /// CSV's terms — file, line, the x, y written there — when it is about a pick or a point).
+    #[error("{0}")]
+    Calibration(String),
     /// Target extraction in a tile failed (lidarqa-targets' message).
     #[error("{}: {source}", path.display())]
     Targets {
@@ -167,6 +171,27 @@ pub enum Error {
         /// Why.
         source: lidarqa_targets::Error,
     },
+}
+
+/// [`Error::NonFiniteCoordinates`] for point `index` of `path` when x, y or z (as read) is NaN or
+/// infinite.
+pub(crate) fn check_finite(
+    path: &std::path::Path,
+    index: u64,
+    x: f64,
+    y: f64,
+    z: f64,
+) -> Result<()> {
+    if x.is_finite() && y.is_finite() && z.is_finite() {
+        return Ok(());
+    }
+    Err(Error::NonFiniteCoordinates {
+        path: path.to_path_buf(),
+        index,
+        x,
+        y,
+        z,
+    })
 }
 
 /// Result with the lidarqa-pipeline [`Error`].

@@ -51,6 +51,7 @@
 //! # Ok::<(), lidarqa_pipeline::Error>(())
 //! ```
 
+mod calibrate_strips;
 mod context;
 mod correct_tile;
 mod digest;
@@ -66,6 +67,10 @@ mod targets_tile;
 mod tile;
 pub mod trajectory_from_returns;
 
+pub use calibrate_strips::{
+    CalibrateJob, LoadedStrip, StripCalibration, TieSource, TrajectoryWeighting, VTPM_NEIGHBOURS,
+    calibrate_strips, frame_for, load_all, local_to_projected, projected_to_local,
+};
 pub use context::{TpuContext, TpuOptions};
 pub use correct_tile::{
     CorrectTileJob, CorrectTileReport, correct_tile, correct_tile_with_progress,

@@ -1,34 +1,24 @@
 //! `lidarqa calibrate`: boresight + lever-arm self-calibration from overlapping strips (SPEC §7,
 //! seed 001), writing `calibration.json` (SPEC §8) and `calibration_iterations.json` beside it.
-//!
-//! Also holds the strip loading shared with `lidarqa correct`: LAS/LAZ → (UTM inverse, ellipsoid)
-//! ECEF → local NED frame at the survey centre, GPS time → trajectory pose, raw observation
-//! recovered once with the sensor file's mounting (lidarqa-tpu). The sensor and SBET are read by
-//! lidarqa-pipeline's `TpuContext`, as `lidarqa tpu` does.
+//! The work is lidarqa-pipeline's `calibrate_strips`; this module parses, checks and prints.
 
 use super::tpu::crs_flags;
 use crate::format::{OutputFormat, print_json, print_text};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lidarqa_calib::{
-    AutoTieOptions, Calibration, CalibrationOptions, ControlPoint, LocalFrame, MAX_RADIUS_M,
-    MAX_RANSAC_ITERATIONS, Param, PlaneOptions, RawPoint, Strip, Tie, TieKind, TiePick,
-    TrajectorySigma, auto_ties, calibrate_plane, calibrate_vtpm,
+    Calibration, CalibrationOptions, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Method, Param,
+    TrajectorySigma,
 };
+use lidarqa_io::AtomicFile;
+use lidarqa_pipeline::{
+    CalibrateJob, TieSource, TpuContext, TpuOptions, TrajectoryWeighting, calibrate_strips,
+};
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
 
 /// Most Levenberg–Marquardt iterations: a calibration converges in tens.
 const MAX_LM_ITERATIONS: usize = 10_000;
-use lidarqa_io::{
-    AtomicFile, ControlPoints, Crs, Geodetic, LasInfo, LasReader, LasTimeConverter, PointChunk,
-    TiePicks,
-};
-use lidarqa_model::{Mounting, Source};
-use lidarqa_pipeline::{TpuContext, TpuOptions};
-use lidarqa_tpu::Recoverer;
-use nalgebra::Vector3;
-use std::collections::HashMap;
-use std::io::Write as _;
-use std::path::{Path, PathBuf};
 
 pub const AFTER_HELP: &str = "\
 Examples:
@@ -131,331 +121,12 @@ pub struct CalibrateArgs {
     /// the header's.
     #[arg(long, value_name = "ZONE", conflicts_with = "epsg")]
     utm_zone: Option<String>,
-    /// EPSG code of the points' projected CRS when the files have none (any projected EPSG CRS).
+    /// EPSG code of the points' UTM CRS when the files have none (326xx, 327xx, 269xx).
     #[arg(long, value_name = "CODE")]
     epsg: Option<u32>,
     /// Output format of the summary on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
     format: OutputFormat,
-}
-
-/// A loaded strip: the calib strip, the file's points (for writing) and what converts back.
-pub(crate) struct LoadedStrip {
-    pub(crate) stem: String,
-    pub(crate) strip: Strip,
-}
-
-/// Survey centre of the files (from their headers) as a local frame, on `zone`'s ellipsoid.
-pub(crate) fn frame_for(infos: &[LasInfo], zone: &Crs) -> LocalFrame {
-    let n = infos.len().max(1) as f64;
-    let c = |k: usize| {
-        infos
-            .iter()
-            .map(|i| 0.5 * (i.min[k] + i.max[k]))
-            .sum::<f64>()
-            / n
-    };
-    let (lat, lon) = zone.inverse(c(0), c(1));
-    let e = zone.ellipsoid();
-    let ecef = e.geodetic_to_ecef(&Geodetic {
-        latitude_rad: lat,
-        longitude_rad: lon,
-        height_m: c(2),
-    });
-    LocalFrame::new(ecef, lat, lon)
-}
-
-/// The strip's header and CRS: `crs` (from `--utm-zone` / `--epsg`) when given, else the
-/// header's.
-pub(crate) fn read_info(path: &Path, crs: Option<Crs>) -> Result<(LasInfo, Crs)> {
-    let info = LasReader::from_path(path)?.info().clone();
-    if !info.has_gps_time {
-        bail!(
-            "{}: no GPS time (point format {}); recovering raw observations needs each point's time",
-            path.display(),
-            info.point_format
-        );
-    }
-    let zone = match crs {
-        Some(z) => z,
-        None => info
-            .projected_crs()
-            .context("pass --utm-zone or --epsg for points without a usable CRS")?,
-    };
-    if zone.unit() != lidarqa_io::LinearUnit::Metre {
-        bail!(
-            "{}: the CRS {} is in {}s; calibrate works on metre CRSs only",
-            path.display(),
-            zone.name(),
-            zone.unit().name()
-        );
-    }
-    Ok((info, zone))
-}
-
-/// Reads the points of one strip (its header and zone from [`read_info`]) and recovers every
-/// point's raw observation (module docs).
-pub(crate) fn load_strip(
-    path: &Path,
-    (info, zone): (&LasInfo, &Crs),
-    ctx: &TpuContext,
-    frame: &LocalFrame,
-    gps_week: Option<i64>,
-) -> Result<LoadedStrip> {
-    let trajectory = ctx.trajectory_in(zone)?;
-    let converter = LasTimeConverter::new(path, info.time_base, gps_week, info.creation_date)?;
-    let projection = zone;
-    let ellipsoid = zone.ellipsoid();
-    let recoverer = Recoverer::new(&ctx.sensor().mounting);
-    let mut reader = LasReader::from_path(path)?;
-    let mut chunk = PointChunk::new();
-    // A LAZ header's count cannot be checked against the file size (issue #12): reserve at
-    // most 4 Mi points up front and let the vectors grow with what is really read.
-    let reserve = usize::try_from(info.point_count.min(1 << 22)).unwrap_or(0);
-    let mut points = Vec::with_capacity(reserve);
-    // The strip's point source id while every point has the same one.
-    let mut psid: Option<u16> = None;
-    let mut same_psid = true;
-    let mut index = 0u64;
-    while reader.fill(&mut chunk, 200_000)? > 0 {
-        for p in &chunk.points {
-            let t = p
-                .gps_time_s
-                .with_context(|| format!("{}: point {index} has no GPS time", path.display()))?;
-            let sow = converter.to_seconds_of_week(t)?;
-            let pose = trajectory
-                .at(sow)
-                .with_context(|| format!("{}: point {index}", path.display()))?;
-            let (lat, lon) = projection.inverse(p.x, p.y);
-            let ecef = ellipsoid.geodetic_to_ecef(&Geodetic {
-                latitude_rad: lat,
-                longitude_rad: lon,
-                height_m: p.z,
-            });
-            let raw = RawPoint::recover(frame, &pose, &recoverer, &ecef, p.intensity)
-                .with_context(|| format!("{}: point {index}", path.display()))?;
-            points.push(raw);
-            same_psid &= *psid.get_or_insert(p.point_source_id) == p.point_source_id;
-            index += 1;
-        }
-    }
-    let stem = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    // The strip id: the LAS point source id when every point has the same non-zero one.
-    let id = match psid {
-        Some(id) if id != 0 && same_psid => id.to_string(),
-        _ => stem.clone(),
-    };
-    Ok(LoadedStrip {
-        stem,
-        strip: Strip { id, points },
-    })
-}
-
-/// Local NED → projected `[easting, northing, ellipsoidal height]` in `zone`.
-pub(crate) fn local_to_projected(frame: &LocalFrame, zone: &Crs, v: &Vector3<f64>) -> [f64; 3] {
-    let g = zone.ellipsoid().ecef_to_geodetic(&frame.to_ecef(v));
-    let p = zone.forward(g.latitude_rad, g.longitude_rad);
-    [p.easting_m, p.northing_m, g.height_m]
-}
-
-/// Projected position → local NED.
-pub(crate) fn projected_to_local(
-    frame: &LocalFrame,
-    zone: &Crs,
-    x: f64,
-    y: f64,
-    h: f64,
-) -> Vector3<f64> {
-    let (lat, lon) = zone.inverse(x, y);
-    let ecef = zone.ellipsoid().geodetic_to_ecef(&Geodetic {
-        latitude_rad: lat,
-        longitude_rad: lon,
-        height_m: h,
-    });
-    frame.to_local(&ecef)
-}
-
-fn frame_height(frame: &LocalFrame, zone: &Crs) -> f64 {
-    local_to_projected(frame, zone, &Vector3::zeros())[2]
-}
-
-/// Tie picks in the local frame; a pick's height is taken from the nearest point of its strip
-/// (the horizontal local position depends on it by ~1.6 cm per 100 m per km from the centre).
-fn ties_from_csv(
-    picks: &TiePicks,
-    loaded: &[LoadedStrip],
-    frame: &LocalFrame,
-    zone: &Crs,
-) -> Result<Vec<Tie>> {
-    let mut by_id: HashMap<&str, usize> = HashMap::new();
-    for (k, l) in loaded.iter().enumerate() {
-        by_id.insert(l.strip.id.as_str(), k);
-        by_id.insert(l.stem.as_str(), k);
-    }
-    let h0 = frame_height(frame, zone);
-    let mut order: Vec<String> = Vec::new();
-    let mut ties: HashMap<String, Vec<TiePick>> = HashMap::new();
-    for p in &picks.picks {
-        let &k = by_id.get(p.strip.as_str()).with_context(|| {
-            format!(
-                "{}: line {}: strip {} is not among the input strips",
-                picks.path.display(),
-                p.line,
-                p.strip
-            )
-        })?;
-        let guess = projected_to_local(frame, zone, p.x, p.y, h0);
-        let up = nearest_up(&loaded[k].strip, guess.x, guess.y).unwrap_or(0.0);
-        let local = projected_to_local(frame, zone, p.x, p.y, h0 + up);
-        if !ties.contains_key(&p.tie) {
-            order.push(p.tie.clone());
-        }
-        ties.entry(p.tie.clone()).or_default().push(TiePick {
-            strip: loaded[k].strip.id.clone(),
-            north_m: local.x,
-            east_m: local.y,
-        });
-    }
-    Ok(order
-        .into_iter()
-        .map(|id| Tie {
-            picks: ties.remove(&id).unwrap_or_default(),
-            id,
-            kind: TieKind::Feature,
-        })
-        .collect())
-}
-
-/// A calibration error about a tie or control point, told in the CSV's own terms: file, line,
-/// and the projected x, y the user wrote, not the local frame the adjustment works in.
-fn in_csv_terms(
-    e: lidarqa_calib::Error,
-    picks: Option<&TiePicks>,
-    control: Option<(&ControlPoints, &Path)>,
-    strips: &[(String, String)],
-) -> anyhow::Error {
-    use lidarqa_calib::Error as E;
-    let same_strip = |csv: &str, id: &str| {
-        strips
-            .iter()
-            .any(|(i, stem)| i == id && (csv == i || csv == stem))
-    };
-    let pick = |tie: &str, strip: Option<&str>| {
-        picks.and_then(|p| {
-            p.picks
-                .iter()
-                .find(|k| k.tie == tie && strip.is_none_or(|s| same_strip(&k.strip, s)))
-                .map(|k| {
-                    format!(
-                        "{}: line {}: tie {} in strip {} at x {}, y {}",
-                        p.path.display(),
-                        k.line,
-                        k.tie,
-                        k.strip,
-                        k.x,
-                        k.y
-                    )
-                })
-        })
-    };
-    let told = match &e {
-        E::TieOutsideStrip {
-            tie,
-            strip,
-            radius_m,
-            ..
-        } => pick(tie, Some(strip))
-            .map(|w| format!("{w}: no point of the strip within {radius_m:.2} m of the pick")),
-        E::NoCoplanarTriangle { tie, strip, reason } => pick(tie, Some(strip))
-            .map(|w| format!("{w}: no coplanar triangle around the pick ({reason})")),
-        E::InvalidTie { tie, message } => pick(tie, None).map(|w| format!("{w}: {message}")),
-        // Too few ties remain because picks were dropped: name the first in the CSV's terms.
-        E::TooFewTies {
-            ties,
-            observations,
-            unknowns,
-            dropped,
-        } if !dropped.is_empty() => {
-            let d = &dropped[0];
-            pick(&d.tie, Some(&d.strip)).map(|w| {
-                format!(
-                    "{w}: {}; with this and {} other dropped picks, {ties} ties give \
-                     {observations} independent observations, {unknowns} unknowns need at least \
-                     {unknowns}",
-                    d.reason,
-                    dropped.len() - 1
-                )
-            })
-        }
-        E::OutsideEveryStrip { what, id, .. } if *what == "tie" => {
-            pick(id, None).map(|w| format!("{w}: outside every strip"))
-        }
-        E::OutsideEveryStrip { id, .. } => control.and_then(|(table, path)| {
-            table.records.iter().find(|c| &c.id == id).map(|c| {
-                format!(
-                    "{}: line {}: control point {id} at x {}, y {} is outside every strip",
-                    path.display(),
-                    c.line,
-                    c.x,
-                    c.y
-                )
-            })
-        }),
-        _ => None,
-    };
-    match told {
-        Some(t) => anyhow::anyhow!(t),
-        None => e.into(),
-    }
-}
-
-fn nearest_up(strip: &Strip, x: f64, y: f64) -> Option<f64> {
-    strip
-        .points
-        .iter()
-        .min_by(|a, b| {
-            let da = (a.position_m.x - x).powi(2) + (a.position_m.y - y).powi(2);
-            let db = (b.position_m.x - x).powi(2) + (b.position_m.y - y).powi(2);
-            da.total_cmp(&db)
-        })
-        .map(|p| -p.position_m.z)
-}
-
-/// Loads every strip into one frame (the files must share a CRS).
-pub(crate) fn load_all(
-    paths: &[PathBuf],
-    ctx: &TpuContext,
-    gps_week: Option<i64>,
-    crs: Option<Crs>,
-) -> Result<(LocalFrame, Crs, Vec<LoadedStrip>)> {
-    lidarqa_io::check_distinct_inputs(paths)?;
-    let mut infos = Vec::new();
-    let mut zone: Option<Crs> = None;
-    for p in paths {
-        let (info, z) = read_info(p, crs.clone())?;
-        if let Some(z0) = &zone
-            && *z0 != z
-        {
-            bail!(
-                "{}: CRS EPSG {:?} differs from the first strip's",
-                p.display(),
-                z.epsg()
-            );
-        }
-        zone = Some(z);
-        infos.push(info);
-    }
-    let zone = zone.context("no strips")?;
-    let frame = frame_for(&infos, &zone);
-    let loaded = paths
-        .iter()
-        .zip(&infos)
-        .map(|(p, info)| load_strip(p, (info, &zone), ctx, &frame, gps_week))
-        .collect::<Result<Vec<_>>>()?;
-    Ok((frame, zone, loaded))
 }
 
 fn write_json(path: &Path, value: &serde_json::Value, inputs: &[PathBuf]) -> Result<()> {
@@ -465,10 +136,6 @@ fn write_json(path: &Path, value: &serde_json::Value, inputs: &[PathBuf]) -> Res
     f.commit()?;
     Ok(())
 }
-
-/// Points a VTPM window should hold in the sparsest strip when `--radius-m` is not given: enough
-/// for a RANSAC plane and a Delaunay triangle around the pick with points to spare.
-const VTPM_NEIGHBOURS: usize = 20;
 
 struct Plan {
     args: CalibrateArgs,
@@ -539,7 +206,7 @@ impl TryFrom<CalibrateArgs> for Plan {
 }
 
 pub fn run(args: CalibrateArgs) -> Result<()> {
-    let mut plan = Plan::try_from(args)?;
+    let plan = Plan::try_from(args)?;
     if let Some(dir) = plan.args.output.parent()
         && !dir.as_os_str().is_empty()
     {
@@ -553,126 +220,45 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         None,
         TpuOptions {
             gps_week: a.gps_week,
+            crs: crs_flags(a.utm_zone.as_deref(), a.epsg)?,
             ..TpuOptions::default()
         },
     )?;
-    crate::format::print_warnings(ctx.warnings());
-    let prior: Mounting = ctx.sensor().mounting;
-    plan.options.prior_sigma = lidarqa_io::read_sensor_with_extras(&a.sensor)?
-        .1
-        .mounting_sigma;
-    if !a.no_trajectory_weighting {
-        let sigma = &ctx.sensor().sigma;
-        let t = TrajectorySigma {
-            position_m: [Source::GnssNorth, Source::GnssEast, Source::GnssUp].map(|s| sigma.get(s)),
-            attitude_rad: [Source::Roll, Source::Pitch, Source::Heading].map(|s| sigma.get(s)),
+    let run = calibrate_strips(&CalibrateJob {
+        strips: &a.strips,
+        context: &ctx,
+        ties: a
+            .ties
+            .as_deref()
+            .map_or(TieSource::Automatic, TieSource::Picks),
+        control: a.control.as_deref(),
+        method: if a.method == "plane" {
+            Method::Plane
+        } else {
+            Method::Vtpm
+        },
+        options: plan.options,
+        radius_given: a.radius_m.is_some(),
+        weighting: (!a.no_trajectory_weighting).then_some(TrajectoryWeighting {
             position_correlation_s: a.gnss_correlation_s,
             attitude_correlation_s: a.attitude_correlation_s,
-        };
-        let any = t.position_m.iter().chain(&t.attitude_rad).any(|v| *v > 0.0);
-        plan.options.trajectory_sigma = any.then_some(t);
-    }
-    let crs = crs_flags(a.utm_zone.as_deref(), a.epsg)?;
-    let (frame, zone, loaded) = load_all(&a.strips, &ctx, a.gps_week, crs)?;
-    let tie_picks = a.ties.as_ref().map(TiePicks::from_path).transpose()?;
-    let picked = match &tie_picks {
-        Some(p) => Some(ties_from_csv(p, &loaded, &frame, &zone)?),
-        None => None,
-    };
-    // Strip id → the names a CSV may use for it (id and file stem).
-    let loaded_ids: Vec<(String, String)> = loaded
-        .iter()
-        .map(|l| (l.strip.id.clone(), l.stem.clone()))
-        .collect();
-    let strips: Vec<Strip> = loaded.into_iter().map(|l| l.strip).collect();
-    if a.radius_m.is_none() {
-        let sparsest = strips
-            .iter()
-            .filter_map(|s| s.radius_for_neighbours_m(VTPM_NEIGHBOURS))
-            .fold(0.0f64, f64::max);
-        plan.options.vtpm.radius_m = sparsest.max(plan.options.vtpm.radius_m);
-    }
-    let ties = match picked {
-        Some(t) => t,
-        None => auto_ties(
-            &strips,
-            &prior,
-            &AutoTieOptions {
-                vtpm: plan.options.vtpm,
-                ..AutoTieOptions::default()
-            },
-        )?,
-    };
-    let control_table = a
-        .control
-        .as_ref()
-        .map(ControlPoints::from_path)
-        .transpose()?;
-    let control: Vec<ControlPoint> = match &control_table {
-        Some(table) => {
-            let mut out = Vec::with_capacity(table.records.len());
-            for (i, c) in table.records.iter().enumerate() {
-                out.push(ControlPoint {
-                    id: c.id.clone(),
-                    position_m: projected_to_local(&frame, &zone, c.x, c.y, c.z),
-                    target_radius_m: table.extra_f64(i, "radius_m")?,
-                    sigma_vertical_m: c.sigma_v_m,
-                });
-            }
-            out
-        }
-        None => Vec::new(),
-    };
-    let cal: Calibration = match a.method.as_str() {
-        "plane" => {
-            let centres: Vec<[f64; 2]> = ties
-                .iter()
-                .map(|t| {
-                    let n = t.picks.len() as f64;
-                    [
-                        t.picks.iter().map(|p| p.north_m).sum::<f64>() / n,
-                        t.picks.iter().map(|p| p.east_m).sum::<f64>() / n,
-                    ]
-                })
-                .collect();
-            calibrate_plane(
-                &strips,
-                &centres,
-                &prior,
-                &plan.options,
-                &PlaneOptions::default(),
-            )?
-        }
-        _ => calibrate_vtpm(&strips, &ties, &control, &prior, &plan.options).map_err(|e| {
-            in_csv_terms(
-                e,
-                tie_picks.as_ref(),
-                control_table.as_ref().zip(a.control.as_deref()),
-                &loaded_ids,
-            )
-        })?,
-    };
+        }),
+    })?;
     let mut inputs: Vec<PathBuf> = a.strips.clone();
     inputs.extend([a.trajectory.clone(), a.sensor.clone()]);
     inputs.extend(a.ties.clone());
     inputs.extend(a.control.clone());
     // SPEC §7: the trajectory's warnings and the calibration's own (dropped picks) go to
     // stderr and into the JSON.
-    crate::format::print_warnings(&cal.warnings);
-    let mut doc = cal.to_json();
-    let mut warnings = ctx.warnings().to_vec();
-    warnings.extend(cal.warnings.iter().cloned());
-    if let Some(m) = doc.as_object_mut() {
-        m.insert("warnings".into(), serde_json::to_value(&warnings)?);
-    }
+    crate::format::print_warnings(&run.warnings);
+    let doc = run.to_json();
     write_json(&a.output, &doc, &inputs)?;
-    if cal.method == lidarqa_calib::Method::Vtpm {
-        let doc = cal.iterations_json(|v| local_to_projected(&frame, &zone, v));
-        write_json(&plan.iterations_path, &doc, &inputs)?;
+    if let Some(iterations) = run.iterations_json() {
+        write_json(&plan.iterations_path, &iterations, &inputs)?;
     }
     match a.format {
         OutputFormat::Json => print_json(&doc),
-        OutputFormat::Table => print_text(&table(&cal)),
+        OutputFormat::Table => print_text(&table(&run.calibration)),
     }
 }
 
@@ -754,71 +340,11 @@ fn correlation_phrase(t: &TrajectorySigma) -> String {
 mod tests {
     use super::*;
     use clap::Parser;
-    use lidarqa_io::{LasTimeBase, LasWriteOptions, LasWriter};
 
     #[derive(Parser)]
     struct Cli {
         #[command(flatten)]
         args: CalibrateArgs,
-    }
-
-    /// A one-point LAS without a CRS, in point format 0 (no GPS time) or 1.
-    fn one_point_las(path: &Path, point_format: u8) {
-        let opts = LasWriteOptions {
-            version_minor: 2,
-            point_format,
-            scale: [0.001; 3],
-            offset: [0.0; 3],
-            time_base: LasTimeBase::GpsWeekSeconds,
-            crs_vlrs: Vec::new(),
-            extra_dims: Vec::new(),
-            file_source_id: 0,
-            extra_dims_f64: Vec::new(),
-        };
-        let mut w = LasWriter::create(path, &opts, &[] as &[&Path]).unwrap();
-        w.write_point(
-            &lidarqa_io::LasPoint {
-                x: 1.0,
-                y: 2.0,
-                z: 3.0,
-                gps_time_s: (point_format == 1).then_some(1000.0),
-                ..lidarqa_io::LasPoint::default()
-            },
-            &[],
-        )
-        .unwrap();
-        w.finish().unwrap();
-    }
-
-    #[test]
-    fn a_strip_without_a_crs_needs_the_flag_which_overrides() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("no_crs.las");
-        one_point_las(&path, 1);
-        let e = format!("{:#}", read_info(&path, None).unwrap_err());
-        assert!(
-            e.contains("no_crs.las") && e.contains("pass --utm-zone or --epsg"),
-            "{e}"
-        );
-        let zone = crs_flags(Some("33N"), None).unwrap();
-        let (_, z) = read_info(&path, zone.clone()).unwrap();
-        assert_eq!(Some(z.clone()), zone);
-        assert_eq!(z.epsg(), Some(32633));
-    }
-
-    #[test]
-    fn las_without_gps_time_is_refused_naming_the_file() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("no_time.las");
-        one_point_las(&path, 0);
-        let e = read_info(&path, None).unwrap_err().to_string();
-        assert!(
-            e.ends_with(
-                "no GPS time (point format 0); recovering raw observations needs each point's time"
-            ),
-            "{e}"
-        );
-        assert!(e.contains("no_time.las"), "{e}");
     }
 
     /// The required arguments, with neither `--ties` nor `--auto-ties`.
