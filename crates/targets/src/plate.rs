@@ -457,19 +457,22 @@ pub(crate) fn fit_plate(
 
     // (5) Shape: bright inside, dark in the ring.
     let mid = a + 0.5 * b;
+    // Bright fraction and count of the points at distance lo..hi from the centre.
     let frac = |lo: f64, hi: f64| {
         let sel: Vec<&LidarPoint> = pts.iter().filter(|p| (lo..hi).contains(&dist(p))).collect();
-        if sel.is_empty() {
-            return f64::NAN;
-        }
         let bright = sel
             .iter()
             .filter(|p| (p.intensity > mid) == (b > 0.0))
             .count();
-        bright as f64 / sel.len() as f64
+        (bright as f64 / sel.len() as f64, sel.len())
     };
-    let inside_bright_fraction = frac(0.0, radius - rim_m.min(0.5 * radius));
-    let ring_bright_fraction = frac(radius + 0.2, outer);
+    // The core (inside minus the rim) of a sparse plate can be empty: judge the whole circle
+    // then (its returns are more than half on the plate).
+    let (mut inside_bright_fraction, n_core) = frac(0.0, radius - rim_m.min(0.5 * radius));
+    if n_core < 3 {
+        inside_bright_fraction = frac(0.0, radius).0;
+    }
+    let ring_bright_fraction = frac(radius + 0.2, outer).0;
     // A disc mostly dark inside is no plate: the contrast came from a few glints.
     if inside_bright_fraction.is_nan() || inside_bright_fraction < 0.5 {
         return None;
