@@ -189,6 +189,29 @@ pub enum TargetFlag {
     ElevationFallback,
 }
 
+impl TargetFlag {
+    /// The flag's name, the same in the targets CSV `flags` column and in JSON (snake_case).
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::TooFewPoints => "too_few_points",
+            Self::PoorCoverage => "poor_coverage",
+            Self::CentroidFallback => "centroid_fallback",
+            Self::NotConverged => "not_converged",
+            Self::SteepPlane => "steep_plane",
+            Self::NotADisc => "not_a_disc",
+            Self::NeighbourTooClose => "neighbour_too_close",
+            Self::ElevationFallback => "elevation_fallback",
+        }
+    }
+}
+
+impl fmt::Display for TargetFlag {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// A fitted target centre.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CentreEstimate {
@@ -1059,6 +1082,24 @@ pub fn estimate_centre_with_background(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn flag_names_are_the_json_names() {
+        for flag in [
+            TargetFlag::TooFewPoints,
+            TargetFlag::PoorCoverage,
+            TargetFlag::CentroidFallback,
+            TargetFlag::NotConverged,
+            TargetFlag::SteepPlane,
+            TargetFlag::NotADisc,
+            TargetFlag::NeighbourTooClose,
+            TargetFlag::ElevationFallback,
+        ] {
+            let json = serde_json::to_string(&flag).unwrap();
+            assert_eq!(json, format!("\"{flag}\""));
+        }
+        assert_eq!(TargetFlag::NotADisc.to_string(), "not_a_disc");
+    }
 
     fn disk_grid(cx: f64, cy: f64, r: f64, step: f64, z: f64) -> Vec<[f64; 3]> {
         let mut v = Vec::new();

@@ -126,6 +126,22 @@ impl Ramp {
         }
     }
 
+    /// Distance from the edge beyond which the ramp is flat (0 or 1 to 1e-4), m.
+    fn reach(self) -> f64 {
+        match self {
+            Self::Logistic(tau) => 10.0 * tau,
+            Self::Footprint(rho) => rho,
+        }
+    }
+
+    /// Steepest slope of the ramp, 1/m (at the edge).
+    fn max_slope(self) -> f64 {
+        match self {
+            Self::Logistic(tau) => 0.25 / tau,
+            Self::Footprint(rho) => 2.0 / (std::f64::consts::PI * rho),
+        }
+    }
+
     /// 1σ width of the ramp (m).
     fn sd(self) -> f64 {
         match self {
@@ -147,6 +163,36 @@ const RAMPS: [Ramp; 9] = [
     Ramp::Footprint(0.1),
     Ramp::Footprint(0.15),
 ];
+
+/// Half-width of the position-error quadrature, in σ_xy.
+const POSITION_REACH_SD: f64 = 4.0;
+/// Most nodes of that quadrature (a very sharp candidate ramp at very low noise is resolved
+/// less finely; the likelihood then disfavours it).
+const MAX_POSITION_NODES: usize = 97;
+
+/// Nodes and weights (summing to 1) of the integral over a radial position error N(0, σ_xy²):
+/// evenly spaced over ±4σ_xy at most σ_xy / 2 and `peak_m` apart (`peak_m`: the 1σ width of the
+/// narrowest intensity peak the integrand can have; Gaussians one σ apart sum to a smooth
+/// curve), weighted by the Gaussian density.
+fn position_nodes(sxy: f64, peak_m: f64) -> Vec<(f64, f64)> {
+    if sxy <= 0.0 {
+        return vec![(0.0, 1.0)];
+    }
+    let h = (0.5 * sxy).min(peak_m);
+    let half = ((POSITION_REACH_SD * sxy / h).ceil() as usize).clamp(2, MAX_POSITION_NODES / 2);
+    let h = POSITION_REACH_SD * sxy / half as f64;
+    let mut nodes: Vec<(f64, f64)> = (0..=2 * half)
+        .map(|k| {
+            let e = (k as f64 - half as f64) * h;
+            (e, (-0.5 * (e / sxy).powi(2)).exp())
+        })
+        .collect();
+    let total: f64 = nodes.iter().map(|n| n.1).sum();
+    for n in &mut nodes {
+        n.1 /= total;
+    }
+    nodes
+}
 
 fn sigmoid(x: f64) -> f64 {
     1.0 / (1.0 + (-x).exp())
@@ -301,25 +347,32 @@ pub(crate) fn fit_plate(
 
     // (3) Posterior of the centre under the model. A return's horizontal position error σ_xy
     // moves it across the edge in both channels at once (its intensity and its height label are
-    // not independent): the likelihood integrates over it.
+    // not independent): the likelihood integrates over the radial component of that error. Near
+    // the edge the integrand is a narrow peak where the intensity pins the return's true
+    // distance (σ_I / (b·f′), far below σ_xy at low noise); a coarse rule would turn each
+    // return's likelihood into a comb and the posterior would be too narrow, so the nodes are
+    // spaced finer than both that peak and σ_xy. Away from the edge nothing depends on the
+    // error and one node suffices.
+    let label_reach = if raised { 10.0 * tau_z } else { 0.0 };
     let loss_at = |c: [f64; 2], a: f64, b: f64, s: f64, ramp: Ramp, (sxy, kappa): (f64, f64)| {
+        let nodes = position_nodes(sxy, s / (b.abs() * ramp.max_slope()).max(1e-12));
+        let band = ramp.reach().max(label_reach) + POSITION_REACH_SD * sxy;
         let mut l = 0.0;
-        // Three-point Gauss–Hermite rule over the radial position error: nodes 0, ±√3 σ_xy.
-        let nodes = [
-            (0.0, 2.0 / 3.0),
-            (3f64.sqrt() * sxy, 1.0 / 6.0),
-            (-(3f64.sqrt()) * sxy, 1.0 / 6.0),
-        ];
         for (p, &top) in pts.iter().zip(&on_top) {
-            let d = (p.x - c[0]).hypot(p.y - c[1]);
+            let t0 = radius - (p.x - c[0]).hypot(p.y - c[1]);
+            let here: &[(f64, f64)] = if t0.abs() < band {
+                &nodes
+            } else {
+                &[(0.0, 1.0)]
+            };
             let mut lik = 0.0;
-            for (e, w) in nodes {
-                let f = ramp.f(radius - d - e);
+            for &(e, w) in here {
+                let f = ramp.f(t0 - e);
                 let mixed = kappa * b * f * (1.0 - f);
                 let v = s * s + mixed * mixed;
                 let mut term = w * (-0.5 * (p.intensity - a - b * f).powi(2) / v).exp() / v.sqrt();
                 if raised {
-                    let g = sigmoid((radius - d - e) / tau_z);
+                    let g = sigmoid((t0 - e) / tau_z);
                     term *= if top { g } else { 1.0 - g };
                 }
                 lik += term;
@@ -404,19 +457,22 @@ pub(crate) fn fit_plate(
 
     // (5) Shape: bright inside, dark in the ring.
     let mid = a + 0.5 * b;
+    // Bright fraction and count of the points at distance lo..hi from the centre.
     let frac = |lo: f64, hi: f64| {
         let sel: Vec<&LidarPoint> = pts.iter().filter(|p| (lo..hi).contains(&dist(p))).collect();
-        if sel.is_empty() {
-            return f64::NAN;
-        }
         let bright = sel
             .iter()
             .filter(|p| (p.intensity > mid) == (b > 0.0))
             .count();
-        bright as f64 / sel.len() as f64
+        (bright as f64 / sel.len() as f64, sel.len())
     };
-    let inside_bright_fraction = frac(0.0, radius - rim_m.min(0.5 * radius));
-    let ring_bright_fraction = frac(radius + 0.2, outer);
+    // The core (inside minus the rim) of a sparse plate can be empty: judge the whole circle
+    // then (its returns are more than half on the plate).
+    let (mut inside_bright_fraction, n_core) = frac(0.0, radius - rim_m.min(0.5 * radius));
+    if n_core < 3 {
+        inside_bright_fraction = frac(0.0, radius).0;
+    }
+    let ring_bright_fraction = frac(radius + 0.2, outer).0;
     // A disc mostly dark inside is no plate: the contrast came from a few glints.
     if inside_bright_fraction.is_nan() || inside_bright_fraction < 0.5 {
         return None;

@@ -88,7 +88,7 @@ pub fn targets_table(path: &Path, report: &TargetReport) -> Targets {
                     c.method.to_string(),
                     c.flags
                         .iter()
-                        .map(|f| format!("{f:?}"))
+                        .map(ToString::to_string)
                         .collect::<Vec<_>>()
                         .join(";"),
                 ],
