@@ -126,7 +126,17 @@ fn forest_strip_trajectory_matches_the_truth_and_its_tpu() {
     let truth = &survey.strips[0].true_trajectory;
     let strip = sim.join("strip_001.las");
     let traj = d.join("trajectory.csv");
-    let o = lidarqa(&["trajectory", s(&strip), "-o", s(&traj), "--format", "json"]);
+    let sbet = d.join("rebuilt_sbet.out");
+    let o = lidarqa(&[
+        "trajectory",
+        s(&strip),
+        "-o",
+        s(&traj),
+        "--sbet",
+        s(&sbet),
+        "--format",
+        "json",
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(report["checks"]["ambiguous_times"], 0);
@@ -158,6 +168,32 @@ fn forest_strip_trajectory_matches_the_truth_and_its_tpu() {
     assert!(rms_p <= 0.5, "position RMS {rms_p} m");
     assert!(rms_h <= 0.2, "heading RMS {rms_h} deg");
     assert!(rms_pitch <= 0.2, "pitch RMS {rms_pitch} deg");
+
+    // The SBET beside it: the same epochs in geodetic position, true heading and seconds of
+    // week, against the truth directly (no grid convergence on this side).
+    let poses = lidarqa_io::read_sbet(&sbet).unwrap();
+    assert_eq!(poses.len(), rows.len());
+    let (mut sp, mut sh) = (0.0, 0.0);
+    for (pose, r) in poses.iter().zip(&rows) {
+        let sow = r.t - survey.adjusted_standard_time_s(0.0);
+        assert!((pose.time_s - sow).abs() < 1e-6, "{} vs {sow}", pose.time_s);
+        let tr = interpolate(truth, pose.time_s);
+        let g = zone.forward(tr.latitude_rad, tr.longitude_rad);
+        let p = zone.forward(pose.latitude_rad, pose.longitude_rad);
+        sp += (p.easting_m - g.easting_m).powi(2)
+            + (p.northing_m - g.northing_m).powi(2)
+            + (pose.height_m - tr.height_m).powi(2);
+        sh += wrap(pose.platform_heading_rad - tr.heading_rad)
+            .to_degrees()
+            .powi(2);
+        // The same position as the text row, to the millimetre.
+        assert!((p.easting_m - r.p[0]).abs() < 1e-3 && (p.northing_m - r.p[1]).abs() < 1e-3);
+        assert_eq!(pose.roll_rad, 0.0);
+    }
+    let (rms_sbet_p, rms_sbet_h) = ((sp / n).sqrt(), (sh / n).sqrt());
+    eprintln!("SBET: position RMS {rms_sbet_p:.4} m, true heading RMS {rms_sbet_h:.4} deg");
+    assert!((rms_sbet_p - rms_p).abs() < 1e-3, "{rms_sbet_p} vs {rms_p}");
+    assert!(rms_sbet_h <= 0.2, "SBET true heading RMS {rms_sbet_h} deg");
 
     // TPU from the rebuilt trajectory against the TPU from the SBET, where the rebuilt σ are
     // small: at most the sensor's σ of the same source (GNSS 2 / 2 / 4 cm, pitch 0.005°,
@@ -210,6 +246,20 @@ fn forest_strip_trajectory_matches_the_truth_and_its_tpu() {
     );
     assert!(n_small > 10_000, "{n_small} points with a small rebuilt σ");
     assert!(worst <= 0.10, "TPU ratio off by {worst}");
+
+    // The rebuilt SBET carries no σ: its TPU is the sensor's alone, on the rebuilt geometry,
+    // so it matches the TPU from the simulator's SBET point by point.
+    let with_rebuilt_sbet = tpu(&sbet, &d.join("rebuilt_sbet_tpu.las"));
+    assert_eq!(with_rebuilt_sbet.len(), with_sbet.len());
+    let worst_sbet = with_sbet
+        .iter()
+        .zip(&with_rebuilt_sbet)
+        .map(|((_, a), (_, b))| (b / a - 1.0).abs())
+        .fold(0.0f64, f64::max);
+    eprintln!(
+        "TPU from the rebuilt SBET vs the simulator's SBET: worst ratio off by {worst_sbet:.4}"
+    );
+    assert!(worst_sbet <= 0.02, "rebuilt-SBET TPU off by {worst_sbet}");
 }
 
 /// The independent witness: `tests/trajectory_generator.py` writes multi-return pulses with

@@ -32,7 +32,10 @@
 //! eigenproblem (nalgebra) and a local polynomial; no crate does the line geometry.
 
 use crate::error::{Error, Result};
-use lidarqa_io::{LasReader, LasTimeBase, PointChunk, TextPose, TextSigma};
+use lidarqa_io::{
+    LasReader, LasTimeBase, LasTimeConverter, PointChunk, SbetPose, TextPose, TextSigma, sbet_raw,
+    write_records_to_path,
+};
 use lidarqa_model::Warning;
 use nalgebra::{Matrix3, Matrix6, SymmetricEigen, Vector3, Vector6};
 use serde::Serialize;
@@ -241,6 +244,9 @@ pub fn reconstruct(
 pub struct TrajectoryReport {
     /// The trajectory written.
     pub output: PathBuf,
+    /// The SBET written beside it (`--sbet`), if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sbet: Option<PathBuf>,
     /// The point files read.
     pub inputs: Vec<PathBuf>,
     /// Epochs written.
@@ -329,25 +335,104 @@ pub fn epochs_to_poses(epochs: &[Epoch]) -> Vec<TextPose> {
         .collect()
 }
 
+/// The epochs as SBET records: geodetic position from the points' CRS, true heading (grid
+/// azimuth + convergence), velocity turned from grid to true north-east-down (wander angle 0),
+/// GPS seconds of week. SBET has no σ field: the reconstruction σ live in the text trajectory.
+///
+/// # Errors
+/// The reader's errors naming the first strip when its CRS is unusable; [`Error::Implausible`]
+/// when its heights are orthometric (an SBET holds ellipsoidal heights); [`Error::BadTime`] for a time that cannot
+/// be put into seconds of week (adjusted standard time needs no week; week seconds pass).
+pub fn epochs_to_sbet(first_strip: &Path, epochs: &[Epoch]) -> Result<Vec<SbetPose>> {
+    let info = LasReader::from_path(first_strip)?.info().clone();
+    let crs = info.projected_crs()?;
+    if let Some(vertical) = &info.crs.orthometric {
+        return Err(Error::Implausible {
+            path: first_strip.to_path_buf(),
+            message: format!(
+                "heights are orthometric ({vertical}); an SBET holds ellipsoidal heights: write \
+                 the text trajectory (it keeps the points' heights) instead of --sbet"
+            ),
+        });
+    }
+    let converter = LasTimeConverter::new(first_strip, info.time_base, None, info.creation_date)?;
+    let unit_m = crs.unit().metres();
+    epochs
+        .iter()
+        .enumerate()
+        .map(|(index, e)| {
+            let time_s = converter
+                .to_seconds_of_week(e.time_s)
+                .map_err(|err| Error::BadTime {
+                    index: index as u64,
+                    message: err.to_string(),
+                })?;
+            let u = crs.unproject(e.position_m[0] * unit_m, e.position_m[1] * unit_m);
+            let gamma = u.convergence_rad();
+            // A grid direction α_g is the true direction α_g + γ (γ: bearing of grid north).
+            let (sg, cg) = gamma.sin_cos();
+            let [ve, vn, vu] = e.velocity_m_per_s.map(|v| v * unit_m);
+            Ok(SbetPose {
+                time_s,
+                latitude_rad: u.latitude_rad(),
+                longitude_rad: u.longitude_rad(),
+                height_m: e.position_m[2] * unit_m,
+                velocity_wander_mps: [cg * vn - sg * ve, sg * vn + cg * ve, -vu],
+                roll_rad: 0.0,
+                pitch_rad: e.pitch_rad,
+                platform_heading_rad: wrap(e.azimuth_rad + gamma),
+                wander_angle_rad: 0.0,
+                specific_force_body_mps2: [0.0; 3],
+                angular_rate_body_radps: [0.0; 3],
+            })
+        })
+        .collect()
+}
+
 /// `lidarqa trajectory`: read the strips, rebuild the trajectory, write it as the text
-/// trajectory `lidarqa tpu` reads (with the reconstruction σ columns).
+/// trajectory `lidarqa tpu` reads (with the reconstruction σ columns), and as an SBET when
+/// `sbet` is given.
 ///
 /// # Errors
 /// As [`read_returns`]; [`Error::Implausible`] naming the first input when no trajectory can
-/// be built (with the pulse counts); the writer's errors naming the output.
+/// be built (with the pulse counts); as [`epochs_to_sbet`]; the writers' errors naming the
+/// output.
 pub fn rebuild_trajectory(
     inputs: &[PathBuf],
     output: &Path,
+    sbet: Option<&Path>,
     options: &ReconstructOptions,
 ) -> Result<TrajectoryReport> {
     lidarqa_io::check_distinct_inputs(inputs)?;
     lidarqa_io::check_not_an_input(output, inputs)?;
+    if let Some(sbet) = sbet {
+        lidarqa_io::check_not_an_input(sbet, inputs)?;
+        if lidarqa_io::check_not_an_input(sbet, &[output]).is_err() {
+            return Err(Error::InvalidOption(format!(
+                "--sbet {} is the text trajectory's path too",
+                sbet.display()
+            )));
+        }
+    }
     let points = read_returns(inputs)?;
     let r = reconstruct(&points, options).map_err(|e| Error::Implausible {
         path: inputs.first().cloned().unwrap_or_default(),
         message: e.to_string(),
     })?;
+    // Both outputs are built before either is written, so a refused SBET leaves no CSV behind.
+    let sbet_records = match (sbet, inputs.first()) {
+        (Some(_), Some(first)) => Some(
+            epochs_to_sbet(first, &r.epochs)?
+                .into_iter()
+                .map(sbet_raw::SbetRecord::from)
+                .collect::<Vec<_>>(),
+        ),
+        _ => None,
+    };
     lidarqa_io::write_reconstructed_trajectory(output, &epochs_to_poses(&r.epochs), inputs)?;
+    if let (Some(path), Some(records)) = (sbet, sbet_records) {
+        write_records_to_path(path, &records, inputs)?;
+    }
     let median = |f: &dyn Fn(&Epoch) -> f64| {
         let mut v: Vec<f64> = r.epochs.iter().map(f).collect();
         v.sort_by(f64::total_cmp);
@@ -355,6 +440,7 @@ pub fn rebuild_trajectory(
     };
     Ok(TrajectoryReport {
         output: output.to_path_buf(),
+        sbet: sbet.map(Path::to_path_buf),
         inputs: inputs.to_vec(),
         epochs: r.epochs.len(),
         time_span_s: [r.epochs[0].time_s, r.epochs[r.epochs.len() - 1].time_s],

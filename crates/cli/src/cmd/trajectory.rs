@@ -13,6 +13,7 @@ use std::path::PathBuf;
 pub const AFTER_HELP: &str = "\
 Example:
   lidarqa trajectory strip1.laz strip2.laz -o trajectory.csv
+  lidarqa trajectory strip1.laz -o trajectory.csv --sbet sbet.out
   lidarqa tpu strip1.laz --trajectory trajectory.csv --sensor sensor.toml -o strip1_tpu.laz
 
 The lines through the first and last return of every multi-return pulse meet at the scanner;
@@ -22,7 +23,7 @@ written as 0 with a 3 degree sigma. Each epoch carries its own sigma, which `lid
 to the sensor file's GNSS and attitude sigma.
 
 Positions are the scanner's, in the points' CRS; times in the points' GPS time base.
-An existing output file is replaced, never an input.";
+Existing output files are replaced, never an input.";
 
 /// Flags of `lidarqa trajectory`.
 #[derive(Debug, Args)]
@@ -33,6 +34,10 @@ pub struct TrajectoryArgs {
     /// The trajectory to write (CSV, read by `lidarqa tpu --trajectory`).
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
+    /// Also write the trajectory as a binary SBET (ellipsoidal heights, true heading, GPS
+    /// seconds of week; no σ: those stay in the text trajectory).
+    #[arg(long, value_name = "FILE")]
+    sbet: Option<PathBuf>,
     /// Length of the blocks fitted with a straight, uniform motion, s.
     #[arg(long, default_value_t = 0.5, value_name = "S")]
     block_s: f64,
@@ -58,7 +63,7 @@ pub fn run(a: TrajectoryArgs) -> Result<()> {
         min_separation_m: a.min_separation_m,
         min_lines: a.min_lines,
     };
-    let report = rebuild_trajectory(&a.inputs, &a.output, &options)?;
+    let report = rebuild_trajectory(&a.inputs, &a.output, a.sbet.as_deref(), &options)?;
     print_warnings(&report.warnings);
     match a.format {
         OutputFormat::Json => print_json(&report),
@@ -77,6 +82,13 @@ fn table(r: &TrajectoryReport) -> String {
         r.time_span_s[1],
         r.output.display()
     );
+    if let Some(sbet) = &r.sbet {
+        let _ = writeln!(
+            s,
+            "sbet: {} (no sigma: they are in the text trajectory)",
+            sbet.display()
+        );
+    }
     let _ = writeln!(
         s,
         "pulses: {} ({} returns), multi-return {}, lines used {}, rejected {}",
