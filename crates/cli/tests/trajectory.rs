@@ -288,3 +288,82 @@ fn independent_generator_flight_is_recovered() {
     );
     assert!(stdout.contains(" passed, 0 failed"), "{stdout}");
 }
+
+/// Without any random error the rebuilt scanner positions must meet the simulator's SBET to the
+/// millimetre: the lines through first and last returns are straight in space, not in projected
+/// coordinates, where they would meet H²/R (14 mm at 300 m) below the scanner.
+#[test]
+fn noise_free_forest_strip_meets_its_sbet_in_height() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut file = forest();
+    file.errors.random = false;
+    let scenario_path = d.join("forest.toml");
+    std::fs::write(&scenario_path, toml::to_string(&file).unwrap()).unwrap();
+    let sim = d.join("sim");
+    let o = lidarqa(&[
+        "simulate",
+        "--scenario",
+        s(&scenario_path),
+        "-o",
+        s(&sim),
+        "--format",
+        "las",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let traj = d.join("trajectory.csv");
+    let sbet = d.join("rebuilt.out");
+    let o = lidarqa(&[
+        "trajectory",
+        s(&sim.join("strip_001.las")),
+        "-o",
+        s(&traj),
+        "--sbet",
+        s(&sbet),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let truth = lidarqa_io::read_sbet(sim.join("sbet.out")).unwrap();
+    let rebuilt = lidarqa_io::read_sbet(&sbet).unwrap();
+    let zone = UtmZone::from_epsg(file.epsg).unwrap();
+    let at = |t: f64| {
+        let i = truth
+            .partition_point(|r| r.time_s <= t)
+            .clamp(1, truth.len() - 1);
+        let (a, b) = (&truth[i - 1], &truth[i]);
+        let w = (t - a.time_s) / (b.time_s - a.time_s);
+        let l = |x: f64, y: f64| x + w * (y - x);
+        (
+            l(a.latitude_rad, b.latitude_rad),
+            l(a.longitude_rad, b.longitude_rad),
+            l(a.height_m, b.height_m),
+        )
+    };
+    // The first and last epochs are extrapolated 1 ms beyond the returns: the inner ones count.
+    let inner = &rebuilt[1..rebuilt.len() - 1];
+    let (mut dz_sum, mut worst_h, mut worst_z) = (0.0, 0.0f64, 0.0f64);
+    for p in inner {
+        let (lat, lon, h) = at(p.time_s);
+        let (a, b) = (
+            zone.forward(lat, lon),
+            zone.forward(p.latitude_rad, p.longitude_rad),
+        );
+        let dh = (a.easting_m - b.easting_m).hypot(a.northing_m - b.northing_m);
+        let dz = p.height_m - h;
+        dz_sum += dz;
+        worst_h = worst_h.max(dh);
+        worst_z = worst_z.max(dz.abs());
+    }
+    let mean_dz = dz_sum / inner.len() as f64;
+    eprintln!(
+        "noise-free: {} epochs, mean dz {:.2} mm, worst |dz| {:.2} mm, worst horizontal {:.2} mm",
+        inner.len(),
+        mean_dz * 1e3,
+        worst_z * 1e3,
+        worst_h * 1e3
+    );
+    assert!(mean_dz.abs() <= 0.002, "mean height offset {mean_dz} m");
+    assert!(
+        worst_z <= 0.003 && worst_h <= 0.003,
+        "{worst_z} m, {worst_h} m"
+    );
+}

@@ -25,7 +25,11 @@ import numpy as np
 lidarqa, work = sys.argv[1], sys.argv[2]
 rng = np.random.default_rng(24)
 
-# The flight (a projected frame: x east, y north, z up, metres).
+# The flight, in a local east-north-up Cartesian frame tangent to the WGS 84 ellipsoid at the
+# point (500000, 4000000) of UTM 33N (coordinates below are written as easting/northing
+# offsets of that point, but the geometry is Cartesian: straight beams, a flat tangent-plane
+# ground). Points and the flight are then put into UTM 33N + ellipsoidal height with pyproj,
+# as a real delivery stores them (there, easting and northing shrink with height).
 T0, DURATION, RATE = 500000.0, 6.0, 40000.0
 SPEED, HEIGHT, BEARING, PITCH, ROLL = 55.0, 300.0, math.radians(30.0), math.radians(1.5), math.radians(2.0)
 START = np.array([500000.0, 4000000.0, 100.0 + HEIGHT])
@@ -65,10 +69,37 @@ for i in np.flatnonzero(~multi):
 pts = np.array(pts)
 order = np.argsort(np.array(times), kind="stable")
 
+import pyproj  # noqa: E402
+
+ORIGIN_EN = np.array([500000.0, 4000000.0])
+_lon0, _lat0 = pyproj.Transformer.from_crs(32633, 4326, always_xy=True).transform(*ORIGIN_EN)
+_to_ecef = pyproj.Transformer.from_crs(4979, 4978, always_xy=True)
+_from_ecef = pyproj.Transformer.from_crs(4978, 4979, always_xy=True)
+_to_utm = pyproj.Transformer.from_crs(4326, 32633, always_xy=True)
+X0 = np.array(_to_ecef.transform(_lon0, _lat0, 0.0))
+_la, _lo = math.radians(_lat0), math.radians(_lon0)
+ENU_TO_ECEF = np.array([
+    [-math.sin(_lo), -math.sin(_la) * math.cos(_lo), math.cos(_la) * math.cos(_lo)],
+    [math.cos(_lo), -math.sin(_la) * math.sin(_lo), math.cos(_la) * math.sin(_lo)],
+    [0.0, math.cos(_la), math.sin(_la)],
+])
+
+
+def to_delivery(p):
+    """Local frame (written as easting/northing offsets of ORIGIN_EN, z up) -> UTM 33N + h."""
+    enu = np.asarray(p, float) - np.array([ORIGIN_EN[0], ORIGIN_EN[1], 0.0])
+    ecef = X0 + enu @ ENU_TO_ECEF.T
+    lon, lat, h = _from_ecef.transform(ecef[:, 0], ecef[:, 1], ecef[:, 2])
+    e, n = _to_utm.transform(lon, lat)
+    return np.c_[e, n, h], lon, lat
+
+
+pts, _, _ = to_delivery(pts)
+
 header = laspy.LasHeader(point_format=6, version="1.4")
 header.scales = [0.001, 0.001, 0.001]
 header.offsets = [500000.0, 4000000.0, 0.0]
-header.add_crs(__import__("pyproj").CRS.from_epsg(32633))
+header.add_crs(pyproj.CRS.from_epsg(32633))
 las = laspy.LasData(header)
 las.x, las.y, las.z = pts[order, 0], pts[order, 1], pts[order, 2]
 las.gps_time = np.array(times)[order]
@@ -99,16 +130,32 @@ rows = list(csv.DictReader(open(out)))
 tt = np.array([float(r["time"]) for r in rows])
 xyz = np.array([[float(r[k]) for k in ("x", "y", "z")] for r in rows])
 sig = np.array([[float(r[f"reconstruction_sigma_{k}_m"]) for k in "xyz"] for r in rows])
-err = xyz - sensor(tt)
+truth, lon_t, lat_t = to_delivery(sensor(tt))
+err = xyz - truth
 rms = math.sqrt(np.mean(np.sum(err**2, axis=1)))
 check("position RMS", rms <= 0.5, f"{rms:.4f} m over {len(rows)} epochs")
 inner = (tt > tt[0] + 0.5) & (tt < tt[-1] - 0.5)
 z = err[inner] / sig[inner]
 check("position sigma covers the errors", np.all(np.abs(z) < 4.0), f"max |error/sigma| {np.max(np.abs(z)):.2f}")
 az = np.array([float(r["azimuth"]) for r in rows])
-daz = (az - math.degrees(BEARING) + 180.0) % 360.0 - 180.0
+# The body's forward axis, levelled where the scanner is: true azimuth and pitch there, and
+# the grid azimuth = true - convergence (pyproj's meridian convergence, positive east of the
+# central meridian, as lidarqa's).
+def level_at(lon, lat, v):
+    la, lo = np.radians(lat), np.radians(lon)
+    east = np.c_[-np.sin(lo), np.cos(lo), np.zeros_like(lo)]
+    north = np.c_[-np.sin(la) * np.cos(lo), -np.sin(la) * np.sin(lo), np.cos(la)]
+    up = np.c_[np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)]
+    w = ENU_TO_ECEF @ v
+    return np.sum(east * w, 1), np.sum(north * w, 1), np.sum(up * w, 1)
+
+
+fe, fn, fu = level_at(lon_t, lat_t, bx)
+gamma = np.array(pyproj.Proj(32633).get_factors(lon_t, lat_t).meridian_convergence)
+true_pitch = np.degrees(np.arcsin(fu))
+daz = (az - (np.degrees(np.arctan2(fe, fn)) - gamma) + 180.0) % 360.0 - 180.0
 check("heading (grid azimuth)", np.sqrt(np.mean(daz**2)) <= 0.2, f"RMS {np.sqrt(np.mean(daz**2)):.4f} deg")
-dp = np.array([float(r["pitch"]) for r in rows]) - math.degrees(PITCH)
+dp = np.array([float(r["pitch"]) for r in rows]) - true_pitch
 check("pitch", np.sqrt(np.mean(dp**2)) <= 0.2, f"RMS {np.sqrt(np.mean(dp**2)):.4f} deg")
 roll = np.array([float(r["roll"]) for r in rows])
 check("roll written as 0 (not determined)", np.all(roll == 0.0), "0 in every row")
