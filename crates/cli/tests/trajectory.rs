@@ -16,6 +16,24 @@ fn forest() -> ScenarioFile {
     f
 }
 
+/// `lidarqa simulate` of `file` into `dir/sim` (LAS), returning that directory.
+fn simulate_into(file: &ScenarioFile, dir: &Path) -> std::path::PathBuf {
+    let scenario_path = dir.join("forest.toml");
+    std::fs::write(&scenario_path, toml::to_string(file).unwrap()).unwrap();
+    let sim = dir.join("sim");
+    let o = lidarqa(&[
+        "simulate",
+        "--scenario",
+        s(&scenario_path),
+        "-o",
+        s(&sim),
+        "--format",
+        "las",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    sim
+}
+
 /// One row of the written trajectory: time, x, y, z, pitch, azimuth (deg), σ x, y, z (m),
 /// σ pitch, azimuth (deg).
 struct Row {
@@ -108,19 +126,7 @@ fn forest_strip_trajectory_matches_the_truth_and_its_tpu() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let file = forest();
-    let scenario_path = d.join("forest.toml");
-    std::fs::write(&scenario_path, toml::to_string(&file).unwrap()).unwrap();
-    let sim = d.join("sim");
-    let o = lidarqa(&[
-        "simulate",
-        "--scenario",
-        s(&scenario_path),
-        "-o",
-        s(&sim),
-        "--format",
-        "las",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let sim = simulate_into(&file, d);
     let scenario = Scenario::from_file(file).unwrap();
     let survey = simulate(&scenario, &SimOptions::default()).unwrap();
     let truth = &survey.strips[0].true_trajectory;
@@ -298,19 +304,7 @@ fn noise_free_forest_strip_meets_its_sbet_in_height() {
     let d = dir.path();
     let mut file = forest();
     file.errors.random = false;
-    let scenario_path = d.join("forest.toml");
-    std::fs::write(&scenario_path, toml::to_string(&file).unwrap()).unwrap();
-    let sim = d.join("sim");
-    let o = lidarqa(&[
-        "simulate",
-        "--scenario",
-        s(&scenario_path),
-        "-o",
-        s(&sim),
-        "--format",
-        "las",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let sim = simulate_into(&file, d);
     let traj = d.join("trajectory.csv");
     let sbet = d.join("rebuilt.out");
     let o = lidarqa(&[
