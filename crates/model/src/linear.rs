@@ -234,36 +234,36 @@ mod tests {
 
     #[test]
     fn staged_jacobian_equals_one_pass_dual_jacobian() {
-        let att = Attitude::from_degrees(2.5, -1.5, 123.0);
-        let m = Mounting {
-            boresight_roll_rad: 0.01,
-            boresight_pitch_rad: -0.02,
-            boresight_yaw_rad: 0.03,
-            lever_arm_m: Vector3::new(0.3, -0.2, 0.5),
-        };
+        let (att, m) = (Attitude::from_degrees(2.5, -1.5, 123.0), mounting());
         let obs = LinearObservation {
             range_m: 812.0,
             scan_angle_rad: -0.31,
         };
-        let p = LinearScanner.parameters(&att, &m, &obs);
+        assert_staged_is_dual(&LinearScanner, &LinearScanner.parameters(&att, &m, &obs));
+    }
+
+    fn mounting() -> Mounting {
+        Mounting {
+            boresight_roll_rad: 0.01,
+            boresight_pitch_rad: -0.02,
+            boresight_yaw_rad: 0.03,
+            lever_arm_m: Vector3::new(0.3, -0.2, 0.5),
+        }
+    }
+
+    fn assert_staged_is_dual<G: Georeferencer<LINEAR_N>>(g: &G, p: &SVector<f64, LINEAR_N>) {
         let (f1, j1) = jacobian(
-            |q: SVector<DualSVec64<LINEAR_N>, LINEAR_N>| LinearScanner.footprint_ned(&q),
-            &p,
+            |q: SVector<DualSVec64<LINEAR_N>, LINEAR_N>| g.footprint_ned(&q),
+            p,
         );
-        let (f2, j2) = LinearScanner.footprint_jacobian(&p);
+        let (f2, j2) = g.footprint_jacobian(p);
         assert_relative_eq!(f1, f2, epsilon = 1e-9);
         assert_relative_eq!(j1, j2, epsilon = 1e-9);
     }
 
     #[test]
     fn off_plane_beam_is_the_tilted_vector_and_its_staged_jacobian_is_exact() {
-        let att = Attitude::from_degrees(2.5, -1.5, 123.0);
-        let m = Mounting {
-            boresight_roll_rad: 0.01,
-            boresight_pitch_rad: -0.02,
-            boresight_yaw_rad: 0.03,
-            lever_arm_m: Vector3::new(0.3, -0.2, 0.5),
-        };
+        let (att, m) = (Attitude::from_degrees(2.5, -1.5, 123.0), mounting());
         // S = (0.39, 120, 1000) m: θ = asin(S_y/ρ), β = atan2(S_x, S_z).
         let s = Vector3::new(0.39, 120.0, 1000.0);
         let obs = LinearObservation {
@@ -278,13 +278,7 @@ mod tests {
         let expected =
             rotation_zyx(att.roll_rad, att.pitch_rad, att.heading_rad) * (r_m * s + m.lever_arm_m);
         assert_relative_eq!(g.footprint_ned(&p), expected, epsilon = 1e-9);
-        let (f1, j1) = jacobian(
-            |q: SVector<DualSVec64<LINEAR_N>, LINEAR_N>| g.footprint_ned(&q),
-            &p,
-        );
-        let (f2, j2) = g.footprint_jacobian(&p);
-        assert_relative_eq!(f1, f2, epsilon = 1e-9);
-        assert_relative_eq!(j1, j2, epsilon = 1e-9);
+        assert_staged_is_dual(&g, &p);
         // β = 0 is seed 000's scanner, bit for bit.
         let flat = OffPlaneLinearScanner::default();
         assert_eq!(
@@ -295,13 +289,7 @@ mod tests {
 
     #[test]
     fn range_for_height_inverts_footprint() {
-        let att = Attitude::from_degrees(3.0, 3.0, 4.0);
-        let m = Mounting {
-            boresight_roll_rad: 0.01,
-            boresight_pitch_rad: -0.02,
-            boresight_yaw_rad: 0.03,
-            lever_arm_m: Vector3::new(0.3, -0.2, 0.5),
-        };
+        let (att, m) = (Attitude::from_degrees(3.0, 3.0, 4.0), mounting());
         let theta = -0.4;
         let rho = linear_range_for_height(&att, &m, theta, 1000.0).unwrap();
         let obs = LinearObservation {

@@ -227,33 +227,31 @@ mod tests {
             range_m: 612.345,
             scan_angle_rad: -0.4321,
         };
+        // β = 0 is seed 000's scanner; β ≠ 0 a beam off the scan plane, given back by its β.
+        for beta in [0.0, 0.0123_f64] {
+            let g = OffPlaneLinearScanner {
+                along_track_rad: beta,
+            };
+            let f = g.footprint_ned(&g.parameters(&pose.attitude, &m, &obs));
+            let point =
+                pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f;
+            let r = Recoverer::new(&m).linear(&pose, &point).unwrap();
+            assert_relative_eq!(r.range_m, 612.345, epsilon = 1e-8);
+            let off = 612.345 * 0.4321f64.cos() * beta.sin();
+            assert!((r.out_of_plane_m - off).abs() < 1e-8, "{beta}");
+            assert_relative_eq!(r.beam_ned.norm(), 1.0, epsilon = 1e-12);
+            let (g2, obs2) = r.off_plane();
+            assert_relative_eq!(g2.along_track_rad, beta, epsilon = 1e-12);
+            assert_relative_eq!(obs2.range_m, 612.345, epsilon = 1e-8);
+            assert_relative_eq!(obs2.scan_angle_rad, -0.4321, epsilon = 1e-12);
+            if beta == 0.0 {
+                assert_relative_eq!(r.scan_angle_rad, -0.4321, epsilon = 1e-12);
+            }
+        }
+        // seed 000's own scanner gives the same point at β = 0.
         let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&pose.attitude, &m, &obs));
-        let point = pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f;
-        let r = Recoverer::new(&m).linear(&pose, &point).unwrap();
-        assert_relative_eq!(r.range_m, 612.345, epsilon = 1e-8);
-        assert_relative_eq!(r.scan_angle_rad, -0.4321, epsilon = 1e-12);
-        assert!(r.out_of_plane_m.abs() < 1e-8);
-        assert_relative_eq!(r.beam_ned.norm(), 1.0, epsilon = 1e-12);
-    }
-
-    #[test]
-    fn off_plane_point_is_given_back_by_its_recovered_beam() {
-        let (pose, m) = pose_and_mounting();
-        let g = OffPlaneLinearScanner {
-            along_track_rad: 0.0123,
-        };
-        let obs = LinearObservation {
-            range_m: 612.345,
-            scan_angle_rad: -0.4321,
-        };
-        let f = g.footprint_ned(&g.parameters(&pose.attitude, &m, &obs));
-        let point = pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f;
-        let r = Recoverer::new(&m).linear(&pose, &point).unwrap();
-        assert!((r.out_of_plane_m - 612.345 * 0.4321f64.cos() * 0.0123f64.sin()).abs() < 1e-8);
-        let (g2, obs2) = r.off_plane();
-        assert_relative_eq!(g2.along_track_rad, 0.0123, epsilon = 1e-12);
-        assert_relative_eq!(obs2.range_m, 612.345, epsilon = 1e-8);
-        assert_relative_eq!(obs2.scan_angle_rad, -0.4321, epsilon = 1e-12);
+        let g = OffPlaneLinearScanner::default();
+        assert_eq!(f, g.footprint_ned(&g.parameters(&pose.attitude, &m, &obs)));
     }
 
     #[test]
