@@ -2,6 +2,8 @@
 //!
 //! Seed 000 eq. (2): `P = P0 + R_N (R_M S + ΔP)` with `S = [0, ρ sin θ, ρ cos θ]` (θ > 0 to the
 //! right wing), `R_N = Rz(H) Ry(P) Rx(R)` and `R_M = Rz(Δγ) Ry(Δβ) Rx(Δα)`.
+//! [`OffPlaneLinearScanner`] is the same scanner for a pulse recovered from a real point, which
+//! leaves that plane by a small along-track angle.
 
 use crate::error::{Error, Result};
 use crate::frames::{Attitude, Mounting};

@@ -8,7 +8,9 @@
 //!
 //! with `C_NE` the ECEF → NED rotation at P0. For the linear scanner `S = [0, ρ sin θ, ρ cos θ]`,
 //! so `ρ = |S|`, `θ = atan2(S_y, S_z)`, and `S_x` (which should be ~0) is returned as a quality
-//! figure: a timing offset, a wrong trajectory or a wrong boresight shows up there first.
+//! figure: a timing offset, a wrong trajectory or a wrong boresight shows up there first. The
+//! beam as it is, `S_x` included, is returned too (`θ' = asin(S_y/ρ)`, `β = atan2(S_x, S_z)`,
+//! for [`lidarqa_model::OffPlaneLinearScanner`]) so that the propagation does not drop it.
 //!
 //! For the conic scanner a topographic or water-surface return is `S = ρ1 · l3(θaz)`; with the
 //! nominal prism and emitter angles (all 0, as [`Georeferencer::parameters`] sets them)
