@@ -17,10 +17,12 @@ filters.sritrajectory does not estimate it), NOT from lidarqa's code:
 
 It compares these with the sigma_horizontal / sigma_up extra bytes of three lidarqa outputs run
 with one source group each (docs/real-data/titan-{range,attitude,gnss}.toml) and prints the
-relative differences per group, twice: with the physical beam, and with the beam turned into the
-body Y-Z plane (same length), which is the linear scanner lidarqa models (the beam's small
-along-track component, 0.39 m RMS off the plane here, is its recovery residual). Exit status 1
-when the in-plane comparison differs by more than 0.1 % anywhere (an implementation error).
+relative differences per group, twice: with the physical beam, which lidarqa propagates (its
+linear scanner keeps the recovered beam's along-track angle), and, for information, with the
+beam turned into the body Y-Z plane (same length), the seed-000 scanner without that angle (the
+beam's along-track component, 0.39 m RMS off the plane here, is its recovery residual). Exit
+status 1 when the physical-beam comparison differs by more than 0.1 % anywhere (an
+implementation error; the acceptance bound is 1 %).
 
     python3 docs/real-data/titan_check.py DATA_DIR OUT_DIR
       DATA_DIR: 112-one-scan-cycle.laz and 112-trajectory.txt
@@ -110,7 +112,7 @@ def main():
         worst[mode] = compare(out, heading, pitch, roll, r, b)
     print(f"largest relative difference: physical beam {worst['physical beam'] * 100:.3f} %, "
           f"in-plane beam {worst['beam in the scan plane'] * 100:.4f} %")
-    return 0 if worst["beam in the scan plane"] <= 0.001 else 1
+    return 0 if worst["physical beam"] <= 0.001 else 1
 
 
 def compare(out, heading, pitch, roll, r, b):

@@ -2,7 +2,7 @@
 //! `LIDARQA_TITAN_DIR` names a directory holding `112-one-scan-cycle.laz` and
 //! `112-trajectory.txt` (github.com/NCALM-UH/pdal-als-tpu @ 0305671, test/data; fetch step in
 //! docs/real-data.md). With `LIDARQA_PYTHON` too, docs/real-data/titan_check.py compares the σ
-//! of range, attitude and GNSS with its independent computation.
+//! of range, attitude and GNSS with its independent physical-beam computation, point by point.
 
 mod binary;
 use binary::{lidarqa, s};
@@ -67,11 +67,27 @@ fn titan_sample_as_shipped() {
         .output()
         .unwrap();
     let text = String::from_utf8_lossy(&o.stdout);
+    eprintln!("{text}");
     assert!(
         o.status.success(),
         "{text}{}",
         String::from_utf8_lossy(&o.stderr)
     );
+    // Every point, every group, σ_h and σ_up: within 1 % of the physical beam (issue 20).
+    for g in ["range", "attitude", "gnss"] {
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(g))
+            .unwrap_or_else(|| panic!("no {g} line in\n{text}"));
+        assert!(line.contains("points beyond 1 %: 0 (h), 0 (up)"), "{line}");
+    }
+    let worst: f64 = text
+        .lines()
+        .find_map(|l| l.strip_prefix("largest relative difference: physical beam "))
+        .and_then(|l| l.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no summary line in\n{text}"));
+    assert!(worst <= 1.0, "largest relative difference {worst} %");
 }
 
 /// `lidarqa trajectory` on the sample's ~500 multi-return pulses (one scan cycle, 36 ms): the

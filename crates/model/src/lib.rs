@@ -45,7 +45,8 @@ pub use error::{Error, Result};
 pub use frames::{Attitude, Mounting, Ned};
 pub use georeferencer::Georeferencer;
 pub use linear::{
-    LINEAR_N, LinearObservation, LinearScanner, linear_range_for_height, scanner_vector,
+    LINEAR_N, LinearObservation, LinearScanner, OffPlaneLinearScanner, linear_range_for_height,
+    scanner_vector,
 };
 pub use rotation::{rot_x, rot_y, rot_z, rotation_zyx, rotation_zyx_with_partials, zyx_angles};
 pub use scalar::Scalar;

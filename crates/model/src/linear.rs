@@ -2,6 +2,8 @@
 //!
 //! Seed 000 eq. (2): `P = P0 + R_N (R_M S + ΔP)` with `S = [0, ρ sin θ, ρ cos θ]` (θ > 0 to the
 //! right wing), `R_N = Rz(H) Ry(P) Rx(R)` and `R_M = Rz(Δγ) Ry(Δβ) Rx(Δα)`.
+//! [`OffPlaneLinearScanner`] is the same scanner for a pulse recovered from a real point, which
+//! leaves that plane by a small along-track angle.
 
 use crate::error::{Error, Result};
 use crate::frames::{Attitude, Mounting};
@@ -28,10 +30,80 @@ pub struct LinearObservation {
     pub scan_angle_rad: f64,
 }
 
+/// The linear scanner with the pulse tilted out of the scan plane by a fixed along-track angle β:
+/// `S = ρ [cos θ sin β, sin θ, cos θ cos β]`, i.e. `Ry(β)` applied to seed 000's vector.
+///
+/// Real pulses recovered from delivered points leave the nominal plane (a boresight, timing or
+/// trajectory misfit); near nadir the range and attitude σ depend on the small across-track
+/// part of the beam, so the propagation uses the beam as it is. β is a constant of the pulse,
+/// not an error source: the parameter vector and its sources are those of [`LinearScanner`]
+/// (θ is then the angle of the beam from the X-Z plane), and β = 0 is [`LinearScanner`] exactly.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct OffPlaneLinearScanner {
+    /// Along-track angle β, rad, positive towards scanner +X.
+    pub along_track_rad: f64,
+}
+
 /// Pulse vector in the scanner frame: `S = [0, ρ sin θ, ρ cos θ]` (seed 000).
 pub fn scanner_vector<D: Scalar>(range_m: D, scan_angle_rad: D) -> Vector3<D> {
     let (s, c) = scan_angle_rad.sin_cos();
     Vector3::new(D::zero(), range_m * s, range_m * c)
+}
+
+/// [`scanner_vector`] turned by `Ry(β)` out of the scan plane (β = 0 leaves it as it is).
+fn tilted_scanner_vector<D: Scalar>(
+    range_m: D,
+    scan_angle_rad: D,
+    along_track_rad: f64,
+) -> Vector3<D> {
+    let s = scanner_vector(range_m, scan_angle_rad);
+    if along_track_rad == 0.0 {
+        return s;
+    }
+    let (sb, cb) = along_track_rad.sin_cos();
+    let (sb, cb) = (D::from(sb), D::from(cb));
+    Vector3::new(s.z * sb, s.y, s.z * cb)
+}
+
+/// The linear footprint `δP_gnss + R_N (R_M S + ΔP)` with S tilted by β.
+fn linear_footprint<D: Scalar>(p: &SVector<D, LINEAR_N>, along_track_rad: f64) -> Vector3<D> {
+    let r_n = rotation_zyx(p[3], p[4], p[5]);
+    let r_m = rotation_zyx(p[6], p[7], p[8]);
+    let lever = Vector3::new(p[9], p[10], p[11]);
+    let s = tilted_scanner_vector(p[12], p[13], along_track_rad);
+    gnss_offset_ned(p[0], p[1], p[2]) + r_n * (r_m * s + lever)
+}
+
+/// The linear footprint and its Jacobian, composed by the chain rule from the Jacobians of the
+/// three stages: `R_N` and `R_M` from [`rotation_zyx_with_partials`], `S` from a 2-direction
+/// dual pass. It is the per-point TPU's kernel, many times cheaper than one 14-direction dual
+/// pass (see the tpu `budget` benchmark); a test checks it against that pass.
+fn linear_jacobian(
+    p: &SVector<f64, LINEAR_N>,
+    along_track_rad: f64,
+) -> (Vector3<f64>, SMatrix<f64, 3, LINEAR_N>) {
+    let (r_n, d_r_n) = rotation_zyx_with_partials(p[3], p[4], p[5]);
+    let (r_m, d_r_m) = rotation_zyx_with_partials(p[6], p[7], p[8]);
+    let (s, d_s) = jacobian(
+        |q: SVector<DualSVec64<2>, 2>| tilted_scanner_vector(q[0], q[1], along_track_rad),
+        &Vector2::new(p[12], p[13]),
+    );
+    let lever = Vector3::new(p[9], p[10], p[11]);
+    let body = r_m * s + lever;
+    let f = gnss_offset_ned(p[0], p[1], p[2]) + r_n * body;
+    let r_ns = r_n * r_m;
+    let mut j = SMatrix::<f64, 3, LINEAR_N>::zeros();
+    j[(0, 0)] = 1.0;
+    j[(1, 1)] = 1.0;
+    j[(2, 2)] = -1.0;
+    for k in 0..3 {
+        j.set_column(3 + k, &(d_r_n[k] * body));
+        j.set_column(6 + k, &(r_n * (d_r_m[k] * s)));
+        j.set_column(9 + k, &r_n.column(k).into_owned());
+    }
+    j.set_column(12, &(r_ns * d_s.column(0)));
+    j.set_column(13, &(r_ns * d_s.column(1)));
+    (f, j)
 }
 
 impl Georeferencer<LINEAR_N> for LinearScanner {
@@ -79,43 +151,44 @@ impl Georeferencer<LINEAR_N> for LinearScanner {
     }
 
     fn footprint_ned<D: Scalar>(&self, p: &SVector<D, LINEAR_N>) -> Vector3<D> {
-        let r_n = rotation_zyx(p[3], p[4], p[5]);
-        let r_m = rotation_zyx(p[6], p[7], p[8]);
-        let lever = Vector3::new(p[9], p[10], p[11]);
-        let s = scanner_vector(p[12], p[13]);
-        gnss_offset_ned(p[0], p[1], p[2]) + r_n * (r_m * s + lever)
+        linear_footprint(p, 0.0)
     }
 
-    /// The same Jacobian as the default, composed by the chain rule from the Jacobians of the three
-    /// stages: `R_N` and `R_M` from [`rotation_zyx_with_partials`], `S` from a 2-direction dual
-    /// pass. It is the per-point TPU's kernel, many times cheaper than one 14-direction dual pass
-    /// (see the tpu `budget` benchmark); a test checks it against that pass.
+    /// The same Jacobian as the default, composed by the chain rule from the stages (`R_N`,
+    /// `R_M`, `S`): the per-point TPU's kernel, many times cheaper than one dual pass.
     fn footprint_jacobian(
         &self,
         p: &SVector<f64, LINEAR_N>,
     ) -> (Vector3<f64>, SMatrix<f64, 3, LINEAR_N>) {
-        let (r_n, d_r_n) = rotation_zyx_with_partials(p[3], p[4], p[5]);
-        let (r_m, d_r_m) = rotation_zyx_with_partials(p[6], p[7], p[8]);
-        let (s, d_s) = jacobian(
-            |q: SVector<DualSVec64<2>, 2>| scanner_vector(q[0], q[1]),
-            &Vector2::new(p[12], p[13]),
-        );
-        let lever = Vector3::new(p[9], p[10], p[11]);
-        let body = r_m * s + lever;
-        let f = gnss_offset_ned(p[0], p[1], p[2]) + r_n * body;
-        let r_ns = r_n * r_m;
-        let mut j = SMatrix::<f64, 3, LINEAR_N>::zeros();
-        j[(0, 0)] = 1.0;
-        j[(1, 1)] = 1.0;
-        j[(2, 2)] = -1.0;
-        for k in 0..3 {
-            j.set_column(3 + k, &(d_r_n[k] * body));
-            j.set_column(6 + k, &(r_n * (d_r_m[k] * s)));
-            j.set_column(9 + k, &r_n.column(k).into_owned());
-        }
-        j.set_column(12, &(r_ns * d_s.column(0)));
-        j.set_column(13, &(r_ns * d_s.column(1)));
-        (f, j)
+        linear_jacobian(p, 0.0)
+    }
+}
+
+impl Georeferencer<LINEAR_N> for OffPlaneLinearScanner {
+    type Observation = LinearObservation;
+
+    const SOURCES: [Source; LINEAR_N] = <LinearScanner as Georeferencer<LINEAR_N>>::SOURCES;
+
+    fn parameters(
+        &self,
+        a: &Attitude,
+        m: &Mounting,
+        o: &LinearObservation,
+    ) -> SVector<f64, LINEAR_N> {
+        LinearScanner.parameters(a, m, o)
+    }
+
+    fn footprint_ned<D: Scalar>(&self, p: &SVector<D, LINEAR_N>) -> Vector3<D> {
+        linear_footprint(p, self.along_track_rad)
+    }
+
+    /// The same Jacobian as the default, composed by the chain rule from the stages (`R_N`,
+    /// `R_M`, `S`): the per-point TPU's kernel, many times cheaper than one dual pass.
+    fn footprint_jacobian(
+        &self,
+        p: &SVector<f64, LINEAR_N>,
+    ) -> (Vector3<f64>, SMatrix<f64, 3, LINEAR_N>) {
+        linear_jacobian(p, self.along_track_rad)
     }
 }
 
@@ -163,36 +236,62 @@ mod tests {
 
     #[test]
     fn staged_jacobian_equals_one_pass_dual_jacobian() {
-        let att = Attitude::from_degrees(2.5, -1.5, 123.0);
-        let m = Mounting {
-            boresight_roll_rad: 0.01,
-            boresight_pitch_rad: -0.02,
-            boresight_yaw_rad: 0.03,
-            lever_arm_m: Vector3::new(0.3, -0.2, 0.5),
-        };
+        let (att, m) = (Attitude::from_degrees(2.5, -1.5, 123.0), mounting());
         let obs = LinearObservation {
             range_m: 812.0,
             scan_angle_rad: -0.31,
         };
-        let p = LinearScanner.parameters(&att, &m, &obs);
+        assert_staged_is_dual(&LinearScanner, &LinearScanner.parameters(&att, &m, &obs));
+    }
+
+    fn mounting() -> Mounting {
+        Mounting {
+            boresight_roll_rad: 0.01,
+            boresight_pitch_rad: -0.02,
+            boresight_yaw_rad: 0.03,
+            lever_arm_m: Vector3::new(0.3, -0.2, 0.5),
+        }
+    }
+
+    fn assert_staged_is_dual<G: Georeferencer<LINEAR_N>>(g: &G, p: &SVector<f64, LINEAR_N>) {
         let (f1, j1) = jacobian(
-            |q: SVector<DualSVec64<LINEAR_N>, LINEAR_N>| LinearScanner.footprint_ned(&q),
-            &p,
+            |q: SVector<DualSVec64<LINEAR_N>, LINEAR_N>| g.footprint_ned(&q),
+            p,
         );
-        let (f2, j2) = LinearScanner.footprint_jacobian(&p);
+        let (f2, j2) = g.footprint_jacobian(p);
         assert_relative_eq!(f1, f2, epsilon = 1e-9);
         assert_relative_eq!(j1, j2, epsilon = 1e-9);
     }
 
     #[test]
-    fn range_for_height_inverts_footprint() {
-        let att = Attitude::from_degrees(3.0, 3.0, 4.0);
-        let m = Mounting {
-            boresight_roll_rad: 0.01,
-            boresight_pitch_rad: -0.02,
-            boresight_yaw_rad: 0.03,
-            lever_arm_m: Vector3::new(0.3, -0.2, 0.5),
+    fn off_plane_beam_is_the_tilted_vector_and_its_staged_jacobian_is_exact() {
+        let (att, m) = (Attitude::from_degrees(2.5, -1.5, 123.0), mounting());
+        // S = (0.39, 120, 1000) m: θ = asin(S_y/ρ), β = atan2(S_x, S_z).
+        let s = Vector3::new(0.39, 120.0, 1000.0);
+        let obs = LinearObservation {
+            range_m: s.norm(),
+            scan_angle_rad: (s.y / s.norm()).asin(),
         };
+        let g = OffPlaneLinearScanner {
+            along_track_rad: s.x.atan2(s.z),
+        };
+        let p = g.parameters(&att, &m, &obs);
+        let r_m = rotation_zyx(0.01, -0.02, 0.03);
+        let expected =
+            rotation_zyx(att.roll_rad, att.pitch_rad, att.heading_rad) * (r_m * s + m.lever_arm_m);
+        assert_relative_eq!(g.footprint_ned(&p), expected, epsilon = 1e-9);
+        assert_staged_is_dual(&g, &p);
+        // β = 0 is seed 000's scanner, bit for bit.
+        let flat = OffPlaneLinearScanner::default();
+        assert_eq!(
+            flat.footprint_jacobian(&p),
+            LinearScanner.footprint_jacobian(&p)
+        );
+    }
+
+    #[test]
+    fn range_for_height_inverts_footprint() {
+        let (att, m) = (Attitude::from_degrees(3.0, 3.0, 4.0), mounting());
         let theta = -0.4;
         let rho = linear_range_for_height(&att, &m, theta, 1000.0).unwrap();
         let obs = LinearObservation {

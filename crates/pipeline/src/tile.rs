@@ -15,8 +15,7 @@ use lidarqa_io::{
     LasWriteOptions, LasWriter, PointChunk,
 };
 use lidarqa_model::{
-    ConicScanner, Georeferencer, LinearObservation, LinearScanner, Mounting, Scanner, Source,
-    rotation_zyx,
+    ConicScanner, Georeferencer, LinearScanner, Mounting, Scanner, Source, rotation_zyx,
 };
 use lidarqa_tpu::{
     IhoOrder, Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, SoundingRecovery, Surface,
@@ -1056,16 +1055,14 @@ impl Run<'_> {
         let (cov, vars, inc_var, recovered) = match self.kernel {
             Kernel::Linear(pp) => {
                 let r = self.recoverer.linear(pose, &p.ecef)?;
-                let params = LinearScanner.parameters(
-                    &pose.attitude,
-                    &self.mounting,
-                    &LinearObservation {
-                        range_m: r.range_m,
-                        scan_angle_rad: r.scan_angle_rad,
-                    },
-                );
+                // The beam as recovered, out-of-plane part included (β): near nadir the range
+                // and attitude σ depend on the small across-track part, which the projection
+                // on the scan plane would change.
+                let (model, obs) = r.off_plane();
+                let params = model.parameters(&pose.attitude, &self.mounting, &obs);
+                let (footprint, j) = model.footprint_jacobian(&params);
                 let inc = incidence(r.range_m, r.beam_ned);
-                let u = pp.propagate(&params, sigma, inc.as_ref())?;
+                let u = pp.propagate_jacobian(footprint, &j, sigma, inc.as_ref(), &[])?;
                 acc.scan
                     .push(r.scan_angle_rad.to_degrees() - f64::from(lp.scan_angle_deg));
                 // S = (S_x, ρ sin θ, ρ cos θ); in the body frame R_M S.

@@ -207,6 +207,23 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
         sigma_override: &[(Source, f64)],
     ) -> Result<PointUncertainty<N>> {
         let (footprint_ned, j) = self.model.footprint_jacobian(p);
+        self.propagate_jacobian(footprint_ned, &j, trajectory, incidence, sigma_override)
+    }
+
+    /// [`PointPropagator::propagate_with`] from a footprint and Jacobian computed by the caller
+    /// with a model of the same sources (e.g. the per-point [`lidarqa_model::OffPlaneLinearScanner`]
+    /// beside a [`lidarqa_model::LinearScanner`] propagator).
+    ///
+    /// # Errors
+    /// As [`PointPropagator::propagate`].
+    pub fn propagate_jacobian(
+        &self,
+        footprint_ned: Vector3<f64>,
+        j: &SMatrix<f64, 3, N>,
+        trajectory: Option<&PoseSigma>,
+        incidence: Option<&Incidence>,
+        sigma_override: &[(Source, f64)],
+    ) -> Result<PointUncertainty<N>> {
         if !(footprint_ned.iter().all(|v| v.is_finite()) && j.iter().all(|v| v.is_finite())) {
             return Err(Error::NotFinite {
                 what: "footprint or its Jacobian",

@@ -8,7 +8,9 @@
 //!
 //! with `C_NE` the ECEF → NED rotation at P0. For the linear scanner `S = [0, ρ sin θ, ρ cos θ]`,
 //! so `ρ = |S|`, `θ = atan2(S_y, S_z)`, and `S_x` (which should be ~0) is returned as a quality
-//! figure: a timing offset, a wrong trajectory or a wrong boresight shows up there first.
+//! figure: a timing offset, a wrong trajectory or a wrong boresight shows up there first. The
+//! beam as it is, `S_x` included, is returned too (`θ' = asin(S_y/ρ)`, `β = atan2(S_x, S_z)`,
+//! for [`lidarqa_model::OffPlaneLinearScanner`]) so that the propagation does not drop it.
 //!
 //! For the conic scanner a topographic or water-surface return is `S = ρ1 · l3(θaz)`; with the
 //! nominal prism and emitter angles (all 0, as [`Georeferencer::parameters`] sets them)
@@ -20,7 +22,8 @@
 use crate::error::{Error, Result};
 use crate::trajectory::PoseAt;
 use lidarqa_model::{
-    Attitude, ConicObservation, ConicScanner, Georeferencer, Mounting, rotation_zyx,
+    Attitude, ConicObservation, ConicScanner, Georeferencer, LinearObservation, Mounting,
+    OffPlaneLinearScanner, rotation_zyx,
 };
 use nalgebra::{Matrix3, Vector3};
 
@@ -44,6 +47,27 @@ pub struct LinearRecovery {
     pub out_of_plane_m: f64,
     /// Unit beam direction (scanner origin → point) in N at P0.
     pub beam_ned: Vector3<f64>,
+    /// The beam as it is, for [`OffPlaneLinearScanner`]: scan angle θ' = asin(S_y/ρ), rad.
+    pub beam_scan_angle_rad: f64,
+    /// The beam as it is: along-track angle β = atan2(S_x, S_z), rad.
+    pub along_track_rad: f64,
+}
+
+impl LinearRecovery {
+    /// The recovered beam as it is, out-of-plane part included: the model with its β and the
+    /// observation (ρ, θ') that give back `S` exactly. The propagation uses these, so the σ
+    /// follow the physical beam rather than its projection on the scan plane.
+    pub fn off_plane(&self) -> (OffPlaneLinearScanner, LinearObservation) {
+        (
+            OffPlaneLinearScanner {
+                along_track_rad: self.along_track_rad,
+            },
+            LinearObservation {
+                range_m: self.range_m,
+                scan_angle_rad: self.beam_scan_angle_rad,
+            },
+        )
+    }
 }
 
 /// A conic-scanner observation recovered from a topographic / water-surface point.
@@ -116,6 +140,8 @@ impl Recoverer {
             scan_angle_rad: s.y.atan2(s.z),
             out_of_plane_m: s.x,
             beam_ned: beam / range_m,
+            beam_scan_angle_rad: (s.y / range_m).clamp(-1.0, 1.0).asin(),
+            along_track_rad: s.x.atan2(s.z),
         })
     }
 
@@ -203,13 +229,31 @@ mod tests {
             range_m: 612.345,
             scan_angle_rad: -0.4321,
         };
+        // β = 0 is seed 000's scanner; β ≠ 0 a beam off the scan plane, given back by its β.
+        for beta in [0.0, 0.0123_f64] {
+            let g = OffPlaneLinearScanner {
+                along_track_rad: beta,
+            };
+            let f = g.footprint_ned(&g.parameters(&pose.attitude, &m, &obs));
+            let point =
+                pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f;
+            let r = Recoverer::new(&m).linear(&pose, &point).unwrap();
+            assert_relative_eq!(r.range_m, 612.345, epsilon = 1e-8);
+            let off = 612.345 * 0.4321f64.cos() * beta.sin();
+            assert!((r.out_of_plane_m - off).abs() < 1e-8, "{beta}");
+            assert_relative_eq!(r.beam_ned.norm(), 1.0, epsilon = 1e-12);
+            let (g2, obs2) = r.off_plane();
+            assert_relative_eq!(g2.along_track_rad, beta, epsilon = 1e-12);
+            assert_relative_eq!(obs2.range_m, 612.345, epsilon = 1e-8);
+            assert_relative_eq!(obs2.scan_angle_rad, -0.4321, epsilon = 1e-12);
+            if beta == 0.0 {
+                assert_relative_eq!(r.scan_angle_rad, -0.4321, epsilon = 1e-12);
+            }
+        }
+        // seed 000's own scanner gives the same point at β = 0.
         let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&pose.attitude, &m, &obs));
-        let point = pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f;
-        let r = Recoverer::new(&m).linear(&pose, &point).unwrap();
-        assert_relative_eq!(r.range_m, 612.345, epsilon = 1e-8);
-        assert_relative_eq!(r.scan_angle_rad, -0.4321, epsilon = 1e-12);
-        assert!(r.out_of_plane_m.abs() < 1e-8);
-        assert_relative_eq!(r.beam_ned.norm(), 1.0, epsilon = 1e-12);
+        let g = OffPlaneLinearScanner::default();
+        assert_eq!(f, g.footprint_ned(&g.parameters(&pose.attitude, &m, &obs)));
     }
 
     #[test]
