@@ -56,6 +56,7 @@ mod context;
 mod correct_tile;
 mod digest;
 mod error;
+mod evaluate_files;
 mod manifest;
 pub mod plausibility;
 mod retile;
@@ -77,6 +78,9 @@ pub use correct_tile::{
 };
 pub use digest::{FileDigest, seed_for_tile};
 pub use error::{Error, Result};
+pub use evaluate_files::{
+    evaluate_nva, evaluate_target_files, ground_points, predicted_from_sensor,
+};
 pub use manifest::{
     Entry, EntryOutcome, InputFile, MANIFEST_FORMAT, Manifest, ManifestOptions, REPORT_SUFFIX,
     TILE_REPORT_FORMAT, Task, TpuPlan, collect, entry_status, plan_tpu, resolve, run_entry,
