@@ -2,6 +2,7 @@
 //! prints.
 
 mod budget;
+mod budget_table;
 mod calibrate;
 mod collect;
 mod correct;
