@@ -66,6 +66,7 @@ mod summary;
 mod targets_files;
 mod targets_tile;
 mod tile;
+mod tpu_tiles;
 pub mod trajectory_from_returns;
 
 pub use calibrate_strips::{
@@ -97,3 +98,4 @@ pub use summary::{
 pub use targets_files::{control_for_targets, find_targets, points_near_control};
 pub use targets_tile::{TargetsTileJob, TargetsTileReport, extract_targets_tile};
 pub use tile::{TpuTileJob, tpu_tile, tpu_tile_with_progress};
+pub use tpu_tiles::tpu_tiles;

@@ -16,6 +16,7 @@ mod simulate;
 mod targets;
 mod tile;
 mod tpu;
+mod tpu_table;
 mod trajectory;
 
 use clap::Subcommand;
