@@ -253,6 +253,13 @@ pub enum Error {
         zone: u32,
     },
 
+    /// A UTM zone that is not written like `33N` or `17S`.
+    #[error("'{text}' is not a zone like 33N or 17S")]
+    UtmZoneText {
+        /// The text given.
+        text: String,
+    },
+
     /// A calendar date that does not exist or lies before the GPS epoch (1980-01-06).
     #[error("invalid date {year:04}-{month:02}-{day:02}: {message}")]
     InvalidDate {

@@ -531,6 +531,24 @@ pub struct UtmZone {
     datum: UtmDatum,
 }
 
+/// `33N`, `17s`, `33` (north): a WGS 84 UTM zone as users write it.
+impl std::str::FromStr for UtmZone {
+    type Err = Error;
+
+    fn from_str(text: &str) -> Result<Self> {
+        let t = text.trim();
+        let (digits, hemisphere) = match t.chars().last() {
+            Some('N' | 'n') => (&t[..t.len() - 1], Hemisphere::North),
+            Some('S' | 's') => (&t[..t.len() - 1], Hemisphere::South),
+            _ => (t, Hemisphere::North),
+        };
+        let zone: u32 = digits.parse().map_err(|_| Error::UtmZoneText {
+            text: text.to_string(),
+        })?;
+        UtmZone::new(zone, hemisphere)
+    }
+}
+
 impl UtmZone {
     /// A WGS 84 UTM zone.
     ///
@@ -648,6 +666,24 @@ impl UtmZone {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn utm_zone_as_written() {
+        let z: UtmZone = "33N".parse().unwrap();
+        assert_eq!((z.zone(), z.hemisphere()), (33, Hemisphere::North));
+        let z: UtmZone = "17s".parse().unwrap();
+        assert_eq!((z.zone(), z.hemisphere()), (17, Hemisphere::South));
+        let z: UtmZone = " 5 ".parse().unwrap();
+        assert_eq!((z.zone(), z.hemisphere()), (5, Hemisphere::North));
+        assert!(matches!(
+            "61N".parse::<UtmZone>(),
+            Err(Error::InvalidUtmZone { zone: 61 })
+        ));
+        assert!(matches!(
+            "xN".parse::<UtmZone>(),
+            Err(Error::UtmZoneText { .. })
+        ));
+    }
 
     #[test]
     fn clenshaw_sums_equal_the_termwise_series() {

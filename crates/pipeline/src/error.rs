@@ -171,6 +171,44 @@ pub enum Error {
         /// Why.
         source: lidarqa_targets::Error,
     },
+    /// Targets against control could not be evaluated (lidarqa-targets' message, after the file
+    /// at fault when one is).
+    #[error("{}{source}", file.as_ref().map(|f| format!("{f}: ")).unwrap_or_default())]
+    Evaluation {
+        /// The file at fault (or "targets against control"), when the error is about one.
+        file: Option<String>,
+        /// Why.
+        source: lidarqa_targets::Error,
+    },
+    /// The budget of a sensor file at a height could not be evaluated.
+    #[error("{}: --height {height_m}: {source}", path.display())]
+    Prediction {
+        /// The sensor file.
+        path: PathBuf,
+        /// The height asked for, m.
+        height_m: f64,
+        /// Why.
+        source: lidarqa_tpu::Error,
+    },
+    /// A point cloud given for the ground TIN holds no ground point.
+    #[error(
+        "{}: no points of class {class} (ground); classify the ground or pass --ground-class",
+        path.display()
+    )]
+    NoGroundPoints {
+        /// The LAS/LAZ file.
+        path: PathBuf,
+        /// The ground class looked for.
+        class: u8,
+    },
+    /// Vertical checkpoints could not be tested against the ground TIN.
+    #[error("{}: vertical checkpoints: {source}", path.display())]
+    Checkpoints {
+        /// The checkpoint file.
+        path: PathBuf,
+        /// Why.
+        source: lidarqa_targets::Error,
+    },
 }
 
 /// [`Error::NonFiniteCoordinates`] for point `index` of `path` when x, y or z (as read) is NaN or

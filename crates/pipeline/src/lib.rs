@@ -56,6 +56,7 @@ mod context;
 mod correct_tile;
 mod digest;
 mod error;
+mod evaluate_files;
 mod manifest;
 pub mod plausibility;
 mod retile;
@@ -65,6 +66,7 @@ mod summary;
 mod targets_files;
 mod targets_tile;
 mod tile;
+mod tpu_tiles;
 pub mod trajectory_from_returns;
 
 pub use calibrate_strips::{
@@ -77,6 +79,9 @@ pub use correct_tile::{
 };
 pub use digest::{FileDigest, seed_for_tile};
 pub use error::{Error, Result};
+pub use evaluate_files::{
+    evaluate_nva, evaluate_target_files, ground_points, predicted_from_sensor,
+};
 pub use manifest::{
     Entry, EntryOutcome, InputFile, MANIFEST_FORMAT, Manifest, ManifestOptions, REPORT_SUFFIX,
     TILE_REPORT_FORMAT, Task, TpuPlan, collect, entry_status, plan_tpu, resolve, run_entry,
@@ -93,3 +98,4 @@ pub use summary::{
 pub use targets_files::{control_for_targets, find_targets, points_near_control};
 pub use targets_tile::{TargetsTileJob, TargetsTileReport, extract_targets_tile};
 pub use tile::{TpuTileJob, tpu_tile, tpu_tile_with_progress};
+pub use tpu_tiles::tpu_tiles;

@@ -40,6 +40,7 @@
 //! ```
 
 mod bathymetry;
+mod demo_summary;
 mod error;
 mod html;
 mod plot;
@@ -48,6 +49,7 @@ mod report;
 mod text;
 mod verdict;
 
+pub use demo_summary::demo_summary;
 pub use error::{Error, Result};
 pub use products::{
     Asprs, AsprsComponent, BUDGET_FILE, Budget, BudgetSource, CALIBRATION_FILE,

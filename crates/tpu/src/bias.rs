@@ -10,6 +10,44 @@ use lidarqa_model::{Georeferencer, Source};
 use nalgebra::SVector;
 use serde::Serialize;
 
+/// `KEY=VALUE,...` with sensor-file `[sigma]` keys and their units (`boresight_roll_deg=0.1,
+/// lever_x_m=-0.05,time_water_ns=1`), converted to SI; each key at most once.
+impl std::str::FromStr for Biases {
+    type Err = Error;
+
+    fn from_str(text: &str) -> Result<Biases> {
+        let mut biases = Biases::default();
+        let mut seen: Vec<Source> = Vec::new();
+        for item in text.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+            let (key, value) = item
+                .split_once('=')
+                .ok_or_else(|| Error::InvalidBias(format!("'{item}' is not KEY=VALUE")))?;
+            let key = key.trim();
+            let source = Source::from_config_key(key).ok_or_else(|| {
+                Error::InvalidBias(format!(
+                    "unknown key '{key}' (a [sigma] key with its unit, e.g. boresight_roll_deg, lever_x_m)"
+                ))
+            })?;
+            let value: f64 = value
+                .trim()
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite())
+                .ok_or_else(|| {
+                    Error::InvalidBias(format!("{key} = '{}' is not a number", value.trim()))
+                })?;
+            if seen.contains(&source) {
+                return Err(Error::InvalidBias(format!(
+                    "{key} is given twice; give each key once"
+                )));
+            }
+            seen.push(source);
+            biases.set(source, value * source.unit().config_to_si())?;
+        }
+        Ok(biases)
+    }
+}
+
 /// Signed systematic errors of any sources, SI units (m, rad, s); unset sources are 0.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Biases {
@@ -92,4 +130,29 @@ pub fn bias_effect<G: Georeferencer<N>, const N: usize>(
         exact: Displacement::from_ned(&exact, heading_rad),
         first_order: Displacement::from_ned(&first, heading_rad),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bias_keys_carry_units() {
+        let b: Biases = "boresight_roll_deg=0.1, lever_x_m=-0.05,time_water_ns=1"
+            .parse()
+            .unwrap();
+        assert!((b.get(Source::BoresightRoll) - 0.1f64.to_radians()).abs() < 1e-18);
+        assert_eq!(b.get(Source::LeverX), -0.05);
+        assert!((b.get(Source::TimeWater) - 1e-9).abs() < 1e-24);
+        let e = "boresight_roll=0.1"
+            .parse::<Biases>()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("unknown key 'boresight_roll'"), "{e}");
+        let e = "lever_x_m=1,lever_x_m=2"
+            .parse::<Biases>()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("given twice"), "{e}");
+    }
 }

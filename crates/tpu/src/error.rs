@@ -24,6 +24,9 @@ pub enum Error {
     /// A geometry flag that does not fit the scanner.
     #[error("{0}")]
     Geometry(String),
+    /// A systematic-error list (`KEY=VALUE,...`) that cannot be read: the item and why.
+    #[error("{0}")]
+    InvalidBias(String),
     /// A trajectory that cannot be interpolated: fewer than two poses, a time going back, a
     /// non-finite value (`index` is the pose at fault).
     #[error("trajectory pose {index}: {message}")]

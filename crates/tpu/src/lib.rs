@@ -42,6 +42,7 @@ mod normals;
 mod point;
 mod presets;
 mod recover;
+mod request;
 mod sounding;
 mod sweep;
 mod trajectory;
@@ -65,6 +66,7 @@ pub use normals::{
 pub use point::{Incidence, MAX_INCIDENCE_RAD, PointPropagator, PointUncertainty};
 pub use presets::Preset;
 pub use recover::{ConicRecovery, LinearRecovery, Recoverer, nominal_l3};
+pub use request::{GeometryRequest, evaluate_sweep};
 pub use sounding::{
     SAME_PULSE_S, SURFACE_NEIGHBOURS, SURFACE_RADIUS_M, SoundingRecovery, SurfacePlane,
     SurfaceSource, WaterReturn, WaterSurfaceIndex,

@@ -1,7 +1,7 @@
 //! `lidarqa collect`: merge the tile reports of a manifest into the survey summary, the same
 //! summary `lidarqa tpu` writes over the same tiles (SPEC §9).
 
-use super::tpu::table;
+use super::tpu_table::table;
 use crate::format::{OutputFormat, print_json, print_text, print_warnings};
 use anyhow::{Context, Result};
 use clap::Args;

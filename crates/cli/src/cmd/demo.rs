@@ -11,7 +11,6 @@ use crate::format::print_text;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use serde_json::Value;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
@@ -385,99 +384,8 @@ pub fn run(args: DemoArgs) -> Result<()> {
                 .with_context(|| format!("{}", dir.join("truth.json").display()))?;
         }
     }
-    print_text(&summary(dir, &strips)?)
+    print_text(&lidarqa_report::demo_summary(dir)?)
 }
 
 /// The TPU summary of the raw strips with `--calibration`: the prediction after calibration.
 const CALIBRATED_TPU_SUMMARY: &str = "tpu_calibrated_summary.json";
-
-fn summary(dir: &Path, strips: &Path) -> Result<String> {
-    let truth = read_json(&strips.join("truth.json"))?;
-    let cal = read_json(&dir.join("calibration.json"))?;
-    let before = read_json(&dir.join("evaluate_before.json"))?;
-    let after = read_json(&dir.join("evaluate_after.json"))?;
-    let mut t = String::new();
-    let _ = writeln!(t, "lidarqa demo: products and report in {}", dir.display());
-    let _ = writeln!(t);
-    let _ = writeln!(
-        t,
-        "{:<22}{:>12}{:>12}{:>12}{:>10}",
-        "mounting", "injected", "recovered", "error", "σ"
-    );
-    for key in [
-        "boresight_roll_deg",
-        "boresight_pitch_deg",
-        "boresight_yaw_deg",
-        "lever_x_m",
-        "lever_y_m",
-        "lever_z_m",
-    ] {
-        let inj = truth["mounting"][key].as_f64().unwrap_or(f64::NAN);
-        let rec = cal["parameters"][key].as_f64().unwrap_or(f64::NAN);
-        let sig = cal["sigma"][key].as_f64().unwrap_or(f64::NAN);
-        let observable = cal["observable"][key].as_bool().unwrap_or(true);
-        let sig = if sig.is_finite() {
-            format!("{sig:.4}")
-        } else {
-            "-".into()
-        };
-        let _ = writeln!(
-            t,
-            "{:<22}{:>12.4}{:>12.4}{:>12.4}{:>10}{}",
-            key,
-            inj,
-            rec,
-            rec - inj,
-            sig,
-            if observable { "" } else { "  (not observable)" }
-        );
-    }
-    let _ = writeln!(t);
-    let cm = |v: &Value| {
-        v.as_f64()
-            .map_or("-".to_string(), |x| format!("{:.2}", x * 100.0))
-    };
-    // Predicted σ from the sensor file's mounting σ before, from the calibration's after.
-    let _ = writeln!(
-        t,
-        "{:<34}{:>10}{:>10}{:>10}{:>10}",
-        "accuracy at the targets (cm)", "σ before", "before", "σ after", "after"
-    );
-    for (name, key) in [
-        ("plane RMSE (seed 000 eq. 7)", "horizontal"),
-        ("elevation RMSE (seed 000 eq. 8)", "vertical"),
-    ] {
-        let _ = writeln!(
-            t,
-            "{:<34}{:>10}{:>10}{:>10}{:>10}",
-            name,
-            cm(&before["predicted"][key]),
-            cm(&before["rmse"][key]),
-            cm(&after["predicted"][key]),
-            cm(&after["rmse"][key])
-        );
-    }
-    for (name, file) in [
-        ("before", "overlap_before.json"),
-        ("after", "overlap_after.json"),
-    ] {
-        if let Ok(o) = read_json(&dir.join(file)) {
-            let worst = o["pairs"]
-                .as_array()
-                .map(|ps| {
-                    ps.iter()
-                        .filter_map(|p| p["rmsdz_m"].as_f64())
-                        .fold(0.0, f64::max)
-                })
-                .unwrap_or(f64::NAN);
-            let _ = writeln!(
-                t,
-                "strip-to-strip RMSDz {name:<7} (worst pair): {:.2} cm",
-                worst * 100.0
-            );
-        }
-    }
-    let _ = writeln!(t);
-    let _ = writeln!(t, "report: {}", dir.join("report.html").display());
-    Ok(t)
-}

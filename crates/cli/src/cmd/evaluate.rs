@@ -4,13 +4,8 @@
 use crate::format::{OutputFormat, cm, print_json, print_text};
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lidarqa_io::{ControlPoints, LasReader, PointChunk, Targets};
-use lidarqa_model::{Attitude, Scanner};
-use lidarqa_targets::{
-    Components, EvaluateOptions, Evaluation, FrameSide, MeasuredPoint, VerticalEvaluation,
-    evaluate, evaluate_vertical_tin,
-};
-use lidarqa_tpu::{ConicRanges, Geometry, LinearRange};
+use lidarqa_pipeline::{evaluate_nva, evaluate_target_files, predicted_from_sensor};
+use lidarqa_targets::{Components, EvaluateOptions, Evaluation, VerticalEvaluation};
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -94,113 +89,6 @@ pub fn predicted_from_tpu_summary(path: &Path) -> Result<Components> {
     ))
 }
 
-/// Run the evaluation (shared with `lidarqa demo`).
-pub fn evaluate_files(
-    targets: &PathBuf,
-    control: &PathBuf,
-    options: &EvaluateOptions,
-) -> Result<Evaluation> {
-    let t = Targets::from_path(targets)?;
-    let control_path = control;
-    let c = ControlPoints::from_path(control)?;
-    let control = lidarqa_pipeline::control_for_targets(&c, None)?;
-    let measured: Vec<MeasuredPoint> = t
-        .records
-        .iter()
-        .map(|r| MeasuredPoint::new(r.id.clone(), r.x, r.y, r.z))
-        .collect();
-    evaluate(&measured, &control, options).map_err(|e| match &e {
-        lidarqa_targets::Error::NotOneFrame { side, .. } => {
-            let file = match side {
-                FrameSide::Control => control_path.display().to_string(),
-                FrameSide::Targets => targets.display().to_string(),
-                FrameSide::Both => {
-                    format!("{} against {}", targets.display(), control_path.display())
-                }
-            };
-            anyhow::anyhow!("{file}: {e}")
-        }
-        _ => e.into(),
-    })
-}
-
-/// The prediction from a sensor file: its budget at `height_m` above level ground, at the scan
-/// angle (linear) or scan azimuth (conic) given, level flight heading north.
-pub fn predicted_from_sensor(
-    path: &Path,
-    height_m: f64,
-    scan_angle_deg: Option<f64>,
-) -> Result<Components> {
-    let sensor = lidarqa_io::read_sensor(path)?;
-    let attitude = Attitude {
-        roll_rad: 0.0,
-        pitch_rad: 0.0,
-        heading_rad: 0.0,
-    };
-    let geometry = match sensor.scanner {
-        Scanner::Linear => Geometry::Linear {
-            attitude,
-            scan_angle_rad: scan_angle_deg.unwrap_or(0.0).to_radians(),
-            range: LinearRange::Height(height_m),
-        },
-        Scanner::Conic(_) => Geometry::Conic {
-            attitude,
-            azimuth_rad: scan_angle_deg.unwrap_or(90.0).to_radians(),
-            ranges: ConicRanges::HeightDepth {
-                height_m,
-                depth_m: 0.0,
-            },
-        },
-    };
-    let e = lidarqa_tpu::evaluate(&sensor, &geometry, None)
-        .with_context(|| format!("{}: --height {height_m}", path.display()))?;
-    Ok(Components::from_components(
-        e.total.north,
-        e.total.east,
-        e.total.up,
-    ))
-}
-
-/// Ground points (`class`) of `inputs` as `[x, y, z]`, read chunk by chunk.
-pub fn ground_points(inputs: &[PathBuf], class: u8) -> Result<Vec<[f64; 3]>> {
-    let mut ground = Vec::new();
-    let mut chunk = PointChunk::new();
-    for path in inputs {
-        let mut reader = LasReader::from_path(path)?;
-        let before = ground.len();
-        while reader.fill(&mut chunk, 1 << 20)? > 0 {
-            ground.extend(
-                chunk
-                    .points
-                    .iter()
-                    .filter(|p| p.classification == class)
-                    .map(|p| [p.x, p.y, p.z]),
-            );
-        }
-        if ground.len() == before {
-            bail!(
-                "{}: no points of class {class} (ground); classify the ground or pass --ground-class",
-                path.display()
-            );
-        }
-    }
-    Ok(ground)
-}
-
-/// Vertical checkpoints against the TIN of the ground points of `ground` (NVA).
-pub fn evaluate_nva(
-    ground: &[PathBuf],
-    class: u8,
-    checkpoints: &Path,
-    options: &EvaluateOptions,
-) -> Result<VerticalEvaluation> {
-    let table = ControlPoints::from_path(checkpoints)?;
-    let cps = lidarqa_pipeline::control_for_targets(&table, None)?;
-    let points = ground_points(ground, class)?;
-    evaluate_vertical_tin(&points, &cps, options)
-        .with_context(|| format!("{}: vertical checkpoints", checkpoints.display()))
-}
-
 /// What `lidarqa evaluate --format json` prints: the targets' evaluation (SPEC §6), with the
 /// NVA block beside it when --ground is given.
 #[derive(Serialize)]
@@ -222,7 +110,7 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
     }
     let targets = match (&args.targets, &args.control) {
         (Some(t), Some(c)) => {
-            let mut e = evaluate_files(t, c, &options)?;
+            let mut e = evaluate_target_files(t, c, &options)?;
             if let Some(p) = &args.tpu {
                 e.predicted = Some(predicted_from_tpu_summary(p)?);
             }

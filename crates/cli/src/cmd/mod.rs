@@ -2,6 +2,7 @@
 //! prints.
 
 mod budget;
+mod budget_table;
 mod calibrate;
 mod collect;
 mod correct;
@@ -15,6 +16,7 @@ mod simulate;
 mod targets;
 mod tile;
 mod tpu;
+mod tpu_table;
 mod trajectory;
 
 use clap::Subcommand;

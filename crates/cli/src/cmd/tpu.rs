@@ -1,15 +1,13 @@
 //! `lidarqa tpu`: per-point TPU of a LAS/LAZ strip (or a directory of tiles) with its
-//! trajectory (SPEC §6, §7, §9). The work is lidarqa-pipeline's `tpu_tile`; this module parses,
-//! runs the tiles in parallel, shows progress and prints the summary.
+//! trajectory (SPEC §6, §7, §9). The work is lidarqa-pipeline's `tpu_tiles`; this module parses,
+//! shows progress and prints the summary.
 
-use crate::format::{OutputFormat, cm, print_json, print_text, print_warnings};
+use super::tpu_table;
+use crate::format::{OutputFormat, print_json, print_text, print_warnings};
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lidarqa_io::{AtomicFile, Crs, Hemisphere, LasReader, UtmZone};
-use lidarqa_pipeline::{
-    SurveyReport, TileReport, TpuContext, TpuOptions, TpuTileJob, tpu_tile_with_progress,
-};
-use std::fmt::Write as _;
+use lidarqa_io::{AtomicFile, Crs, LasReader, UtmZone};
+use lidarqa_pipeline::{TileReport, TpuContext, TpuOptions, TpuTileJob, tpu_tiles};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -178,24 +176,10 @@ struct Plan {
 /// The CRS given by `--utm-zone` or `--epsg` (clap refuses both), if any.
 pub(crate) fn crs_flags(utm_zone: Option<&str>, epsg: Option<u32>) -> Result<Option<Crs>> {
     Ok(match (utm_zone, epsg) {
-        (Some(z), _) => Some(Crs::from(parse_utm_zone(z)?)),
+        (Some(z), _) => Some(Crs::from(z.parse::<UtmZone>().context("--utm-zone")?)),
         (None, Some(code)) => Some(Crs::from_epsg(code).with_context(|| format!("--epsg {code}"))?),
         (None, None) => None,
     })
-}
-
-/// `33N`, `17s`, `33` (north) → a WGS 84 UTM zone.
-pub(crate) fn parse_utm_zone(text: &str) -> Result<UtmZone> {
-    let t = text.trim();
-    let (digits, hemisphere) = match t.chars().last() {
-        Some('N' | 'n') => (&t[..t.len() - 1], Hemisphere::North),
-        Some('S' | 's') => (&t[..t.len() - 1], Hemisphere::South),
-        _ => (t, Hemisphere::North),
-    };
-    let zone: u32 = digits
-        .parse()
-        .with_context(|| format!("--utm-zone: '{text}' is not a zone like 33N or 17S"))?;
-    UtmZone::new(zone, hemisphere).with_context(|| format!("--utm-zone: '{text}'"))
 }
 
 pub(crate) fn is_point_cloud(p: &Path) -> bool {
@@ -291,7 +275,16 @@ pub fn run(args: TpuArgs) -> Result<()> {
         .sum::<lidarqa_io::Result<u64>>()?;
     let bar = crate::progress::bar("tpu", total, "points");
     let progress = |n: u64| bar.inc(n);
-    let reports = run_tiles(&plan.tiles, &ctx, &progress)?;
+    let jobs: Vec<TpuTileJob> = plan
+        .tiles
+        .iter()
+        .map(|t| TpuTileJob {
+            input: &t.input,
+            output: &t.output,
+            context: &ctx,
+        })
+        .collect();
+    let reports = tpu_tiles(&jobs, &progress)?;
     bar.finish_and_clear();
     let (_, report) = TileReport::merge(&reports).context("no tiles")?;
     print_warnings(&report.summary.warnings);
@@ -313,194 +306,7 @@ pub fn run(args: TpuArgs) -> Result<()> {
             "trajectory {} read as {}\n{}",
             plan.trajectory.display(),
             ctx.trajectory_format().describe(),
-            table(&report)
+            tpu_table::table(&report)
         )),
-    }
-}
-
-/// Runs the tiles on up to `available_parallelism` plain threads, each tile's points in
-/// parallel on rayon's pool. Tiles are not run as rayon tasks themselves: `tpu_tile` blocks its
-/// thread on its reader / writer channels, and a rayon worker blocked that way could starve the
-/// pool its own chunks need. The first failing tile (in input order) stops the run; tiles
-/// already finished are complete files, the failing one leaves nothing.
-fn run_tiles(
-    tiles: &[Tile],
-    ctx: &TpuContext,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<Vec<TileReport>> {
-    use std::sync::Mutex;
-    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-    let workers = std::thread::available_parallelism()
-        .map_or(1, usize::from)
-        .min(tiles.len())
-        .max(1);
-    let next = AtomicUsize::new(0);
-    let stop = AtomicBool::new(false);
-    let results: Mutex<Vec<Option<lidarqa_pipeline::Result<TileReport>>>> =
-        Mutex::new(tiles.iter().map(|_| None).collect());
-    std::thread::scope(|scope| {
-        for _ in 0..workers {
-            scope.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, Ordering::SeqCst);
-                    if i >= tiles.len() || stop.load(Ordering::SeqCst) {
-                        break;
-                    }
-                    let t = &tiles[i];
-                    let r = tpu_tile_with_progress(
-                        &TpuTileJob {
-                            input: &t.input,
-                            output: &t.output,
-                            context: ctx,
-                        },
-                        progress,
-                    );
-                    if r.is_err() {
-                        stop.store(true, Ordering::SeqCst);
-                    }
-                    if let Ok(mut all) = results.lock() {
-                        all[i] = Some(r);
-                    }
-                }
-            });
-        }
-    });
-    let results = results
-        .into_inner()
-        .map_err(|_| anyhow::anyhow!("a tile thread panicked"))?;
-    let mut reports = Vec::with_capacity(tiles.len());
-    // A tile not started after an earlier failure has no result; the failure is returned.
-    for r in results.into_iter().flatten() {
-        reports.push(r?);
-    }
-    if reports.len() != tiles.len() {
-        bail!("a tile thread stopped without a result");
-    }
-    Ok(reports)
-}
-
-pub(crate) fn table(r: &SurveyReport) -> String {
-    let s = &r.summary;
-    let mut out = String::new();
-    let _ = writeln!(
-        out,
-        "{} tile(s), {} scanner: {} points read, {} written, {} skipped",
-        r.tiles.len(),
-        s.scanner,
-        s.points_read,
-        s.points_written,
-        s.skipped.values().sum::<u64>()
-    );
-    for (reason, n) in s.skipped.iter().filter(|(_, n)| **n > 0) {
-        let _ = writeln!(out, "  skipped {reason}: {n}");
-    }
-    let _ = writeln!(
-        out,
-        "\n{:<12} {:>9} {:>9} {:>9} {:>9} {:>9}   (cm)",
-        "sigma", "min", "median", "p95", "max", "mean"
-    );
-    for (name, st) in &s.sigma {
-        match st {
-            Some(st) => {
-                let _ = writeln!(
-                    out,
-                    "{name:<12} {} {} {} {} {}",
-                    cm(st.min, 9),
-                    cm(st.median, 9),
-                    cm(st.p95, 9),
-                    cm(st.max, 9),
-                    cm(st.mean, 9)
-                );
-            }
-            None => {
-                let _ = writeln!(out, "{name:<12} {:>9}", "-");
-            }
-        }
-    }
-    let _ = writeln!(out, "\nshare of variance (mean over points):");
-    let mut shares: Vec<_> = s.source_share.iter().filter(|(_, v)| **v > 0.0).collect();
-    shares.sort_by(|a, b| b.1.total_cmp(a.1));
-    for (name, v) in shares {
-        let _ = writeln!(out, "  {name:<26} {:>6.1} %", v * 100.0);
-    }
-    let inc = &s.incidence;
-    if inc.total() > 0 {
-        let _ = writeln!(
-            out,
-            "\nincidence term: {} normals from the file, {} planar neighbourhoods; left out: {} \
-             linear, {} scattered, {} too few points, {} invalid file normals",
-            inc.file_normals,
-            inc.planar,
-            inc.linear,
-            inc.scattered,
-            inc.too_few_points,
-            inc.invalid_file_normals
-        );
-    }
-    if let Some(c) = &s.scan_angle_check {
-        let _ = writeln!(
-            out,
-            "\nscan angle, recovered - LAS field: RMS {:.4}°, max {:.4}° (LAS step {}°, max beyond half a step {:.4}°)",
-            c.rms_deg, c.max_deg, c.las_step_deg, c.max_beyond_las_step_deg
-        );
-    }
-    if let Some(q) = &s.recovery_residual_m {
-        let _ = writeln!(
-            out,
-            "recovery residual ({}): RMS {:.4} m, max {:.4} m",
-            q.kind, q.rms, q.max_abs
-        );
-    }
-    if let Some(iho) = &s.iho_s44 {
-        let _ = writeln!(
-            out,
-            "
-IHO S-44 Ed. 6: {} soundings ({} under their own surface return, {} under a modelled surface); % meeting THU and TVU at 95 %",
-            iho.soundings, iho.surface_from_pulse, iho.surface_modelled
-        );
-        let orders = ["exclusive", "special", "1a", "1b", "2"];
-        let _ = write!(out, "{:<14}{:>10}", "depth (m)", "soundings");
-        for o in orders {
-            let _ = write!(out, "{o:>11}");
-        }
-        let _ = writeln!(out);
-        for b in &iho.bands {
-            let to = if b.depth_m[1] < 0.0 {
-                "".to_string()
-            } else {
-                format!("{}", b.depth_m[1])
-            };
-            let _ = write!(
-                out,
-                "{:<14}{:>10}",
-                format!("{}–{to}", b.depth_m[0]),
-                b.soundings
-            );
-            for o in orders {
-                let _ = write!(out, "{:>10.1}%", b.percent_meeting[o]);
-            }
-            let _ = writeln!(out);
-        }
-        let _ = write!(out, "{:<14}{:>10}", "all", iho.soundings);
-        for o in orders {
-            let _ = write!(out, "{:>10.1}%", iho.orders[o].percent_meeting);
-        }
-        let _ = writeln!(out);
-    }
-    out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn utm_zone_flag() {
-        let z = parse_utm_zone("33N").unwrap();
-        assert_eq!((z.zone(), z.hemisphere()), (33, Hemisphere::North));
-        let z = parse_utm_zone("17s").unwrap();
-        assert_eq!((z.zone(), z.hemisphere()), (17, Hemisphere::South));
-        assert!(parse_utm_zone("61N").is_err());
-        assert!(parse_utm_zone("xN").is_err());
     }
 }
