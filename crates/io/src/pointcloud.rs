@@ -1163,7 +1163,19 @@ impl LasWriter {
     ///
     /// # Errors
     /// [`Error::Las`] / [`Error::Io`] naming the file; nothing is left at the path then.
-    pub fn finish(mut self) -> Result<u64> {
+    pub fn finish(self) -> Result<u64> {
+        let (file, n) = self.finish_uncommitted()?;
+        file.commit()?;
+        Ok(n)
+    }
+
+    /// As [`LasWriter::finish`], but leaves the complete file at its temporary path: committing
+    /// the returned [`AtomicFile`] puts it in place, dropping it removes it (so that several
+    /// files appear all together or not at all). Also returns the point count.
+    ///
+    /// # Errors
+    /// As [`LasWriter::finish`].
+    pub fn finish_uncommitted(mut self) -> Result<(AtomicFile, u64)> {
         self.flush_pending()?;
         let LasWriter {
             inner, path, index, ..
@@ -1176,8 +1188,7 @@ impl LasWriter {
         if let Some((kind, message)) = sink.error {
             return Err(Error::io(&path, std::io::Error::new(kind, message)));
         }
-        sink.file.commit()?;
-        Ok(index)
+        Ok((sink.file, index))
     }
 }
 

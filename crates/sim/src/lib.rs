@@ -67,6 +67,6 @@ pub use scene::{
     Building, CLASS_BATHYMETRY, CLASS_BUILDING, CLASS_GROUND, CLASS_TARGET, CLASS_WATER_SURFACE,
     Curve, Hit, Markings, Paved, Scene, Target, Water, Wave,
 };
-pub use simulate::{SimOptions, simulate, simulate_with_progress};
+pub use simulate::{PointSink, SimOptions, simulate, simulate_streaming, simulate_with_progress};
 pub use vegetation::{CLASS_HIGH_VEGETATION, REFLECTIVITY_CANOPY, Vegetation, VegetationFile};
-pub use write::{survey_file_names, write_survey};
+pub use write::{simulate_to_dir, survey_file_names, write_survey};

@@ -32,6 +32,29 @@ pub struct SimPoint {
     pub point_source_id: u16,
 }
 
+impl SimPoint {
+    /// The LAS record lidarqa-io writes for this point, its time as LAS adjusted standard GPS
+    /// time in GPS week `gps_week`.
+    pub fn to_las(&self, gps_week: u32) -> lidarqa_io::LasPoint {
+        lidarqa_io::LasPoint {
+            x: self.easting_m,
+            y: self.northing_m,
+            z: self.height_m,
+            gps_time_s: Some(lidarqa_io::week_to_adjusted_standard(
+                i64::from(gps_week),
+                self.gps_time_s,
+            )),
+            intensity: self.intensity,
+            return_number: self.return_number,
+            number_of_returns: self.number_of_returns,
+            classification: self.classification,
+            scan_angle_deg: self.scan_angle_deg,
+            point_source_id: self.point_source_id,
+            ..lidarqa_io::LasPoint::default()
+        }
+    }
+}
+
 /// A pulse's raw observation in the scanner model's own type.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Observation {
@@ -295,23 +318,11 @@ impl Survey {
 
     /// A simulated point as the LAS record lidarqa-io writes (adjusted standard GPS time).
     pub fn las_point(&self, p: &SimPoint) -> lidarqa_io::LasPoint {
-        lidarqa_io::LasPoint {
-            x: p.easting_m,
-            y: p.northing_m,
-            z: p.height_m,
-            gps_time_s: Some(self.adjusted_standard_time_s(p.gps_time_s)),
-            intensity: p.intensity,
-            return_number: p.return_number,
-            number_of_returns: p.number_of_returns,
-            classification: p.classification,
-            scan_angle_deg: p.scan_angle_deg,
-            point_source_id: p.point_source_id,
-            ..lidarqa_io::LasPoint::default()
-        }
+        p.to_las(self.truth.gps_week)
     }
 
-    /// Total number of points.
+    /// Total number of points (also of a streamed survey, whose strips hold none).
     pub fn point_count(&self) -> u64 {
-        self.strips.iter().map(|s| s.points.len() as u64).sum()
+        self.truth.strips.iter().map(|s| s.points).sum()
     }
 }

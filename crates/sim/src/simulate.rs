@@ -118,6 +118,72 @@ pub fn simulate_with_progress(
     options: &SimOptions,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Survey> {
+    let mut collect = Collect::default();
+    let mut survey = simulate_streaming(scenario, options, progress, &mut collect)?;
+    for (strip, (points, truth)) in survey.strips.iter_mut().zip(collect.strips) {
+        strip.points = points;
+        strip.truth = truth;
+    }
+    Ok(survey)
+}
+
+/// Where [`simulate_streaming`] delivers the points, strip by strip in scenario order and, within
+/// a strip, in pulse order.
+pub trait PointSink {
+    /// The next points of the strip with index `strip` (its place in the scenario's lines), with
+    /// their truth (empty unless [`SimOptions::keep_truth`]).
+    ///
+    /// # Errors
+    /// Whatever stops the run (an output that cannot be written).
+    fn points(&mut self, strip: usize, points: &[SimPoint], truth: &[PointTruth]) -> Result<()>;
+
+    /// Strip `strip` is complete: called once for every strip, in order, also for a strip
+    /// without points.
+    ///
+    /// # Errors
+    /// As [`PointSink::points`].
+    fn end_strip(&mut self, strip: usize) -> Result<()>;
+}
+
+/// The in-memory sink of [`simulate`]: every strip's points and truth.
+#[derive(Default)]
+struct Collect {
+    strips: Vec<(Vec<SimPoint>, Vec<PointTruth>)>,
+}
+
+impl PointSink for Collect {
+    fn points(&mut self, strip: usize, points: &[SimPoint], truth: &[PointTruth]) -> Result<()> {
+        if self.strips.len() <= strip {
+            self.strips.resize_with(strip + 1, Default::default);
+        }
+        self.strips[strip].0.extend_from_slice(points);
+        self.strips[strip].1.extend_from_slice(truth);
+        Ok(())
+    }
+
+    fn end_strip(&mut self, strip: usize) -> Result<()> {
+        if self.strips.len() <= strip {
+            self.strips.resize_with(strip + 1, Default::default);
+        }
+        Ok(())
+    }
+}
+
+/// Simulates the survey and hands the points to `sink` as they are computed, so that memory is
+/// bounded by a few chunks (see [`SimOptions::chunk_pulses`]), not by the survey: the chunks of
+/// a strip are computed in parallel windows, each while the sink takes the one before
+/// (`rayon::join`, in the current thread pool). The points are those of [`simulate`], in the same
+/// order; the returned survey's strips hold no points or truth (they went to the sink), the
+/// rest (trajectories, control, [`Survey::truth`] with each strip's point count) is complete.
+///
+/// # Errors
+/// As [`simulate`], and the sink's errors.
+pub fn simulate_streaming(
+    scenario: &Scenario,
+    options: &SimOptions,
+    progress: &(dyn Fn(u64) + Sync),
+    sink: &mut (dyn PointSink + Send),
+) -> Result<Survey> {
     let seed = scenario.seed();
     let sensor = scenario.sensor();
     let errors = scenario.errors();
@@ -149,14 +215,23 @@ pub fn simulate_with_progress(
         lever_arm_m: nominal.lever_arm_m + inj.lever_arm_m + drawn.lever_arm_m,
     };
 
-    let strips: Vec<Strip> = scenario
-        .lines()
-        .par_iter()
-        .enumerate()
-        .map(|(index, line)| {
-            simulate_strip(scenario, options, &true_mounting, index, line, progress)
-        })
-        .collect::<Result<_>>()?;
+    let window = 4 * rayon::current_num_threads().max(1);
+    let mut counts = Vec::with_capacity(scenario.lines().len());
+    let mut strips = Vec::with_capacity(scenario.lines().len());
+    for (index, line) in scenario.lines().iter().enumerate() {
+        let (strip, count) = simulate_strip(
+            scenario,
+            options,
+            &true_mounting,
+            index,
+            line,
+            window,
+            progress,
+            sink,
+        )?;
+        strips.push(strip);
+        counts.push(count);
+    }
 
     let origin = scenario.origin_m();
     let scene = scenario.scene();
@@ -222,10 +297,11 @@ pub fn simulate_with_progress(
         strips: strips
             .iter()
             .zip(scenario.lines())
-            .map(|(s, l)| StripTruth {
+            .enumerate()
+            .map(|(k, (s, l))| StripTruth {
                 id: s.id,
                 pulses: s.pulses,
-                points: s.points.len() as u64,
+                points: counts[k],
                 time_span_s: [
                     s.trajectory.first().map_or(0.0, |r| r.time_s),
                     s.trajectory.last().map_or(0.0, |r| r.time_s),
@@ -279,14 +355,18 @@ struct Kernel<'a> {
     keep_truth: bool,
 }
 
+/// Simulates one strip into `sink`, window by window; also returns its point count.
+#[allow(clippy::too_many_arguments)]
 fn simulate_strip(
     scenario: &Scenario,
     options: &SimOptions,
     true_mounting: &Mounting,
     index: usize,
     line: &Line,
+    window: usize,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<Strip> {
+    sink: &mut (dyn PointSink + Send),
+) -> Result<(Strip, u64)> {
     let sensor = scenario.sensor();
     let mut rng = stream(scenario.seed(), PURPOSE_TRAJECTORY, index, 0);
     let traj = trajectory::build(
@@ -330,36 +410,52 @@ fn simulate_strip(
     let pulses = (line.duration_s() * scenario.pulse_rate_hz()).floor() as u64;
     let chunk = options.chunk_pulses.max(1) as u64;
     let n_chunks = pulses.div_ceil(chunk);
-    let chunks: Vec<(Vec<SimPoint>, Vec<PointTruth>)> = (0..n_chunks)
-        .into_par_iter()
-        .map(|c| {
-            let mut rng = stream(scenario.seed(), PURPOSE_PULSES, index, c as usize);
-            let (start, end) = (c * chunk, ((c + 1) * chunk).min(pulses));
-            let cap = (end - start) as usize;
-            let mut points = Vec::with_capacity(cap + cap / 8);
-            let mut truth = Vec::with_capacity(if options.keep_truth { cap } else { 0 });
-            for i in start..end {
-                kernel.pulse(i, &mut rng, &mut points, &mut truth)?;
-            }
-            progress(end - start);
-            Ok((points, truth))
-        })
-        .collect::<Result<_>>()?;
-    let n_points = chunks.iter().map(|c| c.0.len()).sum();
-    let mut points = Vec::with_capacity(n_points);
-    let mut truth = Vec::with_capacity(if options.keep_truth { n_points } else { 0 });
-    for (p, t) in chunks {
-        points.extend(p);
-        truth.extend(t);
+    let compute = |first: u64| -> Result<Vec<(Vec<SimPoint>, Vec<PointTruth>)>> {
+        let last = (first + window as u64).min(n_chunks);
+        (first..last)
+            .into_par_iter()
+            .map(|c| {
+                let mut rng = stream(scenario.seed(), PURPOSE_PULSES, index, c as usize);
+                let (start, end) = (c * chunk, ((c + 1) * chunk).min(pulses));
+                let cap = (end - start) as usize;
+                let mut points = Vec::with_capacity(cap + cap / 8);
+                let mut truth = Vec::with_capacity(if options.keep_truth { cap } else { 0 });
+                for i in start..end {
+                    kernel.pulse(i, &mut rng, &mut points, &mut truth)?;
+                }
+                progress(end - start);
+                Ok((points, truth))
+            })
+            .collect()
+    };
+    let mut count = 0u64;
+    let mut give = |chunks: Vec<(Vec<SimPoint>, Vec<PointTruth>)>| -> Result<()> {
+        for (points, truth) in &chunks {
+            count += points.len() as u64;
+            sink.points(index, points, truth)?;
+        }
+        Ok(())
+    };
+    // Window k + 1 is computed while the sink takes window k.
+    let mut ready = compute(0)?;
+    let mut first = window as u64;
+    while first < n_chunks {
+        let (next, given) = rayon::join(|| compute(first), || give(ready));
+        given?;
+        ready = next?;
+        first += window as u64;
     }
-    Ok(Strip {
+    give(ready)?;
+    sink.end_strip(index)?;
+    let strip = Strip {
         id: line.id,
-        points,
-        truth,
+        points: Vec::new(),
+        truth: Vec::new(),
         trajectory: traj.measured.iter().map(record).collect(),
         true_trajectory: traj.truth.iter().map(record).collect(),
         pulses,
-    })
+    };
+    Ok((strip, count))
 }
 
 #[inline]

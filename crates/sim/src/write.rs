@@ -3,7 +3,7 @@
 //! of the survey would have. Every file is atomic.
 
 use crate::error::{Error, Result};
-use crate::{Scenario, Strip, Survey};
+use crate::{PointSink, PointTruth, Scenario, SimOptions, SimPoint, Survey, simulate_streaming};
 use lidarqa_io::{
     AtomicFile, LasTimeBase, LasWriteOptions, LasWriter, RawVlr, SbetPose, SmrmsgSigma, UtmDatum,
     UtmZone, sbet_raw, write_records_to_path,
@@ -13,12 +13,12 @@ use std::path::{Path, PathBuf};
 
 /// The names of the files [`write_survey`] writes into its directory, strips first.
 pub fn survey_file_names(survey: &Survey, laz: bool) -> Vec<String> {
+    file_names(survey.strips.iter().map(|s| s.id), laz)
+}
+
+fn file_names(strip_ids: impl Iterator<Item = u16>, laz: bool) -> Vec<String> {
     let ext = if laz { "laz" } else { "las" };
-    let mut names: Vec<String> = survey
-        .strips
-        .iter()
-        .map(|s| format!("strip_{:03}.{ext}", s.id))
-        .collect();
+    let mut names: Vec<String> = strip_ids.map(|id| format!("strip_{id:03}.{ext}")).collect();
     names.extend(
         [
             "sbet.out",
@@ -45,16 +45,96 @@ pub fn write_survey(
     laz: bool,
     inputs: &[&Path],
 ) -> Result<Vec<PathBuf>> {
-    let paths: Vec<PathBuf> = survey_file_names(survey, laz)
-        .into_iter()
-        .map(|n| dir.join(n))
-        .collect();
+    let paths = checked_paths(dir, survey_file_names(survey, laz), inputs)?;
+    for (strip, path) in survey.strips.iter().zip(&paths) {
+        let mut file = StripFile::create(path, scenario, strip.id, !strip.truth.is_empty())?;
+        file.write(&strip.points, &strip.truth)?;
+        file.writer.finish()?;
+    }
+    write_rest(dir, scenario, survey)?;
+    Ok(paths)
+}
+
+/// Simulates `scenario` ([`simulate_streaming`]) and writes it into `dir` as it is computed,
+/// the same files as [`write_survey`] (checked against `inputs` before the first is written),
+/// with memory bounded by the chunks in flight instead of the survey. The strips appear only
+/// when all are complete, so a failed run replaces nothing. Returns the survey, whose strips
+/// hold no points (see [`simulate_streaming`]), and the paths written.
+///
+/// # Errors
+/// As [`simulate_streaming`] and [`write_survey`].
+pub fn simulate_to_dir(
+    dir: &Path,
+    scenario: &Scenario,
+    options: &SimOptions,
+    laz: bool,
+    inputs: &[&Path],
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(Survey, Vec<PathBuf>)> {
+    let names = file_names(scenario.lines().iter().map(|l| l.id), laz);
+    let paths = checked_paths(dir, names, inputs)?;
+    let mut sink = StreamSink {
+        scenario,
+        paths: &paths,
+        truth: options.keep_truth,
+        open: None,
+        done: Vec::new(),
+    };
+    let survey = simulate_streaming(scenario, options, progress, &mut sink)?;
+    for file in sink.done {
+        file.commit()?;
+    }
+    write_rest(dir, scenario, &survey)?;
+    Ok((survey, paths))
+}
+
+/// The paths of `names` in `dir`, none of them one of `inputs` (SPEC §7: checked for every
+/// file before the first is written).
+fn checked_paths(dir: &Path, names: Vec<String>, inputs: &[&Path]) -> Result<Vec<PathBuf>> {
+    let paths: Vec<PathBuf> = names.into_iter().map(|n| dir.join(n)).collect();
     for p in &paths {
         lidarqa_io::check_not_an_input(p, inputs)?;
     }
-    for (strip, path) in survey.strips.iter().zip(&paths) {
-        write_strip(path, scenario, survey, strip)?;
+    Ok(paths)
+}
+
+/// The [`PointSink`] of [`simulate_to_dir`]: one strip file open at a time, the complete ones
+/// kept uncommitted until the survey is done.
+struct StreamSink<'a> {
+    scenario: &'a Scenario,
+    paths: &'a [PathBuf],
+    truth: bool,
+    open: Option<(usize, StripFile)>,
+    done: Vec<AtomicFile>,
+}
+
+impl StreamSink<'_> {
+    fn file(&mut self, strip: usize) -> Result<&mut StripFile> {
+        if self.open.as_ref().is_none_or(|(k, _)| *k != strip) {
+            let id = self.scenario.lines()[strip].id;
+            let file = StripFile::create(&self.paths[strip], self.scenario, id, self.truth)?;
+            self.open = Some((strip, file));
+        }
+        Ok(&mut self.open.as_mut().expect("opened above").1)
     }
+}
+
+impl PointSink for StreamSink<'_> {
+    fn points(&mut self, strip: usize, points: &[SimPoint], truth: &[PointTruth]) -> Result<()> {
+        self.file(strip)?.write(points, truth)
+    }
+
+    fn end_strip(&mut self, strip: usize) -> Result<()> {
+        self.file(strip)?;
+        if let Some((_, file)) = self.open.take() {
+            self.done.push(file.writer.finish_uncommitted()?.0);
+        }
+        Ok(())
+    }
+}
+
+/// Everything but the strips: trajectory, control, truth and the nominal sensor file.
+fn write_rest(dir: &Path, scenario: &Scenario, survey: &Survey) -> Result<()> {
     write_trajectory(dir, survey)?;
     write_control(&dir.join("control.csv"), survey)?;
     let truth_path = dir.join("truth.json");
@@ -68,8 +148,7 @@ pub fn write_survey(
     write_text(
         &dir.join("sensor.toml"),
         &lidarqa_io::sensor_to_toml(scenario.sensor()),
-    )?;
-    Ok(paths)
+    )
 }
 
 fn write_text(path: &Path, text: &str) -> Result<()> {
@@ -119,54 +198,72 @@ pub(crate) fn utm_wkt(zone: &UtmZone, epsg: u32) -> String {
     )
 }
 
-fn write_strip(path: &Path, scenario: &Scenario, survey: &Survey, strip: &Strip) -> Result<()> {
-    let [e0, n0] = scenario.origin_m();
-    let mut wkt = utm_wkt(scenario.zone(), scenario.epsg()).into_bytes();
-    wkt.push(0);
-    let options = LasWriteOptions {
-        version_minor: 4,
-        point_format: 6,
-        scale: [0.001; 3],
-        offset: [e0.round(), n0.round(), 0.0],
-        time_base: LasTimeBase::AdjustedStandard,
-        crs_vlrs: vec![RawVlr {
-            user_id: "LASF_Projection".into(),
-            record_id: 2112,
-            description: "OGC WKT".into(),
-            data: wkt,
-        }],
-        extra_dims: if strip.truth.is_empty() {
-            Vec::new()
-        } else {
-            TRUTH_DIMS
-                .iter()
-                .map(|(n, d)| (n.to_string(), d.to_string()))
-                .collect()
-        },
-        file_source_id: strip.id,
-        extra_dims_f64: Vec::new(),
-    };
-    let scale = options.scale;
-    let offset = options.offset;
-    // The error of the coordinates as stored: the LAS record rounds them to its scale.
-    let stored = |v: f64, k: usize| ((v - offset[k]) / scale[k]).round() * scale[k] + offset[k];
-    let mut w = LasWriter::create(path, &options, &[] as &[&Path])?;
-    for (i, p) in strip.points.iter().enumerate() {
-        let point = survey.las_point(p);
-        match strip.truth.get(i) {
-            Some(t) => {
-                let error = [
-                    (stored(point.x, 0) - t.easting_m) as f32,
-                    (stored(point.y, 1) - t.northing_m) as f32,
-                    (stored(point.z, 2) - t.height_m) as f32,
-                ];
-                w.write_point(&point, &error)?;
-            }
-            None => w.write_point(&point, &[])?,
-        }
+/// One strip's LAS/LAZ being written.
+struct StripFile {
+    writer: LasWriter,
+    scale: [f64; 3],
+    offset: [f64; 3],
+    gps_week: u32,
+}
+
+impl StripFile {
+    /// Starts the file of strip `id`, with the `--truth` extra bytes when `truth`.
+    fn create(path: &Path, scenario: &Scenario, id: u16, truth: bool) -> Result<StripFile> {
+        let [e0, n0] = scenario.origin_m();
+        let mut wkt = utm_wkt(scenario.zone(), scenario.epsg()).into_bytes();
+        wkt.push(0);
+        let options = LasWriteOptions {
+            version_minor: 4,
+            point_format: 6,
+            scale: [0.001; 3],
+            offset: [e0.round(), n0.round(), 0.0],
+            time_base: LasTimeBase::AdjustedStandard,
+            crs_vlrs: vec![RawVlr {
+                user_id: "LASF_Projection".into(),
+                record_id: 2112,
+                description: "OGC WKT".into(),
+                data: wkt,
+            }],
+            extra_dims: if truth {
+                TRUTH_DIMS
+                    .iter()
+                    .map(|(n, d)| (n.to_string(), d.to_string()))
+                    .collect()
+            } else {
+                Vec::new()
+            },
+            file_source_id: id,
+            extra_dims_f64: Vec::new(),
+        };
+        Ok(StripFile {
+            writer: LasWriter::create(path, &options, &[] as &[&Path])?,
+            scale: options.scale,
+            offset: options.offset,
+            gps_week: scenario.gps_week(),
+        })
     }
-    w.finish()?;
-    Ok(())
+
+    /// Appends points (with their truth when the file has the truth dimensions).
+    fn write(&mut self, points: &[SimPoint], truth: &[PointTruth]) -> Result<()> {
+        let (scale, offset) = (self.scale, self.offset);
+        // The error of the coordinates as stored: the LAS record rounds them to its scale.
+        let stored = |v: f64, k: usize| ((v - offset[k]) / scale[k]).round() * scale[k] + offset[k];
+        for (i, p) in points.iter().enumerate() {
+            let point = p.to_las(self.gps_week);
+            match truth.get(i) {
+                Some(t) => {
+                    let error = [
+                        (stored(point.x, 0) - t.easting_m) as f32,
+                        (stored(point.y, 1) - t.northing_m) as f32,
+                        (stored(point.z, 2) - t.height_m) as f32,
+                    ];
+                    self.writer.write_point(&point, &error)?;
+                }
+                None => self.writer.write_point(&point, &[])?,
+            }
+        }
+        Ok(())
+    }
 }
 
 /// The `--truth` extra-bytes dimensions: name and description (each ≤ 32 bytes).

@@ -1,11 +1,11 @@
 //! `lidarqa simulate`: write a simulated survey with known truth.
 //!
-//! Parses the flags, builds the checked scenario, runs lidarqa-sim and writes the survey with
-//! [`lidarqa_sim::write_survey`] (one LAS/LAZ per strip, `sbet.out` + `smrmsg.out`, `control.csv`,
+//! Parses the flags, builds the checked scenario, and simulates and writes the survey as it is
+//! computed with [`lidarqa_sim::simulate_to_dir`] (one LAS/LAZ per strip, `sbet.out` + `smrmsg.out`, `control.csv`,
 //! `truth.json`, `sensor.toml`; every file atomic).
 
 use anyhow::Context;
-use lidarqa_sim::{Scenario, SimOptions, builtin_toml, simulate_with_progress, write_survey};
+use lidarqa_sim::{Scenario, SimOptions, builtin_toml, simulate_to_dir};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -112,10 +112,6 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         keep_truth: args.truth,
         ..SimOptions::default()
     };
-    let survey = simulate_with_progress(&scenario, &options, &|n| bar.inc(n))
-        .with_context(|| format!("scenario {}", scenario.name()))?;
-    bar.finish_and_clear();
-
     // SPEC §7: an output equal to an input (a scenario file kept in the output directory under
     // an output's name) is refused before anything is written.
     let scenario_path = Path::new(&args.scenario);
@@ -124,13 +120,19 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     } else {
         &[]
     };
-    write_survey(
+    let (survey, _) = simulate_to_dir(
         dir,
         &scenario,
-        &survey,
+        &options,
         args.format == CloudFormat::Laz,
         inputs,
-    )?;
+        &|n| bar.inc(n),
+    )
+    .map_err(|e| match e {
+        lidarqa_sim::Error::Io(e) => anyhow::Error::new(e),
+        e => anyhow::Error::new(e).context(format!("scenario {}", scenario.name())),
+    })?;
+    bar.finish_and_clear();
     println!(
         "wrote {} points in {} strips ({} pulses), sbet.out, smrmsg.out, control.csv ({} targets), truth.json and sensor.toml to {}",
         survey.point_count(),
