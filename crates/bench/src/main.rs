@@ -19,7 +19,13 @@
 //! target/release/lidarqa-bench --points 1000000     # a quick run
 //! ```
 //! Other options: `--dir DIR` keeps the files there (default: a temporary directory, removed),
-//! `--lidarqa PATH` the binary to measure.
+//! `--lidarqa PATH` the binary to measure, `--only LIST` runs only some rows (comma-separated:
+//! `simulate`, `tpu`, `correct`, `conic`, `calibrate`), `--calibrate` adds the calibration row.
+//!
+//! The calibration row (not in the default run: it simulates 32 M points first) is issue #21's
+//! absolute bar, ≤ 30 s and ≤ 1 GB: `calibrate --auto-ties --control` on the 24-strip
+//! `calibration` scenario, seed 11, with the README's correlation times; its copy is that of
+//! the 24 strips it reads.
 
 use anyhow::{Context, Result, bail};
 use las::{PointDataBuilder, Reader, Writer};
@@ -33,9 +39,17 @@ const SCENARIO: &str = include_str!("../scenarios/strip.toml");
 const COPY_CHUNK: u64 = 500_000;
 /// Pulses of the full run (the README's table).
 const FULL_POINTS: u64 = 10_000_000;
+/// The rows `--only` may name.
+const ALL_ROWS: [&str; 5] = ["simulate", "tpu", "correct", "conic", "calibrate"];
+/// The rows of the default run.
+const DEFAULT_ROWS: [&str; 4] = ["simulate", "tpu", "correct", "conic"];
+/// The calibration row's bars: wall seconds and peak MB (issue #21).
+const CALIBRATE_BAR: (f64, f64) = (30.0, 1024.0);
 
 struct Args {
     points: u64,
+    /// The rows to run (see the module docs).
+    only: Vec<String>,
     dir: Option<PathBuf>,
     lidarqa: PathBuf,
 }
@@ -44,6 +58,7 @@ fn parse_args() -> Result<Args> {
     let exe = std::env::current_exe()?;
     let mut args = Args {
         points: FULL_POINTS,
+        only: DEFAULT_ROWS.iter().map(|r| r.to_string()).collect(),
         dir: None,
         lidarqa: exe.with_file_name("lidarqa"),
     };
@@ -60,12 +75,27 @@ fn parse_args() -> Result<Args> {
                     .with_context(|| format!("--points {v}: expected a count ≥ 10000"))?;
             }
             "--dir" => args.dir = Some(PathBuf::from(value()?)),
+            "--only" => {
+                let v = value()?;
+                args.only = v.split(',').map(|r| r.trim().to_string()).collect();
+                if let Some(bad) = args.only.iter().find(|r| !ALL_ROWS.contains(&r.as_str())) {
+                    bail!(
+                        "--only {v}: unknown row {bad} (rows: {})",
+                        ALL_ROWS.join(", ")
+                    );
+                }
+            }
+            "--calibrate" => args.only.push("calibrate".into()),
             "--lidarqa" => args.lidarqa = PathBuf::from(value()?),
             "-h" | "--help" => {
                 println!(
-                    "usage: lidarqa-bench [--points N] [--dir DIR] [--lidarqa PATH]\n\
+                    "usage: lidarqa-bench [--points N] [--dir DIR] [--lidarqa PATH] [--only LIST] \
+                     [--calibrate]\n\
                      Times simulate, tpu (with/without incidence), correct and the conic TPU \
-                     against a parallel LAZ copy of each one's output."
+                     against a parallel LAZ copy of each one's output; --calibrate adds \
+                     calibrate on the 24-strip calibration scenario; --only LIST (of {}) runs \
+                     only those.",
+                    ALL_ROWS.join(", ")
                 );
                 std::process::exit(0);
             }
@@ -283,106 +313,121 @@ fn main() -> Result<()> {
     );
     let mut rows = Vec::new();
 
-    let scen = dir.join("strip.toml");
-    std::fs::write(&scen, scenario(args.points)?)?;
-    let sim = dir.join("sim");
-    let command = run(
-        &dir,
-        bin,
-        &["simulate", "--scenario", s(&scen), "-o", s(&sim)],
-    )?;
-    let strip = sim.join("strip_001.laz");
-    let copy = laz_copy(&strip, &scratch)?;
-    rows.push(Row {
-        what: "simulate",
-        command,
-        copy,
-        bar: 0.7,
-    });
+    let wants = |row: &str| args.only.iter().any(|r| r == row);
+    if ["simulate", "tpu", "correct"].into_iter().any(wants) {
+        let scen = dir.join("strip.toml");
+        std::fs::write(&scen, scenario(args.points)?)?;
+        let sim = dir.join("sim");
+        let command = run(
+            &dir,
+            bin,
+            &["simulate", "--scenario", s(&scen), "-o", s(&sim)],
+        )?;
+        let strip = sim.join("strip_001.laz");
+        if wants("simulate") {
+            let copy = laz_copy(&strip, &scratch)?;
+            rows.push(Row {
+                what: "simulate",
+                command,
+                copy,
+                bar: 0.7,
+            });
+        }
 
-    // `simulate` writes the nominal sensor without the beam divergence the scene was traced
-    // with: the incidence run gets the scenario's value added, the other has none.
-    let plain = sim.join("sensor.toml");
-    let sensor = dir.join("sensor-incidence.toml");
-    let text = std::fs::read_to_string(&plain)?;
-    if text.contains("beam_divergence_mrad") {
-        bail!("{}: expected no beam_divergence_mrad", plain.display());
-    }
-    let divergence = SCENARIO
-        .parse::<toml::Table>()?
-        .get("scanner")
-        .and_then(|s| s.get("beam_divergence_mrad"))
-        .and_then(toml::Value::as_float)
-        .context("the scenario's [scanner] beam_divergence_mrad")?;
-    let with = text.replacen(
-        "[scanner]\n",
-        &format!("[scanner]\nbeam_divergence_mrad = {divergence}\n"),
-        1,
-    );
-    if with == text {
-        bail!("{}: no [scanner] table", plain.display());
-    }
-    std::fs::write(&sensor, with)?;
-    let sbet = sim.join("sbet.out");
-    for (what, sensor) in [
-        ("tpu (incidence term)", &sensor),
-        ("tpu (no incidence term)", &plain),
-    ] {
-        let out = dir.join("tpu.laz");
-        let cmd = [
-            "tpu",
-            s(&strip),
-            "--trajectory",
-            s(&sbet),
-            "--sensor",
-            s(sensor),
-            "-o",
-            s(&out),
+        // `simulate` writes the nominal sensor without the beam divergence the scene was traced
+        // with: the incidence run gets the scenario's value added, the other has none.
+        let plain = sim.join("sensor.toml");
+        let sensor = dir.join("sensor-incidence.toml");
+        let text = std::fs::read_to_string(&plain)?;
+        if text.contains("beam_divergence_mrad") {
+            bail!("{}: expected no beam_divergence_mrad", plain.display());
+        }
+        let divergence = SCENARIO
+            .parse::<toml::Table>()?
+            .get("scanner")
+            .and_then(|s| s.get("beam_divergence_mrad"))
+            .and_then(toml::Value::as_float)
+            .context("the scenario's [scanner] beam_divergence_mrad")?;
+        let with = text.replacen(
+            "[scanner]\n",
+            &format!("[scanner]\nbeam_divergence_mrad = {divergence}\n"),
+            1,
+        );
+        if with == text {
+            bail!("{}: no [scanner] table", plain.display());
+        }
+        std::fs::write(&sensor, with)?;
+        let sbet = sim.join("sbet.out");
+        let tpu_runs = [
+            ("tpu (incidence term)", &sensor),
+            ("tpu (no incidence term)", &plain),
         ];
-        let command = run(&dir, bin, &cmd)?;
-        let copy = laz_copy(&out, &scratch)?;
-        rows.push(Row {
-            what,
-            command,
-            copy,
-            bar: 0.7,
-        });
-        std::fs::remove_file(&out)?;
+        for (what, sensor) in tpu_runs.into_iter().filter(|_| wants("tpu")) {
+            let out = dir.join("tpu.laz");
+            let cmd = [
+                "tpu",
+                s(&strip),
+                "--trajectory",
+                s(&sbet),
+                "--sensor",
+                s(sensor),
+                "-o",
+                s(&out),
+            ];
+            let command = run(&dir, bin, &cmd)?;
+            let copy = laz_copy(&out, &scratch)?;
+            rows.push(Row {
+                what,
+                command,
+                copy,
+                bar: 0.7,
+            });
+            std::fs::remove_file(&out)?;
+        }
+
+        // The scenario's injected mounting errors, as a calibration would return them.
+        let cal = dir.join("calibration.json");
+        std::fs::write(
+            &cal,
+            r#"{"parameters": {"lever_x_m": 0.05, "lever_y_m": -0.03, "lever_z_m": 0.02,
+    "boresight_roll_deg": 0.05, "boresight_pitch_deg": -0.03, "boresight_yaw_deg": 0.04}}"#,
+        )?;
+        let corrected = dir.join("corrected");
+        let calibration = ["--calibration", s(&cal)];
+        if wants("correct") {
+            rows.push(measure_dir(
+                &dir,
+                bin,
+                ("correct", 0.8),
+                ["correct", s(&strip), s(&sbet), s(&sensor)],
+                &calibration,
+                &corrected,
+            )?);
+        }
     }
 
-    // The scenario's injected mounting errors, as a calibration would return them.
-    let cal = dir.join("calibration.json");
-    std::fs::write(
-        &cal,
-        r#"{"parameters": {"lever_x_m": 0.05, "lever_y_m": -0.03, "lever_z_m": 0.02,
-    "boresight_roll_deg": 0.05, "boresight_pitch_deg": -0.03, "boresight_yaw_deg": 0.04}}"#,
-    )?;
-    let corrected = dir.join("corrected");
-    let calibration = ["--calibration", s(&cal)];
-    rows.push(measure_dir(
-        &dir,
-        bin,
-        ("correct", 0.8),
-        ["correct", s(&strip), s(&sbet), s(&sensor)],
-        &calibration,
-        &corrected,
-    )?);
-
-    let bathy = dir.join("bathymetry");
-    run(
-        &dir,
-        bin,
-        &["simulate", "--scenario", "bathymetry", "-o", s(&bathy)],
-    )?;
-    let (bathy_sbet, bathy_sensor) = (bathy.join("sbet.out"), bathy.join("sensor.toml"));
-    rows.push(measure_dir(
-        &dir,
-        bin,
-        ("tpu, conic (bathymetry scenario)", 0.7),
-        ["tpu", s(&bathy), s(&bathy_sbet), s(&bathy_sensor)],
-        &[],
-        &dir.join("bathymetry-tpu"),
-    )?);
+    if wants("conic") {
+        let bathy = dir.join("bathymetry");
+        run(
+            &dir,
+            bin,
+            &["simulate", "--scenario", "bathymetry", "-o", s(&bathy)],
+        )?;
+        let (bathy_sbet, bathy_sensor) = (bathy.join("sbet.out"), bathy.join("sensor.toml"));
+        rows.push(measure_dir(
+            &dir,
+            bin,
+            ("tpu, conic (bathymetry scenario)", 0.7),
+            ["tpu", s(&bathy), s(&bathy_sbet), s(&bathy_sensor)],
+            &[],
+            &dir.join("bathymetry-tpu"),
+        )?);
+    }
+    let calibration_row = if wants("calibrate") {
+        Some(measure_calibrate(&dir, bin)?)
+    } else {
+        None
+    };
 
     println!();
     println!(
@@ -406,6 +451,82 @@ fn main() -> Result<()> {
             r.command.peak_mb.map_or("?".into(), |m| format!("{m:.0}")),
         );
     }
+    if let Some(r) = calibration_row {
+        let (seconds, mb) = CALIBRATE_BAR;
+        let peak = r.command.peak_mb;
+        let met = r.command.seconds <= seconds && peak.is_some_and(|m| m <= mb);
+        println!(
+            "\n| {} | {} | {:.2} | {:.2} | {:.2} | ≤ {seconds} s, ≤ {mb} MB {} | {} | {} | {} |",
+            r.what,
+            r.copy.points,
+            r.command.seconds,
+            r.copy.seconds,
+            r.copy.seconds / r.command.seconds,
+            if met { "✓" } else { "✗" },
+            secs(r.command.cpu_s),
+            secs(r.copy.cpu_s),
+            peak.map_or("?".into(), |m| format!("{m:.0}")),
+        );
+    }
     println!("\nload average at the end: {}", load());
     Ok(())
+}
+
+/// The calibration row: simulates the `calibration` scenario (seed 11, not timed), then times
+/// `calibrate --auto-ties --control` on its 24 strips and copies the strips as the baseline.
+fn measure_calibrate(dir: &Path, bin: &Path) -> Result<Row> {
+    let sim = dir.join("calibration");
+    run(
+        dir,
+        bin,
+        &[
+            "simulate",
+            "--scenario",
+            "calibration",
+            "--seed",
+            "11",
+            "-o",
+            s(&sim),
+        ],
+    )?;
+    let mut strips: Vec<PathBuf> = std::fs::read_dir(&sim)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "laz"))
+        .collect();
+    strips.sort();
+    let out = dir.join("calibration-out");
+    std::fs::create_dir_all(&out)?;
+    let (sbet, sensor, control, json) = (
+        sim.join("sbet.out"),
+        sim.join("sensor.toml"),
+        sim.join("control.csv"),
+        out.join("calibration.json"),
+    );
+    let mut args = vec!["calibrate"];
+    args.extend(strips.iter().map(|p| s(p)));
+    args.extend([
+        "--trajectory",
+        s(&sbet),
+        "--sensor",
+        s(&sensor),
+        "--auto-ties",
+        "--control",
+        s(&control),
+        "--gnss-correlation-s",
+        "200",
+        "--attitude-correlation-s",
+        "30",
+        "-o",
+        s(&json),
+    ]);
+    let command = run(dir, bin, &args)?;
+    let copy = copy_dir(&sim, &dir.join("copy.laz"))?;
+    std::fs::remove_dir_all(&sim)?;
+    std::fs::remove_dir_all(&out)?;
+    Ok(Row {
+        what: "calibrate (24 strips, auto ties, control)",
+        command,
+        copy,
+        bar: 0.0,
+    })
 }

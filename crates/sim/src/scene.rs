@@ -623,11 +623,10 @@ impl Scene {
                 continue;
             };
             let p = curve.at(r);
-            let dist = (p[0] - t.center_m[0]).hypot(p[1] - t.center_m[1]);
             let rf = 0.5 * footprint_per_m * r;
-            if dist > t.radius_m + rf {
+            let Some(dist) = distance_within(p, t.center_m, t.radius_m + rf) else {
                 continue;
-            }
+            };
             let frac = if rf > 0.0 {
                 segment_fraction((t.radius_m - dist) / rf)
             } else {
@@ -654,11 +653,9 @@ impl Scene {
         if best.class == CLASS_GROUND {
             let rf = 0.5 * footprint_per_m * best.range_m;
             for t in self.targets.iter().filter(|t| t.painted) {
-                let p = best.position;
-                let dist = (p[0] - t.center_m[0]).hypot(p[1] - t.center_m[1]);
-                if dist > t.radius_m + rf {
+                let Some(dist) = distance_within(best.position, t.center_m, t.radius_m + rf) else {
                     continue;
-                }
+                };
                 let frac = if rf > 0.0 {
                     segment_fraction((t.radius_m - dist) / rf)
                 } else {
@@ -839,6 +836,18 @@ fn unit(v: [f64; 3]) -> [f64; 3] {
     [v[0] / n, v[1] / n, v[2] / n]
 }
 
+/// The horizontal distance from `p` to `centre` when it is at most `limit`, m. hypot(a, b) ≥
+/// |a|, |b| (also as rounded), so most far centres are refused without the hypot.
+#[inline]
+fn distance_within(p: [f64; 3], centre: [f64; 2], limit: f64) -> Option<f64> {
+    let (dx, dy) = (p[0] - centre[0], p[1] - centre[1]);
+    if dx.abs() > limit || dy.abs() > limit {
+        return None;
+    }
+    let d = dx.hypot(dy);
+    (d <= limit).then_some(d)
+}
+
 /// Fraction of a disc of radius 1 on one side of a chord at signed distance `t` from its centre
 /// (t = 1: all, t = −1: none).
 fn segment_fraction(t: f64) -> f64 {
@@ -854,6 +863,12 @@ fn building_hit(b: &Building, curve: &Curve) -> Option<Hit> {
     let r_bot = curve.plane([0.0, 0.0, 1.0], b.base_m)?;
     let (p, q) = (curve.at(r_top), curve.at(r_bot));
     let radius = b.half_m[0].hypot(b.half_m[1]);
+    // Cheap reject first: the centre farther than the radius (plus far more than any rounding)
+    // from the segment's bounding box is farther than it from the segment.
+    let gap = |k: usize| (p[k].min(q[k]) - b.center_m[k]).max(b.center_m[k] - p[k].max(q[k]));
+    if gap(0).max(gap(1)) > radius + 1e-6 {
+        return None;
+    }
     if segment_point_distance([p[0], p[1]], [q[0], q[1]], b.center_m) > radius {
         return None;
     }
