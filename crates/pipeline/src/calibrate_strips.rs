@@ -16,6 +16,7 @@ use lidarqa_calib::{
 use lidarqa_io::{ControlPoints, Crs, Geodetic, LasInfo, LasReader, PointChunk, TiePicks};
 use lidarqa_model::{Source, Warning};
 use nalgebra::Vector3;
+use rayon::prelude::*;
 use serde_json::Value;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -274,10 +275,13 @@ pub fn load_all(
     }
     let zone = zone.ok_or_else(|| Error::InvalidOption("no strips".into()))?;
     let frame = frame_for(&infos, &zone);
-    let loaded = paths
-        .iter()
+    // The strips load in parallel (each one as alone, so the points are the same); the first
+    // failing strip in the given order is the one reported.
+    let loaded: Vec<Result<LoadedStrip>> = paths
+        .par_iter()
         .map(|p| load_strip(p, ctx, &frame))
-        .collect::<Result<Vec<_>>>()?;
+        .collect();
+    let loaded = loaded.into_iter().collect::<Result<Vec<_>>>()?;
     Ok((frame, zone, loaded))
 }
 
