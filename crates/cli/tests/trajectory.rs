@@ -223,6 +223,52 @@ fn forest_strip_trajectory_matches_the_truth_and_its_tpu() {
     let with_sbet = tpu(&sim.join("sbet.out"), &d.join("sbet_tpu.las"));
     let with_rebuilt = tpu(&traj, &d.join("rebuilt_tpu.las"));
     assert_eq!(with_sbet.len(), with_rebuilt.len());
+
+    // The rebuilt poses are the scanner's own: a sensor file with a real lever arm and
+    // boresight must give the same TPU (the mounting is inside the poses), with a warning.
+    let mut sensor: toml::Table =
+        toml::from_str(&std::fs::read_to_string(sim.join("sensor.toml")).unwrap()).unwrap();
+    let mounting = sensor
+        .get_mut("mounting")
+        .and_then(toml::Value::as_table_mut)
+        .expect("sensor.toml has [mounting]");
+    mounting.insert("boresight_roll_deg".into(), 0.5.into());
+    mounting.insert("boresight_pitch_deg".into(), (-0.3).into());
+    mounting.insert("boresight_yaw_deg".into(), 2.0.into());
+    mounting.insert(
+        "lever_arm_m".into(),
+        toml::Value::Array(vec![0.3.into(), (-0.2).into(), 0.5.into()]),
+    );
+    let mounted = d.join("mounted_sensor.toml");
+    std::fs::write(&mounted, toml::to_string(&sensor).unwrap()).unwrap();
+    let out = d.join("mounted_tpu.las");
+    let o = lidarqa(&[
+        "tpu",
+        s(&strip),
+        "--trajectory",
+        s(&traj),
+        "--sensor",
+        s(&mounted),
+        "-o",
+        s(&out),
+        "--format",
+        "json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let with_mounted = total_sigma(&out);
+    let worst_mounted = with_rebuilt
+        .iter()
+        .zip(&with_mounted)
+        .map(|((_, a), (_, b))| (b / a - 1.0).abs())
+        .fold(0.0f64, f64::max);
+    assert!(
+        worst_mounted <= 1e-12,
+        "a sensor file's mounting changed the TPU from the rebuilt poses by {worst_mounted}"
+    );
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("reconstructed_trajectory_is_the_scanner"),
+        "no warning that the mounting is inside the rebuilt poses"
+    );
     let small = |r: &Row| {
         r.sigma_m[0] <= 0.02
             && r.sigma_m[1] <= 0.02
