@@ -770,7 +770,7 @@ fn fit_blocks(
     out
 }
 
-/// One block's sub-block spread is a noisy σ (seven degrees of freedom): used as a weight, it
+/// One block's sub-block scatter is a noisy σ (six degrees of freedom): used as a weight, it
 /// lets a block whose σ came out small by chance dominate with an error several times that σ.
 /// The blocks of one strip see the same scan geometry, so their attitude variance goes as
 /// 1 / returns: it is pooled over the strip (the mean of σ² · returns, unbiased for a variance)
