@@ -166,6 +166,14 @@ fn forest_strip_trajectory_matches_the_truth_and_its_tpu() {
     }
     let n = rows.len() as f64;
     let (rms_p, rms_h, rms_pitch) = ((sp / n).sqrt(), (sh / n).sqrt(), (spitch / n).sqrt());
+
+    // Honest attitude σ (a 4 s strip has few epochs: a loose bound here, the full strip below).
+    let (zh, zp) = attitude_error_over_sigma(&rows, &survey, &zone);
+    eprintln!("against the SBET: RMS(error/σ) heading {zh:.2}, pitch {zp:.2}");
+    assert!(
+        (0.5..=1.5).contains(&zh) && (0.5..=1.5).contains(&zp),
+        "rebuilt attitude σ not honest: RMS(error/σ) heading {zh:.2}, pitch {zp:.2}"
+    );
     eprintln!(
         "{} epochs: position RMS {rms_p:.4} m, heading RMS {rms_h:.4} deg, pitch RMS \
          {rms_pitch:.4} deg",
@@ -223,6 +231,52 @@ fn forest_strip_trajectory_matches_the_truth_and_its_tpu() {
     let with_sbet = tpu(&sim.join("sbet.out"), &d.join("sbet_tpu.las"));
     let with_rebuilt = tpu(&traj, &d.join("rebuilt_tpu.las"));
     assert_eq!(with_sbet.len(), with_rebuilt.len());
+
+    // The rebuilt poses are the scanner's own: a sensor file with a real lever arm and
+    // boresight must give the same TPU (the mounting is inside the poses), with a warning.
+    let mut sensor: toml::Table =
+        toml::from_str(&std::fs::read_to_string(sim.join("sensor.toml")).unwrap()).unwrap();
+    let mounting = sensor
+        .get_mut("mounting")
+        .and_then(toml::Value::as_table_mut)
+        .expect("sensor.toml has [mounting]");
+    mounting.insert("boresight_roll_deg".into(), 0.5.into());
+    mounting.insert("boresight_pitch_deg".into(), (-0.3).into());
+    mounting.insert("boresight_yaw_deg".into(), 2.0.into());
+    mounting.insert(
+        "lever_arm_m".into(),
+        toml::Value::Array(vec![0.3.into(), (-0.2).into(), 0.5.into()]),
+    );
+    let mounted = d.join("mounted_sensor.toml");
+    std::fs::write(&mounted, toml::to_string(&sensor).unwrap()).unwrap();
+    let out = d.join("mounted_tpu.las");
+    let o = lidarqa(&[
+        "tpu",
+        s(&strip),
+        "--trajectory",
+        s(&traj),
+        "--sensor",
+        s(&mounted),
+        "-o",
+        s(&out),
+        "--format",
+        "json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let with_mounted = total_sigma(&out);
+    let worst_mounted = with_rebuilt
+        .iter()
+        .zip(&with_mounted)
+        .map(|((_, a), (_, b))| (b / a - 1.0).abs())
+        .fold(0.0f64, f64::max);
+    assert!(
+        worst_mounted <= 1e-12,
+        "a sensor file's mounting changed the TPU from the rebuilt poses by {worst_mounted}"
+    );
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("reconstructed_trajectory_is_the_scanner"),
+        "no warning that the mounting is inside the rebuilt poses"
+    );
     let small = |r: &Row| {
         r.sigma_m[0] <= 0.02
             && r.sigma_m[1] <= 0.02
@@ -266,6 +320,51 @@ fn forest_strip_trajectory_matches_the_truth_and_its_tpu() {
         "TPU from the rebuilt SBET vs the simulator's SBET: worst ratio off by {worst_sbet:.4}"
     );
     assert!(worst_sbet <= 0.02, "rebuilt-SBET TPU off by {worst_sbet}");
+}
+
+/// RMS(error / σ) of the rebuilt heading and pitch against the trajectory the points were
+/// georeferenced with (the simulator's SBET, which the scan planes follow exactly).
+fn attitude_error_over_sigma(
+    rows: &[Row],
+    survey: &lidarqa_sim::Survey,
+    zone: &UtmZone,
+) -> (f64, f64) {
+    let measured = &survey.strips[0].trajectory;
+    let (mut zh, mut zp) = (0.0, 0.0);
+    for r in rows {
+        let sow = r.t - survey.adjusted_standard_time_s(0.0);
+        let m = interpolate(measured, sow);
+        let g = zone.forward(m.latitude_rad, m.longitude_rad);
+        let dh = wrap(r.azimuth_deg.to_radians() + g.convergence_rad - m.heading_rad).to_degrees();
+        zh += (dh / r.sigma_azimuth_deg).powi(2);
+        zp += ((r.pitch_deg - m.pitch_rad.to_degrees()) / r.sigma_pitch_deg).powi(2);
+    }
+    let n = rows.len() as f64;
+    ((zh / n).sqrt(), (zp / n).sqrt())
+}
+
+/// The whole 10 s forest strip (release build: `cargo test --release -p lidarqa --test trajectory
+/// -- --ignored`): the rebuilt attitude σ match the actual errors, RMS(error / σ) within
+/// 0.7–1.4. Smoothing the attitude over ±1.5 s gave 1.69 in heading (optimistic).
+#[test]
+#[ignore = "the full strip: run with --release"]
+fn full_forest_strip_attitude_sigma_is_honest() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let file = Scenario::builtin("forest").unwrap().file().clone();
+    let sim = simulate_into(&file, d);
+    let scenario = Scenario::from_file(file).unwrap();
+    let survey = simulate(&scenario, &SimOptions::default()).unwrap();
+    let traj = d.join("trajectory.csv");
+    let o = lidarqa(&["trajectory", s(&sim.join("strip_001.las")), "-o", s(&traj)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let zone = UtmZone::from_epsg(scenario.epsg()).unwrap();
+    let (zh, zp) = attitude_error_over_sigma(&rows(&traj), &survey, &zone);
+    eprintln!("full strip against the SBET: RMS(error/σ) heading {zh:.2}, pitch {zp:.2}");
+    assert!(
+        (0.7..=1.4).contains(&zh) && (0.7..=1.4).contains(&zp),
+        "rebuilt attitude σ not honest: RMS(error/σ) heading {zh:.2}, pitch {zp:.2}"
+    );
 }
 
 /// The independent witness: `tests/trajectory_generator.py` writes multi-return pulses with

@@ -86,6 +86,42 @@ pub struct TpuContext {
     trajectories: Mutex<Vec<(Crs, Arc<Trajectory>)>>,
 }
 
+/// A trajectory rebuilt from the returns (`lidarqa trajectory`) is the scanner's own pose: its
+/// positions are where the beams start and its pitch and heading are the scan plane's, so the
+/// lever arm and boresight are already inside it. Applying the sensor file's mounting again would
+/// move the scanner by the lever arm and turn the scan plane by the boresight; the nominal
+/// mounting is therefore zeroed (for recovery and propagation alike, its σ kept), with a warning
+/// when the file's mounting was not zero.
+fn scanner_pose_mounting(sensor: &mut Sensor, trajectory: &Path) -> Option<Warning> {
+    let m = sensor.mounting;
+    let angles_deg = [
+        m.boresight_roll_rad,
+        m.boresight_pitch_rad,
+        m.boresight_yaw_rad,
+    ]
+    .map(f64::to_degrees);
+    let nonzero = angles_deg.iter().any(|a| *a != 0.0) || m.lever_arm_m.iter().any(|l| *l != 0.0);
+    sensor.mounting = Mounting::default();
+    nonzero.then(|| {
+        Warning::new(
+            "reconstructed_trajectory_is_the_scanner",
+            format!(
+                "{}: rebuilt from the returns, so its poses are the scanner's own; the sensor \
+                 file's lever arm [{:.3}, {:.3}, {:.3}] m and boresight (roll, pitch, yaw) \
+                 [{:.4}, {:.4}, {:.4}] deg are inside them and are not applied again (their σ \
+                 still are)",
+                trajectory.display(),
+                m.lever_arm_m.x,
+                m.lever_arm_m.y,
+                m.lever_arm_m.z,
+                angles_deg[0],
+                angles_deg[1],
+                angles_deg[2]
+            ),
+        )
+    })
+}
+
 impl TpuContext {
     /// From data already read. `trajectory_path` names the SBET in messages.
     ///
@@ -223,10 +259,14 @@ impl TpuContext {
                 Some(s)
             }
         };
-        let warnings = match &poses {
+        let mut warnings = match &poses {
             TrajectoryFile::Text(t) => t.warnings.clone(),
             TrajectoryFile::Sbet(_) => Vec::new(),
         };
+        let mut sensor = sensor;
+        if matches!(&poses, TrajectoryFile::Text(t) if t.sigma_added) {
+            warnings.extend(scanner_pose_mounting(&mut sensor, &trajectory_path));
+        }
         let ctx = TpuContext {
             recovery_mounting: sensor.mounting,
             sensor,

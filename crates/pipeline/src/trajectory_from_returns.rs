@@ -18,14 +18,18 @@
 //! 3. **Attitude.** A linear scanner's beams lie in a plane whose normal is the body's x axis:
 //!    the smallest eigenvector of `Σ uᵢ uᵢᵀ` over the unit vectors from `S(tᵢ)` to every return
 //!    of the block gives the heading (a grid azimuth: the points are projected) and the pitch,
-//!    whatever the crab angle. Their σ is the standard error of the same fit over eight
-//!    sub-blocks.
+//!    whatever the crab angle, read at the block's time from eight sub-blocks' planes; their σ
+//!    is how far the attitude wanders from a steady turn within the block ([`scan_plane`]).
 //!    **Roll is not determined**: rolling turns every beam within that plane about the scanner,
 //!    which moves no line off the scanner and no beam out of the plane. It is carried as 0 with
 //!    the σ [`ROLL_SIGMA_RAD`].
-//! 4. **Smoothing.** The block estimates are smoothed by a weighted local quadratic in time over
+//! 4. **Smoothing.** The block positions are smoothed by a weighted local quadratic in time over
 //!    `smoothing_window_s`; each epoch's σ is that fit's, scaled up by √(χ²/dof) when the blocks
-//!    scatter more than their σ says.
+//!    scatter more than their σ says. The attitude is **not** smoothed: an aircraft's pitch and
+//!    heading wander faster than a quadratic over seconds can follow, so a smoothed attitude
+//!    carries a model error its fit σ does not see; each epoch takes its block's own scan plane
+//!    (a line through the two nearest blocks at the strip's ends), with the blocks' σ pooled
+//!    over the strip first ([`pool_attitude_sigma`]).
 //!
 //! 0. **A Cartesian frame first.** The lines are straight in space, not in projected coordinates:
 //!    easting and northing are distances on the ellipsoid, so a horizontal metre at height h is
@@ -79,7 +83,7 @@ pub struct ReturnPoint {
 pub struct ReconstructOptions {
     /// Length of a block, s.
     pub block_s: f64,
-    /// Half-width of the local-polynomial smoothing window, s.
+    /// Half-width of the local-polynomial smoothing window of the positions, s.
     pub smoothing_window_s: f64,
     /// Shortest first-to-last return distance that gives a line, m.
     pub min_separation_m: f64,
@@ -223,7 +227,8 @@ pub fn reconstruct(
             .map(|&i| &points[i])
             .filter(|p| p.strip == *strip)
             .collect();
-        let blocks = fit_blocks(lines, &strip_points, options, &mut checks);
+        let mut blocks = fit_blocks(lines, &strip_points, options, &mut checks);
+        pool_attitude_sigma(&mut blocks);
         // 1 ms beyond the first and last return: the file's times are written to 1 µs.
         let span = [
             strip_points.first().map_or(0.0, |p| p.time_s) - 1e-3,
@@ -709,6 +714,8 @@ struct Block {
     sigma_pitch_rad: f64,
     sigma_azimuth_rad: f64,
     lines: usize,
+    /// Returns the scan plane was fitted to.
+    returns: usize,
 }
 
 fn fit_blocks(
@@ -757,9 +764,38 @@ fn fit_blocks(
             sigma_pitch_rad: att.2,
             sigma_azimuth_rad: att.3,
             lines: block.len(),
+            returns: b - a,
         });
     }
     out
+}
+
+/// One block's sub-block scatter is a noisy σ (six degrees of freedom): used as a weight, it
+/// lets a block whose σ came out small by chance dominate with an error several times that σ.
+/// The blocks of one strip see the same scan geometry, so their attitude variance goes as
+/// 1 / returns: it is pooled over the strip (the mean of σ² · returns, unbiased for a variance)
+/// and each block gets its share.
+fn pool_attitude_sigma(blocks: &mut [Block]) {
+    if blocks.len() < 2 {
+        return;
+    }
+    let n = blocks.len() as f64;
+    let pooled = |s: &dyn Fn(&Block) -> f64| {
+        blocks
+            .iter()
+            .map(|b| s(b).powi(2) * b.returns as f64)
+            .sum::<f64>()
+            / n
+    };
+    let (vp, va) = (
+        pooled(&|b| b.sigma_pitch_rad),
+        pooled(&|b| b.sigma_azimuth_rad),
+    );
+    for b in blocks.iter_mut() {
+        let r = b.returns.max(1) as f64;
+        b.sigma_pitch_rad = (vp / r).sqrt();
+        b.sigma_azimuth_rad = (va / r).sqrt();
+    }
 }
 
 /// A block fit: centre time, [S₀, V], their covariance, the final robust weights.
@@ -835,12 +871,21 @@ fn fit_block(block: &[Line]) -> Option<BlockFit> {
 }
 
 /// Pitch, grid azimuth and their σ from the plane of the beams (see the module docs).
+///
+/// The aircraft turns during a block, so the whole block's plane is an average over it. Eight
+/// consecutive sub-blocks each give their own plane; a straight line in time through their
+/// values corrects the average to the block's time `tc` (the lines' mean time, which the
+/// points' mean time need not be: canopy is patchy). The attitude at `tc` departs from that
+/// steady turn by as much as a sub-block does, so the σ is the sub-blocks' scatter about the
+/// line (not its standard error, which would claim the wander away), with the line's own error
+/// at `tc` added.
 fn scan_plane(
     points: &[&ReturnPoint],
     tc: f64,
     s0: &Vector3<f64>,
     v: &Vector3<f64>,
 ) -> Option<(f64, f64, f64, f64)> {
+    const SUB_BLOCKS: usize = 8;
     if points.len() < 16 {
         return None;
     }
@@ -860,34 +905,43 @@ fn scan_plane(
         n.iter().all(|c| c.is_finite()).then_some(n)
     };
     let angles = |n: &Vector3<f64>| (n.z.clamp(-1.0, 1.0).asin(), n.x.atan2(n.y));
-    let n = normal(points)?;
-    let (pitch, az) = angles(&n);
-    // Spread over eight sub-blocks of the block.
-    let k = 8;
-    let size = points.len() / k;
-    let mut dp = Vec::new();
-    let mut da = Vec::new();
-    for c in 0..k {
+    let (pitch, az) = angles(&normal(points)?);
+    let size = points.len() / SUB_BLOCKS;
+    // (time from `tc`, pitch, azimuth) of each sub-block's own plane, about the block's.
+    let mut subs: Vec<(f64, f64, f64)> = Vec::with_capacity(SUB_BLOCKS);
+    for c in 0..SUB_BLOCKS {
         let sub = &points[c * size..((c + 1) * size).min(points.len())];
         if sub.len() < 8 {
             continue;
         }
-        if let Some(ns) = normal(sub) {
-            let (p, a) = angles(&ns);
-            dp.push(p - pitch);
-            da.push(wrap(a - az));
+        if let Some(n) = normal(sub) {
+            let (p, a) = angles(&n);
+            let t = sub.iter().map(|q| q.time_s).sum::<f64>() / sub.len() as f64 - tc;
+            subs.push((t, p - pitch, wrap(a - az)));
         }
     }
-    if dp.len() < 2 {
+    if subs.len() < 4 {
         return None;
     }
-    // σ of the block's value: the standard error of the sub-block values' mean.
-    let spread = |d: &[f64]| {
-        let m = d.iter().sum::<f64>() / d.len() as f64;
-        let var = d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (d.len() - 1) as f64;
-        (var / d.len() as f64).sqrt()
+    // The line through the sub-block values read at `tc`, and the σ described above.
+    let at_tc = |value: &dyn Fn(&(f64, f64, f64)) -> f64| {
+        let k = subs.len() as f64;
+        let mt = subs.iter().map(|s| s.0).sum::<f64>() / k;
+        let my = subs.iter().map(value).sum::<f64>() / k;
+        let stt: f64 = subs.iter().map(|s| (s.0 - mt).powi(2)).sum();
+        let sty: f64 = subs.iter().map(|s| (s.0 - mt) * (value(s) - my)).sum();
+        let rate = if stt > 0.0 { sty / stt } else { 0.0 };
+        let rss: f64 = subs
+            .iter()
+            .map(|s| (value(s) - my - rate * (s.0 - mt)).powi(2))
+            .sum();
+        let scatter2 = rss / (k - 2.0);
+        let line2 = scatter2 * (1.0 / k + if stt > 0.0 { mt * mt / stt } else { 0.0 });
+        (my - rate * mt, (scatter2 + line2).sqrt())
     };
-    Some((pitch, az, spread(&dp), spread(&da)))
+    let (dp, sp) = at_tc(&|s| s.1);
+    let (da, sa) = at_tc(&|s| s.2);
+    Some((pitch + dp, wrap(az + da), sp, sa))
 }
 
 fn wrap(a: f64) -> f64 {
@@ -1035,9 +1089,34 @@ fn smooth(blocks: &[Block], strip: u32, window_s: f64, span_s: [f64; 2]) -> Vec<
                 vel[k] = slope;
             }
         }
-        let (pitch, sp, _) = fit(&|j| (blocks[j].pitch_rad, blocks[j].sigma_pitch_rad.max(1e-7)))
-            .unwrap_or((b.pitch_rad, b.sigma_pitch_rad, 0.0));
-        let (a, sa, _) = fit(&|j| (az[j], blocks[j].sigma_azimuth_rad.max(1e-7))).unwrap_or((
+        // The attitude from the block at `t` itself, or a line through the two nearest blocks
+        // (the strip's ends): see the module docs for why it is not smoothed.
+        let two_nearest: Vec<usize> = {
+            let mut by: Vec<usize> = (0..blocks.len()).collect();
+            by.sort_by(|&a, &b| {
+                (blocks[a].time_s - t)
+                    .abs()
+                    .total_cmp(&(blocks[b].time_s - t).abs())
+            });
+            by.into_iter().take(2).collect()
+        };
+        let attitude = |value: &dyn Fn(usize) -> (f64, f64)| {
+            let s: Vec<(f64, f64, f64)> = two_nearest
+                .iter()
+                .map(|&j| {
+                    let (y, sd) = value(j);
+                    (blocks[j].time_s, y, sd)
+                })
+                .collect();
+            local_poly(&s, t)
+        };
+        let (pitch, sp, _) =
+            attitude(&|j| (blocks[j].pitch_rad, blocks[j].sigma_pitch_rad.max(1e-7))).unwrap_or((
+                b.pitch_rad,
+                b.sigma_pitch_rad,
+                0.0,
+            ));
+        let (a, sa, _) = attitude(&|j| (az[j], blocks[j].sigma_azimuth_rad.max(1e-7))).unwrap_or((
             az[nearest],
             b.sigma_azimuth_rad,
             0.0,

@@ -41,7 +41,8 @@ pub struct TrajectoryArgs {
     /// Length of the blocks fitted with a straight, uniform motion, s.
     #[arg(long, default_value_t = 0.5, value_name = "S")]
     block_s: f64,
-    /// Half-width of the smoothing window over blocks, s.
+    /// Half-width of the smoothing window of the positions over blocks, s (the attitude is
+    /// each block's own).
     #[arg(long, default_value_t = 1.5, value_name = "S")]
     window_s: f64,
     /// Shortest first-to-last return distance a pulse needs to give a line, m.
