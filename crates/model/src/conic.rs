@@ -21,10 +21,11 @@
 use crate::error::{Error, Result};
 use crate::frames::{Attitude, Mounting};
 use crate::georeferencer::{Georeferencer, gnss_offset_ned};
-use crate::rotation::{rot_x, rot_y, rot_z, rotation_zyx};
+use crate::rotation::{rot_x, rot_y, rot_z, rotation_zyx, rotation_zyx_with_partials};
 use crate::scalar::{Scalar, c};
 use crate::source::Source;
-use nalgebra::{SVector, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+use num_dual::{DualSVec64, jacobian};
 
 /// Speed of light in air used by seed 004, m/s.
 pub const SPEED_OF_LIGHT_AIR_M_PER_S: f64 = 299_552_816.0;
@@ -210,19 +211,27 @@ impl ConicScanner {
         (r.l3, r.l4)
     }
 
+    /// The air beam after the prism, in S, from the prism and emitter parameters
+    /// `p[12..19]` (slope, prism x/y/z, scan azimuth, emitter zenith and azimuth).
+    fn air_beam<D: Scalar>(&self, q: &[D; 7]) -> Vector3<D> {
+        let (o, l) = (D::zero(), D::one());
+        let turn = rot_z(q[4]) * rot_x(q[1]) * rot_y(q[2]) * rot_z(q[3]);
+        let (st, ct) = q[0].sin_cos();
+        let p1 = turn * Vector3::new(st, o, ct);
+        let p2 = turn * Vector3::new(o, o, l);
+        let (sz, cz) = q[5].sin_cos();
+        let (sa, ca) = q[6].sin_cos();
+        let l1 = Vector3::new(sz * ca, sz * sa, cz);
+        let (na, nf) = (c::<D>(self.n_air), c::<D>(self.n_prism));
+        let l2 = refract(&l1, &p1, na / nf);
+        refract(&l2, &p2, nf / na)
+    }
+
     /// The rays and the surface normals of one pulse (all in S).
     fn rays<D: Scalar>(&self, p: &SVector<D, CONIC_N>) -> Rays<D> {
         let (o, l) = (D::zero(), D::one());
-        let turn = rot_z(p[16]) * rot_x(p[13]) * rot_y(p[14]) * rot_z(p[15]);
-        let (st, ct) = p[12].sin_cos();
-        let p1 = turn * Vector3::new(st, o, ct);
-        let p2 = turn * Vector3::new(o, o, l);
-        let (sz, cz) = p[17].sin_cos();
-        let (sa, ca) = p[18].sin_cos();
-        let l1 = Vector3::new(sz * ca, sz * sa, cz);
-        let (na, nf, nw) = (c::<D>(self.n_air), c::<D>(self.n_prism), p[24]);
-        let l2 = refract(&l1, &p1, na / nf);
-        let l3 = refract(&l2, &p2, nf / na);
+        let l3 = self.air_beam(&[p[12], p[13], p[14], p[15], p[16], p[17], p[18]]);
+        let (na, nw) = (c::<D>(self.n_air), p[24]);
         // S → N: R_N R_M.
         let r = rotation_zyx(p[3], p[4], p[5]) * rotation_zyx(p[6], p[7], p[8]);
         let base = match self.refraction {
@@ -236,6 +245,93 @@ impl ConicScanner {
         let p3 = (base + tilt).normalize();
         let l4 = refract(&l3, &p3, na / nw);
         Rays { l3, l4, base }
+    }
+
+    /// The scanner origin → footprint vector in N, `R X_S` with `R = R_N R_M`, from
+    /// `x = [L, B, Δt1, Δt2, δh, s_N, s_E, nw]`: `L = R l3` the air beam and `B = R base` the
+    /// untilted surface normal, both in N. Snell's law and the ranges do not depend on the frame
+    /// they are written in, so after the rotation the water leg is a function of these twelve
+    /// numbers only; `wet` is `Δt2 > 0` (the water-surface height moves only a sounding).
+    fn leg_ned<D: Scalar>(&self, x: &SVector<D, 12>, wet: bool) -> Vector3<D> {
+        let l = Vector3::new(x[0], x[1], x[2]);
+        let b = Vector3::new(x[3], x[4], x[5]);
+        let nw = x[11];
+        let tilt = Vector3::new(x[9].tan(), x[10].tan(), D::zero());
+        let p3 = (b + tilt).normalize();
+        let l4 = refract(&l, &p3, c::<D>(self.n_air) / nw);
+        let speed = c::<D>(SPEED_OF_LIGHT_AIR_M_PER_S);
+        let mut rho1 = speed * x[6] * c::<D>(0.5);
+        let mut rho2 = speed * x[7] / (nw * c::<D>(2.0));
+        if wet {
+            let shift = x[8] / l.dot(&b);
+            rho1 -= shift;
+            rho2 += shift / nw;
+        }
+        l * rho1 + l4 * rho2
+    }
+
+    /// The footprint and its Jacobian by the chain rule over three stages: `R_N` and `R_M`
+    /// from [`rotation_zyx_with_partials`], the air beam `l3` from a 7-direction dual pass over
+    /// the prism and emitter parameters, and the rotated legs from a 12-direction dual pass
+    /// over [`ConicScanner::leg_ned`]'s inputs. One 25-direction dual pass over the whole model
+    /// (the trait's default) gives the same Jacobian at many times the cost; a test checks the
+    /// two agree.
+    fn staged_jacobian(
+        &self,
+        p: &SVector<f64, CONIC_N>,
+    ) -> (Vector3<f64>, SMatrix<f64, 3, CONIC_N>) {
+        let (r_n, d_r_n) = rotation_zyx_with_partials(p[3], p[4], p[5]);
+        let (r_m, d_r_m) = rotation_zyx_with_partials(p[6], p[7], p[8]);
+        let r = r_n * r_m;
+        let q = SVector::<f64, 7>::from([p[12], p[13], p[14], p[15], p[16], p[17], p[18]]);
+        let (l3, d_l3) = jacobian(
+            |v: SVector<DualSVec64<7>, 7>| {
+                self.air_beam(&[v[0], v[1], v[2], v[3], v[4], v[5], v[6]])
+            },
+            &q,
+        );
+        // B moves with the attitude only when the surface is fixed in S.
+        let scanner_frame = self.refraction == Refraction::ScannerFrame;
+        let b = if scanner_frame {
+            r.column(2).into_owned()
+        } else {
+            Vector3::z()
+        };
+        let l = r * l3;
+        let x = SVector::<f64, 12>::from([
+            l.x, l.y, l.z, b.x, b.y, b.z, p[19], p[20], p[21], p[22], p[23], p[24],
+        ]);
+        let wet = p[20] > 0.0;
+        let (v, h) = jacobian(|y: SVector<DualSVec64<12>, 12>| self.leg_ned(&y, wet), &x);
+        let h_l = h.fixed_columns::<3>(0).into_owned();
+        let h_b = h.fixed_columns::<3>(3).into_owned();
+        let lever = Vector3::new(p[9], p[10], p[11]);
+        let f = gnss_offset_ned(p[0], p[1], p[2]) + r_n * lever + v;
+        // ∂(R X_S)/∂θ through L = R l3 and (scanner-frame) B = R e_z.
+        let through_r = |d_r: Matrix3<f64>| {
+            let mut col = h_l * (d_r * l3);
+            if scanner_frame {
+                col += h_b * d_r.column(2);
+            }
+            col
+        };
+        let mut j = SMatrix::<f64, 3, CONIC_N>::zeros();
+        j[(0, 0)] = 1.0;
+        j[(1, 1)] = 1.0;
+        j[(2, 2)] = -1.0;
+        for k in 0..3 {
+            j.set_column(3 + k, &(d_r_n[k] * lever + through_r(d_r_n[k] * r_m)));
+            j.set_column(6 + k, &through_r(r_n * d_r_m[k]));
+            j.set_column(9 + k, &r_n.column(k).into_owned());
+        }
+        let h_l_r = h_l * r;
+        for k in 0..7 {
+            j.set_column(12 + k, &(h_l_r * d_l3.column(k)));
+        }
+        for k in 0..6 {
+            j.set_column(19 + k, &h.column(6 + k).into_owned());
+        }
+        (f, j)
     }
 
     /// Air and water ranges (m) that put the footprint on a level water surface `height_m` below the
@@ -421,6 +517,15 @@ impl Georeferencer<CONIC_N> for ConicScanner {
         let lever = Vector3::new(p[9], p[10], p[11]);
         gnss_offset_ned(p[0], p[1], p[2]) + r_n * (r_m * x_s + lever)
     }
+
+    /// The same Jacobian as the default, composed by the chain rule from the stages (see
+    /// [`ConicScanner::staged_jacobian`]): the conic TPU's kernel.
+    fn footprint_jacobian(
+        &self,
+        p: &SVector<f64, CONIC_N>,
+    ) -> (Vector3<f64>, SMatrix<f64, 3, CONIC_N>) {
+        self.staged_jacobian(p)
+    }
 }
 
 #[cfg(test)]
@@ -599,6 +704,65 @@ mod tests {
         assert_relative_eq!(s.footprint_ned(&p), other.footprint_ned(&q), epsilon = 1e-9);
         // A larger index: a shorter, steeper water leg (the bottom comes up).
         assert!(s.footprint_ned(&p).z < f0.z);
+    }
+
+    #[test]
+    fn staged_jacobian_equals_one_pass_dual_jacobian() {
+        for mode in [Refraction::ScannerFrame, Refraction::Level] {
+            let s = czmil(mode);
+            let m = Mounting {
+                boresight_roll_rad: 0.01,
+                boresight_pitch_rad: -0.02,
+                boresight_yaw_rad: 0.015,
+                lever_arm_m: Vector3::new(0.3, -0.2, 1.1),
+            };
+            for (att, water_s) in [
+                (
+                    Attitude::from_degrees(1.0, -2.0, 30.0),
+                    s.time_water_s(30.0),
+                ),
+                (
+                    Attitude::from_degrees(-4.0, 3.0, 250.0),
+                    s.time_water_s(5.0),
+                ),
+                (Attitude::from_degrees(2.0, 1.0, 10.0), 0.0),
+            ] {
+                let obs = ConicObservation {
+                    azimuth_rad: 2.3,
+                    time_air_s: s.time_air_s(425.7),
+                    time_water_s: water_s,
+                };
+                let mut p = s.parameters(&att, &m, &obs);
+                // Off-nominal prism, emitter and surface, so every term of the chain is used.
+                for (k, v) in [
+                    (13, 0.002),
+                    (14, -0.003),
+                    (15, 0.004),
+                    (17, 0.001),
+                    (18, 0.5),
+                ] {
+                    p[k] = v;
+                }
+                (p[21], p[22], p[23]) = (0.1, 0.03, -0.02);
+                let (f1, j1) = jacobian(
+                    |q: SVector<DualSVec64<CONIC_N>, CONIC_N>| s.footprint_ned(&q),
+                    &p,
+                );
+                let (f2, j2) = s.footprint_jacobian(&p);
+                assert_relative_eq!(f1, f2, epsilon = 1e-9);
+                for k in 0..CONIC_N {
+                    let (a, b) = (j1.column(k), j2.column(k));
+                    let scale = a.norm().max(1e-300);
+                    assert!(
+                        (a - b).norm() <= 1e-9 * scale || (a.norm() == 0.0 && b.norm() == 0.0),
+                        "{mode:?} column {k}: {a} vs {b}"
+                    );
+                }
+                // Not vacuous: the surface and attitude columns move the point.
+                assert!(j1.column(3).norm() > 1.0 && j1.column(12).norm() > 1.0);
+                assert_eq!(water_s > 0.0, j1.column(21).norm() > 0.1);
+            }
+        }
     }
 
     #[test]
