@@ -255,15 +255,27 @@ impl ConicScanner {
     fn leg_ned<D: Scalar>(&self, x: &SVector<D, 12>, wet: bool) -> Vector3<D> {
         let l = Vector3::new(x[0], x[1], x[2]);
         let b = Vector3::new(x[3], x[4], x[5]);
-        let nw = x[11];
-        let tilt = Vector3::new(x[9].tan(), x[10].tan(), D::zero());
+        self.leg_ned_at(&l, &b, &[x[6], x[7], x[8], x[9], x[10], x[11]], wet)
+    }
+
+    /// [`ConicScanner::leg_ned`] with `L`, `B` and the six scalars apart (a `level` surface
+    /// has a constant `B` and needs no derivative along it).
+    fn leg_ned_at<D: Scalar>(
+        &self,
+        l: &Vector3<D>,
+        b: &Vector3<D>,
+        x: &[D; 6],
+        wet: bool,
+    ) -> Vector3<D> {
+        let [t_air, t_water, dh, slope_n, slope_e, nw] = *x;
+        let tilt = Vector3::new(slope_n.tan(), slope_e.tan(), D::zero());
         let p3 = (b + tilt).normalize();
-        let l4 = refract(&l, &p3, c::<D>(self.n_air) / nw);
+        let l4 = refract(l, &p3, c::<D>(self.n_air) / nw);
         let speed = c::<D>(SPEED_OF_LIGHT_AIR_M_PER_S);
-        let mut rho1 = speed * x[6] * c::<D>(0.5);
-        let mut rho2 = speed * x[7] / (nw * c::<D>(2.0));
+        let mut rho1 = speed * t_air * c::<D>(0.5);
+        let mut rho2 = speed * t_water / (nw * c::<D>(2.0));
         if wet {
-            let shift = x[8] / l.dot(&b);
+            let shift = dh / l.dot(b);
             rho1 -= shift;
             rho2 += shift / nw;
         }
@@ -273,7 +285,7 @@ impl ConicScanner {
     /// The footprint and its Jacobian by the chain rule over three stages: `R_N` and `R_M`
     /// from [`rotation_zyx_with_partials`], the air beam `l3` from a 7-direction dual pass over
     /// the prism and emitter parameters, and the rotated legs from a 12-direction dual pass
-    /// over [`ConicScanner::leg_ned`]'s inputs. One 25-direction dual pass over the whole model
+    /// over [`ConicScanner::leg_ned`]'s inputs (9 for a `level` surface). One 25-direction dual pass over the whole model
     /// (the trait's default) gives the same Jacobian at many times the cost; a test checks the
     /// two agree.
     fn staged_jacobian(
@@ -302,7 +314,30 @@ impl ConicScanner {
             l.x, l.y, l.z, b.x, b.y, b.z, p[19], p[20], p[21], p[22], p[23], p[24],
         ]);
         let wet = p[20] > 0.0;
-        let (v, h) = jacobian(|y: SVector<DualSVec64<12>, 12>| self.leg_ned(&y, wet), &x);
+        let (v, h) = if scanner_frame {
+            jacobian(|y: SVector<DualSVec64<12>, 12>| self.leg_ned(&y, wet), &x)
+        } else {
+            // B is the constant vertical: 9 directions, B's columns zero.
+            let y0 = SVector::<f64, 9>::from_fn(|i, _| if i < 3 { x[i] } else { x[i + 3] });
+            let (v, h9) = jacobian(
+                |y: SVector<DualSVec64<9>, 9>| {
+                    let l = Vector3::new(y[0], y[1], y[2]);
+                    self.leg_ned_at(
+                        &l,
+                        &Vector3::z().map(c),
+                        &[y[3], y[4], y[5], y[6], y[7], y[8]],
+                        wet,
+                    )
+                },
+                &y0,
+            );
+            let h = SMatrix::<f64, 3, 12>::from_fn(|r, k| match k {
+                0..3 => h9[(r, k)],
+                3..6 => 0.0,
+                _ => h9[(r, k - 3)],
+            });
+            (v, h)
+        };
         let h_l = h.fixed_columns::<3>(0).into_owned();
         let h_b = h.fixed_columns::<3>(3).into_owned();
         let lever = Vector3::new(p[9], p[10], p[11]);
