@@ -77,6 +77,22 @@ pub struct ConicScanner {
     n_air: f64,
     n_water: f64,
     refraction: Refraction,
+    /// The air beam and its Jacobian at the nominal prism and emitter, azimuth 0.
+    nominal: NominalBeam,
+}
+
+/// The air beam `l3` and `∂l3/∂(p[12..19])` at the nominal prism and emitter (prism turned
+/// by 0, emitter on the S Z axis) and azimuth 0, computed once per scanner: the prism turns
+/// about S Z and the emitter beam lies on that axis, so at any azimuth `az` the beam is
+/// `Rz(az) l3₀` and its derivatives are those at 0 turned by `Rz(az)`, except the emitter
+/// zenith's, which depends on the direction it tilts the emitter in relative to the prism
+/// (`Rz(−az) e_x`): from the two derivatives at emitter azimuths 0 and 90°.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct NominalBeam {
+    l3: Vector3<f64>,
+    jacobian: SMatrix<f64, 3, 7>,
+    /// ∂l3/∂(emitter zenith) at emitter azimuth 90°, azimuth 0.
+    zenith_y: Vector3<f64>,
 }
 
 /// Refract direction `l` (unit) through a surface with unit normal `n` pointing along the propagation
@@ -101,12 +117,26 @@ impl ConicScanner {
         check_index("n_prism", n_prism, false)?;
         check_index("n_air", n_air, true)?;
         check_index("n_water", n_water, false)?;
-        let s = ConicScanner {
+        let mut s = ConicScanner {
             prism_slope_rad,
             n_prism,
             n_air,
             n_water,
             refraction,
+            nominal: NominalBeam {
+                l3: Vector3::zeros(),
+                jacobian: SMatrix::zeros(),
+                zenith_y: Vector3::zeros(),
+            },
+        };
+        let (l3, jacobian) = s.air_beam_jacobian(&s.nominal_prism(0.0));
+        let mut q = s.nominal_prism(0.0);
+        q[6] = std::f64::consts::FRAC_PI_2;
+        let (_, j_y) = s.air_beam_jacobian(&q);
+        s.nominal = NominalBeam {
+            l3,
+            jacobian,
+            zenith_y: j_y.column(5).into_owned(),
         };
         let ok = prism_slope_rad.is_finite()
             && prism_slope_rad > 0.0
@@ -227,6 +257,38 @@ impl ConicScanner {
         refract(&l2, &p2, nf / na)
     }
 
+    /// `p[12..19]` at the nominal prism and emitter and scan azimuth `azimuth_rad`.
+    fn nominal_prism(&self, azimuth_rad: f64) -> SVector<f64, 7> {
+        SVector::from([self.prism_slope_rad, 0.0, 0.0, 0.0, azimuth_rad, 0.0, 0.0])
+    }
+
+    /// [`ConicScanner::air_beam`] and its Jacobian by a 7-direction dual pass.
+    fn air_beam_jacobian(&self, q: &SVector<f64, 7>) -> (Vector3<f64>, SMatrix<f64, 3, 7>) {
+        jacobian(
+            |v: SVector<DualSVec64<7>, 7>| {
+                self.air_beam(&[v[0], v[1], v[2], v[3], v[4], v[5], v[6]])
+            },
+            q,
+        )
+    }
+
+    /// The air beam and its Jacobian: from the scanner's nominal beam turned to the azimuth
+    /// when the prism and emitter are nominal (as [`Georeferencer::parameters`] sets them),
+    /// else by a dual pass.
+    fn air_beam_at(&self, q: &SVector<f64, 7>) -> (Vector3<f64>, SMatrix<f64, 3, 7>) {
+        if *q != self.nominal_prism(q[4]) {
+            return self.air_beam_jacobian(q);
+        }
+        let n = &self.nominal;
+        let (s, c) = q[4].sin_cos();
+        let rz = rot_z(q[4]);
+        let mut j = rz * n.jacobian;
+        // Emitter zenith: the emitter tilts along Rz(−az) e_x = cos az e_x − sin az e_y of the
+        // prism's own frame.
+        j.set_column(5, &(rz * (n.jacobian.column(5) * c - n.zenith_y * s)));
+        (rz * n.l3, j)
+    }
+
     /// The rays and the surface normals of one pulse (all in S).
     fn rays<D: Scalar>(&self, p: &SVector<D, CONIC_N>) -> Rays<D> {
         let (o, l) = (D::zero(), D::one());
@@ -296,12 +358,7 @@ impl ConicScanner {
         let (r_m, d_r_m) = rotation_zyx_with_partials(p[6], p[7], p[8]);
         let r = r_n * r_m;
         let q = SVector::<f64, 7>::from([p[12], p[13], p[14], p[15], p[16], p[17], p[18]]);
-        let (l3, d_l3) = jacobian(
-            |v: SVector<DualSVec64<7>, 7>| {
-                self.air_beam(&[v[0], v[1], v[2], v[3], v[4], v[5], v[6]])
-            },
-            &q,
-        );
+        let (l3, d_l3) = self.air_beam_at(&q);
         // B moves with the attitude only when the surface is fixed in S.
         let scanner_frame = self.refraction == Refraction::ScannerFrame;
         let b = if scanner_frame {
@@ -751,7 +808,7 @@ mod tests {
                 boresight_yaw_rad: 0.015,
                 lever_arm_m: Vector3::new(0.3, -0.2, 1.1),
             };
-            for (att, water_s) in [
+            let cases = [
                 (
                     Attitude::from_degrees(1.0, -2.0, 30.0),
                     s.time_water_s(30.0),
@@ -761,24 +818,33 @@ mod tests {
                     s.time_water_s(5.0),
                 ),
                 (Attitude::from_degrees(2.0, 1.0, 10.0), 0.0),
-            ] {
+            ];
+            for ((att, water_s), nominal) in cases.into_iter().flat_map(|c| [(c, true), (c, false)])
+            {
                 let obs = ConicObservation {
                     azimuth_rad: 2.3,
                     time_air_s: s.time_air_s(425.7),
                     time_water_s: water_s,
                 };
                 let mut p = s.parameters(&att, &m, &obs);
-                // Off-nominal prism, emitter and surface, so every term of the chain is used.
-                for (k, v) in [
-                    (13, 0.002),
-                    (14, -0.003),
-                    (15, 0.004),
-                    (17, 0.001),
-                    (18, 0.5),
-                ] {
-                    p[k] = v;
+                // The nominal prism and emitter take the scanner's cached beam; off-nominal
+                // ones, and a tilted surface, use every term of the chain.
+                if !nominal {
+                    for (k, v) in [
+                        (13, 0.002),
+                        (14, -0.003),
+                        (15, 0.004),
+                        (17, 0.001),
+                        (18, 0.5),
+                    ] {
+                        p[k] = v;
+                    }
+                    (p[21], p[22], p[23]) = (0.1, 0.03, -0.02);
                 }
-                (p[21], p[22], p[23]) = (0.1, 0.03, -0.02);
+                assert_eq!(
+                    nominal,
+                    s.nominal_prism(p[16]).as_slice() == &p.as_slice()[12..19]
+                );
                 let (f1, j1) = jacobian(
                     |q: SVector<DualSVec64<CONIC_N>, CONIC_N>| s.footprint_ned(&q),
                     &p,
@@ -795,6 +861,10 @@ mod tests {
                 }
                 // Not vacuous: the surface and attitude columns move the point.
                 assert!(j1.column(3).norm() > 1.0 && j1.column(12).norm() > 1.0);
+                assert!(
+                    j1.column(17).norm() > 1.0,
+                    "the emitter zenith moves the point"
+                );
                 assert_eq!(water_s > 0.0, j1.column(21).norm() > 0.1);
             }
         }
