@@ -129,7 +129,10 @@ impl ConicScanner {
                 zenith_y: Vector3::zeros(),
             },
         };
-        let (l3, jacobian) = s.air_beam_jacobian(&s.nominal_prism(0.0));
+        let (_, jacobian) = s.air_beam_jacobian(&s.nominal_prism(0.0));
+        // The beam itself by the f64 code path, so that it is bit for bit what `rays` gives.
+        let q = s.nominal_prism(0.0);
+        let l3 = s.air_beam(&[q[0], q[1], q[2], q[3], q[4], q[5], q[6]]);
         let mut q = s.nominal_prism(0.0);
         q[6] = std::f64::consts::FRAC_PI_2;
         let (_, j_y) = s.air_beam_jacobian(&q);
@@ -287,6 +290,12 @@ impl ConicScanner {
         // prism's own frame.
         j.set_column(5, &(rz * (n.jacobian.column(5) * c - n.zenith_y * s)));
         (rz * n.l3, j)
+    }
+
+    /// The air beam `l3` in S at scan azimuth 0 with the nominal prism and emitter (computed
+    /// once per scanner); at azimuth `az` it is `Rz(az)` times this.
+    pub fn nominal_air_beam(&self) -> Vector3<f64> {
+        self.nominal.l3
     }
 
     /// The rays and the surface normals of one pulse (all in S).
@@ -867,6 +876,27 @@ mod tests {
                 );
                 assert_eq!(water_s > 0.0, j1.column(21).norm() > 0.1);
             }
+        }
+    }
+
+    #[test]
+    fn nominal_air_beam_is_the_rays_beam_at_azimuth_0() {
+        for mode in [Refraction::ScannerFrame, Refraction::Level] {
+            let s = czmil(mode);
+            let obs = ConicObservation {
+                azimuth_rad: 0.0,
+                time_air_s: 0.0,
+                time_water_s: 0.0,
+            };
+            let a = Attitude::from_degrees(3.0, -1.0, 40.0);
+            let p = s.parameters(&a, &Mounting::default(), &obs);
+            assert_eq!(s.nominal_air_beam(), s.beam_directions(&p).0);
+            // 20° off the S Z axis.
+            assert_relative_eq!(
+                s.nominal_air_beam().z.acos().to_degrees(),
+                20.0,
+                epsilon = 1e-9
+            );
         }
     }
 
