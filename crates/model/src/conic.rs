@@ -619,8 +619,9 @@ impl Georeferencer<CONIC_N> for ConicScanner {
         gnss_offset_ned(p[0], p[1], p[2]) + r_n * (r_m * x_s + lever)
     }
 
-    /// The same Jacobian as the default, composed by the chain rule from the stages (see
-    /// [`ConicScanner::staged_jacobian`]): the conic TPU's kernel.
+    /// The same Jacobian as the default, composed by the chain rule from three stages (the
+    /// rotation partials, the air beam from the scanner's nominal beam, the water leg in N by
+    /// a small dual pass): the conic TPU's kernel, many times cheaper than the default.
     fn footprint_jacobian(
         &self,
         p: &SVector<f64, CONIC_N>,
