@@ -85,6 +85,18 @@ impl Ellipsoid {
         )
     }
 
+    /// [`Ellipsoid::geodetic_to_ecef`] from the sines and cosines of latitude and longitude an
+    /// inverse projection gives ([`Unprojected`]): no trigonometry per point.
+    pub fn ecef_from_unprojected(&self, u: &Unprojected, height_m: f64) -> Vector3<f64> {
+        let (sp, cp) = (u.sin_latitude, u.cos_latitude);
+        let n = self.a_m / (1.0 - self.e2() * sp * sp).sqrt();
+        Vector3::new(
+            (n + height_m) * cp * u.cos_longitude,
+            (n + height_m) * cp * u.sin_longitude,
+            (n * (1.0 - self.e2()) + height_m) * sp,
+        )
+    }
+
     /// ECEF (metres) → geodetic.
     ///
     /// Fixed-point iteration φ ← atan2(Z + e² N(φ) sin φ, p), p = √(X² + Y²), started from

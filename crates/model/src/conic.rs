@@ -21,10 +21,11 @@
 use crate::error::{Error, Result};
 use crate::frames::{Attitude, Mounting};
 use crate::georeferencer::{Georeferencer, gnss_offset_ned};
-use crate::rotation::{rot_x, rot_y, rot_z, rotation_zyx};
+use crate::rotation::{rot_x, rot_y, rot_z, rotation_zyx, rotation_zyx_with_partials};
 use crate::scalar::{Scalar, c};
 use crate::source::Source;
-use nalgebra::{SVector, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+use num_dual::{DualSVec64, jacobian};
 
 /// Speed of light in air used by seed 004, m/s.
 pub const SPEED_OF_LIGHT_AIR_M_PER_S: f64 = 299_552_816.0;
@@ -76,6 +77,22 @@ pub struct ConicScanner {
     n_air: f64,
     n_water: f64,
     refraction: Refraction,
+    /// The air beam and its Jacobian at the nominal prism and emitter, azimuth 0.
+    nominal: NominalBeam,
+}
+
+/// The air beam `l3` and `∂l3/∂(p[12..19])` at the nominal prism and emitter (prism turned
+/// by 0, emitter on the S Z axis) and azimuth 0, computed once per scanner: the prism turns
+/// about S Z and the emitter beam lies on that axis, so at any azimuth `az` the beam is
+/// `Rz(az) l3₀` and its derivatives are those at 0 turned by `Rz(az)`, except the emitter
+/// zenith's, which depends on the direction it tilts the emitter in relative to the prism
+/// (`Rz(−az) e_x`): from the two derivatives at emitter azimuths 0 and 90°.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct NominalBeam {
+    l3: Vector3<f64>,
+    jacobian: SMatrix<f64, 3, 7>,
+    /// ∂l3/∂(emitter zenith) at emitter azimuth 90°, azimuth 0.
+    zenith_y: Vector3<f64>,
 }
 
 /// Refract direction `l` (unit) through a surface with unit normal `n` pointing along the propagation
@@ -100,12 +117,29 @@ impl ConicScanner {
         check_index("n_prism", n_prism, false)?;
         check_index("n_air", n_air, true)?;
         check_index("n_water", n_water, false)?;
-        let s = ConicScanner {
+        let mut s = ConicScanner {
             prism_slope_rad,
             n_prism,
             n_air,
             n_water,
             refraction,
+            nominal: NominalBeam {
+                l3: Vector3::zeros(),
+                jacobian: SMatrix::zeros(),
+                zenith_y: Vector3::zeros(),
+            },
+        };
+        let (_, jacobian) = s.air_beam_jacobian(&s.nominal_prism(0.0));
+        // The beam itself by the f64 code path, so that it is bit for bit what `rays` gives.
+        let q = s.nominal_prism(0.0);
+        let l3 = s.air_beam(&[q[0], q[1], q[2], q[3], q[4], q[5], q[6]]);
+        let mut q = s.nominal_prism(0.0);
+        q[6] = std::f64::consts::FRAC_PI_2;
+        let (_, j_y) = s.air_beam_jacobian(&q);
+        s.nominal = NominalBeam {
+            l3,
+            jacobian,
+            zenith_y: j_y.column(5).into_owned(),
         };
         let ok = prism_slope_rad.is_finite()
             && prism_slope_rad > 0.0
@@ -210,19 +244,65 @@ impl ConicScanner {
         (r.l3, r.l4)
     }
 
+    /// The air beam after the prism, in S, from the prism and emitter parameters
+    /// `p[12..19]` (slope, prism x/y/z, scan azimuth, emitter zenith and azimuth).
+    fn air_beam<D: Scalar>(&self, q: &[D; 7]) -> Vector3<D> {
+        let (o, l) = (D::zero(), D::one());
+        let turn = rot_z(q[4]) * rot_x(q[1]) * rot_y(q[2]) * rot_z(q[3]);
+        let (st, ct) = q[0].sin_cos();
+        let p1 = turn * Vector3::new(st, o, ct);
+        let p2 = turn * Vector3::new(o, o, l);
+        let (sz, cz) = q[5].sin_cos();
+        let (sa, ca) = q[6].sin_cos();
+        let l1 = Vector3::new(sz * ca, sz * sa, cz);
+        let (na, nf) = (c::<D>(self.n_air), c::<D>(self.n_prism));
+        let l2 = refract(&l1, &p1, na / nf);
+        refract(&l2, &p2, nf / na)
+    }
+
+    /// `p[12..19]` at the nominal prism and emitter and scan azimuth `azimuth_rad`.
+    fn nominal_prism(&self, azimuth_rad: f64) -> SVector<f64, 7> {
+        SVector::from([self.prism_slope_rad, 0.0, 0.0, 0.0, azimuth_rad, 0.0, 0.0])
+    }
+
+    /// [`ConicScanner::air_beam`] and its Jacobian by a 7-direction dual pass.
+    fn air_beam_jacobian(&self, q: &SVector<f64, 7>) -> (Vector3<f64>, SMatrix<f64, 3, 7>) {
+        jacobian(
+            |v: SVector<DualSVec64<7>, 7>| {
+                self.air_beam(&[v[0], v[1], v[2], v[3], v[4], v[5], v[6]])
+            },
+            q,
+        )
+    }
+
+    /// The air beam and its Jacobian: from the scanner's nominal beam turned to the azimuth
+    /// when the prism and emitter are nominal (as [`Georeferencer::parameters`] sets them),
+    /// else by a dual pass.
+    fn air_beam_at(&self, q: &SVector<f64, 7>) -> (Vector3<f64>, SMatrix<f64, 3, 7>) {
+        if *q != self.nominal_prism(q[4]) {
+            return self.air_beam_jacobian(q);
+        }
+        let n = &self.nominal;
+        let (s, c) = q[4].sin_cos();
+        let rz = rot_z(q[4]);
+        let mut j = rz * n.jacobian;
+        // Emitter zenith: the emitter tilts along Rz(−az) e_x = cos az e_x − sin az e_y of the
+        // prism's own frame.
+        j.set_column(5, &(rz * (n.jacobian.column(5) * c - n.zenith_y * s)));
+        (rz * n.l3, j)
+    }
+
+    /// The air beam `l3` in S at scan azimuth 0 with the nominal prism and emitter (computed
+    /// once per scanner); at azimuth `az` it is `Rz(az)` times this.
+    pub fn nominal_air_beam(&self) -> Vector3<f64> {
+        self.nominal.l3
+    }
+
     /// The rays and the surface normals of one pulse (all in S).
     fn rays<D: Scalar>(&self, p: &SVector<D, CONIC_N>) -> Rays<D> {
         let (o, l) = (D::zero(), D::one());
-        let turn = rot_z(p[16]) * rot_x(p[13]) * rot_y(p[14]) * rot_z(p[15]);
-        let (st, ct) = p[12].sin_cos();
-        let p1 = turn * Vector3::new(st, o, ct);
-        let p2 = turn * Vector3::new(o, o, l);
-        let (sz, cz) = p[17].sin_cos();
-        let (sa, ca) = p[18].sin_cos();
-        let l1 = Vector3::new(sz * ca, sz * sa, cz);
-        let (na, nf, nw) = (c::<D>(self.n_air), c::<D>(self.n_prism), p[24]);
-        let l2 = refract(&l1, &p1, na / nf);
-        let l3 = refract(&l2, &p2, nf / na);
+        let l3 = self.air_beam(&[p[12], p[13], p[14], p[15], p[16], p[17], p[18]]);
+        let (na, nw) = (c::<D>(self.n_air), p[24]);
         // S → N: R_N R_M.
         let r = rotation_zyx(p[3], p[4], p[5]) * rotation_zyx(p[6], p[7], p[8]);
         let base = match self.refraction {
@@ -236,6 +316,123 @@ impl ConicScanner {
         let p3 = (base + tilt).normalize();
         let l4 = refract(&l3, &p3, na / nw);
         Rays { l3, l4, base }
+    }
+
+    /// The scanner origin → footprint vector in N, `R X_S` with `R = R_N R_M`, from
+    /// `x = [L, B, Δt1, Δt2, δh, s_N, s_E, nw]`: `L = R l3` the air beam and `B = R base` the
+    /// untilted surface normal, both in N. Snell's law and the ranges do not depend on the frame
+    /// they are written in, so after the rotation the water leg is a function of these twelve
+    /// numbers only; `wet` is `Δt2 > 0` (the water-surface height moves only a sounding).
+    fn leg_ned<D: Scalar>(&self, x: &SVector<D, 12>, wet: bool) -> Vector3<D> {
+        let l = Vector3::new(x[0], x[1], x[2]);
+        let b = Vector3::new(x[3], x[4], x[5]);
+        self.leg_ned_at(&l, &b, &[x[6], x[7], x[8], x[9], x[10], x[11]], wet)
+    }
+
+    /// [`ConicScanner::leg_ned`] with `L`, `B` and the six scalars apart (a `level` surface
+    /// has a constant `B` and needs no derivative along it).
+    fn leg_ned_at<D: Scalar>(
+        &self,
+        l: &Vector3<D>,
+        b: &Vector3<D>,
+        x: &[D; 6],
+        wet: bool,
+    ) -> Vector3<D> {
+        let [t_air, t_water, dh, slope_n, slope_e, nw] = *x;
+        let tilt = Vector3::new(slope_n.tan(), slope_e.tan(), D::zero());
+        let p3 = (b + tilt).normalize();
+        let l4 = refract(l, &p3, c::<D>(self.n_air) / nw);
+        let speed = c::<D>(SPEED_OF_LIGHT_AIR_M_PER_S);
+        let mut rho1 = speed * t_air * c::<D>(0.5);
+        let mut rho2 = speed * t_water / (nw * c::<D>(2.0));
+        if wet {
+            let shift = dh / l.dot(b);
+            rho1 -= shift;
+            rho2 += shift / nw;
+        }
+        l * rho1 + l4 * rho2
+    }
+
+    /// The footprint and its Jacobian by the chain rule over three stages: `R_N` and `R_M`
+    /// from [`rotation_zyx_with_partials`], the air beam `l3` from a 7-direction dual pass over
+    /// the prism and emitter parameters, and the rotated legs from a 12-direction dual pass
+    /// over [`ConicScanner::leg_ned`]'s inputs (9 for a `level` surface). One 25-direction dual pass over the whole model
+    /// (the trait's default) gives the same Jacobian at many times the cost; a test checks the
+    /// two agree.
+    fn staged_jacobian(
+        &self,
+        p: &SVector<f64, CONIC_N>,
+    ) -> (Vector3<f64>, SMatrix<f64, 3, CONIC_N>) {
+        let (r_n, d_r_n) = rotation_zyx_with_partials(p[3], p[4], p[5]);
+        let (r_m, d_r_m) = rotation_zyx_with_partials(p[6], p[7], p[8]);
+        let r = r_n * r_m;
+        let q = SVector::<f64, 7>::from([p[12], p[13], p[14], p[15], p[16], p[17], p[18]]);
+        let (l3, d_l3) = self.air_beam_at(&q);
+        // B moves with the attitude only when the surface is fixed in S.
+        let scanner_frame = self.refraction == Refraction::ScannerFrame;
+        let b = if scanner_frame {
+            r.column(2).into_owned()
+        } else {
+            Vector3::z()
+        };
+        let l = r * l3;
+        let x = SVector::<f64, 12>::from([
+            l.x, l.y, l.z, b.x, b.y, b.z, p[19], p[20], p[21], p[22], p[23], p[24],
+        ]);
+        let wet = p[20] > 0.0;
+        let (v, h) = if scanner_frame {
+            jacobian(|y: SVector<DualSVec64<12>, 12>| self.leg_ned(&y, wet), &x)
+        } else {
+            // B is the constant vertical: 9 directions, B's columns zero.
+            let y0 = SVector::<f64, 9>::from_fn(|i, _| if i < 3 { x[i] } else { x[i + 3] });
+            let (v, h9) = jacobian(
+                |y: SVector<DualSVec64<9>, 9>| {
+                    let l = Vector3::new(y[0], y[1], y[2]);
+                    self.leg_ned_at(
+                        &l,
+                        &Vector3::z().map(c),
+                        &[y[3], y[4], y[5], y[6], y[7], y[8]],
+                        wet,
+                    )
+                },
+                &y0,
+            );
+            let h = SMatrix::<f64, 3, 12>::from_fn(|r, k| match k {
+                0..3 => h9[(r, k)],
+                3..6 => 0.0,
+                _ => h9[(r, k - 3)],
+            });
+            (v, h)
+        };
+        let h_l = h.fixed_columns::<3>(0).into_owned();
+        let h_b = h.fixed_columns::<3>(3).into_owned();
+        let lever = Vector3::new(p[9], p[10], p[11]);
+        let f = gnss_offset_ned(p[0], p[1], p[2]) + r_n * lever + v;
+        // ∂(R X_S)/∂θ through L = R l3 and (scanner-frame) B = R e_z.
+        let through_r = |d_r: Matrix3<f64>| {
+            let mut col = h_l * (d_r * l3);
+            if scanner_frame {
+                col += h_b * d_r.column(2);
+            }
+            col
+        };
+        let mut j = SMatrix::<f64, 3, CONIC_N>::zeros();
+        j[(0, 0)] = 1.0;
+        j[(1, 1)] = 1.0;
+        j[(2, 2)] = -1.0;
+        for k in 0..3 {
+            j.set_column(3 + k, &(d_r_n[k] * lever + through_r(d_r_n[k] * r_m)));
+            j.set_column(6 + k, &through_r(r_n * d_r_m[k]));
+            j.set_column(9 + k, &r_n.column(k).into_owned());
+        }
+        let h_l_r = h_l * r;
+        for k in 0..7 {
+            j.set_column(12 + k, &(h_l_r * d_l3.column(k)));
+        }
+        for k in 0..6 {
+            j.set_column(19 + k, &h.column(6 + k).into_owned());
+        }
+        (f, j)
     }
 
     /// Air and water ranges (m) that put the footprint on a level water surface `height_m` below the
@@ -421,6 +618,16 @@ impl Georeferencer<CONIC_N> for ConicScanner {
         let lever = Vector3::new(p[9], p[10], p[11]);
         gnss_offset_ned(p[0], p[1], p[2]) + r_n * (r_m * x_s + lever)
     }
+
+    /// The same Jacobian as the default, composed by the chain rule from three stages (the
+    /// rotation partials, the air beam from the scanner's nominal beam, the water leg in N by
+    /// a small dual pass): the conic TPU's kernel, many times cheaper than the default.
+    fn footprint_jacobian(
+        &self,
+        p: &SVector<f64, CONIC_N>,
+    ) -> (Vector3<f64>, SMatrix<f64, 3, CONIC_N>) {
+        self.staged_jacobian(p)
+    }
 }
 
 #[cfg(test)]
@@ -599,6 +806,99 @@ mod tests {
         assert_relative_eq!(s.footprint_ned(&p), other.footprint_ned(&q), epsilon = 1e-9);
         // A larger index: a shorter, steeper water leg (the bottom comes up).
         assert!(s.footprint_ned(&p).z < f0.z);
+    }
+
+    #[test]
+    fn staged_jacobian_equals_one_pass_dual_jacobian() {
+        for mode in [Refraction::ScannerFrame, Refraction::Level] {
+            let s = czmil(mode);
+            let m = Mounting {
+                boresight_roll_rad: 0.01,
+                boresight_pitch_rad: -0.02,
+                boresight_yaw_rad: 0.015,
+                lever_arm_m: Vector3::new(0.3, -0.2, 1.1),
+            };
+            let cases = [
+                (
+                    Attitude::from_degrees(1.0, -2.0, 30.0),
+                    s.time_water_s(30.0),
+                ),
+                (
+                    Attitude::from_degrees(-4.0, 3.0, 250.0),
+                    s.time_water_s(5.0),
+                ),
+                (Attitude::from_degrees(2.0, 1.0, 10.0), 0.0),
+            ];
+            for ((att, water_s), nominal) in cases.into_iter().flat_map(|c| [(c, true), (c, false)])
+            {
+                let obs = ConicObservation {
+                    azimuth_rad: 2.3,
+                    time_air_s: s.time_air_s(425.7),
+                    time_water_s: water_s,
+                };
+                let mut p = s.parameters(&att, &m, &obs);
+                // The nominal prism and emitter take the scanner's cached beam; off-nominal
+                // ones, and a tilted surface, use every term of the chain.
+                if !nominal {
+                    for (k, v) in [
+                        (13, 0.002),
+                        (14, -0.003),
+                        (15, 0.004),
+                        (17, 0.001),
+                        (18, 0.5),
+                    ] {
+                        p[k] = v;
+                    }
+                    (p[21], p[22], p[23]) = (0.1, 0.03, -0.02);
+                }
+                assert_eq!(
+                    nominal,
+                    s.nominal_prism(p[16]).as_slice() == &p.as_slice()[12..19]
+                );
+                let (f1, j1) = jacobian(
+                    |q: SVector<DualSVec64<CONIC_N>, CONIC_N>| s.footprint_ned(&q),
+                    &p,
+                );
+                let (f2, j2) = s.footprint_jacobian(&p);
+                assert_relative_eq!(f1, f2, epsilon = 1e-9);
+                for k in 0..CONIC_N {
+                    let (a, b) = (j1.column(k), j2.column(k));
+                    let scale = a.norm().max(1e-300);
+                    assert!(
+                        (a - b).norm() <= 1e-9 * scale || (a.norm() == 0.0 && b.norm() == 0.0),
+                        "{mode:?} column {k}: {a} vs {b}"
+                    );
+                }
+                // Not vacuous: the surface and attitude columns move the point.
+                assert!(j1.column(3).norm() > 1.0 && j1.column(12).norm() > 1.0);
+                assert!(
+                    j1.column(17).norm() > 1.0,
+                    "the emitter zenith moves the point"
+                );
+                assert_eq!(water_s > 0.0, j1.column(21).norm() > 0.1);
+            }
+        }
+    }
+
+    #[test]
+    fn nominal_air_beam_is_the_rays_beam_at_azimuth_0() {
+        for mode in [Refraction::ScannerFrame, Refraction::Level] {
+            let s = czmil(mode);
+            let obs = ConicObservation {
+                azimuth_rad: 0.0,
+                time_air_s: 0.0,
+                time_water_s: 0.0,
+            };
+            let a = Attitude::from_degrees(3.0, -1.0, 40.0);
+            let p = s.parameters(&a, &Mounting::default(), &obs);
+            assert_eq!(s.nominal_air_beam(), s.beam_directions(&p).0);
+            // 20° off the S Z axis.
+            assert_relative_eq!(
+                s.nominal_air_beam().z.acos().to_degrees(),
+                20.0,
+                epsilon = 1e-9
+            );
+        }
     }
 
     #[test]

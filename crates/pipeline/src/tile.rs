@@ -148,6 +148,7 @@ pub fn tpu_tile_with_progress(
         unit_m: crs.unit().metres(),
         converter,
         height_offset_m,
+        series_inverse: crs.central_meridian_rad().is_some() && !kernel.has_incidence(),
     };
     let step_deg = if info.point_format >= 6 { 0.006 } else { 1.0 };
     let mut summary = TpuSummary::new(kernel.kind(), kernel.source_names(), n_sigma);
@@ -291,6 +292,11 @@ struct Prepare {
     converter: LasTimeConverter,
     /// Added to LAS Z for the ellipsoidal height (geoid separation or 0).
     height_offset_m: f64,
+    /// Transverse Mercator points without an incidence term: the series inverse is enough for
+    /// the recovery, which is continuous in the point. The incidence term's neighbourhood
+    /// judgement is not (planar or linear, which neighbours): nanometres could move a
+    /// borderline point across, so it keeps the exact inverse and the same products.
+    series_inverse: bool,
 }
 
 #[derive(Debug, Clone)]
@@ -331,15 +337,25 @@ impl Prepare {
             return out;
         }
         let [x_m, y_m, z_m] = out.xyz_m;
-        let (lat, lon) = self.crs.inverse(x_m, y_m);
-        out.latitude_rad = lat;
-        out.longitude_rad = lon;
         // LAS Z plus the geoid separation (0 unless given) is the ellipsoidal height.
-        out.ecef = self.crs.ellipsoid().geodetic_to_ecef(&Geodetic {
-            latitude_rad: lat,
-            longitude_rad: lon,
-            height_m: z_m + self.height_offset_m,
-        });
+        let height_m = z_m + self.height_offset_m;
+        if self.series_inverse {
+            // Krüger's series inverse (nanometres from the exact inverse within a zone, half
+            // its cost) and ECEF from its sines and cosines.
+            let u = self.crs.unproject(x_m, y_m);
+            out.latitude_rad = u.latitude_rad();
+            out.longitude_rad = u.longitude_rad();
+            out.ecef = self.crs.ellipsoid().ecef_from_unprojected(&u, height_m);
+        } else {
+            let (lat, lon) = self.crs.inverse(x_m, y_m);
+            out.latitude_rad = lat;
+            out.longitude_rad = lon;
+            out.ecef = self.crs.ellipsoid().geodetic_to_ecef(&Geodetic {
+                latitude_rad: lat,
+                longitude_rad: lon,
+                height_m,
+            });
+        }
         match p.gps_time_s.map(|t| self.converter.to_seconds_of_week(t)) {
             Some(Ok(t)) => out.time_sow_s = t,
             Some(Err(e)) => out.state = PrepState::BadTime(e.to_string()),
@@ -494,6 +510,8 @@ struct Partial {
     mounting: MountingTally,
     /// Implausible points written: index, range (m), residual (m).
     implausible: Vec<(u64, f64, f64)>,
+    /// The trajectory segment of the block's previous point ([`Trajectory::at_from`]).
+    pose_hint: usize,
 }
 
 /// What the recovery of a topographic point gives the plausibility checks.
@@ -840,7 +858,7 @@ impl Run<'_> {
                 );
             }
         }
-        let pose = match self.trajectory.at(p.time_sow_s) {
+        let pose = match self.trajectory.at_from(p.time_sow_s, &mut acc.pose_hint) {
             Ok(pose) => pose,
             Err(_) => {
                 let (start_s, end_s) = self.trajectory.span_s();

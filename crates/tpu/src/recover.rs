@@ -160,7 +160,7 @@ impl Recoverer {
         if !(range_air_m.is_finite() && range_air_m > 0.0) {
             return Err(Error::Recovery(format!("air range {range_air_m} m")));
         }
-        let l3_0 = nominal_l3(scanner, 0.0);
+        let l3_0 = scanner.nominal_air_beam();
         let azimuth_rad = s.y.atan2(s.x) - l3_0.y.atan2(l3_0.x);
         let nominal = lidarqa_model::rot_z(azimuth_rad) * l3_0 * range_air_m;
         Ok(ConicRecovery {

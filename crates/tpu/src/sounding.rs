@@ -196,7 +196,7 @@ impl Recoverer {
         // height (the ellipsoid's curvature is negligible over the beam's 150 m), the rest in
         // water.
         let (s_bed, _) = self.scanner_vector(pose, bed_ecef_m);
-        let l3_0 = crate::recover::nominal_l3(scanner, 0.0);
+        let l3_0 = scanner.nominal_air_beam();
         let az0 = s_bed.y.atan2(s_bed.x) - l3_0.y.atan2(l3_0.x);
         let obs0 = ConicObservation {
             azimuth_rad: az0,

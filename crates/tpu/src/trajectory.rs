@@ -186,7 +186,17 @@ impl Trajectory {
     /// # Errors
     /// [`Error::OutsideTrajectory`] when `time_s` is not finite or outside the span.
     pub fn at(&self, time_s: f64) -> Result<PoseAt> {
-        let (i, w) = self.segment(time_s)?;
+        self.at_from(time_s, &mut 0)
+    }
+
+    /// [`Trajectory::at`] starting the search at the pose index `hint` found by the previous
+    /// call (any value at first; updated): points come in time order, so the segment is
+    /// usually the same or the next one and the binary search is skipped. Same result.
+    ///
+    /// # Errors
+    /// As [`Trajectory::at`].
+    pub fn at_from(&self, time_s: f64, hint: &mut usize) -> Result<PoseAt> {
+        let (i, w) = self.segment_from(time_s, hint)?;
         let position_ecef_m = self.positions_ecef_m[i].lerp(&self.positions_ecef_m[i + 1], w);
         let [la0, lo0] = self.lat_lon_rad[i];
         let [la1, lo1] = self.lat_lon_rad[i + 1];
@@ -223,21 +233,25 @@ impl Trajectory {
         time_s: f64,
         hint: &mut usize,
     ) -> Result<(Vector3<f64>, Matrix3<f64>)> {
-        let i = *hint;
-        let (i, w) = if i + 1 < self.times_s.len()
-            && self.times_s[i] <= time_s
-            && time_s < self.times_s[i + 1]
-        {
-            // The segment the search would find: every earlier time is ≤ time_s, the next > it.
-            let (t0, t1) = (self.times_s[i], self.times_s[i + 1]);
-            (i, (time_s - t0) / (t1 - t0))
-        } else {
-            self.segment(time_s)?
-        };
-        *hint = i;
+        let (i, w) = self.segment_from(time_s, hint)?;
         let position_ecef_m = self.positions_ecef_m[i].lerp(&self.positions_ecef_m[i + 1], w);
         let q = slerp(&self.body_to_ecef[i], &self.body_to_ecef[i + 1], w);
         Ok((position_ecef_m, q.to_rotation_matrix().into_inner()))
+    }
+
+    /// [`Trajectory::segment`] trying the segment at `hint` and the next one first (then
+    /// `hint` is set to the segment found).
+    fn segment_from(&self, time_s: f64, hint: &mut usize) -> Result<(usize, f64)> {
+        let t = &self.times_s;
+        // The segment the search would find: every earlier time is ≤ time_s, the next > it.
+        let fits = |i: usize| i + 1 < t.len() && t[i] <= time_s && time_s < t[i + 1];
+        let found = [*hint, *hint + 1].into_iter().find(|&i| fits(i));
+        let (i, w) = match found {
+            Some(i) => (i, (time_s - t[i]) / (t[i + 1] - t[i])),
+            None => self.segment(time_s)?,
+        };
+        *hint = i;
+        Ok((i, w))
     }
 
     /// The segment `[i, i + 1]` holding `time_s` and the weight of pose `i + 1`.
@@ -384,6 +398,26 @@ mod tests {
             longitude_rad: 0.25,
             attitude: Attitude::from_degrees(1.0, -2.0, heading_deg),
         }
+    }
+
+    #[test]
+    fn search_from_a_hint_finds_the_same_pose() {
+        let poses: Vec<Pose> = (0..50)
+            .map(|k| pose(f64::from(k) * 0.1, 3.0 * f64::from(k)))
+            .collect();
+        let t = Trajectory::new(&poses).unwrap();
+        let mut hint = 0;
+        // In order (same and next segment), on pose times, backwards, the last time, a jump.
+        for time in [
+            0.0, 0.01, 0.1, 0.15, 0.2, 0.31, 0.3, 4.9, 2.25, 2.3, 0.05, 4.85,
+        ] {
+            let a = t.at(time).unwrap();
+            let b = t.at_from(time, &mut hint).unwrap();
+            assert_eq!(a.position_ecef_m, b.position_ecef_m, "{time}");
+            assert_eq!(a.body_to_ned, b.body_to_ned, "{time}");
+            assert!(t.times_s[hint] <= time && (time < t.times_s[hint + 1] || hint + 2 == 50));
+        }
+        assert!(t.at_from(5.5, &mut hint).is_err());
     }
 
     #[test]
