@@ -6,10 +6,10 @@
 //!
 //! * intensity `I = a + b·f(R − |p − c|)`, with `f` the fraction of the laser footprint on the
 //!   plate (footprint mixing at the rim: a logistic for a Gaussian beam or the area fraction of
-//!   a uniform disc, chosen by likelihood); noise σ_I, plus a share of b·f(1 − f) on mixed
-//!   returns, Gaussian with a 1 % outlier component so that a stray bright return or the edge of
-//!   a nearby painted line cannot dominate; the return's horizontal position error σ_xy is
-//!   integrated over (it moves the intensity and the height label together);
+//!   a uniform disc); noise σ_I, plus a share of b·f(1 − f) on mixed returns, Gaussian with a
+//!   1 % outlier component so that a stray bright return or the edge of a nearby painted line
+//!   cannot dominate; the return's horizontal position error σ_xy is integrated over (it moves
+//!   the intensity and the height label together);
 //! * for a raised plate, which surface a return came from (a height label: above or below the
 //!   middle of the height step), on the plate with probability `σ((R − |p − c|)/τ_z)`.
 //!
@@ -19,10 +19,13 @@
 //! line only a fraction); (2) levels a, b by least squares at the detected centre, σ_I from the
 //! MAD of the residuals, the height step by least squares on a sloped ground plane plus a step;
 //! (3) the posterior mean and covariance of c under the model's likelihood (flat prior, nested
-//! grids, [`grid_posterior`]), with the ramp, σ_xy and the mixed-return share chosen by
-//! likelihood at a first posterior mean and the levels refitted there; (4) the elevation from the plate itself: the mean Z of the points
-//! inside the fitted circle minus the rim band (mixed returns), for a raised plate only those on
-//! the upper surface; (5) shape checks: the disc must be bright inside and dark in the ring.
+//! grids, [`grid_posterior`]); the edge shape (ramp, σ_xy, mixed-return share, each ramp with
+//! its levels refitted at a first posterior mean) is a nuisance the centre's posterior is
+//! averaged over, each shape weighted by its evidence ([`grid_posterior_mixture`]); (4) the
+//! elevation from the plate itself: the weighted mean Z of the points inside the fitted circle,
+//! each weighted by the probability that it is no mixed rim return, for a raised plate only
+//! those on the upper surface; (5) shape checks: the disc must be bright inside and dark in the
+//! ring.
 //!
 //! Written by hand: it is a small model-specific likelihood; the generic parts (k-d tree,
 //! least squares) come from kiddo and nalgebra.
@@ -31,7 +34,7 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-use crate::centre::{coverage_deg, grid_posterior};
+use crate::centre::{coverage_deg, grid_posterior, grid_posterior_mixture};
 use crate::extract::LidarPoint;
 
 /// Inner edge of the ring the detection compares the disc with, beyond R (m).
@@ -51,6 +54,16 @@ const MIXED_NOISES: [f64; 4] = [0.0, 0.15, 0.3, 0.6];
 /// Half the steps of each posterior grid: 25 × 25, a step of 3.3 cm on the first (±0.4 m) grid
 /// and of σ/3 on the second (±4σ).
 const GRID_HALF_STEPS: i32 = 12;
+/// Half the steps of the first grid of the average over edge shapes (one grid per shape): 13 × 13
+/// over ±5σ of the first posterior, enough to weigh the shapes and locate their mixture.
+const MIXTURE_FIRST_HALF_STEPS: i32 = 6;
+/// Half the steps of its second grid: 17 × 17 over ±4σ of the mixture, a step of σ/2.
+const MIXTURE_HALF_STEPS: i32 = 8;
+/// Edge shapes whose likelihood at the first posterior mean is more than this below the best
+/// (nats) are left out of the average over shapes: their evidence is negligible.
+const SHAPE_SPAN_NATS: f64 = 8.0;
+/// At most this many edge shapes (the most likely) enter the average (it bounds the runtime).
+const MAX_SHAPES: usize = 48;
 
 /// What the plate model found at one target (serialised as `plate` in the JSON report).
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -75,9 +88,11 @@ pub struct PlateModel {
     pub inside_bright_fraction: f64,
     /// Fraction of the points in the ring R + 0.2 … R + 0.6 m brighter than mid-contrast.
     pub ring_bright_fraction: f64,
-    /// Points averaged for the elevation: inside the fitted circle minus the rim band.
+    /// Returns of weight ≥ ½ in the elevation: inside the fitted circle (on the upper surface of a
+    /// raised plate), each weighted by the probability that it is no mixed return.
     pub n_elevation_points: usize,
-    /// Width of the rim band left out of the elevation (m).
+    /// Distance inside the fitted edge at which a return's elevation weight is ½ (the footprint
+    /// ramp's full reach), m.
     pub rim_m: f64,
 }
 
@@ -142,6 +157,15 @@ impl Ramp {
         }
     }
 
+    /// Distance inside the edge beyond which a return's footprint lies wholly on the plate (to
+    /// 1 %), m.
+    fn full_reach(self) -> f64 {
+        match self {
+            Self::Logistic(tau) => 99f64.ln() * tau,
+            Self::Footprint(rho) => rho,
+        }
+    }
+
     /// 1σ width of the ramp (m).
     fn sd(self) -> f64 {
         match self {
@@ -150,6 +174,10 @@ impl Ramp {
         }
     }
 }
+
+/// An edge shape with its levels: (loss at the first posterior mean, ramp, (σ_xy, mixed-return
+/// share), a, b, σ_I).
+type Shape = (f64, Ramp, (f64, f64), f64, f64, f64);
 
 /// The ramps the fit chooses from by likelihood.
 const RAMPS: [Ramp; 9] = [
@@ -192,6 +220,12 @@ fn position_nodes(sxy: f64, peak_m: f64) -> Vec<(f64, f64)> {
         n.1 /= total;
     }
     nodes
+}
+
+/// Standard normal CDF (the logistic approximation Φ(x) ≈ σ(1.702 x), within 0.01: enough for a
+/// weight).
+fn normal_cdf(x: f64) -> f64 {
+    sigmoid(1.702 * x)
 }
 
 fn sigmoid(x: f64) -> f64 {
@@ -393,67 +427,113 @@ pub(crate) fn fit_plate(
         0.4,
         GRID_HALF_STEPS,
     );
-    // Footprint scale and position noise by likelihood at c1, each scale with its own levels.
-    let mut best = (f64::INFINITY, ramp, sxy, a, b, s);
+    // The edge shape (ramp, σ_xy, mixed-return share), each ramp with its own levels, is a
+    // nuisance: a dozen edge returns cannot pin it, and the one that fits best at one centre is
+    // sharper than the truth, with a posterior too narrow. The centre's posterior is averaged
+    // over the shapes, each weighted by its evidence (its likelihood integrated over the centre,
+    // [`grid_posterior_mixture`]); shapes far below the best at c1 carry no weight and are left
+    // out before the grid.
+    let mut shapes: Vec<Shape> = Vec::new();
     for t in RAMPS {
         if let Some((at, bt, st)) = intensity_levels(&pts, c1, radius, t) {
             let st = st.max(floor);
             for sx in POSITION_NOISES_M {
                 for kappa in MIXED_NOISES {
                     let l = loss_at(c1, at, bt, st, t, (sx, kappa));
-                    if l < best.0 {
-                        best = (l, t, (sx, kappa), at, bt, st);
+                    if l.is_finite() {
+                        shapes.push((l, t, (sx, kappa), at, bt, st));
                     }
                 }
             }
         }
     }
-    (_, ramp, sxy, a, b, s) = best;
+    shapes.sort_by(|p, q| p.0.total_cmp(&q.0));
+    let lbest = shapes.first().map_or(f64::INFINITY, |v| v.0);
+    shapes.retain(|v| v.0 - lbest < SHAPE_SPAN_NATS);
+    shapes.truncate(MAX_SHAPES);
+    if shapes.is_empty() {
+        shapes.push((0.0, ramp, sxy, a, b, s));
+    }
     // The second posterior spans ±5σ of the first (never narrower than 5 cm): a sparse target's
     // posterior can be 10 cm wide and must not be cut by the grid.
     let sd1 = (0.5 * (cov1[0][0] + cov1[1][1])).sqrt();
-    let (centre, cov) = grid_posterior(
-        |x, y| loss_at([x, y], a, b, s, ramp, sxy),
+    let (centre, cov, weights) = grid_posterior_mixture(
+        shapes.len(),
+        |m, x, y| {
+            let (_, t, sk, at, bt, st) = shapes[m];
+            loss_at([x, y], at, bt, st, t, sk)
+        },
         c1,
         (5.0 * sd1).clamp(0.05, 0.5),
-        GRID_HALF_STEPS,
+        [MIXTURE_FIRST_HALF_STEPS, MIXTURE_HALF_STEPS],
     );
+    // The model reported (and the rim band) is the shape of most weight.
+    let top = (0..shapes.len())
+        .max_by(|&i, &j| weights[i].total_cmp(&weights[j]))
+        .unwrap_or(0);
+    (_, ramp, sxy, a, b, s) = shapes[top];
     let (sxy, _) = sxy;
     let sd_c = (0.5 * (cov[0][0] + cov[1][1])).sqrt();
 
-    // (4) Elevation from the plate: inside the circle minus the rim band.
+    // (4) Elevation from the plate: every return inside the circle (on the upper surface of a
+    // raised plate) weighted by the probability that it is no mixed return, i.e. that its
+    // footprint lies wholly on the plate: its true distance from the true centre, about
+    // N(d, σ_c² + σ_xy²), is below R − the ramp's full reach. A hard rim band several σ wide
+    // would drop most of a sparse plate's returns; returns beyond R never take part.
     let edge_sd = ramp.sd().hypot(sxy);
-    let rim_m = (3.0 * edge_sd + 2.0 * sd_c).max(0.1);
+    let core_rim_m = (3.0 * edge_sd + 2.0 * sd_c).max(0.1);
     let dist = |p: &LidarPoint| (p.x - centre[0]).hypot(p.y - centre[1]);
-    let pick = |limit: f64| -> Vec<f64> {
-        pts.iter()
-            .zip(&on_top)
-            .filter(|(p, top)| dist(p) < limit && (!raised || **top))
-            .map(|(p, _)| p.z)
-            .collect()
+    let unmixed_sd = sd_c.hypot(sxy).max(1e-3);
+    let on_surface: Vec<(f64, f64)> = pts
+        .iter()
+        .zip(&on_top)
+        .filter(|(p, top)| dist(p) < radius && (!raised || **top))
+        .map(|(p, _)| {
+            let w = normal_cdf((radius - ramp.full_reach() - dist(p)) / unmixed_sd);
+            (p.z, w)
+        })
+        .collect();
+    let n_eff = |v: &[(f64, f64)]| {
+        let (s1, s2) = v
+            .iter()
+            .fold((0.0, 0.0), |(s1, s2), &(_, w)| (s1 + w, s2 + w * w));
+        if s2 > 0.0 { s1 * s1 / s2 } else { 0.0 }
     };
-    let mut zs_core = pick(radius - rim_m);
-    let elevation_fallback = zs_core.len() < 3;
+    let mut zs_core = on_surface.clone();
+    let elevation_fallback = n_eff(&zs_core) < 3.0;
     if elevation_fallback {
-        zs_core = pick(radius);
+        for v in &mut zs_core {
+            v.1 = 1.0;
+        }
     }
     if zs_core.is_empty() {
         return None;
     }
     // Gate stray returns (a bird, a person on the plate) at 5 robust σ, never tighter than 3 cm.
-    let mut sorted = zs_core.clone();
+    let core_z: Vec<f64> = zs_core.iter().filter(|v| v.1 >= 0.5).map(|v| v.0).collect();
+    let core_z = if core_z.is_empty() {
+        zs_core.iter().map(|v| v.0).collect()
+    } else {
+        core_z
+    };
+    let mut sorted = core_z.clone();
     sorted.sort_by(f64::total_cmp);
     let med = sorted[sorted.len() / 2];
-    let gate = (5.0 * mad_sigma(&zs_core)).max(0.03);
-    zs_core.retain(|z| (z - med).abs() <= gate);
-    let nz = zs_core.len() as f64;
-    let z = zs_core.iter().sum::<f64>() / nz;
-    let var_sample = if zs_core.len() > 1 {
-        zs_core.iter().map(|v| (v - z).powi(2)).sum::<f64>() / (nz - 1.0)
+    let gate = (5.0 * mad_sigma(&core_z)).max(0.03);
+    zs_core.retain(|v| (v.0 - med).abs() <= gate && v.1 > 0.0);
+    if zs_core.is_empty() {
+        return None;
+    }
+    let sw: f64 = zs_core.iter().map(|v| v.1).sum();
+    let z = zs_core.iter().map(|v| v.0 * v.1).sum::<f64>() / sw;
+    let ne = n_eff(&zs_core);
+    let var_sample = if ne > 1.5 {
+        zs_core.iter().map(|v| v.1 * (v.0 - z).powi(2)).sum::<f64>() / sw * ne / (ne - 1.0)
     } else {
         sigma_z * sigma_z
     };
-    let var_z = var_sample.max(sigma_z * sigma_z * 0.25) / nz;
+    let var_z = var_sample.max(sigma_z * sigma_z * 0.25) / ne;
+    let n_elevation_points = zs_core.iter().filter(|v| v.1 >= 0.5).count();
 
     // (5) Shape: bright inside, dark in the ring.
     let mid = a + 0.5 * b;
@@ -468,7 +548,7 @@ pub(crate) fn fit_plate(
     };
     // The core (inside minus the rim) of a sparse plate can be empty: judge the whole circle
     // then (its returns are more than half on the plate).
-    let (mut inside_bright_fraction, n_core) = frac(0.0, radius - rim_m.min(0.5 * radius));
+    let (mut inside_bright_fraction, n_core) = frac(0.0, radius - core_rim_m.min(0.5 * radius));
     if n_core < 3 {
         inside_bright_fraction = frac(0.0, radius).0;
     }
@@ -519,8 +599,8 @@ pub(crate) fn fit_plate(
             detection_t,
             inside_bright_fraction,
             ring_bright_fraction,
-            n_elevation_points: zs_core.len(),
-            rim_m,
+            n_elevation_points,
+            rim_m: ramp.full_reach(),
         },
         plate_points,
         n_edge,
