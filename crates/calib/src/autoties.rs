@@ -28,7 +28,7 @@
 //!    [`AutoTieOptions::max_ties`].
 
 use crate::error::{Error, Result};
-use crate::geometry::ransac_plane;
+use crate::geometry::{quadratic_sag_m, ransac_plane};
 use crate::strip::{Georeferencing, Strip, check_strips, within};
 use crate::vtpm::{Indexed, Tie, TieKind, TiePick, VtpmOptions, build_virtual_tie, mix_seed};
 use lidarqa_model::Mounting;
@@ -68,6 +68,11 @@ impl Default for AutoTieOptions {
         }
     }
 }
+
+/// Largest departure of a tie patch from a plane at its radius (quadratic fit), m: well above
+/// the sag that range noise of a few mm fakes on ~50 points, well below what a kerb or a road's
+/// blend into the terrain bends.
+const MAX_SAG_M: f64 = 0.03;
 
 /// Fewest bright points of a marking in every strip for its centroid to locate it horizontally.
 const MIN_BRIGHT_POINTS: usize = 12;
@@ -203,6 +208,12 @@ fn candidate(
         let pos: Vec<Vector3<f64>> = near.iter().map(|&i| g.apply(&strip.points[i])).collect();
         let (plane, inl) = ransac_plane(&pos, opts.planarity_m, 100, mix_seed(opts.seed, k, s))?;
         if (inl.len() as f64) < 0.9 * pos.len() as f64 {
+            return None;
+        }
+        // A bent patch (a kerb, the blend from a road to the terrain) is no tie: its plane's
+        // height at the pick depends on where each strip's points fell.
+        let inliers: Vec<Vector3<f64>> = inl.iter().map(|&i| pos[i]).collect();
+        if quadratic_sag_m(&inliers, x, y, opts.patch_radius_m).is_some_and(|s| s > MAX_SAG_M) {
             return None;
         }
         patches.push((s, near, pos, plane));
