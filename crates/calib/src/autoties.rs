@@ -8,7 +8,8 @@
 //!    within [`AutoTieOptions::planarity_m`].
 //! 3. **Markings** — flat patches (slope < 5°) with intensity contrast: in every strip the bright
 //!    points (above the midpoint of the patch's 5th and 95th intensity percentiles, the 95th at
-//!    least twice the 5th) are 5–60 % of the patch. The pick in each strip is the centroid of its
+//!    least twice the 5th, the bright and the dark intensities at least 4 pooled standard
+//!    deviations apart: paint, not the bright tail of noisy intensity) are 5–60 % of the patch. The pick in each strip is the centroid of its
 //!    bright points (recomputed once around the first centroid), so the tie is the marking as that
 //!    strip sees it: a [`TieKind::Feature`] tie observing all three coordinates, or, when the bright
 //!    points are elongated (eigenvalue ratio > 4: a centre line, a stripe), a [`TieKind::Line`] tie
@@ -76,6 +77,10 @@ const MAX_SAG_M: f64 = 0.03;
 
 /// Fewest bright points of a marking in every strip for its centroid to locate it horizontally.
 const MIN_BRIGHT_POINTS: usize = 12;
+
+/// Fewest pooled standard deviations between a marking's bright and dark intensities (module
+/// docs, step 3): noise split at its midpoint gives ~2.7.
+const MIN_SEPARATION: f64 = 4.0;
 
 struct Candidate {
     tie: Tie,
@@ -250,6 +255,12 @@ fn candidate(
                 return None;
             }
             let mid = 0.5 * (p5 + p95);
+            // Paint is a second population, not the bright tail of one: with realistic
+            // intensity noise any patch's 95th percentile is twice its 5th, and a split of
+            // noise at its midpoint leaves the two halves ~2.7 of their spread apart.
+            if intensity_separation(&inten, mid) < MIN_SEPARATION {
+                return None;
+            }
             let bright = |cx: f64, cy: f64| -> (usize, f64, f64) {
                 let (mut c, mut sx, mut sy) = (0, 0.0, 0.0);
                 for (j, &i) in near.iter().enumerate() {
@@ -405,6 +416,28 @@ fn candidate(
     } else {
         None
     }
+}
+
+/// How far apart the intensities above and below `mid` are: the difference of their means over
+/// their pooled standard deviation (Fisher's ratio); 0 when one side is empty.
+fn intensity_separation(intensities: &[u16], mid: f64) -> f64 {
+    let (mut n, mut sum, mut sq) = ([0.0f64; 2], [0.0f64; 2], [0.0f64; 2]);
+    for &i in intensities {
+        let v = f64::from(i);
+        let k = usize::from(v > mid);
+        n[k] += 1.0;
+        sum[k] += v;
+        sq[k] += v * v;
+    }
+    if n[0] < 1.0 || n[1] < 1.0 {
+        return 0.0;
+    }
+    let mean = [sum[0] / n[0], sum[1] / n[1]];
+    let var = [
+        (sq[0] / n[0] - mean[0] * mean[0]).max(0.0),
+        (sq[1] / n[1] - mean[1] * mean[1]).max(0.0),
+    ];
+    (mean[1] - mean[0]) / (0.5 * (var[0] + var[1])).sqrt().max(1e-9)
 }
 
 /// Number of groups of at least 3 points linked by steps ≤ `link_m` (union–find; the patches are
