@@ -500,6 +500,33 @@ mod tests {
     }
 
     #[test]
+    fn noise_is_not_a_second_population() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        // Box–Muller normal draws around `mean`.
+        let mut normal = |mean: f64, sigma: f64| -> u16 {
+            let (u1, u2): (f64, f64) = (rng.random::<f64>().max(1e-12), rng.random());
+            let z = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+            (mean + sigma * z).round() as u16
+        };
+        let median_split = |v: &mut Vec<u16>| {
+            v.sort_unstable();
+            let (p5, p95) = (v[v.len() / 20], v[v.len() * 19 / 20]);
+            intensity_separation(v, 0.5 * (f64::from(p5) + f64::from(p95)))
+        };
+        // One Gaussian split at its middle: the halves' means ±0.8σ, their spread 0.6σ.
+        let mut noise: Vec<u16> = (0..4000).map(|_| normal(3000.0, 600.0)).collect();
+        let s = median_split(&mut noise);
+        assert!((2.4..3.0).contains(&s), "{s}");
+        // Paint on asphalt: two populations 6σ apart.
+        let mut paint: Vec<u16> = (0..4000)
+            .map(|i| normal(if i % 5 == 0 { 6600.0 } else { 3000.0 }, 600.0))
+            .collect();
+        let s = median_split(&mut paint);
+        assert!(s > MIN_SEPARATION, "{s}");
+    }
+
+    #[test]
     fn a_marking_crossed_by_few_points_ties_heights_only() {
         // Both strips sample the stripe densely: located across it.
         let fine = [striped("1", 0.1, 0.1, 0.0), striped("2", 0.1, 0.12, 0.03)];
