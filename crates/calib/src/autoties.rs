@@ -8,7 +8,8 @@
 //!    within [`AutoTieOptions::planarity_m`].
 //! 3. **Markings** — flat patches (slope < 5°) with intensity contrast: in every strip the bright
 //!    points (above the midpoint of the patch's 5th and 95th intensity percentiles, the 95th at
-//!    least twice the 5th) are 5–60 % of the patch. The pick in each strip is the centroid of its
+//!    least twice the 5th, the bright and the dark intensities at least 4 pooled standard
+//!    deviations apart: paint, not the bright tail of noisy intensity) are 5–60 % of the patch. The pick in each strip is the centroid of its
 //!    bright points (recomputed once around the first centroid), so the tie is the marking as that
 //!    strip sees it: a [`TieKind::Feature`] tie observing all three coordinates, or, when the bright
 //!    points are elongated (eigenvalue ratio > 4: a centre line, a stripe), a [`TieKind::Line`] tie
@@ -28,7 +29,7 @@
 //!    [`AutoTieOptions::max_ties`].
 
 use crate::error::{Error, Result};
-use crate::geometry::ransac_plane;
+use crate::geometry::{quadratic_sag_m, ransac_plane};
 use crate::strip::{Georeferencing, Strip, check_strips, within};
 use crate::vtpm::{Indexed, Tie, TieKind, TiePick, VtpmOptions, build_virtual_tie, mix_seed};
 use lidarqa_model::Mounting;
@@ -69,8 +70,17 @@ impl Default for AutoTieOptions {
     }
 }
 
+/// Largest departure of a tie patch from a plane at its radius (quadratic fit), m: well above
+/// the sag that range noise of a few mm fakes on ~50 points, well below what a kerb or a road's
+/// blend into the terrain bends.
+const MAX_SAG_M: f64 = 0.03;
+
 /// Fewest bright points of a marking in every strip for its centroid to locate it horizontally.
 const MIN_BRIGHT_POINTS: usize = 12;
+
+/// Fewest pooled standard deviations between a marking's bright and dark intensities (module
+/// docs, step 3): noise split at its midpoint gives ~2.7.
+const MIN_SEPARATION: f64 = 4.0;
 
 struct Candidate {
     tie: Tie,
@@ -205,6 +215,12 @@ fn candidate(
         if (inl.len() as f64) < 0.9 * pos.len() as f64 {
             return None;
         }
+        // A bent patch (a kerb, the blend from a road to the terrain) is no tie: its plane's
+        // height at the pick depends on where each strip's points fell.
+        let inliers: Vec<Vector3<f64>> = inl.iter().map(|&i| pos[i]).collect();
+        if quadratic_sag_m(&inliers, x, y, opts.patch_radius_m).is_some_and(|s| s > MAX_SAG_M) {
+            return None;
+        }
         patches.push((s, near, pos, plane));
     }
     if patches.len() < 2 {
@@ -239,6 +255,12 @@ fn candidate(
                 return None;
             }
             let mid = 0.5 * (p5 + p95);
+            // Paint is a second population, not the bright tail of one: with realistic
+            // intensity noise any patch's 95th percentile is twice its 5th, and a split of
+            // noise at its midpoint leaves the two halves ~2.7 of their spread apart.
+            if intensity_separation(&inten, mid) < MIN_SEPARATION {
+                return None;
+            }
             let bright = |cx: f64, cy: f64| -> (usize, f64, f64) {
                 let (mut c, mut sx, mut sy) = (0, 0.0, 0.0);
                 for (j, &i) in near.iter().enumerate() {
@@ -396,6 +418,28 @@ fn candidate(
     }
 }
 
+/// How far apart the intensities above and below `mid` are: the difference of their means over
+/// their pooled standard deviation (Fisher's ratio); 0 when one side is empty.
+fn intensity_separation(intensities: &[u16], mid: f64) -> f64 {
+    let (mut n, mut sum, mut sq) = ([0.0f64; 2], [0.0f64; 2], [0.0f64; 2]);
+    for &i in intensities {
+        let v = f64::from(i);
+        let k = usize::from(v > mid);
+        n[k] += 1.0;
+        sum[k] += v;
+        sq[k] += v * v;
+    }
+    if n[0] < 1.0 || n[1] < 1.0 {
+        return 0.0;
+    }
+    let mean = [sum[0] / n[0], sum[1] / n[1]];
+    let var = [
+        (sq[0] / n[0] - mean[0] * mean[0]).max(0.0),
+        (sq[1] / n[1] - mean[1] * mean[1]).max(0.0),
+    ];
+    (mean[1] - mean[0]) / (0.5 * (var[0] + var[1])).sqrt().max(1e-9)
+}
+
 /// Number of groups of at least 3 points linked by steps ≤ `link_m` (union–find; the patches are
 /// small, so O(n²) is fine).
 fn bright_components(points: &[[f64; 2]], link_m: f64) -> usize {
@@ -453,6 +497,33 @@ mod tests {
             .into_iter()
             .map(|t| t.kind)
             .collect()
+    }
+
+    #[test]
+    fn noise_is_not_a_second_population() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        // Box–Muller normal draws around `mean`.
+        let mut normal = |mean: f64, sigma: f64| -> u16 {
+            let (u1, u2): (f64, f64) = (rng.random::<f64>().max(1e-12), rng.random());
+            let z = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+            (mean + sigma * z).round() as u16
+        };
+        let median_split = |v: &mut Vec<u16>| {
+            v.sort_unstable();
+            let (p5, p95) = (v[v.len() / 20], v[v.len() * 19 / 20]);
+            intensity_separation(v, 0.5 * (f64::from(p5) + f64::from(p95)))
+        };
+        // One Gaussian split at its middle: the halves' means ±0.8σ, their spread 0.6σ.
+        let mut noise: Vec<u16> = (0..4000).map(|_| normal(3000.0, 600.0)).collect();
+        let s = median_split(&mut noise);
+        assert!((2.4..3.0).contains(&s), "{s}");
+        // Paint on asphalt: two populations 6σ apart.
+        let mut paint: Vec<u16> = (0..4000)
+            .map(|i| normal(if i % 5 == 0 { 6600.0 } else { 3000.0 }, 600.0))
+            .collect();
+        let s = median_split(&mut paint);
+        assert!(s > MIN_SEPARATION, "{s}");
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! Small geometric kernels: least-squares and RANSAC planes, the rigid transform between two
 //! triangles (seed 001 eq. 6) and linear interpolation in a triangle (seed 001 eq. 5).
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix2, Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -150,6 +150,35 @@ pub(crate) fn interpolate_z(t: &[Vector3<f64>; 3], x: f64, y: f64) -> Option<f64
     let l1 = ((x - a.x) * (c.y - a.y) - (c.x - a.x) * (y - a.y)) / det;
     let l2 = ((b.x - a.x) * (y - a.y) - (x - a.x) * (b.y - a.y)) / det;
     Some(a.z + l1 * (b.z - a.z) + l2 * (c.z - a.z))
+}
+
+/// How far a patch bends away from a plane within `radius_m` of (`x`, `y`): the largest
+/// |quadratic term| of the least-squares surface `z = a + b·dx + c·dy + d·dx² + e·dx·dy + f·dy²`
+/// at the radius, m; `None` for fewer than 12 points or a degenerate layout. A plane fitted to a
+/// bent patch gives a height at its centre that depends on where the strip's points fell.
+pub(crate) fn quadratic_sag_m(
+    points: &[Vector3<f64>],
+    x: f64,
+    y: f64,
+    radius_m: f64,
+) -> Option<f64> {
+    use nalgebra::{SMatrix, SVector};
+    if points.len() < 12 {
+        return None;
+    }
+    let mut ata = SMatrix::<f64, 6, 6>::zeros();
+    let mut atb = SVector::<f64, 6>::zeros();
+    for p in points {
+        // Scaled to the radius so that the normal equations stay well conditioned.
+        let (u, v) = ((p.x - x) / radius_m, (p.y - y) / radius_m);
+        let row = SVector::<f64, 6>::from([1.0, u, v, u * u, u * v, v * v]);
+        ata += row * row.transpose();
+        atb += row * p.z;
+    }
+    let c = ata.cholesky()?.solve(&atb);
+    let h = Matrix2::new(c[3], 0.5 * c[4], 0.5 * c[4], c[5]);
+    let e = h.symmetric_eigenvalues();
+    Some(e[0].abs().max(e[1].abs()))
 }
 
 #[cfg(test)]

@@ -8,6 +8,21 @@ fn json(path: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
+/// Each mounting parameter of the calibration: its key, error against the truth
+/// and σ; fails when one is not determined.
+fn mounting_errors(truth: &Value, cal: &Value) -> Vec<(&'static str, f64, f64)> {
+    lidarqa_calib::Param::ALL
+        .map(lidarqa_calib::Param::key)
+        .into_iter()
+        .map(|key| {
+            assert_eq!(cal["observable"][key], true, "{key}: {cal}");
+            let err =
+                cal["parameters"][key].as_f64().unwrap() - truth["mounting"][key].as_f64().unwrap();
+            (key, err, cal["sigma"][key].as_f64().unwrap())
+        })
+        .collect()
+}
+
 #[test]
 fn demo_recovers_the_injected_mounting_and_improves_accuracy() {
     let dir = tempfile::tempdir().unwrap();
@@ -41,33 +56,16 @@ fn demo_recovers_the_injected_mounting_and_improves_accuracy() {
     }
     let truth = json(&d.join("truth.json"));
     let cal = json(&d.join("calibration.json"));
-    let mut recovered = 0;
-    for key in [
-        "boresight_roll_deg",
-        "boresight_pitch_deg",
-        "boresight_yaw_deg",
-        "lever_x_m",
-        "lever_y_m",
-        "lever_z_m",
-    ] {
-        if !cal["observable"][key].as_bool().unwrap() {
-            continue;
-        }
-        recovered += 1;
-        let err =
-            cal["parameters"][key].as_f64().unwrap() - truth["mounting"][key].as_f64().unwrap();
-        let sigma = cal["sigma"][key].as_f64().unwrap();
-        // Within 4σ of the truth, and within the physical noise of this survey (the sensor's
-        // GNSS and attitude noise limits any calibration): 0.01° and 6 cm.
-        let limit = if key.ends_with("_deg") { 0.01 } else { 0.06 };
+    // Issue #19: on seed 001's flight every parameter is determined and within 2σ of the
+    // injection, the boresight within 0.005° and the lever arm within 3 cm (2 cm is the issue's
+    // aim; lever x is determined to ±1.4 cm here, README "lidarqa demo").
+    for (key, err, sigma) in mounting_errors(&truth, &cal) {
+        let limit = if key.ends_with("_deg") { 0.005 } else { 0.03 };
         assert!(
-            err.abs() < (4.0 * sigma).max(limit),
+            err.abs() <= 2.0 * sigma && err.abs() <= limit,
             "{key}: error {err}, σ {sigma}"
         );
     }
-    // Roll, pitch and the lever arm at least; boresight yaw needs more horizontal ties than this
-    // small scene has and may be held (and is then reported as not observable).
-    assert!(recovered >= 5, "{recovered} parameters recovered: {cal}");
     let before = json(&d.join("evaluate_before.json"));
     let after = json(&d.join("evaluate_after.json"));
     let rmse = |v: &Value, k: &str| v["rmse"][k].as_f64().unwrap();
@@ -191,4 +189,66 @@ fn bathymetric_demo_reports_the_iho_orders_per_depth_band() {
         iho["soundings"].as_u64().unwrap()
     )));
     assert!(html.contains("Overall the survey meets Special Order."));
+}
+
+/// Issue #19: with every random error off, the demo's own strips give back the injected mounting
+/// through the automatic ties to the numerical floor (≤ 0.0005°, ≤ 2 mm). Release-sized (six
+/// strips, 5.5 M points): `cargo test --release -p lidarqa --test demo -- --ignored`.
+#[test]
+#[ignore = "release-sized: cargo test --release -p lidarqa --test demo -- --ignored"]
+fn noise_free_demo_auto_ties_recover_the_mounting() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let lidarqa = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_lidarqa"))
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "lidarqa {args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let demo = lidarqa(&["simulate", "--scenario", "demo", "--print"]);
+    assert!(demo.contains("\nrandom = true\n"), "{demo}");
+    let quiet = d.join("quiet.toml");
+    std::fs::write(
+        &quiet,
+        demo.replace("\nrandom = true\n", "\nrandom = false\n"),
+    )
+    .unwrap();
+    let (s, c) = (d.join("s"), d.join("c"));
+    let p = |p: &Path| p.display().to_string();
+    lidarqa(&["simulate", "--scenario", &p(&quiet), "-o", &p(&s)]);
+    let mut args: Vec<String> = std::fs::read_dir(&s)
+        .unwrap()
+        .map(|e| p(&e.unwrap().path()))
+        .filter(|f| f.ends_with(".laz"))
+        .collect();
+    assert_eq!(args.len(), 6, "{args:?}");
+    args.insert(0, "calibrate".into());
+    for a in [
+        "--trajectory",
+        &p(&s.join("sbet.out")),
+        "--sensor",
+        &p(&s.join("sensor.toml")),
+        "--auto-ties",
+        "--radius-m",
+        "1.5",
+        "--control",
+        &p(&s.join("control.csv")),
+        "-o",
+        &p(&c.join("calibration.json")),
+    ] {
+        args.push(a.into());
+    }
+    lidarqa(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let truth = json(&s.join("truth.json"));
+    let cal = json(&c.join("calibration.json"));
+    for (key, err, _) in mounting_errors(&truth, &cal) {
+        let limit = if key.ends_with("_deg") { 0.0005 } else { 0.002 };
+        assert!(err.abs() <= limit, "{key}: error {err}");
+    }
 }

@@ -107,10 +107,10 @@ fn run_step(exe: &Path, s: &Step, n: usize, total: usize) -> Result<()> {
     Ok(())
 }
 
-/// The demo scenario, smaller with `--quick`, and its trajectory errors' correlation times
-/// (GNSS, attitude; s), which the calibration is told as a user reads them from the navigation
-/// processing report.
-fn scenario_file(dir: &Path, quick: bool, seed: u64) -> Result<(PathBuf, [String; 2])> {
+/// The demo scenario, smaller with `--quick`, its trajectory errors' correlation times (GNSS,
+/// attitude; s), which the calibration is told as a user reads them from the navigation
+/// processing report, and its number of flight lines (one strip each).
+fn scenario_file(dir: &Path, quick: bool, seed: u64) -> Result<(PathBuf, [String; 2], usize)> {
     let text = lidarqa_sim::builtin_toml("demo").context("the built-in demo scenario")?;
     let mut table: toml::Table = toml::from_str(text).context("the built-in demo scenario")?;
     let tau = |key: &str| {
@@ -125,6 +125,13 @@ fn scenario_file(dir: &Path, quick: bool, seed: u64) -> Result<(PathBuf, [String
         tau("gnss_correlation_time_s")?,
         tau("attitude_correlation_time_s")?,
     ];
+    let lines = table
+        .get("lines")
+        .and_then(toml::Value::as_array)
+        .map_or(0, Vec::len);
+    if lines == 0 {
+        bail!("the built-in demo scenario has no [[lines]]");
+    }
     table.insert("seed".into(), toml::Value::Integer(seed as i64));
     if quick {
         if let Some(toml::Value::Table(scanner)) = table.get_mut("scanner") {
@@ -134,7 +141,7 @@ fn scenario_file(dir: &Path, quick: bool, seed: u64) -> Result<(PathBuf, [String
     let path = dir.join("scenario.toml");
     std::fs::write(&path, toml::to_string(&table)?)
         .with_context(|| format!("{}", path.display()))?;
-    Ok((path, taus))
+    Ok((path, taus, lines))
 }
 
 fn read_json(path: &Path) -> Result<Value> {
@@ -154,7 +161,8 @@ pub fn run(args: DemoArgs) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
     let exe = std::env::current_exe().context("locating the lidarqa binary")?;
     let d = |name: &str| dir.join(name).display().to_string();
-    let (scenario, [gnss_tau_s, attitude_tau_s]) = scenario_file(dir, args.quick, args.seed)?;
+    let (scenario, [gnss_tau_s, attitude_tau_s], lines) =
+        scenario_file(dir, args.quick, args.seed)?;
     let strips = dir.join("strips");
     let corrected = dir.join("corrected");
     let tpu_dir = dir.join("tpu");
@@ -171,7 +179,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
         format!("{s_dir}/control.csv"),
     );
     let strip_files = |base: &str| -> Vec<String> {
-        (1..=4)
+        (1..=lines)
             .map(|i| format!("{base}/strip_{i:03}.laz"))
             .collect()
     };
