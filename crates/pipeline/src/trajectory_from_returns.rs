@@ -19,7 +19,7 @@
 //!    the smallest eigenvector of `Σ uᵢ uᵢᵀ` over the unit vectors from `S(tᵢ)` to every return
 //!    of the block gives the heading (a grid azimuth: the points are projected) and the pitch,
 //!    whatever the crab angle, read at the block's time from eight sub-blocks' planes; their σ
-//!    is how far the attitude wanders from a steady turn within the block ([`scan_plane`]).
+//!    is how far the attitude wanders from a steady turn within the block (`scan_plane`).
 //!    **Roll is not determined**: rolling turns every beam within that plane about the scanner,
 //!    which moves no line off the scanner and no beam out of the plane. It is carried as 0 with
 //!    the σ [`ROLL_SIGMA_RAD`].
@@ -29,7 +29,7 @@
 //!    heading wander faster than a quadratic over seconds can follow, so a smoothed attitude
 //!    carries a model error its fit σ does not see; each epoch takes its block's own scan plane
 //!    (a line through the two nearest blocks at the strip's ends), with the blocks' σ pooled
-//!    over the strip first ([`pool_attitude_sigma`]).
+//!    over the strip first (`pool_attitude_sigma`).
 //!
 //! 0. **A Cartesian frame first.** The lines are straight in space, not in projected coordinates:
 //!    easting and northing are distances on the ellipsoid, so a horizontal metre at height h is
