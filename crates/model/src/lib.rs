@@ -4,7 +4,8 @@
 //! - the linear scanner of seed 000 eq. (2), `P = P0 + R_N (R_M S + ΔP)` ([`LinearScanner`]),
 //! - the constant-angle conic prism scanner of seed 004 with vector Snell refraction through the prism
 //!   and at the water surface ([`ConicScanner`]),
-//! - the checked [`Sensor`] that computation crates accept.
+//! - the checked [`Sensor`] that computation crates accept,
+//! - the workspace's one Levenberg–Marquardt ([`lm`]).
 //!
 //! Every georeferencing function is generic over the scalar ([`Scalar`]): with `f64` it returns
 //! values, with num-dual's dual numbers the exact Jacobian of the same code, so no crate keeps a
@@ -30,6 +31,7 @@ mod error;
 mod frames;
 mod georeferencer;
 mod linear;
+pub mod lm;
 mod rotation;
 mod scalar;
 mod sensor;

@@ -17,7 +17,7 @@
 //!      (8–90) around the current centre — about one per point spacing of circumference — less
 //!      those well inside the current circle (they border a gap or the cut side of a partly
 //!      scanned target);
-//!   3. with a known radius R, fit the centre c by Levenberg–Marquardt on the geometric
+//!   3. with a known radius R, fit the centre c by Levenberg–Marquardt ([`lidarqa_model::lm`]) on the geometric
 //!      distances of the edge points, `r_e = |e − c| − (R − δ)`, plus a one-sided term for
 //!      **every** point, `r_p = max(0, |p − c| − R)`: a point on the target is no farther than R
 //!      from the centre, so c lies in the intersection of the disks of radius R around all target
@@ -54,6 +54,7 @@ use std::f64::consts::{PI, TAU};
 use std::fmt;
 use std::str::FromStr;
 
+use lidarqa_model::lm::{self, LeastSquares, LmSettings};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use serde::Serialize;
 
@@ -292,61 +293,6 @@ fn fit_plane(p: &[Vector3<f64>]) -> Option<Plane> {
     })
 }
 
-/// Levenberg–Marquardt on a small dense problem. Returns (parameters, iterations, converged).
-fn levenberg_marquardt<F>(
-    mut p: DVector<f64>,
-    f: F,
-    max_iterations: usize,
-) -> (DVector<f64>, usize, bool)
-where
-    F: Fn(&DVector<f64>) -> (DVector<f64>, DMatrix<f64>),
-{
-    let np = p.len();
-    let (mut r, mut j) = f(&p);
-    let mut cost = r.norm_squared();
-    let mut lambda = 1e-3;
-    for it in 1..=max_iterations {
-        let jtj = j.tr_mul(&j);
-        let g = j.tr_mul(&r);
-        loop {
-            let mut a = jtj.clone();
-            for k in 0..np {
-                a[(k, k)] += lambda * jtj[(k, k)].max(1e-12);
-            }
-            let Some(ch) = a.cholesky() else {
-                lambda *= 10.0;
-                if lambda > 1e12 {
-                    return (p, it, false);
-                }
-                continue;
-            };
-            let step = ch.solve(&(-&g));
-            let pn = &p + &step;
-            let (rn, jn) = f(&pn);
-            let cn = rn.norm_squared();
-            if cn <= cost {
-                let gain = cost - cn;
-                p = pn;
-                r = rn;
-                j = jn;
-                cost = cn;
-                lambda = (lambda * 0.3).max(1e-12);
-                // 1e-10 m steps are far below any survey resolution.
-                if step.norm() < 1e-10 || gain <= 1e-14 * cost {
-                    return (p, it, true);
-                }
-                break;
-            }
-            lambda *= 10.0;
-            if lambda > 1e12 {
-                // No step reduces the cost: we are at the minimum to rounding.
-                return (p, it, true);
-            }
-        }
-    }
-    (p, max_iterations, false)
-}
-
 /// Farthest point (index) per angular sector around `c`.
 fn sector_edges(q: &[[f64; 2]], active: &[bool], c: [f64; 2], sectors: usize) -> Vec<usize> {
     let mut best: Vec<Option<(usize, f64)>> = vec![None; sectors];
@@ -454,6 +400,32 @@ fn circle_residuals(
     (r, j)
 }
 
+/// The circle fit as a least-squares problem for the shared solver.
+struct CircleProblem<'a> {
+    q: &'a [[f64; 2]],
+    edges: &'a [usize],
+    active: &'a [bool],
+    radius: Option<(f64, f64)>,
+}
+
+impl LeastSquares for CircleProblem<'_> {
+    fn residuals(&self, p: &DVector<f64>) -> DVector<f64> {
+        circle_residuals(p, self.q, self.edges, self.active, self.radius).0
+    }
+    fn jacobian(&self, p: &DVector<f64>, _r: &DVector<f64>) -> DMatrix<f64> {
+        circle_residuals(p, self.q, self.edges, self.active, self.radius).1
+    }
+}
+
+/// Stopping rules of the circle fit: steps of 1e-10 m are far below any survey resolution.
+fn circle_lm_settings(parameters: usize) -> LmSettings {
+    LmSettings {
+        max_iterations: 100,
+        cost_tolerance: 1e-14,
+        step_tolerance: vec![1e-10; parameters],
+    }
+}
+
 struct Fit2 {
     centre: [f64; 2],
     cov: [[f64; 2]; 2],
@@ -502,13 +474,16 @@ fn fit_circle(q: &[[f64; 2]], radius: Option<f64>) -> Option<Fit2> {
         } else {
             DVector::from_vec(vec![c[0], c[1], rho])
         };
-        let (p, it, ok) = levenberg_marquardt(
-            p0,
-            |p| circle_residuals(p, q, &new_edges, &active, model),
-            100,
-        );
-        total_it += it;
-        converged = ok;
+        let mut problem = CircleProblem {
+            q,
+            edges: &new_edges,
+            active: &active,
+            radius: model,
+        };
+        let solved = lm::minimize(&mut problem, p0, &circle_lm_settings(np), |_, _, _| {});
+        let p = solved.x;
+        total_it += solved.iterations;
+        converged = solved.termination.was_successful();
         let moved = (p[0] - c[0]).hypot(p[1] - c[1]);
         c = [p[0], p[1]];
         if radius.is_none() {
