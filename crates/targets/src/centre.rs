@@ -54,8 +54,9 @@ use std::f64::consts::{PI, TAU};
 use std::fmt;
 use std::str::FromStr;
 
+use lidarqa_model::fit_plane;
 use lidarqa_model::lm::{self, LeastSquares, LmSettings};
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 use serde::Serialize;
 
 use crate::mec::min_enclosing_circle;
@@ -254,43 +255,6 @@ pub struct CentreEstimate {
     /// fitted one (known radius).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub plate: Option<crate::plate::PlateModel>,
-}
-
-struct Plane {
-    centroid: Vector3<f64>,
-    normal: Vector3<f64>,
-    /// Sum of squared orthogonal residuals (m²).
-    ssr: f64,
-}
-
-fn fit_plane(p: &[Vector3<f64>]) -> Option<Plane> {
-    if p.len() < 3 {
-        return None;
-    }
-    let n = p.len() as f64;
-    let centroid = p.iter().sum::<Vector3<f64>>() / n;
-    let mut s = Matrix3::zeros();
-    for q in p {
-        let d = q - centroid;
-        s += d * d.transpose();
-    }
-    let eig = s.symmetric_eigen();
-    let k = eig.eigenvalues.imin();
-    let mut normal: Vector3<f64> = eig.eigenvectors.column(k).into_owned();
-    if normal.z < 0.0 {
-        normal = -normal;
-    }
-    // Collinear points define no plane.
-    let mut ev: Vec<f64> = eig.eigenvalues.iter().copied().collect();
-    ev.sort_by(f64::total_cmp);
-    if ev[1] <= 1e-12 * ev[2].max(1e-300) {
-        return None;
-    }
-    Some(Plane {
-        centroid,
-        normal,
-        ssr: eig.eigenvalues[k].max(0.0),
-    })
 }
 
 /// Farthest point (index) per angular sector around `c`.
@@ -877,7 +841,7 @@ pub fn estimate_centre_with_background(
                 .map(|p| (p.x - mean.x).powi(2) + (p.y - mean.y).powi(2))
                 .sum::<f64>()
                 / 2.0;
-            let sigma_tilt = (pl.ssr / (nf - 3.0) / spread.max(1e-12)).sqrt();
+            let sigma_tilt = (pl.ssr() / (nf - 3.0) / spread.max(1e-12)).sqrt();
             let tilt = pl.normal.z.clamp(-1.0, 1.0).acos();
             if tilt <= 3.0 * sigma_tilt {
                 false
@@ -1014,7 +978,7 @@ pub fn estimate_centre_with_background(
             };
             let z = pl.centroid.z
                 - (nrm.x * (c3.x - pl.centroid.x) + nrm.y * (c3.y - pl.centroid.y)) / nrm.z;
-            let s2 = if n > 3 { pl.ssr / (nf - 3.0) } else { 0.0 };
+            let s2 = if n > 3 { pl.ssr() / (nf - 3.0) } else { 0.0 };
             (z, s2 / nf)
         }
         _ => (mean.z, var(2) / nf),
