@@ -10,9 +10,9 @@ use rand_chacha::ChaCha8Rng;
 /// Least-squares plane through points (smallest eigenvector of the scatter matrix); `None` for
 /// fewer than three points or collinear ones.
 ///
-/// Not yet [`lidarqa_model::fit_plane`]: that one's closed-form eigen solver agrees with
-/// nalgebra's to rounding, but rounding-level changes of the patch normals flip tie selections
-/// and move the demo's calibration (issue 22); kept until that sensitivity is understood.
+/// Not yet [`lidarqa_model::fit_plane`]: its closed-form eigen solver agrees with nalgebra's to
+/// rounding, and switching changes the demo's calibration at that level only, but issue 22 asks
+/// for products identical bit for bit; the switch is the lead's call.
 pub(crate) fn fit_plane(points: &[Vector3<f64>]) -> Option<Plane> {
     if points.len() < 3 {
         return None;

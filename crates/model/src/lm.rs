@@ -310,25 +310,21 @@ mod tests {
     fn no_decrease_is_convergence_only_with_a_negligible_step() {
         // From 3 + 1e-8 the least damped step is −1e-8 / (1 + 1e-3).
         let x0 = 3.0 + 1e-8;
-        let mut loose = settings(1);
-        loose.step_tolerance = vec![2e-8];
-        let out = minimize(
-            &mut Floor(x0),
-            DVector::from_vec(vec![x0]),
-            &loose,
-            |_, _, _| {},
-        );
-        assert_eq!(out.termination, Termination::ParametersUnchanged);
-        assert_eq!((out.x[0], out.iterations), (x0, 0));
-        let mut tight = settings(1);
-        tight.step_tolerance = vec![5e-9];
-        let out = minimize(
-            &mut Floor(x0),
-            DVector::from_vec(vec![x0]),
-            &tight,
-            |_, _, _| {},
-        );
-        assert_eq!(out.termination, Termination::NoImprovement);
+        for (tolerance, want) in [
+            (2e-8, Termination::ParametersUnchanged),
+            (5e-9, Termination::NoImprovement),
+        ] {
+            let mut s = settings(1);
+            s.step_tolerance = vec![tolerance];
+            let out = minimize(
+                &mut Floor(x0),
+                DVector::from_vec(vec![x0]),
+                &s,
+                |_, _, _| {},
+            );
+            assert_eq!(out.termination, want);
+            assert_eq!((out.x[0], out.iterations), (x0, 0));
+        }
     }
 
     #[test]
