@@ -227,7 +227,7 @@ fn candidate(
         return None;
     }
     let n = patches[0].3.normal;
-    let slope = (-n.z).clamp(-1.0, 1.0).acos().to_degrees();
+    let slope = n.z.clamp(-1.0, 1.0).acos().to_degrees();
     let theta = {
         let (s, near, _, _) = &patches[0];
         let th: Vec<f64> = near
@@ -394,7 +394,8 @@ fn candidate(
             .iter()
             .all(|p| p.3.normal.dot(&n).abs() > 3f64.to_radians().cos())
     {
-        let aspect = n.y.atan2(n.x).to_degrees().rem_euclid(360.0);
+        // Aspect of the up-pointing normal (−n in NED, model's normals have n_z ≥ 0).
+        let aspect = (-n.y).atan2(-n.x).to_degrees().rem_euclid(360.0);
         let sector = (aspect / 45.0) as usize % 8 + 8 * usize::from(slope > 30.0);
         let picks = patches
             .iter()

@@ -1,25 +1,18 @@
-//! Small geometric kernels: least-squares and RANSAC planes, the rigid transform between two
+//! Small geometric kernels: least-squares and RANSAC planes (model's [`Plane`], normal `n_z ≥ 0`,
+//! i.e. pointing down in NED), the rigid transform between two
 //! triangles (seed 001 eq. 6) and linear interpolation in a triangle (seed 001 eq. 5).
 
+pub(crate) use lidarqa_model::Plane;
 use nalgebra::{Matrix2, Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// A plane `n · p = d` with unit normal `n` (pointing up, i.e. `n.z <= 0` in NED).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Plane {
-    pub(crate) normal: Vector3<f64>,
-    pub(crate) d: f64,
-}
-
-impl Plane {
-    pub(crate) fn distance(&self, p: &Vector3<f64>) -> f64 {
-        self.normal.dot(p) - self.d
-    }
-}
-
 /// Least-squares plane through points (smallest eigenvector of the scatter matrix); `None` for
 /// fewer than three points or collinear ones.
+///
+/// Not yet [`lidarqa_model::fit_plane`]: its closed-form eigen solver agrees with nalgebra's to
+/// rounding, and switching changes the demo's calibration at that level only, but issue 22 asks
+/// for products identical bit for bit; the switch is the lead's call.
 pub(crate) fn fit_plane(points: &[Vector3<f64>]) -> Option<Plane> {
     if points.len() < 3 {
         return None;
@@ -37,14 +30,8 @@ pub(crate) fn fit_plane(points: &[Vector3<f64>]) -> Option<Plane> {
     if e.eigenvalues[order[1]] <= 1e-12 * e.eigenvalues[order[2]].max(1e-300) {
         return None;
     }
-    let mut n: Vector3<f64> = e.eigenvectors.column(order[0]).into_owned();
-    if n.z > 0.0 {
-        n = -n;
-    }
-    Some(Plane {
-        normal: n,
-        d: n.dot(&c),
-    })
+    let n: Vector3<f64> = e.eigenvectors.column(order[0]).into_owned();
+    Some(Plane::through(c, n))
 }
 
 /// RANSAC (Fischler & Bolles 1981, seed 001 ref. 16): the plane through three random points with
@@ -79,14 +66,7 @@ pub(crate) fn ransac_plane(
         if len < 1e-9 {
             continue;
         }
-        let mut nrm = nrm / len;
-        if nrm.z > 0.0 {
-            nrm = -nrm;
-        }
-        let pl = Plane {
-            normal: nrm,
-            d: nrm.dot(&points[i]),
-        };
+        let pl = Plane::through(points[i], nrm / len);
         let inl = inliers_of(&pl);
         if inl.len() > best.len() {
             best = inl;

@@ -138,7 +138,7 @@ impl LmModel for PlaneProblem<'_> {
         self.distances(x)
             .into_iter()
             .flatten()
-            // Signed distance: the normal points up (n.z < 0 in NED), so d = −sign(v.z)·|v|.
+            // Signed distance, positive upwards whichever sense the normal has: d = −sign(v.z)·|v| in NED.
             .map(|(_, v)| -(v.norm() * v.z.signum()))
             .collect()
     }

@@ -173,7 +173,7 @@ pub(crate) struct VirtualTie {
     pub(crate) carried: Vec<Vector3<f64>>,
     /// The tie at the last accepted parameters, local NED.
     pub(crate) coord: Vector3<f64>,
-    /// Normal of the coplanar patch (up-pointing, NED).
+    /// Unit normal of the coplanar patch, NED, `n_z ≥ 0` ([`lidarqa_model::fit_plane`]).
     pub(crate) normal: Vector3<f64>,
     /// A control target: the tie is the mean of its top points (`vertices`), re-georeferenced,
     /// not one triangle's: its height is observed with √n less range noise, and a target crossed
@@ -379,7 +379,7 @@ fn build_virtual_tie_within(
     let featureless =
         plane.normal.z.abs() >= LEVEL_MIN_COS && is_featureless(&mut intensities, inliers.len());
     if opts.patch {
-        let z = (plane.d - plane.normal.x * x - plane.normal.y * y) / plane.normal.z;
+        let z = (plane.offset() - plane.normal.x * x - plane.normal.y * y) / plane.normal.z;
         if !z.is_finite() {
             return Err(no_tri("the coplanar patch is vertical".into()));
         }
@@ -463,7 +463,7 @@ fn build_target_tie(
         vertices: top,
         carried: pos,
         coord,
-        normal: -Vector3::z(),
+        normal: Vector3::z(),
         target_mean: true,
         featureless: false,
     })

@@ -4,7 +4,9 @@
 //! - the linear scanner of seed 000 eq. (2), `P = P0 + R_N (R_M S + ΔP)` ([`LinearScanner`]),
 //! - the constant-angle conic prism scanner of seed 004 with vector Snell refraction through the prism
 //!   and at the water surface ([`ConicScanner`]),
-//! - the checked [`Sensor`] that computation crates accept.
+//! - the checked [`Sensor`] that computation crates accept,
+//! - the workspace's one Levenberg–Marquardt ([`lm`]) and one plane fit ([`fit_plane`], normal
+//!   `n_z ≥ 0`).
 //!
 //! Every georeferencing function is generic over the scalar ([`Scalar`]): with `f64` it returns
 //! values, with num-dual's dual numbers the exact Jacobian of the same code, so no crate keeps a
@@ -26,10 +28,13 @@
 
 mod axes;
 mod conic;
+mod eigen3;
 mod error;
 mod frames;
 mod georeferencer;
 mod linear;
+pub mod lm;
+mod plane;
 mod rotation;
 mod scalar;
 mod sensor;
@@ -41,6 +46,7 @@ pub use conic::{
     CONIC_N, ConicObservation, ConicScanner, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER,
     Refraction, SPEED_OF_LIGHT_AIR_M_PER_S, refract,
 };
+pub use eigen3::symmetric_eigen3;
 pub use error::{Error, Result};
 pub use frames::{Attitude, Mounting, Ned};
 pub use georeferencer::Georeferencer;
@@ -48,6 +54,7 @@ pub use linear::{
     LINEAR_N, LinearObservation, LinearScanner, OffPlaneLinearScanner, linear_range_for_height,
     scanner_vector,
 };
+pub use plane::{Plane, fit_plane, normal_of_scatter, plane_of_scatter};
 pub use rotation::{rot_x, rot_y, rot_z, rotation_zyx, rotation_zyx_with_partials, zyx_angles};
 pub use scalar::Scalar;
 pub use sensor::{Correlation, Scanner, Sensor, Sigmas};

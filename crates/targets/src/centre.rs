@@ -17,7 +17,7 @@
 //!      (8–90) around the current centre — about one per point spacing of circumference — less
 //!      those well inside the current circle (they border a gap or the cut side of a partly
 //!      scanned target);
-//!   3. with a known radius R, fit the centre c by Levenberg–Marquardt on the geometric
+//!   3. with a known radius R, fit the centre c by Levenberg–Marquardt ([`lidarqa_model::lm`]) on the geometric
 //!      distances of the edge points, `r_e = |e − c| − (R − δ)`, plus a one-sided term for
 //!      **every** point, `r_p = max(0, |p − c| − R)`: a point on the target is no farther than R
 //!      from the centre, so c lies in the intersection of the disks of radius R around all target
@@ -54,7 +54,9 @@ use std::f64::consts::{PI, TAU};
 use std::fmt;
 use std::str::FromStr;
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use lidarqa_model::fit_plane;
+use lidarqa_model::lm::{self, LeastSquares, LmSettings};
+use nalgebra::{DMatrix, DVector, Vector3};
 use serde::Serialize;
 
 use crate::mec::min_enclosing_circle;
@@ -256,98 +258,6 @@ pub struct CentreEstimate {
     pub plate: Option<crate::plate::PlateModel>,
 }
 
-struct Plane {
-    centroid: Vector3<f64>,
-    normal: Vector3<f64>,
-    /// Sum of squared orthogonal residuals (m²).
-    ssr: f64,
-}
-
-fn fit_plane(p: &[Vector3<f64>]) -> Option<Plane> {
-    if p.len() < 3 {
-        return None;
-    }
-    let n = p.len() as f64;
-    let centroid = p.iter().sum::<Vector3<f64>>() / n;
-    let mut s = Matrix3::zeros();
-    for q in p {
-        let d = q - centroid;
-        s += d * d.transpose();
-    }
-    let eig = s.symmetric_eigen();
-    let k = eig.eigenvalues.imin();
-    let mut normal: Vector3<f64> = eig.eigenvectors.column(k).into_owned();
-    if normal.z < 0.0 {
-        normal = -normal;
-    }
-    // Collinear points define no plane.
-    let mut ev: Vec<f64> = eig.eigenvalues.iter().copied().collect();
-    ev.sort_by(f64::total_cmp);
-    if ev[1] <= 1e-12 * ev[2].max(1e-300) {
-        return None;
-    }
-    Some(Plane {
-        centroid,
-        normal,
-        ssr: eig.eigenvalues[k].max(0.0),
-    })
-}
-
-/// Levenberg–Marquardt on a small dense problem. Returns (parameters, iterations, converged).
-fn levenberg_marquardt<F>(
-    mut p: DVector<f64>,
-    f: F,
-    max_iterations: usize,
-) -> (DVector<f64>, usize, bool)
-where
-    F: Fn(&DVector<f64>) -> (DVector<f64>, DMatrix<f64>),
-{
-    let np = p.len();
-    let (mut r, mut j) = f(&p);
-    let mut cost = r.norm_squared();
-    let mut lambda = 1e-3;
-    for it in 1..=max_iterations {
-        let jtj = j.tr_mul(&j);
-        let g = j.tr_mul(&r);
-        loop {
-            let mut a = jtj.clone();
-            for k in 0..np {
-                a[(k, k)] += lambda * jtj[(k, k)].max(1e-12);
-            }
-            let Some(ch) = a.cholesky() else {
-                lambda *= 10.0;
-                if lambda > 1e12 {
-                    return (p, it, false);
-                }
-                continue;
-            };
-            let step = ch.solve(&(-&g));
-            let pn = &p + &step;
-            let (rn, jn) = f(&pn);
-            let cn = rn.norm_squared();
-            if cn <= cost {
-                let gain = cost - cn;
-                p = pn;
-                r = rn;
-                j = jn;
-                cost = cn;
-                lambda = (lambda * 0.3).max(1e-12);
-                // 1e-10 m steps are far below any survey resolution.
-                if step.norm() < 1e-10 || gain <= 1e-14 * cost {
-                    return (p, it, true);
-                }
-                break;
-            }
-            lambda *= 10.0;
-            if lambda > 1e12 {
-                // No step reduces the cost: we are at the minimum to rounding.
-                return (p, it, true);
-            }
-        }
-    }
-    (p, max_iterations, false)
-}
-
 /// Farthest point (index) per angular sector around `c`.
 fn sector_edges(q: &[[f64; 2]], active: &[bool], c: [f64; 2], sectors: usize) -> Vec<usize> {
     let mut best: Vec<Option<(usize, f64)>> = vec![None; sectors];
@@ -455,6 +365,32 @@ fn circle_residuals(
     (r, j)
 }
 
+/// The circle fit as a least-squares problem for the shared solver.
+struct CircleProblem<'a> {
+    q: &'a [[f64; 2]],
+    edges: &'a [usize],
+    active: &'a [bool],
+    radius: Option<(f64, f64)>,
+}
+
+impl LeastSquares for CircleProblem<'_> {
+    fn residuals(&self, p: &DVector<f64>) -> DVector<f64> {
+        circle_residuals(p, self.q, self.edges, self.active, self.radius).0
+    }
+    fn jacobian(&self, p: &DVector<f64>, _r: &DVector<f64>) -> DMatrix<f64> {
+        circle_residuals(p, self.q, self.edges, self.active, self.radius).1
+    }
+}
+
+/// Stopping rules of the circle fit: steps of 1e-10 m are far below any survey resolution.
+fn circle_lm_settings(parameters: usize) -> LmSettings {
+    LmSettings {
+        max_iterations: 100,
+        cost_tolerance: 1e-14,
+        step_tolerance: vec![1e-10; parameters],
+    }
+}
+
 struct Fit2 {
     centre: [f64; 2],
     cov: [[f64; 2]; 2],
@@ -503,13 +439,16 @@ fn fit_circle(q: &[[f64; 2]], radius: Option<f64>) -> Option<Fit2> {
         } else {
             DVector::from_vec(vec![c[0], c[1], rho])
         };
-        let (p, it, ok) = levenberg_marquardt(
-            p0,
-            |p| circle_residuals(p, q, &new_edges, &active, model),
-            100,
-        );
-        total_it += it;
-        converged = ok;
+        let mut problem = CircleProblem {
+            q,
+            edges: &new_edges,
+            active: &active,
+            radius: model,
+        };
+        let solved = lm::minimize(&mut problem, p0, &circle_lm_settings(np), |_, _, _| {});
+        let p = solved.x;
+        total_it += solved.iterations;
+        converged = solved.termination.was_successful();
         let moved = (p[0] - c[0]).hypot(p[1] - c[1]);
         c = [p[0], p[1]];
         if radius.is_none() {
@@ -936,7 +875,7 @@ pub fn estimate_centre_with_background(
                 .map(|p| (p.x - mean.x).powi(2) + (p.y - mean.y).powi(2))
                 .sum::<f64>()
                 / 2.0;
-            let sigma_tilt = (pl.ssr / (nf - 3.0) / spread.max(1e-12)).sqrt();
+            let sigma_tilt = (pl.ssr() / (nf - 3.0) / spread.max(1e-12)).sqrt();
             let tilt = pl.normal.z.clamp(-1.0, 1.0).acos();
             if tilt <= 3.0 * sigma_tilt {
                 false
@@ -1073,7 +1012,7 @@ pub fn estimate_centre_with_background(
             };
             let z = pl.centroid.z
                 - (nrm.x * (c3.x - pl.centroid.x) + nrm.y * (c3.y - pl.centroid.y)) / nrm.z;
-            let s2 = if n > 3 { pl.ssr / (nf - 3.0) } else { 0.0 };
+            let s2 = if n > 3 { pl.ssr() / (nf - 3.0) } else { 0.0 };
             (z, s2 / nf)
         }
         _ => (mean.z, var(2) / nf),

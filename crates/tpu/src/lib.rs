@@ -33,7 +33,6 @@
 mod axes;
 mod bias;
 mod budget;
-mod eigen3;
 mod error;
 mod geometry;
 mod iho;

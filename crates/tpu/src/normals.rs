@@ -14,10 +14,10 @@
 //! incidence term.
 //!
 //! The normal is the eigenvector of the smallest eigenvalue of the neighbours' 3 × 3 scatter
-//! matrix (total least squares plane), from the closed-form solver of [`crate::eigen3`] (its
-//! docs say why it is not nalgebra's). The caller decides which points are candidates
-//! (lidarqa-pipeline gives each chunk plus bounded margins of its neighbours in file order, see
-//! its docs).
+//! matrix (total least squares plane, [`lidarqa_model::normal_of_scatter`]), from the closed-form
+//! solver of [`lidarqa_model::symmetric_eigen3`] (its docs say why it is not nalgebra's). The
+//! caller decides which points are candidates (lidarqa-pipeline gives each chunk plus bounded
+//! margins of its neighbours in file order, see its docs).
 //!
 //! # Neighbour search
 //! The k nearest neighbours are exact (the same set as a k-d tree's, up to ties in distance),
@@ -32,7 +32,7 @@
 //! sorted `Vec` allocated per query) it is several times faster on airborne strips; the tree
 //! build was also serial.
 
-use crate::eigen3::symmetric_eigen3;
+use lidarqa_model::{normal_of_scatter, symmetric_eigen3};
 use nalgebra::{Matrix3, Vector3};
 
 /// Fewest neighbours (the point included) a plane fit uses.
@@ -45,7 +45,7 @@ pub const MAX_NEIGHBOURS: usize = 256;
 /// Targets per parallel work item.
 const QUERY_BLOCK: usize = 2048;
 
-/// Unit normals (sign arbitrary) of `targets`, searched among `candidates`, with `k` nearest
+/// Unit normals (`n_z ≥ 0`) of `targets`, searched among `candidates`, with `k` nearest
 /// neighbours each (the point itself is among them when it is a candidate). Coordinates in any
 /// Cartesian frame, metres; subtract a nearby origin first so that f64 keeps sub-millimetre
 /// resolution in the scatter sums. `None` where fewer than [`MIN_NEIGHBOURS`] candidates exist
@@ -430,31 +430,10 @@ fn principal_axes(points: &[[f64; 3]]) -> [[f64; 3]; 2] {
     [axis(&vecs[2]), axis(&vecs[1])]
 }
 
-/// Normal of the total-least-squares plane through `points` (≥ 3, not collinear).
+/// Normal of the total-least-squares plane through `points` (≥ 3, not collinear), `n_z ≥ 0`
+/// ([`lidarqa_model::fit_plane`]).
 pub fn fit_normal(points: &[Vector3<f64>]) -> Option<Vector3<f64>> {
-    if points.len() < MIN_NEIGHBOURS {
-        return None;
-    }
-    let mean = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
-    let mut scatter = Matrix3::zeros();
-    for p in points {
-        let d = p - mean;
-        scatter += d * d.transpose();
-    }
-    normal_of_scatter(&scatter)
-}
-
-/// Unit eigenvector of the smallest eigenvalue of a 3 × 3 scatter matrix; `None` when the two
-/// smallest eigenvalues are both ~0 (collinear points).
-fn normal_of_scatter(scatter: &Matrix3<f64>) -> Option<Vector3<f64>> {
-    let ([l0, l1, l2], [n, ..]) = symmetric_eigen3(scatter);
-    // Collinear (or coincident) neighbours: the two smallest eigenvalues are both ~0.
-    let planar = l1 > 1e-12 * l2.max(f64::MIN_POSITIVE);
-    if !planar || !l0.is_finite() {
-        return None;
-    }
-    let norm = n.norm();
-    (norm > 0.0 && norm.is_finite()).then(|| n / norm)
+    lidarqa_model::fit_plane(points).map(|p| p.normal)
 }
 
 /// Angle between a beam direction and a surface normal, rad in [0, π/2] (the sign of either

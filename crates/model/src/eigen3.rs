@@ -23,7 +23,7 @@ use nalgebra::{Matrix3, Vector3};
 
 /// Eigenvalues in increasing order and their unit eigenvectors, of the symmetric part of `a`
 /// (only the upper triangle is read).
-pub(crate) fn symmetric_eigen3(a: &Matrix3<f64>) -> ([f64; 3], [Vector3<f64>; 3]) {
+pub fn symmetric_eigen3(a: &Matrix3<f64>) -> ([f64; 3], [Vector3<f64>; 3]) {
     let (a00, a01, a02) = (a[(0, 0)], a[(0, 1)], a[(0, 2)]);
     let (a11, a12, a22) = (a[(1, 1)], a[(1, 2)], a[(2, 2)]);
     let identity = [Vector3::x(), Vector3::y(), Vector3::z()];
