@@ -1,38 +1,12 @@
-//! Small geometric kernels: least-squares and RANSAC planes (model's [`Plane`], normal `n_z ≥ 0`,
-//! i.e. pointing down in NED), the rigid transform between two
+//! Small geometric kernels: RANSAC planes refitted by model's least-squares [`fit_plane`] (its
+//! [`Plane`], normal `n_z ≥ 0`, i.e. pointing down in NED), the rigid transform between two
 //! triangles (seed 001 eq. 6) and linear interpolation in a triangle (seed 001 eq. 5).
 
 pub(crate) use lidarqa_model::Plane;
+use lidarqa_model::fit_plane;
 use nalgebra::{Matrix2, Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-/// Least-squares plane through points (smallest eigenvector of the scatter matrix); `None` for
-/// fewer than three points or collinear ones.
-///
-/// Not yet [`lidarqa_model::fit_plane`]: its closed-form eigen solver agrees with nalgebra's to
-/// rounding, and switching changes the demo's calibration at that level only, but issue 22 asks
-/// for products identical bit for bit; the switch is the lead's call.
-pub(crate) fn fit_plane(points: &[Vector3<f64>]) -> Option<Plane> {
-    if points.len() < 3 {
-        return None;
-    }
-    let c = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
-    let mut m = Matrix3::zeros();
-    for p in points {
-        let d = p - c;
-        m += d * d.transpose();
-    }
-    let e = m.symmetric_eigen();
-    let mut order = [0, 1, 2];
-    order.sort_by(|&a, &b| e.eigenvalues[a].total_cmp(&e.eigenvalues[b]));
-    // Collinear: the two largest spreads must both be non-trivial.
-    if e.eigenvalues[order[1]] <= 1e-12 * e.eigenvalues[order[2]].max(1e-300) {
-        return None;
-    }
-    let n: Vector3<f64> = e.eigenvectors.column(order[0]).into_owned();
-    Some(Plane::through(c, n))
-}
 
 /// RANSAC (Fischler & Bolles 1981, seed 001 ref. 16): the plane through three random points with
 /// the most points within `threshold_m`, refitted by least squares to those inliers; returns the

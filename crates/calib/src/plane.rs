@@ -14,12 +14,13 @@ use crate::calibrate::{
     Calibration, CalibrationOptions, Method, TieReport, check_overlap, solve_with_observability,
 };
 use crate::error::{Error, Result};
-use crate::geometry::{fit_plane, ransac_plane};
+use crate::geometry::ransac_plane;
 use crate::lm::LmModel;
 use crate::params::{PARAM_COUNT, mounting_from_vector, mounting_to_vector};
 use crate::strip::{Georeferencing, Strip, check_strips};
 use crate::vtpm::{Indexed, mix_seed};
 use lidarqa_model::Mounting;
+use lidarqa_model::fit_plane;
 use nalgebra::Vector3;
 
 /// Options of the plane patches.
