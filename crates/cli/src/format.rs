@@ -1,6 +1,9 @@
 //! Output helpers shared by the subcommands: `--format`, JSON to stdout, fixed-width tables.
 
+use anyhow::Context as _;
+use lidarqa_io::AtomicFile;
 use std::io::Write;
+use std::path::Path;
 
 /// `--format`: a table for people (default) or JSON for programs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
@@ -44,4 +47,18 @@ pub fn print_warnings(warnings: &[lidarqa_model::Warning]) {
     for w in warnings {
         eprintln!("lidarqa: warning: {} ({})", w.message, w.code);
     }
+}
+
+/// Write `value` as pretty JSON (one final newline) to `path` atomically (temporary file, then
+/// rename); an output that is one of `inputs` is refused.
+pub fn write_json_file<P: AsRef<Path>>(
+    path: &Path,
+    value: &impl serde::Serialize,
+    inputs: &[P],
+) -> anyhow::Result<()> {
+    let mut f = AtomicFile::create(path, inputs)?;
+    serde_json::to_writer_pretty(&mut f, value).with_context(|| format!("{}", path.display()))?;
+    writeln!(f).with_context(|| format!("{}", path.display()))?;
+    f.commit()?;
+    Ok(())
 }

@@ -1,13 +1,16 @@
 //! The closing text of `lidarqa demo`: injected against recovered mounting, accuracy at the
-//! targets before and after calibration beside its prediction, strip-to-strip consistency —
+//! targets before and after calibration beside its prediction, strip-to-strip consistency; and
+//! of `lidarqa demo --bathymetry`: the IHO S-44 orders met by depth band and σ against depth —
 //! read from the products through their typed readers.
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::products::{
     CALIBRATION_FILE, Calibration, EVALUATE_AFTER_FILE, EVALUATE_BEFORE_FILE, Evaluation,
-    OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE, Overlap, REPORT_FILE, TRUTH_FILE, Truth,
+    OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE, Overlap, REPORT_FILE, Sweep, TPU_SUMMARY_FILE,
+    TRUTH_FILE, TpuSummary, Truth, sweep_file_name,
 };
 use crate::report::read_product;
+use lidarqa_tpu::IhoOrder;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -109,4 +112,106 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
     let _ = writeln!(t);
     let _ = writeln!(t, "report: {}", dir.join(REPORT_FILE).display());
     Ok(t)
+}
+
+/// The bathymetric demo's summary of the products in `dir`: per depth band the soundings, their
+/// RMS σ and the most demanding order met (≥ 95 % of soundings within THU and TVU), then the
+/// predicted σ against depth every 10 m from `budget_sweep_depth.json`.
+///
+/// # Errors
+/// A missing or malformed `tpu_summary.json` or depth sweep, or a TPU summary without soundings
+/// (no `iho_s44` block).
+pub fn bathymetry_demo_summary(dir: &Path) -> Result<String> {
+    let tpu_path = dir.join(TPU_SUMMARY_FILE);
+    let tpu: TpuSummary = read_product(&tpu_path)?;
+    let iho = tpu.iho_s44.ok_or_else(|| Error::Invalid {
+        path: tpu_path,
+        key: "iho_s44".into(),
+        message: "missing: the survey has no bathymetric soundings".into(),
+    })?;
+    let sweep: Sweep = read_product(dir.join(sweep_file_name("depth")))?;
+    let cm = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{:.2}", x * 100.0));
+    let mut t = String::new();
+    let _ = writeln!(
+        t,
+        "lidarqa demo --bathymetry: products and report in {}",
+        dir.display()
+    );
+    let _ = writeln!(t);
+    let _ = writeln!(
+        t,
+        "{} soundings; IHO S-44 order met (≥ 95 % of soundings within THU and TVU at 95 %):",
+        iho.soundings
+    );
+    let _ = writeln!(
+        t,
+        "{:<10}{:>10}{:>12}{:>12}{:>12}{:>12}",
+        "depth (m)", "soundings", "σ_H (cm)", "σ_V (cm)", "special %", "order met"
+    );
+    for b in &iho.bands {
+        let [lo, hi] = b.depth_m;
+        let band = if hi < 0.0 {
+            format!("{lo}+")
+        } else {
+            format!("{lo}–{hi}")
+        };
+        let met = IhoOrder::ALL
+            .into_iter()
+            .map(IhoOrder::name)
+            .find(|o| b.percent_meeting.get(o).is_some_and(|p| *p >= 95.0))
+            .unwrap_or("none");
+        let _ = writeln!(
+            t,
+            "{:<10}{:>10}{:>12}{:>12}{:>12.1}{:>12}",
+            band,
+            b.soundings,
+            cm(b.rms_sigma_horizontal_m),
+            cm(b.rms_sigma_vertical_m),
+            b.percent_meeting
+                .get("special")
+                .copied()
+                .unwrap_or(f64::NAN),
+            met
+        );
+    }
+    let _ = writeln!(t);
+    let _ = writeln!(
+        t,
+        "predicted σ vs depth at one geometry (budget --sweep depth), cm:"
+    );
+    let _ = writeln!(t, "{:<10}{:>10}{:>10}", "depth (m)", "σ_H", "σ_V");
+    for p in &sweep.points {
+        if (p.at / 10.0).fract().abs() > 1e-9 {
+            continue;
+        }
+        let _ = writeln!(
+            t,
+            "{:<10}{:>10}{:>10}",
+            p.at,
+            cm(Some(p.budget.total.horizontal)),
+            cm(Some(p.budget.total.vertical))
+        );
+    }
+    let _ = writeln!(t);
+    let _ = writeln!(t, "report: {}", dir.join(REPORT_FILE).display());
+    Ok(t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bathymetry_summary_without_soundings_names_the_file_and_key() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join(TPU_SUMMARY_FILE), r#"{"points": 10}"#).unwrap();
+        let e = bathymetry_demo_summary(dir.path()).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!(
+                "{}: iho_s44: missing: the survey has no bathymetric soundings",
+                dir.path().join(TPU_SUMMARY_FILE).display()
+            )
+        );
+    }
 }

@@ -49,7 +49,7 @@ mod report;
 mod text;
 mod verdict;
 
-pub use demo_summary::demo_summary;
+pub use demo_summary::{bathymetry_demo_summary, demo_summary};
 pub use error::{Error, Result};
 pub use products::{
     Asprs, AsprsComponent, BUDGET_FILE, Budget, BudgetSource, CALIBRATION_FILE,

@@ -65,7 +65,7 @@ pub use normals::{
 pub use point::{Incidence, MAX_INCIDENCE_RAD, PointPropagator, PointUncertainty};
 pub use presets::Preset;
 pub use recover::{ConicRecovery, LinearRecovery, Recoverer, nominal_l3};
-pub use request::{GeometryRequest, evaluate_sweep};
+pub use request::{GeometryRequest, SweepEvaluation, SweepPoint, evaluate_sweep};
 pub use sounding::{
     SAME_PULSE_S, SURFACE_NEIGHBOURS, SURFACE_RADIUS_M, SoundingRecovery, SurfacePlane,
     SurfaceSource, WaterReturn, WaterSurfaceIndex,

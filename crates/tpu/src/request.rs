@@ -8,6 +8,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{ConicRanges, Evaluation, Geometry, GeometryFacts, LinearRange, evaluate};
 use crate::sweep::{Sweep, SweepVariable};
 use lidarqa_model::{Attitude, Scanner, Sensor};
+use serde::Serialize;
 
 /// The observation geometry as asked for: every value optional (degrees and metres, as typed);
 /// what is not given comes from the preset's geometry, else level flight heading north, scan
@@ -163,7 +164,29 @@ impl GeometryRequest {
     }
 }
 
-/// The budget at every value of `sweep` from `geometry`, in order: `(value, evaluation)`.
+/// One value of a sweep and the budget there.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SweepPoint {
+    /// The swept variable's value, in the sweep's unit (degrees or metres).
+    pub at: f64,
+    /// The budget at `at`.
+    #[serde(flatten)]
+    pub evaluation: Evaluation,
+}
+
+/// The budget over a sweep: its JSON is `lidarqa budget --sweep … --format json`'s
+/// (`{"sweep", "unit", "points": [{"at", …budget…}]}`, SPEC §6).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SweepEvaluation {
+    /// The swept variable (`scan-angle`, `azimuth`, `depth`, …).
+    pub sweep: &'static str,
+    /// Unit of `at` (`deg` or `m`).
+    pub unit: &'static str,
+    /// The budgets, in sweep order.
+    pub points: Vec<SweepPoint>,
+}
+
+/// The budget at every value of `sweep` from `geometry`, in order.
 ///
 /// # Errors
 /// The first value whose geometry cannot be evaluated, naming the variable and the value.
@@ -172,15 +195,19 @@ pub fn evaluate_sweep(
     geometry: &Geometry,
     sweep: &Sweep,
     biases: Option<&Biases>,
-) -> Result<Vec<(f64, Evaluation)>> {
+) -> Result<SweepEvaluation> {
     let mut points = Vec::new();
     for at in sweep.values() {
         let g = sweep.apply(geometry, at)?;
-        let e = evaluate(sensor, &g, biases)
+        let evaluation = evaluate(sensor, &g, biases)
             .map_err(|e| Error::Geometry(format!("{} = {at}: {e}", sweep.variable.name())))?;
-        points.push((at, e));
+        points.push(SweepPoint { at, evaluation });
     }
-    Ok(points)
+    Ok(SweepEvaluation {
+        sweep: sweep.variable.name(),
+        unit: sweep.variable.unit(),
+        points,
+    })
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@ use lidarqa_tpu::{
     Biases, Geometry, GeometryRequest, Preset, Sweep, evaluate, evaluate_monte_carlo,
     evaluate_sweep,
 };
-use serde_json::{Value, json};
+use serde_json::json;
 use std::path::PathBuf;
 
 pub const AFTER_HELP: &str = "\
@@ -226,31 +226,11 @@ pub fn run(args: BudgetArgs) -> Result<()> {
             }
         }
         Some(sweep) => {
-            let points =
+            let result =
                 evaluate_sweep(&plan.sensor, &plan.geometry, &sweep, plan.biases.as_ref())?;
             match plan.format {
-                OutputFormat::Json => {
-                    let pts: Vec<Value> = points
-                        .iter()
-                        .map(|(at, e)| {
-                            let mut v = json!({"at": at});
-                            if let (Value::Object(m), Ok(Value::Object(rest))) =
-                                (&mut v, serde_json::to_value(e))
-                            {
-                                m.extend(rest);
-                            }
-                            v
-                        })
-                        .collect();
-                    print_json(&json!({
-                        "sweep": sweep.variable.name(),
-                        "unit": sweep.variable.unit(),
-                        "points": pts,
-                    }))
-                }
-                OutputFormat::Table => {
-                    print_text(&budget_table::sweep_table(&plan.label, &sweep, &points))
-                }
+                OutputFormat::Json => print_json(&result),
+                OutputFormat::Table => print_text(&budget_table::sweep_table(&plan.label, &result)),
             }
         }
     }

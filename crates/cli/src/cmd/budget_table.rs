@@ -2,7 +2,7 @@
 
 use crate::format::cm;
 use lidarqa_model::Source;
-use lidarqa_tpu::{Evaluation, GeometryFacts, MonteCarlo, Sweep};
+use lidarqa_tpu::{Evaluation, GeometryFacts, MonteCarlo, SweepEvaluation};
 use std::fmt::Write as _;
 
 fn geometry_line(e: &Evaluation) -> String {
@@ -128,33 +128,27 @@ pub fn table(label: &str, e: &Evaluation) -> String {
     t
 }
 
-pub fn sweep_table(label: &str, sweep: &Sweep, points: &[(f64, Evaluation)]) -> String {
+/// One row per value of the sweep: the total σ and, with `--bias`, the displacement, in cm.
+pub fn sweep_table(label: &str, result: &SweepEvaluation) -> String {
     let mut t = String::new();
-    let first = &points[0].1;
+    let first = &result.points[0].evaluation;
     let _ = writeln!(
         t,
         "lidarqa budget sweep over {} ({}): {} scanner, {label}",
-        sweep.variable.name(),
-        sweep.variable.unit(),
-        first.scanner
+        result.sweep, result.unit, first.scanner
     );
     let has_bias = first.bias.is_some();
     let _ = write!(
         t,
         "{:>10}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}",
-        sweep.variable.unit(),
-        "north",
-        "east",
-        "up",
-        "horiz",
-        "vert",
-        "3-D"
+        result.unit, "north", "east", "up", "horiz", "vert", "3-D"
     );
     if has_bias {
         let _ = write!(t, "   bias{:>7}{:>8}{:>8}", "along", "across", "up");
     }
     let _ = writeln!(t, "   (σ and bias in cm)");
-    for (at, e) in points {
+    for p in &result.points {
+        let (at, e) = (p.at, &p.evaluation);
         let x = e.total;
         let _ = write!(
             t,

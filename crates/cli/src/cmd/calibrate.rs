@@ -2,20 +2,16 @@
 //! seed 001), writing `calibration.json` (SPEC §8) and `calibration_iterations.json` beside it.
 //! The work is lidarqa-pipeline's `calibrate_strips`; this module parses, checks and prints.
 
-use super::tpu::crs_flags;
-use crate::format::{OutputFormat, print_json, print_text};
+use super::calibrate_table;
+use super::tpu_flags::crs_flags;
+use crate::format::{OutputFormat, print_json, print_text, write_json_file};
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lidarqa_calib::{
-    Calibration, CalibrationOptions, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Method, Param,
-    TrajectorySigma,
-};
-use lidarqa_io::AtomicFile;
+use lidarqa_calib::{CalibrationOptions, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Method};
 use lidarqa_pipeline::{
     CalibrateJob, TieSource, TpuContext, TpuOptions, TrajectoryWeighting, calibrate_strips,
 };
-use std::io::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Most Levenberg–Marquardt iterations: a calibration converges in tens.
 const MAX_LM_ITERATIONS: usize = 10_000;
@@ -127,14 +123,6 @@ pub struct CalibrateArgs {
     /// Output format of the summary on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
     format: OutputFormat,
-}
-
-fn write_json(path: &Path, value: &serde_json::Value, inputs: &[PathBuf]) -> Result<()> {
-    let mut f = AtomicFile::create(path, inputs)?;
-    serde_json::to_writer_pretty(&mut f, value)?;
-    writeln!(f)?;
-    f.commit()?;
-    Ok(())
 }
 
 struct Plan {
@@ -252,88 +240,14 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
     // stderr and into the JSON.
     crate::format::print_warnings(&run.warnings);
     let doc = run.to_json();
-    write_json(&a.output, &doc, &inputs)?;
+    write_json_file(&a.output, &doc, &inputs)?;
     if let Some(iterations) = run.iterations_json() {
-        write_json(&plan.iterations_path, &iterations, &inputs)?;
+        write_json_file(&plan.iterations_path, &iterations, &inputs)?;
     }
     match a.format {
         OutputFormat::Json => print_json(&doc),
-        OutputFormat::Table => print_text(&table(&run.calibration)),
+        OutputFormat::Table => print_text(&calibrate_table::table(&run.calibration)),
     }
-}
-
-fn table(cal: &Calibration) -> String {
-    let x = lidarqa_calib::mounting_to_vector(&cal.mounting);
-    let mut s = format!(
-        "method {}  iterations {}  ({})  sigma0 {:.4} m\n{:<22} {:>12} {:>12} {:>12}  observable\n",
-        cal.method.name(),
-        cal.iterations,
-        cal.termination.name(),
-        cal.sigma0_m,
-        "parameter",
-        "value",
-        "sigma",
-        "prior sigma"
-    );
-    for p in Param::ALL {
-        let i = p.index();
-        let sig = cal.sigma[i].map_or("-".to_string(), |v| format!("{:.5}", p.to_display(v)));
-        let prior_sig =
-            cal.prior_sigma[i].map_or("-".to_string(), |v| format!("{:.5}", p.to_display(v)));
-        s += &format!(
-            "{:<22} {:>12.5} {:>12} {:>12}  {}\n",
-            p.key(),
-            p.to_display(x[i]),
-            sig,
-            prior_sig,
-            if cal.observable[i] {
-                "yes".to_string()
-            } else {
-                format!("no: {}", cal.held_because[i])
-            }
-        );
-    }
-    if let Some(t) = &cal.trajectory_sigma {
-        s += &format!(
-            "sigma includes each strip's trajectory error (GNSS {:.3}/{:.3}/{:.3} m, roll/pitch/heading {:.4}/{:.4}/{:.4} deg, {}; the ties are weighted by it)\n",
-            t.position_m[0],
-            t.position_m[1],
-            t.position_m[2],
-            t.attitude_rad[0].to_degrees(),
-            t.attitude_rad[1].to_degrees(),
-            t.attitude_rad[2].to_degrees(),
-            correlation_phrase(t),
-        );
-    }
-    for d in &cal.dropped_picks {
-        s += &format!(
-            "dropped pick: tie {} in strip {}: {}\n",
-            d.tie, d.strip, d.reason
-        );
-    }
-    let ((h0, v0), (h1, v1)) = cal.tie_rms_m();
-    s += &format!(
-        "tie residual RMS: horizontal {:.3} -> {:.3} m, vertical {:.3} -> {:.3} m ({} ties)\n",
-        h0,
-        h1,
-        v0,
-        v1,
-        cal.ties.len()
-    );
-    s
-}
-
-/// How the trajectory errors are taken to vary over a strip, for the summary.
-fn correlation_phrase(t: &TrajectorySigma) -> String {
-    let one = |what: &str, tau: Option<f64>| match tau {
-        Some(v) => format!("{what} correlated over {v} s"),
-        None => format!("{what} constant over each strip"),
-    };
-    format!(
-        "{}, {}",
-        one("GNSS", t.position_correlation_s),
-        one("attitude", t.attitude_correlation_s)
-    )
 }
 
 #[cfg(test)]

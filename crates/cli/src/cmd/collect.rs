@@ -2,12 +2,10 @@
 //! summary `lidarqa tpu` writes over the same tiles (SPEC §9).
 
 use super::tpu_table::table;
-use crate::format::{OutputFormat, print_json, print_text, print_warnings};
-use anyhow::{Context, Result};
+use crate::format::{OutputFormat, print_json, print_text, print_warnings, write_json_file};
+use anyhow::Result;
 use clap::Args;
-use lidarqa_io::AtomicFile;
 use lidarqa_pipeline::{Manifest, collect, resolve};
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 pub const AFTER_HELP: &str = "\
@@ -47,11 +45,7 @@ pub fn run(a: CollectArgs) -> Result<()> {
                 .map(|p| resolve(&a.manifest, p)),
         );
         let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
-        let mut f = AtomicFile::create(path, &inputs)?;
-        serde_json::to_writer_pretty(&mut f, &report)
-            .with_context(|| format!("{}", path.display()))?;
-        writeln!(f).with_context(|| format!("{}", path.display()))?;
-        f.commit()?;
+        write_json_file(path, &report, &inputs)?;
     }
     match a.format {
         OutputFormat::Json => print_json(&report),

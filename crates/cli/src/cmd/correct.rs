@@ -4,7 +4,7 @@
 //! Each strip is one `lidarqa_pipeline::correct_tile` (streaming, bounded memory): the command,
 //! the Python binding and a job array give the same bytes because they run the same function.
 
-use super::tpu::crs_flags;
+use super::tpu_flags::crs_flags;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lidarqa_calib::mounting_from_json;

@@ -6,13 +6,14 @@
 //! it left in place.
 
 mod bathymetry;
+mod runner;
+mod scenario;
 
 use crate::format::print_text;
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::Args;
-use serde_json::Value;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use runner::{Step, run_step, step};
+use std::path::PathBuf;
 
 pub const AFTER_HELP: &str = "\
 Example:
@@ -42,113 +43,6 @@ pub struct DemoArgs {
     seed: u64,
 }
 
-/// One step: what it does, its arguments, and where its stdout goes (None: the terminal).
-struct Step {
-    what: &'static str,
-    args: Vec<String>,
-    stdout: Option<PathBuf>,
-}
-
-fn step(what: &'static str, args: &[&str], stdout: Option<PathBuf>) -> Step {
-    Step {
-        what,
-        args: args.iter().map(|s| s.to_string()).collect(),
-        stdout,
-    }
-}
-
-fn quote(s: &str) -> String {
-    if s.chars()
-        .all(|c| c.is_ascii_alphanumeric() || "-_./=:,".contains(c))
-    {
-        s.to_string()
-    } else {
-        format!("'{}'", s.replace('\'', "'\\''"))
-    }
-}
-
-fn run_step(exe: &Path, s: &Step, n: usize, total: usize) -> Result<()> {
-    let mut shown = format!(
-        "lidarqa {}",
-        s.args
-            .iter()
-            .map(|a| quote(a))
-            .collect::<Vec<_>>()
-            .join(" ")
-    );
-    if let Some(out) = &s.stdout {
-        shown += &format!(" > {}", quote(&out.display().to_string()));
-    }
-    eprintln!("[{n}/{total}] {}\n    $ {shown}", s.what);
-    let mut cmd = Command::new(exe);
-    cmd.args(&s.args).stdin(Stdio::null());
-    match &s.stdout {
-        Some(path) => {
-            let file =
-                std::fs::File::create(path).with_context(|| format!("{}", path.display()))?;
-            cmd.stdout(file);
-        }
-        None => {
-            cmd.stdout(Stdio::null());
-        }
-    }
-    let status = cmd
-        .status()
-        .with_context(|| format!("running {}", exe.display()))?;
-    if !status.success() {
-        if let Some(path) = &s.stdout {
-            let _ = std::fs::remove_file(path);
-        }
-        bail!(
-            "step {n} ({}) failed; the products of the steps before it are in place. Re-run it with: {shown}",
-            s.what
-        );
-    }
-    Ok(())
-}
-
-/// The demo scenario, smaller with `--quick`, its trajectory errors' correlation times (GNSS,
-/// attitude; s), which the calibration is told as a user reads them from the navigation
-/// processing report, and its number of flight lines (one strip each).
-fn scenario_file(dir: &Path, quick: bool, seed: u64) -> Result<(PathBuf, [String; 2], usize)> {
-    let text = lidarqa_sim::builtin_toml("demo").context("the built-in demo scenario")?;
-    let mut table: toml::Table = toml::from_str(text).context("the built-in demo scenario")?;
-    let tau = |key: &str| {
-        table
-            .get("errors")
-            .and_then(|e| e.get(key))
-            .and_then(toml::Value::as_float)
-            .map(|v| v.to_string())
-            .with_context(|| format!("the built-in demo scenario: errors.{key}"))
-    };
-    let taus = [
-        tau("gnss_correlation_time_s")?,
-        tau("attitude_correlation_time_s")?,
-    ];
-    let lines = table
-        .get("lines")
-        .and_then(toml::Value::as_array)
-        .map_or(0, Vec::len);
-    if lines == 0 {
-        bail!("the built-in demo scenario has no [[lines]]");
-    }
-    table.insert("seed".into(), toml::Value::Integer(seed as i64));
-    if quick {
-        if let Some(toml::Value::Table(scanner)) = table.get_mut("scanner") {
-            scanner.insert("pulse_rate_hz".into(), toml::Value::Float(50_000.0));
-        }
-    }
-    let path = dir.join("scenario.toml");
-    std::fs::write(&path, toml::to_string(&table)?)
-        .with_context(|| format!("{}", path.display()))?;
-    Ok((path, taus, lines))
-}
-
-fn read_json(path: &Path) -> Result<Value> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("{}", path.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("{}: not JSON", path.display()))
-}
-
 /// Run `lidarqa demo`.
 pub fn run(args: DemoArgs) -> Result<()> {
     if args.bathymetry {
@@ -162,7 +56,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
     let exe = std::env::current_exe().context("locating the lidarqa binary")?;
     let d = |name: &str| dir.join(name).display().to_string();
     let (scenario, [gnss_tau_s, attitude_tau_s], lines) =
-        scenario_file(dir, args.quick, args.seed)?;
+        scenario::topographic(dir, args.quick, args.seed)?;
     let strips = dir.join("strips");
     let corrected = dir.join("corrected");
     let tpu_dir = dir.join("tpu");

@@ -4,6 +4,7 @@
 mod budget;
 mod budget_table;
 mod calibrate;
+mod calibrate_table;
 mod collect;
 mod correct;
 mod demo;
@@ -16,6 +17,7 @@ mod simulate;
 mod targets;
 mod tile;
 mod tpu;
+mod tpu_flags;
 mod tpu_table;
 mod trajectory;
 

@@ -2,7 +2,7 @@
 //! digest, its output and its report, for `lidarqa run` (a job array task each) and
 //! `lidarqa collect`. The manifest format is lidarqa-pipeline's `Manifest`.
 
-use super::tpu::{TpuFlags, point_clouds_in};
+use super::tpu_flags::{TpuFlags, point_clouds_in};
 use anyhow::{Result, bail};
 use clap::{Args, Subcommand};
 use lidarqa_pipeline::{TpuPlan, plan_tpu};

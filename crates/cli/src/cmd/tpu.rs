@@ -2,13 +2,13 @@
 //! trajectory (SPEC §6, §7, §9). The work is lidarqa-pipeline's `tpu_tiles`; this module parses,
 //! shows progress and prints the summary.
 
+use super::tpu_flags::{TpuFlags, point_clouds_in};
 use super::tpu_table;
-use crate::format::{OutputFormat, print_json, print_text, print_warnings};
+use crate::format::{OutputFormat, print_json, print_text, print_warnings, write_json_file};
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lidarqa_io::{AtomicFile, Crs, LasReader, UtmZone};
+use lidarqa_io::LasReader;
 use lidarqa_pipeline::{TileReport, TpuContext, TpuOptions, TpuTileJob, tpu_tiles};
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 pub const AFTER_HELP: &str = "\
@@ -71,96 +71,6 @@ struct Tile {
     output: PathBuf,
 }
 
-/// The options of a per-point TPU run, shared by `lidarqa tpu` and `lidarqa plan tpu`.
-#[derive(Debug, Args)]
-pub struct TpuFlags {
-    /// GPS week of the survey (for adjusted standard GPS time).
-    #[arg(long, value_name = "N")]
-    gps_week: Option<i64>,
-    /// UTM zone of the points when the files have no CRS, e.g. 33N or 17S (WGS 84).
-    #[arg(long, value_name = "ZONE", conflicts_with = "epsg")]
-    utm_zone: Option<String>,
-    /// EPSG code of the points' projected CRS when the files have none (any projected EPSG
-    /// CRS: UTM, national transverse Mercator grids, LAEA, state planes in feet, ...).
-    #[arg(long, value_name = "CODE")]
-    epsg: Option<u32>,
-    /// Skip and count points outside the trajectory's time span instead of failing.
-    #[arg(long)]
-    skip_outside: bool,
-    /// Skip and count points with NaN coordinates, an unusable GPS time or no recoverable
-    /// observation (including soundings with no water surface above them or not below it)
-    /// instead of failing.
-    #[arg(long)]
-    skip_invalid: bool,
-    /// Points per chunk (memory grows with it; the result does not).
-    #[arg(long, value_name = "N", default_value_t = TpuOptions::default().chunk_points)]
-    chunk_points: usize,
-    /// Neighbours of the plane fit for the incidence angle (3 to 256; never more than the
-    /// points searched; unused when the file has NormalX/NormalY/NormalZ).
-    #[arg(long, value_name = "K", default_value_t = TpuOptions::default().neighbours)]
-    neighbours: usize,
-    /// Geoid separation N in metres (ellipsoidal − orthometric height), added to LAS Z (and to a
-    /// projected text trajectory's Z): required when the file's CRS has an orthometric vertical
-    /// datum (e.g. NAVD88 height); the TPU needs ellipsoidal heights.
-    #[arg(long, value_name = "M", allow_negative_numbers = true)]
-    geoid_separation_m: Option<f64>,
-    /// Also write the full covariance per point: VarianceX/Y/Z, CovarianceXY/XZ/YZ (f64 m²,
-    /// projected axes easting, northing, up; PDAL filters.als_tpu's names).
-    #[arg(long)]
-    covariance: bool,
-}
-
-impl TpuFlags {
-    /// The checked library options.
-    pub(crate) fn options(&self) -> Result<TpuOptions> {
-        let crs = crs_flags(self.utm_zone.as_deref(), self.epsg)?;
-        if self.chunk_points == 0 {
-            bail!("--chunk-points must be > 0");
-        }
-        if self
-            .geoid_separation_m
-            .is_some_and(|n| !(n.is_finite() && n.abs() < 200.0))
-        {
-            bail!(
-                "--geoid-separation-m {:?} is not a geoid separation (|N| < 200 m)",
-                self.geoid_separation_m.unwrap_or_default()
-            );
-        }
-        let (lo, hi) = (lidarqa_tpu::MIN_NEIGHBOURS, lidarqa_tpu::MAX_NEIGHBOURS);
-        if !(lo..=hi).contains(&self.neighbours) {
-            bail!(
-                "--neighbours {} must be {lo} to {hi} (a plane fit over one footprint's surroundings)",
-                self.neighbours
-            );
-        }
-        Ok(TpuOptions {
-            crs,
-            gps_week: self.gps_week,
-            skip_outside: self.skip_outside,
-            skip_invalid: self.skip_invalid,
-            chunk_points: self.chunk_points,
-            neighbours: self.neighbours,
-            covariance: self.covariance,
-            geoid_separation_m: self.geoid_separation_m,
-            ..TpuOptions::default()
-        })
-    }
-}
-
-/// The `.las` / `.laz` files of `dir`, sorted; an error names the directory when it has none.
-pub(crate) fn point_clouds_in(dir: &Path) -> Result<Vec<PathBuf>> {
-    let mut inputs: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("{}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.is_file() && is_point_cloud(p))
-        .collect();
-    inputs.sort();
-    if inputs.is_empty() {
-        bail!("{}: no .las or .laz files in the directory", dir.display());
-    }
-    Ok(inputs)
-}
-
 /// A checked run.
 struct Plan {
     tiles: Vec<Tile>,
@@ -171,21 +81,6 @@ struct Plan {
     calibration: Option<PathBuf>,
     summary: Option<PathBuf>,
     format: OutputFormat,
-}
-
-/// The CRS given by `--utm-zone` or `--epsg` (clap refuses both), if any.
-pub(crate) fn crs_flags(utm_zone: Option<&str>, epsg: Option<u32>) -> Result<Option<Crs>> {
-    Ok(match (utm_zone, epsg) {
-        (Some(z), _) => Some(Crs::from(z.parse::<UtmZone>().context("--utm-zone")?)),
-        (None, Some(code)) => Some(Crs::from_epsg(code).with_context(|| format!("--epsg {code}"))?),
-        (None, None) => None,
-    })
-}
-
-pub(crate) fn is_point_cloud(p: &Path) -> bool {
-    p.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("las") || e.eq_ignore_ascii_case("laz"))
 }
 
 impl TryFrom<TpuArgs> for Plan {
@@ -294,11 +189,7 @@ pub fn run(args: TpuArgs) -> Result<()> {
         inputs.push(&plan.sensor);
         inputs.extend(plan.smrmsg.as_deref());
         inputs.extend(plan.calibration.as_deref());
-        let mut f = AtomicFile::create(path, &inputs)?;
-        serde_json::to_writer_pretty(&mut f, &report)
-            .with_context(|| format!("{}", path.display()))?;
-        writeln!(f).with_context(|| format!("{}", path.display()))?;
-        f.commit()?;
+        write_json_file(path, &report, &inputs)?;
     }
     match plan.format {
         OutputFormat::Json => print_json(&report),

@@ -1,0 +1,70 @@
+//! The demo scenarios: the built-in ones with the demo's seed, fewer pulses with `--quick`,
+//! written beside the products so that the `simulate` step reads an ordinary file.
+
+use anyhow::{Context, Result, bail};
+use std::path::{Path, PathBuf};
+
+/// The demo scenario, smaller with `--quick`, its trajectory errors' correlation times (GNSS,
+/// attitude; s), which the calibration is told as a user reads them from the navigation
+/// processing report, and its number of flight lines (one strip each).
+pub(super) fn topographic(
+    dir: &Path,
+    quick: bool,
+    seed: u64,
+) -> Result<(PathBuf, [String; 2], usize)> {
+    let text = lidarqa_sim::builtin_toml("demo").context("the built-in demo scenario")?;
+    let mut table: toml::Table = toml::from_str(text).context("the built-in demo scenario")?;
+    let tau = |key: &str| {
+        table
+            .get("errors")
+            .and_then(|e| e.get(key))
+            .and_then(toml::Value::as_float)
+            .map(|v| v.to_string())
+            .with_context(|| format!("the built-in demo scenario: errors.{key}"))
+    };
+    let taus = [
+        tau("gnss_correlation_time_s")?,
+        tau("attitude_correlation_time_s")?,
+    ];
+    let lines = table
+        .get("lines")
+        .and_then(toml::Value::as_array)
+        .map_or(0, Vec::len);
+    if lines == 0 {
+        bail!("the built-in demo scenario has no [[lines]]");
+    }
+    table.insert("seed".into(), toml::Value::Integer(seed as i64));
+    if quick {
+        if let Some(toml::Value::Table(scanner)) = table.get_mut("scanner") {
+            scanner.insert("pulse_rate_hz".into(), toml::Value::Float(50_000.0));
+        }
+    }
+    let path = dir.join("scenario.toml");
+    std::fs::write(&path, toml::to_string(&table)?)
+        .with_context(|| format!("{}", path.display()))?;
+    Ok((path, taus, lines))
+}
+
+/// The built-in bathymetry scenario with the demo's seed, half the pulses with `--quick`.
+pub(super) fn bathymetry(dir: &Path, quick: bool, seed: u64) -> Result<PathBuf> {
+    let text =
+        lidarqa_sim::builtin_toml("bathymetry").context("the built-in bathymetry scenario")?;
+    let mut table: toml::Table =
+        toml::from_str(text).context("the built-in bathymetry scenario")?;
+    table.insert("seed".into(), toml::Value::Integer(seed as i64));
+    if quick {
+        let scanner = table
+            .get_mut("scanner")
+            .and_then(toml::Value::as_table_mut)
+            .context("the built-in bathymetry scenario: no [scanner]")?;
+        let rate = scanner
+            .get("pulse_rate_hz")
+            .and_then(toml::Value::as_float)
+            .context("the built-in bathymetry scenario: scanner.pulse_rate_hz")?;
+        scanner.insert("pulse_rate_hz".into(), toml::Value::Float(rate / 2.0));
+    }
+    let path = dir.join("scenario.toml");
+    std::fs::write(&path, toml::to_string(&table)?)
+        .with_context(|| format!("{}", path.display()))?;
+    Ok(path)
+}
