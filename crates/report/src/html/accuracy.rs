@@ -1,0 +1,258 @@
+//! Measured accuracy against the surveyed targets, beside the prediction.
+
+use super::{cm_opt, cm_signed};
+use crate::plot::{self, Vectors};
+use crate::products::*;
+use crate::text::{cm, esc, meaning};
+use std::fmt::Write as _;
+
+pub(super) fn accuracy_section(
+    before: Option<&Evaluation>,
+    after: Option<&Evaluation>,
+    budget: Option<&Budget>,
+) -> String {
+    let mut o = String::new();
+    let runs: Vec<(&str, &Evaluation)> =
+        [("before calibration", before), ("after calibration", after)]
+            .into_iter()
+            .filter_map(|(n, e)| e.map(|e| (n, e)))
+            .collect();
+    // Predicted vs measured (seed 000 Table 3).
+    let predicted = runs.iter().find_map(|(_, e)| e.predicted);
+    let (pred_h, pred_v, pred_from) = match (predicted, budget) {
+        (Some(p), _) => (
+            p.horizontal,
+            p.vertical,
+            "the TPU given to <code>lidarqa evaluate</code>",
+        ),
+        (None, Some(b)) => (
+            Some(b.total.horizontal),
+            Some(b.total.vertical),
+            "<code>budget.json</code>",
+        ),
+        (None, None) => (None, None, ""),
+    };
+    o.push_str("<table id=\"predicted-vs-measured\"><caption>Predicted vs measured (cm)</caption><thead><tr><th>precision</th><th>predicted σ</th>");
+    for (n, _) in &runs {
+        let _ = write!(o, "<th>measured RMSE {}</th>", esc(n));
+    }
+    o.push_str("</tr></thead><tbody>\n");
+    for (label, pred, f) in [
+        (
+            "plane (horizontal)",
+            pred_h,
+            (|e: &Evaluation| e.rmse.horizontal) as fn(&Evaluation) -> f64,
+        ),
+        ("elevation (vertical)", pred_v, |e: &Evaluation| {
+            e.rmse.vertical
+        }),
+        (
+            "3-D",
+            predicted
+                .and_then(|p| p.three_d)
+                .or(budget.map(|b| b.total.three_d)),
+            |e: &Evaluation| e.rmse.three_d,
+        ),
+    ] {
+        let _ = write!(o, "<tr><td>{label}</td><td>{}</td>", cm_opt(pred));
+        for (_, e) in &runs {
+            let _ = write!(o, "<td>{}</td>", cm(f(e)));
+        }
+        o.push_str("</tr>\n");
+    }
+    let _ = write!(o, "<tr><td>checkpoints</td><td>—</td>");
+    for (_, e) in &runs {
+        let _ = write!(o, "<td>{}</td>", e.n);
+    }
+    o.push_str("</tr>\n</tbody></table>\n");
+    if !pred_from.is_empty() {
+        let _ = writeln!(
+            o,
+            "<p class=\"note\">Predicted σ from {pred_from}. Plane precision is RMSE<sub>H</sub> = √(RMSE<sub>N</sub>² + RMSE<sub>E</sub>²) (seed 000 formula 7), elevation precision RMSE<sub>V</sub> (formula 8).</p>"
+        );
+    }
+    // Plan view of residual vectors.
+    let sets: Vec<Vectors> = runs
+        .iter()
+        .enumerate()
+        .map(|(k, (n, e))| Vectors {
+            name: format!("residual {n}"),
+            color: if runs.len() == 2 && k == 0 { 1 } else { 0 },
+            items: e
+                .points
+                .iter()
+                .filter_map(|p| {
+                    let pos = p.control.or(p.lidar)?;
+                    Some((
+                        p.id.0.clone(),
+                        pos.x,
+                        pos.y,
+                        p.residual.north,
+                        p.residual.east,
+                    ))
+                })
+                .collect(),
+        })
+        .filter(|s| !s.items.is_empty())
+        .collect();
+    if !sets.is_empty() {
+        o.push_str(&plot::residual_vectors(
+            "plot-residuals",
+            "Horizontal residuals at the targets (lidar − control)",
+            &sets,
+        ));
+    } else if runs.iter().any(|(_, e)| !e.points.is_empty()) {
+        o.push_str("<p class=\"note\">The products give no target positions, so the residuals are listed but not mapped.</p>\n");
+    }
+    // Per-target residuals.
+    let ids: Vec<String> = {
+        let mut v: Vec<String> = Vec::new();
+        for (_, e) in &runs {
+            for p in &e.points {
+                if !v.contains(&p.id.0) {
+                    v.push(p.id.0.clone());
+                }
+            }
+        }
+        v
+    };
+    if !ids.is_empty() {
+        const MAX_ROWS: usize = 60;
+        o.push_str("<table id=\"residuals\"><caption>Residuals per target, lidar − control (cm)</caption><thead><tr><th>target</th>");
+        for (n, _) in &runs {
+            let _ = write!(
+                o,
+                "<th>north {0}</th><th>east {0}</th><th>up {0}</th>",
+                esc(n.trim_end_matches(" calibration"))
+            );
+        }
+        o.push_str("</tr></thead><tbody>\n");
+        for id in ids.iter().take(MAX_ROWS) {
+            let _ = write!(o, "<tr><td>{}</td>", esc(id));
+            for (_, e) in &runs {
+                match e.points.iter().find(|p| &p.id.0 == id) {
+                    Some(p) => {
+                        let _ = write!(
+                            o,
+                            "<td>{}</td><td>{}</td><td>{}</td>",
+                            cm_signed(p.residual.north),
+                            cm_signed(p.residual.east),
+                            cm_signed(p.residual.up)
+                        );
+                    }
+                    None => o.push_str("<td>—</td><td>—</td><td>—</td>"),
+                }
+            }
+            o.push_str("</tr>\n");
+        }
+        o.push_str("</tbody></table>\n");
+        if ids.len() > MAX_ROWS {
+            let _ = writeln!(
+                o,
+                "<p class=\"note\">First {MAX_ROWS} of {} targets shown; all are in the JSON products.</p>",
+                ids.len()
+            );
+        }
+    }
+    // Statements.
+    for (n, e) in &runs {
+        let _ = writeln!(o, "<h3>Accuracy statements, {}</h3>", esc(n));
+        if let Some(a) = &e.asprs {
+            let ed = a
+                .edition
+                .as_deref()
+                .map(|s| format!(", Edition {}", esc(s)))
+                .unwrap_or_default();
+            match &a.statement {
+                Some(st) if !st.is_empty() => {
+                    let _ = writeln!(
+                        o,
+                        "<p><strong>ASPRS Positional Accuracy Standards{ed}:</strong> {}</p>",
+                        esc(st)
+                    );
+                }
+                _ => {}
+            }
+            for (label, c) in [
+                ("horizontal", a.horizontal.as_ref()),
+                ("vertical", a.vertical.as_ref()),
+            ] {
+                if let Some(c) = c
+                    && let (Some(class), Some(meets)) = (c.class_m, c.meets_class)
+                {
+                    let _ = writeln!(
+                        o,
+                        "<p>ASPRS {label} class {} cm: <span class=\"{}\">{}</span> (RMSE {} cm).</p>",
+                        cm(class),
+                        if meets { "ok" } else { "fail" },
+                        if meets { "met" } else { "not met" },
+                        cm_opt(c.rmse_m)
+                    );
+                }
+            }
+            for w in &a.warnings {
+                let _ = writeln!(o, "<p class=\"warn\">{}</p>", esc(w));
+            }
+        }
+        if let Some(ns) = &e.nssda {
+            if let Some(st) = &ns.statement {
+                let _ = writeln!(o, "<p><strong>NSSDA:</strong> {}</p>", esc(st));
+            } else {
+                let mut parts = Vec::new();
+                if let Some(h) = ns.horizontal_95_m {
+                    parts.push(format!(
+                        "Tested {} cm horizontal accuracy at 95 % confidence level",
+                        cm(h)
+                    ));
+                }
+                if let Some(v) = ns.vertical_95_m {
+                    parts.push(format!(
+                        "Tested {} cm vertical accuracy at 95 % confidence level",
+                        cm(v)
+                    ));
+                }
+                if !parts.is_empty() {
+                    let method = ns
+                        .horizontal_method
+                        .as_deref()
+                        .map(|m| format!(" <span class=\"note\">(horizontal: {})</span>", esc(m)))
+                        .unwrap_or_default();
+                    let _ = writeln!(
+                        o,
+                        "<p><strong>NSSDA (FGDC-STD-007.3-1998):</strong> {}.{method}</p>",
+                        parts.join("; ")
+                    );
+                }
+            }
+        }
+    }
+    let text = match (before, after) {
+        (Some(b), Some(a)) => format!(
+            "Measured against {} surveyed targets, the points were accurate to {} cm horizontally and {} cm vertically (RMSE) before calibration, and to {} cm and {} cm after it.",
+            a.n,
+            cm(b.rmse.horizontal),
+            cm(b.rmse.vertical),
+            cm(a.rmse.horizontal),
+            cm(a.rmse.vertical)
+        ),
+        (Some(e), None) | (None, Some(e)) => format!(
+            "Measured against {} surveyed targets, the points are accurate to {} cm horizontally and {} cm vertically (RMSE).",
+            e.n,
+            cm(e.rmse.horizontal),
+            cm(e.rmse.vertical)
+        ),
+        (None, None) => String::new(),
+    };
+    let text = match (pred_h, pred_v) {
+        (Some(h), Some(v)) => format!(
+            "{text} The prediction was {} cm and {} cm: a measured RMSE close to the predicted σ means the error model holds.",
+            cm(h),
+            cm(v)
+        ),
+        _ => text,
+    };
+    meaning(&mut o, &text);
+    o
+}
+
+// ---------------------------------------------------------------------------------------------

@@ -1,0 +1,178 @@
+//! Strip-to-strip consistency before and after correction.
+
+use crate::plot::{self, Line, Raster, Scale};
+use crate::products::*;
+use crate::text::{cm, esc, meaning};
+use std::fmt::Write as _;
+
+pub(super) fn overlap_section(before: Option<&Overlap>, after: Option<&Overlap>) -> String {
+    let mut o = String::new();
+    let runs: Vec<(&str, &Overlap)> = [("before correction", before), ("after correction", after)]
+        .into_iter()
+        .filter_map(|(n, e)| e.map(|e| (n, e)))
+        .collect();
+    // Pairs table, merged by strip pair.
+    let mut keys: Vec<(String, String)> = Vec::new();
+    for (_, r) in &runs {
+        for p in &r.pairs {
+            let k = (p.strips[0].0.clone(), p.strips[1].0.clone());
+            if !keys.contains(&k) {
+                keys.push(k);
+            }
+        }
+    }
+    if !keys.is_empty() {
+        o.push_str("<table id=\"overlap-pairs\"><caption>Height differences between overlapping strips (cm)</caption><thead><tr><th>strips</th>");
+        for (n, _) in &runs {
+            let _ = write!(
+                o,
+                "<th>RMS dz {0}</th><th>max |dz| {0}</th>",
+                esc(n.trim_end_matches(" correction"))
+            );
+        }
+        o.push_str("<th>n</th></tr></thead><tbody>\n");
+        for k in &keys {
+            let _ = write!(o, "<tr><td>{} – {}</td>", esc(&k.0), esc(&k.1));
+            let mut n = None;
+            for (_, r) in &runs {
+                match r
+                    .pairs
+                    .iter()
+                    .find(|p| p.strips[0].0 == k.0 && p.strips[1].0 == k.1)
+                {
+                    Some(p) => {
+                        n = Some(p.n);
+                        let _ = write!(
+                            o,
+                            "<td>{}</td><td>{}</td>",
+                            cm(p.rmsdz_m),
+                            cm(p.max_abs_dz_m)
+                        );
+                    }
+                    None => o.push_str("<td>—</td><td>—</td>"),
+                }
+            }
+            let _ = writeln!(
+                o,
+                "<td>{}</td></tr>",
+                n.map(|n| n.to_string()).unwrap_or_else(|| "—".into())
+            );
+        }
+        o.push_str("</tbody></table>\n");
+    }
+    // Maps, one colour scale.
+    let panels: Vec<(String, Raster)> = runs
+        .iter()
+        .filter_map(|(n, r)| {
+            let g = r.grid.as_ref()?;
+            Some((
+                n.to_string(),
+                Raster {
+                    origin_x: g.geometry.origin_x,
+                    origin_y: g.geometry.origin_y,
+                    cell_m: g.geometry.cell_m,
+                    nx: g.geometry.nx,
+                    ny: g.geometry.ny,
+                    values: g.dz_m.iter().map(|v| v.map(|v| v * 100.0)).collect(),
+                }
+                .downsampled(if runs.len() > 1 { 90 } else { 160 }),
+            ))
+        })
+        .collect();
+    if !panels.is_empty() {
+        let mut abs: Vec<f64> = panels
+            .iter()
+            .flat_map(|(_, r)| r.values.iter().flatten().map(|v| v.abs()))
+            .filter(|v| v.is_finite())
+            .collect();
+        abs.sort_by(f64::total_cmp);
+        let p99 = abs
+            .get(((abs.len() as f64 * 0.99) as usize).min(abs.len().saturating_sub(1)))
+            .copied()
+            .unwrap_or(1.0);
+        let limit = plot::nice(p99.max(0.1) * 0.75).max(p99.max(0.1));
+        o.push_str(&plot::heatmaps(
+            "plot-overlap-maps",
+            "Height difference between overlapping strips",
+            &panels,
+            Scale::Diverging { limit },
+            "dz (cm)",
+        ));
+        let _ = writeln!(
+            o,
+            "<p class=\"note\">Both maps use the same colour scale, ±{limit:.1} cm (saturating beyond); white is no difference, empty cells are outside the overlaps.</p>"
+        );
+    }
+    // Profiles, one y range.
+    let profs: Vec<(&str, &Profile)> = runs
+        .iter()
+        .filter_map(|(n, r)| r.profile.as_ref().map(|p| (*n, p)))
+        .collect();
+    if !profs.is_empty() {
+        // Each strip's height minus the mean of the strips at that distance, cm: centimetre
+        // differences vanish in a plot of heights in metres.
+        let dz_cm = |p: &Profile, s: &crate::products::ProfileStrip| -> Vec<Option<f64>> {
+            (0..p.distance_m.len())
+                .map(|k| {
+                    let here: Vec<f64> = p
+                        .strips
+                        .iter()
+                        .filter_map(|o| o.z_m.get(k).copied().flatten())
+                        .collect();
+                    let z = s.z_m.get(k).copied().flatten()?;
+                    (here.len() >= 2)
+                        .then(|| 100.0 * (z - here.iter().sum::<f64>() / here.len() as f64))
+                })
+                .collect()
+        };
+        let yr = plot::span(
+            profs
+                .iter()
+                .flat_map(|(_, p)| p.strips.iter().flat_map(|s| dz_cm(p, s)).flatten()),
+            true,
+            0.08,
+        );
+        for (n, p) in &profs {
+            let lines: Vec<Line> = p
+                .strips
+                .iter()
+                .enumerate()
+                .map(|(i, s)| Line {
+                    name: format!("strip {}", s.id),
+                    color: i,
+                    points: p.distance_m.iter().copied().zip(dz_cm(p, s)).collect(),
+                    dashed: false,
+                    markers: false,
+                })
+                .collect();
+            let slug = if n.starts_with("before") {
+                "before"
+            } else {
+                "after"
+            };
+            o.push_str(&plot::lines(
+                &format!("plot-profile-{slug}"),
+                &format!("Height differences between the overlapping strips along a profile, {n}"),
+                "distance along the profile (m)",
+                "height − mean of the strips there (cm)",
+                &lines,
+                Some(yr),
+                false,
+                340,
+            ));
+        }
+    }
+    let rms = |r: &Overlap| {
+        let (s, n) = r.pairs.iter().fold((0.0, 0u64), |(s, n), p| {
+            (s + p.rmsdz_m.powi(2) * p.n as f64, n + p.n)
+        });
+        (n > 0).then(|| (s / n as f64).sqrt())
+    };
+    let text = match (before.and_then(rms), after.and_then(rms)) {
+        (Some(b), Some(a)) => format!("Where strips overlap they should show the same ground. The RMS height difference between them falls from {} cm before correction to {} cm after it; in the profile the strips should lie on top of each other after correction.", cm(b), cm(a)),
+        (Some(v), None) | (None, Some(v)) => format!("Where strips overlap they should show the same ground; the RMS height difference between them is {} cm.", cm(v)),
+        _ => "Where strips overlap they should show the same ground; the maps show where they do not.".into(),
+    };
+    meaning(&mut o, &text);
+    o
+}
