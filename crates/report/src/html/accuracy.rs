@@ -17,7 +17,32 @@ pub(super) fn accuracy_section(
             .into_iter()
             .filter_map(|(n, e)| e.map(|e| (n, e)))
             .collect();
-    // Predicted vs measured (seed 000 Table 3).
+    let (pred_h, pred_v) = predicted_vs_measured(&mut o, &runs, budget);
+    residual_map(&mut o, &runs);
+    residual_table(&mut o, &runs);
+    for (n, e) in &runs {
+        let _ = writeln!(o, "<h3>Accuracy statements, {}</h3>", esc(n));
+        if let Some(a) = &e.asprs {
+            asprs_statement(&mut o, a);
+        }
+        if let Some(ns) = &e.nssda {
+            nssda_statement(&mut o, ns);
+        }
+    }
+    let text = summary_sentence(before, after, pred_h, pred_v);
+    meaning(&mut o, &text);
+    o
+}
+
+// ---------------------------------------------------------------------------------------------
+
+/// Predicted σ beside each run's measured RMSE (seed 000 Table 3); returns the predicted
+/// horizontal and vertical σ, m.
+fn predicted_vs_measured(
+    o: &mut String,
+    runs: &[(&str, &Evaluation)],
+    budget: Option<&Budget>,
+) -> (Option<f64>, Option<f64>) {
     let predicted = runs.iter().find_map(|(_, e)| e.predicted);
     let (pred_h, pred_v, pred_from) = match (predicted, budget) {
         (Some(p), _) => (
@@ -33,7 +58,7 @@ pub(super) fn accuracy_section(
         (None, None) => (None, None, ""),
     };
     o.push_str("<table id=\"predicted-vs-measured\"><caption>Predicted vs measured (cm)</caption><thead><tr><th>precision</th><th>predicted σ</th>");
-    for (n, _) in &runs {
+    for (n, _) in runs {
         let _ = write!(o, "<th>measured RMSE {}</th>", esc(n));
     }
     o.push_str("</tr></thead><tbody>\n");
@@ -55,13 +80,13 @@ pub(super) fn accuracy_section(
         ),
     ] {
         let _ = write!(o, "<tr><td>{label}</td><td>{}</td>", cm_opt(pred));
-        for (_, e) in &runs {
+        for (_, e) in runs {
             let _ = write!(o, "<td>{}</td>", cm(f(e)));
         }
         o.push_str("</tr>\n");
     }
     let _ = write!(o, "<tr><td>checkpoints</td><td>—</td>");
-    for (_, e) in &runs {
+    for (_, e) in runs {
         let _ = write!(o, "<td>{}</td>", e.n);
     }
     o.push_str("</tr>\n</tbody></table>\n");
@@ -71,7 +96,11 @@ pub(super) fn accuracy_section(
             "<p class=\"note\">Predicted σ from {pred_from}. Plane precision is RMSE<sub>H</sub> = √(RMSE<sub>N</sub>² + RMSE<sub>E</sub>²) (seed 000 formula 7), elevation precision RMSE<sub>V</sub> (formula 8).</p>"
         );
     }
-    // Plan view of residual vectors.
+    (pred_h, pred_v)
+}
+
+/// Plan view of the horizontal residual vectors at the targets.
+fn residual_map(o: &mut String, runs: &[(&str, &Evaluation)]) {
     let sets: Vec<Vectors> = runs
         .iter()
         .enumerate()
@@ -104,10 +133,13 @@ pub(super) fn accuracy_section(
     } else if runs.iter().any(|(_, e)| !e.points.is_empty()) {
         o.push_str("<p class=\"note\">The products give no target positions, so the residuals are listed but not mapped.</p>\n");
     }
-    // Per-target residuals.
+}
+
+/// The residuals per target, one column group per run.
+fn residual_table(o: &mut String, runs: &[(&str, &Evaluation)]) {
     let ids: Vec<String> = {
         let mut v: Vec<String> = Vec::new();
-        for (_, e) in &runs {
+        for (_, e) in runs {
             for p in &e.points {
                 if !v.contains(&p.id.0) {
                     v.push(p.id.0.clone());
@@ -119,7 +151,7 @@ pub(super) fn accuracy_section(
     if !ids.is_empty() {
         const MAX_ROWS: usize = 60;
         o.push_str("<table id=\"residuals\"><caption>Residuals per target, lidar − control (cm)</caption><thead><tr><th>target</th>");
-        for (n, _) in &runs {
+        for (n, _) in runs {
             let _ = write!(
                 o,
                 "<th>north {0}</th><th>east {0}</th><th>up {0}</th>",
@@ -129,7 +161,7 @@ pub(super) fn accuracy_section(
         o.push_str("</tr></thead><tbody>\n");
         for id in ids.iter().take(MAX_ROWS) {
             let _ = write!(o, "<tr><td>{}</td>", esc(id));
-            for (_, e) in &runs {
+            for (_, e) in runs {
                 match e.points.iter().find(|p| &p.id.0 == id) {
                     Some(p) => {
                         let _ = write!(
@@ -154,78 +186,87 @@ pub(super) fn accuracy_section(
             );
         }
     }
-    // Statements.
-    for (n, e) in &runs {
-        let _ = writeln!(o, "<h3>Accuracy statements, {}</h3>", esc(n));
-        if let Some(a) = &e.asprs {
-            let ed = a
-                .edition
-                .as_deref()
-                .map(|s| format!(", Edition {}", esc(s)))
-                .unwrap_or_default();
-            match &a.statement {
-                Some(st) if !st.is_empty() => {
-                    let _ = writeln!(
-                        o,
-                        "<p><strong>ASPRS Positional Accuracy Standards{ed}:</strong> {}</p>",
-                        esc(st)
-                    );
-                }
-                _ => {}
-            }
-            for (label, c) in [
-                ("horizontal", a.horizontal.as_ref()),
-                ("vertical", a.vertical.as_ref()),
-            ] {
-                if let Some(c) = c
-                    && let (Some(class), Some(meets)) = (c.class_m, c.meets_class)
-                {
-                    let _ = writeln!(
-                        o,
-                        "<p>ASPRS {label} class {} cm: <span class=\"{}\">{}</span> (RMSE {} cm).</p>",
-                        cm(class),
-                        if meets { "ok" } else { "fail" },
-                        if meets { "met" } else { "not met" },
-                        cm_opt(c.rmse_m)
-                    );
-                }
-            }
-            for w in &a.warnings {
-                let _ = writeln!(o, "<p class=\"warn\">{}</p>", esc(w));
-            }
+}
+
+/// The ASPRS statement and classes met.
+fn asprs_statement(o: &mut String, a: &Asprs) {
+    let ed = a
+        .edition
+        .as_deref()
+        .map(|s| format!(", Edition {}", esc(s)))
+        .unwrap_or_default();
+    match &a.statement {
+        Some(st) if !st.is_empty() => {
+            let _ = writeln!(
+                o,
+                "<p><strong>ASPRS Positional Accuracy Standards{ed}:</strong> {}</p>",
+                esc(st)
+            );
         }
-        if let Some(ns) = &e.nssda {
-            if let Some(st) = &ns.statement {
-                let _ = writeln!(o, "<p><strong>NSSDA:</strong> {}</p>", esc(st));
-            } else {
-                let mut parts = Vec::new();
-                if let Some(h) = ns.horizontal_95_m {
-                    parts.push(format!(
-                        "Tested {} cm horizontal accuracy at 95 % confidence level",
-                        cm(h)
-                    ));
-                }
-                if let Some(v) = ns.vertical_95_m {
-                    parts.push(format!(
-                        "Tested {} cm vertical accuracy at 95 % confidence level",
-                        cm(v)
-                    ));
-                }
-                if !parts.is_empty() {
-                    let method = ns
-                        .horizontal_method
-                        .as_deref()
-                        .map(|m| format!(" <span class=\"note\">(horizontal: {})</span>", esc(m)))
-                        .unwrap_or_default();
-                    let _ = writeln!(
-                        o,
-                        "<p><strong>NSSDA (FGDC-STD-007.3-1998):</strong> {}.{method}</p>",
-                        parts.join("; ")
-                    );
-                }
-            }
+        _ => {}
+    }
+    for (label, c) in [
+        ("horizontal", a.horizontal.as_ref()),
+        ("vertical", a.vertical.as_ref()),
+    ] {
+        if let Some(c) = c
+            && let (Some(class), Some(meets)) = (c.class_m, c.meets_class)
+        {
+            let _ = writeln!(
+                o,
+                "<p>ASPRS {label} class {} cm: <span class=\"{}\">{}</span> (RMSE {} cm).</p>",
+                cm(class),
+                if meets { "ok" } else { "fail" },
+                if meets { "met" } else { "not met" },
+                cm_opt(c.rmse_m)
+            );
         }
     }
+    for w in &a.warnings {
+        let _ = writeln!(o, "<p class=\"warn\">{}</p>", esc(w));
+    }
+}
+
+/// The NSSDA statement (or one built from the 95 % values).
+fn nssda_statement(o: &mut String, ns: &Nssda) {
+    if let Some(st) = &ns.statement {
+        let _ = writeln!(o, "<p><strong>NSSDA:</strong> {}</p>", esc(st));
+    } else {
+        let mut parts = Vec::new();
+        if let Some(h) = ns.horizontal_95_m {
+            parts.push(format!(
+                "Tested {} cm horizontal accuracy at 95 % confidence level",
+                cm(h)
+            ));
+        }
+        if let Some(v) = ns.vertical_95_m {
+            parts.push(format!(
+                "Tested {} cm vertical accuracy at 95 % confidence level",
+                cm(v)
+            ));
+        }
+        if !parts.is_empty() {
+            let method = ns
+                .horizontal_method
+                .as_deref()
+                .map(|m| format!(" <span class=\"note\">(horizontal: {})</span>", esc(m)))
+                .unwrap_or_default();
+            let _ = writeln!(
+                o,
+                "<p><strong>NSSDA (FGDC-STD-007.3-1998):</strong> {}.{method}</p>",
+                parts.join("; ")
+            );
+        }
+    }
+}
+
+/// What the measured accuracy means, beside the prediction.
+fn summary_sentence(
+    before: Option<&Evaluation>,
+    after: Option<&Evaluation>,
+    pred_h: Option<f64>,
+    pred_v: Option<f64>,
+) -> String {
     let text = match (before, after) {
         (Some(b), Some(a)) => format!(
             "Measured against {} surveyed targets, the points were accurate to {} cm horizontally and {} cm vertically (RMSE) before calibration, and to {} cm and {} cm after it.",
@@ -243,16 +284,12 @@ pub(super) fn accuracy_section(
         ),
         (None, None) => String::new(),
     };
-    let text = match (pred_h, pred_v) {
+    match (pred_h, pred_v) {
         (Some(h), Some(v)) => format!(
             "{text} The prediction was {} cm and {} cm: a measured RMSE close to the predicted σ means the error model holds.",
             cm(h),
             cm(v)
         ),
         _ => text,
-    };
-    meaning(&mut o, &text);
-    o
+    }
 }
-
-// ---------------------------------------------------------------------------------------------

@@ -41,75 +41,10 @@ pub(super) fn budget_section(b: &Budget) -> String {
         .filter(|s| s.effect.three_d > 0.0)
         .collect();
     srcs.sort_by(|a, b| b.effect.three_d.total_cmp(&a.effect.three_d));
-    let omitted = b.sources.len() - srcs.len();
-    if !srcs.is_empty() {
-        let names: Vec<String> = srcs.iter().map(|s| s.name.clone()).collect();
-        o.push_str(&plot::hbars(
-            "plot-budget",
-            "Error budget per source (1σ)",
-            "uncertainty contributed (cm, 1σ)",
-            &names,
-            &[
-                (
-                    "horizontal",
-                    srcs.iter().map(|s| s.effect.horizontal * 100.0).collect(),
-                ),
-                (
-                    "vertical",
-                    srcs.iter().map(|s| s.effect.vertical * 100.0).collect(),
-                ),
-                (
-                    "3-D",
-                    srcs.iter().map(|s| s.effect.three_d * 100.0).collect(),
-                ),
-            ],
-        ));
-        if omitted > 0 {
-            let _ = writeln!(
-                o,
-                "<p class=\"note\">{omitted} sources with a zero σ are not drawn.</p>"
-            );
-        }
-    }
+    bars(&mut o, &srcs, b.sources.len() - srcs.len());
+    totals_table(&mut o, &b.total);
+    sources_table(&mut o, b);
     let t = &b.total;
-    o.push_str("<table id=\"budget-totals\"><caption>Total propagated uncertainty</caption><thead><tr><th>component</th><th>σ (cm, 1σ)</th><th>95 % (cm)</th></tr></thead><tbody>\n");
-    for (name, v, k) in [
-        ("north", t.north, TVU_95_FACTOR),
-        ("east", t.east, TVU_95_FACTOR),
-        ("up", t.up, TVU_95_FACTOR),
-        ("horizontal", t.horizontal, THU_95_CBLUE),
-        ("vertical", t.vertical, TVU_95_FACTOR),
-    ] {
-        let _ = writeln!(
-            o,
-            "<tr><td>{name}</td><td>{}</td><td>{}</td></tr>",
-            cm(v),
-            cm(v * k)
-        );
-    }
-    let _ = writeln!(
-        o,
-        "<tr><td>3-D</td><td>{}</td><td>—</td></tr>",
-        cm(t.three_d)
-    );
-    o.push_str("</tbody></table>\n<p class=\"note\">95 %: 1.96·σ per axis and vertical, 1.7308·σ horizontal (NSSDA, circular error).</p>\n");
-    o.push_str("<table id=\"budget-sources\"><caption>Per source: |∂P/∂p|·σ (cm)</caption><thead><tr><th>source</th><th>1σ</th><th>north</th><th>east</th><th>up</th><th>horizontal</th><th>vertical</th><th>3-D</th></tr></thead><tbody>\n");
-    for s in &b.sources {
-        let e = &s.effect;
-        let _ = writeln!(
-            o,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-            esc(&s.name),
-            sigma_display(s.sigma, &s.unit),
-            cm(e.north),
-            cm(e.east),
-            cm(e.up),
-            cm(e.horizontal),
-            cm(e.vertical),
-            cm(e.three_d)
-        );
-    }
-    o.push_str("</tbody></table>\n");
     if let Some(d) = &b.bias {
         let _ = writeln!(
             o,
@@ -140,4 +75,83 @@ pub(super) fn budget_section(b: &Budget) -> String {
         ),
     );
     o
+}
+
+/// The sources with a σ as horizontal bars, largest first.
+fn bars(o: &mut String, srcs: &[&BudgetSource], omitted: usize) {
+    if !srcs.is_empty() {
+        let names: Vec<String> = srcs.iter().map(|s| s.name.clone()).collect();
+        o.push_str(&plot::hbars(
+            "plot-budget",
+            "Error budget per source (1σ)",
+            "uncertainty contributed (cm, 1σ)",
+            &names,
+            &[
+                (
+                    "horizontal",
+                    srcs.iter().map(|s| s.effect.horizontal * 100.0).collect(),
+                ),
+                (
+                    "vertical",
+                    srcs.iter().map(|s| s.effect.vertical * 100.0).collect(),
+                ),
+                (
+                    "3-D",
+                    srcs.iter().map(|s| s.effect.three_d * 100.0).collect(),
+                ),
+            ],
+        ));
+        if omitted > 0 {
+            let _ = writeln!(
+                o,
+                "<p class=\"note\">{omitted} sources with a zero σ are not drawn.</p>"
+            );
+        }
+    }
+}
+
+/// σ and the 95 % values of the total, per component.
+fn totals_table(o: &mut String, t: &Components) {
+    o.push_str("<table id=\"budget-totals\"><caption>Total propagated uncertainty</caption><thead><tr><th>component</th><th>σ (cm, 1σ)</th><th>95 % (cm)</th></tr></thead><tbody>\n");
+    for (name, v, k) in [
+        ("north", t.north, TVU_95_FACTOR),
+        ("east", t.east, TVU_95_FACTOR),
+        ("up", t.up, TVU_95_FACTOR),
+        ("horizontal", t.horizontal, THU_95_CBLUE),
+        ("vertical", t.vertical, TVU_95_FACTOR),
+    ] {
+        let _ = writeln!(
+            o,
+            "<tr><td>{name}</td><td>{}</td><td>{}</td></tr>",
+            cm(v),
+            cm(v * k)
+        );
+    }
+    let _ = writeln!(
+        o,
+        "<tr><td>3-D</td><td>{}</td><td>—</td></tr>",
+        cm(t.three_d)
+    );
+    o.push_str("</tbody></table>\n<p class=\"note\">95 %: 1.96·σ per axis and vertical, 1.7308·σ horizontal (NSSDA, circular error).</p>\n");
+}
+
+/// One row per source: its σ and its effect on each component.
+fn sources_table(o: &mut String, b: &Budget) {
+    o.push_str("<table id=\"budget-sources\"><caption>Per source: |∂P/∂p|·σ (cm)</caption><thead><tr><th>source</th><th>1σ</th><th>north</th><th>east</th><th>up</th><th>horizontal</th><th>vertical</th><th>3-D</th></tr></thead><tbody>\n");
+    for s in &b.sources {
+        let e = &s.effect;
+        let _ = writeln!(
+            o,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            esc(&s.name),
+            sigma_display(s.sigma, &s.unit),
+            cm(e.north),
+            cm(e.east),
+            cm(e.up),
+            cm(e.horizontal),
+            cm(e.vertical),
+            cm(e.three_d)
+        );
+    }
+    o.push_str("</tbody></table>\n");
 }

@@ -7,17 +7,6 @@ use std::fmt::Write as _;
 
 pub(super) fn tpu_section(t: &TpuSummary) -> String {
     let mut o = String::new();
-    let s = &t.sigma;
-    let rows: Vec<(&str, &Stats)> = [
-        ("north", s.north.as_ref()),
-        ("east", s.east.as_ref()),
-        ("up", s.up.as_ref()),
-        ("horizontal", s.horizontal.as_ref()),
-        ("vertical", s.vertical.as_ref()),
-    ]
-    .into_iter()
-    .filter_map(|(n, v)| v.map(|v| (n, v)))
-    .collect();
     let skipped: u64 = t.skipped.iter().map(|(_, n)| *n).sum();
     let _ = writeln!(
         o,
@@ -29,6 +18,50 @@ pub(super) fn tpu_section(t: &TpuSummary) -> String {
             String::new()
         }
     );
+    stats_table(&mut o, t);
+    histograms(&mut o, t);
+    if let Some(g) = &t.grid {
+        sigma_map(&mut o, g);
+    }
+    if !t.source_share.is_empty() {
+        let mut v: Vec<&(String, f64)> = t.source_share.iter().collect();
+        v.sort_by(|a, b| b.1.total_cmp(&a.1));
+        o.push_str("<table id=\"tpu-share\"><caption>Share of the total variance by source</caption><thead><tr><th>source</th><th>share (%)</th></tr></thead><tbody>\n");
+        for (n, f) in v {
+            let _ = writeln!(o, "<tr><td>{}</td><td>{:.1}</td></tr>", esc(n), f * 100.0);
+        }
+        o.push_str("</tbody></table>\n");
+    }
+    if skipped > 0 {
+        o.push_str("<p class=\"note\">Points without a TPU: ");
+        let parts: Vec<String> = t
+            .skipped
+            .iter()
+            .map(|(k, n)| format!("{} {n}", esc(k)))
+            .collect();
+        o.push_str(&parts.join(", "));
+        o.push_str(".</p>\n");
+    }
+    let text = summary_sentence(t);
+    meaning(&mut o, &text);
+    o
+}
+
+// ---------------------------------------------------------------------------------------------
+
+/// Statistics of each σ component, cm.
+fn stats_table(o: &mut String, t: &TpuSummary) {
+    let s = &t.sigma;
+    let rows: Vec<(&str, &Stats)> = [
+        ("north", s.north.as_ref()),
+        ("east", s.east.as_ref()),
+        ("up", s.up.as_ref()),
+        ("horizontal", s.horizontal.as_ref()),
+        ("vertical", s.vertical.as_ref()),
+    ]
+    .into_iter()
+    .filter_map(|(n, v)| v.map(|v| (n, v)))
+    .collect();
     if !rows.is_empty() {
         o.push_str("<table id=\"tpu-stats\"><caption>Per-point uncertainty (cm, 1σ)</caption><thead><tr><th>component</th><th>min</th><th>median</th><th>95th percentile</th><th>max</th></tr></thead><tbody>\n");
         for (n, st) in &rows {
@@ -43,6 +76,11 @@ pub(super) fn tpu_section(t: &TpuSummary) -> String {
         }
         o.push_str("</tbody></table>\n");
     }
+}
+
+/// The histograms of σ vertical and horizontal with their 95th percentile.
+fn histograms(o: &mut String, t: &TpuSummary) {
+    let s = &t.sigma;
     for (key, h, st) in [
         (
             "vertical",
@@ -72,53 +110,41 @@ pub(super) fn tpu_section(t: &TpuSummary) -> String {
             ));
         }
     }
-    if let Some(g) = &t.grid {
-        let r = Raster {
-            origin_x: g.geometry.origin_x,
-            origin_y: g.geometry.origin_y,
-            cell_m: g.geometry.cell_m,
-            nx: g.geometry.nx,
-            ny: g.geometry.ny,
-            values: g
-                .sigma_vertical_m
-                .iter()
-                .map(|v| v.map(|v| v * 100.0))
-                .collect(),
-        }
-        .downsampled(160);
-        let (lo, hi) = plot::span(r.values.iter().flatten().copied(), false, 0.0);
-        o.push_str(&plot::heatmaps(
-            "plot-tpu-map",
-            "Map of the vertical uncertainty (mean per cell)",
-            &[(String::new(), r)],
-            Scale::Sequential { min: lo, max: hi },
-            "σ vertical (cm)",
-        ));
-        let _ = writeln!(
-            o,
-            "<p class=\"note\">Cells of {} m; empty cells have no points.</p>",
-            g.geometry.cell_m
-        );
-    }
-    if !t.source_share.is_empty() {
-        let mut v: Vec<&(String, f64)> = t.source_share.iter().collect();
-        v.sort_by(|a, b| b.1.total_cmp(&a.1));
-        o.push_str("<table id=\"tpu-share\"><caption>Share of the total variance by source</caption><thead><tr><th>source</th><th>share (%)</th></tr></thead><tbody>\n");
-        for (n, f) in v {
-            let _ = writeln!(o, "<tr><td>{}</td><td>{:.1}</td></tr>", esc(n), f * 100.0);
-        }
-        o.push_str("</tbody></table>\n");
-    }
-    if skipped > 0 {
-        o.push_str("<p class=\"note\">Points without a TPU: ");
-        let parts: Vec<String> = t
-            .skipped
+}
+
+/// The map of σ vertical (mean per cell).
+fn sigma_map(o: &mut String, g: &SigmaGrid) {
+    let r = Raster {
+        origin_x: g.geometry.origin_x,
+        origin_y: g.geometry.origin_y,
+        cell_m: g.geometry.cell_m,
+        nx: g.geometry.nx,
+        ny: g.geometry.ny,
+        values: g
+            .sigma_vertical_m
             .iter()
-            .map(|(k, n)| format!("{} {n}", esc(k)))
-            .collect();
-        o.push_str(&parts.join(", "));
-        o.push_str(".</p>\n");
+            .map(|v| v.map(|v| v * 100.0))
+            .collect(),
     }
+    .downsampled(160);
+    let (lo, hi) = plot::span(r.values.iter().flatten().copied(), false, 0.0);
+    o.push_str(&plot::heatmaps(
+        "plot-tpu-map",
+        "Map of the vertical uncertainty (mean per cell)",
+        &[(String::new(), r)],
+        Scale::Sequential { min: lo, max: hi },
+        "σ vertical (cm)",
+    ));
+    let _ = writeln!(
+        o,
+        "<p class=\"note\">Cells of {} m; empty cells have no points.</p>",
+        g.geometry.cell_m
+    );
+}
+
+/// What the σ statistics mean for the client.
+fn summary_sentence(t: &TpuSummary) -> String {
+    let s = &t.sigma;
     let mut text = String::new();
     if let Some(v) = &s.vertical {
         let _ = write!(
@@ -146,8 +172,5 @@ pub(super) fn tpu_section(t: &TpuSummary) -> String {
     if t.grid.is_some() {
         text.push_str(" The map shows where in the survey the uncertainty is larger (usually the swath edges and the far end of long ranges).");
     }
-    meaning(&mut o, &text);
-    o
+    text
 }
-
-// ---------------------------------------------------------------------------------------------
