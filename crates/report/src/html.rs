@@ -1,7 +1,7 @@
 //! The HTML page: header, one section per product present, tables, sentences for the client.
 
 use crate::products::*;
-use crate::report::Report;
+use crate::report::{Products, Report};
 use crate::text::{cm, esc};
 use std::fmt::Write as _;
 
@@ -74,8 +74,8 @@ impl Report {
     }
 }
 
-fn render(r: &Report) -> String {
-    let p = &r.products;
+/// The sections of the products present, in page order: (id, title, body).
+fn sections(p: &Products) -> Vec<(&'static str, &'static str, String)> {
     let mut sections: Vec<(&str, &str, String)> = Vec::new();
     if let Some(b) = &p.budget {
         sections.push((
@@ -131,6 +131,12 @@ fn render(r: &Report) -> String {
         sections.push(("iho", "IHO S-44 statement", iho_section(i)));
     }
     sections.extend(crate::bathymetry::section(p));
+    sections
+}
+
+fn render(r: &Report) -> String {
+    let p = &r.products;
+    let sections = sections(p);
 
     let mut o = String::new();
     o.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n");

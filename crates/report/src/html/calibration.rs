@@ -29,6 +29,9 @@ fn num4(v: f64) -> String {
     }
 }
 
+/// Most ties listed and drawn.
+const MAX_TIES: usize = 30;
+
 pub(super) fn calibration_section(
     cal: Option<&Calibration>,
     its: Option<&CalibrationIterations>,
@@ -36,7 +39,6 @@ pub(super) fn calibration_section(
 ) -> String {
     let mut o = String::new();
     if let Some(c) = cal {
-        let has_truth = truth.is_some();
         let method = c
             .method
             .as_deref()
@@ -49,173 +51,13 @@ pub(super) fn calibration_section(
                 .map(|n| format!(" in {n} iterations"))
                 .unwrap_or_default()
         );
-        o.push_str("<table id=\"mounting\"><caption>Recovered mounting</caption><thead><tr><th>parameter</th><th>unit</th><th>recovered</th><th>σ</th>");
-        if has_truth {
-            o.push_str("<th>true (injected)</th><th>error</th><th>error / σ</th>");
-        }
-        o.push_str("<th class=\"text\">observable</th></tr></thead><tbody>\n");
-        let mut worst: Option<(String, f64, &str)> = None;
-        for (key, v) in c.parameters.iter() {
-            let (name, unit) = split_unit(key);
-            let sigma = c.sigma.get(key).copied().flatten();
-            let observable = c.observable.get(key).copied().unwrap_or(true);
-            let _ = write!(
-                o,
-                "<tr><td>{}</td><td>{unit}</td><td>{}</td><td>{}</td>",
-                esc(&name),
-                num4(*v),
-                sigma.map(num4).unwrap_or_else(|| "—".into())
-            );
-            if let Some(t) = truth {
-                match t.mounting.get(key) {
-                    Some(tv) => {
-                        let err = v - tv;
-                        let ratio = sigma
-                            .filter(|s| *s > 0.0)
-                            .map(|s| format!("{:.1}", err / s))
-                            .unwrap_or_else(|| "—".into());
-                        let _ = write!(
-                            o,
-                            "<td>{}</td><td>{:+.4}</td><td>{ratio}</td>",
-                            num4(*tv),
-                            err
-                        );
-                        if observable
-                            && unit == "deg"
-                            && worst.as_ref().is_none_or(|w| err.abs() > w.1.abs())
-                        {
-                            worst = Some((name.clone(), err, unit));
-                        }
-                    }
-                    None => o.push_str("<td>—</td><td>—</td><td>—</td>"),
-                }
-            }
-            let _ = writeln!(
-                o,
-                "<td class=\"text\">{}</td></tr>",
-                if observable {
-                    "yes"
-                } else {
-                    "<span class=\"fail\">no</span> (held at prior)"
-                }
-            );
-        }
-        o.push_str("</tbody></table>\n");
-        // Correlation matrix.
-        let n = c.correlation.len();
-        if n > 0 {
-            let all: Vec<&String> = c.parameters.iter().map(|(k, _)| k).collect();
-            let obs: Vec<&String> = all
-                .iter()
-                .copied()
-                .filter(|k| c.observable.get(k).copied().unwrap_or(true))
-                .collect();
-            let labels: Vec<String> = if all.len() == n {
-                all.iter().map(|k| split_unit(k).0).collect()
-            } else if obs.len() == n {
-                obs.iter().map(|k| split_unit(k).0).collect()
-            } else {
-                (1..=n).map(|i| format!("p{i}")).collect()
-            };
-            o.push_str("<table id=\"correlation\"><caption>Correlation of the estimated parameters</caption><thead><tr><th></th>");
-            for l in &labels {
-                let _ = write!(o, "<th>{}</th>", esc(l));
-            }
-            o.push_str("</tr></thead><tbody>\n");
-            for (i, row) in c.correlation.iter().enumerate() {
-                let _ = write!(o, "<tr><th class=\"text\">{}</th>", esc(&labels[i]));
-                for &v in row {
-                    let Some(v) = v.filter(|v| v.is_finite()) else {
-                        o.push_str("<td>—</td>");
-                        continue;
-                    };
-                    let a = v.abs().min(1.0);
-                    let bg = if v >= 0.0 {
-                        format!("rgba(214,39,40,{:.2})", a * 0.6)
-                    } else {
-                        format!("rgba(31,119,180,{:.2})", a * 0.6)
-                    };
-                    let _ = write!(o, "<td style=\"background:{bg}\">{:+.2}</td>", v);
-                }
-                o.push_str("</tr>\n");
-            }
-            o.push_str("</tbody></table>\n<p class=\"note\">|r| near 1 (dark) means two parameters cannot be told apart by this flight pattern.</p>\n");
-        }
-        // Ties.
+        let worst = mounting_table(&mut o, c, truth);
+        correlation_table(&mut o, c);
         if !c.ties.is_empty() {
-            const MAX: usize = 30;
-            o.push_str("<table id=\"ties\"><caption>Tie residuals (cm, length of the x/y/z residual)</caption><thead><tr><th>tie</th><th class=\"text\">strips</th><th>before</th><th>after</th></tr></thead><tbody>\n");
-            let norm = |r: Option<[f64; 3]>| {
-                r.map(|r| cm((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt()))
-                    .unwrap_or_else(|| "—".into())
-            };
-            for t in c.ties.iter().take(MAX) {
-                let strips: Vec<String> = t.strips.iter().map(|s| s.0.clone()).collect();
-                let _ = writeln!(
-                    o,
-                    "<tr><td>{}</td><td class=\"text\">{}</td><td>{}</td><td>{}</td></tr>",
-                    esc(&t.id.0),
-                    esc(&strips.join(", ")),
-                    norm(t.residual_before_m),
-                    norm(t.residual_after_m)
-                );
-            }
-            o.push_str("</tbody></table>\n");
-            if c.ties.len() > MAX {
-                let _ = writeln!(
-                    o,
-                    "<p class=\"note\">First {MAX} of {} ties shown.</p>",
-                    c.ties.len()
-                );
-            }
-            // The same residuals as a plot, per tie (the largest before first).
-            let length_cm = |r: Option<[f64; 3]>| {
-                r.map_or(f64::NAN, |r| {
-                    100.0 * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt()
-                })
-            };
-            let mut order: Vec<&crate::products::CalibrationTie> = c.ties.iter().collect();
-            order.sort_by(|a, b| {
-                length_cm(b.residual_before_m).total_cmp(&length_cm(a.residual_before_m))
-            });
-            order.truncate(MAX);
-            let names: Vec<String> = order.iter().map(|t| t.id.0.clone()).collect();
-            o.push_str(&plot::hbars(
-                "plot-tie-residuals",
-                "Tie residuals before and after the calibration, per tie",
-                "length of the x/y/z residual (cm)",
-                &names,
-                &[
-                    (
-                        "before",
-                        order
-                            .iter()
-                            .map(|t| length_cm(t.residual_before_m))
-                            .collect(),
-                    ),
-                    (
-                        "after",
-                        order
-                            .iter()
-                            .map(|t| length_cm(t.residual_after_m))
-                            .collect(),
-                    ),
-                ],
-            ));
+            tie_table(&mut o, c);
+            tie_plot(&mut o, c);
         }
-        if !c.dropped_picks.is_empty() {
-            o.push_str("<table id=\"dropped-picks\"><caption>Picks left out: no virtual tie could be formed in that strip</caption><thead><tr><th class=\"text\">tie</th><th class=\"text\">strip</th><th class=\"text\">why</th></tr></thead><tbody>\n");
-            for d in &c.dropped_picks {
-                let _ = writeln!(
-                    o,
-                    "<tr><td class=\"text\">{}</td><td class=\"text\">{}</td><td class=\"text\">{}</td></tr>",
-                    esc(&d.tie.0),
-                    esc(&d.strip.0),
-                    esc(&d.reason)
-                );
-            }
-            o.push_str("</tbody></table>\n");
-        }
+        dropped_picks_table(&mut o, c);
         let unobs: Vec<String> = c
             .parameters
             .iter()
@@ -327,4 +169,187 @@ pub(super) fn convergence(its: &CalibrationIterations) -> String {
     o
 }
 
-// ---------------------------------------------------------------------------------------------
+/// The recovered mounting beside its σ (and the truth, when simulated); returns the largest
+/// error left in an observable boresight angle: (name, error, unit).
+fn mounting_table(
+    o: &mut String,
+    c: &Calibration,
+    truth: Option<&Truth>,
+) -> Option<(String, f64, &'static str)> {
+    o.push_str("<table id=\"mounting\"><caption>Recovered mounting</caption><thead><tr><th>parameter</th><th>unit</th><th>recovered</th><th>σ</th>");
+    if truth.is_some() {
+        o.push_str("<th>true (injected)</th><th>error</th><th>error / σ</th>");
+    }
+    o.push_str("<th class=\"text\">observable</th></tr></thead><tbody>\n");
+    let mut worst: Option<(String, f64, &str)> = None;
+    for (key, v) in c.parameters.iter() {
+        let (name, unit) = split_unit(key);
+        let sigma = c.sigma.get(key).copied().flatten();
+        let observable = c.observable.get(key).copied().unwrap_or(true);
+        let _ = write!(
+            o,
+            "<tr><td>{}</td><td>{unit}</td><td>{}</td><td>{}</td>",
+            esc(&name),
+            num4(*v),
+            sigma.map(num4).unwrap_or_else(|| "—".into())
+        );
+        if let Some(t) = truth {
+            match t.mounting.get(key) {
+                Some(tv) => {
+                    let err = v - tv;
+                    let ratio = sigma
+                        .filter(|s| *s > 0.0)
+                        .map(|s| format!("{:.1}", err / s))
+                        .unwrap_or_else(|| "—".into());
+                    let _ = write!(
+                        o,
+                        "<td>{}</td><td>{:+.4}</td><td>{ratio}</td>",
+                        num4(*tv),
+                        err
+                    );
+                    if observable
+                        && unit == "deg"
+                        && worst.as_ref().is_none_or(|w| err.abs() > w.1.abs())
+                    {
+                        worst = Some((name.clone(), err, unit));
+                    }
+                }
+                None => o.push_str("<td>—</td><td>—</td><td>—</td>"),
+            }
+        }
+        let _ = writeln!(
+            o,
+            "<td class=\"text\">{}</td></tr>",
+            if observable {
+                "yes"
+            } else {
+                "<span class=\"fail\">no</span> (held at prior)"
+            }
+        );
+    }
+    o.push_str("</tbody></table>\n");
+    worst
+}
+
+/// The correlation matrix of the estimated parameters, coloured by |r|.
+fn correlation_table(o: &mut String, c: &Calibration) {
+    let n = c.correlation.len();
+    if n > 0 {
+        let all: Vec<&String> = c.parameters.iter().map(|(k, _)| k).collect();
+        let obs: Vec<&String> = all
+            .iter()
+            .copied()
+            .filter(|k| c.observable.get(k).copied().unwrap_or(true))
+            .collect();
+        let labels: Vec<String> = if all.len() == n {
+            all.iter().map(|k| split_unit(k).0).collect()
+        } else if obs.len() == n {
+            obs.iter().map(|k| split_unit(k).0).collect()
+        } else {
+            (1..=n).map(|i| format!("p{i}")).collect()
+        };
+        o.push_str("<table id=\"correlation\"><caption>Correlation of the estimated parameters</caption><thead><tr><th></th>");
+        for l in &labels {
+            let _ = write!(o, "<th>{}</th>", esc(l));
+        }
+        o.push_str("</tr></thead><tbody>\n");
+        for (i, row) in c.correlation.iter().enumerate() {
+            let _ = write!(o, "<tr><th class=\"text\">{}</th>", esc(&labels[i]));
+            for &v in row {
+                let Some(v) = v.filter(|v| v.is_finite()) else {
+                    o.push_str("<td>—</td>");
+                    continue;
+                };
+                let a = v.abs().min(1.0);
+                let bg = if v >= 0.0 {
+                    format!("rgba(214,39,40,{:.2})", a * 0.6)
+                } else {
+                    format!("rgba(31,119,180,{:.2})", a * 0.6)
+                };
+                let _ = write!(o, "<td style=\"background:{bg}\">{:+.2}</td>", v);
+            }
+            o.push_str("</tr>\n");
+        }
+        o.push_str("</tbody></table>\n<p class=\"note\">|r| near 1 (dark) means two parameters cannot be told apart by this flight pattern.</p>\n");
+    }
+}
+
+/// Each tie's residual length before and after.
+fn tie_table(o: &mut String, c: &Calibration) {
+    o.push_str("<table id=\"ties\"><caption>Tie residuals (cm, length of the x/y/z residual)</caption><thead><tr><th>tie</th><th class=\"text\">strips</th><th>before</th><th>after</th></tr></thead><tbody>\n");
+    let norm = |r: Option<[f64; 3]>| {
+        r.map(|r| cm((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt()))
+            .unwrap_or_else(|| "—".into())
+    };
+    for t in c.ties.iter().take(MAX_TIES) {
+        let strips: Vec<String> = t.strips.iter().map(|s| s.0.clone()).collect();
+        let _ = writeln!(
+            o,
+            "<tr><td>{}</td><td class=\"text\">{}</td><td>{}</td><td>{}</td></tr>",
+            esc(&t.id.0),
+            esc(&strips.join(", ")),
+            norm(t.residual_before_m),
+            norm(t.residual_after_m)
+        );
+    }
+    o.push_str("</tbody></table>\n");
+    if c.ties.len() > MAX_TIES {
+        let _ = writeln!(
+            o,
+            "<p class=\"note\">First {MAX_TIES} of {} ties shown.</p>",
+            c.ties.len()
+        );
+    }
+}
+
+/// The tie residuals as bars, the largest before first.
+fn tie_plot(o: &mut String, c: &Calibration) {
+    let length_cm = |r: Option<[f64; 3]>| {
+        r.map_or(f64::NAN, |r| {
+            100.0 * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt()
+        })
+    };
+    let mut order: Vec<&crate::products::CalibrationTie> = c.ties.iter().collect();
+    order.sort_by(|a, b| length_cm(b.residual_before_m).total_cmp(&length_cm(a.residual_before_m)));
+    order.truncate(MAX_TIES);
+    let names: Vec<String> = order.iter().map(|t| t.id.0.clone()).collect();
+    o.push_str(&plot::hbars(
+        "plot-tie-residuals",
+        "Tie residuals before and after the calibration, per tie",
+        "length of the x/y/z residual (cm)",
+        &names,
+        &[
+            (
+                "before",
+                order
+                    .iter()
+                    .map(|t| length_cm(t.residual_before_m))
+                    .collect(),
+            ),
+            (
+                "after",
+                order
+                    .iter()
+                    .map(|t| length_cm(t.residual_after_m))
+                    .collect(),
+            ),
+        ],
+    ));
+}
+
+/// The picks that formed no tie, and why.
+fn dropped_picks_table(o: &mut String, c: &Calibration) {
+    if !c.dropped_picks.is_empty() {
+        o.push_str("<table id=\"dropped-picks\"><caption>Picks left out: no virtual tie could be formed in that strip</caption><thead><tr><th class=\"text\">tie</th><th class=\"text\">strip</th><th class=\"text\">why</th></tr></thead><tbody>\n");
+        for d in &c.dropped_picks {
+            let _ = writeln!(
+                o,
+                "<tr><td class=\"text\">{}</td><td class=\"text\">{}</td><td class=\"text\">{}</td></tr>",
+                esc(&d.tie.0),
+                esc(&d.strip.0),
+                esc(&d.reason)
+            );
+        }
+        o.push_str("</tbody></table>\n");
+    }
+}

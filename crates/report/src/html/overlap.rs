@@ -11,9 +11,28 @@ pub(super) fn overlap_section(before: Option<&Overlap>, after: Option<&Overlap>)
         .into_iter()
         .filter_map(|(n, e)| e.map(|e| (n, e)))
         .collect();
-    // Pairs table, merged by strip pair.
+    pairs_table(&mut o, &runs);
+    dz_maps(&mut o, &runs);
+    profiles(&mut o, &runs);
+    let rms = |r: &Overlap| {
+        let (s, n) = r.pairs.iter().fold((0.0, 0u64), |(s, n), p| {
+            (s + p.rmsdz_m.powi(2) * p.n as f64, n + p.n)
+        });
+        (n > 0).then(|| (s / n as f64).sqrt())
+    };
+    let text = match (before.and_then(rms), after.and_then(rms)) {
+        (Some(b), Some(a)) => format!("Where strips overlap they should show the same ground. The RMS height difference between them falls from {} cm before correction to {} cm after it; in the profile the strips should lie on top of each other after correction.", cm(b), cm(a)),
+        (Some(v), None) | (None, Some(v)) => format!("Where strips overlap they should show the same ground; the RMS height difference between them is {} cm.", cm(v)),
+        _ => "Where strips overlap they should show the same ground; the maps show where they do not.".into(),
+    };
+    meaning(&mut o, &text);
+    o
+}
+
+/// The height differences per strip pair, merged over the runs.
+fn pairs_table(o: &mut String, runs: &[(&str, &Overlap)]) {
     let mut keys: Vec<(String, String)> = Vec::new();
-    for (_, r) in &runs {
+    for (_, r) in runs {
         for p in &r.pairs {
             let k = (p.strips[0].0.clone(), p.strips[1].0.clone());
             if !keys.contains(&k) {
@@ -23,7 +42,7 @@ pub(super) fn overlap_section(before: Option<&Overlap>, after: Option<&Overlap>)
     }
     if !keys.is_empty() {
         o.push_str("<table id=\"overlap-pairs\"><caption>Height differences between overlapping strips (cm)</caption><thead><tr><th>strips</th>");
-        for (n, _) in &runs {
+        for (n, _) in runs {
             let _ = write!(
                 o,
                 "<th>RMS dz {0}</th><th>max |dz| {0}</th>",
@@ -34,7 +53,7 @@ pub(super) fn overlap_section(before: Option<&Overlap>, after: Option<&Overlap>)
         for k in &keys {
             let _ = write!(o, "<tr><td>{} – {}</td>", esc(&k.0), esc(&k.1));
             let mut n = None;
-            for (_, r) in &runs {
+            for (_, r) in runs {
                 match r
                     .pairs
                     .iter()
@@ -60,7 +79,10 @@ pub(super) fn overlap_section(before: Option<&Overlap>, after: Option<&Overlap>)
         }
         o.push_str("</tbody></table>\n");
     }
-    // Maps, one colour scale.
+}
+
+/// Maps of the height difference, one colour scale for all runs.
+fn dz_maps(o: &mut String, runs: &[(&str, &Overlap)]) {
     let panels: Vec<(String, Raster)> = runs
         .iter()
         .filter_map(|(n, r)| {
@@ -103,7 +125,10 @@ pub(super) fn overlap_section(before: Option<&Overlap>, after: Option<&Overlap>)
             "<p class=\"note\">Both maps use the same colour scale, ±{limit:.1} cm (saturating beyond); white is no difference, empty cells are outside the overlaps.</p>"
         );
     }
-    // Profiles, one y range.
+}
+
+/// Each strip's height along the profile, minus the mean of the strips there; one y range.
+fn profiles(o: &mut String, runs: &[(&str, &Overlap)]) {
     let profs: Vec<(&str, &Profile)> = runs
         .iter()
         .filter_map(|(n, r)| r.profile.as_ref().map(|p| (*n, p)))
@@ -162,17 +187,4 @@ pub(super) fn overlap_section(before: Option<&Overlap>, after: Option<&Overlap>)
             ));
         }
     }
-    let rms = |r: &Overlap| {
-        let (s, n) = r.pairs.iter().fold((0.0, 0u64), |(s, n), p| {
-            (s + p.rmsdz_m.powi(2) * p.n as f64, n + p.n)
-        });
-        (n > 0).then(|| (s / n as f64).sqrt())
-    };
-    let text = match (before.and_then(rms), after.and_then(rms)) {
-        (Some(b), Some(a)) => format!("Where strips overlap they should show the same ground. The RMS height difference between them falls from {} cm before correction to {} cm after it; in the profile the strips should lie on top of each other after correction.", cm(b), cm(a)),
-        (Some(v), None) | (None, Some(v)) => format!("Where strips overlap they should show the same ground; the RMS height difference between them is {} cm.", cm(v)),
-        _ => "Where strips overlap they should show the same ground; the maps show where they do not.".into(),
-    };
-    meaning(&mut o, &text);
-    o
 }
