@@ -12,10 +12,11 @@ use lidarqa_io::{ControlPoints, Crs};
 use lidarqa_pipeline::{
     CorrectTileJob, Manifest, TargetsTileJob, TileReport, TpuContext, TpuOptions, TpuTileJob,
     collect as collect_manifest, control_for_targets, correct_tile as correct_one,
-    extract_targets_tile as targets_one, find_targets as find_targets_in, run_entry,
-    tpu_tile as tpu_one,
+    evaluate_nva as evaluate_nva_files, evaluate_target_files, extract_targets_tile as targets_one,
+    find_targets as find_targets_in, predicted_from_sensor, run_entry, tpu_tile as tpu_one,
 };
-use lidarqa_targets::{CentreMethod, ControlPoint, TargetConfig};
+use lidarqa_targets::{CentreMethod, ControlPoint, EvaluateOptions, TargetConfig};
+use lidarqa_tpu::{Biases, GeometryRequest, Preset, Sweep, evaluate, evaluate_sweep};
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
@@ -194,6 +195,128 @@ fn find_targets(
     })
 }
 
+/// Accuracy of a targets CSV (`lidarqa targets` output) against a control CSV: residuals, RMSE
+/// (seed 000 eqs. 7–8), ASPRS and NSSDA, as `lidarqa evaluate --targets … --control …`. With
+/// `sensor` and `height_m`, the predicted σ is the sensor file's budget at that height (and
+/// `scan_angle_deg`). Returns the evaluation as JSON.
+#[pyfunction]
+#[pyo3(signature = (targets, control, horizontal_class_m=None, vertical_class_m=None, sensor=None, height_m=None, scan_angle_deg=None))]
+#[allow(clippy::too_many_arguments)]
+fn evaluate_targets(
+    py: Python<'_>,
+    targets: PathBuf,
+    control: PathBuf,
+    horizontal_class_m: Option<f64>,
+    vertical_class_m: Option<f64>,
+    sensor: Option<PathBuf>,
+    height_m: Option<f64>,
+    scan_angle_deg: Option<f64>,
+) -> PyResult<String> {
+    let options = EvaluateOptions {
+        horizontal_class_m,
+        vertical_class_m,
+    };
+    py.allow_threads(|| {
+        let mut e = evaluate_target_files(&targets, &control, &options).map_err(err)?;
+        match (&sensor, height_m) {
+            (Some(s), Some(h)) => {
+                e.predicted = Some(predicted_from_sensor(s, h, scan_angle_deg).map_err(err)?);
+            }
+            (None, None) => {}
+            _ => {
+                return Err(err(
+                    "sensor and height_m go together (the predicted σ needs both)",
+                ));
+            }
+        }
+        json(&e)
+    })
+}
+
+/// Vertical checkpoints (CSV `id,x,y,z[,…]`) against the TIN of the class-`ground_class` points
+/// of the `ground` LAS/LAZ files (NVA), as `lidarqa evaluate --ground … --checkpoints …`.
+/// Returns the evaluation as JSON.
+#[pyfunction]
+#[pyo3(signature = (ground, checkpoints, ground_class=2, vertical_class_m=None))]
+fn evaluate_nva(
+    py: Python<'_>,
+    ground: Vec<PathBuf>,
+    checkpoints: PathBuf,
+    ground_class: u8,
+    vertical_class_m: Option<f64>,
+) -> PyResult<String> {
+    let options = EvaluateOptions {
+        horizontal_class_m: None,
+        vertical_class_m,
+    };
+    py.allow_threads(|| {
+        json(&evaluate_nva_files(&ground, ground_class, &checkpoints, &options).map_err(err)?)
+    })
+}
+
+/// The error budget of one geometry (degrees and metres, each optional: what is not given comes
+/// from the preset, else level flight heading north at scan angle or azimuth 0), of a `preset`
+/// (`seed000`, `czmil`) or a `sensor` file; with `sweep` (`NAME=START:STOP:STEP`) the budget at
+/// every value; with `bias` (`key=value,…`) the displacement those systematic errors cause. Returns
+/// what `lidarqa budget --format json` prints, as JSON.
+#[pyfunction]
+#[pyo3(signature = (preset=None, sensor=None, heading_deg=None, pitch_deg=None, roll_deg=None, scan_angle_deg=None, range_m=None, height_m=None, azimuth_deg=None, range_air_m=None, range_water_m=None, depth_m=None, sweep=None, bias=None))]
+#[allow(clippy::too_many_arguments)]
+fn budget(
+    preset: Option<&str>,
+    sensor: Option<PathBuf>,
+    heading_deg: Option<f64>,
+    pitch_deg: Option<f64>,
+    roll_deg: Option<f64>,
+    scan_angle_deg: Option<f64>,
+    range_m: Option<f64>,
+    height_m: Option<f64>,
+    azimuth_deg: Option<f64>,
+    range_air_m: Option<f64>,
+    range_water_m: Option<f64>,
+    depth_m: Option<f64>,
+    sweep: Option<&str>,
+    bias: Option<&str>,
+) -> PyResult<String> {
+    let (sensor, preset_geometry) = match (preset, &sensor) {
+        (Some(name), None) => {
+            let p = Preset::from_name(name).ok_or_else(|| {
+                err(format!(
+                    "preset: unknown preset '{name}' (one of seed000, czmil)"
+                ))
+            })?;
+            (p.sensor(), Some(p.geometry()))
+        }
+        (None, Some(path)) => (lidarqa_io::read_sensor(path).map_err(err)?, None),
+        _ => return Err(err("give one of preset or sensor")),
+    };
+    let sweep = sweep
+        .map(|s| s.parse::<Sweep>().map_err(|e| err(format!("sweep: {e}"))))
+        .transpose()?;
+    let biases = bias
+        .map(|b| b.parse::<Biases>().map_err(|e| err(format!("bias: {e}"))))
+        .transpose()?;
+    let request = GeometryRequest {
+        heading_deg,
+        pitch_deg,
+        roll_deg,
+        scan_angle_deg,
+        range_m,
+        height_m,
+        azimuth_deg,
+        range_air_m,
+        range_water_m,
+        depth_m,
+    };
+    let geometry = request
+        .resolve(&sensor, preset_geometry, sweep.as_ref())
+        .map_err(err)?;
+    match &sweep {
+        Some(s) => json(&evaluate_sweep(&sensor, &geometry, s, biases.as_ref()).map_err(err)?),
+        None => json(&evaluate(&sensor, &geometry, biases.as_ref()).map_err(err)?),
+    }
+}
+
 /// Runs entry `index` of a manifest from `lidarqa plan` (skipped when already complete, unless
 /// `force`). Returns `{"index", "skipped", "input", "output", "points_read", "points_written"}`
 /// as JSON.
@@ -262,6 +385,9 @@ fn _lidarqa(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(correct_tile, m)?)?;
     m.add_function(wrap_pyfunction!(extract_targets_tile, m)?)?;
     m.add_function(wrap_pyfunction!(find_targets, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluate_targets, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluate_nva, m)?)?;
+    m.add_function(wrap_pyfunction!(budget, m)?)?;
     m.add_function(wrap_pyfunction!(run_manifest_entry, m)?)?;
     m.add_function(wrap_pyfunction!(manifest_len, m)?)?;
     m.add_function(wrap_pyfunction!(collect, m)?)?;

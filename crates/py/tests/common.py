@@ -4,6 +4,7 @@
 import os
 import shutil
 import subprocess
+import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[3]
@@ -58,3 +59,24 @@ def local_cluster(n_workers):
 
     return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
                         host="127.0.0.1", dashboard_address=None, silence_logs=40)
+
+
+def run_tests(namespace):
+    """Runs every `test_*` function of `namespace` (a test module's globals) without pytest,
+    printing "N passed, N failed"; returns the exit status."""
+    import traceback
+
+    passed = failed = 0
+    for name, fn in list(namespace.items()):
+        if name.startswith("test_") and callable(fn):
+            t0 = time.time()
+            try:
+                fn()
+                passed += 1
+                print(f"{name}: ok ({time.time() - t0:.1f} s)")
+            except Exception as e:  # noqa: BLE001
+                failed += 1
+                traceback.print_exc()
+                print(f"{name}: FAILED: {e}")
+    print(f"{passed} passed, {failed} failed")
+    return 1 if failed else 0

@@ -126,19 +126,4 @@ def test_killed_worker_loses_nothing():
 
 
 if __name__ == "__main__":
-    passed = failed = 0
-    for name, fn in list(globals().items()):
-        if name.startswith("test_") and callable(fn):
-            t0 = time.time()
-            try:
-                fn()
-                passed += 1
-                print(f"{name}: ok ({time.time() - t0:.1f} s)")
-            except Exception as e:  # noqa: BLE001
-                failed += 1
-                import traceback
-
-                traceback.print_exc()
-                print(f"{name}: FAILED: {e}")
-    print(f"{passed} passed, {failed} failed")
-    sys.exit(1 if failed else 0)
+    sys.exit(common.run_tests(globals()))

@@ -25,6 +25,9 @@ __all__ = [
     "correct_tile",
     "extract_targets_tile",
     "find_targets",
+    "evaluate_targets",
+    "evaluate_nva",
+    "budget",
     "run_manifest_entry",
     "manifest_len",
     "collect",
@@ -60,6 +63,31 @@ def find_targets(inputs, control, radius_m=None, method="circle-fit", window_m=6
     (as ``lidarqa targets``); returns ``{"report": ..., "warnings": [...]}``, writes nothing."""
     return _json.loads(_lidarqa.find_targets([str(p) for p in inputs], str(control), radius_m,
                                              method, window_m))
+
+
+def evaluate_targets(targets, control, horizontal_class_m=None, vertical_class_m=None,
+                     sensor=None, height_m=None, scan_angle_deg=None):
+    """Accuracy of a targets CSV against a control CSV (``lidarqa evaluate --targets --control``):
+    residuals, RMSE (seed 000 eqs. 7-8), ASPRS and NSSDA; with ``sensor`` and ``height_m`` the
+    predicted σ of that sensor file's budget beside it."""
+    return _json.loads(_lidarqa.evaluate_targets(str(targets), str(control), horizontal_class_m,
+                                                 vertical_class_m, _s(sensor), height_m,
+                                                 scan_angle_deg))
+
+
+def evaluate_nva(ground, checkpoints, ground_class=2, vertical_class_m=None):
+    """Vertical checkpoints against the TIN of the ground points of LAS/LAZ files (NVA, as
+    ``lidarqa evaluate --ground --checkpoints``)."""
+    return _json.loads(_lidarqa.evaluate_nva([str(p) for p in ground], str(checkpoints),
+                                             ground_class, vertical_class_m))
+
+
+def budget(preset=None, sensor=None, **geometry):
+    """The error budget of one geometry (``lidarqa budget --format json``): ``preset`` (seed000,
+    czmil) or ``sensor`` (a sensor file), and keywords in degrees and metres: heading_deg,
+    pitch_deg, roll_deg, scan_angle_deg, range_m, height_m, azimuth_deg, range_air_m,
+    range_water_m, depth_m, sweep ("NAME=START:STOP:STEP"), bias ("key=value,...")."""
+    return _json.loads(_lidarqa.budget(preset, _s(sensor), **geometry))
 
 
 def run_manifest_entry(manifest, index, force=False):

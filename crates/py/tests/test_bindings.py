@@ -1,0 +1,148 @@
+"""The Python bindings of accuracy evaluation and the error budget (issue 22): each gives what the
+`lidarqa` command prints, and the values are checked against closed forms and seed 000 Table 1.
+
+Run as `python3 crates/py/tests/test_bindings.py` (prints "N passed, N failed") or with pytest.
+Needs the wheel installed (`pip install ./crates/py`), numpy and laspy, and the release binary
+(or $LIDARQA_BIN) for the comparison with the CLI.
+"""
+
+import json
+import math
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import common  # noqa: E402
+
+import lidarqa  # noqa: E402
+
+
+def cli_json(*args):
+    """`lidarqa ... --format json` parsed, without the CLI's `warnings` list (empty here)."""
+    r = subprocess.run([common.lidarqa_bin(), *map(str, args), "--format", "json"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    v = json.loads(r.stdout)
+    assert v.pop("warnings") == []
+    return v
+
+
+def test_budget_seed000_is_table_1_and_the_cli():
+    v = lidarqa.budget(preset="seed000")
+    # Seed 000 Table 1: 30° scan angle, 80 m below: footprint 80·tan 30° east, range 80 / cos 30°.
+    assert abs(v["footprint"]["east"] - 80 * math.tan(math.radians(30))) < 1e-9
+    assert abs(v["geometry"]["range_m"] - 80 / math.cos(math.radians(30))) < 1e-9
+    # The table's totals, 5.27 / 5.19 / 10.04 cm (rounded to 0.1 mm there).
+    for axis, cm in [("north", 5.27), ("east", 5.19), ("up", 10.04)]:
+        assert abs(v["total"][axis] * 100 - cm) <= 0.005, (axis, v["total"][axis])
+    assert v == cli_json("budget", "--preset", "seed000")
+
+
+def test_budget_geometry_sweep_and_bias_as_the_cli():
+    kw = dict(preset="seed000", height_m=200.0, sweep="scan-angle=-30:30:10",
+              bias="boresight_roll_deg=0.05,lever_x_m=0.02")
+    v = lidarqa.budget(**kw)
+    assert v["sweep"] == "scan-angle" and v["unit"] == "deg"
+    assert [p["at"] for p in v["points"]] == [-30.0, -20.0, -10.0, 0.0, 10.0, 20.0, 30.0]
+    # At nadir the range is the height.
+    assert abs(v["points"][3]["geometry"]["range_m"] - 200.0) < 1e-9
+    assert v == cli_json("budget", "--preset", "seed000", "--height", "200",
+                         "--sweep", "scan-angle=-30:30:10",
+                         "--bias", "boresight_roll_deg=0.05,lever_x_m=0.02")
+    one = lidarqa.budget(preset="czmil", azimuth_deg=90.0)
+    assert abs(one["geometry"]["azimuth_deg"] - 90.0) < 1e-12
+    assert one == cli_json("budget", "--preset", "czmil", "--azimuth", "90")
+
+
+def test_budget_errors_name_the_value():
+    for kw, want in [(dict(preset="nope"), "unknown preset 'nope'"),
+                     (dict(preset="seed000", azimuth_deg=10.0), "conic scanner"),
+                     (dict(preset="seed000", bias="boresight_roll=0.1"), "boresight_roll"),
+                     (dict(), "preset or sensor")]:
+        try:
+            lidarqa.budget(**kw)
+        except lidarqa.LidarqaError as e:
+            assert want in str(e), (kw, str(e))
+        else:
+            raise AssertionError(f"{kw}: no error")
+
+
+def _targets_and_control(d):
+    """Five targets displaced from their control by known offsets (m)."""
+    control = [("T1", 1000.0, 2000.0, 50.0), ("T2", 1100.0, 2000.0, 51.0),
+               ("T3", 1000.0, 2100.0, 52.0), ("T4", 1100.0, 2100.0, 50.5),
+               ("T5", 1050.0, 2050.0, 51.5)]
+    offsets = [(0.03, -0.02, 0.05), (-0.01, 0.04, -0.02), (0.02, 0.01, 0.04),
+               (-0.05, 0.00, -0.06), (0.01, -0.03, 0.01)]
+    (d / "control.csv").write_text("id,x,y,z\n" + "".join(
+        f"{i},{x:.4f},{y:.4f},{z:.4f}\n" for i, x, y, z in control))
+    (d / "targets.csv").write_text("id,x,y,z\n" + "".join(
+        f"{i},{x + dx:.4f},{y + dy:.4f},{z + dz:.4f}\n"
+        for (i, x, y, z), (dx, dy, dz) in zip(control, offsets)))
+    return offsets
+
+
+def test_evaluate_targets_closed_form_and_cli():
+    d = Path(tempfile.mkdtemp(prefix="lidarqa-py-eval-"))
+    offsets = _targets_and_control(d)
+    e = lidarqa.evaluate_targets(d / "targets.csv", d / "control.csv", vertical_class_m=0.10)
+    n = len(offsets)
+    # Seed 000 eqs. 7 and 8: RMSE_H = √(Σ(dx² + dy²)/n), RMSE_V = √(Σ dz²/n); residual = lidar − control.
+    rmse_h = math.sqrt(sum(dx * dx + dy * dy for dx, dy, _ in offsets) / n)
+    rmse_v = math.sqrt(sum(dz * dz for _, _, dz in offsets) / n)
+    assert e["n"] == n
+    assert abs(e["rmse"]["horizontal"] - rmse_h) < 1e-9, e["rmse"]
+    assert abs(e["rmse"]["vertical"] - rmse_v) < 1e-9, e["rmse"]
+    assert e["predicted"] is None
+    assert e == cli_json("evaluate", "--targets", d / "targets.csv", "--control", d / "control.csv",
+                         "--vertical-class-m", "0.10")
+    # With a sensor file the prediction is its budget at that height: seed 000's at 80 m, 30°.
+    sensor = d / "seed000.toml"
+    sensor.write_text(subprocess.run([common.lidarqa_bin(), "budget", "--preset", "seed000",
+                                      "--print-sensor"], capture_output=True, text=True,
+                                     check=True).stdout)
+    p = lidarqa.evaluate_targets(d / "targets.csv", d / "control.csv", sensor=sensor,
+                                 height_m=80.0, scan_angle_deg=30.0)["predicted"]
+    assert abs(p["up"] * 100 - 10.04) <= 0.005, p
+    try:
+        lidarqa.evaluate_targets(d / "targets.csv", d / "control.csv", sensor=sensor)
+    except lidarqa.LidarqaError as err:
+        assert "height_m" in str(err)
+    else:
+        raise AssertionError("sensor without height_m accepted")
+
+
+def test_evaluate_nva_on_a_plane():
+    import laspy
+    import numpy as np
+
+    d = Path(tempfile.mkdtemp(prefix="lidarqa-py-nva-"))
+    # Ground on the plane z = 100 + 0.01 x − 0.02 y (metres, 1 m grid): exact at 1 mm LAS scale,
+    # so the TIN reproduces the plane and a checkpoint's residual is minus its offset.
+    gx, gy = np.meshgrid(np.arange(0.0, 41.0), np.arange(0.0, 41.0))
+    x, y = gx.ravel() + 500000.0, gy.ravel() + 4000000.0
+    plane = lambda x, y: 100.0 + 0.01 * (x - 500000.0) - 0.02 * (y - 4000000.0)  # noqa: E731
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    header.scales = np.array([0.001, 0.001, 0.001])
+    header.offsets = np.array([500000.0, 4000000.0, 0.0])
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = x, y, plane(x, y)
+    las.classification = np.full(x.size, 2, dtype=np.uint8)
+    las.write(d / "ground.las")
+    checkpoints = [("C1", 500010.3, 4000012.7, 0.04), ("C2", 500025.5, 4000005.25, -0.03),
+                   ("C3", 500033.1, 4000030.9, 0.02), ("C4", 500007.75, 4000036.5, -0.05)]
+    (d / "nva.csv").write_text("id,x,y,z\n" + "".join(
+        f"{i},{cx},{cy},{plane(cx, cy) + off:.6f}\n" for i, cx, cy, off in checkpoints))
+    v = lidarqa.evaluate_nva([d / "ground.las"], d / "nva.csv")
+    rmse = math.sqrt(sum(off * off for *_, off in checkpoints) / len(checkpoints))
+    assert v["n"] == 4 and v["outside_tin"] == []
+    assert abs(v["rmse_v_m"] - rmse) < 2e-6, (v["rmse_v_m"], rmse)
+    assert abs(v["mean_up_m"] + sum(off for *_, off in checkpoints) / 4) < 2e-6
+    assert v == cli_json("evaluate", "--ground", d / "ground.las", "--checkpoints",
+                         d / "nva.csv")["nva"]
+
+
+if __name__ == "__main__":
+    sys.exit(common.run_tests(globals()))
