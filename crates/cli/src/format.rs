@@ -42,6 +42,14 @@ pub fn cm(v: f64, width: usize) -> String {
     format!("{:>width$.2}", v * 100.0)
 }
 
+/// The six components of `a` (north, east, up, horizontal, vertical, 3-D) as [`cm`] columns of
+/// `width`: the centimetre row of every σ table.
+pub fn axes_cm(a: &lidarqa_model::Axes, width: usize) -> String {
+    [a.north, a.east, a.up, a.horizontal, a.vertical, a.three_d]
+        .map(|v| cm(v, width))
+        .concat()
+}
+
 /// Print each warning to stderr, one line each (SPEC §7).
 pub fn print_warnings(warnings: &[lidarqa_model::Warning]) {
     for w in warnings {

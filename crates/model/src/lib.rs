@@ -27,6 +27,7 @@
 //! ```
 
 mod axes;
+mod confidence;
 mod conic;
 mod eigen3;
 mod error;
@@ -42,6 +43,7 @@ mod source;
 mod warning;
 
 pub use axes::Axes;
+pub use confidence::{CIRCULAR_95_FACTOR, NORMAL_95_FACTOR};
 pub use conic::{
     CONIC_N, ConicObservation, ConicScanner, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER,
     Refraction, SPEED_OF_LIGHT_AIR_M_PER_S, refract,

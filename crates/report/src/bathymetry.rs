@@ -4,7 +4,7 @@
 //! the conic scan (seed 004 Fig. 4, from `budget_sweep_azimuth.json`), which sources dominate,
 //! and where each order is achieved.
 
-use crate::plot::{self, Line, Raster, Scale};
+use crate::plot::{self, Line, Scale};
 use crate::products::*;
 use crate::report::Products;
 use crate::text::{cm, esc, meaning};
@@ -320,7 +320,10 @@ fn sigma_vs_depth(iho: &TpuIho, sweep: Option<&Sweep>, o: &mut String) {
             420,
         ));
     }
-    o.push_str("<p class=\"note\">Allowances drawn as 1σ: TVU √(a² + (b·d)²) ÷ 1.96; THU ÷ 1.7308 (a circular error; the IHO check itself uses each sounding's own 95 % ellipse radius, up to 1.96 σ<sub>H</sub>). Allowances above the plotted range are cut at its top.</p>\n");
+    let _ = writeln!(
+        o,
+        "<p class=\"note\">Allowances drawn as 1σ: TVU √(a² + (b·d)²) ÷ {TVU_95}; THU ÷ {THU_95_CIRCULAR} (a circular error; the IHO check itself uses each sounding's own 95 % ellipse radius, up to {TVU_95} σ<sub>H</sub>). Allowances above the plotted range are cut at its top.</p>"
+    );
     if let Some(s) = sweep {
         if let (Some(a), Some(b)) = (s.points.first(), s.points.last()) {
             let text = format!(
@@ -478,18 +481,12 @@ fn order_map(g: &OrderGrid, o: &mut String) {
             _ => return None,
         })
     };
-    let r = Raster {
-        origin_x: g.geometry.origin_x,
-        origin_y: g.geometry.origin_y,
-        cell_m: g.geometry.cell_m,
-        nx: g.geometry.nx,
-        ny: g.geometry.ny,
-        values: g
-            .order
+    let r = g.geometry.raster(
+        g.order
             .iter()
             .map(|v| v.as_deref().and_then(code))
             .collect(),
-    };
+    );
     o.push_str(&plot::heatmaps(
         "plot-bathy-order-map",
         "IHO S-44 order achieved (≥ 95 % of the cell's soundings)",

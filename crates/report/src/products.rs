@@ -404,6 +404,18 @@ pub struct GridGeometry {
 }
 
 impl GridGeometry {
+    /// A map of `values` (row-major, one per cell) on this grid.
+    pub(crate) fn raster(&self, values: Vec<Option<f64>>) -> crate::plot::Raster {
+        crate::plot::Raster {
+            origin_x: self.origin_x,
+            origin_y: self.origin_y,
+            cell_m: self.cell_m,
+            nx: self.nx,
+            ny: self.ny,
+            values,
+        }
+    }
+
     fn check(&self, key: &str, cells: usize) -> std::result::Result<(), Invalid> {
         if !(self.cell_m.is_finite() && self.cell_m > 0.0) {
             return Err(invalid(

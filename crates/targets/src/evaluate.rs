@@ -53,11 +53,11 @@ use crate::{Error, FrameSide, Result};
 /// Minimum number of checkpoints for an ASPRS Ed. 2 product accuracy assessment.
 pub const ASPRS_MIN_CHECKPOINTS: usize = 30;
 /// NSSDA factor: 95 % circular error = 1.7308 × RMSE_r (RMSE_x = RMSE_y).
-pub const NSSDA_HORIZONTAL_FACTOR: f64 = 1.7308;
+pub const NSSDA_HORIZONTAL_FACTOR: f64 = lidarqa_model::CIRCULAR_95_FACTOR;
 /// NSSDA factor of the approximation 2.4477 × 0.5 × (RMSE_x + RMSE_y).
 pub const NSSDA_HORIZONTAL_APPROX_FACTOR: f64 = 2.4477;
 /// NSSDA factor: 95 % vertical accuracy = 1.9600 × RMSE_z.
-pub const NSSDA_VERTICAL_FACTOR: f64 = 1.9600;
+pub const NSSDA_VERTICAL_FACTOR: f64 = lidarqa_model::NORMAL_95_FACTOR;
 
 /// A measured point (a target centre or any well-defined point) to compare with control.
 #[derive(Debug, Clone, PartialEq, Serialize)]

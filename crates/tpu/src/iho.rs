@@ -25,12 +25,14 @@ use nalgebra::Matrix2;
 use serde::Serialize;
 use std::sync::OnceLock;
 
-/// Factor of σ_V for the 95 % vertical uncertainty (normal distribution).
-pub const TVU_95_FACTOR: f64 = 1.96;
+/// Factor of σ_V for the 95 % vertical uncertainty (normal distribution): model's
+/// [`NORMAL_95_FACTOR`](lidarqa_model::NORMAL_95_FACTOR).
+pub const TVU_95_FACTOR: f64 = lidarqa_model::NORMAL_95_FACTOR;
 /// 95 % radius of a circular bivariate normal in units of its per-axis σ: `√(−2 ln 0.05)`.
 pub const THU_95_CIRCULAR_PER_AXIS: f64 = 2.447_746_830_680_816;
-/// cBLUE's `total_thu` factor of σ_H: the circular 95 % radius `2.4477 / √2` (SPEC §7).
-pub const THU_95_CBLUE: f64 = 1.7308;
+/// cBLUE's `total_thu` factor of σ_H: the circular 95 % radius `2.4477 / √2` (SPEC §7), model's
+/// [`CIRCULAR_95_FACTOR`](lidarqa_model::CIRCULAR_95_FACTOR).
+pub const THU_95_CBLUE: f64 = lidarqa_model::CIRCULAR_95_FACTOR;
 
 /// An S-44 order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]

@@ -1,6 +1,6 @@
 //! The text tables of `lidarqa budget` (presentation only; the numbers come from lidarqa-tpu).
 
-use crate::format::cm;
+use crate::format::{axes_cm, cm};
 use lidarqa_model::Source;
 use lidarqa_tpu::{Evaluation, GeometryFacts, MonteCarlo, SweepEvaluation};
 use std::fmt::Write as _;
@@ -80,31 +80,15 @@ pub fn table(label: &str, e: &Evaluation) -> String {
         let unit = s.source.unit().config_suffix().trim_start_matches('_');
         let _ = writeln!(
             t,
-            "{:<name_w$}{:>12}{}{}{}{}{}{}",
+            "{:<name_w$}{:>12}{}",
             s.source.name(),
             format!("{} {unit}", trim_number(shown)).trim_end(),
-            cm(s.effect.north, 8),
-            cm(s.effect.east, 8),
-            cm(s.effect.up, 8),
-            cm(s.effect.horizontal, 8),
-            cm(s.effect.vertical, 8),
-            cm(s.effect.three_d, 8),
+            axes_cm(&s.effect, 8),
         );
     }
     let x = e.total;
     let _ = writeln!(t, "{}", "-".repeat(name_w + 60));
-    let _ = writeln!(
-        t,
-        "{:<w$}{}{}{}{}{}{}",
-        "total",
-        cm(x.north, 8),
-        cm(x.east, 8),
-        cm(x.up, 8),
-        cm(x.horizontal, 8),
-        cm(x.vertical, 8),
-        cm(x.three_d, 8),
-        w = name_w + 12
-    );
+    let _ = writeln!(t, "{:<w$}{}", "total", axes_cm(&x, 8), w = name_w + 12);
     if let (Some(b), Some(f)) = (e.bias, e.bias_first_order) {
         let _ = writeln!(t);
         let _ = writeln!(
@@ -150,17 +134,7 @@ pub fn sweep_table(label: &str, result: &SweepEvaluation) -> String {
     for p in &result.points {
         let (at, e) = (p.at, &p.evaluation);
         let x = e.total;
-        let _ = write!(
-            t,
-            "{:>10.3}{}{}{}{}{}{}",
-            at,
-            cm(x.north, 8),
-            cm(x.east, 8),
-            cm(x.up, 8),
-            cm(x.horizontal, 8),
-            cm(x.vertical, 8),
-            cm(x.three_d, 8)
-        );
+        let _ = write!(t, "{:>10.3}{}", at, axes_cm(&x, 8),);
         if let Some(b) = e.bias {
             let _ = write!(
                 t,
@@ -190,13 +164,8 @@ fn trim_number(v: f64) -> String {
 pub fn monte_carlo_row(mc: &MonteCarlo) -> String {
     let s = mc.sigma;
     format!(
-        "{:<28}{}{}{}{}{}{}\n",
+        "{:<28}{}\n",
         format!("monte carlo ({})", mc.samples),
-        cm(s.north, 8),
-        cm(s.east, 8),
-        cm(s.up, 8),
-        cm(s.horizontal, 8),
-        cm(s.vertical, 8),
-        cm(s.three_d, 8)
+        axes_cm(&s, 8),
     )
 }

@@ -1,7 +1,7 @@
 //! `lidarqa evaluate`: accuracy statistics of targets against control (seed 000 eqs. 7–8, ASPRS
 //! Ed. 2, NSSDA), side by side with the predicted accuracy.
 
-use crate::format::{OutputFormat, cm, print_json, print_text};
+use crate::format::{OutputFormat, axes_cm, cm, print_json, print_text};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lidarqa_pipeline::{evaluate_nva, evaluate_target_files, predicted_from_sensor};
@@ -228,17 +228,7 @@ pub fn table(e: &Evaluation) -> String {
         "cm", "north", "east", "up", "horiz", "vert", "3-D"
     );
     let row = |t: &mut String, name: &str, c: &Components| {
-        let _ = writeln!(
-            t,
-            "{:<22}{}{}{}{}{}{}",
-            name,
-            cm(c.north, 9),
-            cm(c.east, 9),
-            cm(c.up, 9),
-            cm(c.horizontal, 9),
-            cm(c.vertical, 9),
-            cm(c.three_d, 9)
-        );
+        let _ = writeln!(t, "{:<22}{}", name, axes_cm(c, 9));
     };
     row(&mut t, &format!("RMSE (n = {})", e.n), &e.rmse);
     if let Some(p) = &e.predicted {

@@ -132,7 +132,10 @@ fn totals_table(o: &mut String, t: &Components) {
         "<tr><td>3-D</td><td>{}</td><td>—</td></tr>",
         cm(t.three_d)
     );
-    o.push_str("</tbody></table>\n<p class=\"note\">95 %: 1.96·σ per axis and vertical, 1.7308·σ horizontal (NSSDA, circular error).</p>\n");
+    let _ = writeln!(
+        o,
+        "</tbody></table>\n<p class=\"note\">95 %: {TVU_95_FACTOR}·σ per axis and vertical, {THU_95_CBLUE}·σ horizontal (NSSDA, circular error).</p>"
+    );
 }
 
 /// One row per source: its σ and its effect on each component.

@@ -89,15 +89,9 @@ fn dz_maps(o: &mut String, runs: &[(&str, &Overlap)]) {
             let g = r.grid.as_ref()?;
             Some((
                 n.to_string(),
-                Raster {
-                    origin_x: g.geometry.origin_x,
-                    origin_y: g.geometry.origin_y,
-                    cell_m: g.geometry.cell_m,
-                    nx: g.geometry.nx,
-                    ny: g.geometry.ny,
-                    values: g.dz_m.iter().map(|v| v.map(|v| v * 100.0)).collect(),
-                }
-                .downsampled(if runs.len() > 1 { 90 } else { 160 }),
+                g.geometry
+                    .raster(g.dz_m.iter().map(|v| v.map(|v| v * 100.0)).collect())
+                    .downsampled(if runs.len() > 1 { 90 } else { 160 }),
             ))
         })
         .collect();

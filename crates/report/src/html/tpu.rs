@@ -1,6 +1,6 @@
 //! The per-point TPU: σ statistics, histograms, the map of σ and the sources' shares.
 
-use crate::plot::{self, Raster, Scale};
+use crate::plot::{self, Scale};
 use crate::products::*;
 use crate::text::{cm, esc, meaning};
 use std::fmt::Write as _;
@@ -114,19 +114,15 @@ fn histograms(o: &mut String, t: &TpuSummary) {
 
 /// The map of σ vertical (mean per cell).
 fn sigma_map(o: &mut String, g: &SigmaGrid) {
-    let r = Raster {
-        origin_x: g.geometry.origin_x,
-        origin_y: g.geometry.origin_y,
-        cell_m: g.geometry.cell_m,
-        nx: g.geometry.nx,
-        ny: g.geometry.ny,
-        values: g
-            .sigma_vertical_m
-            .iter()
-            .map(|v| v.map(|v| v * 100.0))
-            .collect(),
-    }
-    .downsampled(160);
+    let r = g
+        .geometry
+        .raster(
+            g.sigma_vertical_m
+                .iter()
+                .map(|v| v.map(|v| v * 100.0))
+                .collect(),
+        )
+        .downsampled(160);
     let (lo, hi) = plot::span(r.values.iter().flatten().copied(), false, 0.0);
     o.push_str(&plot::heatmaps(
         "plot-tpu-map",
