@@ -2,7 +2,7 @@
 
 use crate::products::*;
 use crate::report::{Products, Report};
-use crate::text::{cm, esc};
+use crate::text::esc;
 use std::fmt::Write as _;
 
 mod accuracy;
@@ -20,19 +20,6 @@ use iho::iho_section;
 use overlap::overlap_section;
 use sweep::sweep_section;
 use tpu::tpu_section;
-
-fn cm_opt(m: Option<f64>) -> String {
-    m.map(cm).unwrap_or_else(|| "—".into())
-}
-
-/// Signed centimetres with a sign.
-fn cm_signed(m: f64) -> String {
-    if m.is_finite() {
-        format!("{:+.2}", m * 100.0)
-    } else {
-        "—".into()
-    }
-}
 
 const CSS: &str = r#"
 :root { color-scheme: light; }

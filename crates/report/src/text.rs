@@ -34,3 +34,17 @@ pub(crate) fn meaning(o: &mut String, text: &str) {
         "<p class=\"meaning\"><strong>What this means:</strong> {text}</p>"
     );
 }
+
+/// Centimetres, or a dash when there is no value.
+pub(crate) fn cm_opt(m: Option<f64>) -> String {
+    m.map(cm).unwrap_or_else(|| "—".into())
+}
+
+/// Signed centimetres with a sign.
+pub(crate) fn cm_signed(m: f64) -> String {
+    if m.is_finite() {
+        format!("{:+.2}", m * 100.0)
+    } else {
+        "—".into()
+    }
+}

@@ -1,9 +1,8 @@
 //! Measured accuracy against the surveyed targets, beside the prediction.
 
-use super::{cm_opt, cm_signed};
 use crate::plot::{self, Vectors};
 use crate::products::*;
-use crate::text::{cm, esc, meaning};
+use crate::text::{cm, cm_opt, cm_signed, esc, meaning};
 use std::fmt::Write as _;
 
 pub(super) fn accuracy_section(

@@ -1,9 +1,8 @@
 //! The error budget of one geometry (seed 000 Table 1, seed 004 Table 4 layout).
 
-use super::cm_signed;
 use crate::plot::{self};
 use crate::products::*;
-use crate::text::{cm, esc, meaning};
+use crate::text::{cm, cm_signed, esc, meaning};
 use lidarqa_tpu::{THU_95_CBLUE, TVU_95_FACTOR};
 use std::fmt::Write as _;
 

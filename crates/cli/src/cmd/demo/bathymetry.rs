@@ -2,7 +2,7 @@
 //! commands (simulate → budget across depth and azimuth → tpu with IHO S-44 → report), printed
 //! and run like the topographic demo's.
 
-use super::{run_step, step};
+use super::runner::{Step, run_step, step};
 use crate::format::print_text;
 use anyhow::{Context, Result};
 use std::path::{Path, PathBuf};
@@ -35,7 +35,7 @@ pub(super) fn run(dir: &Path, quick: bool, seed: u64) -> Result<()> {
         .map(|s| s.to_string())
         .collect()
     };
-    let own = |what: &'static str, args: Vec<String>, stdout: Option<PathBuf>| super::Step {
+    let own = |what: &'static str, args: Vec<String>, stdout: Option<PathBuf>| Step {
         what,
         args,
         stdout,
