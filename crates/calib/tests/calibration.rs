@@ -681,6 +681,29 @@ fn noise_free_auto_ties_recover_the_mounting() {
             &s.truth,
         );
         assert!(!cal.observable[2]);
+        let w: Vec<&str> = cal
+            .warnings
+            .iter()
+            .filter(|w| w.code == "held_parameter_moves_others")
+            .map(|w| w.message.as_str())
+            .collect();
+        assert_eq!(w.len(), 1, "{:?}", cal.warnings);
+        eprintln!("{}", w[0]);
+        if held_z == 0.0 {
+            // The warning's sensitivity (per +0.1 m of lever z) predicts the error held 0.2 m low.
+            let per = |key: &str| -> f64 {
+                let tail = &w[0][w[0].find(&format!("{key} by ")).unwrap() + key.len() + 4..];
+                tail.split(' ').next().unwrap().parse::<f64>().unwrap() * 1e-3
+            };
+            for (k, key) in [(0, "lever_x_m"), (1, "lever_y_m")] {
+                let predicted = -2.0 * per(key);
+                assert!(
+                    (predicted - e[k]).abs() <= 0.0002,
+                    "{key}: {predicted} vs {}",
+                    e[k]
+                );
+            }
+        }
         if held_z == 0.2 {
             for k in [0, 1, 3, 4, 5] {
                 let bound = if k < 3 { 0.002 } else { 0.0005 * DEG };
