@@ -19,17 +19,22 @@ use lidarqa_calib::*;
 use lidarqa_model::Mounting;
 use std::sync::OnceLock;
 
+/// The eight-strip survey of the module docs, seed 1.
+fn eight_strips(noise: &Noise) -> Survey {
+    simulate(
+        &Scene::new(80.0),
+        &lines(300.0, 800.0),
+        &true_mounting(),
+        noise,
+        0.5,
+        1,
+    )
+}
+
 fn survey() -> &'static (Survey, Vec<Tie>) {
     static S: OnceLock<(Survey, Vec<Tie>)> = OnceLock::new();
     S.get_or_init(|| {
-        let s = simulate(
-            &Scene::new(80.0),
-            &lines(300.0, 800.0),
-            &true_mounting(),
-            &Noise::default(),
-            0.5,
-            1,
-        );
+        let s = eight_strips(&Noise::default());
         let ties = s.hand_ties(0.01, 2);
         (s, ties)
     })
@@ -582,17 +587,10 @@ fn seed_table() {
 fn noise_free_survey() -> &'static (Survey, Vec<Tie>) {
     static S: OnceLock<(Survey, Vec<Tie>)> = OnceLock::new();
     S.get_or_init(|| {
-        let s = simulate(
-            &Scene::new(80.0),
-            &lines(300.0, 800.0),
-            &true_mounting(),
-            &Noise {
-                range_m: 0.0,
-                attitude_rad: 0.0,
-            },
-            0.5,
-            1,
-        );
+        let s = eight_strips(&Noise {
+            range_m: 0.0,
+            attitude_rad: 0.0,
+        });
         let ties = auto_ties(&s.strips, &Mounting::default(), &AutoTieOptions::default()).unwrap();
         (s, ties)
     })
