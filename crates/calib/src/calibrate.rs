@@ -449,6 +449,9 @@ pub(crate) struct Solved<M> {
     pub(crate) history: Vec<([f64; PARAM_COUNT], M)>,
     /// Parameters held at the prior (never one with a prior σ).
     pub(crate) held: [bool; PARAM_COUNT],
+    /// Per held parameter: how far the solved ones move per unit error in it,
+    /// `−N⁻¹ Jᵀ j_held` (zero for the held ones); `None` for a solved parameter.
+    pub(crate) held_shift: [Option<[f64; PARAM_COUNT]>; PARAM_COUNT],
 }
 
 /// A model with prior observations appended: row `i` is `(x_i − x_prior_i) · weight_i`, where
@@ -679,8 +682,19 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
             }
         }
         let observable = std::array::from_fn(|i| held_because[i].is_empty());
+        let mut held_shift = [None; PARAM_COUNT];
+        for h in (0..PARAM_COUNT).filter(|&h| held[h]) {
+            let jh = jacobian(&model, &out.x, &[h], &opts.lm, r.len());
+            let shift = -(&inv * (j.transpose() * jh.column(0)));
+            let mut full = [0.0; PARAM_COUNT];
+            for (a, &i) in free.iter().enumerate() {
+                full[i] = shift[a];
+            }
+            held_shift[h] = Some(full);
+        }
         return Ok(Solved {
             held,
+            held_shift,
             x: out.x,
             model: model.inner,
             iterations: out.iterations,
@@ -884,6 +898,8 @@ pub fn calibrate_vtpm(
             solved
         }
     };
+    let mut warnings = warnings;
+    warnings.extend(held_parameter_warnings(&solved));
     let history = solved
         .history
         .iter()
@@ -914,6 +930,50 @@ pub fn calibrate_vtpm(
         dropped_picks: model.dropped_picks.clone(),
         warnings,
     })
+}
+
+/// How much a held parameter's error moves the solved ones, one warning per held parameter (code
+/// `held_parameter_moves_others`): a held value is an assumption, and when it is wrong the
+/// others absorb it. Lever z held at 0 without control, against 0.2 m true, put 4 mm into the
+/// horizontal lever arm of the calibration crate's noise-free survey: with the platform pitched,
+/// a lever z error moves the points along track, reversing with the direction as lever x does.
+fn held_parameter_warnings<M>(solved: &Solved<M>) -> Vec<Warning> {
+    let unit = |p: Param| if p.is_angle() { "deg" } else { "m" };
+    Param::ALL
+        .iter()
+        .filter_map(|&h| {
+            let shift = solved.held_shift[h.index()]?;
+            // Per 0.1 m of a lever arm, per 0.01° of an angle.
+            let step = if h.is_angle() { 0.01f64.to_radians() } else { 0.1 };
+            let moves: Vec<String> = Param::ALL
+                .iter()
+                .filter(|p| !solved.held[p.index()])
+                .map(|&p| {
+                    let d = shift[p.index()] * step;
+                    if p.is_angle() {
+                        format!("{} by {:+.5} deg", p.key(), p.to_display(d))
+                    } else {
+                        format!("{} by {:+.1} mm", p.key(), 1e3 * d)
+                    }
+                })
+                .collect();
+            if moves.is_empty() {
+                return None;
+            }
+            Some(Warning::new(
+                "held_parameter_moves_others",
+                format!(
+                    "{} is held at {:.4} {}: each {} {} it is off moves {}; control points (or a [mounting_sigma] prior for it) make the others independent of the held value",
+                    h.key(),
+                    h.to_display(solved.x[h.index()]),
+                    unit(h),
+                    if h.is_angle() { "0.01" } else { "0.1" },
+                    unit(h),
+                    moves.join(", ")
+                ),
+            ))
+        })
+        .collect()
 }
 
 /// Most re-weightings of the ties' own noise against the trajectory's (see `calibrate_vtpm`).

@@ -13,7 +13,7 @@
 //!   iteration, so the tie coordinates are carried from iteration to iteration.
 
 use crate::error::{Error, Result};
-use crate::geometry::{Plane, interpolate_z, ransac_plane, rigid_transform};
+use crate::geometry::{Plane, fit_plane, interpolate_z, ransac_plane, rigid_transform};
 use crate::params::mounting_from_vector;
 use crate::strip::{Georeferencing, GridIndex, Strip, TrajectoryOffset, within};
 use nalgebra::Vector3;
@@ -175,6 +175,10 @@ pub(crate) struct VirtualTie {
     pub(crate) coord: Vector3<f64>,
     /// Unit normal of the coplanar patch, NED, `n_z ≥ 0` ([`lidarqa_model::fit_plane`]).
     pub(crate) normal: Vector3<f64>,
+    /// The coplanar points of the window (strip point indices): the surface the tie lies on,
+    /// refitted at each accepted state for the direction a surface tie observes along
+    /// ([`TieSpec::along_normal`]).
+    pub(crate) plane_points: Vec<usize>,
     /// A control target: the tie is the mean of its top points (`vertices`), re-georeferenced,
     /// not one triangle's: its height is observed with √n less range noise, and a target crossed
     /// by one or two scan lines (no triangle around its centre) still counts.
@@ -389,6 +393,7 @@ fn build_virtual_tie_within(
             carried: inliers.iter().map(|&i| pos[i]).collect(),
             coord: Vector3::new(x, y, z),
             normal: plane.normal,
+            plane_points: inliers.iter().map(|&i| near[i]).collect(),
             target_mean: false,
             featureless,
         });
@@ -399,6 +404,7 @@ fn build_virtual_tie_within(
         carried: tri.to_vec(),
         coord: Vector3::new(x, y, z),
         normal: plane.normal,
+        plane_points: inliers.iter().map(|&i| near[i]).collect(),
         target_mean: false,
         featureless,
     })
@@ -460,6 +466,7 @@ fn build_target_tie(
     let coord = pos.iter().sum::<Vector3<f64>>() / pos.len() as f64;
     Some(VirtualTie {
         strip: s,
+        plane_points: top.clone(),
         vertices: top,
         carried: pos,
         coord,
@@ -507,6 +514,13 @@ pub(crate) struct TieSpec {
     pub(crate) virtuals: Vec<VirtualTie>,
     /// Unit directions (NED) along which the tie observes; 3 for a feature.
     pub(crate) directions: Vec<Vector3<f64>>,
+    /// The tie observes along its surface's normal only (a roof face, a plain level patch):
+    /// `directions` is that normal at the last accepted state, refitted by [`TieModel::accept`].
+    /// The picks of such a tie are one place in every strip as delivered, so at the true mounting
+    /// its virtual ties lie on the one true surface but up to the mounting's displacement apart
+    /// along it (~1 m at 800 m); projected on a normal that kept the prior's tilt (~0.001 rad)
+    /// that spacing reads as a residual of a millimetre that no mounting removes.
+    pub(crate) along_normal: bool,
     /// Surveyed position when the tie is also a control point.
     pub(crate) control: Option<Vector3<f64>>,
     /// The control point's own 1-σ (its vertical σ), m, when known.
@@ -603,13 +617,26 @@ impl TieModel {
         r
     }
 
-    /// Accepts the state at `x`: triangles and tie coordinates move to it (seed 001 step 4).
+    /// Accepts the state at `x`: triangles and tie coordinates move to it (seed 001 step 4), and a
+    /// surface tie's direction becomes its surface's normal there ([`TieSpec::along_normal`]).
     pub(crate) fn accept(&mut self, strips: &[Strip], x: &[f64; 6]) {
         let coords = self.coords_at(strips, x);
+        let g = Georeferencing::new(&mounting_from_vector(x));
         for (t, c) in self.ties.iter_mut().zip(coords) {
             for (v, (p, tri)) in t.virtuals.iter_mut().zip(c) {
                 v.coord = p;
                 v.carried = tri;
+            }
+            if t.along_normal {
+                let v = &t.virtuals[0];
+                let pts: Vec<Vector3<f64>> = v
+                    .plane_points
+                    .iter()
+                    .map(|&k| g.apply(&strips[v.strip].points[k]))
+                    .collect();
+                if let Some(pl) = fit_plane(&pts) {
+                    t.directions = vec![pl.normal];
+                }
             }
         }
     }
@@ -731,6 +758,7 @@ pub(crate) fn build_tie_model(
         out.push(TieSpec {
             id: tie.id.clone(),
             virtuals,
+            along_normal: plain || matches!(tie.kind, TieKind::Surface),
             directions,
             control: c.map(|c| c.position_m),
             control_sigma_m: c.and_then(|c| c.sigma_vertical_m),
@@ -794,6 +822,7 @@ pub(crate) fn build_tie_model(
             id: c.id.clone(),
             virtuals,
             directions: vec![Vector3::z()],
+            along_normal: false,
             control: Some(c.position_m),
             control_sigma_m: c.sigma_vertical_m,
         });
