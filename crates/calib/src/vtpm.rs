@@ -13,9 +13,10 @@
 //!   iteration, so the tie coordinates are carried from iteration to iteration.
 
 use crate::error::{Error, Result};
-use crate::geometry::{Plane, fit_plane, interpolate_z, ransac_plane, rigid_transform};
+use crate::geometry::{Plane, interpolate_z, ransac_plane, rigid_transform};
 use crate::params::mounting_from_vector;
 use crate::strip::{Georeferencing, GridIndex, Strip, TrajectoryOffset, within};
+use lidarqa_model::fit_plane;
 use nalgebra::Vector3;
 use spade::{DelaunayTriangulation, HasPosition, Point2, PositionInTriangulation, Triangulation};
 
