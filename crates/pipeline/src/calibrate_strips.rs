@@ -288,15 +288,42 @@ pub fn load_all(
 /// Reads the points of one strip and recovers every point's raw observation (module docs).
 fn load_strip(path: &Path, ctx: &TpuContext, frame: &LocalFrame) -> Result<LoadedStrip> {
     let tile = ctx.open_tile(path)?;
+    // A LAZ header's count cannot be checked against the file size (issue #12): reserve at
+    // most 4 Mi points up front and let the vectors grow with what is really read.
+    let reserve = usize::try_from(tile.info.point_count.min(1 << 22)).unwrap_or(0);
+    let mut points = Vec::with_capacity(reserve);
+    let (stem, id) = stream_strip(
+        path,
+        ctx,
+        frame,
+        |_, _, _| true,
+        |_, _| true,
+        |_, p| points.push(p),
+    )?;
+    Ok(LoadedStrip {
+        stem,
+        strip: Strip { id, points },
+    })
+}
+
+/// Streams one strip's points in file order: `near_projected(index, x, y)` sees each point's
+/// projected position and `near_local(index, local)` its local one; the points both want get
+/// their raw observation recovered and go to `take`. Returns the file's stem and the strip's id
+/// (the LAS point source id when every point has the same non-zero one, else the stem).
+fn stream_strip(
+    path: &Path,
+    ctx: &TpuContext,
+    frame: &LocalFrame,
+    mut near_projected: impl FnMut(u64, f64, f64) -> bool,
+    mut near_local: impl FnMut(u64, &Vector3<f64>) -> bool,
+    mut take: impl FnMut(u64, RawPoint),
+) -> Result<(String, String)> {
+    let tile = ctx.open_tile(path)?;
     let projection = &tile.crs;
     let ellipsoid = tile.crs.ellipsoid();
     let recoverer = lidarqa_tpu::Recoverer::new(&ctx.recovery_mounting);
     let mut reader = LasReader::from_path(path)?;
     let mut chunk = PointChunk::new();
-    // A LAZ header's count cannot be checked against the file size (issue #12): reserve at
-    // most 4 Mi points up front and let the vectors grow with what is really read.
-    let reserve = usize::try_from(tile.info.point_count.min(1 << 22)).unwrap_or(0);
-    let mut points = Vec::with_capacity(reserve);
     // The strip's point source id while every point has the same one.
     let mut psid: Option<u16> = None;
     let mut same_psid = true;
@@ -309,41 +336,45 @@ fn load_strip(path: &Path, ctx: &TpuContext, frame: &LocalFrame) -> Result<Loade
     while reader.fill(&mut chunk, 200_000)? > 0 {
         for p in &chunk.points {
             crate::error::check_finite(path, index, p.x, p.y, p.z)?;
+            same_psid &= *psid.get_or_insert(p.point_source_id) == p.point_source_id;
+            let k = index;
+            index += 1;
+            if !near_projected(k, p.x, p.y) {
+                continue;
+            }
             let z = p.z + tile.height_offset_m;
             let sow = match p.gps_time_s.map(|t| tile.converter.to_seconds_of_week(t)) {
                 Some(Ok(s)) => s,
                 Some(Err(e)) => {
                     return Err(Error::BadTime {
-                        index,
+                        index: k,
                         message: e.to_string(),
                     });
                 }
                 None => {
                     return Err(Error::BadTime {
-                        index,
+                        index: k,
                         message: format!("{}: point without GPS time", path.display()),
                     });
                 }
             };
-            let pose = tile.trajectory.at(sow).map_err(|e| point_error(index, e))?;
+            let pose = tile.trajectory.at(sow).map_err(|e| point_error(k, e))?;
             let (lat, lon) = projection.inverse(p.x, p.y);
             let ecef = ellipsoid.geodetic_to_ecef(&Geodetic {
                 latitude_rad: lat,
                 longitude_rad: lon,
                 height_m: z,
             });
+            if !near_local(k, &frame.to_local(&ecef)) {
+                continue;
+            }
             let recovery = recoverer
                 .linear(&pose, &ecef)
-                .map_err(|e| point_error(index, e))?;
-            points.push(RawPoint::from_recovery(
-                frame,
-                &pose,
-                &recovery,
-                &ecef,
-                p.intensity,
-            ));
-            same_psid &= *psid.get_or_insert(p.point_source_id) == p.point_source_id;
-            index += 1;
+                .map_err(|e| point_error(k, e))?;
+            take(
+                k,
+                RawPoint::from_recovery(frame, &pose, &recovery, &ecef, p.intensity),
+            );
         }
     }
     let stem = path
@@ -355,10 +386,7 @@ fn load_strip(path: &Path, ctx: &TpuContext, frame: &LocalFrame) -> Result<Loade
         Some(id) if id != 0 && same_psid => id.to_string(),
         _ => stem.clone(),
     };
-    Ok(LoadedStrip {
-        stem,
-        strip: Strip { id, points },
-    })
+    Ok((stem, id))
 }
 
 /// Local NED → projected `[easting, northing, ellipsoidal height]` in `zone`.
