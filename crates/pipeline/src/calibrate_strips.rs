@@ -738,8 +738,8 @@ fn stream_strip(
         index,
         source,
     };
-    let whole = [0..u64::MAX];
-    for range in ranges.unwrap_or(&whole) {
+    let whole = 0..u64::MAX;
+    for range in ranges.unwrap_or(std::slice::from_ref(&whole)) {
         if range.start > 0 {
             reader.seek(range.start)?;
         }
