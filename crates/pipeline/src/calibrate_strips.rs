@@ -4,6 +4,22 @@
 //! survey centre (UTM inverse, ellipsoid → ECEF → local), each point's raw observation recovered
 //! once with the sensor file's mounting, and handed to lidarqa-calib's VTPM or plane adjustment
 //! with hand-picked ties (CSV) or automatic ones, and control points (CSV).
+//!
+//! The adjustment reads only the neighbourhoods of its ties, so no strip is held whole
+//! (memory is bounded by [`POINTS_PER_TILE`], not by the survey):
+//! 1. a first pass over each strip (in parallel) checks every point as before and keeps its
+//!    extent, its extreme points (the ones holding the extent and the time span), the VTPM
+//!    density radius, the heights under hand picks, point counts on a 25 m grid and the
+//!    projected box of each 50 000-point block;
+//! 2. the automatic tie search runs tile by tile over its candidate grid, each tile's strips
+//!    read cut to the nodes' reach ([`AutoTieOptions::node_reach_m`]), decoding only the blocks
+//!    that meet it; the candidates of all tiles are selected together;
+//! 3. a last pass keeps the points within [`lidarqa_calib::tie_reach_m`] of every pick and
+//!    control point.
+//!
+//! Every cut strip keeps its extreme points and its file order, so its extent, its grid cells
+//! and the order in which a neighbourhood's points come are the whole strip's: the ties and the
+//! calibration are the same as from whole strips.
 
 use crate::context::TpuContext;
 use crate::error::{Error, Result};
@@ -342,9 +358,10 @@ const REACH_SLACK_M: f64 = 1.0;
 /// 2 km from the centre by 0.3 m).
 const PROJECTED_SLACK_M: f64 = 5.0;
 
-/// Points of one tile of the automatic tie search (all strips, margins included, about 104
-/// bytes each in memory): the tiles are as many as this needs.
-const POINTS_PER_TILE: u64 = 2_500_000;
+/// Most points of one tile of the automatic tie search (all strips, margins included, about
+/// 104 bytes each in memory, counted by whole first-pass cells): fewer, larger tiles decode
+/// fewer LAZ blocks twice, smaller ones hold less.
+const POINTS_PER_TILE: u64 = 5_000_000;
 
 /// Points per block of a strip's first-pass summary: the LAZ chunk size most writers use, so
 /// a block is read by one seek and one chunk's decoding.
@@ -355,7 +372,6 @@ struct StripScan {
     path: PathBuf,
     stem: String,
     id: String,
-    points: u64,
     /// Horizontal extent `[min north, min east, max north, max east]`, local, m.
     extent_m: Option<[f64; 4]>,
     /// The points holding the extent and the time span, in file order: every cut of the strip
@@ -368,6 +384,18 @@ struct StripScan {
     pick_up_m: Vec<(usize, f64)>,
     /// Projected bounding box of each run of [`BLOCK_POINTS`] points in file order.
     blocks: Vec<[f64; 4]>,
+    /// Points per [`COUNT_CELL_M`] cell (local north, east): they size the tiles.
+    counts: HashMap<(i64, i64), u64>,
+}
+
+/// Cell of the first pass's point counts, m.
+const COUNT_CELL_M: f64 = 25.0;
+
+fn count_cell(north: f64, east: f64) -> (i64, i64) {
+    (
+        (north / COUNT_CELL_M).floor() as i64,
+        (east / COUNT_CELL_M).floor() as i64,
+    )
 }
 
 /// The first pass over one strip: every point read and checked (time, trajectory, recovery)
@@ -428,6 +456,10 @@ fn scan_strip(
     let mut extremes: Vec<(u64, RawPoint)> = ext.iter().flatten().map(|e| (e.1, e.2)).collect();
     extremes.sort_by_key(|e| e.0);
     extremes.dedup_by_key(|e| e.0);
+    let mut counts: HashMap<(i64, i64), u64> = HashMap::new();
+    for [n, e] in &xy {
+        *counts.entry(count_cell(*n, *e)).or_default() += 1;
+    }
     let radius_m = want_radius
         .then(|| lidarqa_calib::radius_for_neighbours_m(&xy, VTPM_NEIGHBOURS))
         .flatten();
@@ -455,12 +487,12 @@ fn scan_strip(
         path: path.to_path_buf(),
         stem,
         id,
-        points: xy.len() as u64,
         extent_m,
         extremes,
         radius_m,
         pick_up_m,
         blocks,
+        counts,
     })
 }
 
@@ -658,32 +690,49 @@ fn auto_ties_tiled(
         return auto_ties(&strips, prior, opts).map_err(failed);
     }
     let grid = AutoTieGrid::new(&extents, opts.spacing_m);
-    let total: u64 = scans.iter().map(|s| s.points).sum();
-    let per_axis = ((total as f64 / POINTS_PER_TILE as f64).sqrt().ceil() as usize).max(1);
-    let split = |n: usize, k: usize| (k * n / per_axis).min(n);
+    let mut counts: HashMap<(i64, i64), u64> = HashMap::new();
+    for s in scans {
+        for (c, n) in &s.counts {
+            *counts.entry(*c).or_default() += n;
+        }
+    }
+    // Points a rectangle may hold: every count cell it meets counts whole.
+    let points_in = |r: &[f64; 4]| -> u64 {
+        let ((i0, j0), (i1, j1)) = (count_cell(r[0], r[1]), count_cell(r[2], r[3]));
+        counts
+            .iter()
+            .filter(|((i, j), _)| (i0..=i1).contains(i) && (j0..=j1).contains(j))
+            .map(|(_, n)| n)
+            .sum()
+    };
     let reach = opts.node_reach_m() + REACH_SLACK_M;
     let mut candidates = Vec::new();
-    for ti in 0..per_axis {
-        for tj in 0..per_axis {
-            let (rows, columns) = (
-                split(grid.nx, ti)..split(grid.nx, ti + 1),
-                split(grid.ny, tj)..split(grid.ny, tj + 1),
-            );
-            if rows.is_empty() || columns.is_empty() {
-                continue;
-            }
-            let lo = grid.node_m(rows.start, columns.start);
-            let hi = grid.node_m(rows.end - 1, columns.end - 1);
-            let region = Region::new(
-                vec![[lo[0] - reach, lo[1] - reach, hi[0] + reach, hi[1] + reach]],
-                frame,
-                zone,
-            );
-            let strips = cut_all(scans, ctx, frame, &region)?;
-            candidates.extend(
-                auto_tie_candidates(&strips, prior, opts, &grid, rows, columns).map_err(failed)?,
-            );
+    // Tiles split in two along their longer side while they would hold too many points.
+    let mut todo = vec![(0..grid.nx, 0..grid.ny)];
+    while let Some((rows, columns)) = todo.pop() {
+        if rows.is_empty() || columns.is_empty() {
+            continue;
         }
+        let lo = grid.node_m(rows.start, columns.start);
+        let hi = grid.node_m(rows.end - 1, columns.end - 1);
+        let rect = [lo[0] - reach, lo[1] - reach, hi[0] + reach, hi[1] + reach];
+        if points_in(&rect) > POINTS_PER_TILE && rows.len().max(columns.len()) > 1 {
+            if rows.len() >= columns.len() {
+                let mid = rows.start + rows.len() / 2;
+                todo.push((mid..rows.end, columns.clone()));
+                todo.push((rows.start..mid, columns));
+            } else {
+                let mid = columns.start + columns.len() / 2;
+                todo.push((rows.clone(), mid..columns.end));
+                todo.push((rows, columns.start..mid));
+            }
+            continue;
+        }
+        let region = Region::new(vec![rect], frame, zone);
+        let strips = cut_all(scans, ctx, frame, &region)?;
+        candidates.extend(
+            auto_tie_candidates(&strips, prior, opts, &grid, rows, columns).map_err(failed)?,
+        );
     }
     select_auto_ties(candidates, opts).map_err(failed)
 }
