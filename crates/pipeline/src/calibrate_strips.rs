@@ -80,6 +80,9 @@ pub struct CalibrateJob<'a> {
     pub radius_given: bool,
     /// Weigh the ties by each strip's trajectory error (`None`: plain least squares, seed 001).
     pub weighting: Option<TrajectoryWeighting>,
+    /// Most points one tile of the automatic tie search holds ([`POINTS_PER_TILE`]; the
+    /// result does not depend on it, the peak memory does).
+    pub tile_points: u64,
 }
 
 /// The result of [`calibrate_strips`]: the calibration and the frame it was computed in.
@@ -189,6 +192,7 @@ pub fn calibrate_strips(job: &CalibrateJob<'_>) -> Result<StripCalibration> {
         Some(p) => ties_from_scans(p, &scans, &frame, &zone, h0)?,
         None => auto_ties_tiled(
             &scans,
+            job.tile_points,
             ctx,
             &frame,
             &zone,
@@ -361,7 +365,7 @@ const PROJECTED_SLACK_M: f64 = 5.0;
 /// Most points of one tile of the automatic tie search (all strips, margins included, about
 /// 104 bytes each in memory, counted by whole first-pass cells): fewer, larger tiles decode
 /// fewer LAZ blocks twice, smaller ones hold less.
-const POINTS_PER_TILE: u64 = 5_000_000;
+pub const POINTS_PER_TILE: u64 = 5_000_000;
 
 /// Points per block of a strip's first-pass summary: the LAZ chunk size most writers use, so
 /// a block is read by one seek and one chunk's decoding.
@@ -666,10 +670,11 @@ fn cut_all(
 }
 
 /// [`lidarqa_calib::auto_ties`] tile by tile: the grid of candidate nodes is cut into tiles of
-/// about [`POINTS_PER_TILE`] points, each tile's strips are read cut to its nodes' reach, and
+/// at most `tile_points` points, each tile's strips are read cut to its nodes' reach, and
 /// the candidates of all tiles are selected together, so the ties are those of whole strips.
 fn auto_ties_tiled(
     scans: &[StripScan],
+    tile_points: u64,
     ctx: &TpuContext,
     frame: &LocalFrame,
     zone: &Crs,
@@ -716,7 +721,7 @@ fn auto_ties_tiled(
         let lo = grid.node_m(rows.start, columns.start);
         let hi = grid.node_m(rows.end - 1, columns.end - 1);
         let rect = [lo[0] - reach, lo[1] - reach, hi[0] + reach, hi[1] + reach];
-        if points_in(&rect) > POINTS_PER_TILE && rows.len().max(columns.len()) > 1 {
+        if points_in(&rect) > tile_points && rows.len().max(columns.len()) > 1 {
             if rows.len() >= columns.len() {
                 let mid = rows.start + rows.len() / 2;
                 todo.push((mid..rows.end, columns.clone()));

@@ -12,7 +12,8 @@ use lidarqa_calib::{
 };
 use lidarqa_io::AtomicFile;
 use lidarqa_pipeline::{
-    CalibrateJob, TieSource, TpuContext, TpuOptions, TrajectoryWeighting, calibrate_strips,
+    CalibrateJob, POINTS_PER_TILE, TieSource, TpuContext, TpuOptions, TrajectoryWeighting,
+    calibrate_strips,
 };
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -243,6 +244,7 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
             position_correlation_s: a.gnss_correlation_s,
             attitude_correlation_s: a.attitude_correlation_s,
         }),
+        tile_points: POINTS_PER_TILE,
     })?;
     let mut inputs: Vec<PathBuf> = a.strips.clone();
     inputs.extend([a.trajectory.clone(), a.sensor.clone()]);
