@@ -5,7 +5,7 @@
 //! the same calibration as one tile.
 
 mod binary;
-use binary::{lidarqa, s};
+use binary::{lidarqa, simulate_scenario};
 
 use lidarqa_calib::{AutoTieOptions, VtpmOptions, auto_ties};
 use lidarqa_pipeline::{
@@ -21,20 +21,7 @@ fn cut_strips_give_the_whole_strips_ties_and_calibration() {
         String::from_utf8(lidarqa(&["simulate", "--scenario", "demo", "--print"]).stdout).unwrap();
     let small = text.replacen("pulse_rate_hz = 100000.0", "pulse_rate_hz = 25000.0", 1);
     assert_ne!(small, text, "the demo scenario's pulse rate line moved");
-    std::fs::write(d.join("s.toml"), small).unwrap();
-    let sim = d.join("sim");
-    let out = lidarqa(&[
-        "simulate",
-        "--scenario",
-        s(&d.join("s.toml")),
-        "-o",
-        s(&sim),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let sim = simulate_scenario(d, &small);
     let strips: Vec<PathBuf> = (1..=4)
         .map(|i| sim.join(format!("strip_{i:03}.laz")))
         .collect();

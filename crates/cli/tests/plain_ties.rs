@@ -6,7 +6,7 @@
 //! 3 σ of the simulation's truth.
 
 mod binary;
-use binary::{lidarqa, s};
+use binary::{lidarqa, s, simulate_scenario};
 
 use lidarqa_io::{LasReader, PointChunk};
 use serde_json::Value;
@@ -66,21 +66,7 @@ fn ties_on_plain_ground_determine_only_what_the_ground_can() {
         quiet, small,
         "the demo scenario's intensity noise line moved"
     );
-    let small = quiet;
-    std::fs::write(d.join("s.toml"), small).unwrap();
-    let sim = d.join("sim");
-    let out = lidarqa(&[
-        "simulate",
-        "--scenario",
-        s(&d.join("s.toml")),
-        "-o",
-        s(&sim),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let sim = simulate_scenario(d, &quiet);
     let strips: Vec<_> = (1..=4)
         .map(|i| sim.join(format!("strip_{i:03}.laz")))
         .collect();

@@ -16,3 +16,18 @@ pub fn lidarqa(args: &[&str]) -> Output {
 pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
+
+/// Writes the scenario `text` to `DIR/s.toml` and simulates it into `DIR/sim` (which it returns),
+/// failing the test with `simulate`'s stderr.
+pub fn simulate_scenario(dir: &Path, text: &str) -> std::path::PathBuf {
+    let toml = dir.join("s.toml");
+    std::fs::write(&toml, text).unwrap();
+    let sim = dir.join("sim");
+    let out = lidarqa(&["simulate", "--scenario", s(&toml), "-o", s(&sim)]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    sim
+}
