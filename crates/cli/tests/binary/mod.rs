@@ -31,3 +31,13 @@ pub fn simulate_scenario(dir: &Path, text: &str) -> std::path::PathBuf {
     );
     sim
 }
+
+/// The demo scenario's text at a quarter of its pulse rate (25 kHz): four strips that simulate
+/// and calibrate in seconds.
+pub fn small_demo_scenario() -> String {
+    let text =
+        String::from_utf8(lidarqa(&["simulate", "--scenario", "demo", "--print"]).stdout).unwrap();
+    let small = text.replacen("pulse_rate_hz = 100000.0", "pulse_rate_hz = 25000.0", 1);
+    assert_ne!(small, text, "the demo scenario's pulse rate line moved");
+    small
+}
