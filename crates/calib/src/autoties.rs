@@ -89,33 +89,71 @@ struct Candidate {
 }
 
 /// Finds ties automatically in the strips' overlaps (module docs), with the points georeferenced
-/// with `prior`.
+/// with `prior`: [`auto_tie_candidates`] over the whole [`AutoTieGrid`], then
+/// [`select_auto_ties`].
 ///
 /// # Errors
 /// Invalid strips or options; [`Error::NothingUsable`] when no candidate qualifies.
 pub fn auto_ties(strips: &[Strip], prior: &Mounting, opts: &AutoTieOptions) -> Result<Vec<Tie>> {
     check_strips(strips)?;
-    opts.vtpm.check()?;
-    if !(opts.spacing_m > 0.0 && opts.patch_radius_m > 0.0 && opts.planarity_m > 0.0) {
-        return Err(Error::InvalidOption {
-            name: "spacing_m / patch_radius_m / planarity_m",
-            expected: "finite numbers > 0",
-            value: opts
-                .spacing_m
-                .min(opts.patch_radius_m)
-                .min(opts.planarity_m),
-        });
+    opts.check()?;
+    let extents: Vec<[f64; 4]> = strips.iter().filter_map(Strip::extent_m).collect();
+    let grid = AutoTieGrid::new(&extents, opts.spacing_m);
+    let cands = auto_tie_candidates(strips, prior, opts, &grid, 0..grid.nx, 0..grid.ny)?;
+    select_auto_ties(cands, opts)
+}
+
+impl AutoTieOptions {
+    fn check(&self) -> Result<()> {
+        self.vtpm.check()?;
+        if !(self.spacing_m > 0.0 && self.patch_radius_m > 0.0 && self.planarity_m > 0.0) {
+            return Err(Error::InvalidOption {
+                name: "spacing_m / patch_radius_m / planarity_m",
+                expected: "finite numbers > 0",
+                value: self
+                    .spacing_m
+                    .min(self.patch_radius_m)
+                    .min(self.planarity_m),
+            });
+        }
+        Ok(())
     }
-    let idx = Indexed::new(strips, opts.patch_radius_m);
-    let g = Georeferencing::new(prior);
-    let mut ext = [
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-    ];
-    for s in strips {
-        if let Some(e) = s.extent_m() {
+
+    /// How far from a grid node the search at that node reads points, m: the patch may move
+    /// half a cell onto a marking (step 3) and its picks' virtual ties read
+    /// [`crate::tie_reach_m`] around them. Strips cut to the nodes' surroundings by this much
+    /// (plus their extreme points) give the same candidates.
+    pub fn node_reach_m(&self) -> f64 {
+        let recentred = 0.5 * self.spacing_m * std::f64::consts::SQRT_2;
+        (recentred + self.patch_radius_m)
+            .max(recentred + 0.5 * self.patch_radius_m + crate::tie_reach_m(&self.vtpm, None))
+    }
+}
+
+/// The candidate grid of the automatic tie search: node `(i, j)` is at `origin_m + (i, j) ×
+/// spacing_m` and is the `i·ny + j + 1`-th candidate (its id and RANSAC seed).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AutoTieGrid {
+    /// North and east of node (0, 0): the strips' smallest north and east, m.
+    pub origin_m: [f64; 2],
+    /// Nodes along north.
+    pub nx: usize,
+    /// Nodes along east.
+    pub ny: usize,
+    /// Node spacing, m.
+    pub spacing_m: f64,
+}
+
+impl AutoTieGrid {
+    /// The grid over strips of horizontal extents `extents` ([`Strip::extent_m`]).
+    pub fn new(extents: &[[f64; 4]], spacing_m: f64) -> AutoTieGrid {
+        let mut ext = [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for e in extents {
             ext = [
                 ext[0].min(e[0]),
                 ext[1].min(e[1]),
@@ -123,38 +161,109 @@ pub fn auto_ties(strips: &[Strip], prior: &Mounting, opts: &AutoTieOptions) -> R
                 ext[3].max(e[3]),
             ];
         }
+        AutoTieGrid {
+            origin_m: [ext[0], ext[1]],
+            nx: ((ext[2] - ext[0]) / spacing_m) as usize + 1,
+            ny: ((ext[3] - ext[1]) / spacing_m) as usize + 1,
+            spacing_m,
+        }
     }
-    let nx = ((ext[2] - ext[0]) / opts.spacing_m) as usize + 1;
-    let ny = ((ext[3] - ext[1]) / opts.spacing_m) as usize + 1;
-    let mut cands: Vec<(f64, f64, Candidate)> = Vec::new();
-    let mut k = 0usize;
-    for i in 0..nx {
-        for j in 0..ny {
-            k += 1;
-            let (x, y) = (
-                ext[0] + i as f64 * opts.spacing_m,
-                ext[1] + j as f64 * opts.spacing_m,
-            );
+
+    /// North and east of node `(i, j)`, m.
+    pub fn node_m(&self, i: usize, j: usize) -> [f64; 2] {
+        [
+            self.origin_m[0] + i as f64 * self.spacing_m,
+            self.origin_m[1] + j as f64 * self.spacing_m,
+        ]
+    }
+}
+
+/// A tie found at one grid node, before the selection spreads them ([`select_auto_ties`]).
+pub struct AutoTieCandidate {
+    /// The node's place in the grid's order.
+    k: usize,
+    x: f64,
+    y: f64,
+    candidate: Candidate,
+}
+
+impl AutoTieCandidate {
+    /// The candidate tie.
+    pub fn tie(&self) -> &Tie {
+        &self.candidate.tie
+    }
+}
+
+/// The candidates at the nodes `(i, j)` of `grid` with `i` in `rows` and `j` in `columns`
+/// (module docs, steps 1–4). `strips` are all the strips in the same order as for the whole
+/// search, each holding at least its points within [`AutoTieOptions::node_reach_m`] of these
+/// nodes and its extreme points (so its extent is the whole strip's).
+///
+/// # Errors
+/// Invalid strips or options.
+pub fn auto_tie_candidates(
+    strips: &[Strip],
+    prior: &Mounting,
+    opts: &AutoTieOptions,
+    grid: &AutoTieGrid,
+    rows: std::ops::Range<usize>,
+    columns: std::ops::Range<usize>,
+) -> Result<Vec<AutoTieCandidate>> {
+    check_strips(strips)?;
+    opts.check()?;
+    let idx = Indexed::new(strips, opts.patch_radius_m);
+    let g = Georeferencing::new(prior);
+    let mut cands = Vec::new();
+    for i in rows {
+        for j in columns.clone() {
+            let k = i * grid.ny + j + 1;
+            let [x, y] = grid.node_m(i, j);
             if let Some(c) = candidate(&idx, &g, x, y, k, opts, None)
                 && usable(&idx, &g, &c.tie, opts)
             {
-                cands.push((x, y, c));
+                cands.push(AutoTieCandidate {
+                    k,
+                    x,
+                    y,
+                    candidate: c,
+                });
             }
         }
     }
+    Ok(cands)
+}
+
+/// Spreads the candidates over kinds, places, scan angles and roof aspects (module docs,
+/// step 5), at most [`AutoTieOptions::max_ties`]; the result does not depend on the order of
+/// `cands`.
+///
+/// # Errors
+/// [`Error::NothingUsable`] when there is no candidate.
+pub fn select_auto_ties(
+    mut cands: Vec<AutoTieCandidate>,
+    opts: &AutoTieOptions,
+) -> Result<Vec<Tie>> {
     if cands.is_empty() {
         return Err(Error::NothingUsable {
             what: "automatic tie",
             reason: "no planar patch in two strips with intensity contrast or a roof slope".into(),
         });
     }
+    // The grid's order: equal scores keep it through the stable sorts below.
+    cands.sort_by_key(|c| c.k);
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for (x, y, _) in &cands {
-        lo = [lo[0].min(*x), lo[1].min(*y)];
-        hi = [hi[0].max(*x), hi[1].max(*y)];
+    for c in &cands {
+        lo = [lo[0].min(c.x), lo[1].min(c.y)];
+        hi = [hi[0].max(c.x), hi[1].max(c.y)];
     }
     let mut bins: BTreeMap<(u8, usize, usize, usize), Vec<Candidate>> = BTreeMap::new();
-    for (x, y, mut c) in cands {
+    for AutoTieCandidate {
+        x,
+        y,
+        candidate: mut c,
+        ..
+    } in cands
+    {
         let cell =
             |v: f64, a: usize| (((v - lo[a]) / (hi[a] - lo[a]).max(1e-9) * 3.0) as usize).min(2);
         c.bin.1 = cell(x, 0) * 3 + cell(y, 1);

@@ -55,7 +55,9 @@ mod strip;
 mod vtpm;
 mod weighting;
 
-pub use autoties::{AutoTieOptions, auto_ties};
+pub use autoties::{
+    AutoTieCandidate, AutoTieGrid, AutoTieOptions, auto_tie_candidates, auto_ties, select_auto_ties,
+};
 pub use calibrate::{
     Calibration, CalibrationOptions, IterationRecord, Method, TieReport, calibrate_vtpm, local_enu,
     mounting_from_json, tie_residuals,
@@ -69,9 +71,12 @@ pub use overlap::{
 };
 pub use params::{PARAM_COUNT, Param, mounting_from_vector, mounting_to_vector};
 pub use plane::{PlaneOptions, calibrate_plane, check_plane_rms};
-pub use strip::{Georeferencing, LocalFrame, RawPoint, Strip, correct_strip, georeference};
+pub use strip::{
+    Georeferencing, LocalFrame, RawPoint, Strip, correct_strip, georeference,
+    radius_for_neighbours_m,
+};
 pub use vtpm::{
     ControlPoint, DroppedPick, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Tie, TieKind, TiePick,
-    VtpmOptions,
+    VtpmOptions, tie_reach_m,
 };
 pub use weighting::TrajectorySigma;

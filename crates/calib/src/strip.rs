@@ -177,28 +177,12 @@ impl Strip {
     /// The VTPM radius has to grow with the point spacing: seed 001's 1 m holds ~3 points of a
     /// strip flown at 800 m with 2 pts/m², too few for a RANSAC plane and a triangle.
     pub fn radius_for_neighbours_m(&self, neighbours: usize) -> Option<f64> {
-        if self.points.len() < 16 {
-            return None;
-        }
-        const WINDOW_M: f64 = 3.0;
         let xy: Vec<[f64; 2]> = self
             .points
             .iter()
             .map(|p| [p.position_m.x, p.position_m.y])
             .collect();
-        let index = GridIndex::new(&xy, WINDOW_M);
-        let step = (self.points.len() / 256).max(1);
-        let mut densities: Vec<f64> = (0..self.points.len())
-            .step_by(step)
-            .map(|k| {
-                let [x, y] = xy[k];
-                let n = within(&index, &self.points, x, y, WINDOW_M).len();
-                n as f64 / (std::f64::consts::PI * WINDOW_M * WINDOW_M)
-            })
-            .collect();
-        densities.sort_by(f64::total_cmp);
-        let density = densities[densities.len() / 2];
-        Some((neighbours as f64 / (std::f64::consts::PI * density)).sqrt())
+        radius_for_neighbours_m(&xy, neighbours)
     }
 
     /// Horizontal extent `[min north, min east, max north, max east]`, m; `None` when empty.
@@ -217,6 +201,34 @@ impl Strip {
         }
         (!self.points.is_empty()).then_some(e)
     }
+}
+
+/// [`Strip::radius_for_neighbours_m`] of a strip given by its points' horizontal positions
+/// (north, east) in file order: a streaming reader keeps these, not whole points.
+pub fn radius_for_neighbours_m(xy: &[[f64; 2]], neighbours: usize) -> Option<f64> {
+    if xy.len() < 16 {
+        return None;
+    }
+    const WINDOW_M: f64 = 3.0;
+    let index = GridIndex::new(xy, WINDOW_M);
+    let step = (xy.len() / 256).max(1);
+    let mut densities: Vec<f64> = (0..xy.len())
+        .step_by(step)
+        .map(|k| {
+            let [x, y] = xy[k];
+            let mut n = 0usize;
+            index.candidates(x, y, WINDOW_M, |i| {
+                let [px, py] = xy[i];
+                if (px - x).powi(2) + (py - y).powi(2) <= WINDOW_M * WINDOW_M {
+                    n += 1;
+                }
+            });
+            n as f64 / (std::f64::consts::PI * WINDOW_M * WINDOW_M)
+        })
+        .collect();
+    densities.sort_by(f64::total_cmp);
+    let density = densities[densities.len() / 2];
+    Some((neighbours as f64 / (std::f64::consts::PI * density)).sqrt())
 }
 
 /// Seed 000 eq. (2) in the local frame with the model: `P = P0 + R_L (R_M S + ΔP)`, through

@@ -257,6 +257,14 @@ pub(crate) type TieAt = (Vector3<f64>, Vec<Vector3<f64>>);
 /// 0.13 m); growing until the pick lies between two lines is the sampling's own answer.
 pub(crate) const MAX_WINDOW_GROWTH: f64 = 4.0;
 
+/// How far from a pick, or from a control point with an optional target radius, the tie model
+/// reads a strip's points, m: a reader that keeps only the points within this of every pick and
+/// control point (plus each strip's extreme points) gets the same ties as from whole strips.
+pub fn tie_reach_m(opts: &VtpmOptions, target_radius_m: Option<f64>) -> f64 {
+    let window = MAX_WINDOW_GROWTH * opts.radius_m * (1.0 + 1e-9);
+    target_radius_m.map_or(window, |r| window.max(r + TARGET_SEARCH_MARGIN_M))
+}
+
 /// The coplanar points must be at least 1/this of the window's points.
 const MIN_COPLANAR_DENOMINATOR: usize = 3;
 

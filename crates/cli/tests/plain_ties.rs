@@ -6,7 +6,7 @@
 //! 3 σ of the simulation's truth.
 
 mod binary;
-use binary::{lidarqa, s};
+use binary::{lidarqa, s, simulate_scenario, small_demo_scenario};
 
 use lidarqa_io::{LasReader, PointChunk};
 use serde_json::Value;
@@ -51,10 +51,7 @@ fn plain(pts: &[[f64; 4]], x: f64, y: f64, r_m: f64) -> bool {
 fn ties_on_plain_ground_determine_only_what_the_ground_can() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let text =
-        String::from_utf8(lidarqa(&["simulate", "--scenario", "demo", "--print"]).stdout).unwrap();
-    let small = text.replacen("pulse_rate_hz = 100000.0", "pulse_rate_hz = 25000.0", 1);
-    assert_ne!(small, text, "the demo scenario's pulse rate line moved");
+    let small = small_demo_scenario();
     // Plain ground by its intensity spread (`plain`, and the calibration's own featureless
     // test) needs quiet intensity: at the demo's realistic 15 % every patch spreads by ~1.
     let quiet = small.replacen(
@@ -66,21 +63,7 @@ fn ties_on_plain_ground_determine_only_what_the_ground_can() {
         quiet, small,
         "the demo scenario's intensity noise line moved"
     );
-    let small = quiet;
-    std::fs::write(d.join("s.toml"), small).unwrap();
-    let sim = d.join("sim");
-    let out = lidarqa(&[
-        "simulate",
-        "--scenario",
-        s(&d.join("s.toml")),
-        "-o",
-        s(&sim),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let sim = simulate_scenario(d, &quiet);
     let strips: Vec<_> = (1..=4)
         .map(|i| sim.join(format!("strip_{i:03}.laz")))
         .collect();

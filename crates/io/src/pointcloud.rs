@@ -484,6 +484,40 @@ impl LasReader {
         &self.info
     }
 
+    /// Moves to point `index`: the next [`fill`](Self::fill) starts there (a LAZ file is decoded
+    /// from the start of that point's chunk, so a reader that needs only parts of a file skips
+    /// the rest's decoding).
+    ///
+    /// # Errors
+    /// [`Error::LasPoint`] naming the file and the point when the file cannot be positioned.
+    pub fn seek(&mut self, index: u64) -> Result<()> {
+        if let Some(message) = &self.failed {
+            return Err(Error::InvalidLas {
+                path: self.info.path.clone(),
+                message: message.clone(),
+            });
+        }
+        let reader = &mut self.reader;
+        match guard(&self.info.path, &format!("point {index}"), || {
+            reader.seek(index)
+        }) {
+            Ok(r) => r.map_err(|source| Error::LasPoint {
+                path: self.info.path.clone(),
+                index,
+                source,
+            })?,
+            Err(e) => {
+                self.failed = Some(match &e {
+                    Error::InvalidLas { message, .. } => message.clone(),
+                    other => other.to_string(),
+                });
+                return Err(e);
+            }
+        }
+        self.next_index = index;
+        Ok(())
+    }
+
     /// Replaces `chunk`'s contents with up to `max` next points; returns how many (0 at the end,
     /// or when `max` is 0). Memory is bounded by `max` records, whatever the file claims.
     ///

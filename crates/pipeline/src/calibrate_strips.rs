@@ -4,14 +4,30 @@
 //! survey centre (UTM inverse, ellipsoid → ECEF → local), each point's raw observation recovered
 //! once with the sensor file's mounting, and handed to lidarqa-calib's VTPM or plane adjustment
 //! with hand-picked ties (CSV) or automatic ones, and control points (CSV).
+//!
+//! The adjustment reads only the neighbourhoods of its ties, so no strip is held whole
+//! (memory is bounded by [`POINTS_PER_TILE`], not by the survey):
+//! 1. a first pass over each strip (in parallel) checks every point as before and keeps its
+//!    extent, its extreme points (the ones holding the extent and the time span), the VTPM
+//!    density radius, the heights under hand picks, point counts on a 25 m grid and the
+//!    projected box of each 50 000-point block;
+//! 2. the automatic tie search runs tile by tile over its candidate grid, each tile's strips
+//!    read cut to the nodes' reach ([`AutoTieOptions::node_reach_m`]), decoding only the blocks
+//!    that meet it; the candidates of all tiles are selected together;
+//! 3. a last pass keeps the points within [`lidarqa_calib::tie_reach_m`] of every pick and
+//!    control point.
+//!
+//! Every cut strip keeps its extreme points and its file order, so its extent, its grid cells
+//! and the order in which a neighbourhood's points come are the whole strip's: the ties and the
+//! calibration are the same as from whole strips.
 
 use crate::context::TpuContext;
 use crate::error::{Error, Result};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use lidarqa_calib::{
-    AutoTieOptions, Calibration, CalibrationOptions, ControlPoint, LocalFrame, Method,
-    PlaneOptions, RawPoint, Strip, Tie, TieKind, TiePick, TrajectorySigma, auto_ties,
-    calibrate_plane, calibrate_vtpm,
+    AutoTieGrid, AutoTieOptions, Calibration, CalibrationOptions, ControlPoint, LocalFrame, Method,
+    PlaneOptions, RawPoint, Strip, Tie, TieKind, TiePick, TrajectorySigma, auto_tie_candidates,
+    auto_ties, calibrate_plane, calibrate_vtpm, select_auto_ties, tie_reach_m,
 };
 use lidarqa_io::{ControlPoints, Crs, Geodetic, LasInfo, LasReader, PointChunk, TiePicks};
 use lidarqa_model::{Source, Warning};
@@ -19,6 +35,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 use serde_json::Value;
 use std::collections::HashMap;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 /// Points a VTPM window should hold in the sparsest strip when no radius is given: enough for a
@@ -63,6 +80,9 @@ pub struct CalibrateJob<'a> {
     pub radius_given: bool,
     /// Weigh the ties by each strip's trajectory error (`None`: plain least squares, seed 001).
     pub weighting: Option<TrajectoryWeighting>,
+    /// Most points one tile of the automatic tie search holds ([`POINTS_PER_TILE`]; the
+    /// result does not depend on it, the peak memory does).
+    pub tile_points: u64,
 }
 
 /// The result of [`calibrate_strips`]: the calibration and the frame it was computed in.
@@ -130,40 +150,58 @@ pub fn calibrate_strips(job: &CalibrateJob<'_>) -> Result<StripCalibration> {
         any.then_some(t)
     });
     let prior = ctx.recovery_mounting;
-    let (frame, zone, loaded) = load_all(job.strips, ctx)?;
+    let (frame, zone) = open_all(job.strips, ctx)?;
     let tie_picks = match job.ties {
         TieSource::Picks(p) => Some(TiePicks::from_path(p)?),
         TieSource::Automatic => None,
     };
-    let picked = match &tie_picks {
-        Some(p) => Some(ties_from_csv(p, &loaded, &frame, &zone)?),
-        None => None,
-    };
-    // Strip id → the names a CSV may use for it (id and file stem).
-    let loaded_ids: Vec<(String, String)> = loaded
-        .iter()
-        .map(|l| (l.strip.id.clone(), l.stem.clone()))
-        .collect();
-    let strips: Vec<Strip> = loaded.into_iter().map(|l| l.strip).collect();
-    if !job.radius_given {
-        let sparsest = strips
+    // First pass: each strip's extent, extreme points, density and the heights under the picks.
+    let h0 = local_to_projected(&frame, &zone, &Vector3::zeros())[2];
+    let guesses: Vec<[f64; 2]> = tie_picks.as_ref().map_or_else(Vec::new, |t| {
+        t.picks
             .iter()
-            .filter_map(|s| s.radius_for_neighbours_m(VTPM_NEIGHBOURS))
+            .map(|p| {
+                let g = projected_to_local(&frame, &zone, p.x, p.y, h0);
+                [g.x, g.y]
+            })
+            .collect()
+    });
+    let scans: Vec<Result<StripScan>> = job
+        .strips
+        .par_iter()
+        .map(|p| {
+            let picks = tie_picks.as_ref().map(|t| (t, guesses.as_slice()));
+            scan_strip(p, ctx, &frame, picks, !job.radius_given)
+        })
+        .collect();
+    let scans = scans.into_iter().collect::<Result<Vec<_>>>()?;
+    // Strip id → the names a CSV may use for it (id and file stem).
+    let loaded_ids: Vec<(String, String)> = scans
+        .iter()
+        .map(|l| (l.id.clone(), l.stem.clone()))
+        .collect();
+    if !job.radius_given {
+        let sparsest = scans
+            .iter()
+            .filter_map(|s| s.radius_m)
             .fold(0.0f64, f64::max);
         options.vtpm.radius_m = sparsest.max(options.vtpm.radius_m);
     }
     let failed = |e: lidarqa_calib::Error| Error::Calibration(e.to_string());
-    let ties = match picked {
-        Some(t) => t,
-        None => auto_ties(
-            &strips,
+    let ties = match &tie_picks {
+        Some(p) => ties_from_scans(p, &scans, &frame, &zone, h0)?,
+        None => auto_ties_tiled(
+            &scans,
+            job.tile_points,
+            ctx,
+            &frame,
+            &zone,
             &prior,
             &AutoTieOptions {
                 vtpm: options.vtpm,
                 ..AutoTieOptions::default()
             },
-        )
-        .map_err(failed)?,
+        )?,
     };
     let control_table = job.control.map(ControlPoints::from_path).transpose()?;
     let mut control = Vec::new();
@@ -177,6 +215,29 @@ pub fn calibrate_strips(job: &CalibrateJob<'_>) -> Result<StripCalibration> {
             });
         }
     }
+    // Second pass: only the points the adjustment reads, around the picks and control points.
+    let plane_radius_m = PlaneOptions::default().radius_m;
+    let mut squares = Vec::new();
+    for t in &ties {
+        let reach = tie_reach_m(&options.vtpm, None) + REACH_SLACK_M;
+        for p in &t.picks {
+            squares.push(square(p.north_m, p.east_m, reach));
+        }
+        if job.method == Method::Plane {
+            let n = t.picks.len().max(1) as f64;
+            let centre = [
+                t.picks.iter().map(|p| p.north_m).sum::<f64>() / n,
+                t.picks.iter().map(|p| p.east_m).sum::<f64>() / n,
+            ];
+            squares.push(square(centre[0], centre[1], plane_radius_m + REACH_SLACK_M));
+        }
+    }
+    for c in &control {
+        let reach = tie_reach_m(&options.vtpm, c.target_radius_m) + REACH_SLACK_M;
+        squares.push(square(c.position_m.x, c.position_m.y, reach));
+    }
+    let region = Region::new(squares, &frame, &zone);
+    let strips = cut_all(&scans, ctx, &frame, &region)?;
     let calibration = match job.method {
         Method::Plane => {
             let centres: Vec<[f64; 2]> = ties
@@ -247,6 +308,20 @@ pub fn load_all(
     paths: &[PathBuf],
     ctx: &TpuContext,
 ) -> Result<(LocalFrame, Crs, Vec<LoadedStrip>)> {
+    let (frame, zone) = open_all(paths, ctx)?;
+    // The strips load in parallel (each one as alone, so the points are the same); the first
+    // failing strip in the given order is the one reported.
+    let loaded: Vec<Result<LoadedStrip>> = paths
+        .par_iter()
+        .map(|p| load_strip(p, ctx, &frame))
+        .collect();
+    let loaded = loaded.into_iter().collect::<Result<Vec<_>>>()?;
+    Ok((frame, zone, loaded))
+}
+
+/// Checks the strips' headers (distinct files, one metre CRS) and puts the local frame at their
+/// centre.
+fn open_all(paths: &[PathBuf], ctx: &TpuContext) -> Result<(LocalFrame, Crs)> {
     lidarqa_io::check_distinct_inputs(paths)?;
     let mut infos = Vec::with_capacity(paths.len());
     let mut zone: Option<Crs> = None;
@@ -275,75 +350,501 @@ pub fn load_all(
     }
     let zone = zone.ok_or_else(|| Error::InvalidOption("no strips".into()))?;
     let frame = frame_for(&infos, &zone);
-    // The strips load in parallel (each one as alone, so the points are the same); the first
-    // failing strip in the given order is the one reported.
-    let loaded: Vec<Result<LoadedStrip>> = paths
+    Ok((frame, zone))
+}
+
+/// Extra reach around every neighbourhood, m: keeping a few more points than the adjustment
+/// reads costs little; keeping fewer would change the result.
+const REACH_SLACK_M: f64 = 1.0;
+
+/// Slack of a local rectangle's projected bounding box, m: covers the curvature of the local
+/// frame against the projection over a survey (a height off the frame's by 1 km moves a point
+/// 2 km from the centre by 0.3 m).
+const PROJECTED_SLACK_M: f64 = 5.0;
+
+/// Most points of one tile of the automatic tie search (all strips, margins included, about
+/// 104 bytes each in memory, counted by whole first-pass cells): fewer, larger tiles decode
+/// fewer LAZ blocks twice, smaller ones hold less.
+pub const POINTS_PER_TILE: u64 = 5_000_000;
+
+/// Points per block of a strip's first-pass summary: the LAZ chunk size most writers use, so
+/// a block is read by one seek and one chunk's decoding.
+const BLOCK_POINTS: u64 = 50_000;
+
+/// What the first pass keeps of a strip: enough to place the neighbourhoods the second one keeps.
+struct StripScan {
+    path: PathBuf,
+    stem: String,
+    id: String,
+    /// Horizontal extent `[min north, min east, max north, max east]`, local, m.
+    extent_m: Option<[f64; 4]>,
+    /// The points holding the extent and the time span, in file order: every cut of the strip
+    /// keeps them, so a cut's extent, grid geometry and time span are the whole strip's.
+    extremes: Vec<(u64, RawPoint)>,
+    /// [`lidarqa_calib::radius_for_neighbours_m`] with [`VTPM_NEIGHBOURS`], when asked for.
+    radius_m: Option<f64>,
+    /// For each tie pick naming this strip (by id or stem): its index among the picks and the
+    /// height (up, local) of the strip's point nearest to it horizontally.
+    pick_up_m: Vec<(usize, f64)>,
+    /// Projected bounding box of each run of [`BLOCK_POINTS`] points in file order.
+    blocks: Vec<[f64; 4]>,
+    /// Points per [`COUNT_CELL_M`] cell (local north, east): they size the tiles.
+    counts: HashMap<(i64, i64), u64>,
+}
+
+/// Cell of the first pass's point counts, m.
+const COUNT_CELL_M: f64 = 25.0;
+
+fn count_cell(north: f64, east: f64) -> (i64, i64) {
+    (
+        (north / COUNT_CELL_M).floor() as i64,
+        (east / COUNT_CELL_M).floor() as i64,
+    )
+}
+
+/// The first pass over one strip: every point read and checked (time, trajectory, recovery)
+/// as [`load_all`] does, only its horizontal position and height kept until the end.
+fn scan_strip(
+    path: &Path,
+    ctx: &TpuContext,
+    frame: &LocalFrame,
+    picks: Option<(&TiePicks, &[[f64; 2]])>,
+    want_radius: bool,
+) -> Result<StripScan> {
+    let mut xy: Vec<[f64; 2]> = Vec::new();
+    let mut down: Vec<f64> = Vec::new();
+    // Lowest north, lowest east, highest north, highest east, earliest, latest.
+    let mut ext: [Option<(f64, u64, RawPoint)>; 6] = [None; 6];
+    let mut blocks: Vec<[f64; 4]> = Vec::new();
+    let (stem, id) = stream_strip(
+        path,
+        ctx,
+        frame,
+        None,
+        |k, x, y| {
+            if k % BLOCK_POINTS == 0 {
+                blocks.push([x, y, x, y]);
+            }
+            if let Some(b) = blocks.last_mut() {
+                *b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
+            }
+            true
+        },
+        |_, v| {
+            xy.push([v.x, v.y]);
+            if picks.is_some() {
+                down.push(v.z);
+            }
+            true
+        },
+        |k, p| {
+            let v = [
+                p.position_m.x,
+                p.position_m.y,
+                -p.position_m.x,
+                -p.position_m.y,
+                p.time_s,
+                -p.time_s,
+            ];
+            for (slot, value) in ext.iter_mut().zip(v) {
+                if slot.is_none_or(|(best, _, _)| value < best) {
+                    *slot = Some((value, k, p));
+                }
+            }
+        },
+    )?;
+    let extent_m = match (ext[0], ext[1], ext[2], ext[3]) {
+        (Some(a), Some(b), Some(c), Some(d)) => Some([a.0, b.0, -c.0, -d.0]),
+        _ => None,
+    };
+    let mut extremes: Vec<(u64, RawPoint)> = ext.iter().flatten().map(|e| (e.1, e.2)).collect();
+    extremes.sort_by_key(|e| e.0);
+    extremes.dedup_by_key(|e| e.0);
+    let mut counts: HashMap<(i64, i64), u64> = HashMap::new();
+    for [n, e] in &xy {
+        *counts.entry(count_cell(*n, *e)).or_default() += 1;
+    }
+    let radius_m = want_radius
+        .then(|| lidarqa_calib::radius_for_neighbours_m(&xy, VTPM_NEIGHBOURS))
+        .flatten();
+    let mut pick_up_m = Vec::new();
+    if let Some((table, guesses)) = picks {
+        let mut tree: Option<ImmutableKdTree<f64, 2>> = None;
+        for (i, p) in table.picks.iter().enumerate() {
+            if p.strip != id && p.strip != stem {
+                continue;
+            }
+            let up = if xy.is_empty() {
+                0.0
+            } else {
+                let t = tree.get_or_insert_with(|| ImmutableKdTree::new_from_slice(&xy));
+                let n = t.nearest_one::<SquaredEuclidean>(&guesses[i]);
+                usize::try_from(n.item)
+                    .ok()
+                    .and_then(|k| down.get(k))
+                    .map_or(0.0, |z| -z)
+            };
+            pick_up_m.push((i, up));
+        }
+    }
+    Ok(StripScan {
+        path: path.to_path_buf(),
+        stem,
+        id,
+        extent_m,
+        extremes,
+        radius_m,
+        pick_up_m,
+        blocks,
+        counts,
+    })
+}
+
+/// Local rectangles `[min north, min east, max north, max east]` and their projected bounding
+/// boxes, both bucketed on a coarse grid, so far points are skipped before the projection's
+/// inverse.
+struct Region {
+    rects: Vec<[f64; 4]>,
+    boxes: Vec<[f64; 4]>,
+    local: HashMap<(i64, i64), Vec<u32>>,
+    projected: HashMap<(i64, i64), Vec<u32>>,
+}
+
+/// Bucket size of [`Region`], m.
+const REGION_CELL_M: f64 = 50.0;
+
+fn buckets(r: &[f64; 4]) -> impl Iterator<Item = (i64, i64)> {
+    let c = |v: f64| (v / REGION_CELL_M).floor() as i64;
+    let (i0, j0, i1, j1) = (c(r[0]), c(r[1]), c(r[2]), c(r[3]));
+    (i0..=i1).flat_map(move |i| (j0..=j1).map(move |j| (i, j)))
+}
+
+fn bucket(a: f64, b: f64) -> (i64, i64) {
+    (
+        (a / REGION_CELL_M).floor() as i64,
+        (b / REGION_CELL_M).floor() as i64,
+    )
+}
+
+fn inside(r: &[f64; 4], a: f64, b: f64) -> bool {
+    r[0] <= a && a <= r[2] && r[1] <= b && b <= r[3]
+}
+
+/// The square of half side `reach` around (north, east).
+fn square(north: f64, east: f64, reach: f64) -> [f64; 4] {
+    [north - reach, east - reach, north + reach, east + reach]
+}
+
+impl Region {
+    fn new(rects: Vec<[f64; 4]>, frame: &LocalFrame, zone: &Crs) -> Region {
+        let boxes: Vec<[f64; 4]> = rects
+            .iter()
+            .map(|r| {
+                let mut b = [
+                    f64::INFINITY,
+                    f64::INFINITY,
+                    f64::NEG_INFINITY,
+                    f64::NEG_INFINITY,
+                ];
+                for (fa, fb) in [(0.0, 0.0), (0.5, 0.0), (1.0, 0.0), (0.0, 0.5)]
+                    .into_iter()
+                    .chain([(1.0, 0.5), (0.0, 1.0), (0.5, 1.0), (1.0, 1.0)])
+                {
+                    let v = Vector3::new(r[0] + fa * (r[2] - r[0]), r[1] + fb * (r[3] - r[1]), 0.0);
+                    let [x, y, _] = local_to_projected(frame, zone, &v);
+                    b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
+                }
+                [
+                    b[0] - PROJECTED_SLACK_M,
+                    b[1] - PROJECTED_SLACK_M,
+                    b[2] + PROJECTED_SLACK_M,
+                    b[3] + PROJECTED_SLACK_M,
+                ]
+            })
+            .collect();
+        let mut local: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
+        let mut projected: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
+        for (k, (r, b)) in rects.iter().zip(&boxes).enumerate() {
+            for c in buckets(r) {
+                local.entry(c).or_default().push(k as u32);
+            }
+            for c in buckets(b) {
+                projected.entry(c).or_default().push(k as u32);
+            }
+        }
+        Region {
+            rects,
+            boxes,
+            local,
+            projected,
+        }
+    }
+
+    fn near_projected(&self, x: f64, y: f64) -> bool {
+        self.projected
+            .get(&bucket(x, y))
+            .is_some_and(|ks| ks.iter().any(|&k| inside(&self.boxes[k as usize], x, y)))
+    }
+
+    fn near_local(&self, north: f64, east: f64) -> bool {
+        self.local.get(&bucket(north, east)).is_some_and(|ks| {
+            ks.iter()
+                .any(|&k| inside(&self.rects[k as usize], north, east))
+        })
+    }
+
+    fn meets_projected(&self, e: &[f64; 4]) -> bool {
+        self.boxes
+            .iter()
+            .any(|r| r[0] <= e[2] && e[0] <= r[2] && r[1] <= e[3] && e[1] <= r[3])
+    }
+
+    fn meets(&self, e: &[f64; 4]) -> bool {
+        self.rects
+            .iter()
+            .any(|r| r[0] <= e[2] && e[0] <= r[2] && r[1] <= e[3] && e[1] <= r[3])
+    }
+}
+
+/// The second pass over one strip: its points in `region` and its extreme points, in file
+/// order; only the blocks whose projected box meets the region are decoded.
+fn cut_strip(
+    scan: &StripScan,
+    ctx: &TpuContext,
+    frame: &LocalFrame,
+    region: &Region,
+) -> Result<Strip> {
+    let mut ranges: Vec<Range<u64>> = Vec::new();
+    if scan.extent_m.is_some_and(|e| region.meets(&e)) {
+        for (b, bx) in scan.blocks.iter().enumerate() {
+            if !region.meets_projected(bx) {
+                continue;
+            }
+            let start = b as u64 * BLOCK_POINTS;
+            match ranges.last_mut() {
+                Some(r) if r.end == start => r.end = start + BLOCK_POINTS,
+                _ => ranges.push(start..start + BLOCK_POINTS),
+            }
+        }
+    }
+    let mut points = Vec::new();
+    let mut extremes = scan.extremes.iter().peekable();
+    if !ranges.is_empty() {
+        stream_strip(
+            &scan.path,
+            ctx,
+            frame,
+            Some(&ranges),
+            |_, x, y| region.near_projected(x, y),
+            |_, v| region.near_local(v.x, v.y),
+            |k, p| {
+                while let Some((_, e)) = extremes.next_if(|(j, _)| *j < k) {
+                    points.push(*e);
+                }
+                // An extreme point read here is the same point, computed the same way.
+                let _ = extremes.next_if(|(j, _)| *j == k);
+                points.push(p);
+            },
+        )?;
+    }
+    points.extend(extremes.map(|(_, p)| *p));
+    points.shrink_to_fit();
+    Ok(Strip {
+        id: scan.id.clone(),
+        points,
+    })
+}
+
+/// [`cut_strip`] of every strip, in parallel, in the given order.
+fn cut_all(
+    scans: &[StripScan],
+    ctx: &TpuContext,
+    frame: &LocalFrame,
+    region: &Region,
+) -> Result<Vec<Strip>> {
+    let cut: Vec<Result<Strip>> = scans
         .par_iter()
-        .map(|p| load_strip(p, ctx, &frame))
+        .map(|s| cut_strip(s, ctx, frame, region))
         .collect();
-    let loaded = loaded.into_iter().collect::<Result<Vec<_>>>()?;
-    Ok((frame, zone, loaded))
+    cut.into_iter().collect()
+}
+
+/// [`lidarqa_calib::auto_ties`] tile by tile: the grid of candidate nodes is cut into tiles of
+/// at most `tile_points` points, each tile's strips are read cut to its nodes' reach, and
+/// the candidates of all tiles are selected together, so the ties are those of whole strips.
+fn auto_ties_tiled(
+    scans: &[StripScan],
+    tile_points: u64,
+    ctx: &TpuContext,
+    frame: &LocalFrame,
+    zone: &Crs,
+    prior: &lidarqa_model::Mounting,
+    opts: &AutoTieOptions,
+) -> Result<Vec<Tie>> {
+    let failed = |e: lidarqa_calib::Error| Error::Calibration(e.to_string());
+    let extents: Vec<[f64; 4]> = scans.iter().filter_map(|s| s.extent_m).collect();
+    if extents.len() < scans.len() {
+        // An empty strip: the search reports it as it would on whole strips.
+        let strips: Vec<Strip> = scans
+            .iter()
+            .map(|s| Strip {
+                id: s.id.clone(),
+                points: s.extremes.iter().map(|(_, p)| *p).collect(),
+            })
+            .collect();
+        return auto_ties(&strips, prior, opts).map_err(failed);
+    }
+    let grid = AutoTieGrid::new(&extents, opts.spacing_m);
+    let mut counts: HashMap<(i64, i64), u64> = HashMap::new();
+    for s in scans {
+        for (c, n) in &s.counts {
+            *counts.entry(*c).or_default() += n;
+        }
+    }
+    // Points a rectangle may hold: every count cell it meets counts whole.
+    let points_in = |r: &[f64; 4]| -> u64 {
+        let ((i0, j0), (i1, j1)) = (count_cell(r[0], r[1]), count_cell(r[2], r[3]));
+        counts
+            .iter()
+            .filter(|((i, j), _)| (i0..=i1).contains(i) && (j0..=j1).contains(j))
+            .map(|(_, n)| n)
+            .sum()
+    };
+    let reach = opts.node_reach_m() + REACH_SLACK_M;
+    let mut candidates = Vec::new();
+    // Tiles split in two along their longer side while they would hold too many points.
+    let mut todo = vec![(0..grid.nx, 0..grid.ny)];
+    while let Some((rows, columns)) = todo.pop() {
+        if rows.is_empty() || columns.is_empty() {
+            continue;
+        }
+        let lo = grid.node_m(rows.start, columns.start);
+        let hi = grid.node_m(rows.end - 1, columns.end - 1);
+        let rect = [lo[0] - reach, lo[1] - reach, hi[0] + reach, hi[1] + reach];
+        if points_in(&rect) > tile_points && rows.len().max(columns.len()) > 1 {
+            if rows.len() >= columns.len() {
+                let mid = rows.start + rows.len() / 2;
+                todo.push((mid..rows.end, columns.clone()));
+                todo.push((rows.start..mid, columns));
+            } else {
+                let mid = columns.start + columns.len() / 2;
+                todo.push((rows.clone(), mid..columns.end));
+                todo.push((rows, columns.start..mid));
+            }
+            continue;
+        }
+        let region = Region::new(vec![rect], frame, zone);
+        let strips = cut_all(scans, ctx, frame, &region)?;
+        candidates.extend(
+            auto_tie_candidates(&strips, prior, opts, &grid, rows, columns).map_err(failed)?,
+        );
+    }
+    select_auto_ties(candidates, opts).map_err(failed)
 }
 
 /// Reads the points of one strip and recovers every point's raw observation (module docs).
 fn load_strip(path: &Path, ctx: &TpuContext, frame: &LocalFrame) -> Result<LoadedStrip> {
+    let tile = ctx.open_tile(path)?;
+    // A LAZ header's count cannot be checked against the file size (issue #12): reserve at
+    // most 4 Mi points up front and let the vectors grow with what is really read.
+    let reserve = usize::try_from(tile.info.point_count.min(1 << 22)).unwrap_or(0);
+    let mut points = Vec::with_capacity(reserve);
+    let (stem, id) = stream_strip(
+        path,
+        ctx,
+        frame,
+        None,
+        |_, _, _| true,
+        |_, _| true,
+        |_, p| points.push(p),
+    )?;
+    Ok(LoadedStrip {
+        stem,
+        strip: Strip { id, points },
+    })
+}
+
+/// Streams one strip's points in file order: `near_projected(index, x, y)` sees each point's
+/// projected position and `near_local(index, local)` its local one; the points both want get
+/// their raw observation recovered and go to `take`. Returns the file's stem and the strip's id
+/// (the LAS point source id when every point has the same non-zero one, else the stem).
+fn stream_strip(
+    path: &Path,
+    ctx: &TpuContext,
+    frame: &LocalFrame,
+    ranges: Option<&[Range<u64>]>,
+    mut near_projected: impl FnMut(u64, f64, f64) -> bool,
+    mut near_local: impl FnMut(u64, &Vector3<f64>) -> bool,
+    mut take: impl FnMut(u64, RawPoint),
+) -> Result<(String, String)> {
     let tile = ctx.open_tile(path)?;
     let projection = &tile.crs;
     let ellipsoid = tile.crs.ellipsoid();
     let recoverer = lidarqa_tpu::Recoverer::new(&ctx.recovery_mounting);
     let mut reader = LasReader::from_path(path)?;
     let mut chunk = PointChunk::new();
-    // A LAZ header's count cannot be checked against the file size (issue #12): reserve at
-    // most 4 Mi points up front and let the vectors grow with what is really read.
-    let reserve = usize::try_from(tile.info.point_count.min(1 << 22)).unwrap_or(0);
-    let mut points = Vec::with_capacity(reserve);
     // The strip's point source id while every point has the same one.
     let mut psid: Option<u16> = None;
     let mut same_psid = true;
-    let mut index = 0u64;
+    let mut index;
     let point_error = |index: u64, source: lidarqa_tpu::Error| Error::Point {
         path: path.to_path_buf(),
         index,
         source,
     };
-    while reader.fill(&mut chunk, 200_000)? > 0 {
-        for p in &chunk.points {
-            crate::error::check_finite(path, index, p.x, p.y, p.z)?;
-            let z = p.z + tile.height_offset_m;
-            let sow = match p.gps_time_s.map(|t| tile.converter.to_seconds_of_week(t)) {
-                Some(Ok(s)) => s,
-                Some(Err(e)) => {
-                    return Err(Error::BadTime {
-                        index,
-                        message: e.to_string(),
-                    });
+    let whole = 0..u64::MAX;
+    for range in ranges.unwrap_or(std::slice::from_ref(&whole)) {
+        if range.start > 0 {
+            reader.seek(range.start)?;
+        }
+        index = range.start;
+        loop {
+            let max = usize::try_from((range.end - index).min(200_000)).unwrap_or(200_000);
+            if max == 0 || reader.fill(&mut chunk, max)? == 0 {
+                break;
+            }
+            for p in &chunk.points {
+                crate::error::check_finite(path, index, p.x, p.y, p.z)?;
+                same_psid &= *psid.get_or_insert(p.point_source_id) == p.point_source_id;
+                let k = index;
+                index += 1;
+                if !near_projected(k, p.x, p.y) {
+                    continue;
                 }
-                None => {
-                    return Err(Error::BadTime {
-                        index,
-                        message: format!("{}: point without GPS time", path.display()),
-                    });
+                let z = p.z + tile.height_offset_m;
+                let sow = match p.gps_time_s.map(|t| tile.converter.to_seconds_of_week(t)) {
+                    Some(Ok(s)) => s,
+                    Some(Err(e)) => {
+                        return Err(Error::BadTime {
+                            index: k,
+                            message: e.to_string(),
+                        });
+                    }
+                    None => {
+                        return Err(Error::BadTime {
+                            index: k,
+                            message: format!("{}: point without GPS time", path.display()),
+                        });
+                    }
+                };
+                let pose = tile.trajectory.at(sow).map_err(|e| point_error(k, e))?;
+                let (lat, lon) = projection.inverse(p.x, p.y);
+                let ecef = ellipsoid.geodetic_to_ecef(&Geodetic {
+                    latitude_rad: lat,
+                    longitude_rad: lon,
+                    height_m: z,
+                });
+                if !near_local(k, &frame.to_local(&ecef)) {
+                    continue;
                 }
-            };
-            let pose = tile.trajectory.at(sow).map_err(|e| point_error(index, e))?;
-            let (lat, lon) = projection.inverse(p.x, p.y);
-            let ecef = ellipsoid.geodetic_to_ecef(&Geodetic {
-                latitude_rad: lat,
-                longitude_rad: lon,
-                height_m: z,
-            });
-            let recovery = recoverer
-                .linear(&pose, &ecef)
-                .map_err(|e| point_error(index, e))?;
-            points.push(RawPoint::from_recovery(
-                frame,
-                &pose,
-                &recovery,
-                &ecef,
-                p.intensity,
-            ));
-            same_psid &= *psid.get_or_insert(p.point_source_id) == p.point_source_id;
-            index += 1;
+                let recovery = recoverer
+                    .linear(&pose, &ecef)
+                    .map_err(|e| point_error(k, e))?;
+                take(
+                    k,
+                    RawPoint::from_recovery(frame, &pose, &recovery, &ecef, p.intensity),
+                );
+            }
         }
     }
     let stem = path
@@ -355,10 +856,7 @@ fn load_strip(path: &Path, ctx: &TpuContext, frame: &LocalFrame) -> Result<Loade
         Some(id) if id != 0 && same_psid => id.to_string(),
         _ => stem.clone(),
     };
-    Ok(LoadedStrip {
-        stem,
-        strip: Strip { id, points },
-    })
+    Ok((stem, id))
 }
 
 /// Local NED → projected `[easting, northing, ellipsoidal height]` in `zone`.
@@ -380,24 +878,23 @@ pub fn projected_to_local(frame: &LocalFrame, zone: &Crs, x: f64, y: f64, h: f64
 }
 
 /// Tie picks in the local frame; a pick's height is taken from the nearest point of its strip
-/// (the horizontal local position depends on it by ~1.6 cm per 100 m per km from the centre).
-fn ties_from_csv(
+/// (the horizontal local position depends on it by ~1.6 cm per 100 m per km from the centre),
+/// found in the first pass ([`StripScan::pick_up_m`]).
+fn ties_from_scans(
     picks: &TiePicks,
-    loaded: &[LoadedStrip],
+    scans: &[StripScan],
     frame: &LocalFrame,
     zone: &Crs,
+    h0: f64,
 ) -> Result<Vec<Tie>> {
     let mut by_id: HashMap<&str, usize> = HashMap::new();
-    for (k, l) in loaded.iter().enumerate() {
-        by_id.insert(l.strip.id.as_str(), k);
+    for (k, l) in scans.iter().enumerate() {
+        by_id.insert(l.id.as_str(), k);
         by_id.insert(l.stem.as_str(), k);
     }
-    let h0 = local_to_projected(frame, zone, &Vector3::zeros())[2];
-    // One horizontal kd-tree per strip, built when a pick first needs it.
-    let mut trees: Vec<Option<ImmutableKdTree<f64, 2>>> = (0..loaded.len()).map(|_| None).collect();
     let mut order: Vec<String> = Vec::new();
     let mut ties: HashMap<String, Vec<TiePick>> = HashMap::new();
-    for p in &picks.picks {
+    for (i, p) in picks.picks.iter().enumerate() {
         let &k = by_id.get(p.strip.as_str()).ok_or_else(|| {
             Error::Calibration(format!(
                 "{}: line {}: strip {} is not among the input strips",
@@ -406,30 +903,17 @@ fn ties_from_csv(
                 p.strip
             ))
         })?;
-        let points = &loaded[k].strip.points;
-        let tree = trees[k].get_or_insert_with(|| {
-            let xy: Vec<[f64; 2]> = points
-                .iter()
-                .map(|q| [q.position_m.x, q.position_m.y])
-                .collect();
-            ImmutableKdTree::new_from_slice(&xy)
-        });
-        let guess = projected_to_local(frame, zone, p.x, p.y, h0);
-        let up = if points.is_empty() {
-            0.0
-        } else {
-            let n = tree.nearest_one::<SquaredEuclidean>(&[guess.x, guess.y]);
-            usize::try_from(n.item)
-                .ok()
-                .and_then(|i| points.get(i))
-                .map_or(0.0, |q| -q.position_m.z)
-        };
+        let up = scans[k]
+            .pick_up_m
+            .iter()
+            .find(|(j, _)| *j == i)
+            .map_or(0.0, |(_, u)| *u);
         let local = projected_to_local(frame, zone, p.x, p.y, h0 + up);
         if !ties.contains_key(&p.tie) {
             order.push(p.tie.clone());
         }
         ties.entry(p.tie.clone()).or_default().push(TiePick {
-            strip: loaded[k].strip.id.clone(),
+            strip: scans[k].id.clone(),
             north_m: local.x,
             east_m: local.y,
         });

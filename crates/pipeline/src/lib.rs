@@ -70,8 +70,8 @@ mod tpu_tiles;
 pub mod trajectory_from_returns;
 
 pub use calibrate_strips::{
-    CalibrateJob, LoadedStrip, StripCalibration, TieSource, TrajectoryWeighting, VTPM_NEIGHBOURS,
-    calibrate_strips, frame_for, load_all, local_to_projected, projected_to_local,
+    CalibrateJob, LoadedStrip, POINTS_PER_TILE, StripCalibration, TieSource, TrajectoryWeighting,
+    VTPM_NEIGHBOURS, calibrate_strips, frame_for, load_all, local_to_projected, projected_to_local,
 };
 pub use context::{TpuContext, TpuOptions};
 pub use correct_tile::{

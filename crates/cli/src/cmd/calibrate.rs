@@ -9,7 +9,8 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use lidarqa_calib::{CalibrationOptions, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Method};
 use lidarqa_pipeline::{
-    CalibrateJob, TieSource, TpuContext, TpuOptions, TrajectoryWeighting, calibrate_strips,
+    CalibrateJob, POINTS_PER_TILE, TieSource, TpuContext, TpuOptions, TrajectoryWeighting,
+    calibrate_strips,
 };
 use std::path::PathBuf;
 
@@ -231,6 +232,7 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
             position_correlation_s: a.gnss_correlation_s,
             attitude_correlation_s: a.attitude_correlation_s,
         }),
+        tile_points: POINTS_PER_TILE,
     })?;
     let mut inputs: Vec<PathBuf> = a.strips.clone();
     inputs.extend([a.trajectory.clone(), a.sensor.clone()]);
