@@ -122,6 +122,36 @@ fn seed000_table2_formula_7_is_17_56_cm() {
     assert!((get("north") - 11.23).abs() < 0.005);
     assert!((get("east") - 13.50).abs() < 0.005);
     assert_eq!(v["n"], 4);
+
+    // With --tpu the TPU summary's median σ is the prediction, read by the report's reader.
+    let stats = |m: f64| serde_json::json!({"min": m, "median": m, "p95": m, "max": m});
+    let summary = dir.path().join("tpu_summary.json");
+    let sigma = serde_json::json!({"north": stats(0.03), "east": stats(0.04), "up": stats(0.12)});
+    std::fs::write(
+        &summary,
+        serde_json::json!({"points": 4, "sigma": sigma}).to_string(),
+    )
+    .unwrap();
+    let args = [
+        "evaluate",
+        "--targets",
+        t.to_str().unwrap(),
+        "--control",
+        c.to_str().unwrap(),
+        "--tpu",
+        summary.to_str().unwrap(),
+        "--format",
+        "json",
+    ];
+    let out = lidarqa(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["predicted"]["up"], 0.12);
+    assert!((v["predicted"]["horizontal"].as_f64().unwrap() - 0.05).abs() < 1e-15);
 }
 
 #[test]

@@ -26,6 +26,7 @@
 //! coordinates must already be in the datum of the LAS file's CRS.
 
 use crate::error::{Error, Result};
+use lidarqa_model::Ecef;
 use nalgebra::{Complex, Matrix3, Vector3};
 use std::f64::consts::PI;
 
@@ -87,10 +88,10 @@ impl Ellipsoid {
 
     /// [`Ellipsoid::geodetic_to_ecef`] from the sines and cosines of latitude and longitude an
     /// inverse projection gives ([`Unprojected`]): no trigonometry per point.
-    pub fn ecef_from_unprojected(&self, u: &Unprojected, height_m: f64) -> Vector3<f64> {
+    pub fn ecef_from_unprojected(&self, u: &Unprojected, height_m: f64) -> Ecef {
         let (sp, cp) = (u.sin_latitude, u.cos_latitude);
         let n = self.a_m / (1.0 - self.e2() * sp * sp).sqrt();
-        Vector3::new(
+        Ecef::new(
             (n + height_m) * cp * u.cos_longitude,
             (n + height_m) * cp * u.sin_longitude,
             (n * (1.0 - self.e2()) + height_m) * sp,

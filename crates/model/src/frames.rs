@@ -1,38 +1,146 @@
 //! Frame-carrying types used at crate boundaries (SPEC §3).
 //!
-//! Inside a kernel plain nalgebra vectors are fine; across crates a vector says which frame it is in.
+//! Inside a kernel plain nalgebra vectors are fine; across crates a vector says which frame it is in:
+//! [`Ecef`] positions, local [`Ned`] vectors and projected [`Grid`] coordinates are distinct types,
+//! so handing one to a function that expects another does not compile.
+//!
+//! ```
+//! use lidarqa_model::{Ecef, Grid, Ned};
+//! let beam = Ned::new(0.0, 0.6, 0.8);
+//! assert_eq!(beam.up_m(), -0.8);
+//! assert_eq!(Ecef::new(1.0, 2.0, 3.0).vector().z, 3.0);
+//! assert_eq!(Grid::new(500_000.0, 4_000_000.0, 12.0).northing_m(), 4_000_000.0);
+//! ```
+//!
+//! ```compile_fail
+//! use lidarqa_model::{Ecef, Ned};
+//! fn beam_only(_: &Ned) {}
+//! beam_only(&Ecef::new(1.0, 2.0, 3.0)); // ECEF where NED is expected: refused
+//! ```
+//!
+//! ```compile_fail
+//! use lidarqa_model::{Ecef, Grid};
+//! fn ecef_only(_: &Ecef) {}
+//! ecef_only(&Grid::new(500_000.0, 4_000_000.0, 12.0)); // grid where ECEF is expected: refused
+//! ```
 
 use nalgebra::Vector3;
 
-/// A vector in the local navigation frame N (North-East-Down), metres.
+/// A position in Earth-centred, Earth-fixed coordinates (X, Y, Z), metres.
+///
+/// The frame types are thin wrappers so that a boundary function taking one frame refuses
+/// another at compile time; they carry no arithmetic beyond what callers need.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Ned {
-    /// North component, m.
-    pub north_m: f64,
-    /// East component, m.
-    pub east_m: f64,
-    /// Down component, m (positive below the origin).
-    pub down_m: f64,
+pub struct Ecef(Vector3<f64>);
+
+impl Ecef {
+    /// From X, Y, Z in metres.
+    pub fn new(x_m: f64, y_m: f64, z_m: f64) -> Ecef {
+        Ecef(Vector3::new(x_m, y_m, z_m))
+    }
+
+    /// From a plain ECEF vector (metres).
+    pub fn from_vector(v: Vector3<f64>) -> Ecef {
+        Ecef(v)
+    }
+
+    /// As a plain ECEF vector (metres).
+    pub fn vector(&self) -> Vector3<f64> {
+        self.0
+    }
+
+    /// X (through the equator at the prime meridian), m.
+    pub fn x_m(&self) -> f64 {
+        self.0.x
+    }
+
+    /// Y (through the equator at 90° east), m.
+    pub fn y_m(&self) -> f64 {
+        self.0.y
+    }
+
+    /// Z (towards the north pole), m.
+    pub fn z_m(&self) -> f64 {
+        self.0.z
+    }
 }
 
+/// A vector in a local North-East-Down frame (the navigation frame N at a point), metres.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Ned(Vector3<f64>);
+
 impl Ned {
+    /// From north, east and down components in metres.
+    pub fn new(north_m: f64, east_m: f64, down_m: f64) -> Ned {
+        Ned(Vector3::new(north_m, east_m, down_m))
+    }
+
     /// From a plain NED vector (metres).
-    pub fn from_vector(v: &Vector3<f64>) -> Ned {
-        Ned {
-            north_m: v.x,
-            east_m: v.y,
-            down_m: v.z,
-        }
+    pub fn from_vector(v: Vector3<f64>) -> Ned {
+        Ned(v)
     }
 
     /// As a plain NED vector (metres).
-    pub fn to_vector(self) -> Vector3<f64> {
-        Vector3::new(self.north_m, self.east_m, self.down_m)
+    pub fn vector(&self) -> Vector3<f64> {
+        self.0
+    }
+
+    /// North component, m.
+    pub fn north_m(&self) -> f64 {
+        self.0.x
+    }
+
+    /// East component, m.
+    pub fn east_m(&self) -> f64 {
+        self.0.y
+    }
+
+    /// Down component, m (positive below the origin).
+    pub fn down_m(&self) -> f64 {
+        self.0.z
     }
 
     /// Up component, m (= −down).
-    pub fn up_m(self) -> f64 {
-        -self.down_m
+    pub fn up_m(&self) -> f64 {
+        -self.0.z
+    }
+}
+
+/// Projected coordinates: grid easting and northing of a map projection (e.g. UTM) and height
+/// up, metres. Grid axes are not the local north/east: they differ by the grid convergence and
+/// scale (SPEC §3), so a [`Ned`] vector is never added to a `Grid` position.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Grid(Vector3<f64>);
+
+impl Grid {
+    /// From easting, northing and height in metres.
+    pub fn new(easting_m: f64, northing_m: f64, height_m: f64) -> Grid {
+        Grid(Vector3::new(easting_m, northing_m, height_m))
+    }
+
+    /// From a plain `[easting, northing, height]` vector (metres).
+    pub fn from_vector(v: Vector3<f64>) -> Grid {
+        Grid(v)
+    }
+
+    /// As a plain `[easting, northing, height]` vector (metres).
+    pub fn vector(&self) -> Vector3<f64> {
+        self.0
+    }
+
+    /// Grid easting, m (false easting included).
+    pub fn easting_m(&self) -> f64 {
+        self.0.x
+    }
+
+    /// Grid northing, m (false northing included).
+    pub fn northing_m(&self) -> f64 {
+        self.0.y
+    }
+
+    /// Height, m (in the height system of the coordinates given).
+    pub fn height_m(&self) -> f64 {
+        self.0.z
     }
 }
 

@@ -50,7 +50,7 @@ pub use conic::{
 };
 pub use eigen3::symmetric_eigen3;
 pub use error::{Error, Result};
-pub use frames::{Attitude, Mounting, Ned};
+pub use frames::{Attitude, Ecef, Grid, Mounting, Ned};
 pub use georeferencer::Georeferencer;
 pub use linear::{
     LINEAR_N, LinearObservation, LinearScanner, OffPlaneLinearScanner, linear_range_for_height,

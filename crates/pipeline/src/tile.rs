@@ -15,7 +15,8 @@ use lidarqa_io::{
     LasWriteOptions, LasWriter, PointChunk,
 };
 use lidarqa_model::{
-    ConicScanner, Georeferencer, LinearScanner, Mounting, Scanner, Source, rotation_zyx,
+    ConicScanner, Ecef, Georeferencer, Grid, LinearScanner, Mounting, Ned, Scanner, Source,
+    rotation_zyx,
 };
 use lidarqa_tpu::{
     IhoOrder, Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, SoundingRecovery, Surface,
@@ -307,7 +308,7 @@ enum PrepState {
 }
 
 struct Prep {
-    ecef: Vector3<f64>,
+    ecef: Ecef,
     /// X, Y, Z of the CRS in metres (feet converted).
     xyz_m: [f64; 3],
     latitude_rad: f64,
@@ -325,7 +326,7 @@ struct Prepared {
 impl Prepare {
     fn point(&self, p: &LasPoint) -> Prep {
         let mut out = Prep {
-            ecef: Vector3::zeros(),
+            ecef: Ecef::default(),
             xyz_m: [p.x, p.y, p.z].map(|v| v * self.unit_m),
             latitude_rad: 0.0,
             longitude_rad: 0.0,
@@ -350,11 +351,11 @@ impl Prepare {
             let (lat, lon) = self.crs.inverse(x_m, y_m);
             out.latitude_rad = lat;
             out.longitude_rad = lon;
-            out.ecef = self.crs.ellipsoid().geodetic_to_ecef(&Geodetic {
+            out.ecef = Ecef::from_vector(self.crs.ellipsoid().geodetic_to_ecef(&Geodetic {
                 latitude_rad: lat,
                 longitude_rad: lon,
                 height_m,
-            });
+            }));
         }
         match p.gps_time_s.map(|t| self.converter.to_seconds_of_week(t)) {
             Some(Ok(t)) => out.time_sow_s = t,
@@ -640,7 +641,7 @@ impl Run<'_> {
                 .chain(head)
                 .map(rel)
                 .collect();
-            let targets: Vec<[f64; 3]> = cur.pts.iter().map(|p| rel(&p.ecef)).collect();
+            let targets: Vec<[f64; 3]> = cur.pts.iter().map(|p| rel(&p.ecef.vector())).collect();
             judge_surfaces(&candidates, &targets, self.ctx.options.neighbours)
                 .into_iter()
                 .map(Some)
@@ -753,7 +754,7 @@ impl Run<'_> {
             .filter_map(|p| {
                 let pose = self.trajectory.at(p.time_sow_s).ok()?;
                 Some((
-                    p.ecef,
+                    p.ecef.vector(),
                     pose.position_ecef_m,
                     pose.latitude_rad,
                     pose.longitude_rad,
@@ -999,7 +1000,7 @@ impl Run<'_> {
                 &p.ecef,
                 p.xyz_m[2],
                 &s.ecef_m,
-                s.xyh[2],
+                s.grid.height_m(),
             ),
             None => {
                 let plane = water.plane_at(p.xyz_m[0], p.xyz_m[1])?;
@@ -1008,7 +1009,7 @@ impl Run<'_> {
                     &self.recovery_mounting,
                     pose,
                     &p.ecef,
-                    p.xyz_m,
+                    &Grid::from_vector(p.xyz_m.into()),
                     &plane,
                 )
             }
@@ -1063,16 +1064,16 @@ impl Run<'_> {
         normal: Option<Vector3<f64>>,
         acc: &mut Partial,
     ) -> lidarqa_tpu::Result<(Matrix3<f64>, Recovered)> {
-        let incidence = |range_m: f64, beam_ned: Vector3<f64>| {
+        let incidence = |range_m: f64, beam_ned: Ned| {
             normal.map(|n| Incidence {
                 range_m,
                 beam_ned,
-                incidence_rad: incidence_angle(&beam_ned, &(pose.ecef_to_ned * n)),
+                incidence_rad: incidence_angle(&beam_ned.vector(), &(pose.ecef_to_ned * n)),
             })
         };
         let (cov, vars, inc_var, recovered) = match self.kernel {
             Kernel::Linear(pp) => {
-                let r = self.recoverer.linear(pose, &p.ecef)?;
+                let r = self.recoverer.linear_ecef(pose, &p.ecef)?;
                 // The beam as recovered, out-of-plane part included (β): near nadir the range
                 // and attitude σ depend on the small across-track part, which the projection
                 // on the scan plane would change.
@@ -1156,7 +1157,7 @@ fn water_returns(c: &Prepared, limit: usize) -> impl Iterator<Item = (u64, Water
                 WaterReturn {
                     time_s: p.time_sow_s,
                     ecef_m: p.ecef,
-                    xyh: p.xyz_m,
+                    grid: Grid::from_vector(p.xyz_m.into()),
                 },
             )
         })
@@ -1165,5 +1166,5 @@ fn water_returns(c: &Prepared, limit: usize) -> impl Iterator<Item = (u64, Water
 fn valid_ecef(pts: &[Prep]) -> impl DoubleEndedIterator<Item = Vector3<f64>> + '_ {
     pts.iter()
         .filter(|p| !matches!(p.state, PrepState::NonFinite))
-        .map(|p| p.ecef)
+        .map(|p| p.ecef.vector())
 }

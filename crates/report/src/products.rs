@@ -486,6 +486,42 @@ pub struct TpuSummary {
     pub iho_s44: Option<TpuIho>,
 }
 
+impl TpuSummary {
+    /// The accuracy this summary predicts, as `lidarqa evaluate --tpu` shows it beside the
+    /// measured RMSE: the median per-point σ north, east and up.
+    ///
+    /// # Errors
+    /// `(key, message)` naming the missing `sigma.<axis>.median`.
+    pub fn predicted(&self) -> std::result::Result<Components, Invalid> {
+        let median = |axis: &str, stats: Option<Stats>| {
+            stats
+                .map(|s| s.median)
+                .ok_or_else(|| invalid(format!("sigma.{axis}.median"), "missing"))
+        };
+        Ok(Components::from_components(
+            median("north", self.sigma.north)?,
+            median("east", self.sigma.east)?,
+            median("up", self.sigma.up)?,
+        ))
+    }
+
+    /// Reads a TPU summary file ([`crate::read_product`]) and returns its
+    /// [`TpuSummary::predicted`].
+    ///
+    /// # Errors
+    /// [`crate::Error`] naming the file and, for a missing median, the key.
+    pub fn predicted_from_file(path: &std::path::Path) -> crate::Result<Components> {
+        let summary: TpuSummary = crate::read_product(path)?;
+        summary
+            .predicted()
+            .map_err(|(key, message)| crate::Error::Invalid {
+                path: path.to_path_buf(),
+                key,
+                message,
+            })
+    }
+}
+
 impl Product for TpuSummary {
     const WHAT: &'static str = "per-point TPU summary";
     fn validate(&self) -> std::result::Result<(), Invalid> {

@@ -683,3 +683,25 @@ fn the_report_opens_with_its_verdict() {
     assert!(verdict.contains("not determined: lever_z_m"), "{verdict}");
     assert!(verdict.contains("<strong>IHO S-44</strong>"), "{verdict}");
 }
+
+#[test]
+fn tpu_summary_predicts_its_median_sigma_and_names_a_missing_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let stats = |median: f64| json!({"min": 0.01, "median": median, "p95": 0.2, "max": 0.3});
+    let summary = json!({"points": 10, "sigma": {"north": stats(0.03), "east": stats(0.04), "up": stats(0.12)}});
+    write(dir.path(), TPU_SUMMARY_FILE, &summary);
+    let p = TpuSummary::predicted_from_file(&dir.path().join(TPU_SUMMARY_FILE)).unwrap();
+    assert_eq!((p.north, p.east, p.up), (0.03, 0.04, 0.12));
+    // √(0.03² + 0.04²) = 0.05 and √(0.05² + 0.12²) = 0.13.
+    assert!((p.horizontal - 0.05).abs() < 1e-15);
+    assert!((p.three_d - 0.13).abs() < 1e-15);
+
+    let no_up = json!({"points": 10, "sigma": {"north": stats(0.03), "east": stats(0.04)}});
+    write(dir.path(), TPU_SUMMARY_FILE, &no_up);
+    let e = TpuSummary::predicted_from_file(&dir.path().join(TPU_SUMMARY_FILE)).unwrap_err();
+    assert!(
+        matches!(&e, Error::Invalid { key, .. } if key == "sigma.up.median"),
+        "{e}"
+    );
+    assert!(e.to_string().contains(TPU_SUMMARY_FILE), "{e}");
+}

@@ -684,7 +684,7 @@ mod tests {
             let sigma = |n: &Vector3<f64>| {
                 let inc = Incidence {
                     range_m: 800.0,
-                    beam_ned: beam,
+                    beam_ned: lidarqa_model::Ned::from_vector(beam),
                     incidence_rad: incidence_angle(&beam, n),
                 };
                 let u = pp.propagate(&p, None, Some(&inc)).unwrap();

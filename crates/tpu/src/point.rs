@@ -18,7 +18,7 @@
 
 use crate::error::{Error, Result};
 use crate::trajectory::PoseSigma;
-use lidarqa_model::{Georeferencer, Sensor, Source};
+use lidarqa_model::{Georeferencer, Ned, Sensor, Source};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 /// The largest incidence angle used in the incidence term, rad (85°: tan = 11.4).
@@ -30,7 +30,7 @@ pub struct Incidence {
     /// Range from the scanner to the point (air range for the conic scanner), m.
     pub range_m: f64,
     /// Unit beam direction in N at P0.
-    pub beam_ned: Vector3<f64>,
+    pub beam_ned: Ned,
     /// Angle between the beam and the local surface normal, rad, in [0, π/2].
     pub incidence_rad: f64,
 }
@@ -39,7 +39,7 @@ pub struct Incidence {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PointUncertainty<const N: usize> {
     /// Footprint − P0, NED at P0, m.
-    pub footprint_ned: Vector3<f64>,
+    pub footprint_ned: Ned,
     /// Total covariance, NED at P0, m².
     pub covariance_ned: Matrix3<f64>,
     /// Each model source's own variance `|J_i|² σ_i²` (summed over the three axes), m², in
@@ -253,11 +253,12 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
             let s = self.incidence_sigma_m(inc);
             if s.is_finite() && s > 0.0 {
                 incidence_variance_m2 = s * s;
-                covariance_ned += inc.beam_ned * inc.beam_ned.transpose() * (s * s);
+                let b = inc.beam_ned.vector();
+                covariance_ned += b * b.transpose() * (s * s);
             }
         }
         Ok(PointUncertainty {
-            footprint_ned,
+            footprint_ned: Ned::from_vector(footprint_ned),
             covariance_ned,
             source_variance_m2,
             incidence_variance_m2,
@@ -389,7 +390,7 @@ mod tests {
         let beam = Vector3::new(0.0, 0.6, 0.8);
         let inc = Incidence {
             range_m: 1000.0,
-            beam_ned: beam,
+            beam_ned: Ned::from_vector(beam),
             incidence_rad: 45f64.to_radians(),
         };
         let u = pp.propagate(&params(), None, Some(&inc)).unwrap();

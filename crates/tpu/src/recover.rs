@@ -22,8 +22,8 @@
 use crate::error::{Error, Result};
 use crate::trajectory::PoseAt;
 use lidarqa_model::{
-    Attitude, ConicObservation, ConicScanner, Georeferencer, LinearObservation, Mounting,
-    OffPlaneLinearScanner, rotation_zyx,
+    Attitude, ConicObservation, ConicScanner, Ecef, Georeferencer, LinearObservation, Mounting,
+    Ned, OffPlaneLinearScanner, rotation_zyx,
 };
 use nalgebra::{Matrix3, Vector3};
 
@@ -46,7 +46,7 @@ pub struct LinearRecovery {
     /// `S_x`, m: the component out of the scan plane (0 for a perfect model).
     pub out_of_plane_m: f64,
     /// Unit beam direction (scanner origin → point) in N at P0.
-    pub beam_ned: Vector3<f64>,
+    pub beam_ned: Ned,
     /// The beam as it is, for [`OffPlaneLinearScanner`]: scan angle θ' = asin(S_y/ρ), rad.
     pub beam_scan_angle_rad: f64,
     /// The beam as it is: along-track angle β = atan2(S_x, S_z), rad.
@@ -80,7 +80,7 @@ pub struct ConicRecovery {
     /// Distance of `S` from the nominal cone at the recovered azimuth, m (0 for a perfect model).
     pub off_cone_m: f64,
     /// Unit beam direction (scanner origin → point) in N at P0.
-    pub beam_ned: Vector3<f64>,
+    pub beam_ned: Ned,
 }
 
 impl Recoverer {
@@ -114,23 +114,29 @@ impl Recoverer {
 
     /// `S = R_Mᵀ (R_Nᵀ C_NE (P − P0) − ΔP)`, scanner frame, metres; and the beam (scanner
     /// origin → point) in N.
-    pub fn scanner_vector(
-        &self,
-        pose: &PoseAt,
-        point_ecef_m: &Vector3<f64>,
-    ) -> (Vector3<f64>, Vector3<f64>) {
-        let ned = pose.ecef_to_ned * (point_ecef_m - pose.position_ecef_m);
+    pub fn scanner_vector(&self, pose: &PoseAt, point: &Ecef) -> (Vector3<f64>, Vector3<f64>) {
+        let ned = pose.ecef_to_ned * (point.vector() - pose.position_ecef_m);
         let s = self.scanner_from_body(&(pose.body_to_ned.transpose() * ned));
         // Origin → point in N is R_N R_M S.
         (s, pose.body_to_ned * (self.r_m * s))
     }
 
-    /// Range and scan angle of a linear-scanner point.
+    /// [`Recoverer::linear_ecef`] for a point as a bare ECEF vector: the untyped entry
+    /// lidarqa-calib still calls (its strip loading is being rewritten); remove it once calib
+    /// passes [`Ecef`].
+    ///
+    /// # Errors
+    /// As [`Recoverer::linear_ecef`].
+    pub fn linear(&self, pose: &PoseAt, point_ecef_m: &Vector3<f64>) -> Result<LinearRecovery> {
+        self.linear_ecef(pose, &Ecef::from_vector(*point_ecef_m))
+    }
+
+    /// Range and scan angle of a linear-scanner point given in ECEF.
     ///
     /// # Errors
     /// [`Error::Recovery`] when the point is at the scanner origin or not finite.
-    pub fn linear(&self, pose: &PoseAt, point_ecef_m: &Vector3<f64>) -> Result<LinearRecovery> {
-        let (s, beam) = self.scanner_vector(pose, point_ecef_m);
+    pub fn linear_ecef(&self, pose: &PoseAt, point: &Ecef) -> Result<LinearRecovery> {
+        let (s, beam) = self.scanner_vector(pose, point);
         let range_m = s.norm();
         if !(range_m.is_finite() && range_m > 0.0) {
             return Err(Error::Recovery(format!("range {range_m} m")));
@@ -139,7 +145,7 @@ impl Recoverer {
             range_m,
             scan_angle_rad: s.y.atan2(s.z),
             out_of_plane_m: s.x,
-            beam_ned: beam / range_m,
+            beam_ned: Ned::from_vector(beam / range_m),
             beam_scan_angle_rad: (s.y / range_m).clamp(-1.0, 1.0).asin(),
             along_track_rad: s.x.atan2(s.z),
         })
@@ -153,9 +159,9 @@ impl Recoverer {
         &self,
         scanner: &ConicScanner,
         pose: &PoseAt,
-        point_ecef_m: &Vector3<f64>,
+        point: &Ecef,
     ) -> Result<ConicRecovery> {
-        let (s, beam) = self.scanner_vector(pose, point_ecef_m);
+        let (s, beam) = self.scanner_vector(pose, point);
         let range_air_m = s.norm();
         if !(range_air_m.is_finite() && range_air_m > 0.0) {
             return Err(Error::Recovery(format!("air range {range_air_m} m")));
@@ -171,7 +177,7 @@ impl Recoverer {
             },
             range_air_m,
             off_cone_m: (s - nominal).norm(),
-            beam_ned: beam / range_air_m,
+            beam_ned: Ned::from_vector(beam / range_air_m),
         })
     }
 }
@@ -235,13 +241,14 @@ mod tests {
                 along_track_rad: beta,
             };
             let f = g.footprint_ned(&g.parameters(&pose.attitude, &m, &obs));
-            let point =
-                pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f;
-            let r = Recoverer::new(&m).linear(&pose, &point).unwrap();
+            let point = Ecef::from_vector(
+                pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f,
+            );
+            let r = Recoverer::new(&m).linear_ecef(&pose, &point).unwrap();
             assert_relative_eq!(r.range_m, 612.345, epsilon = 1e-8);
             let off = 612.345 * 0.4321f64.cos() * beta.sin();
             assert!((r.out_of_plane_m - off).abs() < 1e-8, "{beta}");
-            assert_relative_eq!(r.beam_ned.norm(), 1.0, epsilon = 1e-12);
+            assert_relative_eq!(r.beam_ned.vector().norm(), 1.0, epsilon = 1e-12);
             let (g2, obs2) = r.off_plane();
             assert_relative_eq!(g2.along_track_rad, beta, epsilon = 1e-12);
             assert_relative_eq!(obs2.range_m, 612.345, epsilon = 1e-8);
@@ -274,8 +281,9 @@ mod tests {
                 time_water_s: 0.0,
             };
             let f = s.footprint_ned(&s.parameters(&pose.attitude, &m, &obs));
-            let point =
-                pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f;
+            let point = Ecef::from_vector(
+                pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f,
+            );
             let r = Recoverer::new(&m).conic(&s, &pose, &point).unwrap();
             assert_relative_eq!(r.range_air_m, 425.7, epsilon = 1e-8);
             let d = (r.observation.azimuth_rad - az).rem_euclid(2.0 * std::f64::consts::PI);

@@ -21,7 +21,7 @@
 use crate::error::{Error, Result};
 use crate::recover::Recoverer;
 use crate::trajectory::PoseAt;
-use lidarqa_model::{ConicObservation, ConicScanner, Georeferencer, Mounting};
+use lidarqa_model::{ConicObservation, ConicScanner, Ecef, Georeferencer, Grid, Mounting};
 use nalgebra::{Matrix3, Vector3};
 
 /// Where the water surface of a sounding came from.
@@ -146,9 +146,9 @@ impl Recoverer {
         scanner: &ConicScanner,
         mounting: &Mounting,
         pose: &PoseAt,
-        bed_ecef_m: &Vector3<f64>,
+        bed_ecef_m: &Ecef,
         bed_height_m: f64,
-        surface_ecef_m: &Vector3<f64>,
+        surface_ecef_m: &Ecef,
         surface_height_m: f64,
     ) -> Result<SoundingRecovery> {
         let surf = self.conic(scanner, pose, surface_ecef_m)?;
@@ -173,7 +173,7 @@ impl Recoverer {
         })
     }
 
-    /// The sounding at `bed_ecef_m` (projected `bed_xyh`: easting, northing, ellipsoidal height)
+    /// The sounding at `bed_ecef_m` (projected `bed_grid`, height ellipsoidal)
     /// under the modelled water surface `plane`.
     ///
     /// # Errors
@@ -184,14 +184,14 @@ impl Recoverer {
         scanner: &ConicScanner,
         mounting: &Mounting,
         pose: &PoseAt,
-        bed_ecef_m: &Vector3<f64>,
-        bed_xyh: [f64; 3],
+        bed_ecef_m: &Ecef,
+        bed_grid: &Grid,
         plane: &SurfacePlane,
     ) -> Result<SoundingRecovery> {
-        let surface_h = plane.height_at(bed_xyh[0], bed_xyh[1]);
-        let depth_m = surface_h - bed_xyh[2];
+        let surface_h = plane.height_at(bed_grid.easting_m(), bed_grid.northing_m());
+        let depth_m = surface_h - bed_grid.height_m();
         check_depth(depth_m, 1.0)?;
-        let target = pose.ecef_to_ned * (bed_ecef_m - pose.position_ecef_m);
+        let target = pose.ecef_to_ned * (bed_ecef_m.vector() - pose.position_ecef_m);
         // Start: the azimuth of the bed's own scanner vector, the air beam down to the surface
         // height (the ellipsoid's curvature is negligible over the beam's 150 m), the rest in
         // water.
@@ -276,9 +276,9 @@ pub struct WaterReturn {
     /// GPS time, s (the pulse's identity: a sounding's own surface return has its time).
     pub time_s: f64,
     /// ECEF position, m.
-    pub ecef_m: Vector3<f64>,
+    pub ecef_m: Ecef,
     /// Easting, northing (projected m) and ellipsoidal height (m).
-    pub xyh: [f64; 3],
+    pub grid: Grid,
 }
 
 /// Radius around a sounding within which water-surface returns model its surface, m.
@@ -311,10 +311,17 @@ impl WaterSurfaceIndex {
     pub fn new(returns: Vec<WaterReturn>) -> WaterSurfaceIndex {
         let mut by_time: Vec<usize> = (0..returns.len()).collect();
         by_time.sort_by(|a, b| returns[*a].time_s.total_cmp(&returns[*b].time_s));
-        let origin = returns.first().map_or([0.0; 2], |r| [r.xyh[0], r.xyh[1]]);
+        let origin = returns
+            .first()
+            .map_or([0.0; 2], |r| [r.grid.easting_m(), r.grid.northing_m()]);
         let xy: Vec<[f64; 2]> = returns
             .iter()
-            .map(|r| [r.xyh[0] - origin[0], r.xyh[1] - origin[1]])
+            .map(|r| {
+                [
+                    r.grid.easting_m() - origin[0],
+                    r.grid.northing_m() - origin[1],
+                ]
+            })
             .collect();
         let tree = (!xy.is_empty()).then(|| kiddo::ImmutableKdTree::new_from_slice(&xy));
         WaterSurfaceIndex {
@@ -366,7 +373,7 @@ impl WaterSurfaceIndex {
             .nearest_n::<kiddo::SquaredEuclidean>(&q, qty)
             .into_iter()
             .filter(|n| n.distance <= SURFACE_RADIUS_M * SURFACE_RADIUS_M)
-            .map(|n| self.returns[n.item as usize].xyh)
+            .map(|n| self.returns[n.item as usize].grid.vector().into())
             .collect();
         SurfacePlane::fit(&near).ok_or(none(near.len()))
     }

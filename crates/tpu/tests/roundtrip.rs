@@ -9,7 +9,7 @@
 
 use lidarqa_model::{
     Attitude, ConicObservation, ConicScanner, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER,
-    Georeferencer, LinearObservation, LinearScanner, Mounting, Refraction,
+    Ecef, Georeferencer, LinearObservation, LinearScanner, Mounting, Refraction,
 };
 use lidarqa_tpu::{Pose, PoseAt, Recoverer, Trajectory, ecef_from_ned};
 use nalgebra::Vector3;
@@ -96,17 +96,17 @@ proptest! {
         prop_assert!((pose.attitude.roll_rad - att.roll_rad).abs() < 1e-12);
         let obs = LinearObservation { range_m: rho, scan_angle_rad: theta };
         let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&pose.attitude, &m, &obs));
-        let point = pose.position_ecef_m + ecef_from_ned(lat, lon) * f;
-        let r = Recoverer::new(&m).linear(&pose, &point).unwrap();
+        let point = Ecef::from_vector(pose.position_ecef_m + ecef_from_ned(lat, lon) * f);
+        let r = Recoverer::new(&m).linear_ecef(&pose, &point).unwrap();
         prop_assert!((r.range_m - rho).abs() < 1e-8, "range {} vs {rho}", r.range_m);
         prop_assert!(angle_diff(r.scan_angle_rad, theta) < 5e-10 * (1.0 + 100.0 / rho),
             "scan angle {} vs {theta}", r.scan_angle_rad);
         prop_assert!(r.out_of_plane_m.abs() < 1e-8, "out of plane {}", r.out_of_plane_m);
-        prop_assert!((r.beam_ned.norm() - 1.0).abs() < 1e-12);
+        prop_assert!((r.beam_ned.vector().norm() - 1.0).abs() < 1e-12);
         // The beam points from the scanner origin (P0 + R_N ΔP) to the point.
         let origin_ned = pose.body_to_ned * m.lever_arm_m;
         let to_point = (f - origin_ned).normalize();
-        prop_assert!((r.beam_ned - to_point).amax() < 1e-10);
+        prop_assert!((r.beam_ned.vector() - to_point).amax() < 1e-10);
     }
 
     #[test]
@@ -122,7 +122,7 @@ proptest! {
         let pose = pose_at(lat, lon, h, att);
         let obs = ConicObservation { azimuth_rad: az, time_air_s: s.time_air_s(rho), time_water_s: 0.0 };
         let f = s.footprint_ned(&s.parameters(&pose.attitude, &m, &obs));
-        let point = pose.position_ecef_m + ecef_from_ned(lat, lon) * f;
+        let point = Ecef::from_vector(pose.position_ecef_m + ecef_from_ned(lat, lon) * f);
         let r = Recoverer::new(&m).conic(&s, &pose, &point).unwrap();
         prop_assert!((r.range_air_m - rho).abs() < 1e-8, "air range {} vs {rho}", r.range_air_m);
         prop_assert!(angle_diff(r.observation.azimuth_rad, az) < 1e-9,

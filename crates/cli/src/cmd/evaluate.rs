@@ -2,13 +2,13 @@
 //! Ed. 2, NSSDA), side by side with the predicted accuracy.
 
 use crate::format::{OutputFormat, axes_cm, cm, print_json, print_text};
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::Args;
 use lidarqa_pipeline::{evaluate_nva, evaluate_target_files, predicted_from_sensor};
 use lidarqa_targets::{Components, EvaluateOptions, Evaluation, VerticalEvaluation};
 use serde::Serialize;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 pub const AFTER_HELP: &str = "\
 Examples:
@@ -72,23 +72,6 @@ pub struct EvaluateArgs {
     format: OutputFormat,
 }
 
-/// The prediction from a TPU summary: median σ north / east / up / horizontal / vertical, read
-/// through the report's typed [`lidarqa_report::TpuSummary`] (one reader of that file).
-pub fn predicted_from_tpu_summary(path: &Path) -> Result<Components> {
-    let summary: lidarqa_report::TpuSummary = lidarqa_report::read_product(path)?;
-    let median = |axis: &str, stats: Option<lidarqa_report::Stats>| -> Result<f64> {
-        stats
-            .map(|s| s.median)
-            .with_context(|| format!("{}: no sigma.{axis}.median", path.display()))
-    };
-    let s = summary.sigma;
-    Ok(Components::from_components(
-        median("north", s.north)?,
-        median("east", s.east)?,
-        median("up", s.up)?,
-    ))
-}
-
 /// What `lidarqa evaluate --format json` prints: the targets' evaluation (SPEC §6), with the
 /// NVA block beside it when --ground is given.
 #[derive(Serialize)]
@@ -112,7 +95,7 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
         (Some(t), Some(c)) => {
             let mut e = evaluate_target_files(t, c, &options)?;
             if let Some(p) = &args.tpu {
-                e.predicted = Some(predicted_from_tpu_summary(p)?);
+                e.predicted = Some(lidarqa_report::TpuSummary::predicted_from_file(p)?);
             }
             if let (Some(s), Some(h)) = (&args.sensor, args.height) {
                 e.predicted = Some(predicted_from_sensor(s, h, args.scan_angle)?);
