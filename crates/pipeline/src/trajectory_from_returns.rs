@@ -987,6 +987,35 @@ fn local_poly(samples: &[(f64, f64, f64)], t0: f64) -> Option<(f64, f64, f64)> {
     Some((coef[0], (inv[(0, 0)] * factor).sqrt(), slope))
 }
 
+/// The `n` blocks nearest in time to `t`, nearest first (ties in block order).
+fn nearest_blocks(blocks: &[Block], t: f64, n: usize) -> Vec<usize> {
+    let mut by: Vec<usize> = (0..blocks.len()).collect();
+    by.sort_by(|&a, &b| {
+        (blocks[a].time_s - t)
+            .abs()
+            .total_cmp(&(blocks[b].time_s - t).abs())
+    });
+    by.truncate(n);
+    by
+}
+
+/// [`local_poly`] at `t` over the blocks `idx`, each giving its (value, σ) by `value`.
+fn local_poly_over(
+    blocks: &[Block],
+    idx: &[usize],
+    t: f64,
+    value: &dyn Fn(usize) -> (f64, f64),
+) -> Option<(f64, f64, f64)> {
+    let samples: Vec<(f64, f64, f64)> = idx
+        .iter()
+        .map(|&j| {
+            let (y, sd) = value(j);
+            (blocks[j].time_s, y, sd)
+        })
+        .collect();
+    local_poly(&samples, t)
+}
+
 /// Epochs at the block centres and at the strip's first and last return (so that every point
 /// of the strip lies within the trajectory), each from a local fit over the blocks within
 /// `window_s` (the two nearest when none is).
@@ -1017,13 +1046,7 @@ fn smooth(blocks: &[Block], strip: u32, window_s: f64, span_s: [f64; 2]) -> Vec<
             .filter(|&j| (blocks[j].time_s - t).abs() <= window_s)
             .collect();
         if near.len() < 2 {
-            let mut by: Vec<usize> = (0..blocks.len()).collect();
-            by.sort_by(|&a, &b| {
-                (blocks[a].time_s - t)
-                    .abs()
-                    .total_cmp(&(blocks[b].time_s - t).abs())
-            });
-            near = by.into_iter().take(2).collect();
+            near = nearest_blocks(blocks, t, 2);
         }
         let nearest = near
             .iter()
@@ -1035,16 +1058,7 @@ fn smooth(blocks: &[Block], strip: u32, window_s: f64, span_s: [f64; 2]) -> Vec<
             })
             .unwrap_or(0);
         let b = &blocks[nearest];
-        let fit = |value: &dyn Fn(usize) -> (f64, f64)| {
-            let s: Vec<(f64, f64, f64)> = near
-                .iter()
-                .map(|&j| {
-                    let (y, sd) = value(j);
-                    (blocks[j].time_s, y, sd)
-                })
-                .collect();
-            local_poly(&s, t)
-        };
+        let fit = |value: &dyn Fn(usize) -> (f64, f64)| local_poly_over(blocks, &near, t, value);
         let mut pos = [0.0; 3];
         let mut sig = [0.0; 3];
         let mut vel = [b.velocity.x, b.velocity.y, b.velocity.z];
@@ -1091,25 +1105,9 @@ fn smooth(blocks: &[Block], strip: u32, window_s: f64, span_s: [f64; 2]) -> Vec<
         }
         // The attitude from the block at `t` itself, or a line through the two nearest blocks
         // (the strip's ends): see the module docs for why it is not smoothed.
-        let two_nearest: Vec<usize> = {
-            let mut by: Vec<usize> = (0..blocks.len()).collect();
-            by.sort_by(|&a, &b| {
-                (blocks[a].time_s - t)
-                    .abs()
-                    .total_cmp(&(blocks[b].time_s - t).abs())
-            });
-            by.into_iter().take(2).collect()
-        };
-        let attitude = |value: &dyn Fn(usize) -> (f64, f64)| {
-            let s: Vec<(f64, f64, f64)> = two_nearest
-                .iter()
-                .map(|&j| {
-                    let (y, sd) = value(j);
-                    (blocks[j].time_s, y, sd)
-                })
-                .collect();
-            local_poly(&s, t)
-        };
+        let two_nearest = nearest_blocks(blocks, t, 2);
+        let attitude =
+            |value: &dyn Fn(usize) -> (f64, f64)| local_poly_over(blocks, &two_nearest, t, value);
         let (pitch, sp, _) =
             attitude(&|j| (blocks[j].pitch_rad, blocks[j].sigma_pitch_rad.max(1e-7))).unwrap_or((
                 b.pitch_rad,
