@@ -1,0 +1,181 @@
+//! The LAS 1.4 extra-bytes VLR (user `LASF_Spec`, record 4), by hand: las 0.11 has no type for
+//! it (see the parent module's docs). Decodes its 192-byte descriptors into [`ExtraDim`]s and
+//! builds the f32/f64 descriptors the writer puts in outputs (LAS 1.4 R15 §2.5.8, table 24).
+
+use crate::error::{Error, Result};
+use std::path::Path;
+
+/// Extra-bytes VLR: user id, record id and descriptor length (LAS 1.4 R15 §2.5.8).
+pub(super) const EXTRA_BYTES_USER: &str = "LASF_Spec";
+pub(super) const EXTRA_BYTES_RECORD: u16 = 4;
+pub(super) const EXTRA_BYTES_DESCRIPTOR_LEN: usize = 192;
+/// Extra-bytes data type code of f32 (table 25).
+pub(super) const EB_F32: u8 = 9;
+/// Extra-bytes data type code of f64.
+pub(super) const EB_F64: u8 = 10;
+
+/// One extra-bytes dimension of a file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExtraDim {
+    /// Name, e.g. `sigma_up`.
+    pub name: String,
+    /// Description, e.g. `1-sigma vertical TPU (m)`.
+    pub description: String,
+    /// LAS data type code (1 u8 … 9 f32, 10 f64; 0 = untyped bytes).
+    pub data_type: u8,
+    /// Byte offset inside the point's extra bytes.
+    pub offset: usize,
+    /// Size in bytes.
+    pub size: usize,
+    /// Scale applied on read (value = raw · scale + offset), 1 when the descriptor has none.
+    pub scale: f64,
+    /// Offset applied on read, 0 when the descriptor has none.
+    pub value_offset: f64,
+}
+
+impl ExtraDim {
+    /// Decodes this dimension from a point's extra bytes; `None` for untyped or array types.
+    pub(super) fn decode(&self, bytes: &[u8]) -> Option<f64> {
+        let b = bytes.get(self.offset..self.offset + self.size)?;
+        let raw = match self.data_type {
+            1 => f64::from(b[0]),
+            2 => f64::from(b[0] as i8),
+            3 => f64::from(u16::from_le_bytes([b[0], b[1]])),
+            4 => f64::from(i16::from_le_bytes([b[0], b[1]])),
+            5 => f64::from(u32::from_le_bytes(b.try_into().ok()?)),
+            6 => f64::from(i32::from_le_bytes(b.try_into().ok()?)),
+            7 => u64::from_le_bytes(b.try_into().ok()?) as f64,
+            8 => i64::from_le_bytes(b.try_into().ok()?) as f64,
+            9 => f64::from(f32::from_le_bytes(b.try_into().ok()?)),
+            10 => f64::from_le_bytes(b.try_into().ok()?),
+            _ => return None,
+        };
+        Some(raw * self.scale + self.value_offset)
+    }
+}
+
+/// Size in bytes of extra-bytes data type `t` with `options` (untyped: `options` bytes).
+fn eb_size(t: u8, options: u8) -> Option<usize> {
+    Some(match t {
+        0 => usize::from(options),
+        1 | 2 => 1,
+        3 | 4 => 2,
+        5 | 6 | 9 => 4,
+        7 | 8 | 10 => 8,
+        // Deprecated 2- and 3-element arrays (11–20, 21–30).
+        11..=20 => 2 * eb_size(t - 10, 0)?,
+        21..=30 => 3 * eb_size(t - 20, 0)?,
+        _ => return None,
+    })
+}
+
+fn las_string(b: &[u8]) -> String {
+    let end = b.iter().position(|&c| c == 0).unwrap_or(b.len());
+    String::from_utf8_lossy(&b[..end]).into_owned()
+}
+
+/// Parses the extra-bytes VLR into dimensions, checking them against the record's extra length.
+pub(super) fn parse_extra_dims(path: &Path, header: &las::Header) -> Result<Vec<ExtraDim>> {
+    let Some(vlr) = header
+        .all_vlrs()
+        .find(|v| v.user_id == EXTRA_BYTES_USER && v.record_id == EXTRA_BYTES_RECORD)
+    else {
+        return Ok(Vec::new());
+    };
+    let invalid = |message: String| Error::InvalidLas {
+        path: path.to_path_buf(),
+        message,
+    };
+    if vlr.data.len() % EXTRA_BYTES_DESCRIPTOR_LEN != 0 {
+        return Err(invalid(format!(
+            "extra-bytes vlr of {} bytes is not a multiple of {EXTRA_BYTES_DESCRIPTOR_LEN}",
+            vlr.data.len()
+        )));
+    }
+    let mut dims = Vec::new();
+    let mut offset = 0;
+    for d in vlr.data.chunks_exact(EXTRA_BYTES_DESCRIPTOR_LEN) {
+        let data_type = d[2];
+        let options = d[3];
+        let name = las_string(&d[4..36]);
+        let size = eb_size(data_type, options).ok_or_else(|| {
+            invalid(format!(
+                "extra-bytes dimension `{name}` has unknown data type {data_type}"
+            ))
+        })?;
+        let f = |r: std::ops::Range<usize>| {
+            let mut b = [0u8; 8];
+            b.copy_from_slice(&d[r]);
+            f64::from_le_bytes(b)
+        };
+        // Options bit 3: scale present; bit 4: offset present (table 24).
+        let scale = if options & 0b1000 != 0 {
+            f(112..120)
+        } else {
+            1.0
+        };
+        let value_offset = if options & 0b1_0000 != 0 {
+            f(136..144)
+        } else {
+            0.0
+        };
+        dims.push(ExtraDim {
+            name,
+            description: las_string(&d[160..192]),
+            data_type,
+            offset,
+            size,
+            scale,
+            value_offset,
+        });
+        offset += size;
+    }
+    let available = usize::from(header.point_format().extra_bytes);
+    if offset > available {
+        return Err(invalid(format!(
+            "extra-bytes vlr describes {offset} bytes per point but records have {available}"
+        )));
+    }
+    Ok(dims)
+}
+
+/// Builds one f32 extra-bytes descriptor (LAS 1.4 R15 table 24).
+pub(super) fn descriptor(
+    data_type: u8,
+    name: &str,
+    description: &str,
+) -> [u8; EXTRA_BYTES_DESCRIPTOR_LEN] {
+    let mut d = [0u8; EXTRA_BYTES_DESCRIPTOR_LEN];
+    d[2] = data_type;
+    d[4..4 + name.len()].copy_from_slice(name.as_bytes());
+    d[160..160 + description.len()].copy_from_slice(description.as_bytes());
+    d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn extra_bytes_descriptor_layout() {
+        let d = descriptor(EB_F32, "sigma_up", "1-sigma up (m)");
+        assert_eq!(d[2], EB_F32);
+        assert_eq!(d[3], 0, "no options: no scale, offset, min, max or no-data");
+        assert_eq!(&d[4..12], b"sigma_up");
+        assert_eq!(d[12], 0);
+        assert_eq!(&d[160..174], b"1-sigma up (m)");
+        let dim = ExtraDim {
+            name: "v".into(),
+            description: String::new(),
+            data_type: 4,
+            offset: 2,
+            size: 2,
+            scale: 0.01,
+            value_offset: 100.0,
+        };
+        // i16 −250 at byte 2, scale 0.01, offset 100 ⇒ 97.5.
+        let bytes = [0, 0, (-250i16).to_le_bytes()[0], (-250i16).to_le_bytes()[1]];
+        assert_eq!(dim.decode(&bytes), Some(97.5));
+        assert_eq!(dim.decode(&bytes[..3]), None);
+    }
+}
