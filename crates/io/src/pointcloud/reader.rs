@@ -406,7 +406,7 @@ fn check_zero_count(
     Ok(())
 }
 
-// las::Reader and las::Writer are not Debug; show what identifies the stream.
+// las::Reader is not Debug; show what identifies the stream.
 impl std::fmt::Debug for LasReader {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("LasReader")

@@ -518,6 +518,7 @@ impl Seek for Sink {
     }
 }
 
+// las::Writer is not Debug; show what identifies the file.
 impl std::fmt::Debug for LasWriter {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("LasWriter")
