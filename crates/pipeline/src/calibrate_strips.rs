@@ -224,12 +224,8 @@ pub fn calibrate_strips(job: &CalibrateJob<'_>) -> Result<StripCalibration> {
             squares.push(square(p.north_m, p.east_m, reach));
         }
         if job.method == Method::Plane {
-            let n = t.picks.len().max(1) as f64;
-            let centre = [
-                t.picks.iter().map(|p| p.north_m).sum::<f64>() / n,
-                t.picks.iter().map(|p| p.east_m).sum::<f64>() / n,
-            ];
-            squares.push(square(centre[0], centre[1], plane_radius_m + REACH_SLACK_M));
+            let [north, east] = pick_centre(t);
+            squares.push(square(north, east, plane_radius_m + REACH_SLACK_M));
         }
     }
     for c in &control {
@@ -240,16 +236,7 @@ pub fn calibrate_strips(job: &CalibrateJob<'_>) -> Result<StripCalibration> {
     let strips = cut_all(&scans, ctx, &frame, &region)?;
     let calibration = match job.method {
         Method::Plane => {
-            let centres: Vec<[f64; 2]> = ties
-                .iter()
-                .map(|t| {
-                    let n = t.picks.len() as f64;
-                    [
-                        t.picks.iter().map(|p| p.north_m).sum::<f64>() / n,
-                        t.picks.iter().map(|p| p.east_m).sum::<f64>() / n,
-                    ]
-                })
-                .collect();
+            let centres: Vec<[f64; 2]> = ties.iter().map(pick_centre).collect();
             calibrate_plane(
                 &strips,
                 &centres,
@@ -278,6 +265,15 @@ pub fn calibrate_strips(job: &CalibrateJob<'_>) -> Result<StripCalibration> {
         zone,
         warnings,
     })
+}
+
+/// Mean (north, east) of a tie's picks, local m: where the plane method fits its patch.
+fn pick_centre(tie: &Tie) -> [f64; 2] {
+    let n = tie.picks.len().max(1) as f64;
+    [
+        tie.picks.iter().map(|p| p.north_m).sum::<f64>() / n,
+        tie.picks.iter().map(|p| p.east_m).sum::<f64>() / n,
+    ]
 }
 
 /// Survey centre of the files (from their headers) as a local frame, on `zone`'s ellipsoid.
