@@ -11,10 +11,10 @@
 
 use crate::error::{Error, Result};
 use lidarqa_model::{
-    Attitude, Georeferencer, LinearObservation, LinearScanner, Mounting, rotation_zyx,
-    scanner_vector, zyx_angles,
+    Attitude, Ecef, Georeferencer, LinearObservation, LinearScanner, Mounting, ecef_from_ned,
+    rotation_zyx, scanner_vector, zyx_angles,
 };
-use lidarqa_tpu::{LinearRecovery, PoseAt, Recoverer, ecef_from_ned};
+use lidarqa_tpu::{LinearRecovery, PoseAt, Recoverer};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
@@ -64,7 +64,7 @@ impl LocalFrame {
         let r_l = self.ecef_to_local * pose.ecef_to_ned.transpose() * pose.body_to_ned;
         let a = zyx_angles(&r_l);
         (
-            self.to_local(&pose.position_ecef_m),
+            self.to_local(&pose.position_ecef_m.vector()),
             Attitude {
                 roll_rad: a.x,
                 pitch_rad: a.y,
@@ -128,7 +128,7 @@ impl RawPoint {
         point_ecef_m: &Vector3<f64>,
         intensity: u16,
     ) -> Result<RawPoint> {
-        let r = recoverer.linear(pose, point_ecef_m)?;
+        let r = recoverer.linear_ecef(pose, &Ecef::from_vector(*point_ecef_m))?;
         Ok(RawPoint::from_recovery(
             frame,
             pose,

@@ -2,8 +2,10 @@
 //! re-georeference to the delivered point, and to the right place with another mounting.
 
 use lidarqa_calib::{LocalFrame, RawPoint, georeference};
-use lidarqa_model::{Attitude, Georeferencer, LinearObservation, LinearScanner, Mounting};
-use lidarqa_tpu::{Pose, Recoverer, Trajectory, ecef_from_ned};
+use lidarqa_model::{
+    Attitude, Ecef, Georeferencer, LinearObservation, LinearScanner, Mounting, ecef_from_ned,
+};
+use lidarqa_tpu::{Pose, Recoverer, Trajectory};
 use nalgebra::Vector3;
 
 #[test]
@@ -23,7 +25,7 @@ fn recovered_point_re_georeferences_in_the_local_frame() {
     let p0 = ecef(lat, lon, 800.0);
     let pose = |t| Pose {
         time_s: t,
-        position_ecef_m: p0,
+        position_ecef_m: Ecef::from_vector(p0),
         latitude_rad: lat,
         longitude_rad: lon,
         attitude: Attitude::from_degrees(1.0, 2.0, 77.0),

@@ -7,8 +7,8 @@ mod binary;
 use binary::lidarqa;
 
 use lidarqa_io::{Geodetic, LasReader, PointChunk, UtmZone};
+use lidarqa_model::ecef_from_ned;
 use lidarqa_sim::{CLASS_BATHYMETRY, Scenario, ScenarioFile, SimOptions, simulate};
-use lidarqa_tpu::ecef_from_ned;
 use nalgebra::Vector3;
 use std::path::Path;
 
@@ -70,7 +70,7 @@ fn ecef(zone: &UtmZone, e: f64, n: f64, h: f64) -> (Vector3<f64>, f64, f64) {
         longitude_rad: lon,
         height_m: h,
     });
-    (x, lat, lon)
+    (x.vector(), lat, lon)
 }
 
 /// Predicted RMS σ and actual RMS error per axis (north, east, up) over a group of points.

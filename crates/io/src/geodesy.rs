@@ -2,7 +2,6 @@
 //!
 //! - geodetic (latitude, longitude, ellipsoidal height) ↔ ECEF on an [`Ellipsoid`] (WGS 84 by
 //!   default);
-//! - the rotation between a local North-East-Down frame and ECEF at a latitude/longitude;
 //! - the transverse Mercator projection and UTM zones, with grid convergence and point scale
 //!   factor.
 //!
@@ -27,7 +26,7 @@
 
 use crate::error::{Error, Result};
 use lidarqa_model::Ecef;
-use nalgebra::{Complex, Matrix3, Vector3};
+use nalgebra::Complex;
 use std::f64::consts::PI;
 
 /// A reference ellipsoid.
@@ -75,11 +74,11 @@ impl Ellipsoid {
 
     /// Geodetic → ECEF (metres), the closed form
     /// X = (N + h) cos φ cos λ, Y = (N + h) cos φ sin λ, Z = (N (1 − e²) + h) sin φ.
-    pub fn geodetic_to_ecef(&self, g: &Geodetic) -> Vector3<f64> {
+    pub fn geodetic_to_ecef(&self, g: &Geodetic) -> Ecef {
         let n = self.prime_vertical_radius_m(g.latitude_rad);
         let (sp, cp) = g.latitude_rad.sin_cos();
         let (sl, cl) = g.longitude_rad.sin_cos();
-        Vector3::new(
+        Ecef::new(
             (n + g.height_m) * cp * cl,
             (n + g.height_m) * cp * sl,
             (n * (1.0 - self.e2()) + g.height_m) * sp,
@@ -105,10 +104,10 @@ impl Ellipsoid {
     /// fixed point (|Δφ| ≤ 4.4·10⁻¹⁶ rad, 3 nm) in about seven steps. The atan2 form is valid on the polar axis (p = 0).
     /// Height uses h = p cos φ + Z sin φ − a √(1 − e² sin²φ), well conditioned at every latitude.
     /// Meant for points within a few hundred kilometres of the surface.
-    pub fn ecef_to_geodetic(&self, ecef: &Vector3<f64>) -> Geodetic {
+    pub fn ecef_to_geodetic(&self, ecef: &Ecef) -> Geodetic {
         let e2 = self.e2();
-        let p = ecef.x.hypot(ecef.y);
-        let z = ecef.z;
+        let p = ecef.x_m().hypot(ecef.y_m());
+        let z = ecef.z_m();
         let mut lat = z.atan2(p * (1.0 - e2));
         for _ in 0..30 {
             let n = self.prime_vertical_radius_m(lat);
@@ -125,7 +124,7 @@ impl Ellipsoid {
         let height_m = p * cp + z * sp - self.a_m * (1.0 - e2 * sp * sp).sqrt();
         Geodetic {
             latitude_rad: lat,
-            longitude_rad: ecef.y.atan2(ecef.x),
+            longitude_rad: ecef.y_m().atan2(ecef.x_m()),
             height_m,
         }
     }
@@ -144,41 +143,13 @@ pub struct Geodetic {
 }
 
 /// WGS 84 geodetic → ECEF, metres. See [`Ellipsoid::geodetic_to_ecef`].
-pub fn geodetic_to_ecef(g: &Geodetic) -> Vector3<f64> {
+pub fn geodetic_to_ecef(g: &Geodetic) -> Ecef {
     Ellipsoid::WGS84.geodetic_to_ecef(g)
 }
 
 /// ECEF (metres) → WGS 84 geodetic. See [`Ellipsoid::ecef_to_geodetic`].
-pub fn ecef_to_geodetic(ecef: &Vector3<f64>) -> Geodetic {
+pub fn ecef_to_geodetic(ecef: &Ecef) -> Geodetic {
     Ellipsoid::WGS84.ecef_to_geodetic(ecef)
-}
-
-/// The rotation taking a local North-East-Down vector at (φ, λ) to ECEF: v_ecef = R v_ned.
-///
-/// Its columns are the N, E and D unit vectors in ECEF:
-/// N = (−sin φ cos λ, −sin φ sin λ, cos φ), E = (−sin λ, cos λ, 0),
-/// D = (−cos φ cos λ, −cos φ sin λ, −sin φ). The axes follow the geodetic normal, so the
-/// frame is the same on every ellipsoid.
-pub fn ecef_from_ned(latitude_rad: f64, longitude_rad: f64) -> Matrix3<f64> {
-    let (sp, cp) = latitude_rad.sin_cos();
-    let (sl, cl) = longitude_rad.sin_cos();
-    Matrix3::new(
-        -sp * cl,
-        -sl,
-        -cp * cl, //
-        -sp * sl,
-        cl,
-        -cp * sl, //
-        cp,
-        0.0,
-        -sp,
-    )
-}
-
-/// The rotation taking an ECEF vector to local North-East-Down at (φ, λ): the transpose of
-/// [`ecef_from_ned`].
-pub fn ned_from_ecef(latitude_rad: f64, longitude_rad: f64) -> Matrix3<f64> {
-    ecef_from_ned(latitude_rad, longitude_rad).transpose()
 }
 
 /// A projected point with the projection's local properties there.
@@ -727,21 +698,6 @@ mod tests {
                 }
             }
         }
-    }
-
-    #[test]
-    fn ned_rotation_is_orthonormal_and_down_is_minus_normal() {
-        let (lat, lon) = (0.7_f64, -1.2_f64);
-        let r = ecef_from_ned(lat, lon);
-        assert!((r.transpose() * r - Matrix3::identity()).norm() < 1e-15);
-        assert!((r.determinant() - 1.0).abs() < 1e-15);
-        // Down = −(ellipsoid normal) = −(cos φ cos λ, cos φ sin λ, sin φ).
-        let up = Vector3::new(lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin());
-        assert!((r.column(2) + up).norm() < 1e-15);
-        // North at the equator, λ = 0 is +Z; east is +Y.
-        let r0 = ecef_from_ned(0.0, 0.0);
-        assert!((r0.column(0) - Vector3::z()).norm() < 1e-15);
-        assert!((r0.column(1) - Vector3::y()).norm() < 1e-15);
     }
 
     #[test]

@@ -38,7 +38,7 @@ pub use csv::{
 pub use error::{Error, Result};
 pub use geodesy::{
     Ellipsoid, Geodetic, Hemisphere, Projected, TransverseMercator, Unprojected, UtmDatum, UtmZone,
-    ecef_from_ned, ecef_to_geodetic, geodetic_to_ecef, ned_from_ecef,
+    ecef_to_geodetic, geodetic_to_ecef,
 };
 pub use gpstime::{
     ADJUSTED_GPS_OFFSET_S, CivilDate, GpsWeekTime, LasTimeBase, LasTimeConverter,

@@ -1,7 +1,8 @@
 //! Geodesy against independent values: PROJ through pyproj (`tests/data/geodesy_reference.py`,
 //! pyproj 3.7.2), finite differences, and round trips.
 
-use lidarqa_io::{Ellipsoid, Geodetic, UtmZone, ecef_from_ned, ecef_to_geodetic, geodetic_to_ecef};
+use lidarqa_io::{Ellipsoid, Geodetic, UtmZone, ecef_to_geodetic, geodetic_to_ecef};
+use lidarqa_model::ecef_from_ned;
 use nalgebra::Vector3;
 
 /// Printed by `tests/data/geodesy_reference.py`:
@@ -178,7 +179,10 @@ fn ecef_matches_proj() {
             height_m: h,
         };
         let p = geodetic_to_ecef(&g);
-        assert!((p - Vector3::new(x, y, z)).norm() < 2e-6, "{lat} {lon}");
+        assert!(
+            (p.vector() - Vector3::new(x, y, z)).norm() < 2e-6,
+            "{lat} {lon}"
+        );
     }
 }
 

@@ -29,7 +29,8 @@ use nalgebra::Vector3;
 /// A position in Earth-centred, Earth-fixed coordinates (X, Y, Z), metres.
 ///
 /// The frame types are thin wrappers so that a boundary function taking one frame refuses
-/// another at compile time; they carry no arithmetic beyond what callers need.
+/// another at compile time; they carry no arithmetic beyond what callers need (for `Ecef`:
+/// position − position is a displacement, position + displacement a position).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Ecef(Vector3<f64>);
 
@@ -62,6 +63,22 @@ impl Ecef {
     /// Z (towards the north pole), m.
     pub fn z_m(&self) -> f64 {
         self.0.z
+    }
+}
+
+/// The displacement between two ECEF positions, an ECEF vector (m).
+impl std::ops::Sub for Ecef {
+    type Output = Vector3<f64>;
+    fn sub(self, rhs: Ecef) -> Vector3<f64> {
+        self.0 - rhs.0
+    }
+}
+
+/// An ECEF position moved by an ECEF displacement (m).
+impl std::ops::Add<Vector3<f64>> for Ecef {
+    type Output = Ecef;
+    fn add(self, rhs: Vector3<f64>) -> Ecef {
+        Ecef(self.0 + rhs)
     }
 }
 

@@ -57,7 +57,10 @@ pub use linear::{
     scanner_vector,
 };
 pub use plane::{Plane, fit_plane, normal_of_scatter, plane_of_scatter};
-pub use rotation::{rot_x, rot_y, rot_z, rotation_zyx, rotation_zyx_with_partials, zyx_angles};
+pub use rotation::{
+    ecef_from_ned, ned_from_ecef, rot_x, rot_y, rot_z, rotation_zyx, rotation_zyx_with_partials,
+    zyx_angles,
+};
 pub use scalar::Scalar;
 pub use sensor::{Correlation, Scanner, Sensor, Sigmas};
 pub use source::{Source, Unit};

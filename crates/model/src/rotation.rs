@@ -1,4 +1,5 @@
-//! Elementary rotations and the attitude / boresight matrices of SPEC §3.
+//! Elementary rotations, the attitude / boresight matrices of SPEC §3, and the rotation between a
+//! local North-East-Down frame and ECEF at a latitude/longitude.
 //!
 //! All rotations are active (they rotate vectors) and right-handed. Attitude and boresight use the
 //! same order, `R = Rz(yaw) · Ry(pitch) · Rx(roll)`, which is exactly seed 000's printed
@@ -63,6 +64,34 @@ pub fn zyx_angles(r: &Matrix3<f64>) -> Vector3<f64> {
     let pitch = (-r[(2, 0)]).clamp(-1.0, 1.0).asin();
     let yaw = r[(1, 0)].atan2(r[(0, 0)]);
     Vector3::new(roll, pitch, yaw)
+}
+
+/// The rotation taking a local North-East-Down vector at (φ, λ) to ECEF: v_ecef = R v_ned.
+///
+/// Its columns are the N, E and D unit vectors in ECEF:
+/// N = (−sin φ cos λ, −sin φ sin λ, cos φ), E = (−sin λ, cos λ, 0),
+/// D = (−cos φ cos λ, −cos φ sin λ, −sin φ). The axes follow the geodetic normal, so the
+/// frame is the same on every ellipsoid.
+pub fn ecef_from_ned(latitude_rad: f64, longitude_rad: f64) -> Matrix3<f64> {
+    let (sp, cp) = latitude_rad.sin_cos();
+    let (sl, cl) = longitude_rad.sin_cos();
+    Matrix3::new(
+        -sp * cl,
+        -sl,
+        -cp * cl, //
+        -sp * sl,
+        cl,
+        -cp * sl, //
+        cp,
+        0.0,
+        -sp,
+    )
+}
+
+/// The rotation taking an ECEF vector to local North-East-Down at (φ, λ): the transpose of
+/// [`ecef_from_ned`].
+pub fn ned_from_ecef(latitude_rad: f64, longitude_rad: f64) -> Matrix3<f64> {
+    ecef_from_ned(latitude_rad, longitude_rad).transpose()
 }
 
 #[cfg(test)]
@@ -132,5 +161,20 @@ mod tests {
         let r = rotation_zyx(0.1, -0.2, 2.9);
         let a = zyx_angles(&r);
         assert_relative_eq!(a, Vector3::new(0.1, -0.2, 2.9), epsilon = 1e-14);
+    }
+
+    #[test]
+    fn ned_rotation_is_orthonormal_and_down_is_minus_normal() {
+        let (lat, lon) = (0.7_f64, -1.2_f64);
+        let r = ecef_from_ned(lat, lon);
+        assert!((r.transpose() * r - Matrix3::identity()).norm() < 1e-15);
+        assert!((r.determinant() - 1.0).abs() < 1e-15);
+        // Down = −(ellipsoid normal) = −(cos φ cos λ, cos φ sin λ, sin φ).
+        let up = Vector3::new(lat.cos() * lon.cos(), lat.cos() * lon.sin(), lat.sin());
+        assert!((r.column(2) + up).norm() < 1e-15);
+        // North at the equator, λ = 0 is +Z; east is +Y.
+        let r0 = ecef_from_ned(0.0, 0.0);
+        assert!((r0.column(0) - Vector3::z()).norm() < 1e-15);
+        assert!((r0.column(1) - Vector3::y()).norm() < 1e-15);
     }
 }

@@ -30,7 +30,7 @@ use lidarqa_calib::{
     auto_ties, calibrate_plane, calibrate_vtpm, select_auto_ties, tie_reach_m,
 };
 use lidarqa_io::{ControlPoints, Crs, Geodetic, LasInfo, LasReader, PointChunk, TiePicks};
-use lidarqa_model::{Source, Warning};
+use lidarqa_model::{Ecef, Source, Warning};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 use serde_json::Value;
@@ -293,7 +293,7 @@ pub fn frame_for(infos: &[LasInfo], zone: &Crs) -> LocalFrame {
         longitude_rad: lon,
         height_m: c(2),
     });
-    LocalFrame::new(ecef, lat, lon)
+    LocalFrame::new(ecef.vector(), lat, lon)
 }
 
 /// Loads every strip into one frame (the files must be distinct and share a CRS).
@@ -830,15 +830,15 @@ fn stream_strip(
                     longitude_rad: lon,
                     height_m: z,
                 });
-                if !near_local(k, &frame.to_local(&ecef)) {
+                if !near_local(k, &frame.to_local(&ecef.vector())) {
                     continue;
                 }
                 let recovery = recoverer
-                    .linear(&pose, &ecef)
+                    .linear_ecef(&pose, &ecef)
                     .map_err(|e| point_error(k, e))?;
                 take(
                     k,
-                    RawPoint::from_recovery(frame, &pose, &recovery, &ecef, p.intensity),
+                    RawPoint::from_recovery(frame, &pose, &recovery, &ecef.vector(), p.intensity),
                 );
             }
         }
@@ -857,7 +857,9 @@ fn stream_strip(
 
 /// Local NED → projected `[easting, northing, ellipsoidal height]` in `zone`.
 pub fn local_to_projected(frame: &LocalFrame, zone: &Crs, v: &Vector3<f64>) -> [f64; 3] {
-    let g = zone.ellipsoid().ecef_to_geodetic(&frame.to_ecef(v));
+    let g = zone
+        .ellipsoid()
+        .ecef_to_geodetic(&Ecef::from_vector(frame.to_ecef(v)));
     let p = zone.forward(g.latitude_rad, g.longitude_rad);
     [p.easting_m, p.northing_m, g.height_m]
 }
@@ -870,7 +872,7 @@ pub fn projected_to_local(frame: &LocalFrame, zone: &Crs, x: f64, y: f64, h: f64
         longitude_rad: lon,
         height_m: h,
     });
-    frame.to_local(&ecef)
+    frame.to_local(&ecef.vector())
 }
 
 /// Tie picks in the local frame; a pick's height is taken from the nearest point of its strip

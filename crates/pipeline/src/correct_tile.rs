@@ -32,7 +32,7 @@ use crate::stages::run_stages;
 use lidarqa_io::{
     Crs, LasPoint, LasReader, LasTimeConverter, LasWriteOptions, LasWriter, PointChunk,
 };
-use lidarqa_model::{Mounting, rotation_zyx};
+use lidarqa_model::{Ecef, Mounting, rotation_zyx};
 use lidarqa_tpu::{Recoverer, Trajectory};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
@@ -347,7 +347,7 @@ impl Correction {
     pub(crate) fn apply(
         &self,
         xyz: [f64; 3],
-        p0: &Vector3<f64>,
+        p0: &Ecef,
         r_be: &Matrix3<f64>,
     ) -> std::result::Result<[f64; 3], lidarqa_tpu::Error> {
         let [x, y, h] = xyz.map(|v| v * self.unit_m);
@@ -365,7 +365,7 @@ impl Correction {
         );
         // Recovery: B = R_BEᵀ (P − P0), S = R_Mᵀ (B − ΔP); range ρ = |S|, scan angle
         // θ = atan2(S_y, S_z), S' = ρ (0, sin θ, cos θ).
-        let body = r_be.transpose() * (point - p0);
+        let body = r_be.transpose() * (point - p0.vector());
         let s = self.old.scanner_from_body(&body);
         let range = s.norm();
         if !(range.is_finite() && range > 0.0) {
@@ -397,7 +397,10 @@ impl Correction {
             ]
         } else {
             // Not conformal (scale depends on direction): the exact round trip.
-            let g = self.crs.ellipsoid().ecef_to_geodetic(&(point + d));
+            let g = self
+                .crs
+                .ellipsoid()
+                .ecef_to_geodetic(&Ecef::from_vector(point + d));
             let q = self.crs.forward(g.latitude_rad, g.longitude_rad);
             [q.easting_m, q.northing_m, g.height_m]
         };
@@ -485,6 +488,7 @@ mod tests {
                 longitude_rad: lon,
                 height_m: h,
             })
+            .vector()
         };
         let frame = LocalFrame::new(ecef(lat, lon, xyz[2]), lat, lon);
         let raw = RawPoint::recover(
@@ -495,7 +499,8 @@ mod tests {
             0,
         )
         .unwrap();
-        let g = e.ecef_to_geodetic(&frame.to_ecef(&Georeferencing::new(new).apply(&raw)));
+        let local = Georeferencing::new(new).apply(&raw);
+        let g = e.ecef_to_geodetic(&Ecef::from_vector(frame.to_ecef(&local)));
         let p = proj.forward(g.latitude_rad, g.longitude_rad);
         [p.easting_m, p.northing_m, g.height_m]
     }

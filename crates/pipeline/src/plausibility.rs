@@ -16,7 +16,7 @@
 //! Written by hand: a 3×3 symmetric eigenproblem (nalgebra) and a few sums, no crate does it.
 
 use crate::error::{Error, Result};
-use lidarqa_model::{Attitude, Mounting, Warning};
+use lidarqa_model::{Attitude, Ecef, Mounting, Warning};
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -403,11 +403,7 @@ pub fn utm_zone_name(latitude_rad: f64, longitude_rad: f64) -> String {
 ///
 /// # Errors
 /// [`Error::Implausible`] naming the file, the distance, the CRS and the trajectory's zone.
-pub fn check_distance(
-    path: &Path,
-    crs: &str,
-    points: &[(Vector3<f64>, Vector3<f64>, f64, f64)],
-) -> Result<()> {
+pub fn check_distance(path: &Path, crs: &str, points: &[(Ecef, Ecef, f64, f64)]) -> Result<()> {
     if points.is_empty() {
         return Ok(());
     }
@@ -415,7 +411,7 @@ pub fn check_distance(
     let mut d: Vec<f64> = points
         .iter()
         .step_by(step)
-        .map(|(p, a, _, _)| (p - a).norm())
+        .map(|(p, a, _, _)| (*p - *a).norm())
         .collect();
     d.sort_by(f64::total_cmp);
     let median = d[d.len() / 2];

@@ -16,12 +16,12 @@ use lidarqa_io::{
 };
 use lidarqa_model::{
     ConicScanner, Ecef, Georeferencer, Grid, LinearScanner, Mounting, Ned, Scanner, Source,
-    rotation_zyx,
+    ecef_from_ned, rotation_zyx,
 };
 use lidarqa_tpu::{
     IhoOrder, Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, SoundingRecovery, Surface,
     SurfaceSource, THU_95_CBLUE, TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex,
-    ecef_from_ned, incidence_angle, judge_surfaces, thu_95_m,
+    incidence_angle, judge_surfaces, thu_95_m,
 };
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
@@ -351,11 +351,11 @@ impl Prepare {
             let (lat, lon) = self.crs.inverse(x_m, y_m);
             out.latitude_rad = lat;
             out.longitude_rad = lon;
-            out.ecef = Ecef::from_vector(self.crs.ellipsoid().geodetic_to_ecef(&Geodetic {
+            out.ecef = self.crs.ellipsoid().geodetic_to_ecef(&Geodetic {
                 latitude_rad: lat,
                 longitude_rad: lon,
                 height_m,
-            }));
+            });
         }
         match p.gps_time_s.map(|t| self.converter.to_seconds_of_week(t)) {
             Some(Ok(t)) => out.time_sow_s = t,
@@ -754,7 +754,7 @@ impl Run<'_> {
             .filter_map(|p| {
                 let pose = self.trajectory.at(p.time_sow_s).ok()?;
                 Some((
-                    p.ecef.vector(),
+                    p.ecef,
                     pose.position_ecef_m,
                     pose.latitude_rad,
                     pose.longitude_rad,

@@ -46,9 +46,9 @@
 use crate::error::{Error, Result};
 use lidarqa_io::{
     Crs, Ellipsoid, Geodetic, LasReader, LasTimeBase, LasTimeConverter, PointChunk, SbetPose,
-    TextPose, TextSigma, ned_from_ecef, sbet_raw, write_records_to_path,
+    TextPose, TextSigma, sbet_raw, write_records_to_path,
 };
-use lidarqa_model::Warning;
+use lidarqa_model::{Ecef, Warning, ned_from_ecef};
 use nalgebra::{Matrix3, Matrix6, SymmetricEigen, Vector3, Vector6};
 use serde::Serialize;
 use std::f64::consts::PI;
@@ -334,7 +334,7 @@ pub struct LocalEnu {
     crs: Crs,
     unit_m: f64,
     ellipsoid: Ellipsoid,
-    origin_ecef: Vector3<f64>,
+    origin_ecef: Ecef,
     /// ECEF → this frame's east, north, up.
     enu_from_ecef: Matrix3<f64>,
 }

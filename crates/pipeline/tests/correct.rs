@@ -6,10 +6,9 @@
 mod common;
 
 use lidarqa_io::{
-    Geodetic, Hemisphere, LasReader, PointChunk, UtmZone, ecef_from_ned, ecef_to_geodetic,
-    geodetic_to_ecef,
+    Geodetic, Hemisphere, LasReader, PointChunk, UtmZone, ecef_to_geodetic, geodetic_to_ecef,
 };
-use lidarqa_model::{Georeferencer, LinearObservation, LinearScanner, Mounting};
+use lidarqa_model::{Georeferencer, LinearObservation, LinearScanner, Mounting, ecef_from_ned};
 use lidarqa_pipeline::{CorrectTileJob, Error, TpuContext, TpuOptions, correct_tile};
 use nalgebra::Vector3;
 use std::path::Path;

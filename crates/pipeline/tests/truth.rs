@@ -6,9 +6,9 @@ mod common;
 
 use common::{Survey, survey};
 use lidarqa_io::{Geodetic, LasReader, PointChunk, UtmDatum, UtmZone, geodetic_to_ecef};
-use lidarqa_model::{LinearScanner, Source};
+use lidarqa_model::{LinearScanner, Source, ecef_from_ned};
 use lidarqa_pipeline::{SkipReason, TileReport, TpuContext, TpuOptions, TpuTileJob, tpu_tile};
-use lidarqa_tpu::{Recoverer, budget, ecef_from_ned};
+use lidarqa_tpu::{Recoverer, budget};
 use nalgebra::Matrix3;
 use std::path::Path;
 
@@ -48,7 +48,7 @@ fn recovered_range_and_scan_angle_equal_the_truth() {
             height_m: p.z,
         });
         let pose = traj.at(t.time_sow).unwrap();
-        let r = rec.linear(&pose, &ecef).unwrap();
+        let r = rec.linear_ecef(&pose, &ecef).unwrap();
         max_range = max_range.max((r.range_m - t.range_m).abs());
         max_angle = max_angle.max((r.scan_angle_rad - t.scan_angle_rad).abs().to_degrees());
         max_oop = max_oop.max(r.out_of_plane_m.abs());

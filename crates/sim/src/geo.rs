@@ -16,7 +16,8 @@
 //! `F(o) + ρ (J d + oᵀHd) + ρ² ½ dᵀHd` in (x, y, h).
 
 use crate::scene::Curve;
-use lidarqa_io::{Geodetic, UtmZone, ecef_from_ned};
+use lidarqa_io::{Geodetic, UtmZone};
+use lidarqa_model::{Ecef, ecef_from_ned};
 use nalgebra::{Matrix3, Vector3};
 
 /// Second-order model of the map NED offset → (local easting, local northing, height).
@@ -38,7 +39,10 @@ pub(crate) fn exact_local(
     origin_en: [f64; 2],
     ecef: &Vector3<f64>,
 ) -> Vector3<f64> {
-    let g = zone.datum().ellipsoid().ecef_to_geodetic(ecef);
+    let g = zone
+        .datum()
+        .ellipsoid()
+        .ecef_to_geodetic(&Ecef::from_vector(*ecef));
     let p = zone.forward(g.latitude_rad, g.longitude_rad);
     Vector3::new(
         p.easting_m - origin_en[0],
@@ -66,7 +70,7 @@ pub(crate) fn geodetic_of_local(
 impl LocalMap {
     /// Expand the exact chain around `origin`.
     pub fn new(zone: &UtmZone, origin_en: [f64; 2], origin: &Geodetic) -> LocalMap {
-        let x0 = zone.datum().ellipsoid().geodetic_to_ecef(origin);
+        let x0 = zone.datum().ellipsoid().geodetic_to_ecef(origin).vector();
         let r = ecef_from_ned(origin.latitude_rad, origin.longitude_rad);
         let f = |v: Vector3<f64>| exact_local(zone, origin_en, &(x0 + r * v));
         // 200 m steps: truncation s²F'''/6 ~ 1e-10 m, round-off 1e-9 m / s² ~ 1e-14 per m².
@@ -158,7 +162,7 @@ mod tests {
         let origin_en = [750_000.0, 6_600_000.0];
         let g = geodetic_of_local(&zone, origin_en, 30.0, -40.0, 550.0);
         let map = LocalMap::new(&zone, origin_en, &g);
-        let x0 = zone.datum().ellipsoid().geodetic_to_ecef(&g);
+        let x0 = zone.datum().ellipsoid().geodetic_to_ecef(&g).vector();
         let r = ecef_from_ned(g.latitude_rad, g.longitude_rad);
         let mut worst: f64 = 0.0;
         for &(n, e, d) in &[

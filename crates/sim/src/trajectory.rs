@@ -12,8 +12,8 @@
 
 use crate::geo::{LocalMap, geodetic_of_local};
 use crate::scenario::{ErrorModel, Line, Motion};
-use lidarqa_io::{Geodetic, UtmZone, ecef_from_ned};
-use lidarqa_model::{Sigmas, Source};
+use lidarqa_io::{Geodetic, UtmZone};
+use lidarqa_model::{Sigmas, Source, ecef_from_ned};
 use nalgebra::{Matrix3, Vector3};
 use rand::Rng;
 use rand_distr::StandardNormal;
@@ -170,7 +170,7 @@ pub(crate) fn build(
     let frame = |map: &LocalMap, g: &Geodetic| {
         let r0t = map.ecef_from_ned.transpose();
         Frame {
-            offset: r0t * (ell.geodetic_to_ecef(g) - map.origin_ecef),
+            offset: r0t * (ell.geodetic_to_ecef(g).vector() - map.origin_ecef),
             rotation: r0t * ecef_from_ned(g.latitude_rad, g.longitude_rad),
         }
     };

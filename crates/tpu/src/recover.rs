@@ -115,20 +115,10 @@ impl Recoverer {
     /// `S = R_Mᵀ (R_Nᵀ C_NE (P − P0) − ΔP)`, scanner frame, metres; and the beam (scanner
     /// origin → point) in N.
     pub fn scanner_vector(&self, pose: &PoseAt, point: &Ecef) -> (Vector3<f64>, Vector3<f64>) {
-        let ned = pose.ecef_to_ned * (point.vector() - pose.position_ecef_m);
+        let ned = pose.ecef_to_ned * (*point - pose.position_ecef_m);
         let s = self.scanner_from_body(&(pose.body_to_ned.transpose() * ned));
         // Origin → point in N is R_N R_M S.
         (s, pose.body_to_ned * (self.r_m * s))
-    }
-
-    /// [`Recoverer::linear_ecef`] for a point as a bare ECEF vector: the untyped entry
-    /// lidarqa-calib still calls (its strip loading is being rewritten); remove it once calib
-    /// passes [`Ecef`].
-    ///
-    /// # Errors
-    /// As [`Recoverer::linear_ecef`].
-    pub fn linear(&self, pose: &PoseAt, point_ecef_m: &Vector3<f64>) -> Result<LinearRecovery> {
-        self.linear_ecef(pose, &Ecef::from_vector(*point_ecef_m))
     }
 
     /// Range and scan angle of a linear-scanner point given in ECEF.
@@ -196,13 +186,14 @@ pub fn nominal_l3(scanner: &ConicScanner, azimuth_rad: f64) -> Vector3<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::trajectory::{Pose, Trajectory, ecef_from_ned};
+    use crate::trajectory::{Pose, Trajectory};
     use approx::assert_relative_eq;
+    use lidarqa_model::ecef_from_ned;
     use lidarqa_model::{LinearObservation, LinearScanner, Refraction};
 
     fn pose_and_mounting() -> (PoseAt, Mounting) {
         let (lat, lon) = (0.81_f64, 0.27_f64);
-        let p0 = Vector3::new(4_100_000.0, 1_150_000.0, 4_700_000.0);
+        let p0 = Ecef::new(4_100_000.0, 1_150_000.0, 4_700_000.0);
         let poses = [
             Pose {
                 time_s: 0.0,
@@ -241,9 +232,8 @@ mod tests {
                 along_track_rad: beta,
             };
             let f = g.footprint_ned(&g.parameters(&pose.attitude, &m, &obs));
-            let point = Ecef::from_vector(
-                pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f,
-            );
+            let point =
+                pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f;
             let r = Recoverer::new(&m).linear_ecef(&pose, &point).unwrap();
             assert_relative_eq!(r.range_m, 612.345, epsilon = 1e-8);
             let off = 612.345 * 0.4321f64.cos() * beta.sin();
@@ -281,9 +271,8 @@ mod tests {
                 time_water_s: 0.0,
             };
             let f = s.footprint_ned(&s.parameters(&pose.attitude, &m, &obs));
-            let point = Ecef::from_vector(
-                pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f,
-            );
+            let point =
+                pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f;
             let r = Recoverer::new(&m).conic(&s, &pose, &point).unwrap();
             assert_relative_eq!(r.range_air_m, 425.7, epsilon = 1e-8);
             let d = (r.observation.azimuth_rad - az).rem_euclid(2.0 * std::f64::consts::PI);
@@ -297,6 +286,6 @@ mod tests {
     fn point_at_origin_is_refused() {
         let (pose, _) = pose_and_mounting();
         let r = Recoverer::new(&Mounting::default());
-        assert!(r.linear(&pose, &pose.position_ecef_m).is_err());
+        assert!(r.linear_ecef(&pose, &pose.position_ecef_m).is_err());
     }
 }

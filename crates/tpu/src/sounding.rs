@@ -191,7 +191,7 @@ impl Recoverer {
         let surface_h = plane.height_at(bed_grid.easting_m(), bed_grid.northing_m());
         let depth_m = surface_h - bed_grid.height_m();
         check_depth(depth_m, 1.0)?;
-        let target = pose.ecef_to_ned * (bed_ecef_m.vector() - pose.position_ecef_m);
+        let target = pose.ecef_to_ned * (*bed_ecef_m - pose.position_ecef_m);
         // Start: the azimuth of the bed's own scanner vector, the air beam down to the surface
         // height (the ellipsoid's curvature is negligible over the beam's 150 m), the rest in
         // water.

@@ -18,7 +18,7 @@
 //! extrapolation.
 
 use crate::error::{Error, Result};
-use lidarqa_model::{Attitude, rotation_zyx, zyx_angles};
+use lidarqa_model::{Attitude, Ecef, ecef_from_ned, rotation_zyx, zyx_angles};
 use nalgebra::{Matrix3, Rotation3, Unit, UnitQuaternion, Vector3};
 use std::f64::consts::PI;
 
@@ -28,7 +28,7 @@ pub struct Pose {
     /// GPS seconds of week, s.
     pub time_s: f64,
     /// GNSS/INS reference point P0, ECEF metres.
-    pub position_ecef_m: Vector3<f64>,
+    pub position_ecef_m: Ecef,
     /// Geodetic latitude of P0, rad (defines the N frame).
     pub latitude_rad: f64,
     /// Longitude of P0, rad, east positive.
@@ -37,34 +37,13 @@ pub struct Pose {
     pub attitude: Attitude,
 }
 
-/// The rotation taking a local North-East-Down vector at (φ, λ) to ECEF: `v_ecef = C v_ned`.
-///
-/// Columns: N = (−sin φ cos λ, −sin φ sin λ, cos φ), E = (−sin λ, cos λ, 0),
-/// D = (−cos φ cos λ, −cos φ sin λ, −sin φ) — the same matrix as lidarqa-io's `ecef_from_ned`
-/// (this crate depends on lidarqa-model only).
-pub fn ecef_from_ned(latitude_rad: f64, longitude_rad: f64) -> Matrix3<f64> {
-    let (sp, cp) = latitude_rad.sin_cos();
-    let (sl, cl) = longitude_rad.sin_cos();
-    Matrix3::new(
-        -sp * cl,
-        -sl,
-        -cp * cl,
-        -sp * sl,
-        cl,
-        -cp * sl,
-        cp,
-        0.0,
-        -sp,
-    )
-}
-
 /// The trajectory state at one time: what recovery and propagation need, computed once.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PoseAt {
     /// The time, GPS seconds of week.
     pub time_s: f64,
     /// P0, ECEF metres.
-    pub position_ecef_m: Vector3<f64>,
+    pub position_ecef_m: Ecef,
     /// Latitude of P0, rad.
     pub latitude_rad: f64,
     /// Longitude of P0, rad.
@@ -138,7 +117,7 @@ impl Trajectory {
                 a.heading_rad,
             ]
             .iter()
-            .chain(p.position_ecef_m.iter())
+            .chain(p.position_ecef_m.vector().iter())
             .all(|v| v.is_finite());
             if !finite {
                 return Err(Error::InvalidTrajectory {
@@ -157,7 +136,7 @@ impl Trajectory {
             let r = ecef_from_ned(p.latitude_rad, p.longitude_rad)
                 * rotation_zyx(a.roll_rad, a.pitch_rad, a.heading_rad);
             t.times_s.push(p.time_s);
-            t.positions_ecef_m.push(p.position_ecef_m);
+            t.positions_ecef_m.push(p.position_ecef_m.vector());
             t.lat_lon_rad.push([p.latitude_rad, p.longitude_rad]);
             t.body_to_ecef.push(UnitQuaternion::from_rotation_matrix(
                 &Rotation3::from_matrix_unchecked(r),
@@ -197,7 +176,7 @@ impl Trajectory {
     /// As [`Trajectory::at`].
     pub fn at_from(&self, time_s: f64, hint: &mut usize) -> Result<PoseAt> {
         let (i, w) = self.segment_from(time_s, hint)?;
-        let position_ecef_m = self.positions_ecef_m[i].lerp(&self.positions_ecef_m[i + 1], w);
+        let position_ecef_m = self.position_at(i, w);
         let [la0, lo0] = self.lat_lon_rad[i];
         let [la1, lo1] = self.lat_lon_rad[i + 1];
         let latitude_rad = la0 + w * (la1 - la0);
@@ -228,15 +207,15 @@ impl Trajectory {
     ///
     /// # Errors
     /// As [`Trajectory::at`].
-    pub fn body_to_ecef_at(
-        &self,
-        time_s: f64,
-        hint: &mut usize,
-    ) -> Result<(Vector3<f64>, Matrix3<f64>)> {
+    pub fn body_to_ecef_at(&self, time_s: f64, hint: &mut usize) -> Result<(Ecef, Matrix3<f64>)> {
         let (i, w) = self.segment_from(time_s, hint)?;
-        let position_ecef_m = self.positions_ecef_m[i].lerp(&self.positions_ecef_m[i + 1], w);
         let q = slerp(&self.body_to_ecef[i], &self.body_to_ecef[i + 1], w);
-        Ok((position_ecef_m, q.to_rotation_matrix().into_inner()))
+        Ok((self.position_at(i, w), q.to_rotation_matrix().into_inner()))
+    }
+
+    /// P0 at the fraction `w` of segment `i` (linear in ECEF, module docs).
+    fn position_at(&self, i: usize, w: f64) -> Ecef {
+        Ecef::from_vector(self.positions_ecef_m[i].lerp(&self.positions_ecef_m[i + 1], w))
     }
 
     /// [`Trajectory::segment`] trying the segment at `hint` and the next one first (then
@@ -393,7 +372,7 @@ mod tests {
     fn pose(t: f64, heading_deg: f64) -> Pose {
         Pose {
             time_s: t,
-            position_ecef_m: Vector3::new(4_000_000.0 + 60.0 * t, 1_000_000.0, 4_800_000.0),
+            position_ecef_m: Ecef::new(4_000_000.0 + 60.0 * t, 1_000_000.0, 4_800_000.0),
             latitude_rad: 0.8,
             longitude_rad: 0.25,
             attitude: Attitude::from_degrees(1.0, -2.0, heading_deg),
@@ -427,7 +406,7 @@ mod tests {
         // 180°, not 0° as per-angle linear interpolation would give.
         assert_relative_eq!(mid.attitude.heading_rad.abs(), PI, epsilon = 1e-3);
         assert_relative_eq!(mid.attitude.roll_rad, 1f64.to_radians(), epsilon = 1e-4);
-        assert_relative_eq!(mid.position_ecef_m.x, 4_000_030.0, epsilon = 1e-9);
+        assert_relative_eq!(mid.position_ecef_m.x_m(), 4_000_030.0, epsilon = 1e-9);
     }
 
     #[test]

@@ -9,9 +9,9 @@
 
 use lidarqa_model::{
     Attitude, ConicObservation, ConicScanner, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER,
-    Ecef, Georeferencer, LinearObservation, LinearScanner, Mounting, Refraction,
+    Ecef, Georeferencer, LinearObservation, LinearScanner, Mounting, Refraction, ecef_from_ned,
 };
-use lidarqa_tpu::{Pose, PoseAt, Recoverer, Trajectory, ecef_from_ned};
+use lidarqa_tpu::{Pose, PoseAt, Recoverer, Trajectory};
 use nalgebra::Vector3;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
@@ -27,12 +27,12 @@ fn config() -> Config {
 }
 
 /// WGS84 geodetic → ECEF (the trajectory stores both; they must agree for ECEF → N at P0).
-fn ecef(lat: f64, lon: f64, h: f64) -> Vector3<f64> {
+fn ecef(lat: f64, lon: f64, h: f64) -> Ecef {
     let a = 6_378_137.0;
     let f = 1.0 / 298.257_223_563;
     let e2 = f * (2.0 - f);
     let n = a / (1.0 - e2 * lat.sin().powi(2)).sqrt();
-    Vector3::new(
+    Ecef::new(
         (n + h) * lat.cos() * lon.cos(),
         (n + h) * lat.cos() * lon.sin(),
         (n * (1.0 - e2) + h) * lat.sin(),
@@ -96,7 +96,7 @@ proptest! {
         prop_assert!((pose.attitude.roll_rad - att.roll_rad).abs() < 1e-12);
         let obs = LinearObservation { range_m: rho, scan_angle_rad: theta };
         let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&pose.attitude, &m, &obs));
-        let point = Ecef::from_vector(pose.position_ecef_m + ecef_from_ned(lat, lon) * f);
+        let point = pose.position_ecef_m + ecef_from_ned(lat, lon) * f;
         let r = Recoverer::new(&m).linear_ecef(&pose, &point).unwrap();
         prop_assert!((r.range_m - rho).abs() < 1e-8, "range {} vs {rho}", r.range_m);
         prop_assert!(angle_diff(r.scan_angle_rad, theta) < 5e-10 * (1.0 + 100.0 / rho),
@@ -122,7 +122,7 @@ proptest! {
         let pose = pose_at(lat, lon, h, att);
         let obs = ConicObservation { azimuth_rad: az, time_air_s: s.time_air_s(rho), time_water_s: 0.0 };
         let f = s.footprint_ned(&s.parameters(&pose.attitude, &m, &obs));
-        let point = Ecef::from_vector(pose.position_ecef_m + ecef_from_ned(lat, lon) * f);
+        let point = pose.position_ecef_m + ecef_from_ned(lat, lon) * f;
         let r = Recoverer::new(&m).conic(&s, &pose, &point).unwrap();
         prop_assert!((r.range_air_m - rho).abs() < 1e-8, "air range {} vs {rho}", r.range_air_m);
         prop_assert!(angle_diff(r.observation.azimuth_rad, az) < 1e-9,

@@ -12,11 +12,10 @@
 
 use lidarqa_io::{
     Geodetic, Hemisphere, LasPoint, LasTimeBase, LasWriteOptions, LasWriter, RawVlr, UtmZone,
-    ecef_from_ned, ecef_to_geodetic, geodetic_to_ecef, sbet_raw, week_to_adjusted_standard,
-    write_records_to_path,
+    ecef_to_geodetic, geodetic_to_ecef, sbet_raw, week_to_adjusted_standard, write_records_to_path,
 };
 use lidarqa_model::{
-    Attitude, Georeferencer, LinearObservation, LinearScanner, Mounting, Sensor,
+    Attitude, Georeferencer, LinearObservation, LinearScanner, Mounting, Sensor, ecef_from_ned,
     linear_range_for_height,
 };
 use nalgebra::{SVector, Vector3};

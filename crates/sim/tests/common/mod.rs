@@ -1,8 +1,8 @@
 //! Helpers shared by the integration tests: scenario edits and an SBET-style interpolation.
 #![allow(dead_code)]
 
-use lidarqa_io::{Geodetic, UtmZone, ecef_from_ned};
-use lidarqa_model::Attitude;
+use lidarqa_io::{Geodetic, UtmZone};
+use lidarqa_model::{Attitude, ecef_from_ned};
 use lidarqa_sim::{ErrorsFile, Scenario, ScenarioFile, TrajectoryRecord};
 use nalgebra::{Matrix3, Vector3};
 use std::f64::consts::PI;
