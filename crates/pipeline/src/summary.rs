@@ -9,8 +9,8 @@
 //! Storing every value would give exact percentiles but memory proportional to the survey.
 
 use crate::plausibility::{MountingView, PlausibilityTally};
-use lidarqa_model::Warning;
-use lidarqa_tpu::{IhoLimits, IhoOrder};
+use lidarqa_model::{NORMAL_95_FACTOR, Warning};
+use lidarqa_tpu::{IhoLimits, IhoOrder, THU_95_CBLUE, TVU_95_FACTOR};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -512,8 +512,11 @@ impl IhoTally {
         }
         Some(IhoView {
             standard: "IHO S-44 Edition 6.0.0 (2020), Table 1",
-            thu_95: "exact 95 % radius of each sounding's horizontal error ellipse (>= total_thu = 1.7308 sigma_h, <= 1.96 sigma_h)",
-            tvu_95: "1.96 sigma_v",
+            thu_95: format!(
+                "exact 95 % radius of each sounding's horizontal error ellipse \
+                 (>= total_thu = {THU_95_CBLUE} sigma_h, <= {NORMAL_95_FACTOR} sigma_h)"
+            ),
+            tvu_95: format!("{TVU_95_FACTOR} sigma_v"),
             soundings: n,
             surface_from_pulse: n - self.modelled,
             surface_modelled: self.modelled,
@@ -615,10 +618,10 @@ pub struct OrderGridView {
 pub struct IhoView {
     /// The standard and table.
     pub standard: &'static str,
-    /// How THU at 95 % is computed.
-    pub thu_95: &'static str,
+    /// How THU at 95 % is computed (the factors written from their constants).
+    pub thu_95: String,
     /// How TVU at 95 % is computed.
-    pub tvu_95: &'static str,
+    pub tvu_95: String,
     /// Soundings (class 40) with a TPU.
     pub soundings: u64,
     /// Soundings whose water surface is their pulse's own surface return.

@@ -34,17 +34,21 @@ const BLOCK: usize = 4096;
 /// σ overrides for a conic return without a water leg: no water travel time.
 const NO_WATER_LEG: [(Source, f64); 1] = [(Source::TimeWater, 0.0)];
 
-const DESCRIPTIONS: [&str; 9] = [
-    "1-sigma TPU north (m)",
-    "1-sigma TPU east (m)",
-    "1-sigma TPU up (m)",
-    "1-sigma TPU horizontal (m)",
-    "1-sigma TPU vertical (m)",
-    "95% THU = 1.7308 sigma_h (m)",
-    "95% TVU = 1.96 sigma_v (m)",
-    "depth below water surface (m)",
-    "IHO S-44 order met, -1 n/a",
-];
+/// The extra-bytes descriptions of [`SIGMA_NAMES`] then [`SOUNDING_DIMS`], with the 95 % factors
+/// written from the constants the writer multiplies by.
+fn descriptions() -> [String; 9] {
+    [
+        "1-sigma TPU north (m)".into(),
+        "1-sigma TPU east (m)".into(),
+        "1-sigma TPU up (m)".into(),
+        "1-sigma TPU horizontal (m)".into(),
+        "1-sigma TPU vertical (m)".into(),
+        format!("95% THU = {THU_95_CBLUE} sigma_h (m)"),
+        format!("95% TVU = {TVU_95_FACTOR} sigma_v (m)"),
+        "depth below water surface (m)".into(),
+        "IHO S-44 order met, -1 n/a".into(),
+    ]
+}
 
 /// Names of the sounding dimensions written after the σ for conic sensors.
 pub const SOUNDING_DIMS: [&str; 2] = ["depth", "iho_order"];
@@ -123,12 +127,13 @@ pub fn tpu_tile_with_progress(
     let kernel = Kernel::new(ctx)?;
     let n_sigma = kernel.n_sigma();
     let n_dims = kernel.n_dims();
+    let descriptions = descriptions();
     let dims: Vec<(&str, &str)> = SIGMA_NAMES
         .iter()
         .chain(&SOUNDING_DIMS)
         .take(n_dims)
-        .zip(DESCRIPTIONS)
-        .map(|(n, d)| (*n, d))
+        .zip(&descriptions)
+        .map(|(n, d)| (*n, d.as_str()))
         .collect();
     let mut options = LasWriteOptions::for_input(&info, &dims);
     if ctx.options.covariance {
@@ -1167,4 +1172,20 @@ fn valid_ecef(pts: &[Prep]) -> impl DoubleEndedIterator<Item = Vector3<f64>> + '
     pts.iter()
         .filter(|p| !matches!(p.state, PrepState::NonFinite))
         .map(|p| p.ecef.vector())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn descriptions_carry_the_factors_the_writer_uses_and_fit_las() {
+        let d = descriptions();
+        // The number in each 95 % description parses back to the factor the writer multiplies by.
+        let factor = |s: &str| -> f64 { s.split(' ').nth(3).unwrap().parse().unwrap() };
+        assert_eq!(factor(&d[5]), THU_95_CBLUE);
+        assert_eq!(factor(&d[6]), TVU_95_FACTOR);
+        // LAS 1.4 extra-bytes descriptions are 32 bytes.
+        assert!(d.iter().all(|s| s.len() <= 32), "{d:?}");
+    }
 }
