@@ -5,9 +5,10 @@ use crate::plausibility::{
     TrajectoryFacts, TrajectorySample, check_trajectory, check_trajectory_sigmas,
 };
 use lidarqa_io::{
-    Crs, Ellipsoid, Geodetic, HeadingReference, LasInfo, LasReader, LasTimeConverter, SbetPose,
-    SensorExtras, SmrmsgSigma, TextTrajectory, TrajectoryFile, TrajectoryFormat,
-    TrajectoryPosition, UtmDatum, UtmZone, read_sensor_with_extras, read_smrmsg, read_trajectory,
+    Crs, Ellipsoid, Geodetic, HeadingReference, LasInfo, LasReader, LasTimeConverter,
+    LasWriteOptions, LasWriter, SbetPose, SensorExtras, SmrmsgSigma, TextTrajectory,
+    TrajectoryFile, TrajectoryFormat, TrajectoryPosition, UtmDatum, UtmZone,
+    read_sensor_with_extras, read_smrmsg, read_trajectory,
 };
 use lidarqa_model::{Attitude, Mounting, Sensor, Warning};
 use lidarqa_tpu::{Pose, PoseSigma, Trajectory, TrajectorySigmas};
@@ -574,6 +575,24 @@ impl TpuContext {
             converter,
             height_offset_m: self.options.geoid_separation_m.unwrap_or(0.0),
         })
+    }
+
+    /// The atomic output of the tile `input`, refused when it is one of the inputs: the tile,
+    /// the context's files or `other_inputs` (e.g. calibration.json).
+    ///
+    /// # Errors
+    /// `OutputIsInput` and I/O errors from lidarqa-io, naming the file.
+    pub(crate) fn create_output(
+        &self,
+        input: &Path,
+        output: &Path,
+        options: &LasWriteOptions,
+        other_inputs: &[&Path],
+    ) -> Result<LasWriter> {
+        let mut inputs: Vec<&Path> = vec![input];
+        inputs.extend(self.inputs.iter().map(PathBuf::as_path));
+        inputs.extend(other_inputs);
+        Ok(LasWriter::create(output, options, &inputs)?)
     }
 
     /// The CRS of the points of `input`: the options' `crs` when set (it overrides the

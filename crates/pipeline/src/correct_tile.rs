@@ -26,12 +26,10 @@
 //! Reading (LAZ decoding), correcting (rayon) and writing (LAZ coding) run as three stages on
 //! bounded channels, so the coding of one chunk overlaps the computation of the next.
 
-use crate::context::{OpenTile, TpuContext};
+use crate::context::TpuContext;
 use crate::error::{Error, Result};
-use crate::stages::run_stages;
-use lidarqa_io::{
-    Crs, LasPoint, LasReader, LasTimeConverter, LasWriteOptions, LasWriter, PointChunk,
-};
+use crate::stages::{ChunkSource, read_chunks, run_stages, write_chunks};
+use lidarqa_io::{Crs, LasPoint, LasTimeConverter, LasWriteOptions, PointChunk};
 use lidarqa_model::{Ecef, Mounting, rotation_zyx};
 use lidarqa_tpu::{Recoverer, Trajectory};
 use nalgebra::{Matrix3, Vector3};
@@ -95,38 +93,38 @@ pub fn correct_tile_with_progress(
 ) -> Result<CorrectTileReport> {
     let input = job.input;
     let ctx = job.context;
-    let OpenTile {
-        info,
-        crs,
-        trajectory,
-        converter,
-        height_offset_m,
-    } = ctx.open_tile(input)?;
-    if height_offset_m != 0.0 {
+    let tile = ctx.open_tile(input)?;
+    if tile.height_offset_m != 0.0 {
         // Re-georeferencing would have to write orthometric heights back: not done yet.
         return Err(Error::InvalidOption(format!(
             "{}: correct does not apply a geoid separation; give it ellipsoidal heights",
             input.display()
         )));
     }
-    let correction = Correction::new(&crs, &ctx.recovery_mounting, job.mounting);
-    let mut inputs: Vec<&Path> = vec![input];
-    inputs.extend(ctx.inputs.iter().map(PathBuf::as_path));
-    inputs.extend(job.other_inputs);
-    let writer = LasWriter::create(job.output, &LasWriteOptions::for_input(&info, &[]), &inputs)?;
+    let correction = Correction::new(&tile.crs, &ctx.recovery_mounting, job.mounting);
+    let options = LasWriteOptions::for_input(&tile.info, &[]);
+    let writer = ctx.create_output(input, job.output, &options, job.other_inputs)?;
     let run = Run {
         path: input,
         correction: &correction,
-        trajectory: &trajectory,
-        converter: &converter,
-        crs,
+        trajectory: &tile.trajectory,
+        converter: &tile.converter,
+        crs: tile.crs,
     };
     let (tx_spent, rx_spent) = sync_channel::<PointChunk>(SPARES);
     let points = run_stages(
         input,
         // las's reader is not `Send`: it is opened in its thread.
-        move |tx_read| read_loop(input, tx_read, rx_spent),
-        move |rx_write| write_loop(writer, rx_write, &tx_spent),
+        move |tx_read| read_chunks(input, CHUNK, Spares(rx_spent), &tx_read),
+        move |rx_write| {
+            write_chunks(writer, rx_write, |writer, chunk: PointChunk| {
+                for p in &chunk.points {
+                    writer.write_point(p, &[])?;
+                }
+                let _ = tx_spent.try_send(chunk);
+                Ok(())
+            })
+        },
         |rx_read, tx_write| run.correct_all(rx_read, tx_write, progress),
     )?;
     Ok(CorrectTileReport {
@@ -141,49 +139,17 @@ const SPARES: usize = 2;
 
 type WriteMsg = crate::stages::WriteMsg<PointChunk>;
 
-fn read_loop(input: &Path, tx: SyncSender<Result<PointChunk>>, spent: Receiver<PointChunk>) {
-    let mut reader = match LasReader::from_path(input) {
-        Ok(r) => r,
-        Err(e) => {
-            let _ = tx.send(Err(e.into()));
-            return;
-        }
-    };
-    loop {
-        let mut chunk = spent.try_recv().unwrap_or_default();
-        match reader.fill(&mut chunk, CHUNK) {
-            Err(e) => {
-                let _ = tx.send(Err(e.into()));
-                return;
-            }
-            Ok(0) => return,
-            Ok(_) => {}
-        }
-        if tx.send(Ok(chunk)).is_err() {
-            return;
-        }
-    }
-}
+/// The reader's spare chunks, handed back by the writer.
+struct Spares(Receiver<PointChunk>);
 
-/// Writes; returns `Some(count)` after a commit, `None` when the channel closed without
-/// [`WriteMsg::Finish`] (the temporary file is then dropped).
-fn write_loop(
-    mut writer: LasWriter,
-    rx: Receiver<WriteMsg>,
-    spent: &SyncSender<PointChunk>,
-) -> Result<Option<u64>> {
-    for msg in rx {
-        match msg {
-            WriteMsg::Chunk(chunk) => {
-                for p in &chunk.points {
-                    writer.write_point(p, &[])?;
-                }
-                let _ = spent.try_send(chunk);
-            }
-            WriteMsg::Finish => return Ok(Some(writer.finish()?)),
-        }
+impl ChunkSource for Spares {
+    type Item = PointChunk;
+    fn spare(&mut self) -> PointChunk {
+        self.0.try_recv().unwrap_or_default()
     }
-    Ok(None)
+    fn prepare(&mut self, chunk: PointChunk) -> PointChunk {
+        chunk
+    }
 }
 
 /// The compute stage: what a chunk's points need.

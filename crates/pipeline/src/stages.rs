@@ -1,7 +1,9 @@
 //! The reader → compute → writer stage loop of `tpu_tile` and `correct_tile`: one home for the
-//! threads, the bounded channels and which error a failed run reports.
+//! threads, the bounded channels, the reader's and the writer's loops, and which error a failed
+//! run reports.
 
 use crate::error::{Error, Result};
+use lidarqa_io::{LasReader, LasWriter, PointChunk};
 use std::path::Path;
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
@@ -52,4 +54,64 @@ pub(crate) fn run_stages<R: Send, W: Send>(
             (Ok(()), Ok(Ok(None))) => Err(worker("writer")),
         }
     })
+}
+
+/// What a reader stage makes of the chunks [`read_chunks`] decodes.
+pub(crate) trait ChunkSource {
+    /// What the reader sends the compute stage.
+    type Item;
+    /// An empty chunk to fill: a spent one handed back by a later stage when there is one.
+    fn spare(&mut self) -> PointChunk;
+    /// The message for a filled chunk.
+    fn prepare(&mut self, chunk: PointChunk) -> Self::Item;
+}
+
+/// The reader stage: opens `input` on its own thread (las's reader is not `Send`), fills chunks of
+/// up to `chunk_points` and sends each as `source.prepare(chunk)`. Stops at the end of the file,
+/// at a read error (sent on, so that the compute stage reports it as the cause), or when the
+/// compute stage has hung up.
+pub(crate) fn read_chunks<S: ChunkSource>(
+    input: &Path,
+    chunk_points: usize,
+    mut source: S,
+    tx: &SyncSender<Result<S::Item>>,
+) {
+    let mut reader = match LasReader::from_path(input) {
+        Ok(r) => r,
+        Err(e) => {
+            let _ = tx.send(Err(e.into()));
+            return;
+        }
+    };
+    loop {
+        let mut chunk = source.spare();
+        match reader.fill(&mut chunk, chunk_points) {
+            Err(e) => {
+                let _ = tx.send(Err(e.into()));
+                return;
+            }
+            Ok(0) => return,
+            Ok(_) => {}
+        }
+        if tx.send(Ok(source.prepare(chunk))).is_err() {
+            return;
+        }
+    }
+}
+
+/// The writer stage: hands each computed chunk to `write` and commits `writer` on
+/// [`WriteMsg::Finish`]. Returns `Some(points)` after the commit, `None` when the channel closed
+/// without it (the temporary file is then dropped, nothing is left at the output).
+pub(crate) fn write_chunks<W>(
+    mut writer: LasWriter,
+    rx: Receiver<WriteMsg<W>>,
+    mut write: impl FnMut(&mut LasWriter, W) -> Result<()>,
+) -> Result<Option<u64>> {
+    for msg in rx {
+        match msg {
+            WriteMsg::Chunk(chunk) => write(&mut writer, chunk)?,
+            WriteMsg::Finish => return Ok(Some(writer.finish()?)),
+        }
+    }
+    Ok(None)
 }

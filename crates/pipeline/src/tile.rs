@@ -6,12 +6,12 @@ use crate::plausibility::{
     DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, MOUNTING_ERROR_M, MountingTally, check_distance,
     check_gaps, crs_name, outside_zone, point_implausible,
 };
-use crate::stages::run_stages;
+use crate::stages::{ChunkSource, read_chunks, run_stages, write_chunks};
 use crate::summary::{
     IncidenceTally, SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary,
 };
 use lidarqa_io::{
-    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, Crs, Geodetic, LasPoint, LasReader, LasTimeConverter,
+    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, Crs, Geodetic, LasPoint, LasTimeConverter,
     LasWriteOptions, LasWriter, PointChunk,
 };
 use lidarqa_model::{
@@ -145,9 +145,7 @@ pub fn tpu_tile_with_progress(
     let file_normals = NORMAL_DIMS
         .iter()
         .all(|n| info.extra_dims.iter().any(|d| d.name == *n));
-    let mut inputs: Vec<&Path> = vec![input];
-    inputs.extend(ctx.inputs.iter().map(PathBuf::as_path));
-    let writer = LasWriter::create(job.output, &options, &inputs)?;
+    let writer = ctx.create_output(input, job.output, &options, &[])?;
 
     let prep = Prepare {
         crs: crs.clone(),
@@ -198,17 +196,28 @@ pub fn tpu_tile_with_progress(
     };
     run_stages(
         &path,
-        move |tx_read| read_loop(input, prep, chunk_points, tx_read, rx_spent_read),
+        move |tx_read| {
+            let source = TileSource {
+                prep,
+                spent: rx_spent_read,
+                chunks: Vec::new(),
+                preps: Vec::new(),
+                first_index: 0,
+            };
+            read_chunks(input, chunk_points, source, &tx_read);
+        },
         move |rx_write| {
-            write_loop(
-                writer,
-                n_dims,
-                covariance,
-                rx_write,
-                progress,
-                &tx_spent_chunk,
-                &tx_spent_slots,
-            )
+            write_chunks(writer, rx_write, |writer, chunk| {
+                write_chunk(
+                    writer,
+                    chunk,
+                    n_dims,
+                    covariance,
+                    progress,
+                    &tx_spent_chunk,
+                    &tx_spent_slots,
+                )
+            })
         },
         |rx_read, tx_write| {
             run.compute_all(rx_read, tx_write, &spent, &mut summary)?;
@@ -387,55 +396,44 @@ struct Recycle {
     slots: Receiver<Vec<Slot>>,
 }
 
-fn read_loop(
-    input: &Path,
-    prep: &Prepare,
-    chunk_points: usize,
-    tx: SyncSender<Result<Prepared>>,
+/// The reader stage's work: recycles spent buffers and converts each chunk's points (in
+/// parallel) to ECEF and seconds of week.
+struct TileSource<'a> {
+    prep: &'a Prepare,
     spent: Receiver<Spent>,
-) {
-    let mut reader = match LasReader::from_path(input) {
-        Ok(r) => r,
-        Err(e) => {
-            let _ = tx.send(Err(e.into()));
-            return;
-        }
-    };
-    let mut first_index = 0u64;
-    let (mut chunks, mut preps) = (Vec::new(), Vec::new());
-    loop {
-        while let Ok(s) = spent.try_recv() {
+    chunks: Vec<PointChunk>,
+    preps: Vec<Vec<Prep>>,
+    first_index: u64,
+}
+
+impl ChunkSource for TileSource<'_> {
+    type Item = Prepared;
+
+    fn spare(&mut self) -> PointChunk {
+        while let Ok(s) = self.spent.try_recv() {
             match s {
-                Spent::Chunk(c) => chunks.push(c),
-                Spent::Preps(p) => preps.push(p),
+                Spent::Chunk(c) => self.chunks.push(c),
+                Spent::Preps(p) => self.preps.push(p),
             }
         }
-        chunks.truncate(SPARES);
-        preps.truncate(SPARES);
-        let mut chunk = chunks.pop().unwrap_or_default();
-        match reader.fill(&mut chunk, chunk_points) {
-            Err(e) => {
-                let _ = tx.send(Err(e.into()));
-                return;
-            }
-            Ok(0) => return,
-            Ok(_) => {}
-        }
-        let mut pts: Vec<Prep> = preps.pop().unwrap_or_default();
+        self.chunks.truncate(SPARES);
+        self.preps.truncate(SPARES);
+        self.chunks.pop().unwrap_or_default()
+    }
+
+    fn prepare(&mut self, chunk: PointChunk) -> Prepared {
+        let mut pts: Vec<Prep> = self.preps.pop().unwrap_or_default();
         chunk
             .points
             .par_iter()
-            .map(|p| prep.point(p))
+            .map(|p| self.prep.point(p))
             .collect_into_vec(&mut pts);
-        let n = chunk.len() as u64;
-        let msg = Prepared {
+        let first_index = self.first_index;
+        self.first_index += chunk.len() as u64;
+        Prepared {
             first_index,
             chunk,
             pts,
-        };
-        first_index += n;
-        if tx.send(Ok(msg)).is_err() {
-            return;
         }
     }
 }
@@ -443,53 +441,42 @@ fn read_loop(
 /// A chunk and its computed slots, one per point.
 type WriteMsg = crate::stages::WriteMsg<(PointChunk, Vec<Slot>)>;
 
-/// Writes; returns `Some(count)` after a commit, `None` when the channel closed without
-/// [`WriteMsg::Finish`] (the temporary file is then dropped).
-fn write_loop(
-    mut writer: LasWriter,
+/// Writes each point's σ (and sounding, covariance) after its record, skipping the points not
+/// propagated, and hands the buffers back.
+fn write_chunk(
+    writer: &mut LasWriter,
+    (chunk, slots): (PointChunk, Vec<Slot>),
     n_dims: usize,
     covariance: bool,
-    rx: Receiver<WriteMsg>,
     progress: &(dyn Fn(u64) + Sync),
     spent_chunks: &SyncSender<Spent>,
     spent_slots: &SyncSender<Vec<Slot>>,
-) -> Result<Option<u64>> {
+) -> Result<()> {
     let mut extra = [0f32; 9];
-    for msg in rx {
-        match msg {
-            WriteMsg::Chunk((chunk, slots)) => {
-                for (p, s) in chunk.points.iter().zip(&slots) {
-                    if let Slot::Ok(sig, sounding, cov) = s {
-                        for (e, v) in extra.iter_mut().zip(sig) {
-                            *e = *v as f32;
-                        }
-                        extra[5] = (THU_95_CBLUE * sig[3]) as f32;
-                        extra[6] = (TVU_95_FACTOR * sig[4]) as f32;
-                        (extra[7], extra[8]) = match sounding {
-                            Some(r) => (
-                                r.depth_m as f32,
-                                IhoOrder::best(r.depth_m, r.thu_95_m, r.tvu_95_m).map_or(
-                                    0.0,
-                                    |o| {
-                                        (IhoOrder::ALL.iter().position(|x| *x == o).unwrap_or(0)
-                                            + 1) as f32
-                                    },
-                                ),
-                            ),
-                            None => (0.0, -1.0),
-                        };
-                        let n64 = if covariance { cov.len() } else { 0 };
-                        writer.write_point_f64(p, &extra[..n_dims], &cov[..n64])?;
-                    }
-                }
-                progress(chunk.len() as u64);
-                let _ = spent_chunks.try_send(Spent::Chunk(chunk));
-                let _ = spent_slots.try_send(slots);
+    for (p, s) in chunk.points.iter().zip(&slots) {
+        if let Slot::Ok(sig, sounding, cov) = s {
+            for (e, v) in extra.iter_mut().zip(sig) {
+                *e = *v as f32;
             }
-            WriteMsg::Finish => return Ok(Some(writer.finish()?)),
+            extra[5] = (THU_95_CBLUE * sig[3]) as f32;
+            extra[6] = (TVU_95_FACTOR * sig[4]) as f32;
+            (extra[7], extra[8]) = match sounding {
+                Some(r) => (
+                    r.depth_m as f32,
+                    IhoOrder::best(r.depth_m, r.thu_95_m, r.tvu_95_m).map_or(0.0, |o| {
+                        (IhoOrder::ALL.iter().position(|x| *x == o).unwrap_or(0) + 1) as f32
+                    }),
+                ),
+                None => (0.0, -1.0),
+            };
+            let n64 = if covariance { cov.len() } else { 0 };
+            writer.write_point_f64(p, &extra[..n_dims], &cov[..n64])?;
         }
     }
-    Ok(None)
+    progress(chunk.len() as u64);
+    let _ = spent_chunks.try_send(Spent::Chunk(chunk));
+    let _ = spent_slots.try_send(slots);
+    Ok(())
 }
 
 /// The outcome of one point.
