@@ -7,8 +7,8 @@
 
 use crate::error::{Error, Result};
 use lidarqa_model::{
-    ConicScanner, Correlation, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER, Mounting,
-    Refraction, Scanner, Sensor, Sigmas, Source,
+    ConicScanner, Correlation, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER, LinearScanner,
+    Mounting, Refraction, Scanner, Sensor, Sigmas, Source,
 };
 use nalgebra::{DMatrix, Vector3};
 use serde::{Deserialize, Serialize};
@@ -203,26 +203,6 @@ pub struct CovarianceSection {
     pub correlation: Vec<Vec<f64>>,
 }
 
-/// Sources that only the conic scanner has.
-const CONIC_ONLY: [Source; 13] = [
-    Source::PrismSlope,
-    Source::PrismX,
-    Source::PrismY,
-    Source::PrismZ,
-    Source::ScanAzimuth,
-    Source::EmitterZenith,
-    Source::EmitterAzimuth,
-    Source::TimeAir,
-    Source::TimeWater,
-    Source::WaterSurfaceHeight,
-    Source::WaterSurfaceSlopeNorth,
-    Source::WaterSurfaceSlopeEast,
-    Source::NWater,
-];
-
-/// Sources that only the linear scanner has.
-const LINEAR_ONLY: [Source; 2] = [Source::Range, Source::ScanAngle];
-
 /// Read and check a sensor file.
 pub fn read_sensor(path: &Path) -> Result<Sensor> {
     let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
@@ -377,8 +357,8 @@ impl SensorFile {
             let dotted = format!("sigma.{key}");
             let source = source_for_key(key).map_err(|m| err(&dotted, m))?;
             let not_here: &[Source] = match scanner {
-                Scanner::Linear => &CONIC_ONLY,
-                Scanner::Conic(_) => &LINEAR_ONLY,
+                Scanner::Linear => &ConicScanner::SCANNER_SOURCES,
+                Scanner::Conic(_) => &LinearScanner::SCANNER_SOURCES,
             };
             if not_here.contains(&source) {
                 return Err(err(

@@ -20,7 +20,7 @@
 
 use crate::error::{Error, Result};
 use crate::frames::{Attitude, Mounting};
-use crate::georeferencer::{Georeferencer, gnss_offset_ned};
+use crate::georeferencer::{Georeferencer, gnss_offset_ned, platform_parameters, platform_then};
 use crate::rotation::{rot_x, rot_y, rot_z, rotation_zyx, rotation_zyx_with_partials};
 use crate::scalar::{Scalar, c};
 use crate::source::Source;
@@ -106,6 +106,24 @@ pub fn refract<D: Scalar>(l: &Vector3<D>, n: &Vector3<D>, eta: D) -> Vector3<D> 
 }
 
 impl ConicScanner {
+    /// The sources the conic scanner adds after the platform's (prism, scan azimuth, emitter,
+    /// travel times, water surface); the linear scanner has none of them.
+    pub const SCANNER_SOURCES: [Source; 13] = [
+        Source::PrismSlope,
+        Source::PrismX,
+        Source::PrismY,
+        Source::PrismZ,
+        Source::ScanAzimuth,
+        Source::EmitterZenith,
+        Source::EmitterAzimuth,
+        Source::TimeAir,
+        Source::TimeWater,
+        Source::WaterSurfaceHeight,
+        Source::WaterSurfaceSlopeNorth,
+        Source::WaterSurfaceSlopeEast,
+        Source::NWater,
+    ];
+
     /// Check and build from the prism slope θf (rad) and the three refraction indices.
     pub fn new(
         prism_slope_rad: f64,
@@ -162,36 +180,8 @@ impl ConicScanner {
         n_water: f64,
         refraction: Refraction,
     ) -> Result<ConicScanner> {
-        check_index("n_prism", n_prism, false)?;
-        check_index("n_air", n_air, true)?;
-        let exit = |slope: f64| nominal_exit_angle(slope, n_prism, n_air);
-        // The exit angle grows monotonically with the slope up to total internal reflection.
-        let (mut lo, mut hi) = (0.0_f64, std::f64::consts::FRAC_PI_2);
-        for _ in 0..200 {
-            let mid = 0.5 * (lo + hi);
-            if exit(mid).is_finite() {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        let max = exit(lo);
-        if !(exit_angle_rad.is_finite() && exit_angle_rad > 0.0 && exit_angle_rad < max) {
-            return Err(Error::UnreachableExitAngle {
-                exit_angle_deg: exit_angle_rad.to_degrees(),
-                max_deg: max.to_degrees(),
-            });
-        }
-        let (mut a, mut b) = (0.0, lo);
-        for _ in 0..200 {
-            let mid = 0.5 * (a + b);
-            if exit(mid) < exit_angle_rad {
-                a = mid;
-            } else {
-                b = mid;
-            }
-        }
-        ConicScanner::new(0.5 * (a + b), n_prism, n_air, n_water, refraction)
+        let slope = prism_slope_for_exit_angle(exit_angle_rad, n_prism, n_air)?;
+        ConicScanner::new(slope, n_prism, n_air, n_water, refraction)
     }
 
     /// Prism top-surface slope θf, rad.
@@ -464,13 +454,8 @@ impl ConicScanner {
         };
         let p = self.parameters(attitude, mounting, &obs);
         let (l3, l4) = self.beam_directions(&p);
-        let r = rotation_zyx(attitude.roll_rad, attitude.pitch_rad, attitude.heading_rad)
-            * rotation_zyx(
-                mounting.boresight_roll_rad,
-                mounting.boresight_pitch_rad,
-                mounting.boresight_yaw_rad,
-            );
-        let r_n = rotation_zyx(attitude.roll_rad, attitude.pitch_rad, attitude.heading_rad);
+        let r_n = attitude.body_to_ned();
+        let r = r_n * mounting.scanner_to_body();
         let origin_down = (r_n * mounting.lever_arm_m).z;
         let rho1 = range_to_level(height_m - origin_down, &(r * l3), height_m)?;
         let rho2 = if depth_m == 0.0 {
@@ -489,6 +474,41 @@ fn check_index(name: &'static str, value: f64, allow_one: bool) -> Result<()> {
     } else {
         Err(Error::InvalidRefractionIndex { name, value })
     }
+}
+
+/// The prism slope θf (rad) whose nominal beam leaves the prism at `exit_angle_rad` from S Z.
+fn prism_slope_for_exit_angle(exit_angle_rad: f64, n_prism: f64, n_air: f64) -> Result<f64> {
+    // Checked here too: a bad index would otherwise read as an unreachable exit angle.
+    check_index("n_prism", n_prism, false)?;
+    check_index("n_air", n_air, true)?;
+    let exit = |slope: f64| nominal_exit_angle(slope, n_prism, n_air);
+    // The exit angle grows monotonically with the slope up to total internal reflection.
+    let (lo, _) = bisect(0.0, std::f64::consts::FRAC_PI_2, |slope| {
+        exit(slope).is_finite()
+    });
+    let max = exit(lo);
+    if !(exit_angle_rad.is_finite() && exit_angle_rad > 0.0 && exit_angle_rad < max) {
+        return Err(Error::UnreachableExitAngle {
+            exit_angle_deg: exit_angle_rad.to_degrees(),
+            max_deg: max.to_degrees(),
+        });
+    }
+    let (a, b) = bisect(0.0, lo, |slope| exit(slope) < exit_angle_rad);
+    Ok(0.5 * (a + b))
+}
+
+/// 200 halvings of `[lo, hi]` (f64 resolution), keeping `below` true at the lower end and false
+/// at the upper one; the final bracket.
+fn bisect(mut lo: f64, mut hi: f64, below: impl Fn(f64) -> bool) -> (f64, f64) {
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if below(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    (lo, hi)
 }
 
 fn nominal_exit_angle(slope: f64, n_prism: f64, n_air: f64) -> f64 {
@@ -536,33 +556,7 @@ pub struct ConicObservation {
 impl Georeferencer<CONIC_N> for ConicScanner {
     type Observation = ConicObservation;
 
-    const SOURCES: [Source; CONIC_N] = [
-        Source::GnssNorth,
-        Source::GnssEast,
-        Source::GnssUp,
-        Source::Roll,
-        Source::Pitch,
-        Source::Heading,
-        Source::BoresightRoll,
-        Source::BoresightPitch,
-        Source::BoresightYaw,
-        Source::LeverX,
-        Source::LeverY,
-        Source::LeverZ,
-        Source::PrismSlope,
-        Source::PrismX,
-        Source::PrismY,
-        Source::PrismZ,
-        Source::ScanAzimuth,
-        Source::EmitterZenith,
-        Source::EmitterAzimuth,
-        Source::TimeAir,
-        Source::TimeWater,
-        Source::WaterSurfaceHeight,
-        Source::WaterSurfaceSlopeNorth,
-        Source::WaterSurfaceSlopeEast,
-        Source::NWater,
-    ];
+    const SOURCES: [Source; CONIC_N] = platform_then(ConicScanner::SCANNER_SOURCES);
 
     fn parameters(
         &self,
@@ -570,33 +564,13 @@ impl Georeferencer<CONIC_N> for ConicScanner {
         m: &Mounting,
         o: &ConicObservation,
     ) -> SVector<f64, CONIC_N> {
-        SVector::from([
-            0.0,
-            0.0,
-            0.0,
-            a.roll_rad,
-            a.pitch_rad,
-            a.heading_rad,
-            m.boresight_roll_rad,
-            m.boresight_pitch_rad,
-            m.boresight_yaw_rad,
-            m.lever_arm_m.x,
-            m.lever_arm_m.y,
-            m.lever_arm_m.z,
-            self.prism_slope_rad,
-            0.0,
-            0.0,
-            0.0,
-            o.azimuth_rad,
-            0.0,
-            0.0,
-            o.time_air_s,
-            o.time_water_s,
-            0.0,
-            0.0,
-            0.0,
-            self.n_water,
-        ])
+        let mut p = platform_parameters(a, m);
+        p[12] = self.prism_slope_rad;
+        p[16] = o.azimuth_rad;
+        p[19] = o.time_air_s;
+        p[20] = o.time_water_s;
+        p[24] = self.n_water;
+        p
     }
 
     fn footprint_ned<D: Scalar>(&self, p: &SVector<D, CONIC_N>) -> Vector3<D> {

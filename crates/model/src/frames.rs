@@ -24,7 +24,8 @@
 //! ecef_only(&Grid::new(500_000.0, 4_000_000.0, 12.0)); // grid where ECEF is expected: refused
 //! ```
 
-use nalgebra::Vector3;
+use crate::rotation::rotation_zyx;
+use nalgebra::{Matrix3, Vector3};
 
 /// A position in Earth-centred, Earth-fixed coordinates (X, Y, Z), metres.
 ///
@@ -182,6 +183,10 @@ impl Attitude {
             heading_rad: heading_deg.to_radians(),
         }
     }
+    /// `R_N = Rz(heading) · Ry(pitch) · Rx(roll)`: body B → local NED.
+    pub fn body_to_ned(&self) -> Matrix3<f64> {
+        rotation_zyx(self.roll_rad, self.pitch_rad, self.heading_rad)
+    }
 }
 
 /// How the scanner is mounted on the IMU: boresight `R_M = Rz(yaw) · Ry(pitch) · Rx(roll)` rotates
@@ -197,4 +202,15 @@ pub struct Mounting {
     pub boresight_yaw_rad: f64,
     /// Lever arm in the body frame (X forward, Y right, Z down), m. Seed 000 ΔP.
     pub lever_arm_m: Vector3<f64>,
+}
+
+impl Mounting {
+    /// The boresight `R_M = Rz(yaw) · Ry(pitch) · Rx(roll)`: scanner S → body B.
+    pub fn scanner_to_body(&self) -> Matrix3<f64> {
+        rotation_zyx(
+            self.boresight_roll_rad,
+            self.boresight_pitch_rad,
+            self.boresight_yaw_rad,
+        )
+    }
 }

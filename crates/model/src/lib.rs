@@ -51,7 +51,7 @@ pub use conic::{
 pub use eigen3::symmetric_eigen3;
 pub use error::{Error, Result};
 pub use frames::{Attitude, Ecef, Grid, Mounting, Ned};
-pub use georeferencer::Georeferencer;
+pub use georeferencer::{Georeferencer, TRAJECTORY_SOURCES};
 pub use linear::{
     LINEAR_N, LinearObservation, LinearScanner, OffPlaneLinearScanner, linear_range_for_height,
     scanner_vector,

@@ -7,7 +7,7 @@
 
 use crate::error::{Error, Result};
 use crate::frames::{Attitude, Mounting};
-use crate::georeferencer::{Georeferencer, gnss_offset_ned};
+use crate::georeferencer::{Georeferencer, gnss_offset_ned, platform_parameters, platform_then};
 use crate::rotation::{rotation_zyx, rotation_zyx_with_partials};
 use crate::scalar::Scalar;
 use crate::source::Source;
@@ -106,25 +106,16 @@ fn linear_jacobian(
     (f, j)
 }
 
+impl LinearScanner {
+    /// The sources the linear scanner adds after the platform's (range, scan angle); the conic
+    /// scanner has none of them.
+    pub const SCANNER_SOURCES: [Source; 2] = [Source::Range, Source::ScanAngle];
+}
+
 impl Georeferencer<LINEAR_N> for LinearScanner {
     type Observation = LinearObservation;
 
-    const SOURCES: [Source; LINEAR_N] = [
-        Source::GnssNorth,
-        Source::GnssEast,
-        Source::GnssUp,
-        Source::Roll,
-        Source::Pitch,
-        Source::Heading,
-        Source::BoresightRoll,
-        Source::BoresightPitch,
-        Source::BoresightYaw,
-        Source::LeverX,
-        Source::LeverY,
-        Source::LeverZ,
-        Source::Range,
-        Source::ScanAngle,
-    ];
+    const SOURCES: [Source; LINEAR_N] = platform_then(LinearScanner::SCANNER_SOURCES);
 
     fn parameters(
         &self,
@@ -132,22 +123,10 @@ impl Georeferencer<LINEAR_N> for LinearScanner {
         m: &Mounting,
         o: &LinearObservation,
     ) -> SVector<f64, LINEAR_N> {
-        SVector::from([
-            0.0,
-            0.0,
-            0.0,
-            a.roll_rad,
-            a.pitch_rad,
-            a.heading_rad,
-            m.boresight_roll_rad,
-            m.boresight_pitch_rad,
-            m.boresight_yaw_rad,
-            m.lever_arm_m.x,
-            m.lever_arm_m.y,
-            m.lever_arm_m.z,
-            o.range_m,
-            o.scan_angle_rad,
-        ])
+        let mut p = platform_parameters(a, m);
+        p[12] = o.range_m;
+        p[13] = o.scan_angle_rad;
+        p
     }
 
     fn footprint_ned<D: Scalar>(&self, p: &SVector<D, LINEAR_N>) -> Vector3<D> {
@@ -206,12 +185,8 @@ pub fn linear_range_for_height(
             value: height_m,
         });
     }
-    let r_n = rotation_zyx(attitude.roll_rad, attitude.pitch_rad, attitude.heading_rad);
-    let r_m = rotation_zyx(
-        mounting.boresight_roll_rad,
-        mounting.boresight_pitch_rad,
-        mounting.boresight_yaw_rad,
-    );
+    let r_n = attitude.body_to_ned();
+    let r_m = mounting.scanner_to_body();
     let origin_down = (r_n * mounting.lever_arm_m).z;
     let dir = r_n * r_m * scanner_vector(1.0, scan_angle_rad);
     crate::conic::range_to_level(height_m - origin_down, &dir, height_m)

@@ -30,7 +30,7 @@ use crate::context::TpuContext;
 use crate::error::{Error, Result};
 use crate::stages::{ChunkSource, read_chunks, run_stages, write_chunks};
 use lidarqa_io::{Crs, LasPoint, LasTimeConverter, LasWriteOptions, PointChunk};
-use lidarqa_model::{Ecef, Mounting, rotation_zyx};
+use lidarqa_model::{Ecef, Mounting};
 use lidarqa_tpu::{Recoverer, Trajectory};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
@@ -296,11 +296,7 @@ impl Correction {
             a_m: ellipsoid.a_m,
             e2: ellipsoid.e2(),
             old: Recoverer::new(old),
-            new_r_m: rotation_zyx(
-                new.boresight_roll_rad,
-                new.boresight_pitch_rad,
-                new.boresight_yaw_rad,
-            ),
+            new_r_m: new.scanner_to_body(),
             new_lever_m: new.lever_arm_m,
         }
     }
@@ -475,11 +471,7 @@ mod tests {
     fn points(zone: &UtmZone, trajectory: &Trajectory) -> Vec<(f64, [f64; 3])> {
         let (proj, e) = (zone.projection(), zone.datum().ellipsoid());
         let m = old();
-        let r_m = rotation_zyx(
-            m.boresight_roll_rad,
-            m.boresight_pitch_rad,
-            m.boresight_yaw_rad,
-        );
+        let r_m = m.scanner_to_body();
         (0..2000)
             .map(|k| {
                 let t = 0.001 + f64::from(k) * 0.001_999;

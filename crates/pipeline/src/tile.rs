@@ -16,7 +16,7 @@ use lidarqa_io::{
 };
 use lidarqa_model::{
     ConicScanner, Ecef, Georeferencer, Grid, LinearScanner, Mounting, Ned, Scanner, Source,
-    ecef_from_ned, rotation_zyx,
+    ecef_from_ned,
 };
 use lidarqa_tpu::{
     IhoOrder, Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, SoundingRecovery, Surface,
@@ -179,11 +179,7 @@ pub fn tpu_tile_with_progress(
         recoverer: Recoverer::new(&ctx.recovery_mounting),
         recovery_mounting: ctx.recovery_mounting,
         mounting: ctx.sensor.mounting,
-        r_m: rotation_zyx(
-            ctx.recovery_mounting.boresight_roll_rad,
-            ctx.recovery_mounting.boresight_pitch_rad,
-            ctx.recovery_mounting.boresight_yaw_rad,
-        ),
+        r_m: ctx.recovery_mounting.scanner_to_body(),
         tally0,
         central_meridian_rad: crs.utm_zone().map(|z| z.central_meridian_rad()),
         crs_name: &crs_name,

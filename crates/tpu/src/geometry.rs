@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 use crate::montecarlo::{MonteCarlo, monte_carlo};
 use lidarqa_model::{
     Attitude, ConicObservation, ConicScanner, Georeferencer, LinearObservation, LinearScanner,
-    Refraction, Scanner, Sensor, linear_range_for_height, rotation_zyx,
+    Refraction, Scanner, Sensor, linear_range_for_height,
 };
 use nalgebra::{SVector, Vector3};
 use serde::Serialize;
@@ -271,12 +271,7 @@ fn resolve<'a>(sensor: &'a Sensor, geometry: &Geometry) -> Result<Resolved<'a>> 
             };
             let p = c.parameters(attitude, m, &obs);
             let (l3, l4) = c.beam_directions(&p);
-            let r_sn = rotation_zyx(attitude.roll_rad, attitude.pitch_rad, attitude.heading_rad)
-                * rotation_zyx(
-                    m.boresight_roll_rad,
-                    m.boresight_pitch_rad,
-                    m.boresight_yaw_rad,
-                );
+            let r_sn = attitude.body_to_ned() * m.scanner_to_body();
             let normal_s = match c.refraction() {
                 Refraction::ScannerFrame => Vector3::z(),
                 Refraction::Level => r_sn.transpose() * Vector3::z(),

@@ -18,7 +18,7 @@
 
 use crate::error::{Error, Result};
 use crate::trajectory::PoseSigma;
-use lidarqa_model::{Georeferencer, Ned, Sensor, Source};
+use lidarqa_model::{Georeferencer, Ned, Sensor, Source, TRAJECTORY_SOURCES};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 /// The largest incidence angle used in the incidence term, rad (85°: tan = 11.4).
@@ -61,15 +61,6 @@ pub struct PointPropagator<G, const N: usize> {
     /// The non-zero correlations `(i, j, ρ_ij, ρ_ji)`, i < j, for the per-point `J Σ Jᵀ`.
     off_diagonal: Vec<(usize, usize, f64, f64)>,
 }
-
-const TRAJECTORY_SOURCES: [Source; 6] = [
-    Source::GnssNorth,
-    Source::GnssEast,
-    Source::GnssUp,
-    Source::Roll,
-    Source::Pitch,
-    Source::Heading,
-];
 
 impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
     /// Prepares σ and correlations of `sensor` for `model`; `beam_divergence_rad` is the full

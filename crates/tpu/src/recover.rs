@@ -23,7 +23,7 @@ use crate::error::{Error, Result};
 use crate::trajectory::PoseAt;
 use lidarqa_model::{
     Attitude, ConicObservation, ConicScanner, Ecef, Georeferencer, LinearObservation, Mounting,
-    Ned, OffPlaneLinearScanner, rotation_zyx,
+    Ned, OffPlaneLinearScanner,
 };
 use nalgebra::{Matrix3, Vector3};
 
@@ -87,11 +87,7 @@ impl Recoverer {
     /// Prepares `R_M` and ΔP from the nominal mounting.
     pub fn new(mounting: &Mounting) -> Recoverer {
         Recoverer {
-            r_m: rotation_zyx(
-                mounting.boresight_roll_rad,
-                mounting.boresight_pitch_rad,
-                mounting.boresight_yaw_rad,
-            ),
+            r_m: mounting.scanner_to_body(),
             lever_m: mounting.lever_arm_m,
         }
     }

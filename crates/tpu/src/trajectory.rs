@@ -18,7 +18,7 @@
 //! extrapolation.
 
 use crate::error::{Error, Result};
-use lidarqa_model::{Attitude, Ecef, ecef_from_ned, rotation_zyx, zyx_angles};
+use lidarqa_model::{Attitude, Ecef, ecef_from_ned, zyx_angles};
 use nalgebra::{Matrix3, Rotation3, Unit, UnitQuaternion, Vector3};
 use std::f64::consts::PI;
 
@@ -133,8 +133,7 @@ impl Trajectory {
                     message: format!("time {} s is earlier than the previous {prev} s", p.time_s),
                 });
             }
-            let r = ecef_from_ned(p.latitude_rad, p.longitude_rad)
-                * rotation_zyx(a.roll_rad, a.pitch_rad, a.heading_rad);
+            let r = ecef_from_ned(p.latitude_rad, p.longitude_rad) * a.body_to_ned();
             t.times_s.push(p.time_s);
             t.positions_ecef_m.push(p.position_ecef_m.vector());
             t.lat_lon_rad.push([p.latitude_rad, p.longitude_rad]);
