@@ -5,7 +5,7 @@ mod common;
 
 use common::{grid_to_true, linear_covariance, pose_at, quiet_demo};
 use lidarqa_io::Ellipsoid;
-use lidarqa_model::{Georeferencer, LinearScanner, Source};
+use lidarqa_model::{Georeferencer, LinearScanner, Source, TRAJECTORY_SOURCES};
 use lidarqa_sim::{Observation, Scenario, SimOptions, simulate};
 use nalgebra::SVector;
 use num_dual::{DualSVec64, jacobian};
@@ -41,16 +41,11 @@ fn rms_error_matches_linear_propagation() {
     // Σ of the sources the simulator draws per pulse (the mounting σ are calibration
     // uncertainties, constant over a survey, and are not drawn unless random_mounting is set).
     let sensor = scenario.sensor();
-    let drawn = [
-        Source::GnssNorth,
-        Source::GnssEast,
-        Source::GnssUp,
-        Source::Roll,
-        Source::Pitch,
-        Source::Heading,
-        Source::Range,
-        Source::ScanAngle,
-    ];
+    let drawn: Vec<Source> = TRAJECTORY_SOURCES
+        .iter()
+        .chain(&LinearScanner::SCANNER_SOURCES)
+        .copied()
+        .collect();
     let cov = linear_covariance(sensor, &drawn);
 
     let zone = scenario.zone();

@@ -15,7 +15,7 @@
 mod common;
 
 use common::{grid_to_true, linear_covariance, pose_at, quiet_demo};
-use lidarqa_model::{Georeferencer, LinearScanner, Source};
+use lidarqa_model::{Georeferencer, LinearScanner, TRAJECTORY_SOURCES};
 use lidarqa_sim::{Observation, Scenario, SimOptions, TargetFile, simulate};
 use lidarqa_targets::{ControlPoint, LidarPoint, TargetConfig, extract_targets};
 use nalgebra::{Matrix3, SVector};
@@ -73,15 +73,7 @@ fn target_rmse_agrees_with_predicted_sigma() {
         .unwrap();
         let zone = scenario.zone();
         let sensor = scenario.sensor();
-        let traj = [
-            Source::GnssNorth,
-            Source::GnssEast,
-            Source::GnssUp,
-            Source::Roll,
-            Source::Pitch,
-            Source::Heading,
-        ];
-        let cov = linear_covariance(sensor, &traj);
+        let cov = linear_covariance(sensor, &TRAJECTORY_SOURCES);
         // The true centres, as error-free control (the survey σ of the control is a separate
         // term of ASPRS Ed. 2, tested in lidarqa-targets).
         let control: Vec<ControlPoint> = survey
