@@ -94,7 +94,7 @@ pub struct RawPoint {
 
 impl RawPoint {
     /// Builds a point from a pose and a recovery already computed (lidarqa-tpu
-    /// [`Recoverer::linear`]) and the point's ECEF position.
+    /// [`Recoverer::linear_ecef`]) and the point's ECEF position.
     pub fn from_recovery(
         frame: &LocalFrame,
         pose: &PoseAt,
