@@ -168,20 +168,8 @@ pub struct PartialComponents {
     pub three_d: Option<f64>,
 }
 
-/// A signed displacement, metres (lidar − true), SPEC §6 `bias`.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct Displacement {
-    /// North, m.
-    pub north: f64,
-    /// East, m.
-    pub east: f64,
-    /// Up, m.
-    pub up: f64,
-    /// Along the heading, m.
-    pub along_track: f64,
-    /// Across the heading, positive to the right wing, m.
-    pub across_track: f64,
-}
+/// A signed displacement, metres (lidar − true), SPEC §6 `bias`: the one lidarqa-tpu writes.
+pub use lidarqa_tpu::Displacement;
 
 /// One source of the budget: `|∂P/∂p|·σ` per axis, metres.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -2,15 +2,15 @@
 //! signed displacements along and across track ([`Displacement`]).
 
 use nalgebra::Vector3;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// The one six-axis struct of the workspace (σ, |displacement|, RMSE per axis), from
 /// lidarqa-model.
 pub use lidarqa_model::Axes;
 
 /// A signed displacement, metres: north / east / up, and along / across track (across positive towards
-/// the right wing).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+/// the right wing). Read back from the products too (lidarqa-report re-exports it).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Displacement {
     /// North, m.
     pub north: f64,
