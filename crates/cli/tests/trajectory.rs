@@ -169,7 +169,7 @@ fn forest_strip_trajectory_matches_the_truth_and_its_tpu() {
 
     // Honest σ: neither hiding the errors nor overstating them (a 4 s strip has few epochs:
     // the full strip below is the firmer check).
-    let z = error_over_sigma(&rows, &survey, &zone);
+    let (z, _) = error_over_sigma(&rows, &survey, &zone);
     eprintln!("against the SBET: RMS(error/σ) x, y, z, heading, pitch {z:.2?}");
     assert!(
         z.iter().all(|r| (0.5..=2.0).contains(r)),
@@ -325,27 +325,40 @@ fn forest_strip_trajectory_matches_the_truth_and_its_tpu() {
 
 /// RMS(error / σ) of the rebuilt x, y, z, heading and pitch against the trajectory the points
 /// were georeferenced with (the simulator's SBET: the beams start at its positions and the scan
-/// planes follow its attitude exactly).
-fn error_over_sigma(rows: &[Row], survey: &lidarqa_sim::Survey, zone: &UtmZone) -> [f64; 5] {
+/// planes follow its attitude exactly), and the RMS errors themselves (m, m, m, deg, deg).
+fn error_over_sigma(
+    rows: &[Row],
+    survey: &lidarqa_sim::Survey,
+    zone: &UtmZone,
+) -> ([f64; 5], [f64; 5]) {
     let measured = &survey.strips[0].trajectory;
-    let mut sum = [0.0; 5];
+    let (mut sum, mut sum_error) = ([0.0; 5], [0.0; 5]);
     for r in rows {
         let sow = r.t - survey.adjusted_standard_time_s(0.0);
         let m = interpolate(measured, sow);
         let g = zone.forward(m.latitude_rad, m.longitude_rad);
         let dh = wrap(r.azimuth_deg.to_radians() + g.convergence_rad - m.heading_rad).to_degrees();
-        let z = [
-            (r.p[0] - g.easting_m) / r.sigma_m[0],
-            (r.p[1] - g.northing_m) / r.sigma_m[1],
-            (r.p[2] - m.height_m) / r.sigma_m[2],
-            dh / r.sigma_azimuth_deg,
-            (r.pitch_deg - m.pitch_rad.to_degrees()) / r.sigma_pitch_deg,
+        let error = [
+            r.p[0] - g.easting_m,
+            r.p[1] - g.northing_m,
+            r.p[2] - m.height_m,
+            dh,
+            r.pitch_deg - m.pitch_rad.to_degrees(),
         ];
-        for (s, z) in sum.iter_mut().zip(z) {
-            *s += z * z;
+        let sigma = [
+            r.sigma_m[0],
+            r.sigma_m[1],
+            r.sigma_m[2],
+            r.sigma_azimuth_deg,
+            r.sigma_pitch_deg,
+        ];
+        for k in 0..5 {
+            sum[k] += (error[k] / sigma[k]).powi(2);
+            sum_error[k] += error[k].powi(2);
         }
     }
-    sum.map(|s| (s / rows.len() as f64).sqrt())
+    let rms = |s: f64| (s / rows.len() as f64).sqrt();
+    (sum.map(rms), sum_error.map(rms))
 }
 
 /// The whole 10 s forest strip: the rebuilt σ match the actual errors, RMS(error / σ) within
@@ -364,8 +377,13 @@ fn full_forest_strip_sigma_is_honest() {
     let o = lidarqa(&["trajectory", s(&sim.join("strip_001.las")), "-o", s(&traj)]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let zone = UtmZone::from_epsg(scenario.epsg()).unwrap();
-    let z = error_over_sigma(&rows(&traj), &survey, &zone);
-    eprintln!("full strip against the SBET: RMS(error/σ) x, y, z, heading, pitch {z:.2?}");
+    let (z, error) = error_over_sigma(&rows(&traj), &survey, &zone);
+    eprintln!(
+        "full strip against the SBET: RMS(error/σ) x, y, z, heading, pitch {z:.2?}; RMS error \
+         x, y, z {:.5?} m, heading, pitch {:.5?} deg",
+        &error[..3],
+        &error[3..]
+    );
     assert!(
         z[..3].iter().all(|r| (0.5..=2.0).contains(r))
             && z[3..].iter().all(|r| (0.7..=1.4).contains(r)),
