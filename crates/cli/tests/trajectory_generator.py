@@ -4,14 +4,14 @@ the issue's description alone, with numpy + laspy, not with lidarqa's simulator.
 
 A scanner flies a straight line at 300 m, 55 m/s, on a grid bearing of 30 degrees, nose up 1.5
 degrees, rolling 2 degrees (which the method cannot see). A sine scan of +-25 degrees at 35 Hz fires
-40 kHz; 40 % of the pulses hit a crown 8-25 m above a flat ground and give two returns (first on
-the crown, last on the ground, same GPS time, LAS return numbers set). Coordinates are stored at
-1 mm; every return gets 2 cm of range noise along its beam and 1 cm of isotropic noise (by
-default). Then it writes a LAS 1.4 file, runs `lidarqa trajectory`, and checks the written
-trajectory against the flight it made: position RMS, heading and pitch, and that the reported sigma match the errors
-(RMS(error/sigma) of x, y, z, heading and pitch within 0.5-2: neither hiding nor overstating
-them). One 6 s flight has 14 epochs, too few for a stable ratio: the flight is flown with
-SEEDS different noise draws and the ratios are taken over all of them.
+40 kHz; 40 % of the pulses hit a crown 8-25 m above a flat ground and give two returns (first on the
+crown, last on the ground, same GPS time, LAS return numbers set). Coordinates are stored at 1 mm;
+every return gets 2 cm of range noise along its beam and 1 cm of isotropic noise (by default). Then
+it writes a LAS 1.4 file, runs `lidarqa trajectory`, and checks the written trajectory against the
+flight it made: position RMS, heading and pitch, and that the reported sigma match the errors
+(RMS(error/sigma) of x, y, z, heading and pitch within 0.5-2: neither hiding nor overstating them).
+One 6 s flight has 14 epochs, too few for a stable ratio: the flight is flown with SEEDS different
+noise draws and the ratios are taken over all of them.
 
 The truth of the attitude: the body's forward axis is fixed in the tangent-plane frame, so the
 pitch and azimuth it has where the scanner is are that axis in the local east-north-up frame
