@@ -16,7 +16,7 @@
 //!    pulses drop out. `V` gets a weak prior (`VELOCITY_PRIOR_M_PER_S`): one scan cycle hardly
 //!    determines it. The covariance is the scaled inverse normal matrix. The returns' noise
 //!    tilts each line, which moves its closest point towards the returns: near-vertical lines
-//!    pull the height down, so the expected pull is added back ([`eiv_force`], errors in
+//!    pull the height down, so the expected pull is added back (`eiv_force`, errors in
 //!    variables).
 //! 3. **Attitude.** A linear scanner's beams lie in a plane whose normal is the body's x axis:
 //!    the smallest eigenvector of `Σ uᵢ uᵢᵀ` over the unit vectors from `S(tᵢ)` to every return
@@ -884,12 +884,12 @@ fn fit_block(block: &[Line]) -> Option<BlockFit> {
 /// Errors in variables: a line's direction error ε (its returns' noise) moves the closest
 /// point of approach along the line towards its returns, E[P (a − S)] = −E|ε|² (range −
 /// sep / 2) d, and near-vertical lines determine the height weakly: the block's height comes
-/// out low by millimetres at 1 cm of noise (4 cm at 3 cm; found with the independent generator,
-/// tests/trajectory_generator.py). This is the sum of those expectations over the lines with
-/// the fit's weights, each line's |ε|² estimated by its own (normalised miss / sep)²; added to
-/// the normal equations' right side, it cancels the bias. Inside the iterations, so that the
-/// robust weights are taken about the corrected point (applied once after them, it removed
-/// only 80 % of the bias in a Monte Carlo run).
+/// out low, growing with the square of the noise (found with the independent generator,
+/// tests/trajectory_generator.py; numbers in the README). This is the sum of those
+/// expectations over the lines with the fit's weights, each line's |ε|² estimated by its own
+/// (normalised miss / sep)²; added to the normal equations' right side, it cancels the bias.
+/// Inside the iterations, so that the robust weights are taken about the corrected point
+/// (applied once after them, it left part of the bias).
 fn eiv_force(
     block: &[Line],
     tc: f64,
@@ -1173,7 +1173,7 @@ fn window_blocks(blocks: &[Block], t: f64, window_s: f64) -> Vec<usize> {
 /// predicted from its neighbours (the same window, without it): the excess of that prediction's
 /// squared error over its σ² and the block's is the departure. One block gives one degree of
 /// freedom, so the excess is pooled over the strip (clipped at zero). On a random-walk path the
-/// left-out prediction's error is that of the fit through all blocks within 10 %.
+/// left-out prediction's error is close to that of the fit through all blocks.
 fn path_wander_m2(blocks: &[Block], window_s: f64, k: usize) -> f64 {
     let (mut excess, mut n) = (0.0, 0usize);
     for (j, b) in blocks.iter().enumerate() {
