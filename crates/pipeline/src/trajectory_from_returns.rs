@@ -14,22 +14,28 @@
 //!    (separation / range)² (the miss distance of a line grows with the range over the length
 //!    it was measured on), then re-weighted (IRLS, Tukey's biweight on the MAD scale) so that bad
 //!    pulses drop out. `V` gets a weak prior (`VELOCITY_PRIOR_M_PER_S`): one scan cycle hardly
-//!    determines it. The covariance is the scaled inverse normal matrix.
+//!    determines it. The covariance is the scaled inverse normal matrix. The returns' noise
+//!    tilts each line, which moves its closest point towards the returns: near-vertical lines
+//!    pull the height down, so the expected pull is added back (`eiv_force`, errors in
+//!    variables).
 //! 3. **Attitude.** A linear scanner's beams lie in a plane whose normal is the body's x axis:
 //!    the smallest eigenvector of `Σ uᵢ uᵢᵀ` over the unit vectors from `S(tᵢ)` to every return
 //!    of the block gives the heading (a grid azimuth: the points are projected) and the pitch,
-//!    whatever the crab angle, read at the block's time from eight sub-blocks' planes; their σ
-//!    is how far the attitude wanders from a steady turn within the block (`scan_plane`).
+//!    whatever the crab angle, read at the block's time from eight sub-blocks' planes. Their σ
+//!    has three parts (`scan_plane`): the fitted scanner position's error, which tilts every
+//!    beam (δ along the normal over the range: it dominates the pitch), the returns' scatter
+//!    about the plane, and how far the attitude wanders from a steady turn within the block.
 //!    **Roll is not determined**: rolling turns every beam within that plane about the scanner,
 //!    which moves no line off the scanner and no beam out of the plane. It is carried as 0 with
 //!    the σ [`ROLL_SIGMA_RAD`].
 //! 4. **Smoothing.** The block positions are smoothed by a weighted local quadratic in time over
-//!    `smoothing_window_s`; each epoch's σ is that fit's, scaled up by √(χ²/dof) when the blocks
-//!    scatter more than their σ says. The attitude is **not** smoothed: an aircraft's pitch and
+//!    `smoothing_window_s`; each epoch's σ is that fit's and the scanner's departure from the
+//!    fitted curve, which the fit does not see (`path_wander_m2`: each block against the curve
+//!    through its neighbours, the excess over their σ pooled over the strip). The attitude is **not** smoothed: an aircraft's pitch and
 //!    heading wander faster than a quadratic over seconds can follow, so a smoothed attitude
 //!    carries a model error its fit σ does not see; each epoch takes its block's own scan plane
-//!    (a line through the two nearest blocks at the strip's ends), with the blocks' σ pooled
-//!    over the strip first (`pool_attitude_sigma`).
+//!    (a line through the two nearest blocks at the strip's ends), with the wander pooled over
+//!    the strip first (`pool_attitude_sigma`).
 //!
 //! 0. **A Cartesian frame first.** The lines are straight in space, not in projected coordinates:
 //!    easting and northing are distances on the ellipsoid, so a horizontal metre at height h is
@@ -714,8 +720,12 @@ struct Block {
     sigma_pitch_rad: f64,
     sigma_azimuth_rad: f64,
     lines: usize,
-    /// Returns the scan plane was fitted to.
-    returns: usize,
+    /// The scan plane's (pitch, azimuth) variance from the fitted scanner motion and from the
+    /// returns' noise, rad² ([`ScanPlane::variance_rad2`]).
+    plane_variance_rad2: [f64; 2],
+    /// The sub-blocks' scatter not explained by their noise, rad²
+    /// ([`ScanPlane::wander_excess_rad2`]).
+    wander_excess_rad2: [f64; 2],
 }
 
 fn fit_blocks(
@@ -741,16 +751,16 @@ fn fit_blocks(
             continue;
         }
         checks.lines += block.len() as u64;
-        let Some((tc, x, cov, weights)) = fit_block(block) else {
+        let Some(BlockFit { tc, x, cov, robust }) = fit_block(block) else {
             continue;
         };
-        checks.rejected += weights.iter().filter(|w| **w < 0.05).count() as u64;
+        checks.rejected += robust.iter().filter(|w| **w < 0.05).count() as u64;
         let s0 = Vector3::new(x[0], x[1], x[2]);
         let v = Vector3::new(x[3], x[4], x[5]);
         let (lo, hi) = (block[0].time_s, block[block.len() - 1].time_s);
         let a = points.partition_point(|p| p.time_s < lo);
         let b = points.partition_point(|p| p.time_s <= hi);
-        let Some(att) = scan_plane(&points[a..b], tc, &s0, &v) else {
+        let Some(plane) = scan_plane(&points[a..b], tc, &x, &cov) else {
             continue;
         };
         out.push(Block {
@@ -759,47 +769,44 @@ fn fit_blocks(
             velocity: v,
             cov_position: cov.fixed_view::<3, 3>(0, 0).into_owned(),
             cov,
-            pitch_rad: att.0,
-            azimuth_rad: att.1,
-            sigma_pitch_rad: att.2,
-            sigma_azimuth_rad: att.3,
+            pitch_rad: plane.pitch_rad,
+            azimuth_rad: plane.azimuth_rad,
+            sigma_pitch_rad: plane.variance_rad2[0].sqrt(),
+            sigma_azimuth_rad: plane.variance_rad2[1].sqrt(),
             lines: block.len(),
-            returns: b - a,
+            plane_variance_rad2: plane.variance_rad2,
+            wander_excess_rad2: plane.wander_excess_rad2,
         });
     }
     out
 }
 
-/// One block's sub-block scatter is a noisy σ (six degrees of freedom): used as a weight, it
-/// lets a block whose σ came out small by chance dominate with an error several times that σ.
-/// The blocks of one strip see the same scan geometry, so their attitude variance goes as
-/// 1 / returns: it is pooled over the strip (the mean of σ² · returns, unbiased for a variance)
-/// and each block gets its share.
+/// The attitude's wander within a block is estimated from eight sub-blocks (six degrees of
+/// freedom, less their noise): one block's estimate is too noisy to use alone (a block whose
+/// wander came out small by chance would claim an error several times its σ), and clipping
+/// each at zero would bias it up. The wander is pooled over the strip (the mean excess, then
+/// clipped at zero) and added to each block's own fit and noise variance.
 fn pool_attitude_sigma(blocks: &mut [Block]) {
-    if blocks.len() < 2 {
-        return;
-    }
-    let n = blocks.len() as f64;
-    let pooled = |s: &dyn Fn(&Block) -> f64| {
-        blocks
-            .iter()
-            .map(|b| s(b).powi(2) * b.returns as f64)
-            .sum::<f64>()
-            / n
-    };
-    let (vp, va) = (
-        pooled(&|b| b.sigma_pitch_rad),
-        pooled(&|b| b.sigma_azimuth_rad),
-    );
+    let n = blocks.len().max(1) as f64;
+    let wander =
+        [0, 1].map(|k| (blocks.iter().map(|b| b.wander_excess_rad2[k]).sum::<f64>() / n).max(0.0));
     for b in blocks.iter_mut() {
-        let r = b.returns.max(1) as f64;
-        b.sigma_pitch_rad = (vp / r).sqrt();
-        b.sigma_azimuth_rad = (va / r).sqrt();
+        b.sigma_pitch_rad = (b.plane_variance_rad2[0] + wander[0]).sqrt();
+        b.sigma_azimuth_rad = (b.plane_variance_rad2[1] + wander[1]).sqrt();
     }
 }
 
-/// A block fit: centre time, [S₀, V], their covariance, the final robust weights.
-type BlockFit = (f64, Vector6<f64>, Matrix6<f64>, Vec<f64>);
+/// A block fit ([`fit_block`]).
+struct BlockFit {
+    /// The lines' mean time, s.
+    tc: f64,
+    /// [S₀, V].
+    x: Vector6<f64>,
+    /// Their covariance.
+    cov: Matrix6<f64>,
+    /// The final robust weights.
+    robust: Vec<f64>,
+}
 
 /// IRLS fit of `S₀`, `V` to a block's lines.
 fn fit_block(block: &[Line]) -> Option<BlockFit> {
@@ -810,6 +817,9 @@ fn fit_block(block: &[Line]) -> Option<BlockFit> {
     let mut scale2 = 1.0;
     let mut cov = Matrix6::zeros();
     let mut base = vec![1.0; block.len()];
+    let mut resid = Vec::with_capacity(block.len());
+    // The errors-in-variables force ([`eiv_force`]) of the previous iteration.
+    let mut force = Vector6::<f64>::zeros();
     for iter in 0..12 {
         let mut nm = Matrix6::<f64>::zeros();
         let mut rhs = Vector6::<f64>::zeros();
@@ -835,11 +845,11 @@ fn fit_block(block: &[Line]) -> Option<BlockFit> {
             nm[(k, k)] += scale2 / VELOCITY_PRIOR_M_PER_S.powi(2);
         }
         let inv = nm.try_inverse()?;
-        x = inv * rhs;
+        x = inv * (rhs + force);
         let s = Vector3::new(x[0], x[1], x[2]);
         let v = Vector3::new(x[3], x[4], x[5]);
         // Miss distances, normalised by each line's lever (range / separation).
-        let mut resid = Vec::with_capacity(block.len());
+        resid.clear();
         for (l, b) in block.iter().zip(base.iter_mut()) {
             let pos = s + v * (l.time_s - tc);
             let e = pos - l.a;
@@ -866,66 +876,174 @@ fn fit_block(block: &[Line]) -> Option<BlockFit> {
         let dof = (2.0 * wsum - 6.0).max(1.0);
         scale2 = (chi2 / dof).max(1e-18);
         cov = inv * scale2;
+        force = eiv_force(block, tc, &x, &robust, &base, &resid);
     }
-    Some((tc, x, cov, robust))
+    Some(BlockFit { tc, x, cov, robust })
 }
 
-/// Pitch, grid azimuth and their σ from the plane of the beams (see the module docs).
+/// Errors in variables: a line's direction error ε (its returns' noise) moves the closest
+/// point of approach along the line towards its returns, E[P (a − S)] = −E|ε|² (range −
+/// sep / 2) d, and near-vertical lines determine the height weakly: the block's height comes
+/// out low, growing with the square of the noise (found with the independent generator,
+/// tests/trajectory_generator.py; numbers in the README). This is the sum of those
+/// expectations over the lines with the fit's weights, each line's |ε|² estimated by its own
+/// (normalised miss / sep)²; added to the normal equations' right side, it cancels the bias.
+/// Inside the iterations, so that the robust weights are taken about the corrected point
+/// (applied once after them, it left part of the bias).
+fn eiv_force(
+    block: &[Line],
+    tc: f64,
+    x: &Vector6<f64>,
+    robust: &[f64],
+    base: &[f64],
+    resid: &[f64],
+) -> Vector6<f64> {
+    let s = Vector3::new(x[0], x[1], x[2]);
+    let v = Vector3::new(x[3], x[4], x[5]);
+    let mut force = Vector6::<f64>::zeros();
+    for (((l, w_r), w_b), r) in block.iter().zip(robust).zip(base).zip(resid) {
+        let tau = l.time_s - tc;
+        let range = (s + v * tau - l.a).norm();
+        let g = l.d * (w_r * w_b * (r / l.separation_m).powi(2) * (range - 0.5 * l.separation_m));
+        let mut top = force.fixed_rows_mut::<3>(0);
+        top += g;
+        let mut bot = force.fixed_rows_mut::<3>(3);
+        bot += g * tau;
+    }
+    force
+}
+
+/// A block's scan plane at the block's time ([`scan_plane`]).
+#[derive(Debug, Clone, Copy)]
+struct ScanPlane {
+    pitch_rad: f64,
+    /// Grid azimuth of the plane's normal (forward).
+    azimuth_rad: f64,
+    /// Variance of (pitch, azimuth) from the fitted scanner motion `[S₀, V]` and from the
+    /// returns' own scatter about the plane, rad².
+    variance_rad2: [f64; 2],
+    /// The sub-blocks' scatter about their line less the part their returns' noise explains,
+    /// rad²: an unbiased, noisy estimate of the attitude's wander within the block (negative
+    /// when the noise came out large); pooled over the strip by [`pool_attitude_sigma`].
+    wander_excess_rad2: [f64; 2],
+}
+
+/// The normal of the plane the beams from `S(t) = s0 + v (t − tc)` to `points` span (forward:
+/// along the horizontal motion), and the (pitch, azimuth) variance its returns' scatter about
+/// the plane gives.
 ///
-/// The aircraft turns during a block, so the whole block's plane is an average over it. Eight
-/// consecutive sub-blocks each give their own plane; a straight line in time through their
-/// values corrects the average to the block's time `tc` (the lines' mean time, which the
-/// points' mean time need not be: canopy is patchy). The attitude at `tc` departs from that
-/// steady turn by as much as a sub-block does, so the σ is the sub-blocks' scatter about the
-/// line (not its standard error, which would claim the wander away), with the line's own error
-/// at `tc` added.
-fn scan_plane(
+/// The tilt of the smallest eigenvector of `Σ uᵢ uᵢᵀ` towards eigenvector `j` has variance
+/// σ² λⱼ / (λⱼ − λ₀)², with σ² = λ₀ / (n − 2) the mean squared out-of-plane component of a
+/// unit vector (first-order eigenvector perturbation, independent returns).
+fn beam_plane(
     points: &[&ReturnPoint],
     tc: f64,
     s0: &Vector3<f64>,
     v: &Vector3<f64>,
-) -> Option<(f64, f64, f64, f64)> {
+) -> Option<(Vector3<f64>, [f64; 2])> {
+    let mut m = Matrix3::<f64>::zeros();
+    for p in points {
+        let u = (Vector3::from(p.position_m) - (s0 + v * (p.time_s - tc))).normalize();
+        m += u * u.transpose();
+    }
+    let e = SymmetricEigen::new(m);
+    let k = e.eigenvalues.imin();
+    let mut n: Vector3<f64> = e.eigenvectors.column(k).into_owned();
+    // Forward: along the horizontal motion when it is known, else the sign as found.
+    if n.x * v.x + n.y * v.y < 0.0 {
+        n = -n;
+    }
+    let (l0, dof) = (e.eigenvalues[k].max(0.0), points.len() as f64 - 2.0);
+    let horizontal2 = n.x * n.x + n.y * n.y;
+    let mut variance = [0.0; 2];
+    for j in (0..3).filter(|&j| j != k) {
+        let lj = e.eigenvalues[j];
+        let tilt2 = l0 / dof * lj / (lj - l0).powi(2);
+        let ej = e.eigenvectors.column(j);
+        // d pitch = d n_z / cos(pitch); d azimuth = (n_y d n_x − n_x d n_y) / (n_x² + n_y²).
+        variance[0] += (ej[2] * ej[2] / horizontal2) * tilt2;
+        variance[1] += ((n.y * ej[0] - n.x * ej[1]) / horizontal2).powi(2) * tilt2;
+    }
+    (n.iter().chain(&variance).all(|c| c.is_finite()) && dof > 0.0).then_some((n, variance))
+}
+
+/// Pitch and grid azimuth of a plane normal.
+fn plane_angles(n: &Vector3<f64>) -> (f64, f64) {
+    (n.z.clamp(-1.0, 1.0).asin(), n.x.atan2(n.y))
+}
+
+/// Pitch, grid azimuth and their variance from the plane of the beams (see the module docs);
+/// `x` = [S₀, V] of the block's fit and `cov` its covariance.
+///
+/// The beams start at the fitted scanner position, so its error moves every beam: an error δ
+/// along the plane's normal tilts the plane by about δ / range (3 mm at 300 m is 2″ of
+/// pitch, far more than the returns' noise gives). That part of the variance is `J cov Jᵀ`,
+/// with `J` the change of the angles with [S₀, V] (finite differences of the fit).
+///
+/// The aircraft turns during a block, so the whole block's plane is an average over it. Eight
+/// consecutive sub-blocks each give their own plane; a straight line in time through their
+/// values corrects the average to the block's time `tc` (the lines' mean time, which the
+/// points' mean time need not be: canopy is patchy). The line's value at `tc` carries the
+/// sub-blocks' noise (each plane's own, from its returns: [`beam_plane`]); their scatter about
+/// the line beyond that noise is the attitude's wander from a steady turn, by which the
+/// attitude at `tc` departs from the line too (`wander_excess_rad2`).
+fn scan_plane(
+    points: &[&ReturnPoint],
+    tc: f64,
+    x: &Vector6<f64>,
+    cov: &Matrix6<f64>,
+) -> Option<ScanPlane> {
     const SUB_BLOCKS: usize = 8;
     if points.len() < 16 {
         return None;
     }
-    let normal = |ps: &[&ReturnPoint]| -> Option<Vector3<f64>> {
-        let mut m = Matrix3::<f64>::zeros();
-        for p in ps {
-            let u = (Vector3::from(p.position_m) - (s0 + v * (p.time_s - tc))).normalize();
-            m += u * u.transpose();
-        }
-        let e = SymmetricEigen::new(m);
-        let k = e.eigenvalues.imin();
-        let mut n: Vector3<f64> = e.eigenvectors.column(k).into_owned();
-        // Forward: along the horizontal motion when it is known, else the sign as found.
-        if n.x * v.x + n.y * v.y < 0.0 {
-            n = -n;
-        }
-        n.iter().all(|c| c.is_finite()).then_some(n)
-    };
-    let angles = |n: &Vector3<f64>| (n.z.clamp(-1.0, 1.0).asin(), n.x.atan2(n.y));
-    let (pitch, az) = angles(&normal(points)?);
+    let s0 = Vector3::new(x[0], x[1], x[2]);
+    let v = Vector3::new(x[3], x[4], x[5]);
+    let (n, _) = beam_plane(points, tc, &s0, &v)?;
+    let (pitch, az) = plane_angles(&n);
+    // J: 1 mm in S₀, 1 cm/s in V (a few mm over the block): linear, far above rounding.
+    let mut jac = nalgebra::Matrix2x6::<f64>::zeros();
+    for c in 0..6 {
+        let step = if c < 3 { 1e-3 } else { 1e-2 };
+        let mut xs = *x;
+        xs[c] += step;
+        let (ns, _) = beam_plane(
+            points,
+            tc,
+            &Vector3::new(xs[0], xs[1], xs[2]),
+            &Vector3::new(xs[3], xs[4], xs[5]),
+        )?;
+        let (ps, a) = plane_angles(&ns);
+        jac[(0, c)] = (ps - pitch) / step;
+        jac[(1, c)] = wrap(a - az) / step;
+    }
+    let motion = jac * cov * jac.transpose();
     let size = points.len() / SUB_BLOCKS;
-    // (time from `tc`, pitch, azimuth) of each sub-block's own plane, about the block's.
+    // (time from `tc`, pitch, azimuth) of each sub-block's own plane, about the block's, and
+    // the sub-blocks' mean noise variance.
     let mut subs: Vec<(f64, f64, f64)> = Vec::with_capacity(SUB_BLOCKS);
+    let mut noise = [0.0; 2];
     for c in 0..SUB_BLOCKS {
         let sub = &points[c * size..((c + 1) * size).min(points.len())];
         if sub.len() < 8 {
             continue;
         }
-        if let Some(n) = normal(sub) {
-            let (p, a) = angles(&n);
+        if let Some((ns, var)) = beam_plane(sub, tc, &s0, &v) {
+            let (p, a) = plane_angles(&ns);
             let t = sub.iter().map(|q| q.time_s).sum::<f64>() / sub.len() as f64 - tc;
             subs.push((t, p - pitch, wrap(a - az)));
+            noise[0] += var[0];
+            noise[1] += var[1];
         }
     }
     if subs.len() < 4 {
         return None;
     }
-    // The line through the sub-block values read at `tc`, and the σ described above.
+    let k = subs.len() as f64;
+    let noise = noise.map(|v| v / k);
+    // The line through the sub-block values read at `tc`, the factor of a sub-block's
+    // variance that reaches that value, and the scatter about the line.
     let at_tc = |value: &dyn Fn(&(f64, f64, f64)) -> f64| {
-        let k = subs.len() as f64;
         let mt = subs.iter().map(|s| s.0).sum::<f64>() / k;
         let my = subs.iter().map(value).sum::<f64>() / k;
         let stt: f64 = subs.iter().map(|s| (s.0 - mt).powi(2)).sum();
@@ -935,22 +1053,38 @@ fn scan_plane(
             .iter()
             .map(|s| (value(s) - my - rate * (s.0 - mt)).powi(2))
             .sum();
-        let scatter2 = rss / (k - 2.0);
-        let line2 = scatter2 * (1.0 / k + if stt > 0.0 { mt * mt / stt } else { 0.0 });
-        (my - rate * mt, (scatter2 + line2).sqrt())
+        let reach = 1.0 / k + if stt > 0.0 { mt * mt / stt } else { 0.0 };
+        (my - rate * mt, reach, rss / (k - 2.0))
     };
-    let (dp, sp) = at_tc(&|s| s.1);
-    let (da, sa) = at_tc(&|s| s.2);
-    Some((pitch + dp, wrap(az + da), sp, sa))
+    let (dp, reach_p, scatter_p) = at_tc(&|s| s.1);
+    let (da, reach_a, scatter_a) = at_tc(&|s| s.2);
+    Some(ScanPlane {
+        pitch_rad: pitch + dp,
+        azimuth_rad: wrap(az + da),
+        variance_rad2: [
+            motion[(0, 0)] + noise[0] * reach_p,
+            motion[(1, 1)] + noise[1] * reach_a,
+        ],
+        wander_excess_rad2: [scatter_p - noise[0], scatter_a - noise[1]],
+    })
 }
 
 fn wrap(a: f64) -> f64 {
     (a + PI).rem_euclid(2.0 * PI) - PI
 }
 
-/// Weighted local polynomial of degree ≤ 2 at `t0` over (t, value, σ) samples: (value, σ,
-/// slope). The σ is scaled by √(χ²/dof) when that exceeds 1.
-fn local_poly(samples: &[(f64, f64, f64)], t0: f64) -> Option<(f64, f64, f64)> {
+/// A weighted local polynomial's value at one time ([`local_poly`]).
+#[derive(Debug, Clone)]
+struct LocalFit {
+    value: f64,
+    /// Its variance from the samples' σ (Σ aₖ² σₖ²).
+    variance: f64,
+    /// The first derivative (NaN for a constant).
+    slope: f64,
+}
+
+/// Weighted local polynomial of degree ≤ 2 at `t0` over (t, value, σ) samples.
+fn local_poly(samples: &[(f64, f64, f64)], t0: f64) -> Option<LocalFit> {
     let deg = match samples.len() {
         0 => return None,
         1 => 0,
@@ -958,33 +1092,38 @@ fn local_poly(samples: &[(f64, f64, f64)], t0: f64) -> Option<(f64, f64, f64)> {
         _ => 2,
     };
     let m = deg + 1;
+    let basis = |t: f64| -> Vec<f64> { (0..m).map(|k| (t - t0).powi(k as i32)).collect() };
+    let weight = |s: f64| 1.0 / (s * s).max(1e-24);
     let mut nm = nalgebra::DMatrix::<f64>::zeros(m, m);
-    let mut rhs = nalgebra::DVector::<f64>::zeros(m);
-    for &(t, y, s) in samples {
-        let w = 1.0 / (s * s).max(1e-24);
-        let basis: Vec<f64> = (0..m).map(|k| (t - t0).powi(k as i32)).collect();
+    for &(t, _, s) in samples {
+        let b = basis(t);
         for r in 0..m {
-            rhs[r] += w * basis[r] * y;
             for c in 0..m {
-                nm[(r, c)] += w * basis[r] * basis[c];
+                nm[(r, c)] += weight(s) * b[r] * b[c];
             }
         }
     }
     let inv = nm.try_inverse()?;
-    let coef = &inv * rhs;
-    let mut chi2 = 0.0;
-    for &(t, y, s) in samples {
-        let f: f64 = (0..m).map(|k| coef[k] * (t - t0).powi(k as i32)).sum();
-        chi2 += ((y - f) / s.max(1e-12)).powi(2);
-    }
-    let dof = samples.len().saturating_sub(m);
-    let factor = if dof > 0 {
-        (chi2 / dof as f64).max(1.0)
-    } else {
-        1.0
+    // Coefficient c of the polynomial = Σₖ (inv bₖ)_c wₖ yₖ.
+    let coefficient = |c: usize| -> Vec<f64> {
+        samples
+            .iter()
+            .map(|&(t, _, s)| {
+                let b = basis(t);
+                (0..m).map(|r| inv[(c, r)] * b[r]).sum::<f64>() * weight(s)
+            })
+            .collect()
     };
-    let slope = if m > 1 { coef[1] } else { f64::NAN };
-    Some((coef[0], (inv[(0, 0)] * factor).sqrt(), slope))
+    let apply = |a: Vec<f64>| a.iter().zip(samples).map(|(a, s)| a * s.1).sum::<f64>();
+    Some(LocalFit {
+        value: apply(coefficient(0)),
+        variance: inv[(0, 0)],
+        slope: if m > 1 {
+            apply(coefficient(1))
+        } else {
+            f64::NAN
+        },
+    })
 }
 
 /// The `n` blocks nearest in time to `t`, nearest first (ties in block order).
@@ -1005,7 +1144,7 @@ fn local_poly_over(
     idx: &[usize],
     t: f64,
     value: &dyn Fn(usize) -> (f64, f64),
-) -> Option<(f64, f64, f64)> {
+) -> Option<LocalFit> {
     let samples: Vec<(f64, f64, f64)> = idx
         .iter()
         .map(|&j| {
@@ -1014,6 +1153,50 @@ fn local_poly_over(
         })
         .collect();
     local_poly(&samples, t)
+}
+
+/// The blocks within `window_s` of `t` (the two nearest when fewer are).
+fn window_blocks(blocks: &[Block], t: f64, window_s: f64) -> Vec<usize> {
+    let near: Vec<usize> = (0..blocks.len())
+        .filter(|&j| (blocks[j].time_s - t).abs() <= window_s)
+        .collect();
+    if near.len() < 2 {
+        nearest_blocks(blocks, t, 2)
+    } else {
+        near
+    }
+}
+
+/// How far the scanner departs from the curve fitted through the blocks, along axis `k`, m²:
+/// turbulence, and any jitter of the path that a local quadratic over seconds and a straight
+/// motion within each block cannot follow; the fit's own σ does not see it. Each block is
+/// predicted from its neighbours (the same window, without it): the excess of that prediction's
+/// squared error over its σ² and the block's is the departure. One block gives one degree of
+/// freedom, so the excess is pooled over the strip (clipped at zero). On a random-walk path the
+/// left-out prediction's error is close to that of the fit through all blocks.
+fn path_wander_m2(blocks: &[Block], window_s: f64, k: usize) -> f64 {
+    let (mut excess, mut n) = (0.0, 0usize);
+    for (j, b) in blocks.iter().enumerate() {
+        let others: Vec<usize> = window_blocks(blocks, b.time_s, window_s)
+            .into_iter()
+            .filter(|&i| i != j)
+            .collect();
+        if others.len() < 2 {
+            continue;
+        }
+        let Some(f) = local_poly_over(blocks, &others, b.time_s, &|i| {
+            (blocks[i].position[k], blocks[i].cov_position[(k, k)].sqrt())
+        }) else {
+            continue;
+        };
+        excess += (b.position[k] - f.value).powi(2) - f.variance - b.cov_position[(k, k)];
+        n += 1;
+    }
+    if n > 0 {
+        (excess / n as f64).max(0.0)
+    } else {
+        0.0
+    }
 }
 
 /// Epochs at the block centres and at the strip's first and last return (so that every point
@@ -1041,13 +1224,9 @@ fn smooth(blocks: &[Block], strip: u32, window_s: f64, span_s: [f64; 2]) -> Vec<
     if span_s[1] > last.time_s {
         times.push(span_s[1]);
     }
+    let wander = [0, 1, 2].map(|k| path_wander_m2(blocks, window_s, k));
     for t in times {
-        let mut near: Vec<usize> = (0..blocks.len())
-            .filter(|&j| (blocks[j].time_s - t).abs() <= window_s)
-            .collect();
-        if near.len() < 2 {
-            near = nearest_blocks(blocks, t, 2);
-        }
+        let near = window_blocks(blocks, t, window_s);
         let nearest = near
             .iter()
             .copied()
@@ -1089,18 +1268,20 @@ fn smooth(blocks: &[Block], strip: u32, window_s: f64, span_s: [f64; 2]) -> Vec<
             continue;
         }
         for k in 0..3 {
-            let (y, s, slope) =
-                fit(&|j| (blocks[j].position[k], blocks[j].cov_position[(k, k)].sqrt())).unwrap_or(
-                    (
-                        b.position[k] + vel[k] * (t - b.time_s),
-                        b.cov_position[(k, k)].sqrt(),
-                        f64::NAN,
-                    ),
-                );
-            pos[k] = y;
-            sig[k] = s;
-            if slope.is_finite() {
-                vel[k] = slope;
+            // The fit's own σ and the scanner's departure from the fitted curve.
+            let sd = |j: usize| blocks[j].cov_position[(k, k)].sqrt();
+            match fit(&|j| (blocks[j].position[k], sd(j))) {
+                Some(f) => {
+                    pos[k] = f.value;
+                    sig[k] = (f.variance + wander[k]).sqrt();
+                    if f.slope.is_finite() {
+                        vel[k] = f.slope;
+                    }
+                }
+                None => {
+                    pos[k] = b.position[k] + vel[k] * (t - b.time_s);
+                    sig[k] = (sd(nearest).powi(2) + wander[k]).sqrt();
+                }
             }
         }
         // The attitude from the block at `t` itself, or a line through the two nearest blocks
@@ -1108,17 +1289,14 @@ fn smooth(blocks: &[Block], strip: u32, window_s: f64, span_s: [f64; 2]) -> Vec<
         let two_nearest = nearest_blocks(blocks, t, 2);
         let attitude =
             |value: &dyn Fn(usize) -> (f64, f64)| local_poly_over(blocks, &two_nearest, t, value);
-        let (pitch, sp, _) =
-            attitude(&|j| (blocks[j].pitch_rad, blocks[j].sigma_pitch_rad.max(1e-7))).unwrap_or((
-                b.pitch_rad,
-                b.sigma_pitch_rad,
-                0.0,
-            ));
-        let (a, sa, _) = attitude(&|j| (az[j], blocks[j].sigma_azimuth_rad.max(1e-7))).unwrap_or((
-            az[nearest],
-            b.sigma_azimuth_rad,
-            0.0,
-        ));
+        let (pitch, sp) = attitude(&|j| (blocks[j].pitch_rad, blocks[j].sigma_pitch_rad.max(1e-7)))
+            .map_or((b.pitch_rad, b.sigma_pitch_rad), |f| {
+                (f.value, f.variance.sqrt())
+            });
+        let (a, sa) = attitude(&|j| (az[j], blocks[j].sigma_azimuth_rad.max(1e-7)))
+            .map_or((az[nearest], b.sigma_azimuth_rad), |f| {
+                (f.value, f.variance.sqrt())
+            });
         out.push(Epoch {
             time_s: t,
             strip,
