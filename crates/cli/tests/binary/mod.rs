@@ -37,7 +37,7 @@ pub fn simulate_scenario(dir: &Path, text: &str) -> std::path::PathBuf {
 pub fn small_demo_scenario() -> String {
     let text =
         String::from_utf8(lidarqa(&["simulate", "--scenario", "demo", "--print"]).stdout).unwrap();
-    let small = text.replacen("pulse_rate_hz = 100000.0", "pulse_rate_hz = 25000.0", 1);
+    let small = text.replacen("pulse_rate_hz = 50000.0", "pulse_rate_hz = 25000.0", 1);
     assert_ne!(small, text, "the demo scenario's pulse rate line moved");
     small
 }

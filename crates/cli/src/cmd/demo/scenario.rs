@@ -4,7 +4,7 @@
 use anyhow::{Context, Result, bail};
 use std::path::{Path, PathBuf};
 
-/// The demo scenario, smaller with `--quick`, its trajectory errors' correlation times (GNSS,
+/// The demo scenario, half the pulses with `--quick`, its trajectory errors' correlation times (GNSS,
 /// attitude; s), which the calibration is told as a user reads them from the navigation
 /// processing report, and its number of flight lines (one strip each).
 pub(super) fn topographic(
@@ -35,9 +35,7 @@ pub(super) fn topographic(
     }
     table.insert("seed".into(), toml::Value::Integer(seed as i64));
     if quick {
-        if let Some(toml::Value::Table(scanner)) = table.get_mut("scanner") {
-            scanner.insert("pulse_rate_hz".into(), toml::Value::Float(50_000.0));
-        }
+        halve_pulse_rate(&mut table, "demo")?;
     }
     let path = dir.join("scenario.toml");
     std::fs::write(&path, toml::to_string(&table)?)
@@ -53,18 +51,24 @@ pub(super) fn bathymetry(dir: &Path, quick: bool, seed: u64) -> Result<PathBuf> 
         toml::from_str(text).context("the built-in bathymetry scenario")?;
     table.insert("seed".into(), toml::Value::Integer(seed as i64));
     if quick {
-        let scanner = table
-            .get_mut("scanner")
-            .and_then(toml::Value::as_table_mut)
-            .context("the built-in bathymetry scenario: no [scanner]")?;
-        let rate = scanner
-            .get("pulse_rate_hz")
-            .and_then(toml::Value::as_float)
-            .context("the built-in bathymetry scenario: scanner.pulse_rate_hz")?;
-        scanner.insert("pulse_rate_hz".into(), toml::Value::Float(rate / 2.0));
+        halve_pulse_rate(&mut table, "bathymetry")?;
     }
     let path = dir.join("scenario.toml");
     std::fs::write(&path, toml::to_string(&table)?)
         .with_context(|| format!("{}", path.display()))?;
     Ok(path)
+}
+
+/// `--quick`: the built-in scenario `name` at half its pulse rate.
+fn halve_pulse_rate(table: &mut toml::Table, name: &str) -> Result<()> {
+    let scanner = table
+        .get_mut("scanner")
+        .and_then(toml::Value::as_table_mut)
+        .with_context(|| format!("the built-in {name} scenario: no [scanner]"))?;
+    let rate = scanner
+        .get("pulse_rate_hz")
+        .and_then(toml::Value::as_float)
+        .with_context(|| format!("the built-in {name} scenario: scanner.pulse_rate_hz"))?;
+    scanner.insert("pulse_rate_hz".into(), toml::Value::Float(rate / 2.0));
+    Ok(())
 }
