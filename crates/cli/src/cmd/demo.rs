@@ -35,7 +35,7 @@ pub struct DemoArgs {
     /// azimuth → tpu with IHO S-44 → report.
     #[arg(long)]
     bathymetry: bool,
-    /// A smaller survey (half the pulses): for tests and slow machines.
+    /// A smaller survey (80 % of the pulses, half for --bathymetry): for tests and slow machines.
     #[arg(long)]
     quick: bool,
     /// Seed of the simulated survey.
