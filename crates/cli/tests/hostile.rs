@@ -508,7 +508,7 @@ fn simulate_bounds_every_size_key() {
             "trajectory_rate_hz = 1e9",
             "motion.trajectory_rate_hz",
         ),
-        ("height_m = 200.0", "height_m = 1e7", "height_m"),
+        ("height_m = 100.0", "height_m = 1e7", "height_m"),
     ];
     for (from, to, needle) in cases {
         let changed = text.replacen(from, to, 1);
