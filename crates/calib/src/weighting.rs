@@ -8,18 +8,19 @@
 //! from the tie scatter alone, knows nothing of it.
 //!
 //! The fix is generalised least squares with the observations' covariance
-//! `C = σ_t² I + A Aᵀ + diag(σ_control²)`, where `σ_t` is the ties' own noise and the columns of
+//! `C = σ_t² I + A Aᵀ`, where `σ_t` is the ties' own noise and the columns of
 //! `A = J_n Σ_n^½` are how each strip's six trajectory offsets (north, east, up, roll, pitch,
 //! heading, each at its 1-σ) move the residuals, by central differences through the same rule-2
-//! tie model. That is the same estimator as solving for the `6 × strips` offsets with their σ as
+//! tie model, then how each control point's survey error (per axis, at its σ) moves them: one
+//! error shared by all its strips' rows. That is the same estimator as solving for the `6 × strips` offsets with their σ as
 //! priors (the Schur complement), with 6 unknowns instead, and `σ_t² (Jᵀ C'⁻¹ J)⁻¹` is then the
 //! mounting's covariance including the trajectory. The residuals are whitened by a `W` with
 //! `Wᵀ W = C'⁻¹`, `C' = C / σ_t²`, so they stay in metres and σ0 still estimates `σ_t`.
 //!
-//! `C'` is diagonal plus rank ≤ 6 × strips, so `W` is never formed as an n × n matrix:
+//! `C'` is diagonal plus rank ≤ 6 × strips + 3 × control points, so `W` is never formed as an n × n matrix:
 //! `W = M D^-½` with `D` the diagonal, `V = D^-½ A / σ_t` and `M = (I + V Vᵀ)^-½
 //! = I + V Q diag((1/√(1+λ) − 1)/λ) Qᵀ Vᵀ` from the eigen-decomposition `Vᵀ V = Q Λ Qᵀ`
-//! (6·strips square). Memory and time are linear in the observations: a thousand ties cost no
+//! (that rank, square). Memory and time are linear in the observations: a thousand ties cost no
 //! n² matrix.
 //!
 //! Strips are taken as independent (a strip's offsets do not correlate with the next one's):
@@ -39,7 +40,7 @@
 //! and 16, and left pitch as it was).
 
 use crate::strip::{Strip, TimeProfile, TrajectoryOffset};
-use crate::vtpm::TieModel;
+use crate::vtpm::{TieModel, TieSpec};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 /// 1-σ of a strip's constant trajectory error: the navigation solution's accuracy (SMRMSG, or the
@@ -134,6 +135,32 @@ pub(crate) fn gauss_markov_modes(start_s: f64, end_s: f64, tau_s: f64) -> Vec<Ti
     modes
 }
 
+/// How each control point's survey error moves the residuals (`n` rows, in the order of
+/// [`TieModel::residuals_from`]), one column per axis at the point's σ. The error is one error
+/// shared by every strip that sees the point, not a variance per row: that would let the strips
+/// average it away and leave it out of the mounting's σ.
+fn control_columns(ties: &[TieSpec], n: usize) -> Vec<DVector<f64>> {
+    let mut columns = Vec::new();
+    let mut row = 0;
+    for t in ties {
+        let rows = t.virtuals.len() * t.directions.len();
+        if let Some(sc) = t.control_sigma_m.filter(|v| v.is_finite() && *v > 0.0) {
+            for axis in 0..3 {
+                let mut col = DVector::zeros(n);
+                for (k, dir) in t.directions.iter().cycle().take(rows).enumerate() {
+                    col[row + k] = sc * dir[axis];
+                }
+                if col.iter().any(|v| *v != 0.0) {
+                    columns.push(col);
+                }
+            }
+        }
+        row += rows;
+    }
+    debug_assert_eq!(row, n);
+    columns
+}
+
 /// `W` of the module docs, in factored form: `W r = y + V (K (Vᵀ y))` with `y = D^-½ r`.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Whitening {
@@ -146,14 +173,12 @@ pub(crate) struct Whitening {
 }
 
 /// How each strip's trajectory error (each component, each Gauss–Markov mode, at 1 σ) moves
-/// the residuals, and the control points' own variance: everything of `C` but the ties' noise,
+/// the residuals, and how each control point's survey error does: everything of `C` but the ties' noise,
 /// computed once (it costs two residual evaluations per column).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct TrajectorySensitivity {
-    /// `A`, m (observations × offsets).
+    /// `A`, m (observations × offsets, then × control points' axes).
     a: DMatrix<f64>,
-    /// The control points' own variance per observation, m² (0 for a tie).
-    control_var_m2: DVector<f64>,
 }
 
 impl TrajectorySensitivity {
@@ -210,18 +235,7 @@ impl TrajectorySensitivity {
                 }
             }
         }
-        let mut control_var_m2 = DVector::zeros(n);
-        let mut row = 0;
-        for t in &model.ties {
-            let rows = t.virtuals.len() * t.directions.len();
-            if let Some(sc) = t.control_sigma_m.filter(|v| v.is_finite() && *v > 0.0) {
-                for i in row..row + rows {
-                    control_var_m2[i] = sc * sc;
-                }
-            }
-            row += rows;
-        }
-        debug_assert_eq!(row, n);
+        columns.extend(control_columns(&model.ties, n));
         let a = if columns.is_empty() {
             DMatrix::zeros(n, 0)
         } else {
@@ -229,15 +243,13 @@ impl TrajectorySensitivity {
         };
         a.iter()
             .all(|v| v.is_finite())
-            .then_some(TrajectorySensitivity { a, control_var_m2 })
+            .then_some(TrajectorySensitivity { a })
     }
 
-    /// `W` for ties with noise `tie_sigma_m`: `C' = I + diag(σ_control²)/σ_t² + A Aᵀ/σ_t²`;
+    /// `W` for ties with noise `tie_sigma_m`: `C' = I + A Aᵀ/σ_t²`;
     /// `None` for non-finite input (`C'` is positive definite for any `tie_sigma_m > 0`).
     pub(crate) fn whitening(&self, tie_sigma_m: f64) -> Option<Whitening> {
-        let d = self
-            .control_var_m2
-            .map(|v| 1.0 + v / (tie_sigma_m * tie_sigma_m));
+        let d = DVector::from_element(self.a.nrows(), 1.0);
         Whitening::from_parts(&self.a / tie_sigma_m, &d)
     }
 }
@@ -347,5 +359,50 @@ mod tests {
         let got = wm.transpose() * &wm;
         assert!((got - &want).abs().max() < 1e-10 * want.abs().max());
         assert!(Whitening::from_parts(a, &d.map(|_| f64::NAN)).is_none());
+    }
+
+    #[test]
+    fn a_control_points_error_is_shared_by_its_strips() {
+        // A control target seen in three strips (height rows) beside a tie between two: the
+        // GLS variance of a height offset observed by the three rows is σ_t²/3 + σ_c², the
+        // survey error not averaged over the strips ((σ_t² + σ_c²)/3 if it were per row).
+        let virtual_in = |strip: usize| crate::vtpm::VirtualTie {
+            strip,
+            vertices: vec![],
+            carried: vec![],
+            coord: Vector3::zeros(),
+            normal: Vector3::z(),
+            plane_points: vec![],
+            target_mean: true,
+            featureless: false,
+        };
+        let spec = |strips: &[usize], control_sigma_m: Option<f64>| TieSpec {
+            id: "T".into(),
+            virtuals: strips.iter().map(|&s| virtual_in(s)).collect(),
+            directions: vec![Vector3::z()],
+            along_normal: false,
+            control: control_sigma_m.map(|_| Vector3::zeros()),
+            control_sigma_m,
+        };
+        let (sigma_t, sigma_c) = (0.004, 0.02);
+        let ties = [spec(&[0, 1], None), spec(&[0, 1, 2], Some(sigma_c))];
+        let columns = control_columns(&ties, 5);
+        assert_eq!(columns.len(), 1);
+        assert_eq!(
+            columns[0].as_slice(),
+            &[0.0, 0.0, sigma_c, sigma_c, sigma_c]
+        );
+        let w = TrajectorySensitivity {
+            a: DMatrix::from_columns(&columns),
+        }
+        .whitening(sigma_t)
+        .unwrap();
+        let wj = DVector::from_vec(w.apply(vec![0.0, 0.0, 1.0, 1.0, 1.0]));
+        let variance = sigma_t * sigma_t / wj.norm_squared();
+        let want = sigma_t * sigma_t / 3.0 + sigma_c * sigma_c;
+        assert!(
+            (variance - want).abs() < 1e-12 * want,
+            "{variance} vs {want}"
+        );
     }
 }

@@ -67,13 +67,13 @@ fn temps(dir: &Path) -> Vec<String> {
         .collect()
 }
 
-/// The demo scenario at 4 kHz instead of 100 kHz: four strips of ~36 000 points, a few seconds
+/// The demo scenario at 4 kHz instead of 50 kHz: four strips of ~36 000 points, a few seconds
 /// even in a debug build.
 fn small_scenario(dir: &Path) -> PathBuf {
     let out = lidarqa(&["simulate", "--scenario", "demo", "--print"]);
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
-    let small = text.replacen("pulse_rate_hz = 100000.0", "pulse_rate_hz = 4000.0", 1);
+    let small = text.replacen("pulse_rate_hz = 50000.0", "pulse_rate_hz = 4000.0", 1);
     assert_ne!(small, text, "the demo scenario's pulse rate line moved");
     let path = dir.join("small.toml");
     std::fs::write(&path, small).unwrap();

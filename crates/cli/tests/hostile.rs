@@ -51,7 +51,7 @@ fn sim(name: &str) -> PathBuf {
 fn small_scenario(dir: &Path, rate_hz: f64) -> PathBuf {
     let text = demo_scenario();
     let small = text.replacen(
-        "pulse_rate_hz = 100000.0",
+        "pulse_rate_hz = 50000.0",
         &format!("pulse_rate_hz = {rate_hz:?}"),
         1,
     );
@@ -497,18 +497,18 @@ fn simulate_bounds_every_size_key() {
     let text = demo_scenario();
     let cases = [
         (
-            "pulse_rate_hz = 100000.0",
+            "pulse_rate_hz = 50000.0",
             "pulse_rate_hz = 1e12",
             "scanner.pulse_rate_hz",
         ),
-        // 4 MHz is a real rate, but over the demo's 36 s it is 1.5e8 pulses.
-        ("pulse_rate_hz = 100000.0", "pulse_rate_hz = 4e6", "pulses"),
+        // 4 MHz is a real rate, but over the demo's 127 s it is 5.1e8 pulses.
+        ("pulse_rate_hz = 50000.0", "pulse_rate_hz = 4e6", "pulses"),
         (
             "trajectory_rate_hz = 200.0",
             "trajectory_rate_hz = 1e9",
             "motion.trajectory_rate_hz",
         ),
-        ("height_m = 200.0", "height_m = 1e7", "height_m"),
+        ("height_m = 100.0", "height_m = 1e7", "height_m"),
     ];
     for (from, to, needle) in cases {
         let changed = text.replacen(from, to, 1);

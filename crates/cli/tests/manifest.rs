@@ -40,7 +40,7 @@ impl Survey {
         let d = dir.path();
         let out = lidarqa(&["simulate", "--scenario", "demo", "--print"]);
         let text = String::from_utf8(out.stdout).unwrap();
-        let text = text.replace("pulse_rate_hz = 100000.0", "pulse_rate_hz = 1000.0");
+        let text = text.replace("pulse_rate_hz = 50000.0", "pulse_rate_hz = 1000.0");
         assert!(
             text.contains("pulse_rate_hz = 1000.0"),
             "the demo's pulse rate moved"

@@ -32,7 +32,7 @@ def survey(work, pulse_rate_hz):
     work = Path(work)
     text = subprocess.run([lidarqa_bin(), "simulate", "--scenario", "demo", "--print"],
                           capture_output=True, text=True, check=True).stdout
-    small = text.replace("pulse_rate_hz = 100000.0", f"pulse_rate_hz = {float(pulse_rate_hz)}")
+    small = text.replace("pulse_rate_hz = 50000.0", f"pulse_rate_hz = {float(pulse_rate_hz)}")
     assert small != text, "the demo scenario's pulse rate moved"
     (work / "scenario.toml").write_text(small)
     cli("simulate", "--scenario", work / "scenario.toml", "-o", work / "sim")

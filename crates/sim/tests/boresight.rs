@@ -47,6 +47,10 @@ fn local_height(strip: &Strip, scenario: &Scenario, x: f64, y: f64) -> (f64, Vec
 #[test]
 fn opposite_strips_disagree_by_the_model_prediction() {
     let mut f = quiet_demo(&[([-300.0, 0.0], [300.0, 0.0]), ([300.0, 0.0], [-300.0, 0.0])]);
+    // 200 m above ground: the swath (±115 m) holds every check point below.
+    for l in &mut f.lines {
+        l.height_m = 200.0;
+    }
     f.errors.boresight_roll_deg = 0.05;
     let scenario = Scenario::from_file(f).unwrap();
     let survey = simulate(

@@ -21,7 +21,7 @@ Example:
   lidarqa demo -o /tmp/demo --quick
   lidarqa demo --bathymetry    the conic bathymetric survey (seed 004) to lidarqa-demo-bathymetry/
 
-Steps: simulate (a survey with injected boresight and lever-arm errors and six surveyed targets) →
+Steps: simulate (a survey with injected boresight and lever-arm errors and twelve surveyed targets) →
 budget → tpu → targets → evaluate → calibrate → correct → targets → evaluate → overlap → report.";
 
 /// Flags of `lidarqa demo`.
@@ -35,7 +35,7 @@ pub struct DemoArgs {
     /// azimuth → tpu with IHO S-44 → report.
     #[arg(long)]
     bathymetry: bool,
-    /// A smaller survey (half the pulses): for tests and slow machines.
+    /// A smaller survey (80 % of the pulses, half for --bathymetry): for tests and slow machines.
     #[arg(long)]
     quick: bool,
     /// Seed of the simulated survey.
@@ -93,12 +93,12 @@ pub fn run(args: DemoArgs) -> Result<()> {
     let fixed = strip_files(&c_dir);
     let steps = vec![
         step(
-            "simulate the survey (injected boresight and lever-arm errors, six targets)",
+            "simulate the survey (injected boresight and lever-arm errors, twelve targets)",
             &["simulate", "--scenario", &scen, "-o", &s_dir],
             None,
         ),
         step(
-            "predict: the error budget at 20° scan angle, 200 m above ground",
+            "predict: the error budget at 20° scan angle, 100 m above ground",
             &[
                 "budget",
                 "--sensor",
@@ -106,7 +106,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
                 "--scan-angle",
                 "20",
                 "--height",
-                "200",
+                "100",
                 "--format",
                 "json",
             ],
@@ -119,7 +119,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
                 "--sensor",
                 &sensor,
                 "--height",
-                "200",
+                "100",
                 "--sweep",
                 "scan-angle=-30:30:2",
                 "--bias",

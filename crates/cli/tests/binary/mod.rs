@@ -32,12 +32,47 @@ pub fn simulate_scenario(dir: &Path, text: &str) -> std::path::PathBuf {
     sim
 }
 
-/// The demo scenario's text at a quarter of its pulse rate (25 kHz): four strips that simulate
-/// and calibrate in seconds.
+/// The demo scenario's first four lines (the low cross, each direction flown both ways) at
+/// 25 kHz, with only the targets those strips see (the others would be control points outside
+/// every strip): four strips that simulate and calibrate in seconds.
 pub fn small_demo_scenario() -> String {
     let text =
         String::from_utf8(lidarqa(&["simulate", "--scenario", "demo", "--print"]).stdout).unwrap();
-    let small = text.replacen("pulse_rate_hz = 100000.0", "pulse_rate_hz = 25000.0", 1);
-    assert_ne!(small, text, "the demo scenario's pulse rate line moved");
-    small
+    let mut demo: toml::Table = toml::from_str(&text).unwrap();
+    let f = |v: &toml::Value| v.as_float().unwrap();
+    let scanner = demo["scanner"].as_table_mut().unwrap();
+    scanner.insert("pulse_rate_hz".into(), toml::Value::Float(25_000.0));
+    let half_fov_rad = f(&scanner["field_of_view_deg"]).to_radians();
+    let lines = demo["lines"].as_array_mut().unwrap();
+    lines.retain(|l| l["id"].as_integer().unwrap() <= 4);
+    // Each kept line's track (start, end) and the half swath on the ground, 5 m inside its edge.
+    let swaths: Vec<([f64; 2], [f64; 2], f64)> = lines
+        .iter()
+        .map(|l| {
+            let xy = |k: &str| {
+                let a = l[k].as_array().unwrap();
+                [f(&a[0]), f(&a[1])]
+            };
+            (
+                xy("start_m"),
+                xy("end_m"),
+                f(&l["height_m"]) * half_fov_rad.tan() - 5.0,
+            )
+        })
+        .collect();
+    let seen = |c: &[f64; 2]| {
+        swaths.iter().any(|(a, b, half)| {
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let t =
+                (((c[0] - a[0]) * dx + (c[1] - a[1]) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
+            (c[0] - a[0] - t * dx).hypot(c[1] - a[1] - t * dy) <= *half
+        })
+    };
+    let targets = demo["scene"]["targets"].as_array_mut().unwrap();
+    targets.retain(|t| {
+        let c = t["center_m"].as_array().unwrap();
+        seen(&[f(&c[0]), f(&c[1])])
+    });
+    assert!(targets.len() >= 4, "{targets:?}");
+    toml::to_string(&demo).unwrap()
 }

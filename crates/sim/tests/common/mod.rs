@@ -7,7 +7,8 @@ use lidarqa_sim::{ErrorsFile, Scenario, ScenarioFile, TrajectoryRecord};
 use nalgebra::{Matrix3, Vector3};
 use std::f64::consts::PI;
 
-/// The demo scenario with every error off and the given lines (start, end) at 300 m.
+/// The demo scenario with every error off and the given lines (start, end) at the height and
+/// speed of its first line.
 pub fn quiet_demo(lines: &[([f64; 2], [f64; 2])]) -> ScenarioFile {
     let mut f = Scenario::builtin("demo").unwrap().file().clone();
     f.errors = ErrorsFile {
