@@ -73,7 +73,7 @@ pub use calibrate_strips::{
     CalibrateJob, LoadedStrip, POINTS_PER_TILE, StripCalibration, TieSource, TrajectoryWeighting,
     VTPM_NEIGHBOURS, calibrate_strips, frame_for, load_all, local_to_projected, projected_to_local,
 };
-pub use context::{TpuContext, TpuOptions};
+pub use context::{TpuContext, TpuOptions, read_calibrated_mounting};
 pub use correct_tile::{
     CorrectTileJob, CorrectTileReport, correct_tile, correct_tile_with_progress,
 };

@@ -7,14 +7,15 @@
 //! Every function raises `lidarqa.LidarqaError` with lidarqa's one-line message (naming the
 //! file, key or value) on failure.
 
-use lidarqa_calib::mounting_from_json;
 use lidarqa_io::{ControlPoints, Crs};
 use lidarqa_pipeline::{
     CorrectTileJob, Manifest, TargetsTileJob, TileReport, TpuContext, TpuOptions, TpuTileJob,
     collect as collect_manifest, control_for_targets, correct_tile as correct_one,
     evaluate_nva as evaluate_nva_files, evaluate_target_files, extract_targets_tile as targets_one,
-    find_targets as find_targets_in, predicted_from_sensor, run_entry, tpu_tile as tpu_one,
+    find_targets as find_targets_in, predicted_from_sensor, read_calibrated_mounting, run_entry,
+    tpu_tile as tpu_one,
 };
+use lidarqa_report::TpuSummary;
 use lidarqa_targets::{CentreMethod, ControlPoint, EvaluateOptions, TargetConfig};
 use lidarqa_tpu::{Biases, GeometryRequest, Preset, Sweep, evaluate, evaluate_sweep};
 use pyo3::create_exception;
@@ -98,12 +99,7 @@ fn correct_tile(
     gps_week: Option<i64>,
 ) -> PyResult<String> {
     py.allow_threads(|| {
-        let text = std::fs::read_to_string(&calibration)
-            .map_err(|e| err(format!("{}: {e}", calibration.display())))?;
-        let doc: serde_json::Value = serde_json::from_str(&text)
-            .map_err(|e| err(format!("{}: not JSON: {e}", calibration.display())))?;
-        let mounting =
-            mounting_from_json(&doc).map_err(|e| err(format!("{}: {e}", calibration.display())))?;
+        let mounting = read_calibrated_mounting(&calibration).map_err(err)?;
         let ctx = TpuContext::from_files(
             &sensor,
             &trajectory,
@@ -196,11 +192,12 @@ fn find_targets(
 }
 
 /// Accuracy of a targets CSV (`lidarqa targets` output) against a control CSV: residuals, RMSE
-/// (seed 000 eqs. 7–8), ASPRS and NSSDA, as `lidarqa evaluate --targets … --control …`. With
-/// `sensor` and `height_m`, the predicted σ is the sensor file's budget at that height (and
-/// `scan_angle_deg`). Returns the evaluation as JSON.
+/// (seed 000 eqs. 7–8), ASPRS and NSSDA, as `lidarqa evaluate --targets … --control …`. The
+/// predicted σ comes from `tpu` (a `tpu_summary.json`: its median per-point σ, as `--tpu`), or
+/// from `sensor` with `height_m` (the sensor file's budget at that height and `scan_angle_deg`,
+/// as `--sensor`). Returns the evaluation as JSON.
 #[pyfunction]
-#[pyo3(signature = (targets, control, horizontal_class_m=None, vertical_class_m=None, sensor=None, height_m=None, scan_angle_deg=None))]
+#[pyo3(signature = (targets, control, horizontal_class_m=None, vertical_class_m=None, sensor=None, height_m=None, scan_angle_deg=None, tpu=None))]
 #[allow(clippy::too_many_arguments)]
 fn evaluate_targets(
     py: Python<'_>,
@@ -211,6 +208,7 @@ fn evaluate_targets(
     sensor: Option<PathBuf>,
     height_m: Option<f64>,
     scan_angle_deg: Option<f64>,
+    tpu: Option<PathBuf>,
 ) -> PyResult<String> {
     let options = EvaluateOptions {
         horizontal_class_m,
@@ -218,11 +216,19 @@ fn evaluate_targets(
     };
     py.allow_threads(|| {
         let mut e = evaluate_target_files(&targets, &control, &options).map_err(err)?;
-        match (&sensor, height_m) {
-            (Some(s), Some(h)) => {
+        match (&tpu, &sensor, height_m) {
+            (Some(t), None, None) => {
+                e.predicted = Some(TpuSummary::predicted_from_file(t).map_err(err)?);
+            }
+            (None, Some(s), Some(h)) => {
                 e.predicted = Some(predicted_from_sensor(s, h, scan_angle_deg).map_err(err)?);
             }
-            (None, None) => {}
+            (None, None, None) => {}
+            (Some(_), _, _) => {
+                return Err(err(
+                    "tpu and sensor are two predictions: give one (tpu, or sensor with height_m)",
+                ));
+            }
             _ => {
                 return Err(err(
                     "sensor and height_m go together (the predicted σ needs both)",

@@ -112,6 +112,24 @@ def test_evaluate_targets_closed_form_and_cli():
         assert "height_m" in str(err)
     else:
         raise AssertionError("sensor without height_m accepted")
+    # With a TPU summary the prediction is its median per-point σ: 3, 4, 12 cm give horizontal
+    # √(3² + 4²) = 5 cm and 3-D √(5² + 12²) = 13 cm, as `lidarqa evaluate --tpu` shows.
+    stats = lambda m: {"min": 0.01, "median": m, "p95": 0.2, "max": 0.3}  # noqa: E731
+    (d / "tpu_summary.json").write_text(json.dumps(
+        {"points": 10, "sigma": {"north": stats(0.03), "east": stats(0.04), "up": stats(0.12)}}))
+    e = lidarqa.evaluate_targets(d / "targets.csv", d / "control.csv", tpu=d / "tpu_summary.json")
+    p = e["predicted"]
+    assert (p["north"], p["east"], p["up"]) == (0.03, 0.04, 0.12), p
+    assert abs(p["horizontal"] - 0.05) < 1e-15 and abs(p["three_d"] - 0.13) < 1e-15, p
+    assert e == cli_json("evaluate", "--targets", d / "targets.csv", "--control", d / "control.csv",
+                         "--tpu", d / "tpu_summary.json")
+    try:
+        lidarqa.evaluate_targets(d / "targets.csv", d / "control.csv", tpu=d / "tpu_summary.json",
+                                 sensor=sensor, height_m=80.0)
+    except lidarqa.LidarqaError as err:
+        assert "give one" in str(err)
+    else:
+        raise AssertionError("tpu and sensor both accepted")
 
 
 def test_evaluate_nva_on_a_plane():

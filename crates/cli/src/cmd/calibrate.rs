@@ -3,14 +3,13 @@
 //! The work is lidarqa-pipeline's `calibrate_strips`; this module parses, checks and prints.
 
 use super::calibrate_table;
-use super::tpu_flags::crs_flags;
+use super::tpu_flags::SurveyFlags;
 use crate::format::{OutputFormat, print_json, print_text, write_json_file};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lidarqa_calib::{CalibrationOptions, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Method};
 use lidarqa_pipeline::{
-    CalibrateJob, POINTS_PER_TILE, TieSource, TpuContext, TpuOptions, TrajectoryWeighting,
-    calibrate_strips,
+    CalibrateJob, POINTS_PER_TILE, TieSource, TrajectoryWeighting, calibrate_strips,
 };
 use std::path::PathBuf;
 
@@ -66,9 +65,6 @@ pub struct CalibrateArgs {
     /// Output calibration.json.
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
-    /// GPS week of the survey (LAS adjusted standard GPS time).
-    #[arg(long, value_name = "WEEK")]
-    gps_week: Option<i64>,
     /// VTPM search radius around a pick, metres [default: the radius that holds ~20 points of
     /// the sparsest strip, at least seed 001's 1 m].
     #[arg(long, value_name = "M", allow_negative_numbers = true)]
@@ -114,13 +110,8 @@ pub struct CalibrateArgs {
         conflicts_with = "no_trajectory_weighting"
     )]
     attitude_correlation_s: Option<f64>,
-    /// UTM zone of the points when the files have no CRS, e.g. 33N or 17S (WGS 84); overrides
-    /// the header's.
-    #[arg(long, value_name = "ZONE", conflicts_with = "epsg")]
-    utm_zone: Option<String>,
-    /// EPSG code of the points' UTM CRS when the files have none (326xx, 327xx, 269xx).
-    #[arg(long, value_name = "CODE")]
-    epsg: Option<u32>,
+    #[command(flatten)]
+    survey: SurveyFlags,
     /// Output format of the summary on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
     format: OutputFormat,
@@ -129,6 +120,8 @@ pub struct CalibrateArgs {
 struct Plan {
     args: CalibrateArgs,
     options: CalibrationOptions,
+    /// The output's directory, where calibration_iterations.json goes too.
+    output_dir: PathBuf,
     iterations_path: PathBuf,
 }
 
@@ -176,11 +169,11 @@ impl TryFrom<CalibrateArgs> for Plan {
                 args.max_iterations
             );
         }
-        let dir = match args.output.parent() {
+        let output_dir = match args.output.parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         };
-        let iterations_path = dir.join("calibration_iterations.json");
+        let iterations_path = output_dir.join("calibration_iterations.json");
         if iterations_path == args.output {
             bail!(
                 "the output must not be named calibration_iterations.json (that file is written beside it)"
@@ -189,6 +182,7 @@ impl TryFrom<CalibrateArgs> for Plan {
         Ok(Plan {
             args,
             options,
+            output_dir,
             iterations_path,
         })
     }
@@ -196,23 +190,10 @@ impl TryFrom<CalibrateArgs> for Plan {
 
 pub fn run(args: CalibrateArgs) -> Result<()> {
     let plan = Plan::try_from(args)?;
-    if let Some(dir) = plan.args.output.parent()
-        && !dir.as_os_str().is_empty()
-    {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("{}: cannot create", dir.display()))?;
-    }
+    std::fs::create_dir_all(&plan.output_dir)
+        .with_context(|| format!("{}: cannot create", plan.output_dir.display()))?;
     let a = &plan.args;
-    let ctx = TpuContext::from_files(
-        &a.sensor,
-        &a.trajectory,
-        None,
-        TpuOptions {
-            gps_week: a.gps_week,
-            crs: crs_flags(a.utm_zone.as_deref(), a.epsg)?,
-            ..TpuOptions::default()
-        },
-    )?;
+    let ctx = a.survey.context(&a.sensor, &a.trajectory)?;
     let run = calibrate_strips(&CalibrateJob {
         strips: &a.strips,
         context: &ctx,
