@@ -454,6 +454,41 @@ pub(crate) struct Solved<M> {
     pub(crate) held_shift: [Option<[f64; PARAM_COUNT]>; PARAM_COUNT],
 }
 
+impl<M> Solved<M> {
+    /// The calibration this solution is, with the method's `ties`; no history, skipped control,
+    /// trajectory weighting, dropped picks or warnings (the VTPM adds its own).
+    pub(crate) fn into_calibration(
+        self,
+        method: Method,
+        prior: &Mounting,
+        options: &CalibrationOptions,
+        ties: Vec<TieReport>,
+    ) -> Calibration {
+        Calibration {
+            method,
+            prior: *prior,
+            mounting: mounting_from_vector(&self.x),
+            sigma: self.sigma,
+            correlation: self.correlation,
+            observable: self.observable,
+            held_because: self.held_because,
+            iterations: self.iterations,
+            termination: self.termination,
+            sigma0_m: self.sigma0_m,
+            redundancy: self.redundancy,
+            ties,
+            history: Vec::new(),
+            skipped_control: Vec::new(),
+            trajectory_sigma: None,
+            prior_sigma: std::array::from_fn(|i| {
+                options.prior_sigma[i].filter(|_| options.solve[i])
+            }),
+            dropped_picks: Vec::new(),
+            warnings: Vec::new(),
+        }
+    }
+}
+
 /// A model with prior observations appended: row `i` is `(x_i − x_prior_i) · weight_i`, where
 /// `weight_i = σ_obs / σ_prior_i` puts it on the scale of the model's own residuals.
 #[derive(Clone)]
@@ -910,25 +945,14 @@ pub fn calibrate_vtpm(
             ties: tie_means(&m.model),
         })
         .collect();
+    let ties = tie_reports(strips, &model, &solved.model.model);
     Ok(Calibration {
-        method: Method::Vtpm,
-        prior: *prior,
-        mounting: mounting_from_vector(&solved.x),
-        sigma: solved.sigma,
-        correlation: solved.correlation,
-        observable: solved.observable,
-        held_because: solved.held_because,
-        iterations: solved.iterations,
-        termination: solved.termination,
-        sigma0_m: solved.sigma0_m,
-        redundancy: solved.redundancy,
-        ties: tie_reports(strips, &model, &solved.model.model),
         history,
         skipped_control: model.skipped_control.clone(),
         trajectory_sigma: options.trajectory_sigma,
-        prior_sigma: std::array::from_fn(|i| options.prior_sigma[i].filter(|_| options.solve[i])),
         dropped_picks: model.dropped_picks.clone(),
         warnings,
+        ..solved.into_calibration(Method::Vtpm, prior, options, ties)
     })
 }
 

@@ -221,26 +221,7 @@ pub fn calibrate_plane(
             residual_after_m: rms_enu(a),
         })
         .collect();
-    Ok(Calibration {
-        method: Method::Plane,
-        prior: *prior,
-        mounting: mounting_from_vector(&solved.x),
-        sigma: solved.sigma,
-        correlation: solved.correlation,
-        observable: solved.observable,
-        held_because: solved.held_because,
-        iterations: solved.iterations,
-        termination: solved.termination,
-        sigma0_m: solved.sigma0_m,
-        redundancy: solved.redundancy,
-        ties,
-        history: Vec::new(),
-        skipped_control: Vec::new(),
-        trajectory_sigma: None,
-        prior_sigma: std::array::from_fn(|i| opts.prior_sigma[i].filter(|_| opts.solve[i])),
-        dropped_picks: Vec::new(),
-        warnings: Vec::new(),
-    })
+    Ok(solved.into_calibration(Method::Plane, prior, &opts, ties))
 }
 
 fn check_plane_options(plane: &PlaneOptions) -> Result<()> {

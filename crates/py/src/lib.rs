@@ -125,12 +125,14 @@ fn correct_tile(
     })
 }
 
-/// The control points of a control CSV and the extraction settings of `method`.
+/// The control points of a control CSV and the extraction settings of `method` (a
+/// [`CentreMethod`] name).
 fn targets_setup(
     control: &Path,
     radius_m: Option<f64>,
-    method: CentreMethod,
+    method: &str,
 ) -> PyResult<(Vec<ControlPoint>, TargetConfig)> {
+    let method: CentreMethod = method.parse().map_err(|e| err(format!("method: {e}")))?;
     let table = ControlPoints::from_path(control).map_err(err)?;
     let points = control_for_targets(&table, radius_m).map_err(err)?;
     let mut config = TargetConfig::default();
@@ -152,7 +154,6 @@ fn extract_targets_tile(
     method: &str,
     window_m: f64,
 ) -> PyResult<String> {
-    let method: CentreMethod = method.parse().map_err(|e| err(format!("method: {e}")))?;
     py.allow_threads(|| {
         let (points, config) = targets_setup(&control, radius_m, method)?;
         let r = targets_one(&TargetsTileJob {
@@ -182,7 +183,6 @@ fn find_targets(
     method: &str,
     window_m: f64,
 ) -> PyResult<String> {
-    let method: CentreMethod = method.parse().map_err(|e| err(format!("method: {e}")))?;
     py.allow_threads(|| {
         let (points, config) = targets_setup(&control, radius_m, method)?;
         let (report, warnings) =

@@ -132,6 +132,24 @@ def test_evaluate_targets_closed_form_and_cli():
         raise AssertionError("tpu and sensor both accepted")
 
 
+def test_correct_tile_names_a_bad_calibration():
+    """The calibration is read by the one reader `lidarqa correct` uses: its errors name the file
+    and the key, before any strip is opened."""
+    d = Path(tempfile.mkdtemp(prefix="lidarqa-py-correct-"))
+    cal = d / "calibration.json"
+    args = [d / "strip.laz", d / "out.laz", d / "sbet.out", d / "sensor.toml", cal]
+    for text, want in [("{", "not JSON"),
+                       (json.dumps({"parameters": {"lever_x_m": 0.0}}),
+                        "parameters.lever_y_m is missing or not a number")]:
+        cal.write_text(text)
+        try:
+            lidarqa.correct_tile(*args)
+        except lidarqa.LidarqaError as e:
+            assert str(e).startswith(f"{cal}: ") and want in str(e), str(e)
+        else:
+            raise AssertionError(f"{text!r}: no error")
+
+
 def test_evaluate_nva_on_a_plane():
     import laspy
     import numpy as np
