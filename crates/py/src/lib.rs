@@ -7,12 +7,13 @@
 //! Every function raises `lidarqa.LidarqaError` with lidarqa's one-line message (naming the
 //! file, key or value) on failure.
 
+use lidarqa_calib::OverlapOptions;
 use lidarqa_io::{ControlPoints, Crs};
 use lidarqa_pipeline::{
     CorrectTileJob, Manifest, TargetsTileJob, TileReport, TpuContext, TpuOptions, TpuTileJob,
     collect as collect_manifest, control_for_targets, correct_tile as correct_one,
     evaluate_nva as evaluate_nva_files, evaluate_target_files, extract_targets_tile as targets_one,
-    find_targets as find_targets_in, predicted_from_sensor, read_calibrated_mounting, run_entry,
+    find_targets as find_targets_in, overlap_files, predicted_from_sensor, targets_csv, read_calibrated_mounting, run_entry,
     tpu_tile as tpu_one,
 };
 use lidarqa_report::TpuSummary;
@@ -172,9 +173,10 @@ fn extract_targets_tile(
 /// Targets in several files (strips or tiles) near the control points of `control` (CSV
 /// `id,x,y,z[,sigma_h,sigma_v,radius_m]`), each file searched on its own and the per-file centres
 /// merged per control id (what `lidarqa targets` does). Returns the merged report and its
-/// warnings as JSON (`{"report": ..., "warnings": [...]}`); writes nothing.
+/// warnings as JSON (`{"report": ..., "warnings": [...]}`); with `output`, also writes the targets
+/// CSV there (atomically, never over an input), byte for byte what `lidarqa targets -o` writes.
 #[pyfunction]
-#[pyo3(signature = (inputs, control, radius_m=None, method="circle-fit", window_m=6.0))]
+#[pyo3(signature = (inputs, control, radius_m=None, method="circle-fit", window_m=6.0, output=None))]
 fn find_targets(
     py: Python<'_>,
     inputs: Vec<PathBuf>,
@@ -182,11 +184,20 @@ fn find_targets(
     radius_m: Option<f64>,
     method: &str,
     window_m: f64,
+    output: Option<PathBuf>,
 ) -> PyResult<String> {
     py.allow_threads(|| {
+        lidarqa_io::check_distinct_inputs(&inputs).map_err(err)?;
         let (points, config) = targets_setup(&control, radius_m, method)?;
         let (report, warnings) =
             find_targets_in(&inputs, &points, &config, window_m).map_err(err)?;
+        if let Some(out) = &output {
+            let mut read: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+            read.push(&control);
+            targets_csv(out, &report)
+                .write_path(out, &read)
+                .map_err(err)?;
+        }
         json(&serde_json::json!({ "report": report, "warnings": warnings }))
     })
 }
@@ -237,6 +248,28 @@ fn evaluate_targets(
         }
         json(&e)
     })
+}
+
+/// Swath-to-swath height differences of overlapping strips (LAS/LAZ, two or more) on smooth
+/// cells of `cell_m` (USGS Lidar Base Specification interswath accuracy), as `lidarqa overlap -o`
+/// writes them: per strip pair RMSDz, max |dz| and mean dz, the dz grid and a profile. Returns the
+/// JSON.
+#[pyfunction]
+#[pyo3(signature = (strips, cell_m=1.0, max_roughness_m=0.05, max_slope_deg=10.0))]
+fn overlap(
+    py: Python<'_>,
+    strips: Vec<PathBuf>,
+    cell_m: f64,
+    max_roughness_m: f64,
+    max_slope_deg: f64,
+) -> PyResult<String> {
+    let options = OverlapOptions {
+        cell_m,
+        max_roughness_m,
+        max_slope_deg,
+        ..OverlapOptions::default()
+    };
+    py.allow_threads(|| json(&overlap_files(&strips, &options).map_err(err)?.to_json()))
 }
 
 /// Vertical checkpoints (CSV `id,x,y,z[,…]`) against the TIN of the class-`ground_class` points
@@ -393,6 +426,7 @@ fn _lidarqa(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(find_targets, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate_targets, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate_nva, m)?)?;
+    m.add_function(wrap_pyfunction!(overlap, m)?)?;
     m.add_function(wrap_pyfunction!(budget, m)?)?;
     m.add_function(wrap_pyfunction!(run_manifest_entry, m)?)?;
     m.add_function(wrap_pyfunction!(manifest_len, m)?)?;

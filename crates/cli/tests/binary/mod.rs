@@ -47,6 +47,28 @@ pub fn fails_with(out: &Output, needles: &[&str]) -> String {
     err
 }
 
+/// `COMMAND INPUT --trajectory SBET --sensor SENSOR --calibration CAL -o OUTPUT`: a `tpu` or
+/// `correct` run with a calibration.
+pub fn with_calibration<'a>(
+    command: &'a str,
+    input: &'a Path,
+    [sbet, sensor, cal]: [&'a Path; 3],
+    output: &'a Path,
+) -> Vec<&'a str> {
+    vec![
+        command,
+        s(input),
+        "--trajectory",
+        s(sbet),
+        "--sensor",
+        s(sensor),
+        "--calibration",
+        s(cal),
+        "-o",
+        s(output),
+    ]
+}
+
 /// A test path as an argument (the temporary directories are UTF-8).
 pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
