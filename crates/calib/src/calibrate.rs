@@ -393,6 +393,20 @@ pub fn mounting_from_json(doc: &Value) -> Result<Mounting> {
     Ok(mounting_from_vector(&x))
 }
 
+/// The strips of a calibration: two or more, each valid ([`check_strips`]), each overlapping
+/// another.
+pub(crate) fn check_calibration_strips(strips: &[Strip]) -> Result<()> {
+    if strips.len() < 2 {
+        return Err(Error::TooFewStrips {
+            what: "calibration",
+            needed: 2,
+            got: strips.len(),
+        });
+    }
+    check_strips(strips)?;
+    check_overlap(strips)
+}
+
 /// Strip extents must each meet another's.
 pub(crate) fn check_overlap(strips: &[Strip]) -> Result<()> {
     let ext: Vec<[f64; 4]> = strips.iter().filter_map(Strip::extent_m).collect();
@@ -826,15 +840,7 @@ pub fn calibrate_vtpm(
     options: &CalibrationOptions,
 ) -> Result<Calibration> {
     options.check()?;
-    if strips.len() < 2 {
-        return Err(Error::TooFewStrips {
-            what: "calibration",
-            needed: 2,
-            got: strips.len(),
-        });
-    }
-    check_strips(strips)?;
-    check_overlap(strips)?;
+    check_calibration_strips(strips)?;
     let x0 = mounting_to_vector(prior);
     let idx = Indexed::new(strips, options.vtpm.radius_m.max(0.5));
     let mut model = build_tie_model(&idx, ties, control, &x0, &options.vtpm)?;

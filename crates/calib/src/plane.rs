@@ -11,7 +11,8 @@
 //! visible, which is why the method needs them and the VTPM does not.
 
 use crate::calibrate::{
-    Calibration, CalibrationOptions, Method, TieReport, check_overlap, solve_with_observability,
+    Calibration, CalibrationOptions, Method, TieReport, check_calibration_strips,
+    solve_with_observability,
 };
 use crate::error::{Error, Result};
 use crate::geometry::ransac_plane;
@@ -171,15 +172,7 @@ pub fn calibrate_plane(
     options: &CalibrationOptions,
     plane: &PlaneOptions,
 ) -> Result<Calibration> {
-    if strips.len() < 2 {
-        return Err(Error::TooFewStrips {
-            what: "calibration",
-            needed: 2,
-            got: strips.len(),
-        });
-    }
-    check_strips(strips)?;
-    check_overlap(strips)?;
+    check_calibration_strips(strips)?;
     check_plane_options(plane)?;
     let idx = Indexed::new(strips, plane.radius_m);
     let patches = build_patches(&idx, patch_centres, prior, plane);
