@@ -22,6 +22,9 @@ pub enum Method {
 }
 
 impl Method {
+    /// Both methods, the VTPM (the default) first.
+    pub const ALL: [Method; 2] = [Method::Vtpm, Method::Plane];
+
     /// `"vtpm"` or `"plane"` (SPEC §8 `method`).
     pub fn name(self) -> &'static str {
         match self {

@@ -7,6 +7,7 @@ use super::tpu_flags::SurveyFlags;
 use crate::format::{OutputFormat, print_json, print_text, write_json_file};
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use lidarqa_calib::{CalibrationOptions, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Method};
 use lidarqa_pipeline::{
     CalibrateJob, POINTS_PER_TILE, TieSource, TrajectoryWeighting, calibrate_strips,
@@ -60,8 +61,8 @@ pub struct CalibrateArgs {
     #[arg(long, value_name = "FILE")]
     control: Option<PathBuf>,
     /// vtpm (seed 001, lever arm + boresight) or plane (point-to-plane baseline, boresight only).
-    #[arg(long, default_value = "vtpm", value_parser = ["vtpm", "plane"])]
-    method: String,
+    #[arg(long, default_value = "vtpm", value_parser = parse_method())]
+    method: Method,
     /// Output calibration.json.
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
@@ -115,6 +116,16 @@ pub struct CalibrateArgs {
     /// Output format of the summary on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
     format: OutputFormat,
+}
+
+/// `--method`: one of calib's [`Method`] names, listed in `--help` as clap's possible values.
+fn parse_method() -> impl TypedValueParser<Value = Method> {
+    PossibleValuesParser::new(Method::ALL.map(Method::name)).try_map(|name| {
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name() == name)
+            .ok_or("not a calibration method")
+    })
 }
 
 struct Plan {
@@ -202,11 +213,7 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
             .as_deref()
             .map_or(TieSource::Automatic, TieSource::Picks),
         control: a.control.as_deref(),
-        method: if a.method == "plane" {
-            Method::Plane
-        } else {
-            Method::Vtpm
-        },
+        method: a.method,
         options: plan.options,
         radius_given: a.radius_m.is_some(),
         weighting: (!a.no_trajectory_weighting).then_some(TrajectoryWeighting {
@@ -265,6 +272,8 @@ mod tests {
         assert!(Cli::try_parse_from(BASE).is_err());
         assert!(parse(&["--ties", "t.csv", "--auto-ties"]).is_err());
         let c = parse(&["--auto-ties", "--radius-m", "1.5", "--method", "plane"]).unwrap();
+        assert_eq!(c.args.method, Method::Plane);
+        assert!(parse(&["--auto-ties", "--method", "planar"]).is_err());
         let plan = Plan::try_from(c.args).unwrap();
         assert_eq!(plan.options.vtpm.radius_m, 1.5);
         assert_eq!(
