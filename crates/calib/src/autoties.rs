@@ -31,7 +31,9 @@
 use crate::error::{Error, Result};
 use crate::geometry::{quadratic_sag_m, ransac_plane};
 use crate::strip::{Georeferencing, Strip, check_strips, within};
-use crate::vtpm::{Indexed, Tie, TieKind, TiePick, VtpmOptions, build_virtual_tie, mix_seed};
+use crate::vtpm::{
+    Indexed, PickInStrip, Tie, TieKind, TiePick, VtpmOptions, build_virtual_tie, mix_seed,
+};
 use lidarqa_model::Mounting;
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
@@ -289,16 +291,16 @@ pub fn select_auto_ties(
 fn usable(idx: &Indexed<'_>, g: &Georeferencing, tie: &Tie, opts: &AutoTieOptions) -> bool {
     tie.picks.iter().enumerate().all(|(pi, p)| {
         idx.strip_index(&p.strip).is_some_and(|s| {
-            build_virtual_tie(
+            build_virtual_tie(&PickInStrip {
                 idx,
-                s,
-                &tie.id,
-                p.north_m,
-                p.east_m,
+                strip: s,
+                tie_id: &tie.id,
+                x: p.north_m,
+                y: p.east_m,
                 g,
-                &opts.vtpm,
-                mix_seed(opts.seed, 7, pi),
-            )
+                opts: &opts.vtpm,
+                seed: mix_seed(opts.seed, 7, pi),
+            })
             .is_ok()
         })
     })

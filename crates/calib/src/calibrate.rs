@@ -22,6 +22,9 @@ pub enum Method {
 }
 
 impl Method {
+    /// Both methods, the VTPM (the default) first.
+    pub const ALL: [Method; 2] = [Method::Vtpm, Method::Plane];
+
     /// `"vtpm"` or `"plane"` (SPEC §8 `method`).
     pub fn name(self) -> &'static str {
         match self {
@@ -393,6 +396,20 @@ pub fn mounting_from_json(doc: &Value) -> Result<Mounting> {
     Ok(mounting_from_vector(&x))
 }
 
+/// The strips of a calibration: two or more, each valid ([`check_strips`]), each overlapping
+/// another.
+pub(crate) fn check_calibration_strips(strips: &[Strip]) -> Result<()> {
+    if strips.len() < 2 {
+        return Err(Error::TooFewStrips {
+            what: "calibration",
+            needed: 2,
+            got: strips.len(),
+        });
+    }
+    check_strips(strips)?;
+    check_overlap(strips)
+}
+
 /// Strip extents must each meet another's.
 pub(crate) fn check_overlap(strips: &[Strip]) -> Result<()> {
     let ext: Vec<[f64; 4]> = strips.iter().filter_map(Strip::extent_m).collect();
@@ -452,6 +469,41 @@ pub(crate) struct Solved<M> {
     /// Per held parameter: how far the solved ones move per unit error in it,
     /// `−N⁻¹ Jᵀ j_held` (zero for the held ones); `None` for a solved parameter.
     pub(crate) held_shift: [Option<[f64; PARAM_COUNT]>; PARAM_COUNT],
+}
+
+impl<M> Solved<M> {
+    /// The calibration this solution is, with the method's `ties`; no history, skipped control,
+    /// trajectory weighting, dropped picks or warnings (the VTPM adds its own).
+    pub(crate) fn into_calibration(
+        self,
+        method: Method,
+        prior: &Mounting,
+        options: &CalibrationOptions,
+        ties: Vec<TieReport>,
+    ) -> Calibration {
+        Calibration {
+            method,
+            prior: *prior,
+            mounting: mounting_from_vector(&self.x),
+            sigma: self.sigma,
+            correlation: self.correlation,
+            observable: self.observable,
+            held_because: self.held_because,
+            iterations: self.iterations,
+            termination: self.termination,
+            sigma0_m: self.sigma0_m,
+            redundancy: self.redundancy,
+            ties,
+            history: Vec::new(),
+            skipped_control: Vec::new(),
+            trajectory_sigma: None,
+            prior_sigma: std::array::from_fn(|i| {
+                options.prior_sigma[i].filter(|_| options.solve[i])
+            }),
+            dropped_picks: Vec::new(),
+            warnings: Vec::new(),
+        }
+    }
 }
 
 /// A model with prior observations appended: row `i` is `(x_i − x_prior_i) · weight_i`, where
@@ -791,15 +843,7 @@ pub fn calibrate_vtpm(
     options: &CalibrationOptions,
 ) -> Result<Calibration> {
     options.check()?;
-    if strips.len() < 2 {
-        return Err(Error::TooFewStrips {
-            what: "calibration",
-            needed: 2,
-            got: strips.len(),
-        });
-    }
-    check_strips(strips)?;
-    check_overlap(strips)?;
+    check_calibration_strips(strips)?;
     let x0 = mounting_to_vector(prior);
     let idx = Indexed::new(strips, options.vtpm.radius_m.max(0.5));
     let mut model = build_tie_model(&idx, ties, control, &x0, &options.vtpm)?;
@@ -910,25 +954,14 @@ pub fn calibrate_vtpm(
             ties: tie_means(&m.model),
         })
         .collect();
+    let ties = tie_reports(strips, &model, &solved.model.model);
     Ok(Calibration {
-        method: Method::Vtpm,
-        prior: *prior,
-        mounting: mounting_from_vector(&solved.x),
-        sigma: solved.sigma,
-        correlation: solved.correlation,
-        observable: solved.observable,
-        held_because: solved.held_because,
-        iterations: solved.iterations,
-        termination: solved.termination,
-        sigma0_m: solved.sigma0_m,
-        redundancy: solved.redundancy,
-        ties: tie_reports(strips, &model, &solved.model.model),
         history,
         skipped_control: model.skipped_control.clone(),
         trajectory_sigma: options.trajectory_sigma,
-        prior_sigma: std::array::from_fn(|i| options.prior_sigma[i].filter(|_| options.solve[i])),
         dropped_picks: model.dropped_picks.clone(),
         warnings,
+        ..solved.into_calibration(Method::Vtpm, prior, options, ties)
     })
 }
 

@@ -14,7 +14,7 @@
 
 use crate::error::{Error, Result};
 use serde_json::{Value, json};
-use std::collections::HashMap;
+use std::collections::BTreeMap;
 
 /// A strip for overlap QC: points as `[x, y, z]`, metres, z up.
 #[derive(Debug, Clone, PartialEq)]
@@ -173,9 +173,9 @@ fn fit_cells(
     origin: [f64; 2],
     nx: usize,
     opts: &OverlapOptions,
-) -> HashMap<usize, CellFit> {
+) -> BTreeMap<usize, CellFit> {
     let c = opts.cell_m;
-    let mut bins: HashMap<usize, Vec<usize>> = HashMap::new();
+    let mut bins: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for (k, p) in points.iter().enumerate() {
         let ix = ((p[0] - origin[0]) / c).floor() as usize;
         let iy = ((p[1] - origin[1]) / c).floor() as usize;
@@ -276,12 +276,12 @@ pub fn overlap_qc(strips: &[OverlapStrip], opts: &OverlapOptions) -> Result<Over
     let origin = [(min[0] / c).floor() * c, (min[1] / c).floor() * c];
     let nx = ((max[0] - origin[0]) / c).floor() as usize + 1;
     let ny = ((max[1] - origin[1]) / c).floor() as usize + 1;
-    let fits: Vec<HashMap<usize, CellFit>> = strips
+    let fits: Vec<BTreeMap<usize, CellFit>> = strips
         .iter()
         .map(|s| fit_cells(&s.points, origin, nx, opts))
         .collect();
     let mut pairs = Vec::new();
-    let mut grid: HashMap<usize, f64> = HashMap::new();
+    let mut grid: BTreeMap<usize, f64> = BTreeMap::new();
     for a in 0..strips.len() {
         for b in a + 1..strips.len() {
             let (mut n, mut s2, mut s1, mut mx) = (0usize, 0.0, 0.0, 0.0f64);
@@ -414,6 +414,33 @@ mod tests {
             j["grid"]["dz_m"].as_array().unwrap().len(),
             r.grid.nx * r.grid.ny
         );
+    }
+
+    /// The sums run over the cells in one order (a hash map's order changes from map to map,
+    /// and with it the last bits of RMSDz: the demo's overlap files differed between runs).
+    #[test]
+    fn the_result_does_not_depend_on_the_run() {
+        // Each cell's dz differs, over four orders of magnitude, so the order of the sums shows
+        // in their last bits.
+        let mut wobbly = plane_strip("2", 0.0, 3.0);
+        for p in &mut wobbly.points {
+            let cell = (p[0].floor() as usize) * 31 + p[1].floor() as usize;
+            let digits = -((cell % 5) as i32) - 2;
+            p[2] += ((cell * 7919) % 97 + 1) as f64 * 10f64.powi(digits) / 97.0;
+        }
+        let strips = [plane_strip("1", 0.0, 0.0), wobbly];
+        let first = overlap_qc(&strips, &OverlapOptions::default()).unwrap();
+        for _ in 0..10 {
+            let again = overlap_qc(&strips, &OverlapOptions::default()).unwrap();
+            assert_eq!(
+                again.pairs[0].rmsdz_m.to_bits(),
+                first.pairs[0].rmsdz_m.to_bits()
+            );
+            assert_eq!(
+                again.pairs[0].mean_dz_m.to_bits(),
+                first.pairs[0].mean_dz_m.to_bits()
+            );
+        }
     }
 
     #[test]

@@ -11,7 +11,8 @@
 //! visible, which is why the method needs them and the VTPM does not.
 
 use crate::calibrate::{
-    Calibration, CalibrationOptions, Method, TieReport, check_overlap, solve_with_observability,
+    Calibration, CalibrationOptions, Method, TieReport, check_calibration_strips,
+    solve_with_observability,
 };
 use crate::error::{Error, Result};
 use crate::geometry::ransac_plane;
@@ -171,15 +172,7 @@ pub fn calibrate_plane(
     options: &CalibrationOptions,
     plane: &PlaneOptions,
 ) -> Result<Calibration> {
-    if strips.len() < 2 {
-        return Err(Error::TooFewStrips {
-            what: "calibration",
-            needed: 2,
-            got: strips.len(),
-        });
-    }
-    check_strips(strips)?;
-    check_overlap(strips)?;
+    check_calibration_strips(strips)?;
     check_plane_options(plane)?;
     let idx = Indexed::new(strips, plane.radius_m);
     let patches = build_patches(&idx, patch_centres, prior, plane);
@@ -221,26 +214,7 @@ pub fn calibrate_plane(
             residual_after_m: rms_enu(a),
         })
         .collect();
-    Ok(Calibration {
-        method: Method::Plane,
-        prior: *prior,
-        mounting: mounting_from_vector(&solved.x),
-        sigma: solved.sigma,
-        correlation: solved.correlation,
-        observable: solved.observable,
-        held_because: solved.held_because,
-        iterations: solved.iterations,
-        termination: solved.termination,
-        sigma0_m: solved.sigma0_m,
-        redundancy: solved.redundancy,
-        ties,
-        history: Vec::new(),
-        skipped_control: Vec::new(),
-        trajectory_sigma: None,
-        prior_sigma: std::array::from_fn(|i| opts.prior_sigma[i].filter(|_| opts.solve[i])),
-        dropped_picks: Vec::new(),
-        warnings: Vec::new(),
-    })
+    Ok(solved.into_calibration(Method::Plane, prior, &opts, ties))
 }
 
 fn check_plane_options(plane: &PlaneOptions) -> Result<()> {

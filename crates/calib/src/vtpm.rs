@@ -271,27 +271,39 @@ const MIN_COPLANAR_DENOMINATOR: usize = 3;
 /// Each growth step multiplies the window radius by this.
 const WINDOW_GROWTH_STEP: f64 = 1.5;
 
-/// Builds the virtual tie of `tie_id` in strip `s` at the pick (x, y) with the mounting `g`
+/// One pick of a tie in one strip, as [`build_virtual_tie`] carries it.
+#[derive(Clone, Copy)]
+pub(crate) struct PickInStrip<'a> {
+    /// The strips and their search grids.
+    pub(crate) idx: &'a Indexed<'a>,
+    /// The strip's index in `idx`.
+    pub(crate) strip: usize,
+    /// The tie's id, for errors.
+    pub(crate) tie_id: &'a str,
+    /// The pick, local north, m.
+    pub(crate) x: f64,
+    /// The pick, local east, m.
+    pub(crate) y: f64,
+    /// The mounting the points are georeferenced with.
+    pub(crate) g: &'a Georeferencing,
+    /// Window radius, RANSAC and carrier settings.
+    pub(crate) opts: &'a VtpmOptions,
+    /// Seed of the RANSAC draws.
+    pub(crate) seed: u64,
+}
+
+/// Builds the virtual tie of `tie_id` in strip `strip` at the pick (x, y) with the mounting `g`
 /// (seed 001 step 2, then rule 1 for the initial height).
 ///
 /// The window starts at [`VtpmOptions::radius_m`] and grows by [`WINDOW_GROWTH_STEP`] (up to
 /// [`MAX_WINDOW_GROWTH`] times) while RANSAC finds no plane or no Delaunay triangle of the
 /// coplanar points holds the pick: the window follows the strip's sampling, however anisotropic,
 /// and stays as small as the sampling allows (rule 2's rigid motion is best on a small patch).
-#[allow(clippy::too_many_arguments)] // internal; each argument is a distinct input
-pub(crate) fn build_virtual_tie(
-    idx: &Indexed<'_>,
-    s: usize,
-    tie_id: &str,
-    x: f64,
-    y: f64,
-    g: &Georeferencing,
-    opts: &VtpmOptions,
-    seed: u64,
-) -> Result<VirtualTie> {
+pub(crate) fn build_virtual_tie(pick: &PickInStrip<'_>) -> Result<VirtualTie> {
+    let opts = pick.opts;
     let mut radius_m = opts.radius_m;
     loop {
-        let out = build_virtual_tie_within(idx, s, tie_id, x, y, g, opts, seed, radius_m);
+        let out = build_virtual_tie_within(pick, radius_m);
         let grown = radius_m * WINDOW_GROWTH_STEP;
         match out {
             Err(Error::NoCoplanarTriangle { .. }) | Err(Error::TieOutsideStrip { .. })
@@ -305,18 +317,17 @@ pub(crate) fn build_virtual_tie(
 }
 
 /// [`build_virtual_tie`] with one window radius.
-#[allow(clippy::too_many_arguments)] // internal; each argument is a distinct input
-fn build_virtual_tie_within(
-    idx: &Indexed<'_>,
-    s: usize,
-    tie_id: &str,
-    x: f64,
-    y: f64,
-    g: &Georeferencing,
-    opts: &VtpmOptions,
-    seed: u64,
-    radius_m: f64,
-) -> Result<VirtualTie> {
+fn build_virtual_tie_within(pick: &PickInStrip<'_>, radius_m: f64) -> Result<VirtualTie> {
+    let PickInStrip {
+        idx,
+        strip: s,
+        tie_id,
+        x,
+        y,
+        g,
+        opts,
+        seed,
+    } = *pick;
     let strip = &idx.strips[s];
     let near = within(&idx.grids[s], &strip.points, x, y, radius_m);
     if near.is_empty() {
@@ -705,16 +716,16 @@ pub(crate) fn build_tie_model(
                     message: format!("picked twice in strip {}", pick.strip),
                 });
             }
-            match build_virtual_tie(
+            match build_virtual_tie(&PickInStrip {
                 idx,
-                s,
-                &tie.id,
-                pick.north_m,
-                pick.east_m,
-                &g,
+                strip: s,
+                tie_id: &tie.id,
+                x: pick.north_m,
+                y: pick.east_m,
+                g: &g,
                 opts,
-                mix_seed(opts.seed, ti, pi),
-            ) {
+                seed: mix_seed(opts.seed, ti, pi),
+            }) {
                 Ok(v) => virtuals.push(v),
                 Err(Error::NoCoplanarTriangle { reason, .. }) => dropped.push(DroppedPick {
                     tie: tie.id.clone(),
@@ -800,16 +811,16 @@ pub(crate) fn build_tie_model(
             }
             // A checkpoint with no coplanar triangle around it in one strip is not observed
             // there (the others still do).
-            match build_virtual_tie(
+            match build_virtual_tie(&PickInStrip {
                 idx,
-                s,
-                &c.id,
+                strip: s,
+                tie_id: &c.id,
                 x,
                 y,
-                &g,
+                g: &g,
                 opts,
-                mix_seed(opts.seed ^ 0xC0, ci, s),
-            ) {
+                seed: mix_seed(opts.seed ^ 0xC0, ci, s),
+            }) {
                 Ok(v) => virtuals.push(v),
                 Err(Error::NoCoplanarTriangle { .. }) => continue,
                 Err(e) => return Err(e),
@@ -915,7 +926,17 @@ mod tests {
             ..VtpmOptions::default()
         };
         assert!(within(&idx.grids[0], &strips[0].points, 0.68, 0.05, 0.5).is_empty());
-        let v = build_virtual_tie(&idx, 0, "M01", 0.68, 0.05, &g, &opts, 1).unwrap();
+        let pick = |opts| PickInStrip {
+            idx: &idx,
+            strip: 0,
+            tie_id: "M01",
+            x: 0.68,
+            y: 0.05,
+            g: &g,
+            opts,
+            seed: 1,
+        };
+        let v = build_virtual_tie(&pick(&opts)).unwrap();
         assert_eq!(v.vertices.len(), 3);
         assert!(v.coord.z.abs() < 1e-12);
         let xs: Vec<f64> = v
@@ -930,7 +951,7 @@ mod tests {
             ..VtpmOptions::default()
         };
         assert!(matches!(
-            build_virtual_tie(&idx, 0, "M01", 0.68, 0.05, &g, &far, 1),
+            build_virtual_tie(&pick(&far)),
             Err(Error::TieOutsideStrip { .. })
         ));
     }

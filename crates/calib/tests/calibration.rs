@@ -40,6 +40,18 @@ fn survey() -> &'static (Survey, Vec<Tie>) {
     })
 }
 
+/// The VTPM of `s` with `ties` and `control`, default options, from a zero mounting.
+fn vtpm(s: &Survey, ties: &[Tie], control: &[ControlPoint]) -> Calibration {
+    calibrate_vtpm(
+        &s.strips,
+        ties,
+        control,
+        &Mounting::default(),
+        &CalibrationOptions::default(),
+    )
+    .unwrap()
+}
+
 const DEG: f64 = std::f64::consts::PI / 180.0;
 
 fn errors(cal: &Calibration, truth: &Mounting) -> [f64; 6] {
@@ -52,14 +64,7 @@ fn errors(cal: &Calibration, truth: &Mounting) -> [f64; 6] {
 fn vtpm_without_control_recovers_boresight_and_horizontal_lever_and_holds_lever_z() {
     let (s, ties) = survey();
     assert!(ties.len() >= 40, "{} ties", ties.len());
-    let cal = calibrate_vtpm(
-        &s.strips,
-        ties,
-        &[],
-        &Mounting::default(),
-        &CalibrationOptions::default(),
-    )
-    .unwrap();
+    let cal = vtpm(s, ties, &[]);
     let e = errors(&cal, &s.truth);
     for (k, name) in [(3, "roll"), (4, "pitch"), (5, "yaw")] {
         assert!(e[k].abs() < 0.003 * DEG, "{name}: {} deg", e[k] / DEG);
@@ -115,14 +120,7 @@ fn vtpm_with_control_recovers_lever_z() {
     let (s, ties) = survey();
     let control = s.control_for(ties, 6);
     assert_eq!(control.len(), 6);
-    let cal = calibrate_vtpm(
-        &s.strips,
-        ties,
-        &control,
-        &Mounting::default(),
-        &CalibrationOptions::default(),
-    )
-    .unwrap();
+    let cal = vtpm(s, ties, &control);
     let e = errors(&cal, &s.truth);
     assert!(cal.observable.iter().all(|o| *o), "{:?}", cal.held_because);
     for k in 0..3 {
@@ -156,14 +154,7 @@ fn lever_x_correlated_with_pitch_is_solved_with_an_honest_sigma_not_held() {
     let ties = s.hand_ties(0.01, 5);
     // With control, so that no held lever z (0.2 m off) leaks into lever x through the pitch.
     let control = s.control_for(&ties, 4);
-    let cal = calibrate_vtpm(
-        &s.strips,
-        &ties,
-        &control,
-        &Mounting::default(),
-        &CalibrationOptions::default(),
-    )
-    .unwrap();
+    let cal = vtpm(&s, &ties, &control);
     assert!(cal.observable.iter().all(|o| *o), "{:?}", cal.held_because);
     let rho = cal.correlation[0][4].unwrap();
     assert!(rho.abs() > 0.9, "lever x / pitch correlation {rho}");
@@ -243,14 +234,7 @@ fn a_prior_on_lever_z_without_control_is_kept_with_its_sigma_and_reported_not_ob
 #[test]
 fn convergence_record_converges() {
     let (s, ties) = survey();
-    let cal = calibrate_vtpm(
-        &s.strips,
-        ties,
-        &[],
-        &Mounting::default(),
-        &CalibrationOptions::default(),
-    )
-    .unwrap();
+    let cal = vtpm(s, ties, &[]);
     let h = &cal.history;
     assert_eq!(h.len(), cal.iterations + 1);
     assert!(h.len() >= 3, "{} records", h.len());
@@ -279,14 +263,7 @@ fn convergence_record_converges() {
 #[test]
 fn calibration_json_has_exactly_the_spec_keys() {
     let (s, ties) = survey();
-    let cal = calibrate_vtpm(
-        &s.strips,
-        ties,
-        &[],
-        &Mounting::default(),
-        &CalibrationOptions::default(),
-    )
-    .unwrap();
+    let cal = vtpm(s, ties, &[]);
     let j = cal.to_json();
     let keys: Vec<&str> = j.as_object().unwrap().keys().map(|k| k.as_str()).collect();
     assert_eq!(
@@ -351,14 +328,7 @@ fn enu_strips(strips: &[Strip], positions: &[Vec<nalgebra::Vector3<f64>>]) -> Ve
 fn correction_reduces_tie_residuals_rmsdz_and_target_rmse() {
     let (s, ties) = survey();
     let control = s.control_for(ties, 6);
-    let cal = calibrate_vtpm(
-        &s.strips,
-        ties,
-        &control,
-        &Mounting::default(),
-        &CalibrationOptions::default(),
-    )
-    .unwrap();
+    let cal = vtpm(s, ties, &control);
     let before: Vec<_> = s
         .strips
         .iter()
@@ -410,14 +380,7 @@ fn vtpm_against_plane_baseline_on_check_strips() {
     // Seed 001 §3.2.2: calibrate on group 1, correct group 2 with each result, compare checkpoint
     // residuals (Table 2) and check-plane RMS (Table 3).
     let (s, ties) = survey();
-    let vtpm = calibrate_vtpm(
-        &s.strips,
-        ties,
-        &[],
-        &Mounting::default(),
-        &CalibrationOptions::default(),
-    )
-    .unwrap();
+    let vtpm = vtpm(s, ties, &[]);
     let centres: Vec<[f64; 2]> = s
         .scene
         .buildings
@@ -526,14 +489,7 @@ fn auto_ties_find_markings_and_roofs_and_calibrate() {
     eprintln!("auto ties: {marks} markings, {roofs} roofs");
     assert!(marks >= 10 && roofs >= 10, "{marks} {roofs}");
     assert!(ties.len() <= 100);
-    let cal = calibrate_vtpm(
-        &s.strips,
-        &ties,
-        &[],
-        &Mounting::default(),
-        &CalibrationOptions::default(),
-    )
-    .unwrap();
+    let cal = vtpm(s, &ties, &[]);
     let e = errors(&cal, &s.truth);
     eprintln!(
         "auto-tie errors: lever {:?} m, angles {:?} deg",

@@ -4,23 +4,13 @@
 //! summary; bad input.
 
 mod binary;
-use binary::lidarqa;
+use binary::{lidarqa, stdout_ok as ok};
 
 use lidarqa_io::{Geodetic, LasReader, PointChunk, UtmZone};
 use lidarqa_model::ecef_from_ned;
 use lidarqa_sim::{CLASS_BATHYMETRY, Scenario, ScenarioFile, SimOptions, simulate};
 use nalgebra::Vector3;
 use std::path::Path;
-
-fn ok(args: &[&str]) -> String {
-    let out = lidarqa(args);
-    assert!(
-        out.status.success(),
-        "lidarqa {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
-}
 
 /// The built-in bathymetry scenario reduced for a test: one 500 m line over the lake (about
 /// 2 to 50 m deep), pulses at the trajectory samples with Gauss–Markov correlation times of one

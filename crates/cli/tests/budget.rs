@@ -7,24 +7,13 @@ use binary::lidarqa;
 use serde_json::Value;
 
 fn json(args: &[&str]) -> Value {
-    let out = lidarqa(&[args, &["--format", "json"]].concat());
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("one JSON object")
+    binary::json_ok(&[args, &["--format", "json"]].concat())
 }
 
-/// Runs, expects exit 1 and one stderr line starting `lidarqa:` that contains `needle`.
+/// Runs, expects [`binary::fails_with`] with `needle` and nothing on stdout.
 fn fails_with(args: &[&str], needle: &str) {
     let out = lidarqa(args);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
-    assert_eq!(err.lines().count(), 1, "{args:?}: one line, got: {err}");
-    assert!(err.starts_with("lidarqa: "), "{err}");
-    assert!(err.contains(needle), "{args:?}: {err} lacks {needle}");
-    assert!(!err.contains("panicked"), "{err}");
+    binary::fails_with(&out, &[needle]);
     assert!(out.stdout.is_empty(), "no partial output");
 }
 

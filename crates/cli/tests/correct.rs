@@ -3,7 +3,7 @@
 //! `--utm-zone` / `--epsg`, refused with a one-line error naming the file without them.
 
 mod binary;
-use binary::{lidarqa, s};
+use binary::{lidarqa, with_calibration};
 
 #[path = "../../pipeline/tests/common/mod.rs"]
 mod common;
@@ -27,18 +27,7 @@ fn correct_equals_correct_tile_byte_for_byte() {
     std::fs::write(&cal, CALIBRATION).unwrap();
     let out_dir = dir.path().join("corrected");
     let args = |strip: &Path, extra: &[&str]| -> Output {
-        let base = [
-            "correct",
-            s(strip),
-            "--trajectory",
-            s(&sv.sbet),
-            "--sensor",
-            s(&sv.sensor),
-            "--calibration",
-            s(&cal),
-            "-o",
-            s(&out_dir),
-        ];
+        let base = with_calibration("correct", strip, [&sv.sbet, &sv.sensor, &cal], &out_dir);
         lidarqa(&[&base[..], extra].concat())
     };
     let out = args(&sv.strip, &[]);

@@ -16,39 +16,13 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+mod binary;
+use binary::{fails_with, lidarqa, s};
+
 const BIN: &str = env!("CARGO_BIN_EXE_lidarqa");
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn lidarqa(args: &[&str]) -> Output {
-    Command::new(BIN)
-        .args(args)
-        .output()
-        .expect("the lidarqa binary runs")
-}
-
 fn ok(args: &[&str]) {
-    let out = lidarqa(args);
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-/// Exit 1 with one stderr line `lidarqa: …` containing every needle, and no panic.
-fn fails_with(out: &Output, needles: &[&str]) -> String {
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert_eq!(out.status.code(), Some(1), "{err}");
-    assert_eq!(err.lines().count(), 1, "one line, got: {err}");
-    assert!(err.starts_with("lidarqa: "), "{err}");
-    assert!(!err.contains("panicked"), "{err}");
-    for n in needles {
-        assert!(err.contains(n), "`{err}` lacks `{n}`");
-    }
-    err
+    binary::run_ok(args);
 }
 
 fn names(dir: &Path) -> Vec<String> {

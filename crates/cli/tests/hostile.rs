@@ -67,21 +67,14 @@ fn demo_scenario() -> String {
     String::from_utf8(out.stdout).unwrap()
 }
 
+/// The stderr of a successful run.
 fn ok(args: &[&str]) -> String {
-    let out = lidarqa(args);
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(out.status.success(), "{args:?}: {err}");
-    err
+    String::from_utf8_lossy(&binary::run_ok(args).stderr).into_owned()
 }
 
-/// Exit 1 with one stderr line `lidarqa: …` containing every needle, no panic, no repeated
-/// OS text and no temporary-file name.
+/// [`binary::fails_with`], and no repeated OS text and no temporary-file name.
 fn fails_with(out: &Output, needles: &[&str]) -> String {
-    let err = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert_eq!(out.status.code(), Some(1), "{err}");
-    assert_eq!(err.lines().count(), 1, "one line, got: {err}");
-    assert!(err.starts_with("lidarqa: "), "{err}");
-    assert!(!err.contains("panicked"), "{err}");
+    let err = binary::fails_with(out, needles);
     // lidarqa's temporary files are `.NAME.PID.XXXXXX.tmp` (the test directories `/tmp/.tmpXXX`).
     assert!(
         !err.split([' ', ':', ',', ')']).any(|w| w.ends_with(".tmp")),
@@ -91,9 +84,6 @@ fn fails_with(out: &Output, needles: &[&str]) -> String {
         err.matches("(os error").count() <= 1,
         "OS text said twice: {err}"
     );
-    for n in needles {
-        assert!(err.contains(n), "`{err}` lacks `{n}`");
-    }
     err
 }
 

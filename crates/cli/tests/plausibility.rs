@@ -6,7 +6,7 @@
 //! skipped otherwise.
 
 mod binary;
-use binary::{lidarqa, s};
+use binary::{lidarqa, s, with_calibration};
 
 #[path = "../../pipeline/tests/common/mod.rs"]
 mod common;
@@ -170,20 +170,13 @@ fn points_in_the_wrong_utm_zone_are_refused_by_tpu_and_correct() {
     )
     .unwrap();
     let out_dir = dir.path().join("corrected");
-    let out = lidarqa(&[
-        "correct",
-        s(&sv.strip),
-        "--trajectory",
-        s(&sv.sbet),
-        "--sensor",
-        s(&sv.sensor),
-        "--calibration",
-        s(&cal),
-        "-o",
-        s(&out_dir),
-        "--epsg",
-        "32634",
-    ]);
+    let out = lidarqa(
+        &[
+            with_calibration("correct", &sv.strip, [&sv.sbet, &sv.sensor, &cal], &out_dir),
+            vec!["--epsg", "32634"],
+        ]
+        .concat(),
+    );
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     for n in needles {

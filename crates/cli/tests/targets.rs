@@ -2,18 +2,13 @@
 //! in a small point cloud, and one-line errors for bad input.
 
 mod binary;
-use binary::lidarqa;
+use binary::{json_ok, lidarqa, run_ok, s};
 
 use lidarqa_io::{LasPoint, LasTimeBase, LasWriteOptions, LasWriter};
-use serde_json::Value;
 use std::path::Path;
 
 fn fails_with(args: &[&str], needle: &str) {
-    let out = lidarqa(args);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
-    assert_eq!(err.lines().count(), 1, "one line: {err}");
-    assert!(err.contains(needle), "{err} lacks {needle}");
+    binary::fails_with(&lidarqa(args), &[needle]);
 }
 
 /// LAS 1.4 point format 6 at 1 mm, local offset, no CRS.
@@ -96,21 +91,15 @@ fn seed000_table2_formula_7_is_17_56_cm() {
     std::fs::write(dir.path().join("c.csv"), control).unwrap();
     let t = dir.path().join("t.csv");
     let c = dir.path().join("c.csv");
-    let out = lidarqa(&[
+    let v = json_ok(&[
         "evaluate",
         "--targets",
-        t.to_str().unwrap(),
+        s(&t),
         "--control",
-        c.to_str().unwrap(),
+        s(&c),
         "--format",
         "json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
     let get = |k: &str| v["rmse"][k].as_f64().unwrap() * 100.0;
     // Formula (7): 17.56 cm. The paper prints 21.66 cm, which is √(13.8² + 16.7²): the largest
     // single residual (QZ04), not an RMSE.
@@ -135,21 +124,15 @@ fn seed000_table2_formula_7_is_17_56_cm() {
     let args = [
         "evaluate",
         "--targets",
-        t.to_str().unwrap(),
+        s(&t),
         "--control",
-        c.to_str().unwrap(),
+        s(&c),
         "--tpu",
-        summary.to_str().unwrap(),
+        s(&summary),
         "--format",
         "json",
     ];
-    let out = lidarqa(&args);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = json_ok(&args);
     assert_eq!(v["predicted"]["up"], 0.12);
     assert!((v["predicted"]["horizontal"].as_f64().unwrap() - 0.05).abs() < 1e-15);
 }
@@ -166,21 +149,16 @@ fn finds_the_target_and_refuses_bad_control() {
     )
     .unwrap();
     let out_csv = dir.path().join("targets.csv");
-    let out = lidarqa(&[
+    run_ok(&[
         "targets",
-        las.to_str().unwrap(),
+        s(&las),
         "--control",
-        control.to_str().unwrap(),
+        s(&control),
         "--radius-m",
         "0.8",
         "-o",
-        out_csv.to_str().unwrap(),
+        s(&out_csv),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let text = std::fs::read_to_string(&out_csv).unwrap();
     let row: Vec<&str> = text.lines().nth(1).unwrap().split(',').collect();
     let (x, y, z): (f64, f64, f64) = (
@@ -200,22 +178,17 @@ fn finds_the_target_and_refuses_bad_control() {
     let dark = dir.path().join("dark.las");
     write_dark_field(&dark);
     let out_two = dir.path().join("two.csv");
-    let out = lidarqa(&[
+    let out = run_ok(&[
         "targets",
-        las.to_str().unwrap(),
-        dark.to_str().unwrap(),
+        s(&las),
+        s(&dark),
         "--control",
-        control.to_str().unwrap(),
+        s(&control),
         "--radius-m",
         "0.8",
         "-o",
-        out_two.to_str().unwrap(),
+        s(&out_two),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("skipped")
@@ -229,11 +202,11 @@ fn finds_the_target_and_refuses_bad_control() {
     fails_with(
         &[
             "targets",
-            dark.to_str().unwrap(),
+            s(&dark),
             "--control",
-            control.to_str().unwrap(),
+            s(&control),
             "-o",
-            out_dark.to_str().unwrap(),
+            s(&out_dark),
         ],
         "no high-intensity",
     );
@@ -244,14 +217,7 @@ fn finds_the_target_and_refuses_bad_control() {
     std::fs::write(&far, "id,x,y,z\nA,300010.3,5000020.7,100.5\n").unwrap();
     let out2 = dir.path().join("t2.csv");
     fails_with(
-        &[
-            "targets",
-            las.to_str().unwrap(),
-            "--control",
-            far.to_str().unwrap(),
-            "-o",
-            out2.to_str().unwrap(),
-        ],
+        &["targets", s(&las), "--control", s(&far), "-o", s(&out2)],
         "same CRS",
     );
     assert!(!out2.exists());
@@ -259,40 +225,26 @@ fn finds_the_target_and_refuses_bad_control() {
     let dup = dir.path().join("dup.csv");
     std::fs::write(&dup, "id,x,y,z\nA,1,2,3\nA,4,5,6\n").unwrap();
     fails_with(
-        &[
-            "targets",
-            las.to_str().unwrap(),
-            "--control",
-            dup.to_str().unwrap(),
-            "-o",
-            out2.to_str().unwrap(),
-        ],
+        &["targets", s(&las), "--control", s(&dup), "-o", s(&out2)],
         "dup.csv: line 3: duplicate",
     );
     let missing = dir.path().join("missing.csv");
     std::fs::write(&missing, "id,x,y\nA,1,2\n").unwrap();
     fails_with(
-        &[
-            "targets",
-            las.to_str().unwrap(),
-            "--control",
-            missing.to_str().unwrap(),
-            "-o",
-            out2.to_str().unwrap(),
-        ],
+        &["targets", s(&las), "--control", s(&missing), "-o", s(&out2)],
         "missing.csv",
     );
     // An unknown centre method.
     fails_with(
         &[
             "targets",
-            las.to_str().unwrap(),
+            s(&las),
             "--control",
-            control.to_str().unwrap(),
+            s(&control),
             "--method",
             "hough",
             "-o",
-            out2.to_str().unwrap(),
+            s(&out2),
         ],
         "--method",
     );
@@ -346,21 +298,15 @@ fn nva_against_the_ground_tin() {
     csv += "OUT,500100.0,4000100.0,100.0,0.01,0.02\n";
     let cps = dir.path().join("checkpoints.csv");
     std::fs::write(&cps, csv).unwrap();
-    let out = lidarqa(&[
+    let v = json_ok(&[
         "evaluate",
         "--ground",
-        las.to_str().unwrap(),
+        s(&las),
         "--checkpoints",
-        cps.to_str().unwrap(),
+        s(&cps),
         "--format",
         "json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
     let nva = &v["nva"];
     assert_eq!(nva["n"], 5);
     assert_eq!(nva["outside_tin"], serde_json::json!(["OUT"]));
@@ -382,9 +328,9 @@ fn nva_against_the_ground_tin() {
         &[
             "evaluate",
             "--ground",
-            las.to_str().unwrap(),
+            s(&las),
             "--checkpoints",
-            cps.to_str().unwrap(),
+            s(&cps),
             "--ground-class",
             "9",
         ],

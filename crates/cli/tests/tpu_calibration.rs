@@ -6,7 +6,7 @@
 //! TPU is computed at exactly as `correct` moves them.
 
 mod binary;
-use binary::{lidarqa, s};
+use binary::{lidarqa, s, with_calibration};
 
 #[path = "../../pipeline/tests/common/mod.rs"]
 mod common;
@@ -105,18 +105,12 @@ fn calibration_replaces_the_mounting_and_its_sigma() {
 
     // The same TPU as the strip corrected by `lidarqa correct`, with the calibrated sensor.
     let corrected = d.join("corrected");
-    let out = lidarqa(&[
+    let out = lidarqa(&with_calibration(
         "correct",
-        s(&sv.strip),
-        "--trajectory",
-        s(&sv.sbet),
-        "--sensor",
-        s(&sv.sensor),
-        "--calibration",
-        s(&cal),
-        "-o",
-        s(&corrected),
-    ]);
+        &sv.strip,
+        [&sv.sbet, &sv.sensor, &cal],
+        &corrected,
+    ));
     assert!(
         out.status.success(),
         "{}",
@@ -155,18 +149,12 @@ fn a_calibration_that_is_not_one_is_refused_naming_the_file() {
     let sv = common::survey(d, 200, "laz", None);
     let cal = d.join("calibration.json");
     std::fs::write(&cal, r#"{"parameters": {"lever_x_m": 0.1}}"#).unwrap();
-    let out = lidarqa(&[
+    let out = lidarqa(&with_calibration(
         "tpu",
-        s(&sv.strip),
-        "--trajectory",
-        s(&sv.sbet),
-        "--sensor",
-        s(&sv.sensor),
-        "--calibration",
-        s(&cal),
-        "-o",
-        s(&d.join("out.laz")),
-    ]);
+        &sv.strip,
+        [&sv.sbet, &sv.sensor, &cal],
+        &d.join("out.laz"),
+    ));
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert_eq!(err.lines().count(), 1, "{err}");

@@ -18,6 +18,31 @@ use std::collections::HashMap;
 use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
 
+/// The reader pair every CSV here has (STYLE: readers come in pairs) over the type's
+/// `read_named`: `from_path` (buffered, errors name the file) and `new` (any reader, errors name
+/// `<stream>`); `$what` names the file in the docs, `$errors` lists its errors.
+macro_rules! reader_pair {
+    ($what:literal, $errors:literal) => {
+        #[doc = concat!("Reads a ", $what, " CSV.")]
+        ///
+        /// # Errors
+        #[doc = $errors]
+        pub fn from_path(path: impl AsRef<Path>) -> Result<Self> {
+            let path = path.as_ref();
+            let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+            Self::read_named(std::io::BufReader::new(file), path)
+        }
+
+        #[doc = concat!("Reads a ", $what, " CSV from a stream; errors name it `<stream>`.")]
+        ///
+        /// # Errors
+        /// As [`from_path`](Self::from_path).
+        pub fn new(read: impl Read) -> Result<Self> {
+            Self::read_named(read, Path::new("<stream>"))
+        }
+    };
+}
+
 /// One control point.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ControlPoint {
@@ -121,23 +146,10 @@ impl<T: HasExtra> PointTable<T> {
 }
 
 impl ControlPoints {
-    /// Reads a control-points CSV.
-    ///
-    /// # Errors
-    /// [`Error::Io`] and the CSV errors listed in the module docs.
-    pub fn from_path(path: impl AsRef<Path>) -> Result<Self> {
-        let path = path.as_ref();
-        let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-        Self::read_named(std::io::BufReader::new(file), path)
-    }
-
-    /// Reads a control-points CSV from a stream; errors name it `<stream>`.
-    ///
-    /// # Errors
-    /// As [`from_path`](Self::from_path).
-    pub fn new(read: impl Read) -> Result<Self> {
-        Self::read_named(read, Path::new("<stream>"))
-    }
+    reader_pair!(
+        "control-points",
+        "[`Error::Io`] and the CSV errors listed in the module docs."
+    );
 
     fn read_named(read: impl Read, path: &Path) -> Result<Self> {
         read_points(read, path, &["sigma_h", "sigma_v"], |row| {
@@ -165,23 +177,10 @@ impl ControlPoints {
 }
 
 impl Targets {
-    /// Reads a targets CSV.
-    ///
-    /// # Errors
-    /// [`Error::Io`] and the CSV errors listed in the module docs.
-    pub fn from_path(path: impl AsRef<Path>) -> Result<Self> {
-        let path = path.as_ref();
-        let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-        Self::read_named(std::io::BufReader::new(file), path)
-    }
-
-    /// Reads a targets CSV from a stream; errors name it `<stream>`.
-    ///
-    /// # Errors
-    /// As [`from_path`](Self::from_path).
-    pub fn new(read: impl Read) -> Result<Self> {
-        Self::read_named(read, Path::new("<stream>"))
-    }
+    reader_pair!(
+        "targets",
+        "[`Error::Io`] and the CSV errors listed in the module docs."
+    );
 
     fn read_named(read: impl Read, path: &Path) -> Result<Self> {
         read_points(read, path, &[], |row| {
@@ -262,24 +261,10 @@ pub struct TiePicks {
 }
 
 impl TiePicks {
-    /// Reads a tie picks CSV.
-    ///
-    /// # Errors
-    /// [`Error::Io`], the CSV errors of the module docs, [`Error::DuplicateKey`] for a repeated
-    /// (tie, strip) pair, [`Error::LonelyTie`] for a tie picked in one strip only.
-    pub fn from_path(path: impl AsRef<Path>) -> Result<Self> {
-        let path = path.as_ref();
-        let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-        Self::read_named(std::io::BufReader::new(file), path)
-    }
-
-    /// Reads a tie picks CSV from a stream; errors name it `<stream>`.
-    ///
-    /// # Errors
-    /// As [`from_path`](Self::from_path).
-    pub fn new(read: impl Read) -> Result<Self> {
-        Self::read_named(read, Path::new("<stream>"))
-    }
+    reader_pair!(
+        "tie picks",
+        "[`Error::Io`], the CSV errors of the module docs, [`Error::DuplicateKey`] for a repeated (tie, strip) pair, [`Error::LonelyTie`] for a tie picked in one strip only."
+    );
 
     fn read_named(read: impl Read, path: &Path) -> Result<Self> {
         let mut rows = Rows::new(read, path, &["tie", "strip", "x", "y"], &[])?;

@@ -123,6 +123,31 @@ fn scanner_pose_mounting(sensor: &mut Sensor, trajectory: &Path) -> Option<Warni
     })
 }
 
+/// The text of a `calibration.json` (SPEC §8) as JSON, for [`lidarqa_calib::mounting_from_json`]
+/// and [`lidarqa_calib::calibrated_sensor`]: the one reader of the file.
+fn read_calibration_json(path: &Path) -> Result<serde_json::Value> {
+    let fail = |m: String| Error::Calib {
+        path: path.to_path_buf(),
+        source: lidarqa_calib::Error::InvalidCalibration(m),
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| fail(format!("cannot read: {e}")))?;
+    serde_json::from_str(&text).map_err(|e| fail(format!("not JSON: {e}")))
+}
+
+/// The calibrated mounting of the `calibration.json` at `path` (what `lidarqa correct` and the
+/// Python `correct_tile` apply).
+///
+/// # Errors
+/// [`Error::Calib`] naming the file when it cannot be read, is not JSON or lacks a parameter.
+pub fn read_calibrated_mounting(path: &Path) -> Result<Mounting> {
+    lidarqa_calib::mounting_from_json(&read_calibration_json(path)?).map_err(|source| {
+        Error::Calib {
+            path: path.to_path_buf(),
+            source,
+        }
+    })
+}
+
 impl TpuContext {
     /// From data already read. `trajectory_path` names the SBET in messages.
     ///
@@ -341,13 +366,7 @@ impl TpuContext {
     /// [`Error::Calib`] naming the file when it cannot be read, is not JSON or is not a
     /// calibration.
     pub fn with_calibration(mut self, path: &Path) -> Result<TpuContext> {
-        let fail = |m: String| Error::Calib {
-            path: path.to_path_buf(),
-            source: lidarqa_calib::Error::InvalidCalibration(m),
-        };
-        let text = std::fs::read_to_string(path).map_err(|e| fail(format!("cannot read: {e}")))?;
-        let doc: serde_json::Value =
-            serde_json::from_str(&text).map_err(|e| fail(format!("not JSON: {e}")))?;
+        let doc = read_calibration_json(path)?;
         self.sensor = lidarqa_calib::calibrated_sensor(&self.sensor, &doc).map_err(|source| {
             Error::Calib {
                 path: path.to_path_buf(),

@@ -58,11 +58,13 @@ mod digest;
 mod error;
 mod evaluate_files;
 mod manifest;
+mod overlap_files;
 pub mod plausibility;
 mod retile;
 mod stages;
 mod stored;
 mod summary;
+mod targets_csv;
 mod targets_files;
 mod targets_tile;
 mod tile;
@@ -73,7 +75,7 @@ pub use calibrate_strips::{
     CalibrateJob, LoadedStrip, POINTS_PER_TILE, StripCalibration, TieSource, TrajectoryWeighting,
     VTPM_NEIGHBOURS, calibrate_strips, frame_for, load_all, local_to_projected, projected_to_local,
 };
-pub use context::{TpuContext, TpuOptions};
+pub use context::{TpuContext, TpuOptions, read_calibrated_mounting};
 pub use correct_tile::{
     CorrectTileJob, CorrectTileReport, correct_tile, correct_tile_with_progress,
 };
@@ -87,6 +89,7 @@ pub use manifest::{
     TILE_REPORT_FORMAT, Task, TpuPlan, collect, entry_status, plan_tpu, resolve, run_entry,
     run_manifest_entry,
 };
+pub use overlap_files::{overlap_files, overlap_strip};
 pub use retile::{RetileReport, TileFile, TileGrid, retile};
 pub use stored::{StoredHistogram, StoredSummary};
 pub use summary::{
@@ -95,6 +98,7 @@ pub use summary::{
     SIGMA_MAP_CELL_M, SIGMA_MAP_MAX_SIDE, SIGMA_NAMES, ScanAngleView, SigmaGridView, SigmaMap,
     SkipReason, SoundingResult, Stats, SummaryView, SurveyReport, TileLine, TileReport, TpuSummary,
 };
+pub use targets_csv::targets_csv;
 pub use targets_files::{control_for_targets, find_targets, points_near_control};
 pub use targets_tile::{TargetsTileJob, TargetsTileReport, extract_targets_tile};
 pub use tile::{TpuTileJob, tpu_tile, tpu_tile_with_progress};

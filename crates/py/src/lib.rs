@@ -7,14 +7,16 @@
 //! Every function raises `lidarqa.LidarqaError` with lidarqa's one-line message (naming the
 //! file, key or value) on failure.
 
-use lidarqa_calib::mounting_from_json;
+use lidarqa_calib::OverlapOptions;
 use lidarqa_io::{ControlPoints, Crs};
 use lidarqa_pipeline::{
     CorrectTileJob, Manifest, TargetsTileJob, TileReport, TpuContext, TpuOptions, TpuTileJob,
     collect as collect_manifest, control_for_targets, correct_tile as correct_one,
     evaluate_nva as evaluate_nva_files, evaluate_target_files, extract_targets_tile as targets_one,
-    find_targets as find_targets_in, predicted_from_sensor, run_entry, tpu_tile as tpu_one,
+    find_targets as find_targets_in, overlap_files, predicted_from_sensor, targets_csv, read_calibrated_mounting, run_entry,
+    tpu_tile as tpu_one,
 };
+use lidarqa_report::TpuSummary;
 use lidarqa_targets::{CentreMethod, ControlPoint, EvaluateOptions, TargetConfig};
 use lidarqa_tpu::{Biases, GeometryRequest, Preset, Sweep, evaluate, evaluate_sweep};
 use pyo3::create_exception;
@@ -98,12 +100,7 @@ fn correct_tile(
     gps_week: Option<i64>,
 ) -> PyResult<String> {
     py.allow_threads(|| {
-        let text = std::fs::read_to_string(&calibration)
-            .map_err(|e| err(format!("{}: {e}", calibration.display())))?;
-        let doc: serde_json::Value = serde_json::from_str(&text)
-            .map_err(|e| err(format!("{}: not JSON: {e}", calibration.display())))?;
-        let mounting =
-            mounting_from_json(&doc).map_err(|e| err(format!("{}: {e}", calibration.display())))?;
+        let mounting = read_calibrated_mounting(&calibration).map_err(err)?;
         let ctx = TpuContext::from_files(
             &sensor,
             &trajectory,
@@ -129,12 +126,14 @@ fn correct_tile(
     })
 }
 
-/// The control points of a control CSV and the extraction settings of `method`.
+/// The control points of a control CSV and the extraction settings of `method` (a
+/// [`CentreMethod`] name).
 fn targets_setup(
     control: &Path,
     radius_m: Option<f64>,
-    method: CentreMethod,
+    method: &str,
 ) -> PyResult<(Vec<ControlPoint>, TargetConfig)> {
+    let method: CentreMethod = method.parse().map_err(|e| err(format!("method: {e}")))?;
     let table = ControlPoints::from_path(control).map_err(err)?;
     let points = control_for_targets(&table, radius_m).map_err(err)?;
     let mut config = TargetConfig::default();
@@ -156,7 +155,6 @@ fn extract_targets_tile(
     method: &str,
     window_m: f64,
 ) -> PyResult<String> {
-    let method: CentreMethod = method.parse().map_err(|e| err(format!("method: {e}")))?;
     py.allow_threads(|| {
         let (points, config) = targets_setup(&control, radius_m, method)?;
         let r = targets_one(&TargetsTileJob {
@@ -175,9 +173,10 @@ fn extract_targets_tile(
 /// Targets in several files (strips or tiles) near the control points of `control` (CSV
 /// `id,x,y,z[,sigma_h,sigma_v,radius_m]`), each file searched on its own and the per-file centres
 /// merged per control id (what `lidarqa targets` does). Returns the merged report and its
-/// warnings as JSON (`{"report": ..., "warnings": [...]}`); writes nothing.
+/// warnings as JSON (`{"report": ..., "warnings": [...]}`); with `output`, also writes the targets
+/// CSV there (atomically, never over an input), byte for byte what `lidarqa targets -o` writes.
 #[pyfunction]
-#[pyo3(signature = (inputs, control, radius_m=None, method="circle-fit", window_m=6.0))]
+#[pyo3(signature = (inputs, control, radius_m=None, method="circle-fit", window_m=6.0, output=None))]
 fn find_targets(
     py: Python<'_>,
     inputs: Vec<PathBuf>,
@@ -185,22 +184,31 @@ fn find_targets(
     radius_m: Option<f64>,
     method: &str,
     window_m: f64,
+    output: Option<PathBuf>,
 ) -> PyResult<String> {
-    let method: CentreMethod = method.parse().map_err(|e| err(format!("method: {e}")))?;
     py.allow_threads(|| {
+        lidarqa_io::check_distinct_inputs(&inputs).map_err(err)?;
         let (points, config) = targets_setup(&control, radius_m, method)?;
         let (report, warnings) =
             find_targets_in(&inputs, &points, &config, window_m).map_err(err)?;
+        if let Some(out) = &output {
+            let mut read: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+            read.push(&control);
+            targets_csv(out, &report)
+                .write_path(out, &read)
+                .map_err(err)?;
+        }
         json(&serde_json::json!({ "report": report, "warnings": warnings }))
     })
 }
 
 /// Accuracy of a targets CSV (`lidarqa targets` output) against a control CSV: residuals, RMSE
-/// (seed 000 eqs. 7–8), ASPRS and NSSDA, as `lidarqa evaluate --targets … --control …`. With
-/// `sensor` and `height_m`, the predicted σ is the sensor file's budget at that height (and
-/// `scan_angle_deg`). Returns the evaluation as JSON.
+/// (seed 000 eqs. 7–8), ASPRS and NSSDA, as `lidarqa evaluate --targets … --control …`. The
+/// predicted σ comes from `tpu` (a `tpu_summary.json`: its median per-point σ, as `--tpu`), or
+/// from `sensor` with `height_m` (the sensor file's budget at that height and `scan_angle_deg`,
+/// as `--sensor`). Returns the evaluation as JSON.
 #[pyfunction]
-#[pyo3(signature = (targets, control, horizontal_class_m=None, vertical_class_m=None, sensor=None, height_m=None, scan_angle_deg=None))]
+#[pyo3(signature = (targets, control, horizontal_class_m=None, vertical_class_m=None, sensor=None, height_m=None, scan_angle_deg=None, tpu=None))]
 #[allow(clippy::too_many_arguments)]
 fn evaluate_targets(
     py: Python<'_>,
@@ -211,6 +219,7 @@ fn evaluate_targets(
     sensor: Option<PathBuf>,
     height_m: Option<f64>,
     scan_angle_deg: Option<f64>,
+    tpu: Option<PathBuf>,
 ) -> PyResult<String> {
     let options = EvaluateOptions {
         horizontal_class_m,
@@ -218,11 +227,19 @@ fn evaluate_targets(
     };
     py.allow_threads(|| {
         let mut e = evaluate_target_files(&targets, &control, &options).map_err(err)?;
-        match (&sensor, height_m) {
-            (Some(s), Some(h)) => {
+        match (&tpu, &sensor, height_m) {
+            (Some(t), None, None) => {
+                e.predicted = Some(TpuSummary::predicted_from_file(t).map_err(err)?);
+            }
+            (None, Some(s), Some(h)) => {
                 e.predicted = Some(predicted_from_sensor(s, h, scan_angle_deg).map_err(err)?);
             }
-            (None, None) => {}
+            (None, None, None) => {}
+            (Some(_), _, _) => {
+                return Err(err(
+                    "tpu and sensor are two predictions: give one (tpu, or sensor with height_m)",
+                ));
+            }
             _ => {
                 return Err(err(
                     "sensor and height_m go together (the predicted σ needs both)",
@@ -231,6 +248,28 @@ fn evaluate_targets(
         }
         json(&e)
     })
+}
+
+/// Swath-to-swath height differences of overlapping strips (LAS/LAZ, two or more) on smooth
+/// cells of `cell_m` (USGS Lidar Base Specification interswath accuracy), as `lidarqa overlap -o`
+/// writes them: per strip pair RMSDz, max |dz| and mean dz, the dz grid and a profile. Returns the
+/// JSON.
+#[pyfunction]
+#[pyo3(signature = (strips, cell_m=1.0, max_roughness_m=0.05, max_slope_deg=10.0))]
+fn overlap(
+    py: Python<'_>,
+    strips: Vec<PathBuf>,
+    cell_m: f64,
+    max_roughness_m: f64,
+    max_slope_deg: f64,
+) -> PyResult<String> {
+    let options = OverlapOptions {
+        cell_m,
+        max_roughness_m,
+        max_slope_deg,
+        ..OverlapOptions::default()
+    };
+    py.allow_threads(|| json(&overlap_files(&strips, &options).map_err(err)?.to_json()))
 }
 
 /// Vertical checkpoints (CSV `id,x,y,z[,…]`) against the TIN of the class-`ground_class` points
@@ -387,6 +426,7 @@ fn _lidarqa(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(find_targets, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate_targets, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate_nva, m)?)?;
+    m.add_function(wrap_pyfunction!(overlap, m)?)?;
     m.add_function(wrap_pyfunction!(budget, m)?)?;
     m.add_function(wrap_pyfunction!(run_manifest_entry, m)?)?;
     m.add_function(wrap_pyfunction!(manifest_len, m)?)?;

@@ -112,6 +112,42 @@ def test_evaluate_targets_closed_form_and_cli():
         assert "height_m" in str(err)
     else:
         raise AssertionError("sensor without height_m accepted")
+    # With a TPU summary the prediction is its median per-point σ: 3, 4, 12 cm give horizontal
+    # √(3² + 4²) = 5 cm and 3-D √(5² + 12²) = 13 cm, as `lidarqa evaluate --tpu` shows.
+    stats = lambda m: {"min": 0.01, "median": m, "p95": 0.2, "max": 0.3}  # noqa: E731
+    (d / "tpu_summary.json").write_text(json.dumps(
+        {"points": 10, "sigma": {"north": stats(0.03), "east": stats(0.04), "up": stats(0.12)}}))
+    e = lidarqa.evaluate_targets(d / "targets.csv", d / "control.csv", tpu=d / "tpu_summary.json")
+    p = e["predicted"]
+    assert (p["north"], p["east"], p["up"]) == (0.03, 0.04, 0.12), p
+    assert abs(p["horizontal"] - 0.05) < 1e-15 and abs(p["three_d"] - 0.13) < 1e-15, p
+    assert e == cli_json("evaluate", "--targets", d / "targets.csv", "--control", d / "control.csv",
+                         "--tpu", d / "tpu_summary.json")
+    try:
+        lidarqa.evaluate_targets(d / "targets.csv", d / "control.csv", tpu=d / "tpu_summary.json",
+                                 sensor=sensor, height_m=80.0)
+    except lidarqa.LidarqaError as err:
+        assert "give one" in str(err)
+    else:
+        raise AssertionError("tpu and sensor both accepted")
+
+
+def test_correct_tile_names_a_bad_calibration():
+    """The calibration is read by the one reader `lidarqa correct` uses: its errors name the file
+    and the key, before any strip is opened."""
+    d = Path(tempfile.mkdtemp(prefix="lidarqa-py-correct-"))
+    cal = d / "calibration.json"
+    args = [d / "strip.laz", d / "out.laz", d / "sbet.out", d / "sensor.toml", cal]
+    for text, want in [("{", "not JSON"),
+                       (json.dumps({"parameters": {"lever_x_m": 0.0}}),
+                        "parameters.lever_y_m is missing or not a number")]:
+        cal.write_text(text)
+        try:
+            lidarqa.correct_tile(*args)
+        except lidarqa.LidarqaError as e:
+            assert str(e).startswith(f"{cal}: ") and want in str(e), str(e)
+        else:
+            raise AssertionError(f"{text!r}: no error")
 
 
 def test_evaluate_nva_on_a_plane():
@@ -142,6 +178,85 @@ def test_evaluate_nva_on_a_plane():
     assert abs(v["mean_up_m"] + sum(off for *_, off in checkpoints) / 4) < 2e-6
     assert v == cli_json("evaluate", "--ground", d / "ground.las", "--checkpoints",
                          d / "nva.csv")["nva"]
+
+
+
+def test_overlap_of_two_strips_one_raised():
+    import laspy
+    import numpy as np
+
+    d = Path(tempfile.mkdtemp(prefix="lidarqa-py-overlap-"))
+    # Two strips of the tilted plane z = 100 + 0.004 x (0.25 m grid: 1 mm steps), overlapping
+    # over x = 10..20 m; the second is 4 cm higher, so every smooth cell has dz = −0.04 m, to the
+    # half millimetre of the LAS scale.
+    def strip(name, psid, x0, lift):
+        gx, gy = np.meshgrid(np.arange(x0, x0 + 20.0, 0.25), np.arange(0.0, 20.0, 0.25))
+        x, y = gx.ravel(), gy.ravel()
+        header = laspy.LasHeader(point_format=1, version="1.2")
+        header.scales = np.array([0.001, 0.001, 0.001])
+        header.offsets = np.array([500000.0, 4000000.0, 0.0])
+        las = laspy.LasData(header)
+        las.x, las.y = x + 500000.0, y + 4000000.0
+        las.z = 100.0 + 0.004 * x + lift
+        las.point_source_id = np.full(x.size, psid, dtype=np.uint16)
+        las.write(d / name)
+        return d / name
+
+    a, b = strip("a.las", 1, 0.0, 0.0), strip("b.las", 2, 10.0, 0.04)
+    v = lidarqa.overlap([a, b])
+    [pair] = v["pairs"]
+    assert pair["strips"] == [1, 2] or pair["strips"] == ["1", "2"], pair["strips"]
+    assert abs(pair["rmsdz_m"] - 0.04) < 5e-4 and abs(pair["mean_dz_m"] + 0.04) < 5e-4, pair
+    # The overlap is 10 m × 20 m of 1 m cells, less the cells the edges cut.
+    assert 150 <= pair["n"] <= 200, pair["n"]
+    r = subprocess.run([common.lidarqa_bin(), "overlap", str(a), str(b), "--format", "json"],
+                       capture_output=True, text=True, check=True)
+    # The same numbers as the command, to the last bits (the wheel and the binary are built with
+    # different profiles, which may round a sum differently).
+    [cli] = json.loads(r.stdout)["pairs"]
+    assert cli["strips"] == pair["strips"] and cli["n"] == pair["n"], (cli, pair)
+    for k in ["rmsdz_m", "max_abs_dz_m", "mean_dz_m"]:
+        assert math.isclose(cli[k], pair[k], rel_tol=1e-12), (k, cli[k], pair[k])
+    try:
+        lidarqa.overlap([a, a])
+    except lidarqa.LidarqaError as e:
+        assert "a.las" in str(e), str(e)
+    else:
+        raise AssertionError("a strip given twice accepted")
+
+
+
+def test_find_targets_recovers_a_disk_and_writes_the_cli_csv():
+    import laspy
+    import numpy as np
+
+    d = Path(tempfile.mkdtemp(prefix="lidarqa-py-targets-"))
+    # A flat field at 100 m (0.25 m grid) with one bright disk, radius 0.8 m and 0.5 m up, centred
+    # at (500 010.3, 4 000 020.7): the centre to a few cm, the height exactly.
+    cx, cy = 500010.3, 4000020.7
+    gx, gy = np.meshgrid(np.arange(0.03, 20.0, 0.25), np.arange(10.07, 30.0, 0.25))
+    x, y = gx.ravel() + 500000.0, gy.ravel() + 4000000.0
+    on = np.hypot(x - cx, y - cy) < 0.8
+    header = laspy.LasHeader(point_format=1, version="1.2")
+    header.scales = np.array([0.001, 0.001, 0.001])
+    header.offsets = np.array([500000.0, 4000000.0, 0.0])
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = x, y, np.where(on, 100.5, 100.0)
+    las.intensity = np.where(on, 2000, 300).astype(np.uint16)
+    las.gps_time = 1.0e8 + np.arange(x.size) * 1e-4
+    las.point_source_id = np.ones(x.size, dtype=np.uint16)
+    las.write(d / "field.las")
+    (d / "control.csv").write_text(f"id,x,y,z\nA,{cx},{cy},100.5\n")
+    v = lidarqa.find_targets([d / "field.las"], d / "control.csv", radius_m=0.8,
+                             output=d / "py.csv")
+    [t] = v["report"]["targets"]
+    # The centre's fields are flattened into the target.
+    assert t["id"] == "A" and math.hypot(t["x"] - cx, t["y"] - cy) < 0.05, t
+    assert abs(t["z"] - 100.5) < 1e-3, t
+    subprocess.run([common.lidarqa_bin(), "targets", str(d / "field.las"), "--control",
+                    str(d / "control.csv"), "--radius-m", "0.8", "-o", str(d / "cli.csv")],
+                   capture_output=True, check=True)
+    assert (d / "py.csv").read_bytes() == (d / "cli.csv").read_bytes()
 
 
 if __name__ == "__main__":

@@ -100,67 +100,40 @@ pub struct ScannerSettingsFile {
     pub beam_divergence_mrad: Option<f64>,
 }
 
-/// `[errors]`: what differs between the truth and what the sensor reports.
+/// `[errors]`: what differs between the truth and what the sensor reports. A key left out takes
+/// its value in [`ErrorsFile::default`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct ErrorsFile {
     /// Draw the random errors of `[sensor.sigma]` (GNSS and attitude as Gauss–Markov processes,
     /// range / scan angle / scan azimuth / travel times white per pulse) and the control
     /// survey's noise.
-    #[serde(default = "yes")]
     pub random: bool,
     /// Also draw one constant boresight / lever-arm error per run from their σ (added to the true
     /// mounting and reported in the truth).
-    #[serde(default)]
     pub random_mounting: bool,
     /// Correlation time of the first-order Gauss–Markov GNSS position errors, s.
-    #[serde(default = "default_gnss_tau")]
     pub gnss_correlation_time_s: f64,
     /// Correlation time of the first-order Gauss–Markov attitude errors, s.
-    #[serde(default = "default_attitude_tau")]
     pub attitude_correlation_time_s: f64,
     /// Injected mounting error: true mounting = nominal + this.
-    #[serde(default)]
     pub boresight_roll_deg: f64,
     /// Injected boresight pitch error, degrees.
-    #[serde(default)]
     pub boresight_pitch_deg: f64,
     /// Injected boresight yaw error, degrees.
-    #[serde(default)]
     pub boresight_yaw_deg: f64,
     /// Injected lever-arm error `[x, y, z]`, body frame, m.
-    #[serde(default)]
     pub lever_arm_m: [f64; 3],
     /// Injected range offset: measured range = true + this, m (conic: added to the air range).
-    #[serde(default)]
     pub range_offset_m: f64,
     /// Injected scan-angle scale error (linear only): measured θ = true θ · (1 + ppm·10⁻⁶).
-    #[serde(default)]
     pub scan_angle_scale_ppm: f64,
     /// Relative 1-sigma noise of the intensity, percent (receiver gain, speckle).
-    #[serde(default = "default_intensity_noise")]
     pub intensity_noise_percent: f64,
     /// Additive 1-sigma intensity noise as a percentage of the target–ground contrast at the
     /// return's range and incidence (real intensity is far noisier than a few percent of the
-    /// return; issue #18). Default 15.
-    #[serde(default = "default_intensity_contrast_noise")]
+    /// return; issue #18).
     pub intensity_contrast_noise_percent: f64,
-}
-
-fn yes() -> bool {
-    true
-}
-fn default_gnss_tau() -> f64 {
-    100.0
-}
-fn default_attitude_tau() -> f64 {
-    20.0
-}
-fn default_intensity_noise() -> f64 {
-    3.0
-}
-fn default_intensity_contrast_noise() -> f64 {
-    15.0
 }
 
 impl Default for ErrorsFile {
@@ -168,90 +141,56 @@ impl Default for ErrorsFile {
         ErrorsFile {
             random: true,
             random_mounting: false,
-            gnss_correlation_time_s: default_gnss_tau(),
-            attitude_correlation_time_s: default_attitude_tau(),
+            gnss_correlation_time_s: 100.0,
+            attitude_correlation_time_s: 20.0,
             boresight_roll_deg: 0.0,
             boresight_pitch_deg: 0.0,
             boresight_yaw_deg: 0.0,
             lever_arm_m: [0.0; 3],
             range_offset_m: 0.0,
             scan_angle_scale_ppm: 0.0,
-            intensity_noise_percent: default_intensity_noise(),
-            intensity_contrast_noise_percent: default_intensity_contrast_noise(),
+            intensity_noise_percent: 3.0,
+            intensity_contrast_noise_percent: 15.0,
         }
     }
 }
 
 /// `[motion]`: platform attitude motion (sinusoidal oscillation plus a seeded random walk) and
-/// trajectory sampling.
+/// trajectory sampling. A key left out takes its value in [`MotionFile::default`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct MotionFile {
     /// Trajectory (SBET) record rate, Hz.
-    #[serde(default = "default_traj_rate")]
     pub trajectory_rate_hz: f64,
     /// Roll oscillation amplitude, degrees.
-    #[serde(default = "default_roll_amp")]
     pub roll_amplitude_deg: f64,
     /// Pitch oscillation amplitude, degrees.
-    #[serde(default = "default_pitch_amp")]
     pub pitch_amplitude_deg: f64,
     /// Heading oscillation amplitude (about the track), degrees.
-    #[serde(default = "default_heading_amp")]
     pub heading_amplitude_deg: f64,
     /// Roll oscillation period, s.
-    #[serde(default = "default_roll_period")]
     pub roll_period_s: f64,
     /// Pitch oscillation period, s.
-    #[serde(default = "default_pitch_period")]
     pub pitch_period_s: f64,
     /// Heading oscillation period, s.
-    #[serde(default = "default_heading_period")]
     pub heading_period_s: f64,
     /// Random-walk intensity of each attitude angle, degrees per √s.
-    #[serde(default = "default_rw")]
     pub random_walk_deg_per_sqrt_s: f64,
     /// Mean pitch (nose up) of the platform in flight, degrees.
-    #[serde(default)]
     pub mean_pitch_deg: f64,
-}
-
-fn default_traj_rate() -> f64 {
-    200.0
-}
-fn default_roll_amp() -> f64 {
-    1.0
-}
-fn default_pitch_amp() -> f64 {
-    0.5
-}
-fn default_heading_amp() -> f64 {
-    0.5
-}
-fn default_roll_period() -> f64 {
-    7.0
-}
-fn default_pitch_period() -> f64 {
-    11.0
-}
-fn default_heading_period() -> f64 {
-    17.0
-}
-fn default_rw() -> f64 {
-    0.02
 }
 
 impl Default for MotionFile {
     fn default() -> Self {
         MotionFile {
-            trajectory_rate_hz: default_traj_rate(),
-            roll_amplitude_deg: default_roll_amp(),
-            pitch_amplitude_deg: default_pitch_amp(),
-            heading_amplitude_deg: default_heading_amp(),
-            roll_period_s: default_roll_period(),
-            pitch_period_s: default_pitch_period(),
-            heading_period_s: default_heading_period(),
-            random_walk_deg_per_sqrt_s: default_rw(),
+            trajectory_rate_hz: 200.0,
+            roll_amplitude_deg: 1.0,
+            pitch_amplitude_deg: 0.5,
+            heading_amplitude_deg: 0.5,
+            roll_period_s: 7.0,
+            pitch_period_s: 11.0,
+            heading_period_s: 17.0,
+            random_walk_deg_per_sqrt_s: 0.02,
             mean_pitch_deg: 0.0,
         }
     }

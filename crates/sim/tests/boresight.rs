@@ -3,9 +3,9 @@
 
 mod common;
 
-use common::{pose_at, quiet_demo};
+use common::{pose_at, quiet_demo, simulate_with_truth};
 use lidarqa_model::{Georeferencer, LinearScanner};
-use lidarqa_sim::{CLASS_GROUND, Observation, Scenario, SimOptions, Strip, simulate};
+use lidarqa_sim::{CLASS_GROUND, Observation, Scenario, Strip};
 use nalgebra::{Matrix3, Vector3};
 
 /// Height at (x, y) of a least-squares plane through the strip's ground points within 1.5 m,
@@ -52,15 +52,7 @@ fn opposite_strips_disagree_by_the_model_prediction() {
         l.height_m = 200.0;
     }
     f.errors.boresight_roll_deg = 0.05;
-    let scenario = Scenario::from_file(f).unwrap();
-    let survey = simulate(
-        &scenario,
-        &SimOptions {
-            keep_truth: true,
-            ..SimOptions::default()
-        },
-    )
-    .unwrap();
+    let (scenario, survey) = simulate_with_truth(f);
     let scene = scenario.scene();
     let mut checked = 0;
     for &x in &[-200.0, -20.0, 200.0] {

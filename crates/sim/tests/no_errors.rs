@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{ned_from_point, pose_at, quiet_demo};
+use common::{ned_from_point, pose_at, quiet_demo, simulate_with_truth};
 use lidarqa_model::{rotation_zyx, zyx_angles};
 use lidarqa_sim::{
     CLASS_BUILDING, CLASS_GROUND, CLASS_TARGET, Observation, Scenario, SimOptions, simulate,
@@ -21,15 +21,7 @@ fn points_lie_on_the_scene_and_observations_recover() {
     f.sensor.mounting.boresight_pitch_deg = -0.2;
     f.sensor.mounting.boresight_yaw_deg = 0.5;
     f.sensor.mounting.lever_arm_m = [0.4, -0.2, 0.9];
-    let scenario = Scenario::from_file(f).unwrap();
-    let survey = simulate(
-        &scenario,
-        &SimOptions {
-            keep_truth: true,
-            ..SimOptions::default()
-        },
-    )
-    .unwrap();
+    let (scenario, survey) = simulate_with_truth(f);
     let scene = scenario.scene();
     let [e0, n0] = scenario.origin_m();
     let zone = scenario.zone();

@@ -3,10 +3,10 @@
 
 mod common;
 
-use common::{grid_to_true, linear_covariance, pose_at, quiet_demo};
+use common::{grid_to_true, linear_covariance, pose_at, quiet_demo, simulate_with_truth};
 use lidarqa_io::Ellipsoid;
 use lidarqa_model::{Georeferencer, LinearScanner, Source, TRAJECTORY_SOURCES};
-use lidarqa_sim::{Observation, Scenario, SimOptions, simulate};
+use lidarqa_sim::Observation;
 use nalgebra::SVector;
 use num_dual::{DualSVec64, jacobian};
 
@@ -22,15 +22,7 @@ fn rms_error_matches_linear_propagation() {
     f.errors.random = true;
     f.errors.gnss_correlation_time_s = 1.0 / rate;
     f.errors.attitude_correlation_time_s = 1.0 / rate;
-    let scenario = Scenario::from_file(f).unwrap();
-    let survey = simulate(
-        &scenario,
-        &SimOptions {
-            keep_truth: true,
-            ..SimOptions::default()
-        },
-    )
-    .unwrap();
+    let (scenario, survey) = simulate_with_truth(f);
     let strip = &survey.strips[0];
     assert!(
         strip.points.len() >= 20_000,

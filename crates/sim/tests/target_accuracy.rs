@@ -14,9 +14,9 @@
 
 mod common;
 
-use common::{grid_to_true, linear_covariance, pose_at, quiet_demo};
+use common::{grid_to_true, linear_covariance, pose_at, quiet_demo, simulate_with_truth};
 use lidarqa_model::{Georeferencer, LinearScanner, TRAJECTORY_SOURCES};
-use lidarqa_sim::{Observation, Scenario, SimOptions, TargetFile, simulate};
+use lidarqa_sim::{Observation, TargetFile};
 use lidarqa_targets::{ControlPoint, LidarPoint, TargetConfig, extract_targets};
 use nalgebra::{Matrix3, SVector};
 use num_dual::{DualSVec64, jacobian};
@@ -62,15 +62,7 @@ fn target_rmse_agrees_with_predicted_sigma() {
                 painted: false,
             })
             .collect();
-        let scenario = Scenario::from_file(f).unwrap();
-        let survey = simulate(
-            &scenario,
-            &SimOptions {
-                keep_truth: true,
-                ..SimOptions::default()
-            },
-        )
-        .unwrap();
+        let (scenario, survey) = simulate_with_truth(f);
         let zone = scenario.zone();
         let sensor = scenario.sensor();
         let cov = linear_covariance(sensor, &TRAJECTORY_SOURCES);

@@ -755,6 +755,20 @@ fn circle_cov(
     ])
 }
 
+/// Every coordinate of `points` finite; an error names the coordinate (`what[k]`) and the point.
+fn check_finite(points: &[[f64; 3]], what: [&'static str; 3]) -> Result<()> {
+    for (index, p) in points.iter().enumerate() {
+        if let Some(k) = (0..3).find(|&k| !p[k].is_finite()) {
+            return Err(Error::NonFinite {
+                what: what[k],
+                index,
+                value: p[k],
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Estimates the centre of a circular target from its points (projected metres, Z up).
 ///
 /// See the module docs for the methods. The points should be the target's points only (e.g. a
@@ -799,20 +813,7 @@ pub fn estimate_centre_with_background(
     background: &[[f64; 3]],
     options: &CentreOptions,
 ) -> Result<CentreEstimate> {
-    for (index, p) in background.iter().enumerate() {
-        for (k, what) in ["background x", "background y", "background z"]
-            .into_iter()
-            .enumerate()
-        {
-            if !p[k].is_finite() {
-                return Err(Error::NonFinite {
-                    what,
-                    index,
-                    value: p[k],
-                });
-            }
-        }
-    }
+    check_finite(background, ["background x", "background y", "background z"])?;
     if !(options.edge_width_m > 0.0 && options.edge_width_m.is_finite()) {
         return Err(Error::InvalidConfig {
             key: "edge_width_m",
@@ -824,17 +825,7 @@ pub fn estimate_centre_with_background(
     if n == 0 {
         return Err(Error::NoPoints);
     }
-    for (index, p) in points.iter().enumerate() {
-        for (k, what) in ["x", "y", "z"].into_iter().enumerate() {
-            if !p[k].is_finite() {
-                return Err(Error::NonFinite {
-                    what,
-                    index,
-                    value: p[k],
-                });
-            }
-        }
-    }
+    check_finite(points, ["x", "y", "z"])?;
     if let Some(r) = options.radius_m
         && !(r > 0.0 && r.is_finite())
     {

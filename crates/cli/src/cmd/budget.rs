@@ -241,7 +241,6 @@ mod tests {
     use super::*;
     use clap::Parser;
     use lidarqa_model::Source;
-    use lidarqa_tpu::LinearRange;
 
     #[derive(Parser)]
     struct Wrap {
@@ -254,8 +253,9 @@ mod tests {
         Plan::try_from(w.a)
     }
 
+    /// The flags reach tpu's request field for field (its conversion to SI is tested there).
     #[test]
-    fn flags_reach_the_request_in_degrees() {
+    fn flags_reach_the_request() {
         let p = plan(&[
             "--preset",
             "seed000",
@@ -263,21 +263,24 @@ mod tests {
             "-12.5",
             "--height",
             "500",
+            "--roll",
+            "2",
             "--bias",
             "lever_x_m=-0.05",
         ])
         .unwrap();
-        match p.geometry {
-            Geometry::Linear {
-                scan_angle_rad,
-                range,
-                ..
-            } => {
-                assert!((scan_angle_rad - (-12.5f64).to_radians()).abs() < 1e-15);
-                assert_eq!(range, LinearRange::Height(500.0));
-            }
-            _ => panic!("linear expected"),
-        }
+        let request = GeometryRequest {
+            scan_angle_deg: Some(-12.5),
+            height_m: Some(500.0),
+            roll_deg: Some(2.0),
+            ..GeometryRequest::default()
+        };
+        let seed000 = Preset::Seed000;
+        let want = request
+            .resolve(&seed000.sensor(), Some(seed000.geometry()), None)
+            .unwrap();
+        assert_eq!(p.geometry, want);
+        assert_ne!(want, seed000.geometry());
         assert_eq!(p.biases.unwrap().get(Source::LeverX), -0.05);
     }
 

@@ -3,14 +3,14 @@
 //! The work is lidarqa-pipeline's `calibrate_strips`; this module parses, checks and prints.
 
 use super::calibrate_table;
-use super::tpu_flags::crs_flags;
+use super::tpu_flags::SurveyFlags;
 use crate::format::{OutputFormat, print_json, print_text, write_json_file};
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use lidarqa_calib::{CalibrationOptions, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Method};
 use lidarqa_pipeline::{
-    CalibrateJob, POINTS_PER_TILE, TieSource, TpuContext, TpuOptions, TrajectoryWeighting,
-    calibrate_strips,
+    CalibrateJob, POINTS_PER_TILE, TieSource, TrajectoryWeighting, calibrate_strips,
 };
 use std::path::PathBuf;
 
@@ -61,14 +61,11 @@ pub struct CalibrateArgs {
     #[arg(long, value_name = "FILE")]
     control: Option<PathBuf>,
     /// vtpm (seed 001, lever arm + boresight) or plane (point-to-plane baseline, boresight only).
-    #[arg(long, default_value = "vtpm", value_parser = ["vtpm", "plane"])]
-    method: String,
+    #[arg(long, default_value = "vtpm", value_parser = parse_method())]
+    method: Method,
     /// Output calibration.json.
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
-    /// GPS week of the survey (LAS adjusted standard GPS time).
-    #[arg(long, value_name = "WEEK")]
-    gps_week: Option<i64>,
     /// VTPM search radius around a pick, metres [default: the radius that holds ~20 points of
     /// the sparsest strip, at least seed 001's 1 m].
     #[arg(long, value_name = "M", allow_negative_numbers = true)]
@@ -114,21 +111,28 @@ pub struct CalibrateArgs {
         conflicts_with = "no_trajectory_weighting"
     )]
     attitude_correlation_s: Option<f64>,
-    /// UTM zone of the points when the files have no CRS, e.g. 33N or 17S (WGS 84); overrides
-    /// the header's.
-    #[arg(long, value_name = "ZONE", conflicts_with = "epsg")]
-    utm_zone: Option<String>,
-    /// EPSG code of the points' UTM CRS when the files have none (326xx, 327xx, 269xx).
-    #[arg(long, value_name = "CODE")]
-    epsg: Option<u32>,
+    #[command(flatten)]
+    survey: SurveyFlags,
     /// Output format of the summary on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
     format: OutputFormat,
 }
 
+/// `--method`: one of calib's [`Method`] names, listed in `--help` as clap's possible values.
+fn parse_method() -> impl TypedValueParser<Value = Method> {
+    PossibleValuesParser::new(Method::ALL.map(Method::name)).try_map(|name| {
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name() == name)
+            .ok_or("not a calibration method")
+    })
+}
+
 struct Plan {
     args: CalibrateArgs,
     options: CalibrationOptions,
+    /// The output's directory, where calibration_iterations.json goes too.
+    output_dir: PathBuf,
     iterations_path: PathBuf,
 }
 
@@ -176,11 +180,11 @@ impl TryFrom<CalibrateArgs> for Plan {
                 args.max_iterations
             );
         }
-        let dir = match args.output.parent() {
+        let output_dir = match args.output.parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         };
-        let iterations_path = dir.join("calibration_iterations.json");
+        let iterations_path = output_dir.join("calibration_iterations.json");
         if iterations_path == args.output {
             bail!(
                 "the output must not be named calibration_iterations.json (that file is written beside it)"
@@ -189,6 +193,7 @@ impl TryFrom<CalibrateArgs> for Plan {
         Ok(Plan {
             args,
             options,
+            output_dir,
             iterations_path,
         })
     }
@@ -196,23 +201,10 @@ impl TryFrom<CalibrateArgs> for Plan {
 
 pub fn run(args: CalibrateArgs) -> Result<()> {
     let plan = Plan::try_from(args)?;
-    if let Some(dir) = plan.args.output.parent()
-        && !dir.as_os_str().is_empty()
-    {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("{}: cannot create", dir.display()))?;
-    }
+    std::fs::create_dir_all(&plan.output_dir)
+        .with_context(|| format!("{}: cannot create", plan.output_dir.display()))?;
     let a = &plan.args;
-    let ctx = TpuContext::from_files(
-        &a.sensor,
-        &a.trajectory,
-        None,
-        TpuOptions {
-            gps_week: a.gps_week,
-            crs: crs_flags(a.utm_zone.as_deref(), a.epsg)?,
-            ..TpuOptions::default()
-        },
-    )?;
+    let ctx = a.survey.context(&a.sensor, &a.trajectory)?;
     let run = calibrate_strips(&CalibrateJob {
         strips: &a.strips,
         context: &ctx,
@@ -221,11 +213,7 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
             .as_deref()
             .map_or(TieSource::Automatic, TieSource::Picks),
         control: a.control.as_deref(),
-        method: if a.method == "plane" {
-            Method::Plane
-        } else {
-            Method::Vtpm
-        },
+        method: a.method,
         options: plan.options,
         radius_given: a.radius_m.is_some(),
         weighting: (!a.no_trajectory_weighting).then_some(TrajectoryWeighting {
@@ -284,6 +272,8 @@ mod tests {
         assert!(Cli::try_parse_from(BASE).is_err());
         assert!(parse(&["--ties", "t.csv", "--auto-ties"]).is_err());
         let c = parse(&["--auto-ties", "--radius-m", "1.5", "--method", "plane"]).unwrap();
+        assert_eq!(c.args.method, Method::Plane);
+        assert!(parse(&["--auto-ties", "--method", "planar"]).is_err());
         let plan = Plan::try_from(c.args).unwrap();
         assert_eq!(plan.options.vtpm.radius_m, 1.5);
         assert_eq!(

@@ -4,11 +4,10 @@
 //! Each strip is one `lidarqa_pipeline::correct_tile` (streaming, bounded memory): the command,
 //! the Python binding and a job array give the same bytes because they run the same function.
 
-use super::tpu_flags::crs_flags;
+use super::tpu_flags::SurveyFlags;
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lidarqa_calib::mounting_from_json;
-use lidarqa_pipeline::{CorrectTileJob, TpuContext, TpuOptions, correct_tile_with_progress};
+use lidarqa_pipeline::{CorrectTileJob, correct_tile_with_progress, read_calibrated_mounting};
 use std::path::{Path, PathBuf};
 
 pub const AFTER_HELP: &str = "\
@@ -42,15 +41,8 @@ pub struct CorrectArgs {
     /// Output directory (created if missing).
     #[arg(short, long, value_name = "DIR")]
     output: PathBuf,
-    /// GPS week of the survey (LAS adjusted standard GPS time).
-    #[arg(long, value_name = "WEEK")]
-    gps_week: Option<i64>,
-    /// UTM zone of the points when the files have no CRS, e.g. 33N or 17S (WGS 84).
-    #[arg(long, value_name = "ZONE", conflicts_with = "epsg")]
-    utm_zone: Option<String>,
-    /// EPSG code of the points' projected CRS when the files have none (any projected EPSG CRS).
-    #[arg(long, value_name = "CODE")]
-    epsg: Option<u32>,
+    #[command(flatten)]
+    survey: SurveyFlags,
 }
 
 pub fn run(a: CorrectArgs) -> Result<()> {
@@ -58,26 +50,12 @@ pub fn run(a: CorrectArgs) -> Result<()> {
     lidarqa_io::check_distinct_inputs(&a.strips)?;
     let shared = [&a.calibration, &a.sensor, &a.trajectory];
     let outputs = lidarqa_io::outputs_in_dir(&a.output, &a.strips, &shared)?;
-    let text = std::fs::read_to_string(&a.calibration)
-        .with_context(|| format!("{}", a.calibration.display()))?;
-    let doc: serde_json::Value = serde_json::from_str(&text)
-        .with_context(|| format!("{}: not JSON", a.calibration.display()))?;
-    let mounting =
-        mounting_from_json(&doc).with_context(|| format!("{}", a.calibration.display()))?;
+    let mounting = read_calibrated_mounting(&a.calibration)?;
     if a.output.is_file() {
         bail!("{}: the output must be a directory", a.output.display());
     }
     std::fs::create_dir_all(&a.output).with_context(|| format!("{}", a.output.display()))?;
-    let ctx = TpuContext::from_files(
-        &a.sensor,
-        &a.trajectory,
-        None,
-        TpuOptions {
-            gps_week: a.gps_week,
-            crs: crs_flags(a.utm_zone.as_deref(), a.epsg)?,
-            ..TpuOptions::default()
-        },
-    )?;
+    let ctx = a.survey.context(&a.sensor, &a.trajectory)?;
     crate::format::print_warnings(ctx.warnings());
     // No output may overwrite any strip (not only its own input) or the calibration.
     let mut others: Vec<&Path> = a.strips.iter().map(PathBuf::as_path).collect();

@@ -12,7 +12,7 @@ mod scenario;
 use crate::format::print_text;
 use anyhow::{Context, Result};
 use clap::Args;
-use runner::{Step, run_step, step};
+use runner::{run_steps, step, tpu_args};
 use std::path::PathBuf;
 
 pub const AFTER_HELP: &str = "\
@@ -66,10 +66,9 @@ pub fn run(args: DemoArgs) -> Result<()> {
         corrected.display().to_string(),
         tpu_dir.display().to_string(),
     );
-    let (sensor, sbet, smrmsg, control) = (
+    let (sensor, sbet, control) = (
         format!("{s_dir}/sensor.toml"),
         format!("{s_dir}/sbet.out"),
-        format!("{s_dir}/smrmsg.out"),
         format!("{s_dir}/control.csv"),
     );
     let strip_files = |base: &str| -> Vec<String> {
@@ -84,10 +83,21 @@ pub fn run(args: DemoArgs) -> Result<()> {
             .chain(tail.iter().map(|s| s.to_string()))
             .collect()
     };
-    let own = |what: &'static str, args: Vec<String>, stdout: Option<PathBuf>| Step {
-        what,
-        args,
-        stdout,
+    // Targets against control, beside the prediction of a TPU summary.
+    let evaluate = |targets: &str, tpu_summary: &str| {
+        let (targets, tpu_summary) = (d(targets), d(tpu_summary));
+        [
+            "evaluate",
+            "--targets",
+            &targets,
+            "--control",
+            &control,
+            "--tpu",
+            &tpu_summary,
+            "--format",
+            "json",
+        ]
+        .map(String::from)
     };
     let raw = strip_files(&s_dir);
     let fixed = strip_files(&c_dir);
@@ -131,25 +141,12 @@ pub fn run(args: DemoArgs) -> Result<()> {
         ),
         step(
             "predict: the per-point TPU of every strip",
-            &[
-                "tpu",
-                &s_dir,
-                "--trajectory",
-                &sbet,
-                "--smrmsg",
-                &smrmsg,
-                "--sensor",
-                &sensor,
-                "-o",
-                &t_dir,
-                "--summary",
-                &d("tpu_summary.json"),
-            ],
+            &tpu_args(&s_dir, &sensor, &[], &t_dir, &d("tpu_summary.json")),
             None,
         ),
-        own(
+        step(
             "measure: extract the targets and fit their centres",
-            with(
+            &with(
                 &["targets"],
                 &raw,
                 &["--control", &control, "-o", &d("targets_before.csv")],
@@ -158,27 +155,17 @@ pub fn run(args: DemoArgs) -> Result<()> {
         ),
         step(
             "measure: accuracy against control, beside the prediction",
-            &[
-                "evaluate",
-                "--targets",
-                &d("targets_before.csv"),
-                "--control",
-                &control,
-                "--tpu",
-                &d("tpu_summary.json"),
-                "--format",
-                "json",
-            ],
+            &evaluate("targets_before.csv", "tpu_summary.json"),
             Some(dir.join("evaluate_before.json")),
         ),
-        own(
+        step(
             "measure: strip-to-strip consistency before calibration",
-            with(&["overlap"], &raw, &["-o", &d("overlap_before.json")]),
+            &with(&["overlap"], &raw, &["-o", &d("overlap_before.json")]),
             None,
         ),
-        own(
+        step(
             "calibrate: boresight and lever arm from the overlapping strips (VTPM) and the targets",
-            with(
+            &with(
                 &["calibrate"],
                 &raw,
                 &[
@@ -201,9 +188,9 @@ pub fn run(args: DemoArgs) -> Result<()> {
             ),
             None,
         ),
-        own(
+        step(
             "correct: re-georeference the strips with the calibrated mounting",
-            with(
+            &with(
                 &["correct"],
                 &raw,
                 &[
@@ -221,27 +208,18 @@ pub fn run(args: DemoArgs) -> Result<()> {
         ),
         step(
             "predict again: the per-point TPU with the calibrated mounting and its σ",
-            &[
-                "tpu",
+            &tpu_args(
                 &s_dir,
-                "--trajectory",
-                &sbet,
-                "--smrmsg",
-                &smrmsg,
-                "--sensor",
                 &sensor,
-                "--calibration",
-                &d("calibration.json"),
-                "-o",
+                &["--calibration", &d("calibration.json")],
                 &d("tpu_calibrated"),
-                "--summary",
                 &d(CALIBRATED_TPU_SUMMARY),
-            ],
+            ),
             None,
         ),
-        own(
+        step(
             "measure again: the targets in the corrected strips",
-            with(
+            &with(
                 &["targets"],
                 &fixed,
                 &["--control", &control, "-o", &d("targets_after.csv")],
@@ -250,22 +228,12 @@ pub fn run(args: DemoArgs) -> Result<()> {
         ),
         step(
             "measure again: accuracy against control after calibration, beside the calibrated prediction",
-            &[
-                "evaluate",
-                "--targets",
-                &d("targets_after.csv"),
-                "--control",
-                &control,
-                "--tpu",
-                &d(CALIBRATED_TPU_SUMMARY),
-                "--format",
-                "json",
-            ],
+            &evaluate("targets_after.csv", CALIBRATED_TPU_SUMMARY),
             Some(dir.join("evaluate_after.json")),
         ),
-        own(
+        step(
             "measure again: strip-to-strip consistency after calibration",
-            with(&["overlap"], &fixed, &["-o", &d("overlap_after.json")]),
+            &with(&["overlap"], &fixed, &["-o", &d("overlap_after.json")]),
             None,
         ),
         step(
@@ -274,9 +242,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
             None,
         ),
     ];
-    let total = steps.len();
-    for (i, s) in steps.iter().enumerate() {
-        run_step(&exe, s, i + 1, total)?;
+    run_steps(&exe, &steps, |i| {
         if i == 0 {
             // The simulator's truth beside the other products, so the report can score the
             // calibration against it.
@@ -285,7 +251,8 @@ pub fn run(args: DemoArgs) -> Result<()> {
             std::fs::write(dir.join("truth.json"), truth)
                 .with_context(|| format!("{}", dir.join("truth.json").display()))?;
         }
-    }
+        Ok(())
+    })?;
     print_text(&lidarqa_report::demo_summary(dir)?)
 }
 

@@ -4,8 +4,9 @@
 use crate::format::{OutputFormat, print_text};
 use anyhow::{Result, bail};
 use clap::Args;
-use lidarqa_calib::{OverlapOptions, OverlapStrip, overlap_qc};
-use lidarqa_io::{AtomicFile, LasReader, PointChunk};
+use lidarqa_calib::OverlapOptions;
+use lidarqa_io::AtomicFile;
+use lidarqa_pipeline::overlap_files;
 use std::io::Write as _;
 use std::path::PathBuf;
 
@@ -46,36 +47,13 @@ pub fn run(a: OverlapArgs) -> Result<()> {
     if !(a.cell_m.is_finite() && a.cell_m > 0.0) {
         bail!("--cell-m must be a number > 0, got {}", a.cell_m);
     }
-    lidarqa_io::check_distinct_inputs(&a.strips)?;
-    let mut strips = Vec::new();
-    for path in &a.strips {
-        let mut r = LasReader::from_path(path)?;
-        let mut chunk = PointChunk::new();
-        let mut points = Vec::new();
-        let mut psid = None;
-        while r.fill(&mut chunk, 200_000)? > 0 {
-            for p in &chunk.points {
-                psid.get_or_insert(p.point_source_id);
-                points.push([p.x, p.y, p.z]);
-            }
-        }
-        let stem = path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let id = match psid {
-            Some(id) if id != 0 => id.to_string(),
-            _ => stem,
-        };
-        strips.push(OverlapStrip { id, points });
-    }
     let opts = OverlapOptions {
         cell_m: a.cell_m,
         max_roughness_m: a.max_roughness_m,
         max_slope_deg: a.max_slope_deg,
         ..OverlapOptions::default()
     };
-    let report = overlap_qc(&strips, &opts)?;
+    let report = overlap_files(&a.strips, &opts)?;
     let doc = report.to_json();
     if let Some(out) = &a.output {
         let mut f = AtomicFile::create(out, &a.strips)?;

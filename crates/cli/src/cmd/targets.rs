@@ -4,8 +4,8 @@
 use crate::format::{OutputFormat, print_json, print_text, print_warnings};
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lidarqa_io::{ControlPoints, Target, Targets};
-use lidarqa_pipeline::{control_for_targets, find_targets};
+use lidarqa_io::ControlPoints;
+use lidarqa_pipeline::{control_for_targets, find_targets, targets_csv};
 use lidarqa_targets::{CentreMethod, TargetConfig, TargetReport};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -48,61 +48,6 @@ pub struct TargetsArgs {
     format: OutputFormat,
 }
 
-/// The targets as the io CSV table (`id,x,y,z` plus quality columns).
-pub fn targets_table(path: &Path, report: &TargetReport) -> Targets {
-    let extra_columns = [
-        "n_points",
-        "n_edge_points",
-        "coverage_deg",
-        "radius_m",
-        "sigma_h_m",
-        "sigma_v_m",
-        "n_elevation_points",
-        "method",
-        "flags",
-    ]
-    .map(String::from)
-    .to_vec();
-    let records = report
-        .targets
-        .iter()
-        .enumerate()
-        .map(|(i, t)| {
-            let c = &t.centre;
-            Target {
-                id: t.id.clone(),
-                x: c.x,
-                y: c.y,
-                z: c.z,
-                extra: vec![
-                    c.n_points.to_string(),
-                    c.n_edge_points.to_string(),
-                    format!("{:.1}", c.coverage_deg),
-                    c.radius_m.map(|r| format!("{r:.4}")).unwrap_or_default(),
-                    format!("{:.4}", c.sigma_horizontal_m),
-                    format!("{:.4}", c.covariance[2][2].max(0.0).sqrt()),
-                    c.plate
-                        .as_ref()
-                        .map(|p| p.n_elevation_points.to_string())
-                        .unwrap_or_default(),
-                    c.method.to_string(),
-                    c.flags
-                        .iter()
-                        .map(ToString::to_string)
-                        .collect::<Vec<_>>()
-                        .join(";"),
-                ],
-                line: i as u64 + 2,
-            }
-        })
-        .collect();
-    Targets {
-        path: path.to_path_buf(),
-        extra_columns,
-        records,
-    }
-}
-
 /// Run `lidarqa targets`.
 pub fn run(args: TargetsArgs) -> Result<()> {
     let method: CentreMethod = args
@@ -127,7 +72,7 @@ pub fn run(args: TargetsArgs) -> Result<()> {
     print_warnings(&warnings);
     let mut inputs: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
     inputs.push(&args.control);
-    targets_table(&args.output, &report).write_path(&args.output, &inputs)?;
+    targets_csv(&args.output, &report).write_path(&args.output, &inputs)?;
     match args.format {
         OutputFormat::Json => {
             let mut value = serde_json::to_value(&report)?;

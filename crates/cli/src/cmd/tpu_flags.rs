@@ -1,26 +1,56 @@
-//! Flags shared by the subcommands that read point clouds: the per-point TPU options (`tpu`,
-//! `plan tpu`), the CRS override (`tpu`, `calibrate`, `correct`) and the point clouds of a
-//! directory.
+//! Flags shared by the subcommands that read point clouds: the GPS week and CRS override
+//! (`tpu`, `plan tpu`, `calibrate`, `correct`), the per-point TPU options (`tpu`, `plan tpu`)
+//! and the point clouds of a directory.
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lidarqa_io::{Crs, UtmZone};
-use lidarqa_pipeline::TpuOptions;
+use lidarqa_pipeline::{TpuContext, TpuOptions};
 use std::path::{Path, PathBuf};
 
-/// The options of a per-point TPU run, shared by `lidarqa tpu` and `lidarqa plan tpu`.
+/// When and where the points are: the GPS week and the CRS of files that have none, shared by
+/// every subcommand that georeferences points with a trajectory.
 #[derive(Debug, Args)]
-pub struct TpuFlags {
-    /// GPS week of the survey (for adjusted standard GPS time).
-    #[arg(long, value_name = "N")]
+pub struct SurveyFlags {
+    /// GPS week of the survey (LAS adjusted standard GPS time).
+    #[arg(long, value_name = "WEEK")]
     gps_week: Option<i64>,
-    /// UTM zone of the points when the files have no CRS, e.g. 33N or 17S (WGS 84).
+    /// UTM zone of the points when the files have no CRS, e.g. 33N or 17S (WGS 84); overrides
+    /// the header's.
     #[arg(long, value_name = "ZONE", conflicts_with = "epsg")]
     utm_zone: Option<String>,
     /// EPSG code of the points' projected CRS when the files have none (any projected EPSG
     /// CRS: UTM, national transverse Mercator grids, LAEA, state planes in feet, ...).
     #[arg(long, value_name = "CODE")]
     epsg: Option<u32>,
+}
+
+impl SurveyFlags {
+    /// The library options these flags set (the others at their defaults).
+    pub(crate) fn options(&self) -> Result<TpuOptions> {
+        Ok(TpuOptions {
+            crs: crs_flags(self.utm_zone.as_deref(), self.epsg)?,
+            gps_week: self.gps_week,
+            ..TpuOptions::default()
+        })
+    }
+
+    /// The sensor and trajectory (no SMRMSG) read with these flags.
+    pub(crate) fn context(&self, sensor: &Path, trajectory: &Path) -> Result<TpuContext> {
+        Ok(TpuContext::from_files(
+            sensor,
+            trajectory,
+            None,
+            self.options()?,
+        )?)
+    }
+}
+
+/// The options of a per-point TPU run, shared by `lidarqa tpu` and `lidarqa plan tpu`.
+#[derive(Debug, Args)]
+pub struct TpuFlags {
+    #[command(flatten)]
+    survey: SurveyFlags,
     /// Skip and count points outside the trajectory's time span instead of failing.
     #[arg(long)]
     skip_outside: bool,
@@ -50,7 +80,7 @@ pub struct TpuFlags {
 impl TpuFlags {
     /// The checked library options.
     pub(crate) fn options(&self) -> Result<TpuOptions> {
-        let crs = crs_flags(self.utm_zone.as_deref(), self.epsg)?;
+        let survey = self.survey.options()?;
         if self.chunk_points == 0 {
             bail!("--chunk-points must be > 0");
         }
@@ -71,15 +101,13 @@ impl TpuFlags {
             );
         }
         Ok(TpuOptions {
-            crs,
-            gps_week: self.gps_week,
             skip_outside: self.skip_outside,
             skip_invalid: self.skip_invalid,
             chunk_points: self.chunk_points,
             neighbours: self.neighbours,
             covariance: self.covariance,
             geoid_separation_m: self.geoid_separation_m,
-            ..TpuOptions::default()
+            ..survey
         })
     }
 }
@@ -99,7 +127,7 @@ pub(crate) fn point_clouds_in(dir: &Path) -> Result<Vec<PathBuf>> {
 }
 
 /// The CRS given by `--utm-zone` or `--epsg` (clap refuses both), if any.
-pub(crate) fn crs_flags(utm_zone: Option<&str>, epsg: Option<u32>) -> Result<Option<Crs>> {
+fn crs_flags(utm_zone: Option<&str>, epsg: Option<u32>) -> Result<Option<Crs>> {
     Ok(match (utm_zone, epsg) {
         (Some(z), _) => Some(Crs::from(z.parse::<UtmZone>().context("--utm-zone")?)),
         (None, Some(code)) => Some(Crs::from_epsg(code).with_context(|| format!("--epsg {code}"))?),

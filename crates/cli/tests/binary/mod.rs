@@ -12,6 +12,63 @@ pub fn lidarqa(args: &[&str]) -> Output {
         .expect("the lidarqa binary runs")
 }
 
+/// `lidarqa ARGS…`, failing the test with the arguments and stderr unless it succeeds.
+pub fn run_ok(args: &[&str]) -> Output {
+    let out = lidarqa(args);
+    assert!(
+        out.status.success(),
+        "lidarqa {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// The stdout of a successful `lidarqa ARGS…`.
+pub fn stdout_ok(args: &[&str]) -> String {
+    String::from_utf8(run_ok(args).stdout).expect("UTF-8 stdout")
+}
+
+/// The stdout of a successful `lidarqa ARGS…` as one JSON value.
+pub fn json_ok(args: &[&str]) -> serde_json::Value {
+    serde_json::from_slice(&run_ok(args).stdout).expect("one JSON value on stdout")
+}
+
+/// Exit 1 with one stderr line `lidarqa: …` containing every needle, and no panic (SPEC §6);
+/// returns the line.
+pub fn fails_with(out: &Output, needles: &[&str]) -> String {
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "one line, got: {err}");
+    assert!(err.starts_with("lidarqa: "), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "`{err}` lacks `{n}`");
+    }
+    err
+}
+
+/// `COMMAND INPUT --trajectory SBET --sensor SENSOR --calibration CAL -o OUTPUT`: a `tpu` or
+/// `correct` run with a calibration.
+pub fn with_calibration<'a>(
+    command: &'a str,
+    input: &'a Path,
+    [sbet, sensor, cal]: [&'a Path; 3],
+    output: &'a Path,
+) -> Vec<&'a str> {
+    vec![
+        command,
+        s(input),
+        "--trajectory",
+        s(sbet),
+        "--sensor",
+        s(sensor),
+        "--calibration",
+        s(cal),
+        "-o",
+        s(output),
+    ]
+}
+
 /// A test path as an argument (the temporary directories are UTF-8).
 pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
@@ -23,12 +80,7 @@ pub fn simulate_scenario(dir: &Path, text: &str) -> std::path::PathBuf {
     let toml = dir.join("s.toml");
     std::fs::write(&toml, text).unwrap();
     let sim = dir.join("sim");
-    let out = lidarqa(&["simulate", "--scenario", s(&toml), "-o", s(&sim)]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    run_ok(&["simulate", "--scenario", s(&toml), "-o", s(&sim)]);
     sim
 }
 

@@ -27,6 +27,7 @@ __all__ = [
     "find_targets",
     "evaluate_targets",
     "evaluate_nva",
+    "overlap",
     "budget",
     "run_manifest_entry",
     "manifest_len",
@@ -58,21 +59,23 @@ def extract_targets_tile(input, output, control, radius_m=None, method="circle-f
                                                      radius_m, method, window_m))
 
 
-def find_targets(inputs, control, radius_m=None, method="circle-fit", window_m=6.0):
+def find_targets(inputs, control, radius_m=None, method="circle-fit", window_m=6.0, output=None):
     """Targets in several files, each searched on its own and the centres merged per control id
-    (as ``lidarqa targets``); returns ``{"report": ..., "warnings": [...]}``, writes nothing."""
+    (as ``lidarqa targets``); returns ``{"report": ..., "warnings": [...]}``; with ``output``
+    also writes the targets CSV there, as ``lidarqa targets -o``."""
     return _json.loads(_lidarqa.find_targets([str(p) for p in inputs], str(control), radius_m,
-                                             method, window_m))
+                                             method, window_m, _s(output)))
 
 
 def evaluate_targets(targets, control, horizontal_class_m=None, vertical_class_m=None,
-                     sensor=None, height_m=None, scan_angle_deg=None):
+                     sensor=None, height_m=None, scan_angle_deg=None, tpu=None):
     """Accuracy of a targets CSV against a control CSV (``lidarqa evaluate --targets --control``):
-    residuals, RMSE (seed 000 eqs. 7-8), ASPRS and NSSDA; with ``sensor`` and ``height_m`` the
-    predicted σ of that sensor file's budget beside it."""
+    residuals, RMSE (seed 000 eqs. 7-8), ASPRS and NSSDA; the predicted σ beside it from ``tpu``
+    (a ``tpu_summary.json``: its median per-point σ, as ``--tpu``) or from ``sensor`` with
+    ``height_m`` (that sensor file's budget, as ``--sensor``)."""
     return _json.loads(_lidarqa.evaluate_targets(str(targets), str(control), horizontal_class_m,
                                                  vertical_class_m, _s(sensor), height_m,
-                                                 scan_angle_deg))
+                                                 scan_angle_deg, _s(tpu)))
 
 
 def evaluate_nva(ground, checkpoints, ground_class=2, vertical_class_m=None):
@@ -80,6 +83,14 @@ def evaluate_nva(ground, checkpoints, ground_class=2, vertical_class_m=None):
     ``lidarqa evaluate --ground --checkpoints``)."""
     return _json.loads(_lidarqa.evaluate_nva([str(p) for p in ground], str(checkpoints),
                                              ground_class, vertical_class_m))
+
+
+def overlap(strips, cell_m=1.0, max_roughness_m=0.05, max_slope_deg=10.0):
+    """Swath-to-swath height differences of overlapping strips on smooth cells (``lidarqa
+    overlap -o``): per pair RMSDz, max |dz| and mean dz (first strip minus second), the dz grid
+    and a profile."""
+    return _json.loads(_lidarqa.overlap([str(p) for p in strips], cell_m, max_roughness_m,
+                                        max_slope_deg))
 
 
 def budget(preset=None, sensor=None, **geometry):

@@ -3,7 +3,9 @@
 
 use lidarqa_io::{Geodetic, UtmZone};
 use lidarqa_model::{Attitude, ecef_from_ned};
-use lidarqa_sim::{ErrorsFile, Scenario, ScenarioFile, TrajectoryRecord};
+use lidarqa_sim::{
+    ErrorsFile, Scenario, ScenarioFile, SimOptions, Survey, TrajectoryRecord, simulate,
+};
 use nalgebra::{Matrix3, Vector3};
 use std::f64::consts::PI;
 
@@ -29,6 +31,17 @@ pub fn quiet_demo(lines: &[([f64; 2], [f64; 2])]) -> ScenarioFile {
         })
         .collect();
     f
+}
+
+/// The scenario `f`, checked, and its simulated survey with the truth kept.
+pub fn simulate_with_truth(f: ScenarioFile) -> (Scenario, Survey) {
+    let scenario = Scenario::from_file(f).unwrap();
+    let options = SimOptions {
+        keep_truth: true,
+        ..SimOptions::default()
+    };
+    let survey = simulate(&scenario, &options).unwrap();
+    (scenario, survey)
 }
 
 /// Position (geodetic) and attitude at `t`, linearly interpolated in latitude, longitude, height

@@ -2,10 +2,10 @@
 //! commands (simulate → budget across depth and azimuth → tpu with IHO S-44 → report), printed
 //! and run like the topographic demo's.
 
-use super::runner::{Step, run_step, step};
+use super::runner::{run_steps, step, tpu_args};
 use crate::format::print_text;
 use anyhow::{Context, Result};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Height of the built-in bathymetry lines above the water surface, m (420 m above ground that
 /// lies 1 m above the water at 20 m): the geometry of the budget steps.
@@ -35,48 +35,30 @@ pub(super) fn run(dir: &Path, quick: bool, seed: u64) -> Result<()> {
         .map(|s| s.to_string())
         .collect()
     };
-    let own = |what: &'static str, args: Vec<String>, stdout: Option<PathBuf>| Step {
-        what,
-        args,
-        stdout,
-    };
     let steps = [
         step(
             "simulate the conic bathymetric survey (a lake 2 to 50 m deep under waves)",
             &["simulate", "--scenario", &scen, "-o", &s_dir],
             None,
         ),
-        own(
+        step(
             "predict: the error budget of a sounding 20 m deep, 400 m above the water",
-            budget(&["--depth", "20"]),
+            &budget(&["--depth", "20"]),
             Some(dir.join("budget.json")),
         ),
-        own(
+        step(
             "predict: the budget vs depth (seed 004 §3)",
-            budget(&["--depth", "5", "--sweep", "depth=0:50:5"]),
+            &budget(&["--depth", "5", "--sweep", "depth=0:50:5"]),
             Some(dir.join("budget_sweep_depth.json")),
         ),
-        own(
+        step(
             "predict: the budget around the conic scan at 20 m depth (seed 004 Fig. 4)",
-            budget(&["--depth", "20", "--sweep", "azimuth=0:360:10"]),
+            &budget(&["--depth", "20", "--sweep", "azimuth=0:360:10"]),
             Some(dir.join("budget_sweep_azimuth.json")),
         ),
         step(
             "predict: the TPU of every point and the IHO S-44 order of every sounding",
-            &[
-                "tpu",
-                &s_dir,
-                "--trajectory",
-                &format!("{s_dir}/sbet.out"),
-                "--smrmsg",
-                &format!("{s_dir}/smrmsg.out"),
-                "--sensor",
-                &sensor,
-                "-o",
-                &d("tpu"),
-                "--summary",
-                &d("tpu_summary.json"),
-            ],
+            &tpu_args(&s_dir, &sensor, &[], &d("tpu"), &d("tpu_summary.json")),
             None,
         ),
         step(
@@ -85,9 +67,6 @@ pub(super) fn run(dir: &Path, quick: bool, seed: u64) -> Result<()> {
             None,
         ),
     ];
-    let total = steps.len();
-    for (i, s) in steps.iter().enumerate() {
-        run_step(&exe, s, i + 1, total)?;
-    }
+    run_steps(&exe, &steps, |_| Ok(()))?;
     print_text(&lidarqa_report::bathymetry_demo_summary(dir)?)
 }

@@ -12,12 +12,57 @@ pub(super) struct Step {
     pub(super) stdout: Option<PathBuf>,
 }
 
-pub(super) fn step(what: &'static str, args: &[&str], stdout: Option<PathBuf>) -> Step {
+pub(super) fn step<S: AsRef<str>>(what: &'static str, args: &[S], stdout: Option<PathBuf>) -> Step {
     Step {
         what,
-        args: args.iter().map(|s| s.to_string()).collect(),
+        args: args.iter().map(|s| s.as_ref().to_string()).collect(),
         stdout,
     }
+}
+
+/// `lidarqa tpu` over the strips of `strips_dir` with the simulator's trajectory and its σ
+/// (`sbet.out`, `smrmsg.out` there), `extra` flags before the outputs.
+pub(super) fn tpu_args(
+    strips_dir: &str,
+    sensor: &str,
+    extra: &[&str],
+    output_dir: &str,
+    summary: &str,
+) -> Vec<String> {
+    let (sbet, smrmsg) = (
+        format!("{strips_dir}/sbet.out"),
+        format!("{strips_dir}/smrmsg.out"),
+    );
+    let head = [
+        "tpu",
+        strips_dir,
+        "--trajectory",
+        &sbet,
+        "--smrmsg",
+        &smrmsg,
+        "--sensor",
+        sensor,
+    ];
+    let tail = ["-o", output_dir, "--summary", summary];
+    head.iter()
+        .chain(extra)
+        .chain(&tail)
+        .map(|s| s.to_string())
+        .collect()
+}
+
+/// Runs `steps` in order with the binary `exe`, calling `after(i)` once step `i` (from 0) has
+/// succeeded; the first failure stops the run.
+pub(super) fn run_steps(
+    exe: &Path,
+    steps: &[Step],
+    mut after: impl FnMut(usize) -> Result<()>,
+) -> Result<()> {
+    for (i, s) in steps.iter().enumerate() {
+        run_step(exe, s, i + 1, steps.len())?;
+        after(i)?;
+    }
+    Ok(())
 }
 
 fn quote(s: &str) -> String {
@@ -30,7 +75,7 @@ fn quote(s: &str) -> String {
     }
 }
 
-pub(super) fn run_step(exe: &Path, s: &Step, n: usize, total: usize) -> Result<()> {
+fn run_step(exe: &Path, s: &Step, n: usize, total: usize) -> Result<()> {
     let mut shown = format!(
         "lidarqa {}",
         s.args
