@@ -30,7 +30,6 @@ use crate::error::{Error, Result};
 use crate::geodesy::{
     Ellipsoid, Hemisphere, Projected, TransverseMercator, Unprojected, UtmDatum, UtmZone,
 };
-use crate::pointcloud::RawVlr;
 use std::sync::Arc;
 
 /// The linear unit of a projected CRS's coordinates.
@@ -796,6 +795,41 @@ fn parse_epsg_authority(s: &str) -> Option<u32> {
     let s = s.trim_start_matches('"');
     let end = s.find(|c: char| !c.is_ascii_digit())?;
     s[..end].parse().ok()
+}
+
+/// A VLR copied verbatim (CRS records).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RawVlr {
+    /// User id, e.g. `LASF_Projection`.
+    pub user_id: String,
+    /// Record id, e.g. 2112 (WKT) or 34735 (GeoKey directory).
+    pub record_id: u16,
+    /// Description.
+    pub description: String,
+    /// Payload.
+    pub data: Vec<u8>,
+}
+
+impl From<&las::Vlr> for RawVlr {
+    fn from(v: &las::Vlr) -> Self {
+        RawVlr {
+            user_id: v.user_id.clone(),
+            record_id: v.record_id,
+            description: v.description.clone(),
+            data: v.data.clone(),
+        }
+    }
+}
+
+impl From<&RawVlr> for las::Vlr {
+    fn from(v: &RawVlr) -> Self {
+        las::Vlr {
+            user_id: v.user_id.clone(),
+            record_id: v.record_id,
+            description: v.description.clone(),
+            data: v.data.clone(),
+        }
+    }
 }
 
 #[cfg(test)]

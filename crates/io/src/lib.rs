@@ -31,7 +31,7 @@ mod sbet;
 mod trajtext;
 
 pub use atomic::{AtomicFile, InputSet, check_distinct_inputs, check_not_an_input, outputs_in_dir};
-pub use crs::{Crs, LasCrs, LinearUnit, epsg_from_wkt, orthometric_from_wkt};
+pub use crs::{Crs, LasCrs, LinearUnit, RawVlr, epsg_from_wkt, orthometric_from_wkt};
 pub use csv::{
     ControlPoint, ControlPoints, HasExtra, PointTable, Target, Targets, TiePick, TiePicks,
 };
@@ -47,7 +47,7 @@ pub use gpstime::{
 };
 pub use pointcloud::{
     CLASS_BATHYMETRY, CLASS_WATER_SURFACE, ExtraDim, LasInfo, LasPoint, LasReader, LasWriteOptions,
-    LasWriter, PointChunk, RawVlr,
+    LasWriter, PointChunk,
 };
 pub use sbet::{
     F64Record, RAD_PER_ARCMIN, RecordReader, RecordWriter, SbetPose, SbetReader, SbetWriter,

@@ -43,6 +43,6 @@ mod writer;
 
 pub use extra_bytes::ExtraDim;
 pub use info::LasInfo;
-pub use point::{CLASS_BATHYMETRY, CLASS_WATER_SURFACE, LasPoint, RawVlr};
+pub use point::{CLASS_BATHYMETRY, CLASS_WATER_SURFACE, LasPoint};
 pub use reader::{LasReader, PointChunk};
 pub use writer::{LasWriteOptions, LasWriter};

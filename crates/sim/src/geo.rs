@@ -15,7 +15,7 @@
 //! checks 5·10⁻⁵ m out to 1.2 km). A ray `v(ρ) = o + ρ d` then follows the exact parabola
 //! `F(o) + ρ (J d + oᵀHd) + ρ² ½ dᵀHd` in (x, y, h).
 
-use crate::scene::Curve;
+use crate::ray::Curve;
 use lidarqa_io::{Geodetic, UtmZone};
 use lidarqa_model::{Ecef, ecef_from_ned};
 use nalgebra::{Matrix3, Vector3};

@@ -44,6 +44,7 @@ mod check;
 mod error;
 mod geo;
 mod output;
+mod ray;
 mod scenario;
 mod scene;
 mod scene_file;
@@ -57,6 +58,7 @@ pub use output::{
     ControlPoint, InjectedErrors, MountingParameters, Observation, PointTruth, RandomErrors,
     SimPoint, Strip, StripTruth, Survey, TargetTruth, TrajectoryRecord, TrajectorySigma, Truth,
 };
+pub use ray::{Curve, Hit};
 pub use scenario::{
     BUILTIN_NAMES, BuildingFile, ErrorModel, ErrorsFile, Line, LineFile, MAX_HEIGHT_M, MAX_LINES,
     MAX_PULSE_RATE_HZ, MAX_PULSES, MAX_TRAJECTORY_RATE_HZ, Motion, MotionFile, PavedFile,
@@ -65,7 +67,7 @@ pub use scenario::{
 };
 pub use scene::{
     Building, CLASS_BATHYMETRY, CLASS_BUILDING, CLASS_GROUND, CLASS_TARGET, CLASS_WATER_SURFACE,
-    Curve, Hit, Markings, Paved, Scene, Target, Water, Wave,
+    Markings, Paved, Scene, Target, Water, Wave,
 };
 pub use simulate::{PointSink, SimOptions, simulate, simulate_streaming, simulate_with_progress};
 pub use vegetation::{CLASS_HIGH_VEGETATION, REFLECTIVITY_CANOPY, Vegetation, VegetationFile};

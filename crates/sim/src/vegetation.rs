@@ -10,7 +10,7 @@
 //! they never hide targets, roofs or water (the scene's other objects are not under trees).
 
 use crate::error::{Error, Result};
-use crate::scene::{Curve, Hit};
+use crate::ray::{Curve, Hit};
 use serde::{Deserialize, Serialize};
 
 /// ASPRS class of canopy returns (high vegetation).

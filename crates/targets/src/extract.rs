@@ -10,20 +10,8 @@ use crate::centre::{
 };
 use crate::fcm::{ExtractionReport, FcmConfig, ThresholdRule, select_high_intensity};
 use crate::plate::{PlateFit, RING_OUT_M, fit_plate};
+use crate::point::LidarPoint;
 use crate::{Error, Result};
-
-/// One lidar return, in projected coordinates.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct LidarPoint {
-    /// Easting (projected m).
-    pub x: f64,
-    /// Northing (projected m).
-    pub y: f64,
-    /// Height (m, up).
-    pub z: f64,
-    /// Return intensity (sensor units, e.g. the LAS 16-bit value as f64).
-    pub intensity: f64,
-}
 
 /// A surveyed control point or checkpoint (SPEC §7: `id,x,y,z[,sigma_h,sigma_v]`).
 #[derive(Debug, Clone, PartialEq, Serialize)]

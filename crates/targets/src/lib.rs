@@ -52,6 +52,8 @@ mod fcm;
 mod mec;
 mod merge;
 mod plate;
+mod point;
+mod posterior;
 
 pub use centre::{
     CentreEstimate, CentreMethod, CentreOptions, Elevation, TargetFlag, estimate_centre,
@@ -65,8 +67,8 @@ pub use evaluate::{
     asprs_combined_rmse, evaluate, evaluate_vertical_tin, nssda_horizontal, nssda_vertical,
 };
 pub use extract::{
-    ControlPoint, LidarPoint, TargetConfig, TargetReport, TargetResult, UnmatchedCluster,
-    UnmatchedReason, extract_targets, segment_clusters, validate_control,
+    ControlPoint, TargetConfig, TargetReport, TargetResult, UnmatchedCluster, UnmatchedReason,
+    extract_targets, segment_clusters, validate_control,
 };
 pub use fcm::{
     ExtractionReport, FcmConfig, FcmReport, FcmResult, ThresholdRule, fuzzy_c_means,
@@ -75,6 +77,7 @@ pub use fcm::{
 pub use mec::{Circle, min_enclosing_circle};
 pub use merge::merge_reports;
 pub use plate::PlateModel;
+pub use point::LidarPoint;
 
 /// The crate's result type.
 pub type Result<T> = std::result::Result<T, Error>;

@@ -34,8 +34,8 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
-use crate::centre::{coverage_deg, grid_posterior, grid_posterior_mixture};
-use crate::extract::LidarPoint;
+use crate::point::{LidarPoint, coverage_deg};
+use crate::posterior::{grid_posterior, grid_posterior_mixture};
 
 /// Inner edge of the ring the detection compares the disc with, beyond R (m).
 const RING_IN_M: f64 = 0.15;

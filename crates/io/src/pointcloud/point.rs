@@ -55,38 +55,3 @@ pub struct LasPoint {
     /// Near infrared (formats 8, 10).
     pub nir: Option<u16>,
 }
-
-/// A VLR copied verbatim (CRS records).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct RawVlr {
-    /// User id, e.g. `LASF_Projection`.
-    pub user_id: String,
-    /// Record id, e.g. 2112 (WKT) or 34735 (GeoKey directory).
-    pub record_id: u16,
-    /// Description.
-    pub description: String,
-    /// Payload.
-    pub data: Vec<u8>,
-}
-
-impl From<&las::Vlr> for RawVlr {
-    fn from(v: &las::Vlr) -> Self {
-        RawVlr {
-            user_id: v.user_id.clone(),
-            record_id: v.record_id,
-            description: v.description.clone(),
-            data: v.data.clone(),
-        }
-    }
-}
-
-impl From<&RawVlr> for las::Vlr {
-    fn from(v: &RawVlr) -> Self {
-        las::Vlr {
-            user_id: v.user_id.clone(),
-            record_id: v.record_id,
-            description: v.description.clone(),
-            data: v.data.clone(),
-        }
-    }
-}

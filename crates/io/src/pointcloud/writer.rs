@@ -4,8 +4,9 @@ use super::extra_bytes::{
     EB_F32, EB_F64, EXTRA_BYTES_DESCRIPTOR_LEN, EXTRA_BYTES_RECORD, EXTRA_BYTES_USER, descriptor,
 };
 use super::info::LasInfo;
-use super::point::{LasPoint, RawVlr};
+use super::point::LasPoint;
 use crate::atomic::AtomicFile;
+use crate::crs::RawVlr;
 use crate::error::{Error, Result};
 use crate::gpstime::LasTimeBase;
 use std::io::{BufWriter, Seek};
