@@ -17,7 +17,8 @@
 //!   strip and chunk).
 //!
 //! Scan pattern of the linear scanner: a triangle wave (constant mirror speed, zigzag on the
-//! ground) by default, or a sine (`scan_wave = "sine"`).
+//! ground) by default, a sine (`scan_wave = "sine"`) or a sawtooth (`scan_wave = "sawtooth"`:
+//! parallel lines, one per cycle).
 //!
 //! ```
 //! use lidarqa_sim::{CLASS_GROUND, Scenario, SimOptions, simulate};

@@ -85,13 +85,14 @@ fn mounting_si(roll_deg: f64, pitch_deg: f64, yaw_deg: f64, lever_arm_m: [f64; 3
 pub struct ScannerSettingsFile {
     /// Pulse repetition rate, Hz.
     pub pulse_rate_hz: f64,
-    /// Linear: mirror oscillation frequency (full left-right-left cycles per second; two scan
-    /// lines per cycle), Hz. Conic: prism rotations per second, Hz.
+    /// Linear: mirror oscillation frequency (full cycles per second: two scan lines per cycle for
+    /// the triangle and sine, one for the sawtooth), Hz. Conic: prism rotations per second, Hz.
     pub scan_frequency_hz: f64,
     /// Linear: half field of view, degrees (the mirror sweeps ±this). Ignored by the conic scanner.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub field_of_view_deg: Option<f64>,
-    /// Linear: `"triangle"` (constant angular speed, the default) or `"sine"` (resonant mirror).
+    /// Linear: `"triangle"` (constant angular speed, the default), `"sine"` (resonant mirror) or
+    /// `"sawtooth"` (one direction only, parallel scan lines: a rotating polygon mirror).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scan_wave: Option<String>,
     /// Full-angle beam divergence, milliradians (footprint diameter = range × divergence); gives
@@ -221,6 +222,9 @@ pub enum ScanWave {
     Triangle,
     /// Sinusoidal (resonant mirror): denser at the swath edges.
     Sine,
+    /// Constant angular speed in one direction, then an instant return (rotating polygon):
+    /// parallel scan lines, one per cycle.
+    Sawtooth,
 }
 
 /// Checked scanner drive settings, SI.
@@ -442,11 +446,12 @@ impl Scenario {
                 let wave = match s.scan_wave.as_deref().unwrap_or("triangle") {
                     "triangle" => ScanWave::Triangle,
                     "sine" => ScanWave::Sine,
+                    "sawtooth" => ScanWave::Sawtooth,
                     other => {
                         return Err(invalid(
                             "scanner.scan_wave",
                             format!("{other:?}"),
-                            "must be \"triangle\" or \"sine\"",
+                            "must be \"triangle\", \"sine\" or \"sawtooth\"",
                         ));
                     }
                 };

@@ -586,6 +586,8 @@ impl Kernel<'_> {
                     // Triangle wave in [−1, 1], 0 at τ = 0.
                     ScanWave::Triangle => 4.0 * ((phase + 0.25).fract() - 0.5).abs() - 1.0,
                     ScanWave::Sine => (2.0 * PI * phase).sin(),
+                    // Sawtooth in [−1, 1), 0 at τ = 0, rising: one scan line per cycle.
+                    ScanWave::Sawtooth => 2.0 * (phase + 0.5).fract() - 1.0,
                 };
                 let theta = field_of_view_rad * u;
                 let dir = m_true * (self.r_m_true * scanner_vector(1.0, theta));

@@ -151,3 +151,47 @@ fn bathymetric_points_lie_on_the_bed_without_errors() {
         "worst distance to the surface or bed: {worst:e} m"
     );
 }
+
+/// `scan_wave = "sawtooth"`: the mirror sweeps one way at constant speed and flies back, one scan
+/// line per cycle, so the lines are parallel and `speed / frequency` apart along the track.
+#[test]
+fn a_sawtooth_scanner_draws_one_line_per_cycle() {
+    let mut f = quiet_demo(&[([-15.0, 0.0], [15.0, 0.0])]);
+    f.scanner.scan_wave = Some("sawtooth".into());
+    f.scanner.scan_frequency_hz = 40.0;
+    let (speed, rate) = (f.lines[0].speed_m_per_s, f.scanner.pulse_rate_hz);
+    let fov = f.scanner.field_of_view_deg.unwrap();
+    let scenario = Scenario::from_file(f).unwrap();
+    let survey = simulate(&scenario, &SimOptions::default()).unwrap();
+    let first: Vec<_> = survey.strips[0]
+        .points
+        .iter()
+        .filter(|p| p.return_number == 1)
+        .collect();
+    let step = 2.0 * fov * 40.0 / rate;
+    let (mut drops, mut nadir_east) = (0, Vec::new());
+    for w in first.windows(2) {
+        let d = f64::from(w[1].scan_angle_deg - w[0].scan_angle_deg);
+        if d < -fov {
+            drops += 1;
+        } else {
+            // Rising by one pulse's step (a pulse that gave no return skips one).
+            assert!(
+                d > 0.5 * step && d < 2.5 * step,
+                "step {d}°, expected {step}°"
+            );
+        }
+        if w[0].scan_angle_deg < 0.0 && w[1].scan_angle_deg >= 0.0 {
+            nadir_east.push(w[1].easting_m);
+        }
+    }
+    let cycles = 30.0 / speed * 40.0;
+    assert!(
+        (drops as f64 - cycles).abs() <= 1.0,
+        "{drops} returns, {cycles} cycles"
+    );
+    let line_m = speed / 40.0;
+    for w in nadir_east.windows(2) {
+        assert!(((w[1] - w[0]) - line_m).abs() < 0.02 * line_m, "{w:?}");
+    }
+}
