@@ -58,6 +58,50 @@ pub(crate) fn ransac_plane(
     Some((refined, inl))
 }
 
+/// Residuals below this are the coordinates' own rounding (LAS stores millimetres), never a
+/// second surface, m.
+const TRIM_FLOOR_M: f64 = 0.001;
+
+/// Largest residual kept by [`trim_to_plane`], in robust standard deviations of the residuals.
+const TRIM_SIGMAS: f64 = 4.0;
+
+/// Refits a consensus plane without the fringe of a neighbouring surface: RANSAC's threshold is
+/// set for the points' noise, so the first centimetres of the other face across a ridge, or of
+/// the ground below an eave, pass it and tilt the least-squares plane by an amount that depends
+/// on where each strip's scan lines fell (a bias of the tie, not noise). Drops the inliers
+/// farther from the refitted plane than [`TRIM_SIGMAS`] robust standard deviations (1.4826 ×
+/// the median |residual|, at least [`TRIM_FLOOR_M`]) and refits, until none is dropped; a
+/// noisy patch of one surface keeps all but a few in 10⁴ of its points (Gaussian beyond 4σ). Returns the plane
+/// and the kept indices (a subset of `inliers`); `None` when fewer than three remain.
+pub(crate) fn trim_to_plane(
+    points: &[Vector3<f64>],
+    mut inliers: Vec<usize>,
+    mut plane: Plane,
+) -> Option<(Plane, Vec<usize>)> {
+    loop {
+        let mut abs: Vec<f64> = inliers
+            .iter()
+            .map(|&k| plane.distance(&points[k]).abs())
+            .collect();
+        abs.sort_by(f64::total_cmp);
+        let cut = (TRIM_SIGMAS * 1.4826 * abs[abs.len() / 2]).max(TRIM_FLOOR_M);
+        let kept: Vec<usize> = inliers
+            .iter()
+            .copied()
+            .filter(|&k| plane.distance(&points[k]).abs() <= cut)
+            .collect();
+        if kept.len() == inliers.len() {
+            return Some((plane, inliers));
+        }
+        if kept.len() < 3 {
+            return None;
+        }
+        let sel: Vec<Vector3<f64>> = kept.iter().map(|&k| points[k]).collect();
+        plane = fit_plane(&sel)?;
+        inliers = kept;
+    }
+}
+
 /// The rigid transform (rotation `R`, translation `t`, `b ≈ R a + t`) that best maps triangle `a`
 /// onto triangle `b` in least squares (Kabsch / Horn, with the reflection guard): seed 001 eq. (6).
 pub(crate) fn rigid_transform(
@@ -140,6 +184,34 @@ mod tests {
     use super::*;
     use approx::assert_relative_eq;
     use lidarqa_model::rotation_zyx;
+
+    #[test]
+    fn trimming_drops_the_fringe_of_the_face_across_a_ridge() {
+        // A 30° roof face (height rises 0.577 m per m of x, NED z = −up) sampled on a 0.1 m grid
+        // for x < 0, and the other face past the ridge at x = 0: its first 5 cm of x are within
+        // RANSAC's 5 cm of the first face's plane.
+        let t = 30f64.to_radians().tan();
+        let mut pts = Vec::new();
+        for i in -15..=1 {
+            for j in -15..=15 {
+                let (x, y) = (f64::from(i) * 0.1 + 0.02, f64::from(j) * 0.1);
+                let up = if x < 0.0 { 5.0 + t * x } else { 5.0 - t * x };
+                pts.push(Vector3::new(x, y, -up));
+            }
+        }
+        let (plane, inl) = ransac_plane(&pts, 0.05, 200, 3).unwrap();
+        assert!(
+            inl.len() > 15 * 31,
+            "the fringe passes RANSAC: {}",
+            inl.len()
+        );
+        let at_origin = |p: &Plane| (p.offset() - p.normal.x * -0.5) / p.normal.z;
+        assert!((at_origin(&plane) + 5.0 - 0.5 * t).abs() > 1e-3);
+        let (trimmed, kept) = trim_to_plane(&pts, inl, plane).unwrap();
+        assert_eq!(kept.len(), 15 * 31);
+        assert!(kept.iter().all(|&k| pts[k].x < 0.0));
+        assert_relative_eq!(at_origin(&trimmed), -5.0 + 0.5 * t, epsilon = 1e-9);
+    }
 
     #[test]
     fn rigid_transform_recovers_a_rigid_motion() {

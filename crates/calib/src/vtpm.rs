@@ -13,7 +13,7 @@
 //!   iteration, so the tie coordinates are carried from iteration to iteration.
 
 use crate::error::{Error, Result};
-use crate::geometry::{Plane, interpolate_z, ransac_plane, rigid_transform};
+use crate::geometry::{Plane, interpolate_z, ransac_plane, rigid_transform, trim_to_plane};
 use crate::params::mounting_from_vector;
 use crate::strip::{Georeferencing, GridIndex, Strip, TrajectoryOffset, within};
 use lidarqa_model::fit_plane;
@@ -346,14 +346,14 @@ fn build_virtual_tie_within(pick: &PickInStrip<'_>, radius_m: f64) -> Result<Vir
     };
     let pos: Vec<Vector3<f64>> = near.iter().map(|&k| g.apply(&strip.points[k])).collect();
     let (plane, inliers): (Plane, Vec<usize>) =
-        ransac_plane(&pos, opts.ransac_threshold_m, opts.ransac_iterations, seed).ok_or_else(
-            || {
+        ransac_plane(&pos, opts.ransac_threshold_m, opts.ransac_iterations, seed)
+            .and_then(|(plane, inliers)| trim_to_plane(&pos, inliers, plane))
+            .ok_or_else(|| {
                 no_tri(format!(
                     "ransac found no plane among {} points within {radius_m:.2} m",
                     pos.len(),
                 ))
-            },
-        )?;
+            })?;
     // A "plane" through a small minority of the window is three random points, not the surface:
     // the pick would be carried by noise.
     if inliers.len() * MIN_COPLANAR_DENOMINATOR < pos.len() {
