@@ -2,8 +2,9 @@
 //!
 //! A tie picked in strip `i` at horizontal position `(x, y)` becomes a *virtual tie point*: the
 //! points of strip `i` within [`VtpmOptions::radius_m`] of the pick, their coplanar subset by
-//! RANSAC, a Delaunay triangulation of that subset in plan (spade), and the triangle containing
-//! the pick, whose three laser points `p1, p2, p3` carry the tie from then on:
+//! RANSAC (trimmed of the fringe of a neighbouring surface that its threshold lets in), a
+//! Delaunay triangulation of that subset in plan (spade), and the triangle containing the pick,
+//! whose three laser points `p1, p2, p3` carry the tie from then on:
 //!
 //! - **rule 1** (eq. 5): the tie's height is interpolated linearly in the triangle at `(x, y)`;
 //! - **rule 2** (eq. 6): when the mounting changes, the three points are re-georeferenced from
