@@ -5,10 +5,10 @@
 //! per-file centres of a target are combined here.
 //!
 //! The combination is the inverse-covariance weighted mean of the files whose fit carries no
-//! flag (of all of them when none is clean), so the σ reported is that of the centre reported:
-//! a strip that sees a target from one side (a wide, tilted posterior) weighs as little as its
-//! covariance says, however many points it has. The files' centres are
-//! then checked against each other: when they scatter more than their covariances allow
+//! flag (the point-count weighted mean of all of them when none is clean), with the σ of the
+//! centre reported: a strip that sees a target from one side (a wide, tilted posterior) weighs
+//! as little as its covariance says, however many points it has. The files' centres are then
+//! checked against each other: when they scatter more than their covariances allow
 //! (χ² above its degrees of freedom), the merged covariance is scaled up by χ²/dof (the
 //! Birge ratio, as the Particle Data Group scales inconsistent measurements). What the files
 //! share (the cloud's own systematic error, common to every strip) is not seen by either and is
@@ -24,11 +24,12 @@ const MIN_VARIANCE_M2: f64 = 1e-12;
 
 /// One target per control id from per-file reports.
 ///
-/// * the files combined: those whose centre carries no flag, or all that found the target when
-///   none is clean (a fit from a handful of points, or of a target seen from one side only, has
-///   a posterior too narrow to be weighed by);
-/// * x, y: the mean of the per-file centres weighted by their inverse horizontal covariances,
-///   with covariance `C = (Σ C_i⁻¹)⁻¹`; z: the inverse-variance weighted mean of the per-file
+/// * the files combined: those whose centre carries no flag; when none is clean, all that found
+///   the target, weighted by their point counts (x̄ = Σ w_i x_i, w_i = n_i/Σn, covariance
+///   Σ w_i² C_i): a fit from a handful of points, or of a target seen from one side only, has a
+///   posterior too narrow to be weighed by;
+/// * x, y of clean files: the mean of the centres weighted by their inverse horizontal
+///   covariances, with covariance `C = (Σ C_i⁻¹)⁻¹`; z: the inverse-variance weighted mean of the per-file
 ///   elevations, with variance `(Σ 1/σ_z,i²)⁻¹`;
 /// * when the files disagree beyond their covariances (χ² = Σ (x_i − x̄)ᵀ C_i⁻¹ (x_i − x̄) over
 ///   2(k − 1) degrees of freedom above 1, likewise for z over k − 1), the covariance is multiplied
@@ -71,19 +72,21 @@ pub fn merge_reports(reports: &[TargetReport], control: &[ControlPoint]) -> Opti
 /// One control id's per-file results combined (see [`merge_reports`]); `None` when there is none.
 fn merge_target(found: Vec<&TargetResult>) -> Option<TargetResult> {
     // A flagged per-file fit (too few points, one side only, ...) has a σ that is not to be
-    // trusted: it takes part only when no file gives a clean one.
+    // trusted: it takes part only when no file gives a clean one, and then weighs by its points
+    // (a fit from 2 returns can be a metre off with a σ of 3 cm).
     let clean: Vec<&TargetResult> = found
         .iter()
         .copied()
         .filter(|t| t.centre.flags.is_empty())
         .collect();
-    let found = if clean.is_empty() { found } else { clean };
+    let by_points = clean.is_empty();
+    let found = if by_points { found } else { clean };
     let best = found
         .iter()
         .min_by(|a, b| horizontal_det(&a.centre).total_cmp(&horizontal_det(&b.centre)))?;
     let mut t = (*best).clone();
     let centres: Vec<&CentreEstimate> = found.iter().map(|t| &t.centre).collect();
-    combine(&centres, &mut t.centre);
+    combine(&centres, by_points, &mut t.centre);
     Some(t)
 }
 
@@ -112,24 +115,64 @@ fn inverse(m: [[f64; 2]; 2]) -> [[f64; 2]; 2] {
     ]
 }
 
-/// Writes into `out` the combination of `centres` (see [`merge_reports`]).
-fn combine(centres: &[&CentreEstimate], out: &mut CentreEstimate) {
+/// Writes into `out` the combination of `centres` (see [`merge_reports`]): weighted by their
+/// information, or with `by_points` by their point counts.
+fn combine(centres: &[&CentreEstimate], by_points: bool, out: &mut CentreEstimate) {
     let k = centres.len() as f64;
-    // Horizontal: information-weighted mean.
     let infos: Vec<[[f64; 2]; 2]> = centres.iter().map(|c| inverse(horizontal(c))).collect();
-    let mut info = [[0.0; 2]; 2];
-    let mut rhs = [0.0; 2];
-    for (c, w) in centres.iter().zip(&infos) {
-        for r in 0..2 {
-            for s in 0..2 {
-                info[r][s] += w[r][s];
+    let var_z: Vec<f64> = centres
+        .iter()
+        .map(|c| c.covariance[2][2].max(MIN_VARIANCE_M2))
+        .collect();
+    let (x, y, mut cov, z, mut var) = if by_points {
+        // Weights w_i = n_i / Σ n: the mean's covariance is Σ w_i² C_i.
+        let total: f64 = centres.iter().map(|c| c.n_points.max(1) as f64).sum();
+        let w: Vec<f64> = centres
+            .iter()
+            .map(|c| c.n_points.max(1) as f64 / total)
+            .collect();
+        let mut cov = [[0.0; 2]; 2];
+        for (c, wi) in centres.iter().zip(&w) {
+            let h = horizontal(c);
+            for r in 0..2 {
+                for s in 0..2 {
+                    cov[r][s] += wi * wi * h[r][s];
+                }
             }
-            rhs[r] += w[r][0] * c.x + w[r][1] * c.y;
         }
-    }
-    let mut cov = inverse(info);
-    let x = cov[0][0] * rhs[0] + cov[0][1] * rhs[1];
-    let y = cov[1][0] * rhs[0] + cov[1][1] * rhs[1];
+        let sum = |f: &dyn Fn(&CentreEstimate) -> f64| {
+            centres.iter().zip(&w).map(|(c, wi)| wi * f(c)).sum::<f64>()
+        };
+        let var: f64 = var_z.iter().zip(&w).map(|(v, wi)| wi * wi * v).sum();
+        (sum(&|c| c.x), sum(&|c| c.y), cov, sum(&|c| c.z), var)
+    } else {
+        let mut info = [[0.0; 2]; 2];
+        let mut rhs = [0.0; 2];
+        for (c, w) in centres.iter().zip(&infos) {
+            for r in 0..2 {
+                for s in 0..2 {
+                    info[r][s] += w[r][s];
+                }
+                rhs[r] += w[r][0] * c.x + w[r][1] * c.y;
+            }
+        }
+        let cov = inverse(info);
+        let info_z: f64 = var_z.iter().map(|v| 1.0 / v).sum();
+        let z = centres
+            .iter()
+            .zip(&var_z)
+            .map(|(c, v)| c.z / v)
+            .sum::<f64>()
+            / info_z;
+        (
+            cov[0][0] * rhs[0] + cov[0][1] * rhs[1],
+            cov[1][0] * rhs[0] + cov[1][1] * rhs[1],
+            cov,
+            z,
+            1.0 / info_z,
+        )
+    };
+    // The files against each other: scale up when they scatter beyond their covariances.
     let chi2: f64 = centres
         .iter()
         .zip(&infos)
@@ -144,24 +187,12 @@ fn combine(centres: &[&CentreEstimate], out: &mut CentreEstimate) {
             *v *= scale_h;
         }
     }
-    // Vertical: inverse-variance weighted mean.
-    let var_z: Vec<f64> = centres
-        .iter()
-        .map(|c| c.covariance[2][2].max(MIN_VARIANCE_M2))
-        .collect();
-    let info_z: f64 = var_z.iter().map(|v| 1.0 / v).sum();
-    let z = centres
-        .iter()
-        .zip(&var_z)
-        .map(|(c, v)| c.z / v)
-        .sum::<f64>()
-        / info_z;
     let chi2_z: f64 = centres
         .iter()
         .zip(&var_z)
         .map(|(c, v)| (c.z - z).powi(2) / v)
         .sum();
-    let var_z = birge(chi2_z, k - 1.0) / info_z;
+    var *= birge(chi2_z, k - 1.0);
 
     out.x = x;
     out.y = y;
@@ -169,7 +200,7 @@ fn combine(centres: &[&CentreEstimate], out: &mut CentreEstimate) {
     out.covariance = [
         [cov[0][0], cov[0][1], 0.0],
         [cov[1][0], cov[1][1], 0.0],
-        [0.0, 0.0, var_z],
+        [0.0, 0.0, var],
     ];
     out.sigma_horizontal_m = (cov[0][0] + cov[1][1]).max(0.0).sqrt();
     out.n_points = centres.iter().map(|c| c.n_points).sum();
@@ -218,7 +249,7 @@ mod tests {
     fn merged(cs: &[CentreEstimate]) -> CentreEstimate {
         let refs: Vec<&CentreEstimate> = cs.iter().collect();
         let mut out = cs[0].clone();
-        combine(&refs, &mut out);
+        combine(&refs, false, &mut out);
         out
     }
 
@@ -291,9 +322,35 @@ mod tests {
         assert_eq!(m.centre.n_points, 19);
         let mut flagged = clean.clone();
         flagged.centre.flags = vec![TargetFlag::PoorCoverage];
+        // No clean fit: weights by points, 3 : 19, covariance Σ w_i² C_i (the two agree within
+        // it in y; x scatters, and χ²/2 scales it).
         let m = merge_target(vec![&sparse, &flagged]).unwrap();
         assert_eq!(m.centre.n_points, 22);
-        assert!(m.centre.x > 0.05, "{}", m.centre.x);
+        let x = (3.0 * 0.404 - 19.0 * 0.006) / 22.0;
+        assert!((m.centre.x - x).abs() < 1e-9, "{}", m.centre.x);
+        let var_x = (9.0 * 0.0492f64.powi(2) + 361.0 * 0.0272f64.powi(2)) / 484.0;
+        let chi2: f64 = [
+            ((0.404 - x) / 0.0492, (-0.064 - m.centre.y) / 0.0433),
+            ((-0.006 - x) / 0.0272, (-0.031 - m.centre.y) / 0.0224),
+        ]
+        .iter()
+        .map(|(a, b)| a * a + b * b)
+        .sum();
+        assert!(chi2 > 2.0);
+        assert!((m.centre.covariance[0][0] / (var_x * chi2 / 2.0) - 1.0).abs() < 1e-6);
+        // A 2-return fit a metre off with a posterior σ of 2.6 cm (the quick demo's T8 from a
+        // 500 m strip) does not take the centre with it when every fit is flagged.
+        let mut wild = centre(
+            -0.19,
+            1.024,
+            0.0,
+            [0.138f64.powi(2), 0.026f64.powi(2), 1e-6],
+            2,
+        );
+        wild.flags = vec![TargetFlag::TooFewPoints];
+        let wild = result(wild);
+        let m = merge_target(vec![&sparse, &flagged, &wild]).unwrap();
+        assert!(m.centre.y < 0.1, "{}", m.centre.y);
         assert!(merge_target(Vec::new()).is_none());
     }
 
