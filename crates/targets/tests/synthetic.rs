@@ -420,10 +420,12 @@ fn paper_threshold_discards_the_targets() {
 }
 
 /// Two files seeing the same targets (the scene's points split in two halves, as two strips
-/// would): the merged centre is the point-count-weighted mean of the two, σ_H combines by inverse
-/// variance, the counts add, and the merged centre stays on the truth.
+/// would): the merged centre is the information-weighted mean of the two (x, y by the inverse
+/// horizontal covariances, z by the inverse variances), its σ no larger than the inverse-variance
+/// combination allows unless the two disagree, the counts add, and the merged centre stays on
+/// the truth.
 #[test]
-fn merging_two_files_weights_by_points_and_combines_sigma() {
+fn merging_two_files_weights_by_information_and_combines_sigma() {
     let s = scene(40.0, 4, 7);
     let halves: [Vec<LidarPoint>; 2] = [0, 1].map(|h| {
         s.points
@@ -453,15 +455,30 @@ fn merging_two_files_weights_by_points_and_combines_sigma() {
                 .centre
                 .clone()
         });
-        let (na, nb) = (a.n_points as f64, b.n_points as f64);
         assert_eq!(m.centre.n_points, a.n_points + b.n_points);
-        assert!((m.centre.x - (a.x * na + b.x * nb) / (na + nb)).abs() < 1e-9);
-        assert!((m.centre.z - (a.z * na + b.z * nb) / (na + nb)).abs() < 1e-9);
+        // z: inverse-variance weights.
+        let (wa, wb) = (1.0 / a.covariance[2][2], 1.0 / b.covariance[2][2]);
+        assert!((m.centre.z - (a.z * wa + b.z * wb) / (wa + wb)).abs() < 1e-9);
+        // x, y: between the two, nearer the more precise one along each axis.
+        for (ma, aa, bb) in [(m.centre.x, a.x, b.x), (m.centre.y, a.y, b.y)] {
+            assert!(ma >= aa.min(bb) - 1e-9 && ma <= aa.max(bb) + 1e-9);
+        }
+        // σ_H: the inverse-variance combination (up to the covariances' correlation terms),
+        // scaled up only if the halves disagree beyond it.
         let sigma = (a.sigma_horizontal_m.powi(-2) + b.sigma_horizontal_m.powi(-2)).powf(-0.5);
-        assert!((m.centre.sigma_horizontal_m - sigma).abs() < 1e-12);
-        assert!(m.centre.sigma_horizontal_m < a.sigma_horizontal_m.min(b.sigma_horizontal_m));
+        let d2 = (a.x - b.x).powi(2) + (a.y - b.y).powi(2);
+        let consistent = d2 < a.sigma_horizontal_m.powi(2) + b.sigma_horizontal_m.powi(2);
+        if consistent {
+            assert!(m.centre.sigma_horizontal_m < a.sigma_horizontal_m.min(b.sigma_horizontal_m));
+            assert!((m.centre.sigma_horizontal_m / sigma - 1.0).abs() < 0.3);
+        }
+        let h = m.centre.covariance;
+        assert!(
+            (m.centre.sigma_horizontal_m - (h[0][0] + h[1][1]).sqrt()).abs() < 1e-12,
+            "σ_H is the merged covariance's"
+        );
         assert_eq!(m.centre.coverage_deg, a.coverage_deg.max(b.coverage_deg));
-        // Each half alone fits the disc to a few cm; so does their mean.
+        // Each half alone fits the disc to a few cm; so does their combination.
         assert!((m.centre.x - c.x).hypot(m.centre.y - c.y) < 0.05);
     }
     // A control point neither file saw is listed, never dropped.
