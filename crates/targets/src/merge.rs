@@ -16,6 +16,7 @@
 //! against control measures and the TPU predicts.
 
 use crate::{CentreEstimate, ControlPoint, TargetReport, TargetResult};
+use nalgebra::{Matrix2, Vector2};
 
 /// Floor of a per-file variance (m², added on the horizontal diagonal, a lower bound on the
 /// vertical one): a degenerate covariance (e.g. a centroid of coincident points) must stay
@@ -92,70 +93,55 @@ fn merge_target(found: Vec<&TargetResult>) -> Option<TargetResult> {
 
 /// The horizontal 2 × 2 covariance of a centre, with the variance floor on its diagonal (so a
 /// degenerate one stays invertible).
-fn horizontal(c: &CentreEstimate) -> [[f64; 2]; 2] {
+fn horizontal(c: &CentreEstimate) -> Matrix2<f64> {
     let m = &c.covariance;
-    [
-        [m[0][0].max(0.0) + MIN_VARIANCE_M2, m[0][1]],
-        [m[1][0], m[1][1].max(0.0) + MIN_VARIANCE_M2],
-    ]
+    Matrix2::new(
+        m[0][0].max(0.0) + MIN_VARIANCE_M2,
+        m[0][1],
+        m[1][0],
+        m[1][1].max(0.0) + MIN_VARIANCE_M2,
+    )
 }
 
 /// Area measure of a centre's horizontal uncertainty (determinant of its covariance).
 fn horizontal_det(c: &CentreEstimate) -> f64 {
-    let h = horizontal(c);
-    h[0][0] * h[1][1] - h[0][1] * h[1][0]
+    horizontal(c).determinant()
 }
 
-/// Inverse of a symmetric positive-definite 2 × 2 matrix.
-fn inverse(m: [[f64; 2]; 2]) -> [[f64; 2]; 2] {
-    let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
-    [
-        [m[1][1] / det, -m[0][1] / det],
-        [-m[1][0] / det, m[0][0] / det],
-    ]
+/// Inverse of a symmetric positive-definite 2 × 2 matrix (the floor keeps it invertible).
+fn inverse(m: Matrix2<f64>) -> Matrix2<f64> {
+    m.try_inverse().unwrap_or_else(Matrix2::zeros)
 }
 
 /// Writes into `out` the combination of `centres` (see [`merge_reports`]): weighted by their
 /// information, or with `by_points` by their point counts.
 fn combine(centres: &[&CentreEstimate], by_points: bool, out: &mut CentreEstimate) {
     let k = centres.len() as f64;
-    let infos: Vec<[[f64; 2]; 2]> = centres.iter().map(|c| inverse(horizontal(c))).collect();
+    let xy = |c: &CentreEstimate| Vector2::new(c.x, c.y);
+    let infos: Vec<Matrix2<f64>> = centres.iter().map(|c| inverse(horizontal(c))).collect();
     let var_z: Vec<f64> = centres
         .iter()
         .map(|c| c.covariance[2][2].max(MIN_VARIANCE_M2))
         .collect();
-    let (x, y, mut cov, z, mut var) = if by_points {
+    let (mean, mut cov, z, mut var) = if by_points {
         // Weights w_i = n_i / Σ n: the mean's covariance is Σ w_i² C_i.
         let total: f64 = centres.iter().map(|c| c.n_points.max(1) as f64).sum();
         let w: Vec<f64> = centres
             .iter()
             .map(|c| c.n_points.max(1) as f64 / total)
             .collect();
-        let mut cov = [[0.0; 2]; 2];
-        for (c, wi) in centres.iter().zip(&w) {
-            let h = horizontal(c);
-            for r in 0..2 {
-                for s in 0..2 {
-                    cov[r][s] += wi * wi * h[r][s];
-                }
-            }
-        }
-        let sum = |f: &dyn Fn(&CentreEstimate) -> f64| {
-            centres.iter().zip(&w).map(|(c, wi)| wi * f(c)).sum::<f64>()
-        };
+        let mean: Vector2<f64> = centres.iter().zip(&w).map(|(c, wi)| xy(c) * *wi).sum();
+        let cov: Matrix2<f64> = centres
+            .iter()
+            .zip(&w)
+            .map(|(c, wi)| horizontal(c) * (wi * wi))
+            .sum();
+        let z = centres.iter().zip(&w).map(|(c, wi)| wi * c.z).sum::<f64>();
         let var: f64 = var_z.iter().zip(&w).map(|(v, wi)| wi * wi * v).sum();
-        (sum(&|c| c.x), sum(&|c| c.y), cov, sum(&|c| c.z), var)
+        (mean, cov, z, var)
     } else {
-        let mut info = [[0.0; 2]; 2];
-        let mut rhs = [0.0; 2];
-        for (c, w) in centres.iter().zip(&infos) {
-            for r in 0..2 {
-                for s in 0..2 {
-                    info[r][s] += w[r][s];
-                }
-                rhs[r] += w[r][0] * c.x + w[r][1] * c.y;
-            }
-        }
+        let info: Matrix2<f64> = infos.iter().sum();
+        let rhs: Vector2<f64> = centres.iter().zip(&infos).map(|(c, w)| w * xy(c)).sum();
         let cov = inverse(info);
         let info_z: f64 = var_z.iter().map(|v| 1.0 / v).sum();
         let z = centres
@@ -164,29 +150,18 @@ fn combine(centres: &[&CentreEstimate], by_points: bool, out: &mut CentreEstimat
             .map(|(c, v)| c.z / v)
             .sum::<f64>()
             / info_z;
-        (
-            cov[0][0] * rhs[0] + cov[0][1] * rhs[1],
-            cov[1][0] * rhs[0] + cov[1][1] * rhs[1],
-            cov,
-            z,
-            1.0 / info_z,
-        )
+        (cov * rhs, cov, z, 1.0 / info_z)
     };
     // The files against each other: scale up when they scatter beyond their covariances.
     let chi2: f64 = centres
         .iter()
         .zip(&infos)
         .map(|(c, w)| {
-            let d = [c.x - x, c.y - y];
-            d[0] * (w[0][0] * d[0] + w[0][1] * d[1]) + d[1] * (w[1][0] * d[0] + w[1][1] * d[1])
+            let d = xy(c) - mean;
+            d.dot(&(w * d))
         })
         .sum();
-    let scale_h = birge(chi2, 2.0 * (k - 1.0));
-    for row in &mut cov {
-        for v in row.iter_mut() {
-            *v *= scale_h;
-        }
-    }
+    cov *= birge(chi2, 2.0 * (k - 1.0));
     let chi2_z: f64 = centres
         .iter()
         .zip(&var_z)
@@ -194,15 +169,15 @@ fn combine(centres: &[&CentreEstimate], by_points: bool, out: &mut CentreEstimat
         .sum();
     var *= birge(chi2_z, k - 1.0);
 
-    out.x = x;
-    out.y = y;
+    out.x = mean.x;
+    out.y = mean.y;
     out.z = z;
     out.covariance = [
-        [cov[0][0], cov[0][1], 0.0],
-        [cov[1][0], cov[1][1], 0.0],
+        [cov[(0, 0)], cov[(0, 1)], 0.0],
+        [cov[(1, 0)], cov[(1, 1)], 0.0],
         [0.0, 0.0, var],
     ];
-    out.sigma_horizontal_m = (cov[0][0] + cov[1][1]).max(0.0).sqrt();
+    out.sigma_horizontal_m = cov.trace().max(0.0).sqrt();
     out.n_points = centres.iter().map(|c| c.n_points).sum();
     out.n_edge_points = centres.iter().map(|c| c.n_edge_points).sum();
     out.coverage_deg = centres.iter().map(|c| c.coverage_deg).fold(0.0, f64::max);
