@@ -135,6 +135,46 @@ fn seed000_table2_formula_7_is_17_56_cm() {
     let v = json_ok(&args);
     assert_eq!(v["predicted"]["up"], 0.12);
     assert!((v["predicted"]["horizontal"].as_f64().unwrap() - 0.05).abs() < 1e-15);
+    // Without the targets' own σ, the prediction at the targets is the points' σ.
+    let at = |v: &serde_json::Value, k: &str| v["predicted_at_targets"][k].as_f64().unwrap();
+    assert!((at(&v, "horizontal") - 0.05).abs() < 1e-15);
+
+    // The targets CSV's sigma_h_m / sigma_v_m (as `lidarqa targets` writes them) and the
+    // control's sigma_h / sigma_v add in quadrature, averaged over the targets.
+    let with_sigma = |text: &str, columns: &str, cells: &str| {
+        let mut lines = text.lines();
+        let mut out = format!("{},{columns}\n", lines.next().unwrap());
+        for l in lines {
+            out += &format!("{l},{cells}\n");
+        }
+        out
+    };
+    let (targets, control) = (
+        std::fs::read_to_string(&t).unwrap(),
+        std::fs::read_to_string(&c).unwrap(),
+    );
+    let t2 = dir.path().join("t2.csv");
+    let c2 = dir.path().join("c2.csv");
+    std::fs::write(
+        &t2,
+        with_sigma(&targets, "sigma_h_m,sigma_v_m", "0.12,0.05"),
+    )
+    .unwrap();
+    std::fs::write(&c2, with_sigma(&control, "sigma_h,sigma_v", "0.09,0.0")).unwrap();
+    let mut args2 = args;
+    args2[2] = s(&t2);
+    args2[4] = s(&c2);
+    let v = json_ok(&args2);
+    assert!(
+        (at(&v, "horizontal") - (0.05f64.powi(2) + 0.12f64.powi(2) + 0.09f64.powi(2)).sqrt()).abs()
+            < 1e-12
+    );
+    assert!((at(&v, "up") - 0.12f64.hypot(0.05)).abs() < 1e-12);
+    assert_eq!(v["points"][0]["lidar_sigma_h_m"], 0.12);
+
+    // A sigma that is not a number names the file, line and column.
+    std::fs::write(&t2, with_sigma(&targets, "sigma_h_m,sigma_v_m", "x,0.05")).unwrap();
+    fails_with(&args2, "t2.csv: line 2: column `sigma_h_m`");
 }
 
 #[test]

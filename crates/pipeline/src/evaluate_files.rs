@@ -26,11 +26,15 @@ pub fn evaluate_target_files(
     let t = Targets::from_path(targets)?;
     let c = ControlPoints::from_path(control)?;
     let control_points = control_for_targets(&c, None)?;
-    let measured: Vec<MeasuredPoint> = t
+    let measured = t
         .records
         .iter()
-        .map(|r| MeasuredPoint::new(r.id.clone(), r.x, r.y, r.z))
-        .collect();
+        .enumerate()
+        .map(|(i, r)| {
+            Ok(MeasuredPoint::new(r.id.clone(), r.x, r.y, r.z)
+                .with_sigma(t.extra_f64(i, "sigma_h_m")?, t.extra_f64(i, "sigma_v_m")?))
+        })
+        .collect::<std::result::Result<Vec<_>, lidarqa_io::Error>>()?;
     evaluate(&measured, &control_points, options).map_err(|source| {
         let file = match &source {
             lidarqa_targets::Error::NotOneFrame { side, .. } => match side {

@@ -229,10 +229,10 @@ fn evaluate_targets(
         let mut e = evaluate_target_files(&targets, &control, &options).map_err(err)?;
         match (&tpu, &sensor, height_m) {
             (Some(t), None, None) => {
-                e.predicted = Some(TpuSummary::predicted_from_file(t).map_err(err)?);
+                e.set_predicted(TpuSummary::predicted_from_file(t).map_err(err)?);
             }
             (None, Some(s), Some(h)) => {
-                e.predicted = Some(predicted_from_sensor(s, h, scan_angle_deg).map_err(err)?);
+                e.set_predicted(predicted_from_sensor(s, h, scan_angle_deg).map_err(err)?);
             }
             (None, None, None) => {}
             (Some(_), _, _) => {

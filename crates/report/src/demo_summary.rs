@@ -65,14 +65,15 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
     }
     let _ = writeln!(t);
     let cm = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{:.2}", x * 100.0));
-    // Predicted σ from the sensor file's mounting σ before, from the calibration's after.
+    // Predicted RMSE at the targets: the TPU with the sensor file's mounting σ before, with the
+    // calibration's after, each with the targets' centre σ and the control σ added.
     let _ = writeln!(
         t,
-        "{:<34}{:>10}{:>10}{:>10}{:>10}",
-        "accuracy at the targets (cm)", "σ before", "before", "σ after", "after"
+        "{:<34}{:>12}{:>10}{:>12}{:>10}",
+        "accuracy at the targets (cm)", "pred. before", "before", "pred. after", "after"
     );
     let predicted = |e: &Evaluation, vertical: bool| {
-        e.predicted
+        e.predicted_rmse()
             .and_then(|p| if vertical { p.vertical } else { p.horizontal })
     };
     for (name, vertical) in [
@@ -88,7 +89,7 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
         };
         let _ = writeln!(
             t,
-            "{:<34}{:>10}{:>10}{:>10}{:>10}",
+            "{:<34}{:>12}{:>10}{:>12}{:>10}",
             name,
             cm(predicted(&before, vertical)),
             cm(Some(rmse(&before))),

@@ -639,12 +639,25 @@ pub struct Evaluation {
     /// NSSDA figures.
     #[serde(default)]
     pub nssda: Option<Nssda>,
-    /// Predicted (TPU) σ for comparison, m.
+    /// Predicted (TPU) σ of the points, m.
     #[serde(default)]
     pub predicted: Option<PartialComponents>,
+    /// The RMSE the targets should show by that prediction (the points' σ with each target's
+    /// and control point's σ added), m.
+    #[serde(default)]
+    pub predicted_at_targets: Option<PartialComponents>,
     /// Per-point residuals.
     #[serde(default)]
     pub points: Vec<ResidualPoint>,
+}
+
+impl Evaluation {
+    /// What the measured RMSE at the targets is to be compared with: `predicted_at_targets`,
+    /// or the points' σ alone from products written before it existed.
+    #[must_use]
+    pub fn predicted_rmse(&self) -> Option<PartialComponents> {
+        self.predicted_at_targets.or(self.predicted)
+    }
 }
 
 impl Product for Evaluation {

@@ -96,14 +96,14 @@ pub(crate) fn verdict(p: &Products) -> Option<String> {
     Some(o)
 }
 
-/// An axis of an evaluation: (measured RMSE, predicted σ), m.
+/// An axis of an evaluation: (measured RMSE, predicted RMSE), m.
 type MeasuredAndPredicted = fn(&Evaluation) -> (f64, Option<f64>);
 
 /// Predicted σ beside the measured RMSE at the targets, before and after calibration, with a
 /// word on whether they agree.
 fn accuracy_table(p: &Products, last: &Evaluation, o: &mut String) {
     let (before, after) = (p.evaluate_before.as_ref(), p.evaluate_after.as_ref());
-    o.push_str("<table id=\"verdict\"><caption>Accuracy at the surveyed targets (cm): predicted 1σ and measured RMSE</caption><thead><tr><th class=\"text\"></th>");
+    o.push_str("<table id=\"verdict\"><caption>Accuracy at the surveyed targets (cm): predicted and measured RMSE</caption><thead><tr><th class=\"text\"></th>");
     if before.is_some() {
         o.push_str("<th>predicted</th><th>measured</th>");
     }
@@ -115,14 +115,11 @@ fn accuracy_table(p: &Products, last: &Evaluation, o: &mut String) {
         ("horizontal (radial, seed 000 eq. 7)", |e| {
             (
                 e.rmse.horizontal,
-                e.predicted.as_ref().and_then(|p| p.horizontal),
+                e.predicted_rmse().and_then(|p| p.horizontal),
             )
         }),
         ("vertical (seed 000 eq. 8)", |e| {
-            (
-                e.rmse.vertical,
-                e.predicted.as_ref().and_then(|p| p.vertical),
-            )
+            (e.rmse.vertical, e.predicted_rmse().and_then(|p| p.vertical))
         }),
     ];
     for (name, get) in rows {
@@ -152,7 +149,7 @@ fn accuracy_table(p: &Products, last: &Evaluation, o: &mut String) {
     }
     let _ = writeln!(
         o,
-        "</tbody></table>\n<p class=\"meta\">{} targets; \"agrees\" means the RMSE is within {AGREES_WITHIN}× the predicted σ (<a href=\"#sec-accuracy\">details</a>).</p>",
+        "</tbody></table>\n<p class=\"meta\">{} targets; the prediction is the points' TPU σ with each target's centre σ and its control point's σ added; \"agrees\" means the RMSE is within {AGREES_WITHIN}× it (<a href=\"#sec-accuracy\">details</a>).</p>",
         last.n
     );
 }

@@ -41,6 +41,15 @@
 //! [`evaluate_vertical_tin`] triangulates the ground points (Delaunay, `spade`), interpolates the
 //! TIN linearly at each checkpoint's XY, and takes residual = TIN − control. Checkpoints outside
 //! the TIN's convex hull are listed in `outside_tin`, not dropped.
+//!
+//! # The prediction at the targets
+//!
+//! A target's residual is not a point's error: it adds the centre's own estimation error (the
+//! extraction σ in the targets CSV) and the control point's survey error, both independent of
+//! the points' error. So [`Evaluation::set_predicted`] turns the points' TPU σ into the RMSE the
+//! targets should show, `predicted_at_targets` = √(σ_TPU² + mean over the targets of
+//! (σ_target² + σ_control²)) per component. It leans high by the points' random part, which a
+//! centre from many points averages out but the TPU σ still carries.
 
 use std::f64::consts::TAU;
 
@@ -70,10 +79,15 @@ pub struct MeasuredPoint {
     pub y: f64,
     /// Height (m, up).
     pub z: f64,
+    /// The position's own 1σ (m): horizontal √(σx² + σy²) and vertical, e.g. a target centre's
+    /// extraction σ; `None` when not known.
+    pub sigma_h_m: Option<f64>,
+    /// See `sigma_h_m`.
+    pub sigma_v_m: Option<f64>,
 }
 
 impl MeasuredPoint {
-    /// A measured point.
+    /// A measured point whose own σ is not known.
     #[must_use]
     pub fn new(id: impl Into<String>, x: f64, y: f64, z: f64) -> Self {
         Self {
@@ -81,18 +95,28 @@ impl MeasuredPoint {
             x,
             y,
             z,
+            sigma_h_m: None,
+            sigma_v_m: None,
+        }
+    }
+
+    /// The same point with its own horizontal and vertical 1σ (m).
+    #[must_use]
+    pub fn with_sigma(self, sigma_h_m: Option<f64>, sigma_v_m: Option<f64>) -> Self {
+        Self {
+            sigma_h_m,
+            sigma_v_m,
+            ..self
         }
     }
 }
 
 impl From<&TargetResult> for MeasuredPoint {
     fn from(t: &TargetResult) -> Self {
-        Self {
-            id: t.id.clone(),
-            x: t.centre.x,
-            y: t.centre.y,
-            z: t.centre.z,
-        }
+        Self::new(t.id.clone(), t.centre.x, t.centre.y, t.centre.z).with_sigma(
+            Some(t.centre.sigma_horizontal_m),
+            Some(t.centre.covariance[2][2].max(0.0).sqrt()),
+        )
     }
 }
 
@@ -137,6 +161,18 @@ pub struct PointResidual {
     pub lidar: Position,
     /// The control position.
     pub control: Position,
+    /// The measured point's own 1σ, horizontal and vertical (m; a target's extraction σ).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lidar_sigma_h_m: Option<f64>,
+    /// See `lidar_sigma_h_m`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lidar_sigma_v_m: Option<f64>,
+    /// The control point's survey 1σ, horizontal and vertical (m), from the control file.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub control_sigma_h_m: Option<f64>,
+    /// See `control_sigma_h_m`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub control_sigma_v_m: Option<f64>,
 }
 
 /// Options of [`evaluate`] and [`evaluate_vertical_tin`].
@@ -226,14 +262,41 @@ pub struct Evaluation {
     pub asprs: Asprs,
     /// NSSDA 95 % figures.
     pub nssda: Nssda,
-    /// The predicted (TPU) σ for comparison, filled by the caller; `None` here.
+    /// The predicted (TPU) σ of the points, set by [`Evaluation::set_predicted`]; `None` here.
     pub predicted: Option<Components>,
+    /// The RMSE the targets should show by that prediction: the points' σ with each target's
+    /// own σ and its control point's σ added (module docs); set with `predicted`.
+    pub predicted_at_targets: Option<Components>,
     /// Per-point residuals, in the order of the measured points.
     pub points: Vec<PointResidual>,
     /// Measured ids with no control point.
     pub unmatched_targets: Vec<String>,
     /// Control ids with no measured point.
     pub missing_control: Vec<String>,
+}
+
+impl Evaluation {
+    /// Sets the points' predicted σ and, from it, `predicted_at_targets`: per component
+    /// √(σ_TPU² + mean over the points of (own σ² + control σ²)), an unknown σ counting as 0
+    /// (module docs). The horizontal share is split equally between north and east.
+    pub fn set_predicted(&mut self, points_sigma: Components) {
+        let n = self.points.len().max(1) as f64;
+        let mean_sq = |f: fn(&PointResidual) -> [Option<f64>; 2]| {
+            self.points
+                .iter()
+                .map(|p| f(p).iter().flatten().map(|s| s * s).sum::<f64>())
+                .sum::<f64>()
+                / n
+        };
+        let h = mean_sq(|p| [p.lidar_sigma_h_m, p.control_sigma_h_m]);
+        let v = mean_sq(|p| [p.lidar_sigma_v_m, p.control_sigma_v_m]);
+        self.predicted = Some(points_sigma);
+        self.predicted_at_targets = Some(Components::from_components(
+            (points_sigma.north.powi(2) + h / 2.0).sqrt(),
+            (points_sigma.east.powi(2) + h / 2.0).sqrt(),
+            (points_sigma.up.powi(2) + v).sqrt(),
+        ));
+    }
 }
 
 fn rms(v: impl Iterator<Item = f64>) -> f64 {
@@ -586,6 +649,10 @@ pub fn evaluate(
                 y: c.y,
                 z: c.z,
             },
+            lidar_sigma_h_m: m.sigma_h_m,
+            lidar_sigma_v_m: m.sigma_v_m,
+            control_sigma_h_m: c.sigma_h_m,
+            control_sigma_v_m: c.sigma_v_m,
         });
         used.push(c);
     }
@@ -656,6 +723,7 @@ pub fn evaluate(
         asprs: asprs(n, Some(h), v),
         nssda,
         predicted: None,
+        predicted_at_targets: None,
         points,
         unmatched_targets,
         missing_control,
@@ -821,6 +889,94 @@ pub fn evaluate_vertical_tin(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Box–Muller normals from a 64-bit LCG: a fixed, dependency-free stream for Monte Carlo.
+    fn normals(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
+            let mut uniform = || {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+            };
+            let (u, v) = (uniform(), uniform());
+            (-2.0 * u.ln()).sqrt() * (TAU * v).cos()
+        }
+    }
+
+    #[test]
+    fn prediction_at_targets_adds_target_and_control_sigma() {
+        // Closed form: TPU 1 cm per horizontal axis and 2 cm up, one target with a 3 cm (radial)
+        // centre σ and 4 cm up, its control 1 cm / 2 cm; the other with nothing known.
+        let control = [
+            ControlPoint {
+                sigma_h_m: Some(0.01),
+                sigma_v_m: Some(0.02),
+                ..ControlPoint::new("a", 0.0, 0.0, 0.0)
+            },
+            ControlPoint::new("b", 10.0, 0.0, 0.0),
+        ];
+        let lidar = [
+            MeasuredPoint::new("a", 0.0, 0.0, 0.0).with_sigma(Some(0.03), Some(0.04)),
+            MeasuredPoint::new("b", 10.0, 0.0, 0.0),
+        ];
+        let mut e = evaluate(&lidar, &control, &EvaluateOptions::default()).unwrap();
+        e.set_predicted(Components::from_components(0.01, 0.01, 0.02));
+        let p = e.predicted_at_targets.unwrap();
+        let h = (2.0 * 0.01f64.powi(2) + (0.03f64.powi(2) + 0.01f64.powi(2)) / 2.0).sqrt();
+        let v = (0.02f64.powi(2) + (0.04f64.powi(2) + 0.02f64.powi(2)) / 2.0).sqrt();
+        assert!((p.horizontal - h).abs() < 1e-12, "{} {h}", p.horizontal);
+        assert!((p.vertical - v).abs() < 1e-12, "{} {v}", p.vertical);
+        assert_eq!(e.predicted.unwrap().horizontal, 0.01f64.hypot(0.01));
+    }
+
+    #[test]
+    fn prediction_at_targets_matches_monte_carlo_rmse() {
+        // Each target's residual = point error (TPU σ) + centre error (its own σ, varying by
+        // target) − control error: over many draws, the measured RMSE² averages to the
+        // prediction².
+        let mut z = normals(7);
+        let (tpu_axis, tpu_up) = (0.012, 0.02);
+        let n = 12;
+        let own_h: Vec<f64> = (0..n).map(|i| 0.01 + 0.004 * i as f64).collect();
+        let own_v: Vec<f64> = (0..n).map(|i| 0.005 + 0.001 * i as f64).collect();
+        let control: Vec<ControlPoint> = (0..n)
+            .map(|i| ControlPoint {
+                sigma_h_m: Some(0.005),
+                sigma_v_m: Some(0.02),
+                ..ControlPoint::new(format!("T{i}"), 100.0 * i as f64, 0.0, 0.0)
+            })
+            .collect();
+        let draws = 4000;
+        let (mut sum_h, mut sum_v, mut predicted) = (0.0, 0.0, None);
+        for _ in 0..draws {
+            let lidar: Vec<MeasuredPoint> = (0..n)
+                .map(|i| {
+                    let axis_h = own_h[i] / 2f64.sqrt();
+                    let axis_c = 0.005 / 2f64.sqrt();
+                    let dx = tpu_axis * z() + axis_h * z() + axis_c * z();
+                    let dy = tpu_axis * z() + axis_h * z() + axis_c * z();
+                    let dz = tpu_up * z() + own_v[i] * z() + 0.02 * z();
+                    MeasuredPoint::new(format!("T{i}"), 100.0 * i as f64 + dx, dy, dz)
+                        .with_sigma(Some(own_h[i]), Some(own_v[i]))
+                })
+                .collect();
+            let mut e = evaluate(&lidar, &control, &EvaluateOptions::default()).unwrap();
+            e.set_predicted(Components::from_components(tpu_axis, tpu_axis, tpu_up));
+            sum_h += e.rmse.horizontal.powi(2);
+            sum_v += e.rmse.vertical.powi(2);
+            predicted = e.predicted_at_targets;
+        }
+        let p = predicted.unwrap();
+        let ratio_h = (sum_h / draws as f64).sqrt() / p.horizontal;
+        let ratio_v = (sum_v / draws as f64).sqrt() / p.vertical;
+        // 4000 × 12 targets: the ratio's standard error is well under 1 %.
+        assert!((ratio_h - 1.0).abs() < 0.02, "horizontal {ratio_h}");
+        assert!((ratio_v - 1.0).abs() < 0.02, "vertical {ratio_v}");
+        // Without the targets' and control's σ the prediction is far too small.
+        assert!(p.horizontal > 1.5 * tpu_axis * 2f64.sqrt());
+    }
 
     #[test]
     fn nssda_branches() {

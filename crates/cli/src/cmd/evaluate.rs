@@ -19,7 +19,9 @@ Examples:
 Residual = lidar − control (m). rmse.horizontal is seed 000's formula (7), rmse.vertical its
 formula (8). With --tpu, the predicted σ (the median per-point σ of the TPU summary) is shown beside
 the measured RMSE, as seed 000's Table 3; with --sensor, the budget at --height (and --scan-angle)
-is. --ground with --checkpoints tests vertical checkpoints against a TIN of the ground points (ASPRS
+is. The \"predicted RMSE\" row (predicted_at_targets) adds to it each target's own σ (the
+targets CSV's sigma_h_m / sigma_v_m) and its control point's σ: the RMSE the targets should show.
+--ground with --checkpoints tests vertical checkpoints against a TIN of the ground points (ASPRS
 non-vegetated vertical accuracy, NVA), beside or instead of the targets; the JSON then has an
 \"nva\" block.
 
@@ -95,10 +97,10 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
         (Some(t), Some(c)) => {
             let mut e = evaluate_target_files(t, c, &options)?;
             if let Some(p) = &args.tpu {
-                e.predicted = Some(lidarqa_report::TpuSummary::predicted_from_file(p)?);
+                e.set_predicted(lidarqa_report::TpuSummary::predicted_from_file(p)?);
             }
             if let (Some(s), Some(h)) = (&args.sensor, args.height) {
-                e.predicted = Some(predicted_from_sensor(s, h, args.scan_angle)?);
+                e.set_predicted(predicted_from_sensor(s, h, args.scan_angle)?);
             }
             Some(e)
         }
@@ -216,6 +218,9 @@ pub fn table(e: &Evaluation) -> String {
     row(&mut t, &format!("RMSE (n = {})", e.n), &e.rmse);
     if let Some(p) = &e.predicted {
         row(&mut t, "predicted σ (TPU)", p);
+    }
+    if let Some(p) = &e.predicted_at_targets {
+        row(&mut t, "predicted RMSE (+ σ)", p);
     }
     row(&mut t, "max |residual|", &e.max_abs);
     let _ = writeln!(

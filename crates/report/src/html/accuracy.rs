@@ -42,12 +42,16 @@ fn predicted_vs_measured(
     runs: &[(&str, &Evaluation)],
     budget: Option<&Budget>,
 ) -> (Option<f64>, Option<f64>) {
-    let predicted = runs.iter().find_map(|(_, e)| e.predicted);
+    let predicted = runs.iter().find_map(|(_, e)| e.predicted_rmse());
     let (pred_h, pred_v, pred_from) = match (predicted, budget) {
         (Some(p), _) => (
             p.horizontal,
             p.vertical,
-            "the TPU given to <code>lidarqa evaluate</code>",
+            if runs.iter().any(|(_, e)| e.predicted_at_targets.is_some()) {
+                "the TPU given to <code>lidarqa evaluate</code>, with each target's centre σ and its control point's σ added"
+            } else {
+                "the TPU given to <code>lidarqa evaluate</code>"
+            },
         ),
         (None, Some(b)) => (
             Some(b.total.horizontal),
@@ -56,7 +60,7 @@ fn predicted_vs_measured(
         ),
         (None, None) => (None, None, ""),
     };
-    o.push_str("<table id=\"predicted-vs-measured\"><caption>Predicted vs measured (cm)</caption><thead><tr><th>precision</th><th>predicted σ</th>");
+    o.push_str("<table id=\"predicted-vs-measured\"><caption>Predicted vs measured (cm)</caption><thead><tr><th>precision</th><th>predicted</th>");
     for (n, _) in runs {
         let _ = write!(o, "<th>measured RMSE {}</th>", esc(n));
     }
