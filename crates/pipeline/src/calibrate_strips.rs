@@ -35,6 +35,7 @@ use lidarqa_calib::{
 };
 use lidarqa_io::{ControlPoints, Crs, Geodetic, LasInfo, LasReader, PointChunk, TiePicks};
 use lidarqa_model::{Ecef, Source, Warning};
+use lidarqa_tpu::{LinearRecovery, PoseAt, Recoverer, Trajectory};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 use serde_json::Value;
@@ -393,13 +394,17 @@ struct StripScan {
     /// Projected bounding box of each run of [`BLOCK_POINTS`] points in file order.
     blocks: Vec<[f64; 4]>,
     /// Points per [`COUNT_CELL_M`] cell (local north, east): they size the tiles.
-    counts: HashMap<(i64, i64), u64>,
+    counts: Cells<u64>,
     /// Every point as a [`Kept`] record, in file order: the later passes read these instead
     /// of decoding the LAZ and inverting the projection again.
     scratch: Mutex<File>,
     /// Points in the strip (records in `scratch`).
     count: u64,
 }
+
+/// Values per grid cell (the point counts, the region's buckets): looked up for every point,
+/// so with a fast fixed hasher (the keys are our own cell indices, not untrusted input).
+type Cells<V> = HashMap<(i64, i64), V, foldhash::fast::FixedState>;
 
 /// Cell of the first pass's point counts, m.
 const COUNT_CELL_M: f64 = 25.0;
@@ -432,7 +437,10 @@ fn scan_strip(
     let mut scratch =
         BufWriter::with_capacity(1 << 20, tempfile::tempfile().map_err(scratch_error)?);
     let mut count = 0u64;
-    let (stem, id) = stream_strip(path, ctx, frame, |k, kept, p| {
+    let (stem, id) = stream_strip(path, ctx, |k, kept, observed| {
+        // Only the local position and the time are needed for every point; the whole point
+        // only for the extreme ones.
+        let local = kept.local(frame);
         let (x, y) = (kept.x, kept.y);
         if k % BLOCK_POINTS == 0 {
             blocks.push([x, y, x, y]);
@@ -440,20 +448,22 @@ fn scan_strip(
         if let Some(b) = blocks.last_mut() {
             *b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
         }
-        xy.push([p.position_m.x, p.position_m.y]);
+        xy.push([local.x, local.y]);
         if picks.is_some() {
-            down.push(p.position_m.z);
+            down.push(local.z);
         }
         let v = [
-            p.position_m.x,
-            p.position_m.y,
-            -p.position_m.x,
-            -p.position_m.y,
-            p.time_s,
-            -p.time_s,
+            local.x,
+            local.y,
+            -local.x,
+            -local.y,
+            observed.0.time_s,
+            -observed.0.time_s,
         ];
+        let mut point = None;
         for (slot, value) in ext.iter_mut().zip(v) {
             if slot.is_none_or(|(best, _, _)| value < best) {
+                let p = *point.get_or_insert_with(|| kept.raw_point(frame, observed));
                 *slot = Some((value, k, p));
             }
         }
@@ -470,7 +480,7 @@ fn scan_strip(
     let mut extremes: Vec<(u64, RawPoint)> = ext.iter().flatten().map(|e| (e.1, e.2)).collect();
     extremes.sort_by_key(|e| e.0);
     extremes.dedup_by_key(|e| e.0);
-    let mut counts: HashMap<(i64, i64), u64> = HashMap::new();
+    let mut counts: Cells<u64> = Cells::default();
     for [n, e] in &xy {
         *counts.entry(count_cell(*n, *e)).or_default() += 1;
     }
@@ -518,8 +528,8 @@ fn scan_strip(
 struct Region {
     rects: Vec<[f64; 4]>,
     boxes: Vec<[f64; 4]>,
-    local: HashMap<(i64, i64), Vec<u32>>,
-    projected: HashMap<(i64, i64), Vec<u32>>,
+    local: Cells<Vec<u32>>,
+    projected: Cells<Vec<u32>>,
 }
 
 /// Bucket size of [`Region`], m.
@@ -574,8 +584,8 @@ impl Region {
                 ]
             })
             .collect();
-        let mut local: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
-        let mut projected: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
+        let mut local: Cells<Vec<u32>> = Cells::default();
+        let mut projected: Cells<Vec<u32>> = Cells::default();
         for (k, (r, b)) in rects.iter().zip(&boxes).enumerate() {
             for c in buckets(r) {
                 local.entry(c).or_default().push(k as u32);
@@ -644,7 +654,7 @@ fn cut_strip(
     let mut extremes = scan.extremes.iter().peekable();
     if !ranges.is_empty() {
         let tile = ctx.open_tile(&scan.path)?;
-        let recoverer = lidarqa_tpu::Recoverer::new(&ctx.recovery_mounting);
+        let recoverer = Recoverer::new(&ctx.recovery_mounting);
         let mut hint = 0;
         let mut scratch = scan.scratch.lock().unwrap_or_else(|e| e.into_inner());
         let scratch_error = |source| Error::Scratch {
@@ -666,18 +676,13 @@ fn cut_strip(
                     if !region.near_projected(kept.x, kept.y) {
                         continue;
                     }
-                    let v = frame.to_local(&Vector3::from(kept.ecef));
+                    let v = kept.local(frame);
                     if !region.near_local(v.x, v.y) {
                         continue;
                     }
-                    let p = kept.recover(
-                        &tile.trajectory,
-                        &mut hint,
-                        &recoverer,
-                        frame,
-                        &scan.path,
-                        k,
-                    )?;
+                    let observed =
+                        kept.observe(&tile.trajectory, &mut hint, &recoverer, &scan.path, k)?;
+                    let p = kept.raw_point(frame, &observed);
                     while let Some((_, e)) = extremes.next_if(|(j, _)| *j < k) {
                         points.push(*e);
                     }
@@ -737,7 +742,7 @@ fn auto_ties_tiled(
         return auto_ties(&strips, prior, opts).map_err(failed);
     }
     let grid = AutoTieGrid::new(&extents, opts.spacing_m);
-    let mut counts: HashMap<(i64, i64), u64> = HashMap::new();
+    let mut counts: Cells<u64> = Cells::default();
     for s in scans {
         for (c, n) in &s.counts {
             *counts.entry(*c).or_default() += n;
@@ -791,8 +796,8 @@ fn load_strip(path: &Path, ctx: &TpuContext, frame: &LocalFrame) -> Result<Loade
     // most 4 Mi points up front and let the vectors grow with what is really read.
     let reserve = usize::try_from(tile.info.point_count.min(1 << 22)).unwrap_or(0);
     let mut points = Vec::with_capacity(reserve);
-    let (stem, id) = stream_strip(path, ctx, frame, |_, _, p| {
-        points.push(p);
+    let (stem, id) = stream_strip(path, ctx, |_, kept, observed| {
+        points.push(kept.raw_point(frame, observed));
         Ok(())
     })?;
     Ok(LoadedStrip {
@@ -859,35 +864,43 @@ impl Kept {
     }
 
     /// The point's pose (`hint`: the previous point's segment) and its raw observation
-    /// recovered with the sensor file's mounting.
-    fn recover(
+    /// recovered with the sensor file's mounting: the checks every point passes.
+    fn observe(
         &self,
-        trajectory: &lidarqa_tpu::Trajectory,
+        trajectory: &Trajectory,
         hint: &mut usize,
-        recoverer: &lidarqa_tpu::Recoverer,
-        frame: &LocalFrame,
+        recoverer: &Recoverer,
         path: &Path,
         index: u64,
-    ) -> Result<RawPoint> {
+    ) -> Result<Observed> {
         let point_error = |source| Error::Point {
             path: path.to_path_buf(),
             index,
             source,
         };
         let pose = trajectory.at_from(self.sow, hint).map_err(point_error)?;
-        let ecef = Vector3::from(self.ecef);
         let recovery = recoverer
-            .linear_ecef(&pose, &Ecef::from_vector(ecef))
+            .linear_ecef(&pose, &Ecef::from_vector(Vector3::from(self.ecef)))
             .map_err(point_error)?;
-        Ok(RawPoint::from_recovery(
-            frame,
-            &pose,
-            &recovery,
-            &ecef,
-            self.intensity,
-        ))
+        Ok((pose, recovery))
+    }
+
+    /// The point for the adjustment, from what [`Kept::observe`] found.
+    fn raw_point(&self, frame: &LocalFrame, (pose, recovery): &Observed) -> RawPoint {
+        let ecef = Vector3::from(self.ecef);
+        RawPoint::from_recovery(frame, pose, recovery, &ecef, self.intensity)
+    }
+
+    /// The point's local position, as [`Kept::raw_point`] computes it.
+    fn local(&self, frame: &LocalFrame) -> Vector3<f64> {
+        frame.to_local(&Vector3::from(self.ecef))
     }
 }
+
+/// A point's pose and its raw observation.
+type Observed = (PoseAt, LinearRecovery);
+
+impl Kept {}
 
 /// Streams one strip's points in file order, each checked (coordinates, time, trajectory,
 /// recovery) and handed to `take` as its [`Kept`] record and its recovered point. Returns the
@@ -896,13 +909,12 @@ impl Kept {
 fn stream_strip(
     path: &Path,
     ctx: &TpuContext,
-    frame: &LocalFrame,
-    mut take: impl FnMut(u64, &Kept, RawPoint) -> Result<()>,
+    mut take: impl FnMut(u64, &Kept, &Observed) -> Result<()>,
 ) -> Result<(String, String)> {
     let tile = ctx.open_tile(path)?;
     let projection = &tile.crs;
     let ellipsoid = tile.crs.ellipsoid();
-    let recoverer = lidarqa_tpu::Recoverer::new(&ctx.recovery_mounting);
+    let recoverer = Recoverer::new(&ctx.recovery_mounting);
     let mut reader = LasReader::from_path(path)?;
     let mut chunk = PointChunk::new();
     // The strip's point source id while every point has the same one.
@@ -945,8 +957,8 @@ fn stream_strip(
                 sow,
                 intensity: p.intensity,
             };
-            let point = kept.recover(&tile.trajectory, &mut hint, &recoverer, frame, path, k)?;
-            take(k, &kept, point)?;
+            let observed = kept.observe(&tile.trajectory, &mut hint, &recoverer, path, k)?;
+            take(k, &kept, &observed)?;
         }
     }
     let stem = path
