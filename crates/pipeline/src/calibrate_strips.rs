@@ -428,7 +428,7 @@ fn scan_strip(
     let mut xy: Vec<[f64; 2]> = Vec::new();
     let mut down: Vec<f64> = Vec::new();
     // Lowest north, lowest east, highest north, highest east, earliest, latest.
-    let mut ext: [Option<(f64, u64, RawPoint)>; 6] = [None; 6];
+    let mut ext: [Option<(f64, u64, Kept)>; 6] = [None; 6];
     let mut blocks: Vec<[f64; 4]> = Vec::new();
     let scratch_error = |source| Error::Scratch {
         path: path.to_path_buf(),
@@ -439,7 +439,7 @@ fn scan_strip(
     let mut count = 0u64;
     let (stem, id) = stream_strip(path, ctx, |k, kept, observed| {
         // Only the local position and the time are needed for every point; the whole point
-        // only for the extreme ones.
+        // only for the extreme ones, built at the end (the latest point changes at every point).
         let local = kept.local(frame);
         let (x, y) = (kept.x, kept.y);
         if k % BLOCK_POINTS == 0 {
@@ -460,11 +460,9 @@ fn scan_strip(
             observed.0.time_s,
             -observed.0.time_s,
         ];
-        let mut point = None;
         for (slot, value) in ext.iter_mut().zip(v) {
             if slot.is_none_or(|(best, _, _)| value < best) {
-                let p = *point.get_or_insert_with(|| kept.raw_point(frame, observed));
-                *slot = Some((value, k, p));
+                *slot = Some((value, k, *kept));
             }
         }
         count = k + 1;
@@ -477,9 +475,18 @@ fn scan_strip(
         (Some(a), Some(b), Some(c), Some(d)) => Some([a.0, b.0, -c.0, -d.0]),
         _ => None,
     };
-    let mut extremes: Vec<(u64, RawPoint)> = ext.iter().flatten().map(|e| (e.1, e.2)).collect();
-    extremes.sort_by_key(|e| e.0);
-    extremes.dedup_by_key(|e| e.0);
+    let mut extreme_kept: Vec<(u64, Kept)> = ext.iter().flatten().map(|e| (e.1, e.2)).collect();
+    extreme_kept.sort_by_key(|e| e.0);
+    extreme_kept.dedup_by_key(|e| e.0);
+    let tile = ctx.open_tile(path)?;
+    let recoverer = Recoverer::new(&ctx.recovery_mounting);
+    let extremes = extreme_kept
+        .iter()
+        .map(|(k, kept)| {
+            let observed = kept.observe(&tile.trajectory, &mut 0, &recoverer, path, *k)?;
+            Ok((*k, kept.raw_point(frame, &observed)))
+        })
+        .collect::<Result<Vec<_>>>()?;
     let mut counts: Cells<u64> = Cells::default();
     for [n, e] in &xy {
         *counts.entry(count_cell(*n, *e)).or_default() += 1;
