@@ -1130,3 +1130,37 @@ fn in_csv_terms(
     };
     told.unwrap_or_else(|| e.to_string())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The later passes rebuild each point from its scratch record, so the record must give back
+    /// every bit it was written with (or the cut strips would not be the whole strips' points).
+    #[test]
+    fn scratch_records_keep_every_bit() {
+        let values = [
+            Kept {
+                x: 535_012.345_678_901,
+                y: 3_995_000.000_000_001,
+                ecef: [-2_175_456.123_456_789, 4_525_012.987_654_321, 3_738_000.5],
+                sow: 400_000.123_456_789_1,
+                intensity: 65_535,
+            },
+            Kept {
+                x: -0.0,
+                y: f64::MIN_POSITIVE / 4.0,
+                ecef: [f64::MAX, f64::MIN, 1e-300],
+                sow: 0.1 + 0.2,
+                intensity: 0,
+            },
+        ];
+        for k in values {
+            let back = Kept::from_bytes(&k.to_bytes());
+            let bits =
+                |k: &Kept| [k.x, k.y, k.ecef[0], k.ecef[1], k.ecef[2], k.sow].map(f64::to_bits);
+            assert_eq!(bits(&back), bits(&k));
+            assert_eq!(back.intensity, k.intensity);
+        }
+    }
+}
