@@ -36,6 +36,7 @@ use crate::vtpm::{
 };
 use lidarqa_model::Mounting;
 use nalgebra::Vector3;
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 
 /// Options of the automatic tie search.
@@ -215,24 +216,25 @@ pub fn auto_tie_candidates(
     opts.check()?;
     let idx = Indexed::new(strips, opts.patch_radius_m);
     let g = Georeferencing::new(prior);
-    let mut cands = Vec::new();
-    for i in rows {
-        for j in columns.clone() {
+    // Every node on its own (its RANSAC seed is its number), so in parallel, in grid order.
+    let nodes: Vec<(usize, usize)> = rows
+        .flat_map(|i| columns.clone().map(move |j| (i, j)))
+        .collect();
+    Ok(nodes
+        .par_iter()
+        .filter_map(|&(i, j)| {
             let k = i * grid.ny + j + 1;
             let [x, y] = grid.node_m(i, j);
-            if let Some(c) = candidate(&idx, &g, x, y, k, opts, None)
-                && usable(&idx, &g, &c.tie, opts)
-            {
-                cands.push(AutoTieCandidate {
+            candidate(&idx, &g, x, y, k, opts, None)
+                .filter(|c| usable(&idx, &g, &c.tie, opts))
+                .map(|c| AutoTieCandidate {
                     k,
                     x,
                     y,
                     candidate: c,
-                });
-            }
-        }
-    }
-    Ok(cands)
+                })
+        })
+        .collect())
 }
 
 /// Spreads the candidates over kinds, places, scan angles and roof aspects (module docs,

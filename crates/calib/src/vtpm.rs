@@ -19,6 +19,7 @@ use crate::params::mounting_from_vector;
 use crate::strip::{Georeferencing, GridIndex, Strip, TrajectoryOffset, within};
 use lidarqa_model::fit_plane;
 use nalgebra::Vector3;
+use rayon::prelude::*;
 use spade::{DelaunayTriangulation, HasPosition, Point2, PositionInTriangulation, Triangulation};
 
 /// Largest VTPM search radius, m: a tie is a local surface (seed 001: about the point spacing),
@@ -226,7 +227,7 @@ pub(crate) struct Indexed<'a> {
 impl<'a> Indexed<'a> {
     pub(crate) fn new(strips: &'a [Strip], cell_m: f64) -> Indexed<'a> {
         let grids = strips
-            .iter()
+            .par_iter()
             .map(|s| {
                 let xy: Vec<[f64; 2]> = s
                     .points

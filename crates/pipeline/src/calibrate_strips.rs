@@ -7,12 +7,16 @@
 //!
 //! The adjustment reads only the neighbourhoods of its ties, so no strip is held whole
 //! (memory is bounded by [`POINTS_PER_TILE`], not by the survey):
-//! 1. a first pass over each strip (in parallel) checks every point as before and keeps its
-//!    extent, its extreme points (the ones holding the extent and the time span), the VTPM
-//!    density radius, the heights under hand picks, point counts on a 25 m grid and the
-//!    projected box of each 50 000-point block;
+//! 1. a first pass over each strip (in parallel) decodes and checks every point as before and
+//!    keeps its extent, its extreme points (the ones holding the extent and the time span), the
+//!    VTPM density radius, the heights under hand picks, point counts on a 25 m grid and the
+//!    projected box of each block of [`BLOCK_POINTS`] points; it writes every point's projected
+//!    position, ECEF position, time and intensity (50 bytes) to a scratch file (an unnamed
+//!    temporary file, gone when the run ends), so the later passes never decode the LAZ or
+//!    invert the projection again: the projection's inverse and the LAZ decoding were most of
+//!    the time when each tile decoded again the blocks it shares with its neighbours;
 //! 2. the automatic tie search runs tile by tile over its candidate grid, each tile's strips
-//!    read cut to the nodes' reach ([`AutoTieOptions::node_reach_m`]), decoding only the blocks
+//!    cut to the nodes' reach ([`AutoTieOptions::node_reach_m`]) from the records of the blocks
 //!    that meet it; the candidates of all tiles are selected together;
 //! 3. a last pass keeps the points within [`lidarqa_calib::tie_reach_m`] of every pick and
 //!    control point.
@@ -31,12 +35,16 @@ use lidarqa_calib::{
 };
 use lidarqa_io::{ControlPoints, Crs, Geodetic, LasInfo, LasReader, PointChunk, TiePicks};
 use lidarqa_model::{Ecef, Source, Warning};
+use lidarqa_tpu::{LinearRecovery, PoseAt, Recoverer, Trajectory};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 use serde_json::Value;
 use std::collections::HashMap;
+use std::fs::File;
+use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 /// Points a VTPM window should hold in the sparsest strip when no radius is given: enough for a
 /// RANSAC plane and a Delaunay triangle around the pick with points to spare.
@@ -363,9 +371,10 @@ const PROJECTED_SLACK_M: f64 = 5.0;
 /// fewer LAZ blocks twice, smaller ones hold less.
 pub const POINTS_PER_TILE: u64 = 5_000_000;
 
-/// Points per block of a strip's first-pass summary: the LAZ chunk size most writers use, so
-/// a block is read by one seek and one chunk's decoding.
-const BLOCK_POINTS: u64 = 50_000;
+/// Points per block of a strip's first-pass summary: a later pass reads the scratch records of
+/// the blocks whose projected box meets its region, so small blocks read little more than the
+/// region's points (a block of a linear scanner spans the swath across a few scan lines).
+const BLOCK_POINTS: u64 = 10_000;
 
 /// What the first pass keeps of a strip: enough to place the neighbourhoods the second one keeps.
 struct StripScan {
@@ -385,8 +394,17 @@ struct StripScan {
     /// Projected bounding box of each run of [`BLOCK_POINTS`] points in file order.
     blocks: Vec<[f64; 4]>,
     /// Points per [`COUNT_CELL_M`] cell (local north, east): they size the tiles.
-    counts: HashMap<(i64, i64), u64>,
+    counts: Cells<u64>,
+    /// Every point as a [`Kept`] record, in file order: the later passes read these instead
+    /// of decoding the LAZ and inverting the projection again.
+    scratch: Mutex<File>,
+    /// Points in the strip (records in `scratch`).
+    count: u64,
 }
+
+/// Values per grid cell (the point counts, the region's buckets): looked up for every point,
+/// so with a fast fixed hasher (the keys are our own cell indices, not untrusted input).
+type Cells<V> = HashMap<(i64, i64), V, foldhash::fast::FixedState>;
 
 /// Cell of the first pass's point counts, m.
 const COUNT_CELL_M: f64 = 25.0;
@@ -410,53 +428,66 @@ fn scan_strip(
     let mut xy: Vec<[f64; 2]> = Vec::new();
     let mut down: Vec<f64> = Vec::new();
     // Lowest north, lowest east, highest north, highest east, earliest, latest.
-    let mut ext: [Option<(f64, u64, RawPoint)>; 6] = [None; 6];
+    let mut ext: [Option<(f64, u64, Kept)>; 6] = [None; 6];
     let mut blocks: Vec<[f64; 4]> = Vec::new();
-    let (stem, id) = stream_strip(
-        path,
-        ctx,
-        frame,
-        None,
-        |k, x, y| {
-            if k % BLOCK_POINTS == 0 {
-                blocks.push([x, y, x, y]);
+    let scratch_error = |source| Error::Scratch {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut scratch =
+        BufWriter::with_capacity(1 << 20, tempfile::tempfile().map_err(scratch_error)?);
+    let mut count = 0u64;
+    let (stem, id) = stream_strip(path, ctx, |k, kept, observed| {
+        // Only the local position and the time are needed for every point; the whole point
+        // only for the extreme ones, built at the end (the latest point changes at every point).
+        let local = kept.local(frame);
+        let (x, y) = (kept.x, kept.y);
+        if k % BLOCK_POINTS == 0 {
+            blocks.push([x, y, x, y]);
+        }
+        if let Some(b) = blocks.last_mut() {
+            *b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
+        }
+        xy.push([local.x, local.y]);
+        if picks.is_some() {
+            down.push(local.z);
+        }
+        let v = [
+            local.x,
+            local.y,
+            -local.x,
+            -local.y,
+            observed.0.time_s,
+            -observed.0.time_s,
+        ];
+        for (slot, value) in ext.iter_mut().zip(v) {
+            if slot.is_none_or(|(best, _, _)| value < best) {
+                *slot = Some((value, k, *kept));
             }
-            if let Some(b) = blocks.last_mut() {
-                *b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
-            }
-            true
-        },
-        |_, v| {
-            xy.push([v.x, v.y]);
-            if picks.is_some() {
-                down.push(v.z);
-            }
-            true
-        },
-        |k, p| {
-            let v = [
-                p.position_m.x,
-                p.position_m.y,
-                -p.position_m.x,
-                -p.position_m.y,
-                p.time_s,
-                -p.time_s,
-            ];
-            for (slot, value) in ext.iter_mut().zip(v) {
-                if slot.is_none_or(|(best, _, _)| value < best) {
-                    *slot = Some((value, k, p));
-                }
-            }
-        },
-    )?;
+        }
+        count = k + 1;
+        scratch.write_all(&kept.to_bytes()).map_err(scratch_error)
+    })?;
+    let scratch = scratch
+        .into_inner()
+        .map_err(|e| scratch_error(e.into_error()))?;
     let extent_m = match (ext[0], ext[1], ext[2], ext[3]) {
         (Some(a), Some(b), Some(c), Some(d)) => Some([a.0, b.0, -c.0, -d.0]),
         _ => None,
     };
-    let mut extremes: Vec<(u64, RawPoint)> = ext.iter().flatten().map(|e| (e.1, e.2)).collect();
-    extremes.sort_by_key(|e| e.0);
-    extremes.dedup_by_key(|e| e.0);
-    let mut counts: HashMap<(i64, i64), u64> = HashMap::new();
+    let mut extreme_kept: Vec<(u64, Kept)> = ext.iter().flatten().map(|e| (e.1, e.2)).collect();
+    extreme_kept.sort_by_key(|e| e.0);
+    extreme_kept.dedup_by_key(|e| e.0);
+    let tile = ctx.open_tile(path)?;
+    let recoverer = Recoverer::new(&ctx.recovery_mounting);
+    let extremes = extreme_kept
+        .iter()
+        .map(|(k, kept)| {
+            let observed = kept.observe(&tile.trajectory, &mut 0, &recoverer, path, *k)?;
+            Ok((*k, kept.raw_point(frame, &observed)))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let mut counts: Cells<u64> = Cells::default();
     for [n, e] in &xy {
         *counts.entry(count_cell(*n, *e)).or_default() += 1;
     }
@@ -493,6 +524,8 @@ fn scan_strip(
         pick_up_m,
         blocks,
         counts,
+        scratch: Mutex::new(scratch),
+        count,
     })
 }
 
@@ -502,8 +535,8 @@ fn scan_strip(
 struct Region {
     rects: Vec<[f64; 4]>,
     boxes: Vec<[f64; 4]>,
-    local: HashMap<(i64, i64), Vec<u32>>,
-    projected: HashMap<(i64, i64), Vec<u32>>,
+    local: Cells<Vec<u32>>,
+    projected: Cells<Vec<u32>>,
 }
 
 /// Bucket size of [`Region`], m.
@@ -558,8 +591,8 @@ impl Region {
                 ]
             })
             .collect();
-        let mut local: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
-        let mut projected: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
+        let mut local: Cells<Vec<u32>> = Cells::default();
+        let mut projected: Cells<Vec<u32>> = Cells::default();
         for (k, (r, b)) in rects.iter().zip(&boxes).enumerate() {
             for c in buckets(r) {
                 local.entry(c).or_default().push(k as u32);
@@ -602,8 +635,8 @@ impl Region {
     }
 }
 
-/// The second pass over one strip: its points in `region` and its extreme points, in file
-/// order; only the blocks whose projected box meets the region are decoded.
+/// A later pass over one strip: its points in `region` and its extreme points, in file order,
+/// from the first pass's scratch records of the blocks whose projected box meets the region.
 fn cut_strip(
     scan: &StripScan,
     ctx: &TpuContext,
@@ -617,31 +650,56 @@ fn cut_strip(
                 continue;
             }
             let start = b as u64 * BLOCK_POINTS;
+            let end = (start + BLOCK_POINTS).min(scan.count);
             match ranges.last_mut() {
-                Some(r) if r.end == start => r.end = start + BLOCK_POINTS,
-                _ => ranges.push(start..start + BLOCK_POINTS),
+                Some(r) if r.end == start => r.end = end,
+                _ => ranges.push(start..end),
             }
         }
     }
     let mut points = Vec::new();
     let mut extremes = scan.extremes.iter().peekable();
     if !ranges.is_empty() {
-        stream_strip(
-            &scan.path,
-            ctx,
-            frame,
-            Some(&ranges),
-            |_, x, y| region.near_projected(x, y),
-            |_, v| region.near_local(v.x, v.y),
-            |k, p| {
-                while let Some((_, e)) = extremes.next_if(|(j, _)| *j < k) {
-                    points.push(*e);
+        let tile = ctx.open_tile(&scan.path)?;
+        let recoverer = Recoverer::new(&ctx.recovery_mounting);
+        let mut hint = 0;
+        let mut scratch = scan.scratch.lock().unwrap_or_else(|e| e.into_inner());
+        let scratch_error = |source| Error::Scratch {
+            path: scan.path.clone(),
+            source,
+        };
+        let mut buf = Vec::new();
+        for range in &ranges {
+            let mut start = range.start;
+            while start < range.end {
+                let n = (range.end - start).min(SCRATCH_READ_POINTS);
+                buf.resize(n as usize * KEPT_BYTES, 0);
+                scratch
+                    .seek(SeekFrom::Start(start * KEPT_BYTES as u64))
+                    .and_then(|_| scratch.read_exact(&mut buf))
+                    .map_err(scratch_error)?;
+                for (k, record) in (start..).zip(buf.chunks_exact(KEPT_BYTES)) {
+                    let kept = Kept::from_bytes(record);
+                    if !region.near_projected(kept.x, kept.y) {
+                        continue;
+                    }
+                    let v = kept.local(frame);
+                    if !region.near_local(v.x, v.y) {
+                        continue;
+                    }
+                    let observed =
+                        kept.observe(&tile.trajectory, &mut hint, &recoverer, &scan.path, k)?;
+                    let p = kept.raw_point(frame, &observed);
+                    while let Some((_, e)) = extremes.next_if(|(j, _)| *j < k) {
+                        points.push(*e);
+                    }
+                    // An extreme point read here is the same point, computed the same way.
+                    let _ = extremes.next_if(|(j, _)| *j == k);
+                    points.push(p);
                 }
-                // An extreme point read here is the same point, computed the same way.
-                let _ = extremes.next_if(|(j, _)| *j == k);
-                points.push(p);
-            },
-        )?;
+                start += n;
+            }
+        }
     }
     points.extend(extremes.map(|(_, p)| *p));
     points.shrink_to_fit();
@@ -691,7 +749,7 @@ fn auto_ties_tiled(
         return auto_ties(&strips, prior, opts).map_err(failed);
     }
     let grid = AutoTieGrid::new(&extents, opts.spacing_m);
-    let mut counts: HashMap<(i64, i64), u64> = HashMap::new();
+    let mut counts: Cells<u64> = Cells::default();
     for s in scans {
         for (c, n) in &s.counts {
             *counts.entry(*c).or_default() += n;
@@ -745,102 +803,169 @@ fn load_strip(path: &Path, ctx: &TpuContext, frame: &LocalFrame) -> Result<Loade
     // most 4 Mi points up front and let the vectors grow with what is really read.
     let reserve = usize::try_from(tile.info.point_count.min(1 << 22)).unwrap_or(0);
     let mut points = Vec::with_capacity(reserve);
-    let (stem, id) = stream_strip(
-        path,
-        ctx,
-        frame,
-        None,
-        |_, _, _| true,
-        |_, _| true,
-        |_, p| points.push(p),
-    )?;
+    let (stem, id) = stream_strip(path, ctx, |_, kept, observed| {
+        points.push(kept.raw_point(frame, observed));
+        Ok(())
+    })?;
     Ok(LoadedStrip {
         stem,
         strip: Strip { id, points },
     })
 }
 
-/// Streams one strip's points in file order: `near_projected(index, x, y)` sees each point's
-/// projected position and `near_local(index, local)` its local one; the points both want get
-/// their raw observation recovered and go to `take`. Returns the file's stem and the strip's id
-/// (the LAS point source id when every point has the same non-zero one, else the stem).
+/// One point as the first pass leaves it in its strip's scratch file: its projected position
+/// (to cut by) and what its raw observation is recovered from, so that no later pass decodes
+/// the LAZ or inverts the projection again. Rebuilt from it, a point is computed exactly as
+/// from the file.
+#[derive(Debug, Clone, Copy)]
+struct Kept {
+    /// Projected easting, m.
+    x: f64,
+    /// Projected northing, m.
+    y: f64,
+    /// The point, ECEF, m.
+    ecef: [f64; 3],
+    /// GPS seconds of week.
+    sow: f64,
+    /// Return intensity.
+    intensity: u16,
+}
+
+/// Bytes of one [`Kept`] record: six f64 and a u16, little-endian.
+const KEPT_BYTES: usize = 50;
+
+/// Most records one read of a scratch file takes (bounds the read buffer).
+const SCRATCH_READ_POINTS: u64 = 65_536;
+
+impl Kept {
+    fn to_bytes(self) -> [u8; KEPT_BYTES] {
+        let mut b = [0u8; KEPT_BYTES];
+        let values = [
+            self.x,
+            self.y,
+            self.ecef[0],
+            self.ecef[1],
+            self.ecef[2],
+            self.sow,
+        ];
+        for (slot, v) in b.chunks_exact_mut(8).zip(values) {
+            slot.copy_from_slice(&v.to_le_bytes());
+        }
+        b[48..].copy_from_slice(&self.intensity.to_le_bytes());
+        b
+    }
+
+    fn from_bytes(b: &[u8]) -> Kept {
+        let f = |i: usize| {
+            let mut a = [0u8; 8];
+            a.copy_from_slice(&b[8 * i..8 * i + 8]);
+            f64::from_le_bytes(a)
+        };
+        Kept {
+            x: f(0),
+            y: f(1),
+            ecef: [f(2), f(3), f(4)],
+            sow: f(5),
+            intensity: u16::from_le_bytes([b[48], b[49]]),
+        }
+    }
+
+    /// The point's pose (`hint`: the previous point's segment) and its raw observation
+    /// recovered with the sensor file's mounting: the checks every point passes.
+    fn observe(
+        &self,
+        trajectory: &Trajectory,
+        hint: &mut usize,
+        recoverer: &Recoverer,
+        path: &Path,
+        index: u64,
+    ) -> Result<Observed> {
+        let point_error = |source| Error::Point {
+            path: path.to_path_buf(),
+            index,
+            source,
+        };
+        let pose = trajectory.at_from(self.sow, hint).map_err(point_error)?;
+        let recovery = recoverer
+            .linear_ecef(&pose, &Ecef::from_vector(Vector3::from(self.ecef)))
+            .map_err(point_error)?;
+        Ok((pose, recovery))
+    }
+
+    /// The point for the adjustment, from what [`Kept::observe`] found.
+    fn raw_point(&self, frame: &LocalFrame, (pose, recovery): &Observed) -> RawPoint {
+        let ecef = Vector3::from(self.ecef);
+        RawPoint::from_recovery(frame, pose, recovery, &ecef, self.intensity)
+    }
+
+    /// The point's local position, as [`Kept::raw_point`] computes it.
+    fn local(&self, frame: &LocalFrame) -> Vector3<f64> {
+        frame.to_local(&Vector3::from(self.ecef))
+    }
+}
+
+/// A point's pose and its raw observation.
+type Observed = (PoseAt, LinearRecovery);
+
+impl Kept {}
+
+/// Streams one strip's points in file order, each checked (coordinates, time, trajectory,
+/// recovery) and handed to `take` as its [`Kept`] record and its recovered point. Returns the
+/// file's stem and the strip's id (the LAS point source id when every point has the same
+/// non-zero one, else the stem).
 fn stream_strip(
     path: &Path,
     ctx: &TpuContext,
-    frame: &LocalFrame,
-    ranges: Option<&[Range<u64>]>,
-    mut near_projected: impl FnMut(u64, f64, f64) -> bool,
-    mut near_local: impl FnMut(u64, &Vector3<f64>) -> bool,
-    mut take: impl FnMut(u64, RawPoint),
+    mut take: impl FnMut(u64, &Kept, &Observed) -> Result<()>,
 ) -> Result<(String, String)> {
     let tile = ctx.open_tile(path)?;
     let projection = &tile.crs;
     let ellipsoid = tile.crs.ellipsoid();
-    let recoverer = lidarqa_tpu::Recoverer::new(&ctx.recovery_mounting);
+    let recoverer = Recoverer::new(&ctx.recovery_mounting);
     let mut reader = LasReader::from_path(path)?;
     let mut chunk = PointChunk::new();
     // The strip's point source id while every point has the same one.
     let mut psid: Option<u16> = None;
     let mut same_psid = true;
-    let mut index;
-    let point_error = |index: u64, source: lidarqa_tpu::Error| Error::Point {
-        path: path.to_path_buf(),
-        index,
-        source,
-    };
-    let whole = 0..u64::MAX;
-    for range in ranges.unwrap_or(std::slice::from_ref(&whole)) {
-        if range.start > 0 {
-            reader.seek(range.start)?;
-        }
-        index = range.start;
-        loop {
-            let max = usize::try_from((range.end - index).min(200_000)).unwrap_or(200_000);
-            if max == 0 || reader.fill(&mut chunk, max)? == 0 {
-                break;
-            }
-            for p in &chunk.points {
-                crate::error::check_finite(path, index, p.x, p.y, p.z)?;
-                same_psid &= *psid.get_or_insert(p.point_source_id) == p.point_source_id;
-                let k = index;
-                index += 1;
-                if !near_projected(k, p.x, p.y) {
-                    continue;
+    let mut index = 0u64;
+    let mut hint = 0;
+    while reader.fill(&mut chunk, 200_000)? > 0 {
+        for p in &chunk.points {
+            crate::error::check_finite(path, index, p.x, p.y, p.z)?;
+            same_psid &= *psid.get_or_insert(p.point_source_id) == p.point_source_id;
+            let k = index;
+            index += 1;
+            let z = p.z + tile.height_offset_m;
+            let sow = match p.gps_time_s.map(|t| tile.converter.to_seconds_of_week(t)) {
+                Some(Ok(s)) => s,
+                Some(Err(e)) => {
+                    return Err(Error::BadTime {
+                        index: k,
+                        message: e.to_string(),
+                    });
                 }
-                let z = p.z + tile.height_offset_m;
-                let sow = match p.gps_time_s.map(|t| tile.converter.to_seconds_of_week(t)) {
-                    Some(Ok(s)) => s,
-                    Some(Err(e)) => {
-                        return Err(Error::BadTime {
-                            index: k,
-                            message: e.to_string(),
-                        });
-                    }
-                    None => {
-                        return Err(Error::BadTime {
-                            index: k,
-                            message: format!("{}: point without GPS time", path.display()),
-                        });
-                    }
-                };
-                let pose = tile.trajectory.at(sow).map_err(|e| point_error(k, e))?;
-                let (lat, lon) = projection.inverse(p.x, p.y);
-                let ecef = ellipsoid.geodetic_to_ecef(&Geodetic {
-                    latitude_rad: lat,
-                    longitude_rad: lon,
-                    height_m: z,
-                });
-                if !near_local(k, &frame.to_local(&ecef.vector())) {
-                    continue;
+                None => {
+                    return Err(Error::BadTime {
+                        index: k,
+                        message: format!("{}: point without GPS time", path.display()),
+                    });
                 }
-                let recovery = recoverer
-                    .linear_ecef(&pose, &ecef)
-                    .map_err(|e| point_error(k, e))?;
-                take(
-                    k,
-                    RawPoint::from_recovery(frame, &pose, &recovery, &ecef.vector(), p.intensity),
-                );
-            }
+            };
+            let (lat, lon) = projection.inverse(p.x, p.y);
+            let ecef = ellipsoid.geodetic_to_ecef(&Geodetic {
+                latitude_rad: lat,
+                longitude_rad: lon,
+                height_m: z,
+            });
+            let kept = Kept {
+                x: p.x,
+                y: p.y,
+                ecef: ecef.vector().into(),
+                sow,
+                intensity: p.intensity,
+            };
+            let observed = kept.observe(&tile.trajectory, &mut hint, &recoverer, path, k)?;
+            take(k, &kept, &observed)?;
         }
     }
     let stem = path
@@ -1004,4 +1129,38 @@ fn in_csv_terms(
         _ => None,
     };
     told.unwrap_or_else(|| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The later passes rebuild each point from its scratch record, so the record must give back
+    /// every bit it was written with (or the cut strips would not be the whole strips' points).
+    #[test]
+    fn scratch_records_keep_every_bit() {
+        let values = [
+            Kept {
+                x: 535_012.345_678_901,
+                y: 3_995_000.000_000_001,
+                ecef: [-2_175_456.123_456_789, 4_525_012.987_654_321, 3_738_000.5],
+                sow: 400_000.123_456_789_1,
+                intensity: 65_535,
+            },
+            Kept {
+                x: -0.0,
+                y: f64::MIN_POSITIVE / 4.0,
+                ecef: [f64::MAX, f64::MIN, 1e-300],
+                sow: 0.1 + 0.2,
+                intensity: 0,
+            },
+        ];
+        for k in values {
+            let back = Kept::from_bytes(&k.to_bytes());
+            let bits =
+                |k: &Kept| [k.x, k.y, k.ecef[0], k.ecef[1], k.ecef[2], k.sow].map(f64::to_bits);
+            assert_eq!(bits(&back), bits(&k));
+            assert_eq!(back.intensity, k.intensity);
+        }
+    }
 }

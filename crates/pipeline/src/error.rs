@@ -115,6 +115,15 @@ pub enum Error {
         /// Why.
         source: lidarqa_tpu::Error,
     },
+    /// The scratch file where `calibrate`'s first pass keeps each strip's points for the later
+    /// passes could not be written or read.
+    #[error("{}: scratch file of its points (in the temporary directory): {source}", path.display())]
+    Scratch {
+        /// The strip whose points it holds.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
     /// A point whose GPS time cannot be put on the trajectory's time base (the message names
     /// the file and the value).
     #[error("{message} (point {index}; use --skip-invalid to skip such points)")]
