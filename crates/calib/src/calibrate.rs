@@ -216,7 +216,8 @@ pub struct Calibration {
     pub prior: Mounting,
     /// The calibrated mounting; parameters not observable are at the prior.
     pub mounting: Mounting,
-    /// A-posteriori 1-σ, `σ0 · √diag(N⁻¹)`, SI (m, rad); `None` for a parameter held at its prior.
+    /// A-posteriori 1-σ, `σ0 · √diag(N⁻¹)` (with the trajectory weighting: the ties' estimated
+    /// noises, or σ0 if larger), SI (m, rad); `None` for a parameter held at its prior.
     pub sigma: [Option<f64>; PARAM_COUNT],
     /// Correlation matrix of the solved parameters; `None` where either parameter is held.
     pub correlation: [[Option<f64>; PARAM_COUNT]; PARAM_COUNT],
@@ -228,7 +229,8 @@ pub struct Calibration {
     pub iterations: usize,
     /// Why the final solve stopped.
     pub termination: Termination,
-    /// A-posteriori σ of unit weight (an observation's σ), m.
+    /// A-posteriori σ of unit weight (an observation's σ), m; with the trajectory weighting, of
+    /// the whitened residuals, in metres of the unweighted fit's σ0.
     pub sigma0_m: f64,
     /// Redundancy: independent observations − solved unknowns.
     pub redundancy: usize,

@@ -10,7 +10,7 @@
 //! The fix is generalised least squares with the observations' covariance
 //! `C = diag(σ_t²) + A Aᵀ`, where `σ_t` is the ties' own noise (one σ per noise group: a pick's
 //! horizontal position and a surface's height are different noises, see
-//! [`crate::vtpm::NoiseGroup`] and [`group_noise`]) and the columns of
+//! [`crate::vtpm::NoiseGroup`] and [`group_noise_factors`]) and the columns of
 //! `A = J_n Σ_n^½` are how each strip's six trajectory offsets (north, east, up, roll, pitch,
 //! heading, each at its 1-σ) move the residuals, by central differences through the same rule-2
 //! tie model, then how each control point's survey error (per axis, at its σ) moves them: one
