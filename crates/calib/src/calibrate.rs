@@ -5,9 +5,9 @@ use crate::lm::{LmModel, LmOptions, Termination, jacobian, minimize};
 use crate::params::{PARAM_COUNT, Param, mounting_from_vector, mounting_to_vector};
 use crate::strip::{Strip, check_strips};
 use crate::vtpm::{
-    ControlPoint, DroppedPick, Indexed, Tie, TieModel, VtpmOptions, build_tie_model,
+    ControlPoint, DroppedPick, Indexed, NOISE_GROUPS, Tie, TieModel, VtpmOptions, build_tie_model,
 };
-use crate::weighting::{TrajectorySensitivity, TrajectorySigma, Whitening};
+use crate::weighting::{TrajectorySensitivity, TrajectorySigma, Whitening, group_noise_factors};
 use lidarqa_model::{Mounting, Warning};
 use nalgebra::{DMatrix, Vector3};
 use serde_json::{Map, Value, json};
@@ -216,7 +216,8 @@ pub struct Calibration {
     pub prior: Mounting,
     /// The calibrated mounting; parameters not observable are at the prior.
     pub mounting: Mounting,
-    /// A-posteriori 1-σ, `σ0 · √diag(N⁻¹)`, SI (m, rad); `None` for a parameter held at its prior.
+    /// A-posteriori 1-σ, `σ0 · √diag(N⁻¹)` (with the trajectory weighting: the ties' estimated
+    /// noises, or σ0 if larger), SI (m, rad); `None` for a parameter held at its prior.
     pub sigma: [Option<f64>; PARAM_COUNT],
     /// Correlation matrix of the solved parameters; `None` where either parameter is held.
     pub correlation: [[Option<f64>; PARAM_COUNT]; PARAM_COUNT],
@@ -228,7 +229,8 @@ pub struct Calibration {
     pub iterations: usize,
     /// Why the final solve stopped.
     pub termination: Termination,
-    /// A-posteriori σ of unit weight (an observation's σ), m.
+    /// A-posteriori σ of unit weight (an observation's σ), m; with the trajectory weighting, of
+    /// the whitened residuals, in metres of the unweighted fit's σ0.
     pub sigma0_m: f64,
     /// Redundancy: independent observations − solved unknowns.
     pub redundancy: usize,
@@ -464,6 +466,12 @@ pub(crate) struct Solved<M> {
     pub(crate) sigma0_m: f64,
     pub(crate) redundancy: usize,
     pub(crate) history: Vec<([f64; PARAM_COUNT], M)>,
+    /// The residuals at the solution (the model's, then the prior rows).
+    pub(crate) residuals: Vec<f64>,
+    /// The Jacobian of `residuals` over the free parameters at the solution.
+    pub(crate) jacobian: DMatrix<f64>,
+    /// The (pseudo-)inverse of `jacobianᵀ jacobian`.
+    pub(crate) inverse_normal: DMatrix<f64>,
     /// Parameters held at the prior (never one with a prior σ).
     pub(crate) held: [bool; PARAM_COUNT],
     /// Per held parameter: how far the solved ones move per unit error in it,
@@ -536,6 +544,11 @@ impl<M: LmModel> LmModel for WithPriors<M> {
 /// Parameters with a prior σ ([`CalibrationOptions::prior_sigma`]) are never held: their prior
 /// rows are scaled by `prior_scale_m`, the σ of one of the model's residuals (the tie noise the
 /// weighted model is whitened with), or, when `None`, by the σ0 of a first solve without priors.
+///
+/// With `prior_scale_m` the model's residuals are whitened by noises estimated beforehand, so
+/// the reported σ scale by it rather than by σ0 (σ0 only if larger): a noise group held at its
+/// floor ([`MIN_TIE_SIGMA_M`]) fits better than its σ and would otherwise shrink every σ, also
+/// those its rows do not determine.
 pub(crate) fn solve_with_observability<M: LmModel + Clone>(
     initial: &M,
     prior: [f64; PARAM_COUNT],
@@ -695,8 +708,9 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
         }
         let mut sigma = [None; PARAM_COUNT];
         let mut correlation = [[None; PARAM_COUNT]; PARAM_COUNT];
+        let sigma_scale = prior_scale_m.map_or(sigma0, |s| s.max(sigma0));
         for (a, &i) in free.iter().enumerate() {
-            sigma[i] = Some(sigma0 * inv[(a, a)].sqrt());
+            sigma[i] = Some(sigma_scale * inv[(a, a)].sqrt());
             for (b, &jj) in free.iter().enumerate() {
                 correlation[i][jj] = Some(if a == b {
                     1.0
@@ -758,6 +772,9 @@ pub(crate) fn solve_with_observability<M: LmModel + Clone>(
             sigma0_m: sigma0,
             redundancy,
             history,
+            residuals: r,
+            jacobian: j,
+            inverse_normal: inv,
         });
     }
 }
@@ -903,32 +920,52 @@ pub fn calibrate_vtpm(
             let not_finite = || Error::Diverged("the trajectory weighting is not finite".into());
             let sensitivity =
                 TrajectorySensitivity::new(strips, &model, &x0, ts).ok_or_else(not_finite)?;
-            let whitening =
-                |tie_sigma_m: f64| sensitivity.whitening(tie_sigma_m).ok_or_else(not_finite);
-            // The ties' own noise σ_t is not known in advance: start from the unweighted fit's
-            // σ0 (which still holds the trajectory's share, so too large) and re-weight with each
-            // weighted fit's σ0 until the two agree. Stopping early would scale the trajectory's
-            // part of the reported σ by σ0/σ_t (it did: by 0.72 after one pass on the simulator's
-            // calibration flight).
-            let mut tie_sigma_m = geometry.sigma0_m.max(MIN_TIE_SIGMA_M);
+            // The ties' own noise is not known in advance, and a pick's horizontal position
+            // and a surface's height have different ones (`NoiseGroup`): start both from the
+            // unweighted fit's σ0 (which still holds the trajectory's share) and re-estimate
+            // each group's σ from its own weighted residuals until they agree with what the
+            // whitening assumed (variance components). Stopping early would scale the
+            // trajectory's part of the reported σ by σ0/σ_t; one σ for both groups made the σ
+            // of what the horizontal rows determine (yaw) too small by the nearly exact
+            // heights' share of the pool.
+            let reference_m = geometry.sigma0_m.max(MIN_TIE_SIGMA_M);
+            let groups = model.row_groups();
+            let group_observations = model.group_observations();
+            let mut group_sigma_m = [reference_m; NOISE_GROUPS];
             let mut pass = 1;
             let mut solved = loop {
-                problem.whitening = Some(whitening(tie_sigma_m)?);
+                let rows: Vec<f64> = groups.iter().map(|g| group_sigma_m[*g as usize]).collect();
+                let w = sensitivity
+                    .whitening(&rows, reference_m)
+                    .ok_or_else(not_finite)?;
+                problem.whitening = Some(w.clone());
                 let fit = solve_with_observability(
                     &problem,
                     x0,
                     observations,
                     &weighted,
                     true,
-                    Some(tie_sigma_m),
+                    Some(reference_m),
                 )?;
-                let sigma0 = fit.sigma0_m.max(MIN_TIE_SIGMA_M);
-                if (sigma0 - tie_sigma_m).abs() <= NOISE_AGREEMENT * tie_sigma_m
-                    || pass == MAX_NOISE_PASSES
-                {
+                let factors = group_noise_factors(
+                    &w,
+                    &groups,
+                    &group_observations,
+                    &fit.jacobian,
+                    &fit.inverse_normal,
+                    &fit.residuals,
+                    reference_m,
+                );
+                let mut agreed = true;
+                for (sigma_m, factor) in group_sigma_m.iter_mut().zip(factors) {
+                    let Some(f) = factor else { continue };
+                    let next = (*sigma_m * f).max(MIN_TIE_SIGMA_M);
+                    agreed &= (next - *sigma_m).abs() <= NOISE_AGREEMENT * *sigma_m;
+                    *sigma_m = next;
+                }
+                if agreed || pass == MAX_NOISE_PASSES {
                     break fit;
                 }
-                tie_sigma_m = sigma0;
                 pass += 1;
             };
             // Holds are decided on the unweighted fit; what the data add to a prior, on the

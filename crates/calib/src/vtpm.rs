@@ -552,11 +552,43 @@ pub(crate) struct TieSpec {
 impl TieSpec {
     /// Independent scalar observations this tie gives.
     pub(crate) fn observations(&self) -> usize {
+        self.per_direction() * self.directions.len()
+    }
+
+    /// Independent observations along each direction: one per strip, less the tie's mean
+    /// unless a control point is the reference.
+    fn per_direction(&self) -> usize {
         let s = self.virtuals.len();
-        let per = if self.control.is_some() { s } else { s - 1 };
-        per * self.directions.len()
+        if self.control.is_some() { s } else { s - 1 }
+    }
+
+    /// The noise group of the rows along `dir` ([`NoiseGroup`]).
+    fn group(&self, dir: &Vector3<f64>) -> NoiseGroup {
+        if self.along_normal || dir.z.abs() >= 0.5 {
+            NoiseGroup::Surface
+        } else {
+            NoiseGroup::Horizontal
+        }
     }
 }
+
+/// Where a residual row's own noise comes from, so each kind is weighted by its own σ.
+///
+/// Why: a tie's horizontal position in a strip is where the feature was picked (or its centroid
+/// found), its height is the strip's surface under it (rule 1): a hand pick's centimetre and the
+/// points' millimetres are different noises. One pooled σ0 for both averages them, and the
+/// parameters the horizontal rows determine (yaw) get a σ too small by the share of nearly
+/// exact height rows in the pool.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum NoiseGroup {
+    /// Horizontal rows of a feature or line: the pick's (or centroid's) position.
+    Horizontal = 0,
+    /// Heights and surface normals: the strip's points.
+    Surface = 1,
+}
+
+/// How many [`NoiseGroup`]s there are.
+pub(crate) const NOISE_GROUPS: usize = 2;
 
 /// A pick left out of the adjustment because no virtual tie could be formed from it in its strip
 /// (SPEC §8 `dropped_picks`); the rest of the tie still counts when two strips (or one and a
@@ -665,6 +697,28 @@ impl TieModel {
 
     pub(crate) fn observations(&self) -> usize {
         self.ties.iter().map(TieSpec::observations).sum()
+    }
+
+    /// The noise group of every residual row, in the order of [`TieModel::residuals_from`].
+    pub(crate) fn row_groups(&self) -> Vec<NoiseGroup> {
+        let mut g = Vec::new();
+        for t in &self.ties {
+            for _ in &t.virtuals {
+                g.extend(t.directions.iter().map(|d| t.group(d)));
+            }
+        }
+        g
+    }
+
+    /// Independent observations per noise group (they sum to [`TieModel::observations`]).
+    pub(crate) fn group_observations(&self) -> [usize; NOISE_GROUPS] {
+        let mut n = [0; NOISE_GROUPS];
+        for t in &self.ties {
+            for d in &t.directions {
+                n[t.group(d) as usize] += t.per_direction();
+            }
+        }
+        n
     }
 }
 

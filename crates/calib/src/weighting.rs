@@ -8,7 +8,9 @@
 //! from the tie scatter alone, knows nothing of it.
 //!
 //! The fix is generalised least squares with the observations' covariance
-//! `C = σ_t² I + A Aᵀ`, where `σ_t` is the ties' own noise and the columns of
+//! `C = diag(σ_t²) + A Aᵀ`, where `σ_t` is the ties' own noise (one σ per noise group: a pick's
+//! horizontal position and a surface's height are different noises, see
+//! [`crate::vtpm::NoiseGroup`] and [`group_noise_factors`]) and the columns of
 //! `A = J_n Σ_n^½` are how each strip's six trajectory offsets (north, east, up, roll, pitch,
 //! heading, each at its 1-σ) move the residuals, by central differences through the same rule-2
 //! tie model, then how each control point's survey error (per axis, at its σ) moves them: one
@@ -40,7 +42,7 @@
 //! and 16, and left pitch as it was).
 
 use crate::strip::{Strip, TimeProfile, TrajectoryOffset};
-use crate::vtpm::{TieModel, TieSpec};
+use crate::vtpm::{NOISE_GROUPS, NoiseGroup, TieModel, TieSpec};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 /// 1-σ of a strip's constant trajectory error: the navigation solution's accuracy (SMRMSG, or the
@@ -246,11 +248,18 @@ impl TrajectorySensitivity {
             .then_some(TrajectorySensitivity { a })
     }
 
-    /// `W` for ties with noise `tie_sigma_m`: `C' = I + A Aᵀ/σ_t²`;
-    /// `None` for non-finite input (`C'` is positive definite for any `tie_sigma_m > 0`).
-    pub(crate) fn whitening(&self, tie_sigma_m: f64) -> Option<Whitening> {
-        let d = DVector::from_element(self.a.nrows(), 1.0);
-        Whitening::from_parts(&self.a / tie_sigma_m, &d)
+    /// `W` for ties whose rows have their own noise `row_sigma_m` (one per residual row),
+    /// residuals in metres of the reference σ `reference_m`: `C' = diag(σ_i²/σ_ref²) + A Aᵀ/σ_ref²`;
+    /// `None` for non-finite or non-positive input.
+    pub(crate) fn whitening(&self, row_sigma_m: &[f64], reference_m: f64) -> Option<Whitening> {
+        if row_sigma_m.len() != self.a.nrows() {
+            return None;
+        }
+        let d = DVector::from_iterator(
+            row_sigma_m.len(),
+            row_sigma_m.iter().map(|s| (s / reference_m).powi(2)),
+        );
+        Whitening::from_parts(&self.a / reference_m, &d)
     }
 }
 
@@ -287,6 +296,85 @@ impl Whitening {
         let t = &self.k * (self.v.transpose() * &y);
         (y + &self.v * t).as_slice().to_vec()
     }
+
+    /// `Wᵀ z` (`W = M D^-½` with `M` symmetric, so `Wᵀ = D^-½ M`).
+    fn apply_transpose(&self, z: &DVector<f64>) -> DVector<f64> {
+        let t = &self.k * (self.v.transpose() * z);
+        (z + &self.v * t).component_mul(&self.inv_sqrt_d)
+    }
+
+    /// The diagonal of `C'⁻¹ = Wᵀ W = D^-½ (I + V Vᵀ)⁻¹ D^-½`, with
+    /// `(I + V Vᵀ)⁻¹ = I − V (I + Vᵀ V)⁻¹ Vᵀ` (only offsets × offsets inverted).
+    fn inverse_diagonal(&self) -> Option<DVector<f64>> {
+        let m = self.v.ncols();
+        let s = (DMatrix::identity(m, m) + self.v.transpose() * &self.v).try_inverse()?;
+        let vs = &self.v * s;
+        Some(DVector::from_fn(self.v.nrows(), |i, _| {
+            let q = vs.row(i).dot(&self.v.row(i));
+            self.inv_sqrt_d[i].powi(2) * (1.0 - q)
+        }))
+    }
+}
+
+/// One step of variance-component estimation (Förstner's): by how much each noise group's σ must
+/// be multiplied for its rows' weighted residuals to match their share of the redundancy.
+///
+/// Why: the groups' noises are not known in advance (a pick's centimetre, a surface's
+/// millimetres), and only the data can tell them; each group's `vᵀ W Q_g W v` is set equal to
+/// its expectation `tr(Q_g (W − W J N⁻¹ Jᵀ W))` (here `Q_g` selects the group's rows: the
+/// group's σ cancels). The tie means the residuals are taken from take one observation per tie
+/// and direction: the trace of `W` is scaled by the group's independent observations over its
+/// rows (exact without trajectory columns, where `W` is diagonal and the same along a tie).
+/// Linear in the rows: `W` is applied in its factored form, never formed.
+///
+/// `jacobian` is the whitened Jacobian (its first rows the observations, then any prior rows),
+/// `inverse_normal` the inverse of its normal matrix, `residuals` the whitened residuals, all in
+/// metres of `reference_m`, the σ the whitening was built with. `None` for a group without rows
+/// or redundancy.
+pub(crate) fn group_noise_factors(
+    w: &Whitening,
+    groups: &[NoiseGroup],
+    observations: &[usize; NOISE_GROUPS],
+    jacobian: &DMatrix<f64>,
+    inverse_normal: &DMatrix<f64>,
+    residuals: &[f64],
+    reference_m: f64,
+) -> [Option<f64>; NOISE_GROUPS] {
+    let n = groups.len();
+    let none = [None; NOISE_GROUPS];
+    if residuals.len() < n || jacobian.nrows() < n || w.inv_sqrt_d.len() != n {
+        return none;
+    }
+    let Some(diag) = w.inverse_diagonal() else {
+        return none;
+    };
+    // W v = Wᵀ (W v_raw): the whitened residuals taken back to the rows.
+    let wv = w.apply_transpose(&DVector::from_column_slice(&residuals[..n]));
+    let g = DMatrix::from_columns(
+        &(0..jacobian.ncols())
+            .map(|c| w.apply_transpose(&jacobian.column(c).rows(0, n).into_owned()))
+            .collect::<Vec<_>>(),
+    );
+    let gi = &g * inverse_normal;
+    let mut sum = [0.0; NOISE_GROUPS];
+    let mut trace = [0.0; NOISE_GROUPS];
+    let mut leverage = [0.0; NOISE_GROUPS];
+    let mut rows = [0usize; NOISE_GROUPS];
+    for (i, grp) in groups.iter().enumerate() {
+        let k = *grp as usize;
+        sum[k] += wv[i] * wv[i];
+        trace[k] += diag[i];
+        leverage[k] += gi.row(i).dot(&g.row(i));
+        rows[k] += 1;
+    }
+    std::array::from_fn(|k| {
+        if rows[k] == 0 {
+            return None;
+        }
+        let redundancy = trace[k] * observations[k] as f64 / rows[k] as f64 - leverage[k];
+        let factor = (sum[k] / (reference_m * reference_m * redundancy)).sqrt();
+        (redundancy > 0.0 && factor.is_finite()).then_some(factor)
+    })
 }
 
 #[cfg(test)]
@@ -294,6 +382,7 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
 
     #[test]
     fn gauss_markov_modes_rebuild_the_kernel() {
@@ -362,6 +451,69 @@ mod tests {
     }
 
     #[test]
+    fn each_noise_group_gets_its_own_sigma_back() {
+        // A straight line fitted to rows of two noises (1 cm and 1 mm, like a pick's horizontal
+        // position and a surface's height), plus one column of correlated error shared by a
+        // block of rows: starting from one pooled σ, the variance components converge to each
+        // group's own noise, where one pooled σ0 would sit in between.
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let unit = Normal::new(0.0, 1.0).unwrap();
+        let normal = |rng: &mut ChaCha8Rng| -> f64 { unit.sample(rng) };
+        let n = 3000;
+        let truth = [0.01, 0.001];
+        let groups: Vec<NoiseGroup> = (0..n)
+            .map(|i| {
+                if i % 3 == 0 {
+                    NoiseGroup::Surface
+                } else {
+                    NoiseGroup::Horizontal
+                }
+            })
+            .collect();
+        let shared = 0.003;
+        let a = DMatrix::from_fn(n, 1, |i, _| if i < n / 2 { shared } else { 0.0 });
+        let common = shared * normal(&mut rng);
+        let x: Vec<f64> = (0..n).map(|i| i as f64 / n as f64 - 0.5).collect();
+        let obs: Vec<f64> = (0..n)
+            .map(|i| {
+                let c = if i < n / 2 { common } else { 0.0 };
+                0.3 + 0.2 * x[i] + truth[groups[i] as usize] * normal(&mut rng) + c
+            })
+            .collect();
+        let counts = [n - n.div_ceil(3), n.div_ceil(3)];
+        let reference = 0.005;
+        let mut sigma = [reference; NOISE_GROUPS];
+        for _ in 0..20 {
+            let rows: Vec<f64> = groups.iter().map(|g| sigma[*g as usize]).collect();
+            let w = TrajectorySensitivity { a: a.clone() }
+                .whitening(&rows, reference)
+                .unwrap();
+            // Weighted least squares for the line: whiten the design and the observations.
+            let cols: Vec<DVector<f64>> = [vec![1.0; n], x.clone()]
+                .into_iter()
+                .map(|c| DVector::from_vec(w.apply(c)))
+                .collect();
+            let j = DMatrix::from_columns(&cols);
+            let y = DVector::from_vec(w.apply(obs.clone()));
+            let inv = (j.transpose() * &j).try_inverse().unwrap();
+            let beta = &inv * (j.transpose() * &y);
+            let r = &y - &j * beta;
+            let f = group_noise_factors(&w, &groups, &counts, &j, &inv, r.as_slice(), reference);
+            for g in 0..NOISE_GROUPS {
+                sigma[g] *= f[g].unwrap();
+            }
+        }
+        for g in 0..NOISE_GROUPS {
+            assert!(
+                (sigma[g] / truth[g] - 1.0).abs() < 0.05,
+                "group {g}: {} vs {}",
+                sigma[g],
+                truth[g]
+            );
+        }
+    }
+
+    #[test]
     fn a_control_points_error_is_shared_by_its_strips() {
         // A control target seen in three strips (height rows) beside a tie between two: the
         // GLS variance of a height offset observed by the three rows is σ_t²/3 + σ_c², the
@@ -395,7 +547,7 @@ mod tests {
         let w = TrajectorySensitivity {
             a: DMatrix::from_columns(&columns),
         }
-        .whitening(sigma_t)
+        .whitening(&[sigma_t; 5], sigma_t)
         .unwrap();
         let wj = DVector::from_vec(w.apply(vec![0.0, 0.0, 1.0, 1.0, 1.0]));
         let variance = sigma_t * sigma_t / wj.norm_squared();

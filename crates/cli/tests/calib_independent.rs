@@ -12,7 +12,11 @@
 //!   numerical floor (≤ 0.0005°, ≤ 2 mm), with one pick placed off every strip's points, which is
 //!   dropped, warned about and listed;
 //! - 1 cm pick noise, seeds 1–6: every lever-arm component within 3 cm and every error within 3
-//!   of its reported σ; the RMS over the seeds of each boresight error within 0.003°.
+//!   of its reported σ; the RMS over the seeds of each boresight error within 0.003°;
+//! - the same seeds with each strip's navigation off by a constant error drawn at the sensor
+//!   file's σ (`--trajectory-errors`: the data then hold every error the reported σ model), the
+//!   σ are honest both ways: RMS(error/σ) over the seeds within the 99 % χ² interval of an
+//!   honest σ, per parameter and over all six.
 
 mod binary;
 use binary::{lidarqa, s};
@@ -138,4 +142,32 @@ fn independent_cross_recovers_the_mounting_and_lists_a_pick_off_the_strips() {
         let rms = (sum_sq[i] / 6.0).sqrt();
         assert!(rms <= 0.003, "{k}: RMS over 6 seeds {rms}");
     }
+
+    // Honest σ, both ways: error/σ over the seeds is N(0, 1) when the σ are honest, so
+    // RMS(error/σ) over 6 seeds lies within √(χ²₆(0.005)/6) = 0.34 and √(χ²₆(0.995)/6) = 1.76 in
+    // 99 % of runs, and over the 36 errors (not quite independent: the parameters correlate)
+    // within √(χ²₃₆(0.005)/36) = 0.70 and √(χ²₃₆(0.995)/36) = 1.31.
+    let mut z_sq = [0.0; 6];
+    for seed in 1..=6 {
+        let dir = temp.path().join(format!("navigation_{seed}"));
+        generate(
+            &python,
+            &dir,
+            &["--seed", &seed.to_string(), "--trajectory-errors"],
+        );
+        let (cal, truth, _) = calibrate(&dir);
+        let e = errors(&cal, &truth);
+        for (i, k) in KEYS.iter().enumerate() {
+            let z = e[i] / cal["sigma"][k].as_f64().unwrap();
+            eprintln!("navigation errors, seed {seed} {k}: error/σ {z:+.2}");
+            z_sq[i] += z * z;
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+    for (k, z) in KEYS.iter().zip(z_sq) {
+        let rms = (z / 6.0).sqrt();
+        assert!((0.34..=1.76).contains(&rms), "{k}: RMS(error/σ) {rms}");
+    }
+    let pooled = (z_sq.iter().sum::<f64>() / 36.0).sqrt();
+    assert!((0.70..=1.31).contains(&pooled), "RMS(error/σ) {pooled}");
 }

@@ -12,9 +12,14 @@ P = P0 + R_N (R_M S + lever), S = [0, rho sin(theta), rho cos(theta)], R = Rz(ya
 NED. Writes strip_1..4.las (LAS 1.2, format 1, GPS week time), sbet.out, sensor.toml, ties.csv,
 control.csv and truth.json into the output directory.
 
-    python3 cross.py OUT_DIR [--seed N] [--bad-pick] [--pick-sigma-m 0.01]
+    python3 cross.py OUT_DIR [--seed N] [--bad-pick] [--pick-sigma-m 0.01] [--trajectory-errors]
 
 --bad-pick moves tie M01's pick in strip 2 a kilometre away, off every strip's points.
+--trajectory-errors gives each strip's navigation (the SBET, and the points georeferenced with it)
+a constant error drawn at the sensor file's [sigma] (GNSS north, east, up; roll, pitch, heading):
+the data then hold every error the σ of the calibration models, so error/σ can be checked both
+ways. Its draws come from their own generator, so the markings and picks of a seed are the same
+with and without it.
 """
 import argparse
 import json
@@ -39,6 +44,9 @@ INJECTED = {  # true mounting = nominal (zero) + these
 STRIPS = [(1, 90.0, 300.0, 0.3, 0.8), (2, 270.0, 500.0, -0.2, 1.1),
           (3, 0.0, 300.0, 0.4, 0.6), (4, 180.0, 500.0, -0.3, 0.9)]
 GPS_T0 = 302400.0
+# The sensor file's navigation 1-sigma: GNSS north, east, up (m); roll, pitch, heading (deg).
+NAV_SIGMA_M = [0.003, 0.003, 0.005]
+NAV_SIGMA_DEG = [0.0005, 0.0005, 0.001]
 
 
 def rx(a):
@@ -93,13 +101,18 @@ def mounting(values):
 
 
 class Strip:
-    def __init__(self, sid, heading_deg, height, roll_deg, pitch_deg, index):
+    def __init__(self, sid, heading_deg, height, roll_deg, pitch_deg, index, nav_error=None):
         self.id = sid
         self.height = height
         psi = math.radians(heading_deg)
         self.dir = np.array([math.cos(psi), math.sin(psi), 0.0])
         self.start = -HALF_LENGTH * self.dir + np.array([0.0, 0.0, -height])
         self.r_n = rzyx(math.radians(roll_deg), math.radians(pitch_deg), psi)
+        # The navigation solution: the true trajectory plus a constant error (NED m, rad).
+        e = np.zeros(6) if nav_error is None else np.asarray(nav_error)
+        self.nav_offset = e[:3]
+        self.r_n_nav = rzyx(math.radians(roll_deg) + e[3], math.radians(pitch_deg) + e[4],
+                            psi + e[5])
         self.t0 = GPS_T0 + 100.0 * index
         self.duration = 2 * HALF_LENGTH / SPEED
         self.line_rate = SPEED / LINE_SPACING
@@ -107,6 +120,9 @@ class Strip:
 
     def position(self, t):
         return self.start + np.outer(t - self.t0, SPEED * self.dir)
+
+    def nav_position(self, t):
+        return self.position(t) + self.nav_offset
 
     def pulses(self):
         n = int(self.duration * self.line_rate) * self.per_line
@@ -128,8 +144,9 @@ def hit_ground(strip, t, theta, r_m, lever):
 
 
 def delivered(strip, t, theta, rho, r_m, lever):
+    """The points as delivered: georeferenced with the navigation solution (the SBET)."""
     s = np.stack([np.zeros_like(theta), rho * np.sin(theta), rho * np.cos(theta)], axis=1)
-    return strip.position(t) + (s @ r_m.T + lever) @ strip.r_n.T
+    return strip.nav_position(t) + (s @ r_m.T + lever) @ strip.r_n_nav.T
 
 
 def apparent(strip, target, true_m, nominal_m):
@@ -160,12 +177,12 @@ def write_sbet(path, strips):
     recs = []
     for s in strips:
         t = np.arange(s.t0 - 2.0, s.t0 + s.duration + 2.0, 0.005)
-        p = s.position(t)
+        p = s.nav_position(t)
         lon, lat, h = ned0_to_geodetic(p)
         for k in range(len(t)):
             la, lo = math.radians(lat[k]), math.radians(lon[k])
             # Attitude relative to the local NED at the aircraft: R = C_ned<-ecef C_ecef<-ned0 R_N0.
-            r = ecef_to_ned_matrix(la, lo) @ C0.T @ s.r_n
+            r = ecef_to_ned_matrix(la, lo) @ C0.T @ s.r_n_nav
             roll = math.atan2(r[2, 1], r[2, 2])
             pitch = math.asin(-r[2, 0])
             yaw = math.atan2(r[1, 0], r[0, 0])
@@ -182,12 +199,18 @@ def main():
     ap.add_argument("--bad-pick", action="store_true")
     ap.add_argument("--pick-sigma-m", type=float, default=0.01,
                     help="pick noise (and the control heights' noise), 1-sigma; 0: noise-free")
+    ap.add_argument("--trajectory-errors", action="store_true",
+                    help="a constant navigation error per strip at the sensor file's [sigma]")
     a = ap.parse_args()
     rng = np.random.default_rng(a.seed)
     os.makedirs(a.out, exist_ok=True)
     true_m = mounting(INJECTED)
     nominal_m = mounting({k: 0.0 for k in INJECTED})
-    strips = [Strip(*s, index=i) for i, s in enumerate(STRIPS)]
+    nav_rng = np.random.default_rng([a.seed, 7])
+    nav_sigma = np.array(NAV_SIGMA_M + [math.radians(v) for v in NAV_SIGMA_DEG])
+    strips = [Strip(*s, index=i,
+                    nav_error=nav_rng.normal(0.0, nav_sigma) if a.trajectory_errors else None)
+              for i, s in enumerate(STRIPS)]
     # 20 markings (0.5 m x 1.5 m painted bars, picked at their centre) in the cross's centre,
     # where all four strips overlap; 6 control points on the open ground between them.
     marks = np.column_stack([rng.uniform(-98, 98, 20), rng.uniform(-98, 98, 20), np.zeros(20)])
@@ -229,7 +252,7 @@ def main():
             z = float(h[0]) + rng.normal(0, a.pick_sigma_m)
             f.write(f"C{i + 1},{float(x[0]):.4f},{float(y[0]):.4f},{z:.4f},0.005,0.01\n")
     with open(os.path.join(a.out, "sensor.toml"), "w") as f:
-        f.write("""[scanner]
+        f.write(f"""[scanner]
 type = "linear"
 
 [mounting]
@@ -241,12 +264,12 @@ lever_arm_m = [0.0, 0.0, 0.0]
 [sigma]
 range_m = 0.01
 scan_angle_deg = 0.001
-roll_deg = 0.0005
-pitch_deg = 0.0005
-heading_deg = 0.001
-gnss_north_m = 0.003
-gnss_east_m = 0.003
-gnss_up_m = 0.005
+roll_deg = {NAV_SIGMA_DEG[0]}
+pitch_deg = {NAV_SIGMA_DEG[1]}
+heading_deg = {NAV_SIGMA_DEG[2]}
+gnss_north_m = {NAV_SIGMA_M[0]}
+gnss_east_m = {NAV_SIGMA_M[1]}
+gnss_up_m = {NAV_SIGMA_M[2]}
 
 [mounting_sigma]
 lever_x_m = 0.2
