@@ -23,13 +23,15 @@
 //! converted to metres on the way in and back on the way out.
 //!
 //! Reading (LAZ decoding), correcting (rayon) and writing (LAZ coding) run as three stages on
-//! bounded channels, so the coding of one chunk overlaps the computation of the next.
+//! bounded channels, so the coding of one chunk overlaps the computation of the next. The
+//! records pass as the file stores them ([`RawChunk`]): only X, Y and Z are rewritten, no
+//! record is decoded into fields and encoded back.
 
 use crate::context::TpuContext;
 use crate::error::{Error, Result};
 use crate::grid_cells::{CellCache, GridToEcef};
 use crate::stages::{ChunkSource, read_chunks, run_stages, write_chunks};
-use lidarqa_io::{Crs, LasPoint, LasTimeConverter, LasWriteOptions, PointChunk};
+use lidarqa_io::{Crs, LasTimeConverter, LasWriteOptions, RawChunk};
 use lidarqa_model::{Ecef, Mounting};
 use lidarqa_tpu::{Recoverer, Trajectory};
 use nalgebra::{Matrix3, Vector3};
@@ -106,21 +108,20 @@ pub fn correct_tile_with_progress(
     let writer = ctx.create_output(input, job.output, &options, job.other_inputs)?;
     let run = Run {
         path: input,
+        output: job.output,
         correction: &correction,
         trajectory: &tile.trajectory,
         converter: &tile.converter,
         crs: tile.crs,
     };
-    let (tx_spent, rx_spent) = sync_channel::<PointChunk>(SPARES);
+    let (tx_spent, rx_spent) = sync_channel::<RawChunk>(SPARES);
     let points = run_stages(
         input,
         // las's reader is not `Send`: it is opened in its thread.
         move |tx_read| read_chunks(input, CHUNK, Spares(rx_spent), &tx_read),
         move |rx_write| {
-            write_chunks(writer, rx_write, |writer, chunk: PointChunk| {
-                for p in &chunk.points {
-                    writer.write_point(p, &[])?;
-                }
+            write_chunks(writer, rx_write, |writer, chunk: RawChunk| {
+                writer.write_raw(&chunk)?;
                 let _ = tx_spent.try_send(chunk);
                 Ok(())
             })
@@ -137,17 +138,17 @@ pub fn correct_tile_with_progress(
 /// Spare chunks handed back from the writer to the reader (their vectors are reused).
 const SPARES: usize = 2;
 
-type WriteMsg = crate::stages::WriteMsg<PointChunk>;
+type WriteMsg = crate::stages::WriteMsg<RawChunk>;
 
 /// The reader's spare chunks, handed back by the writer.
-struct Spares(Receiver<PointChunk>);
+struct Spares(Receiver<RawChunk>);
 
-impl ChunkSource for Spares {
-    type Item = PointChunk;
-    fn spare(&mut self) -> PointChunk {
+impl ChunkSource<RawChunk> for Spares {
+    type Item = RawChunk;
+    fn spare(&mut self) -> RawChunk {
         self.0.try_recv().unwrap_or_default()
     }
-    fn prepare(&mut self, chunk: PointChunk) -> PointChunk {
+    fn prepare(&mut self, chunk: RawChunk) -> RawChunk {
         chunk
     }
 }
@@ -155,6 +156,8 @@ impl ChunkSource for Spares {
 /// The compute stage: what a chunk's points need.
 struct Run<'a> {
     path: &'a Path,
+    /// The output, which a coordinate beyond the record's range is reported against.
+    output: &'a Path,
     correction: &'a Correction,
     trajectory: &'a Trajectory,
     converter: &'a LasTimeConverter,
@@ -165,29 +168,34 @@ impl Run<'_> {
     /// Corrects every chunk in place and passes it on; stops at the first bad point.
     fn correct_all(
         &self,
-        rx: &Receiver<Result<PointChunk>>,
+        rx: &Receiver<Result<RawChunk>>,
         tx: &SyncSender<WriteMsg>,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Result<()> {
-        let mut first_index = 0u64;
+        let mut corrected = Vec::new();
         for msg in rx {
             let mut chunk = msg?;
-            self.check_distance(&chunk)?;
+            let points: Vec<_> = chunk.coordinates().collect();
+            self.check_distance(&points)?;
+            let first_index = chunk.first_index();
+            corrected.clear();
+            corrected.resize(points.len(), [0.0; 3]);
             // The first bad point in file order, whatever the thread count.
             // Each work item keeps the trajectory segment of its last point and its cells.
-            if let Some(e) = chunk
-                .points
+            if let Some(e) = corrected
                 .par_iter_mut()
+                .zip(&points)
                 .enumerate()
                 .with_min_len(1024)
-                .map_init(Worker::default, |worker, (k, p)| {
-                    self.point(first_index + k as u64, p, worker)
+                .map_init(Worker::default, |worker, (k, (out, &(xyz, time)))| {
+                    *out = self.point(first_index + k as u64, xyz, time, worker)?;
+                    Ok(())
                 })
                 .find_map_first(Result::err)
             {
                 return Err(e);
             }
-            first_index += chunk.len() as u64;
+            chunk.set_coordinates(self.output, corrected.iter().copied())?;
             progress(chunk.len() as u64);
             if tx.send(WriteMsg::Chunk(chunk)).is_err() {
                 // The writer stopped; its own error is reported by the caller.
@@ -199,25 +207,24 @@ impl Run<'_> {
 
     /// Points hundreds of kilometres from the trajectory (a wrong zone) are refused before any
     /// is moved (see [`crate::plausibility::check_distance`]).
-    fn check_distance(&self, chunk: &PointChunk) -> Result<()> {
+    fn check_distance(&self, points: &[([f64; 3], Option<f64>)]) -> Result<()> {
         let (ellipsoid, unit_m) = (self.crs.ellipsoid(), self.crs.unit().metres());
-        let step = chunk
+        let step = points
             .len()
             .div_ceil(crate::plausibility::DISTANCE_SAMPLES)
             .max(1);
-        let samples: Vec<_> = chunk
-            .points
+        let samples: Vec<_> = points
             .iter()
             .step_by(step)
-            .filter(|p| p.x.is_finite() && p.y.is_finite() && p.z.is_finite())
-            .filter_map(|p| {
-                let sow = self.converter.to_seconds_of_week(p.gps_time_s?).ok()?;
+            .filter(|(p, _)| p.iter().all(|c| c.is_finite()))
+            .filter_map(|&([x, y, z], time)| {
+                let sow = self.converter.to_seconds_of_week(time?).ok()?;
                 let pose = self.trajectory.at(sow).ok()?;
-                let (lat, lon) = self.crs.inverse(p.x * unit_m, p.y * unit_m);
+                let (lat, lon) = self.crs.inverse(x * unit_m, y * unit_m);
                 let ecef = ellipsoid.geodetic_to_ecef(&lidarqa_io::Geodetic {
                     latitude_rad: lat,
                     longitude_rad: lon,
-                    height_m: p.z * unit_m,
+                    height_m: z * unit_m,
                 });
                 Some((
                     ecef,
@@ -234,11 +241,17 @@ impl Run<'_> {
         )
     }
 
-    /// Corrects one point in place.
-    fn point(&self, index: u64, p: &mut LasPoint, worker: &mut Worker) -> Result<()> {
+    /// The corrected coordinates of the point `index` at `xyz` with GPS time `time`.
+    fn point(
+        &self,
+        index: u64,
+        [x, y, z]: [f64; 3],
+        time: Option<f64>,
+        worker: &mut Worker,
+    ) -> Result<[f64; 3]> {
         let path = self.path;
-        crate::error::check_finite(path, index, p.x, p.y, p.z)?;
-        let t = p.gps_time_s.ok_or_else(|| Error::BadTime {
+        crate::error::check_finite(path, index, x, y, z)?;
+        let t = time.ok_or_else(|| Error::BadTime {
             index,
             message: format!("{}: point without GPS time", path.display()),
         })?;
@@ -256,16 +269,13 @@ impl Run<'_> {
                     end_s,
                 }
             })?;
-        let [x, y, z] = self
-            .correction
-            .apply(&mut worker.cells, [p.x, p.y, p.z], &p0, &r_be)
+        self.correction
+            .apply(&mut worker.cells, [x, y, z], &p0, &r_be)
             .map_err(|source| Error::Point {
                 path: path.to_path_buf(),
                 index,
                 source,
-            })?;
-        (p.x, p.y, p.z) = (x, y, z);
-        Ok(())
+            })
     }
 }
 
@@ -327,7 +337,8 @@ impl Correction {
         if !(range.is_finite() && range > 0.0) {
             return Err(lidarqa_tpu::Error::Recovery(format!("range {range} m")));
         }
-        let r_yz = s.y.hypot(s.z);
+        // No overflow at ranges in metres: the plain root, faster than `hypot`.
+        let r_yz = (s.y * s.y + s.z * s.z).sqrt();
         let s_obs = if r_yz > 0.0 {
             Vector3::new(0.0, s.y * (range / r_yz), s.z * (range / r_yz))
         } else {
@@ -336,14 +347,20 @@ impl Correction {
         // Δ = P0 + R_BE (R_M' S' + ΔP') − P, taken in the body frame: R_BE (R_M' S' + ΔP' − B),
         // then on the grid through the map's Jacobian at the point (module docs).
         let d = r_be * (self.new_r_m * s_obs + self.new_lever_m - body);
-        let step = at
-            .jacobian
-            .lu()
-            .solve(&d)
-            .filter(|v| v.iter().all(|c| c.is_finite()))
-            .ok_or_else(|| {
-                lidarqa_tpu::Error::Recovery("the projection is singular at the point".into())
-            })?;
+        // Cramer's rule on the columns (∂P/∂x, ∂P/∂y, ∂P/∂h).
+        let (jx, jy, jh) = (
+            at.jacobian.column(0),
+            at.jacobian.column(1),
+            at.jacobian.column(2),
+        );
+        let yh = jy.cross(&jh);
+        let det = jx.dot(&yh);
+        let step = Vector3::new(d.dot(&yh), jx.dot(&d.cross(&jh)), jx.dot(&jy.cross(&d))) / det;
+        if !step.iter().all(|c| c.is_finite()) {
+            return Err(lidarqa_tpu::Error::Recovery(
+                "the projection is singular at the point".into(),
+            ));
+        }
         Ok((g + step).map(|v| v / self.unit_m).into())
     }
 }
