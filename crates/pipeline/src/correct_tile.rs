@@ -172,10 +172,12 @@ impl Run<'_> {
         tx: &SyncSender<WriteMsg>,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Result<()> {
-        let mut corrected = Vec::new();
+        // Reused from chunk to chunk.
+        let (mut points, mut corrected) = (Vec::new(), Vec::new());
         for msg in rx {
             let mut chunk = msg?;
-            let points: Vec<_> = chunk.coordinates().collect();
+            points.clear();
+            points.extend(chunk.coordinates());
             self.check_distance(&points)?;
             let first_index = chunk.first_index();
             corrected.clear();
@@ -346,7 +348,12 @@ impl Correction {
         };
         // Δ = P0 + R_BE (R_M' S' + ΔP') − P, taken in the body frame: R_BE (R_M' S' + ΔP' − B),
         // then on the grid through the map's Jacobian at the point (module docs).
-        let d = r_be * (self.new_r_m * s_obs + self.new_lever_m - body);
+        // (S'_x = 0: two columns of R_M'.)
+        let d = r_be
+            * (self.new_r_m.column(1) * s_obs.y
+                + self.new_r_m.column(2) * s_obs.z
+                + self.new_lever_m
+                - body);
         // Cramer's rule on the columns (∂P/∂x, ∂P/∂y, ∂P/∂h).
         let (jx, jy, jh) = (
             at.jacobian.column(0),
