@@ -187,15 +187,11 @@ impl LasReader {
                 .collect();
         }
         let start = self.next_index;
-        let n = Self::fill_data(
-            &mut self.reader,
-            &self.info,
-            &mut self.failed,
-            self.readable,
-            start,
-            max,
-            &mut self.buffer,
-        )?;
+        // The buffer out of `self` while `fill_data` borrows it whole, then back.
+        let mut buffer = std::mem::replace(&mut self.buffer, las::PointDataBuilder::new().build());
+        let filled = self.fill_data(max, &mut buffer);
+        self.buffer = buffer;
+        let n = filled?;
         chunk.points.reserve(n as usize);
         let has_nir = self.buffer.format().has_nir;
         for (k, p) in self.buffer.points().enumerate() {
@@ -216,7 +212,6 @@ impl LasReader {
             }
             chunk.points.push(point);
         }
-        self.next_index += n;
         Ok(chunk.points.len())
     }
 
@@ -234,32 +229,22 @@ impl LasReader {
                 .for_header(self.reader.header())
                 .build();
         }
-        let n = Self::fill_data(
+        self.fill_data(max, &mut chunk.data)?;
+        chunk.gps_time_at = raw_gps_time_offset(chunk.data.format());
+        chunk.first_index = start;
+        Ok(chunk.data.len())
+    }
+
+    /// Fills `buffer` with up to `max` records from the next point on, after the checks of the
+    /// chunk table, and moves past them; a decoder panic marks the reader failed.
+    fn fill_data(&mut self, max: usize, buffer: &mut las::PointData) -> Result<u64> {
+        let start = self.next_index;
+        let (reader, info, failed, readable) = (
             &mut self.reader,
             &self.info,
             &mut self.failed,
             self.readable,
-            start,
-            max,
-            &mut chunk.data,
-        )?;
-        chunk.gps_time_at = raw_gps_time_offset(chunk.data.format());
-        chunk.first_index = start;
-        self.next_index += n;
-        Ok(chunk.data.len())
-    }
-
-    /// Fills `buffer` with up to `max` records from point `start` on, after the checks of the
-    /// chunk table; a decoder panic marks the reader failed.
-    fn fill_data(
-        reader: &mut las::Reader,
-        info: &LasInfo,
-        failed: &mut Option<String>,
-        readable: Option<u64>,
-        start: u64,
-        max: usize,
-        buffer: &mut las::PointData,
-    ) -> Result<u64> {
+        );
         if let Some(message) = failed.as_ref() {
             return Err(Error::InvalidLas {
                 path: info.path.clone(),
@@ -297,6 +282,7 @@ impl LasReader {
                 return Err(e);
             }
         };
+        self.next_index += n;
         Ok(n)
     }
 }
