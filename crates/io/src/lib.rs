@@ -47,7 +47,7 @@ pub use gpstime::{
 };
 pub use pointcloud::{
     CLASS_BATHYMETRY, CLASS_WATER_SURFACE, ExtraDim, LasInfo, LasPoint, LasReader, LasWriteOptions,
-    LasWriter, PointChunk,
+    LasWriter, PointChunk, RawChunk,
 };
 pub use sbet::{
     F64Record, RAD_PER_ARCMIN, RecordReader, RecordWriter, SbetPose, SbetReader, SbetWriter,

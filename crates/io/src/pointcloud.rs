@@ -38,11 +38,13 @@ mod extra_bytes;
 mod info;
 mod laz_layout;
 mod point;
+mod raw_chunk;
 mod reader;
 mod writer;
 
 pub use extra_bytes::ExtraDim;
 pub use info::LasInfo;
 pub use point::{CLASS_BATHYMETRY, CLASS_WATER_SURFACE, LasPoint};
+pub use raw_chunk::RawChunk;
 pub use reader::{LasReader, PointChunk};
 pub use writer::{LasWriteOptions, LasWriter};

@@ -404,3 +404,92 @@ fn user_defined_utm_geokeys_give_the_zone_epsg() {
         );
     }
 }
+
+#[test]
+fn raw_records_pass_through_with_new_coordinates_and_without_extra_bytes() {
+    // Formats 1 (legacy) and 7 (extended, colour), LAS and LAZ, with four extra-bytes
+    // dimensions the output drops (its records are the input's cut after the colour).
+    for (format, ext) in [(1u8, "las"), (7, "laz")] {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join(format!("in.{ext}"));
+        let pts = points(format);
+        write(&input, &options(4, format, vec![geokeys(32633)]), &pts);
+        let mut r = LasReader::from_path(&input).unwrap();
+        let mut out_opts = LasWriteOptions::for_input(r.info(), &[]);
+        out_opts.file_source_id = 7;
+        let output = dir.path().join(format!("out.{ext}"));
+        let mut w = LasWriter::create(&output, &out_opts, &[&input]).unwrap();
+        let mut chunk = lidarqa_io::RawChunk::new();
+        let mut first = Vec::new();
+        // Chunks of 7: the last one is partial.
+        while r.fill_raw(&mut chunk, 7).unwrap() > 0 {
+            first.push(chunk.first_index());
+            let moved: Vec<[f64; 3]> = chunk
+                .coordinates()
+                .map(|([x, y, z], t)| {
+                    assert!(t.is_some());
+                    [x + 1.5, y - 0.25, z + 0.003]
+                })
+                .collect();
+            chunk.set_coordinates(&output, moved).unwrap();
+            w.write_raw(&chunk).unwrap();
+        }
+        assert_eq!(first, [0, 7, 14, 21]);
+        assert_eq!(w.finish().unwrap(), 25);
+
+        let mut back = LasReader::from_path(&output).unwrap();
+        assert_eq!(back.info().point_format, format);
+        assert!(back.info().extra_dims.is_empty());
+        let mut got = PointChunk::new();
+        assert_eq!(back.fill(&mut got, 100).unwrap(), 25);
+        // Every field as the input reads, the coordinates moved.
+        let mut was = PointChunk::new();
+        LasReader::from_path(&input)
+            .unwrap()
+            .fill(&mut was, 100)
+            .unwrap();
+        for (want, got) in was.points.iter().zip(&got.points) {
+            let mut want = want.clone();
+            want.x += 1.5;
+            want.y -= 0.25;
+            want.z += 0.003;
+            for (a, b) in [(want.x, got.x), (want.y, got.y), (want.z, got.z)] {
+                assert!((a - b).abs() < 1e-6, "{a} {b}");
+            }
+            (want.x, want.y, want.z) = (got.x, got.y, got.z);
+            assert_eq!(&want, got);
+        }
+    }
+}
+
+#[test]
+fn raw_records_refuse_another_layout_or_transform() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("in.las");
+    write(&input, &options(4, 6, vec![]), &points(6));
+    let mut r = LasReader::from_path(&input).unwrap();
+    let mut chunk = lidarqa_io::RawChunk::new();
+    r.fill_raw(&mut chunk, 10).unwrap();
+    // Colour the input lacks; then another scale.
+    let mut colour = options(4, 7, vec![]);
+    colour.extra_dims.clear();
+    let mut finer = options(4, 6, vec![]);
+    finer.extra_dims.clear();
+    finer.scale = [0.0001; 3];
+    for (name, opts) in [("colour.las", colour), ("finer.las", finer)] {
+        let output = dir.path().join(name);
+        let mut w = LasWriter::create(&output, &opts, &[&input]).unwrap();
+        let e = w.write_raw(&chunk).unwrap_err().to_string();
+        assert!(e.contains(name) && e.contains("cannot be written"), "{e}");
+    }
+    // A coordinate beyond the i32 range at 1 mm names the output and the point.
+    let far: Vec<[f64; 3]> = chunk
+        .coordinates()
+        .enumerate()
+        .map(|(k, (p, _))| if k == 3 { [1e12, p[1], p[2]] } else { p })
+        .collect();
+    let e = chunk
+        .set_coordinates(Path::new("out.las"), far)
+        .unwrap_err();
+    assert!(matches!(e, Error::LasPoint { index: 3, .. }), "{e}");
+}

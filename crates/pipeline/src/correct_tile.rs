@@ -3,33 +3,35 @@
 //!
 //! # Why the new position is the old one plus a linearized displacement
 //! A calibration moves a point by centimetres to a few metres (a 0.1° boresight change at
-//! 1500 m range is 2.6 m). Taking the corrected point back to the grid the rigorous way —
-//! ECEF → geodetic by iteration, then the transverse Mercator series — cost more than half of
-//! the per-point work. Here the displacement Δ from the point as delivered to the point
-//! re-georeferenced with the new mounting is computed exactly in ECEF (no local frame, no
-//! approximation: the raw observation is recovered with the old mounting and georeferenced with
-//! the new one, seed 000 eq. 2), and only Δ is mapped to the grid, with the Jacobian of
-//! (ECEF → easting, northing, height) at the point as delivered: NED at the point, the radii of
-//! curvature, the grid convergence γ and the point scale k, which the inverse projection of
-//! that point yields anyway. The neglected second-order terms are of order |Δ|²/R
-//! (R ≈ 6 371 km): 0.7 µm for |Δ| = 3 m. The test `linearized_equals_the_exact_round_trip`
-//! compares with the exact round trip for boresight changes up to 0.1° and lever-arm changes up
-//! to 0.3 m at ranges up to 1500 m, near a zone edge at 60° N among others: 1.5 µm for a 4.6 m
-//! displacement, far below a LAS scale of 0.1–1 mm. The positions as delivered are kept
-//! exactly; only Δ is approximated. The point's geodetic position comes from Krüger's β series
-//! without the final Newton step of the exact inverse (a few nanometres), half its cost.
-//!
-//! A CRS that is not conformal (e.g. LAEA) has no single scale at a point: there the corrected
-//! point takes the exact round trip (ECEF → geodetic → projection). Feet are converted to
-//! metres on the way in and back on the way out.
+//! 1500 m range is 2.6 m). Taking each point through the projection the rigorous way — the
+//! inverse projection to recover it, ECEF → geodetic by iteration and the forward projection
+//! to write it back — cost most of the per-point work. Here the displacement Δ from the point
+//! as delivered to the point re-georeferenced with the new mounting is computed exactly in ECEF
+//! (the raw observation is recovered with the old mounting and georeferenced with the new one,
+//! seed 000 eq. 2), and only Δ is mapped to the grid, with the Jacobian of the map
+//! (easting, northing, height) → ECEF at the point as delivered. Both the point's ECEF position
+//! and that Jacobian come from a biquadratic model of the map per 256 m grid cell
+//! ([`crate::grid_cells`]), built from the exact inverse projection at nine nodes: nanometres
+//! from the exact map anywhere in a zone, for any CRS (conformal or not). The neglected
+//! second-order terms of the displacement are of order |Δ|²/R (R ≈ 6 371 km): 0.7 µm for
+//! |Δ| = 3 m. The test `linearized_equals_the_exact_round_trip` compares with the rigorous
+//! round trip (exact inverse, recovery in a local frame, iterative ECEF → geodetic, forward
+//! projection) for boresight changes up to 0.1° and lever-arm changes up to 0.3 m at ranges up
+//! to 1500 m, on points kilometres apart through one worker's cells, up to 2.9° off the central
+//! meridian at 60° N among others: 1.5 µm for a 4.6 m displacement, far below a LAS scale of
+//! 0.1–1 mm. The positions as delivered are kept exactly; only Δ is approximated. Feet are
+//! converted to metres on the way in and back on the way out.
 //!
 //! Reading (LAZ decoding), correcting (rayon) and writing (LAZ coding) run as three stages on
-//! bounded channels, so the coding of one chunk overlaps the computation of the next.
+//! bounded channels, so the coding of one chunk overlaps the computation of the next. The
+//! records pass as the file stores them ([`RawChunk`]): only X, Y and Z are rewritten, no
+//! record is decoded into fields and encoded back.
 
 use crate::context::TpuContext;
 use crate::error::{Error, Result};
+use crate::grid_cells::{CellCache, GridToEcef};
 use crate::stages::{ChunkSource, read_chunks, run_stages, write_chunks};
-use lidarqa_io::{Crs, LasPoint, LasTimeConverter, LasWriteOptions, PointChunk};
+use lidarqa_io::{Crs, LasTimeConverter, LasWriteOptions, RawChunk};
 use lidarqa_model::{Ecef, Mounting};
 use lidarqa_tpu::{Recoverer, Trajectory};
 use nalgebra::{Matrix3, Vector3};
@@ -106,21 +108,20 @@ pub fn correct_tile_with_progress(
     let writer = ctx.create_output(input, job.output, &options, job.other_inputs)?;
     let run = Run {
         path: input,
+        output: job.output,
         correction: &correction,
         trajectory: &tile.trajectory,
         converter: &tile.converter,
         crs: tile.crs,
     };
-    let (tx_spent, rx_spent) = sync_channel::<PointChunk>(SPARES);
+    let (tx_spent, rx_spent) = sync_channel::<RawChunk>(SPARES);
     let points = run_stages(
         input,
         // las's reader is not `Send`: it is opened in its thread.
         move |tx_read| read_chunks(input, CHUNK, Spares(rx_spent), &tx_read),
         move |rx_write| {
-            write_chunks(writer, rx_write, |writer, chunk: PointChunk| {
-                for p in &chunk.points {
-                    writer.write_point(p, &[])?;
-                }
+            write_chunks(writer, rx_write, |writer, chunk: RawChunk| {
+                writer.write_raw(&chunk)?;
                 let _ = tx_spent.try_send(chunk);
                 Ok(())
             })
@@ -137,17 +138,17 @@ pub fn correct_tile_with_progress(
 /// Spare chunks handed back from the writer to the reader (their vectors are reused).
 const SPARES: usize = 2;
 
-type WriteMsg = crate::stages::WriteMsg<PointChunk>;
+type WriteMsg = crate::stages::WriteMsg<RawChunk>;
 
 /// The reader's spare chunks, handed back by the writer.
-struct Spares(Receiver<PointChunk>);
+struct Spares(Receiver<RawChunk>);
 
-impl ChunkSource for Spares {
-    type Item = PointChunk;
-    fn spare(&mut self) -> PointChunk {
+impl ChunkSource<RawChunk> for Spares {
+    type Item = RawChunk;
+    fn spare(&mut self) -> RawChunk {
         self.0.try_recv().unwrap_or_default()
     }
-    fn prepare(&mut self, chunk: PointChunk) -> PointChunk {
+    fn prepare(&mut self, chunk: RawChunk) -> RawChunk {
         chunk
     }
 }
@@ -155,6 +156,8 @@ impl ChunkSource for Spares {
 /// The compute stage: what a chunk's points need.
 struct Run<'a> {
     path: &'a Path,
+    /// The output, which a coordinate beyond the record's range is reported against.
+    output: &'a Path,
     correction: &'a Correction,
     trajectory: &'a Trajectory,
     converter: &'a LasTimeConverter,
@@ -165,30 +168,36 @@ impl Run<'_> {
     /// Corrects every chunk in place and passes it on; stops at the first bad point.
     fn correct_all(
         &self,
-        rx: &Receiver<Result<PointChunk>>,
+        rx: &Receiver<Result<RawChunk>>,
         tx: &SyncSender<WriteMsg>,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Result<()> {
-        let mut first_index = 0u64;
+        // Reused from chunk to chunk.
+        let (mut points, mut corrected) = (Vec::new(), Vec::new());
         for msg in rx {
             let mut chunk = msg?;
-            self.check_distance(&chunk)?;
+            points.clear();
+            points.extend(chunk.coordinates());
+            self.check_distance(&points)?;
+            let first_index = chunk.first_index();
+            corrected.clear();
+            corrected.resize(points.len(), [0.0; 3]);
             // The first bad point in file order, whatever the thread count.
-            // Each work item keeps the trajectory segment of its last point (`hint`).
-            if let Some(e) = chunk
-                .points
+            // Each work item keeps the trajectory segment of its last point and its cells.
+            if let Some(e) = corrected
                 .par_iter_mut()
+                .zip(&points)
                 .enumerate()
                 .with_min_len(1024)
-                .map_init(
-                    || 0usize,
-                    |hint, (k, p)| self.point(first_index + k as u64, p, hint),
-                )
+                .map_init(Worker::default, |worker, (k, (out, &(xyz, time)))| {
+                    *out = self.point(first_index + k as u64, xyz, time, worker)?;
+                    Ok(())
+                })
                 .find_map_first(Result::err)
             {
                 return Err(e);
             }
-            first_index += chunk.len() as u64;
+            chunk.set_coordinates(self.output, corrected.iter().copied())?;
             progress(chunk.len() as u64);
             if tx.send(WriteMsg::Chunk(chunk)).is_err() {
                 // The writer stopped; its own error is reported by the caller.
@@ -200,25 +209,24 @@ impl Run<'_> {
 
     /// Points hundreds of kilometres from the trajectory (a wrong zone) are refused before any
     /// is moved (see [`crate::plausibility::check_distance`]).
-    fn check_distance(&self, chunk: &PointChunk) -> Result<()> {
+    fn check_distance(&self, points: &[([f64; 3], Option<f64>)]) -> Result<()> {
         let (ellipsoid, unit_m) = (self.crs.ellipsoid(), self.crs.unit().metres());
-        let step = chunk
+        let step = points
             .len()
             .div_ceil(crate::plausibility::DISTANCE_SAMPLES)
             .max(1);
-        let samples: Vec<_> = chunk
-            .points
+        let samples: Vec<_> = points
             .iter()
             .step_by(step)
-            .filter(|p| p.x.is_finite() && p.y.is_finite() && p.z.is_finite())
-            .filter_map(|p| {
-                let sow = self.converter.to_seconds_of_week(p.gps_time_s?).ok()?;
+            .filter(|(p, _)| p.iter().all(|c| c.is_finite()))
+            .filter_map(|&([x, y, z], time)| {
+                let sow = self.converter.to_seconds_of_week(time?).ok()?;
                 let pose = self.trajectory.at(sow).ok()?;
-                let (lat, lon) = self.crs.inverse(p.x * unit_m, p.y * unit_m);
+                let (lat, lon) = self.crs.inverse(x * unit_m, y * unit_m);
                 let ecef = ellipsoid.geodetic_to_ecef(&lidarqa_io::Geodetic {
                     latitude_rad: lat,
                     longitude_rad: lon,
-                    height_m: p.z * unit_m,
+                    height_m: z * unit_m,
                 });
                 Some((
                     ecef,
@@ -235,49 +243,51 @@ impl Run<'_> {
         )
     }
 
-    /// Corrects one point in place.
-    fn point(&self, index: u64, p: &mut LasPoint, hint: &mut usize) -> Result<()> {
+    /// The corrected coordinates of the point `index` at `xyz` with GPS time `time`.
+    fn point(
+        &self,
+        index: u64,
+        [x, y, z]: [f64; 3],
+        time: Option<f64>,
+        worker: &mut Worker,
+    ) -> Result<[f64; 3]> {
         let path = self.path;
-        crate::error::check_finite(path, index, p.x, p.y, p.z)?;
-        let t = p.gps_time_s.ok_or_else(|| Error::BadTime {
+        crate::error::check_finite(path, index, x, y, z)?;
+        let t = time.ok_or_else(|| Error::BadTime {
             index,
             message: format!("{}: point without GPS time", path.display()),
         })?;
         let sow = self.converter.to_seconds_of_week(t)?;
-        let (p0, r_be) = self.trajectory.body_to_ecef_at(sow, hint).map_err(|_| {
-            let (start_s, end_s) = self.trajectory.span_s();
-            Error::OutsideTrajectory {
-                path: path.to_path_buf(),
-                index,
-                time_s: sow,
-                start_s,
-                end_s,
-            }
-        })?;
-        let [x, y, z] = self
-            .correction
-            .apply([p.x, p.y, p.z], &p0, &r_be)
+        let (p0, r_be) = self
+            .trajectory
+            .body_to_ecef_at(sow, &mut worker.hint)
+            .map_err(|_| {
+                let (start_s, end_s) = self.trajectory.span_s();
+                Error::OutsideTrajectory {
+                    path: path.to_path_buf(),
+                    index,
+                    time_s: sow,
+                    start_s,
+                    end_s,
+                }
+            })?;
+        self.correction
+            .apply(&mut worker.cells, [x, y, z], &p0, &r_be)
             .map_err(|source| Error::Point {
                 path: path.to_path_buf(),
                 index,
                 source,
-            })?;
-        (p.x, p.y, p.z) = (x, y, z);
-        Ok(())
+            })
     }
 }
 
-/// The correction of one tile, prepared once: the CRS, the ellipsoid and both mountings.
+/// The correction of one tile, prepared once: the CRS's map to ECEF and both mountings.
 #[derive(Debug, Clone)]
 pub(crate) struct Correction {
-    crs: Crs,
     /// One unit of the CRS's X/Y/Z in metres.
     unit_m: f64,
-    /// The CRS is conformal (transverse Mercator): Δ goes to the grid through γ and k.
-    conformal: bool,
-    /// Semi-major axis a, m, and first eccentricity squared e².
-    a_m: f64,
-    e2: f64,
+    /// Grid (m) → ECEF, per cell (module docs).
+    map: GridToEcef,
     /// The mounting the points were made with, for the recovery.
     old: Recoverer,
     /// `R_M` and ΔP of the calibrated mounting.
@@ -285,16 +295,20 @@ pub(crate) struct Correction {
     new_lever_m: Vector3<f64>,
 }
 
+/// What one worker keeps from point to point: the trajectory segment of its last point and the
+/// grid cells it used last.
+#[derive(Debug, Default)]
+pub(crate) struct Worker {
+    hint: usize,
+    cells: CellCache,
+}
+
 impl Correction {
     /// From the points' CRS, the mounting they were made with and the calibrated one.
     pub(crate) fn new(crs: &Crs, old: &Mounting, new: &Mounting) -> Correction {
-        let ellipsoid = crs.ellipsoid();
         Correction {
-            crs: crs.clone(),
             unit_m: crs.unit().metres(),
-            conformal: crs.central_meridian_rad().is_some(),
-            a_m: ellipsoid.a_m,
-            e2: ellipsoid.e2(),
+            map: GridToEcef::new(crs),
             old: Recoverer::new(old),
             new_r_m: new.scanner_to_body(),
             new_lever_m: new.lever_arm_m,
@@ -308,65 +322,53 @@ impl Correction {
     /// [`lidarqa_tpu::Error::Recovery`] when the point is at the scanner origin or not finite.
     pub(crate) fn apply(
         &self,
+        cells: &mut CellCache,
         xyz: [f64; 3],
         p0: &Ecef,
         r_be: &Matrix3<f64>,
     ) -> std::result::Result<[f64; 3], lidarqa_tpu::Error> {
-        let [x, y, h] = xyz.map(|v| v * self.unit_m);
-        let u = self.crs.unproject(x, y);
-        let (sp, cp) = (u.sin_latitude, u.cos_latitude);
-        let (sl, cl) = (u.sin_longitude, u.cos_longitude);
-        // Radii of curvature: prime vertical N and meridian M.
-        let w2 = 1.0 - self.e2 * sp * sp;
-        let n_m = self.a_m / w2.sqrt();
-        let m_m = n_m * (1.0 - self.e2) / w2;
-        let point = Vector3::new(
-            (n_m + h) * cp * cl,
-            (n_m + h) * cp * sl,
-            (n_m * (1.0 - self.e2) + h) * sp,
-        );
+        let g = Vector3::from(xyz.map(|v| v * self.unit_m));
+        let at = self.map.at(cells, g.x, g.y, g.z);
         // Recovery: B = R_BEᵀ (P − P0), S = R_Mᵀ (B − ΔP); range ρ = |S|, scan angle
-        // θ = atan2(S_y, S_z), S' = ρ (0, sin θ, cos θ).
-        let body = r_be.transpose() * (point - p0.vector());
+        // θ = atan2(S_y, S_z), S' = ρ (0, sin θ, cos θ). P − P0 is formed from the cell
+        // centre so that no ECEF-sized coordinates cancel.
+        let beam = (at.centre_ecef_m - p0.vector()) + at.from_centre_m;
+        let body = r_be.transpose() * beam;
         let s = self.old.scanner_from_body(&body);
         let range = s.norm();
         if !(range.is_finite() && range > 0.0) {
             return Err(lidarqa_tpu::Error::Recovery(format!("range {range} m")));
         }
-        let r_yz = s.y.hypot(s.z);
+        // No overflow at ranges in metres: the plain root, faster than `hypot`.
+        let r_yz = (s.y * s.y + s.z * s.z).sqrt();
         let s_obs = if r_yz > 0.0 {
             Vector3::new(0.0, s.y * (range / r_yz), s.z * (range / r_yz))
         } else {
             Vector3::new(0.0, 0.0, range)
         };
-        // Δ = P0 + R_BE (R_M' S' + ΔP') − P, taken in the body frame so that no ECEF-sized
-        // coordinates cancel: R_BE (R_M' S' + ΔP' − B).
-        let d = r_be * (self.new_r_m * s_obs + self.new_lever_m - body);
-        // Δ in NED at the point, then on the ellipsoid (north and east at height h shrink to
-        // M/(M+h) and N/(N+h)) and on the grid (rotated by γ, scaled by k).
-        let north = -sp * cl * d.x - sp * sl * d.y + cp * d.z;
-        let east = -sl * d.x + cl * d.y;
-        let down = -cp * cl * d.x - cp * sl * d.y - sp * d.z;
-        let g_north = north * m_m / (m_m + h);
-        let g_east = east * n_m / (n_m + h);
-        let [x, y, h] = if self.conformal {
-            let (sg, cg) = (u.sin_convergence, u.cos_convergence);
-            let k = u.scale;
-            [
-                x + k * (cg * g_east - sg * g_north),
-                y + k * (cg * g_north + sg * g_east),
-                h - down,
-            ]
-        } else {
-            // Not conformal (scale depends on direction): the exact round trip.
-            let g = self
-                .crs
-                .ellipsoid()
-                .ecef_to_geodetic(&Ecef::from_vector(point + d));
-            let q = self.crs.forward(g.latitude_rad, g.longitude_rad);
-            [q.easting_m, q.northing_m, g.height_m]
-        };
-        Ok([x, y, h].map(|v| v / self.unit_m))
+        // Δ = P0 + R_BE (R_M' S' + ΔP') − P, taken in the body frame: R_BE (R_M' S' + ΔP' − B),
+        // then on the grid through the map's Jacobian at the point (module docs).
+        // (S'_x = 0: two columns of R_M'.)
+        let d = r_be
+            * (self.new_r_m.column(1) * s_obs.y
+                + self.new_r_m.column(2) * s_obs.z
+                + self.new_lever_m
+                - body);
+        // Cramer's rule on the columns (∂P/∂x, ∂P/∂y, ∂P/∂h).
+        let (jx, jy, jh) = (
+            at.jacobian.column(0),
+            at.jacobian.column(1),
+            at.jacobian.column(2),
+        );
+        let yh = jy.cross(&jh);
+        let det = jx.dot(&yh);
+        let step = Vector3::new(d.dot(&yh), jx.dot(&d.cross(&jh)), jx.dot(&jy.cross(&d))) / det;
+        if !step.iter().all(|c| c.is_finite()) {
+            return Err(lidarqa_tpu::Error::Recovery(
+                "the projection is singular at the point".into(),
+            ));
+        }
+        Ok((g + step).map(|v| v / self.unit_m).into())
     }
 }
 
@@ -533,10 +535,12 @@ mod tests {
             for d in changes {
                 let new = changed(d);
                 let c = Correction::new(&Crs::from(zone), &old(), &new);
+                // One worker's cells for all points, as within a chunk.
+                let mut cells = CellCache::default();
                 for &(t, xyz) in &pts {
                     let want = exact(&zone, &trajectory.at(t).unwrap(), xyz, &old(), &new);
                     let (p0, r_be) = trajectory.body_to_ecef_at(t, &mut 0).unwrap();
-                    let got = c.apply(xyz, &p0, &r_be).unwrap();
+                    let got = c.apply(&mut cells, xyz, &p0, &r_be).unwrap();
                     max_h = max_h.max((got[0] - want[0]).hypot(got[1] - want[1]));
                     max_v = max_v.max((got[2] - want[2]).abs());
                     let shift = Vector3::new(want[0] - xyz[0], want[1] - xyz[1], want[2] - xyz[2]);

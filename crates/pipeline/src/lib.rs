@@ -57,6 +57,7 @@ mod correct_tile;
 mod digest;
 mod error;
 mod evaluate_files;
+mod grid_cells;
 mod manifest;
 mod overlap_files;
 pub mod plausibility;

@@ -3,7 +3,7 @@
 //! run reports.
 
 use crate::error::{Error, Result};
-use lidarqa_io::{LasReader, LasWriter, PointChunk};
+use lidarqa_io::{LasReader, LasWriter, PointChunk, RawChunk};
 use std::path::Path;
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
@@ -56,21 +56,39 @@ pub(crate) fn run_stages<R: Send, W: Send>(
     })
 }
 
-/// What a reader stage makes of the chunks [`read_chunks`] decodes.
-pub(crate) trait ChunkSource {
+/// A chunk [`read_chunks`] fills: decoded points or the file's records.
+pub(crate) trait Chunk {
+    /// Replaces the chunk's contents with up to `max` next points of `reader`; how many.
+    fn fill_from(&mut self, reader: &mut LasReader, max: usize) -> lidarqa_io::Result<usize>;
+}
+
+impl Chunk for PointChunk {
+    fn fill_from(&mut self, reader: &mut LasReader, max: usize) -> lidarqa_io::Result<usize> {
+        reader.fill(self, max)
+    }
+}
+
+impl Chunk for RawChunk {
+    fn fill_from(&mut self, reader: &mut LasReader, max: usize) -> lidarqa_io::Result<usize> {
+        reader.fill_raw(self, max)
+    }
+}
+
+/// What a reader stage makes of the chunks (`C`) [`read_chunks`] fills.
+pub(crate) trait ChunkSource<C: Chunk = PointChunk> {
     /// What the reader sends the compute stage.
     type Item;
     /// An empty chunk to fill: a spent one handed back by a later stage when there is one.
-    fn spare(&mut self) -> PointChunk;
+    fn spare(&mut self) -> C;
     /// The message for a filled chunk.
-    fn prepare(&mut self, chunk: PointChunk) -> Self::Item;
+    fn prepare(&mut self, chunk: C) -> Self::Item;
 }
 
 /// The reader stage: opens `input` on its own thread (las's reader is not `Send`), fills chunks of
 /// up to `chunk_points` and sends each as `source.prepare(chunk)`. Stops at the end of the file,
 /// at a read error (sent on, so that the compute stage reports it as the cause), or when the
 /// compute stage has hung up.
-pub(crate) fn read_chunks<S: ChunkSource>(
+pub(crate) fn read_chunks<C: Chunk, S: ChunkSource<C>>(
     input: &Path,
     chunk_points: usize,
     mut source: S,
@@ -85,7 +103,7 @@ pub(crate) fn read_chunks<S: ChunkSource>(
     };
     loop {
         let mut chunk = source.spare();
-        match reader.fill(&mut chunk, chunk_points) {
+        match chunk.fill_from(&mut reader, chunk_points) {
             Err(e) => {
                 let _ = tx.send(Err(e.into()));
                 return;

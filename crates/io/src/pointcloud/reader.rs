@@ -4,6 +4,7 @@
 use super::info::LasInfo;
 use super::laz_layout;
 use super::point::LasPoint;
+use super::raw_chunk::RawChunk;
 use crate::error::{Error, Result};
 use std::fs::File;
 use std::io::{BufReader, Read, Seek};
@@ -186,44 +187,11 @@ impl LasReader {
                 .collect();
         }
         let start = self.next_index;
-        if let Some(message) = &self.failed {
-            return Err(Error::InvalidLas {
-                path: self.info.path.clone(),
-                message: message.clone(),
-            });
-        }
-        let mut max = max as u64;
-        if let Some(readable) = self.readable {
-            if max > 0 && start >= readable && start < self.info.point_count {
-                return Err(Error::InvalidLas {
-                    path: self.info.path.clone(),
-                    message: format!(
-                        "the LAZ chunk table covers only {readable} of the header's {} points",
-                        self.info.point_count
-                    ),
-                });
-            }
-            max = max.min(readable.saturating_sub(start));
-        }
-        let point_err = |source| Error::LasPoint {
-            path: self.info.path.clone(),
-            index: start,
-            source,
-        };
-        let (reader, buffer) = (&mut self.reader, &mut self.buffer);
-        let filled = guard(&self.info.path, &format!("point {start}"), || {
-            reader.fill_points(max, buffer)
-        });
-        let n = match filled {
-            Ok(r) => r.map_err(point_err)?,
-            Err(e) => {
-                self.failed = Some(match &e {
-                    Error::InvalidLas { message, .. } => message.clone(),
-                    other => other.to_string(),
-                });
-                return Err(e);
-            }
-        };
+        // The buffer out of `self` while `fill_data` borrows it whole, then back.
+        let mut buffer = std::mem::replace(&mut self.buffer, las::PointDataBuilder::new().build());
+        let filled = self.fill_data(max, &mut buffer);
+        self.buffer = buffer;
+        let n = filled?;
         chunk.points.reserve(n as usize);
         let has_nir = self.buffer.format().has_nir;
         for (k, p) in self.buffer.points().enumerate() {
@@ -244,8 +212,78 @@ impl LasReader {
             }
             chunk.points.push(point);
         }
-        self.next_index += n;
         Ok(chunk.points.len())
+    }
+
+    /// Replaces `chunk`'s records with up to `max` next points, as the file stores them (see
+    /// [`RawChunk`]); returns how many. As [`LasReader::fill`] otherwise (no extra-bytes values
+    /// are decoded: they stay in the records).
+    ///
+    /// # Errors
+    /// As [`LasReader::fill`].
+    pub fn fill_raw(&mut self, chunk: &mut RawChunk, max: usize) -> Result<usize> {
+        let start = self.next_index;
+        // A chunk last filled from another file: `las` replaces it on a new format only.
+        if chunk.data.transforms() != self.reader.header().transforms() {
+            chunk.data = las::PointDataBuilder::new()
+                .for_header(self.reader.header())
+                .build();
+        }
+        self.fill_data(max, &mut chunk.data)?;
+        chunk.gps_time_at = raw_gps_time_offset(chunk.data.format());
+        chunk.first_index = start;
+        Ok(chunk.data.len())
+    }
+
+    /// Fills `buffer` with up to `max` records from the next point on, after the checks of the
+    /// chunk table, and moves past them; a decoder panic marks the reader failed.
+    fn fill_data(&mut self, max: usize, buffer: &mut las::PointData) -> Result<u64> {
+        let start = self.next_index;
+        let (reader, info, failed, readable) = (
+            &mut self.reader,
+            &self.info,
+            &mut self.failed,
+            self.readable,
+        );
+        if let Some(message) = failed.as_ref() {
+            return Err(Error::InvalidLas {
+                path: info.path.clone(),
+                message: message.clone(),
+            });
+        }
+        let mut max = max as u64;
+        if let Some(readable) = readable {
+            if max > 0 && start >= readable && start < info.point_count {
+                return Err(Error::InvalidLas {
+                    path: info.path.clone(),
+                    message: format!(
+                        "the LAZ chunk table covers only {readable} of the header's {} points",
+                        info.point_count
+                    ),
+                });
+            }
+            max = max.min(readable.saturating_sub(start));
+        }
+        let point_err = |source| Error::LasPoint {
+            path: info.path.clone(),
+            index: start,
+            source,
+        };
+        let filled = guard(&info.path, &format!("point {start}"), || {
+            reader.fill_points(max, buffer)
+        });
+        let n = match filled {
+            Ok(r) => r.map_err(point_err)?,
+            Err(e) => {
+                *failed = Some(match &e {
+                    Error::InvalidLas { message, .. } => message.clone(),
+                    other => other.to_string(),
+                });
+                return Err(e);
+            }
+        };
+        self.next_index += n;
+        Ok(n)
     }
 }
 
@@ -439,6 +477,14 @@ fn from_las_point(p: las::Point) -> LasPoint {
         rgb: p.color.map(|c| [c.red, c.green, c.blue]),
         nir: p.nir,
     }
+}
+
+/// Byte offset of the GPS time in a record of `format` (after the 20 bytes of formats 0–5's
+/// base record, the 22 of formats 6–10's), `None` without time.
+fn raw_gps_time_offset(format: &las::point::Format) -> Option<usize> {
+    format
+        .has_gps_time
+        .then_some(if format.is_extended { 22 } else { 20 })
 }
 
 #[cfg(test)]

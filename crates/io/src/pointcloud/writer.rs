@@ -5,6 +5,7 @@ use super::extra_bytes::{
 };
 use super::info::LasInfo;
 use super::point::LasPoint;
+use super::raw_chunk::RawChunk;
 use crate::atomic::AtomicFile;
 use crate::crs::RawVlr;
 use crate::error::{Error, Result};
@@ -366,6 +367,67 @@ impl LasWriter {
         if self.pending_points >= WRITE_BATCH_POINTS {
             self.flush_pending()?;
         }
+        Ok(())
+    }
+
+    /// Writes the records of `chunk` (read from a file by
+    /// [`LasReader::fill_raw`](super::reader::LasReader::fill_raw)) as they are, but for the
+    /// fields this file's point format does not have: a record of the input's format is cut to
+    /// this one when this one is its prefix (the same base, time and colour, without the
+    /// waveform packet, NIR or extra bytes that follow them), e.g. `correct`'s output of a
+    /// format 9 input in format 6. Earlier points given to [`LasWriter::write_point`] come first.
+    ///
+    /// # Errors
+    /// [`Error::PointMismatch`] when the formats or the scale and offset differ otherwise;
+    /// [`Error::LasPoint`] when `las` cannot write them.
+    pub fn write_raw(&mut self, chunk: &RawChunk) -> Result<()> {
+        let data = &chunk.data;
+        let (out, inp) = (self.format, *data.format());
+        let prefix = out.is_extended == inp.is_extended
+            && out.has_gps_time == inp.has_gps_time
+            && out.has_color == inp.has_color
+            && (inp.has_nir || !out.has_nir)
+            && !out.has_waveform
+            && out.extra_bytes == 0
+            || out.len() == inp.len() && {
+                let mut same = inp;
+                same.is_compressed = out.is_compressed;
+                same == out
+            };
+        if !prefix || data.transforms() != self.inner.header().transforms() {
+            return Err(Error::PointMismatch {
+                path: self.path.clone(),
+                index: self.index,
+                message: format!(
+                    "records of point format {inp} and scale/offset {:?} cannot be written as \
+                     format {out} with {:?}",
+                    data.transforms(),
+                    self.inner.header().transforms()
+                ),
+            });
+        }
+        self.flush_pending()?;
+        let first = self.index;
+        let las_err = |source| Error::LasPoint {
+            path: self.path.clone(),
+            index: first,
+            source,
+        };
+        let (out_len, in_len) = (usize::from(out.len()), usize::from(inp.len()));
+        if out_len == in_len {
+            self.inner.write_points(data).map_err(las_err)?;
+        } else {
+            let mut bytes = Vec::with_capacity(out_len * data.len());
+            for r in data.raw_bytes().chunks_exact(in_len) {
+                bytes.extend_from_slice(&r[..out_len]);
+            }
+            las::PointDataBuilder::new()
+                .for_header(self.inner.header())
+                .build_from_bytes(bytes)
+                .and_then(|d| self.inner.write_points(&d))
+                .map_err(las_err)?;
+        }
+        self.index += data.len() as u64;
         Ok(())
     }
 
