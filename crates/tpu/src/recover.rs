@@ -51,6 +51,8 @@ pub struct LinearRecovery {
     pub beam_scan_angle_rad: f64,
     /// The beam as it is: along-track angle β = atan2(S_x, S_z), rad.
     pub along_track_rad: f64,
+    /// `S` itself, scanner frame, m (for [`lidarqa_model::linear_jacobian_at_beam`]).
+    pub scanner_m: Vector3<f64>,
 }
 
 impl LinearRecovery {
@@ -134,6 +136,7 @@ impl Recoverer {
             beam_ned: Ned::from_vector(beam / range_m),
             beam_scan_angle_rad: (s.y / range_m).clamp(-1.0, 1.0).asin(),
             along_track_rad: s.x.atan2(s.z),
+            scanner_m: s,
         })
     }
 
