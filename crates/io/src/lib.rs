@@ -26,6 +26,7 @@ mod csv;
 mod error;
 mod geodesy;
 mod gpstime;
+mod local_inverse;
 mod pointcloud;
 mod sbet;
 mod trajtext;
@@ -45,6 +46,7 @@ pub use gpstime::{
     SECONDS_PER_WEEK_S, adjusted_standard_to_week, gps_week_of_date, gps_week_start,
     week_to_adjusted_standard,
 };
+pub use local_inverse::{CELL_M, InverseKind, Inverted, LocalInverse, TOLERANCE};
 pub use pointcloud::{
     CLASS_BATHYMETRY, CLASS_WATER_SURFACE, ExtraDim, LasInfo, LasPoint, LasReader, LasWriteOptions,
     LasWriter, PointChunk, RawChunk,

@@ -53,13 +53,13 @@ pub use error::{Error, Result};
 pub use frames::{Attitude, Ecef, Grid, Mounting, Ned};
 pub use georeferencer::{Georeferencer, TRAJECTORY_SOURCES};
 pub use linear::{
-    LINEAR_N, LinearObservation, LinearScanner, OffPlaneLinearScanner, linear_range_for_height,
-    scanner_vector,
+    LINEAR_N, LinearObservation, LinearScanner, MountingPartials, OffPlaneLinearScanner,
+    linear_jacobian_at_beam, linear_range_for_height, scanner_vector,
 };
 pub use plane::{Plane, fit_plane, normal_of_scatter, plane_of_scatter};
 pub use rotation::{
-    ecef_from_ned, ned_from_ecef, rot_x, rot_y, rot_z, rotation_zyx, rotation_zyx_with_partials,
-    zyx_angles,
+    ecef_from_ned, ecef_from_ned_sin_cos, ned_from_ecef, rot_x, rot_y, rot_z, rotation_zyx,
+    rotation_zyx_with_partials, zyx_angles, zyx_partials_of,
 };
 pub use scalar::Scalar;
 pub use sensor::{Correlation, Scanner, Sensor, Sigmas};

@@ -8,10 +8,10 @@
 use crate::error::{Error, Result};
 use crate::frames::{Attitude, Mounting};
 use crate::georeferencer::{Georeferencer, gnss_offset_ned, platform_parameters, platform_then};
-use crate::rotation::{rotation_zyx, rotation_zyx_with_partials};
+use crate::rotation::{rotation_zyx, rotation_zyx_with_partials, zyx_partials_of};
 use crate::scalar::Scalar;
 use crate::source::Source;
-use nalgebra::{SMatrix, SVector, Vector2, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector2, Vector3};
 use num_dual::{DualSVec64, jacobian};
 
 /// Number of parameters of the linear model.
@@ -82,15 +82,82 @@ fn linear_jacobian(
     p: &SVector<f64, LINEAR_N>,
     along_track_rad: f64,
 ) -> (Vector3<f64>, SMatrix<f64, 3, LINEAR_N>) {
-    let (r_n, d_r_n) = rotation_zyx_with_partials(p[3], p[4], p[5]);
+    let r_n = rotation_zyx_with_partials(p[3], p[4], p[5]);
     let (r_m, d_r_m) = rotation_zyx_with_partials(p[6], p[7], p[8]);
     let (s, d_s) = jacobian(
         |q: SVector<DualSVec64<2>, 2>| tilted_scanner_vector(q[0], q[1], along_track_rad),
         &Vector2::new(p[12], p[13]),
     );
-    let lever = Vector3::new(p[9], p[10], p[11]);
-    let body = r_m * s + lever;
-    let f = gnss_offset_ned(p[0], p[1], p[2]) + r_n * body;
+    let mounting = MountingPartials {
+        r_m,
+        d_r_m,
+        lever_m: Vector3::new(p[9], p[10], p[11]),
+    };
+    let (f, j) = compose_linear(&r_n, &mounting, &s, &d_s);
+    (f + gnss_offset_ned(p[0], p[1], p[2]), j)
+}
+
+/// `R_M` (scanner → body), its partials in boresight roll, pitch, yaw and the lever arm ΔP of
+/// a mounting: the same for every point of a tile, prepared once.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MountingPartials {
+    r_m: Matrix3<f64>,
+    d_r_m: [Matrix3<f64>; 3],
+    lever_m: Vector3<f64>,
+}
+
+impl MountingPartials {
+    /// Prepares `m`.
+    pub fn new(m: &Mounting) -> MountingPartials {
+        let (r_m, d_r_m) = rotation_zyx_with_partials(
+            m.boresight_roll_rad,
+            m.boresight_pitch_rad,
+            m.boresight_yaw_rad,
+        );
+        MountingPartials {
+            r_m,
+            d_r_m,
+            lever_m: m.lever_arm_m,
+        }
+    }
+}
+
+/// The [`OffPlaneLinearScanner`] footprint (zero GNSS offsets) and Jacobian of the pulse whose
+/// scanner vector is `s_m`, at the attitude `body_to_ned` (`R_N`): the same as
+/// [`Georeferencer::footprint_jacobian`] at the parameters of the β, ρ and θ' that give `s_m`
+/// back, without their trigonometry. `∂S/∂ρ = S/ρ` and `∂S/∂θ' = (−S_y S_x/h, h, −S_y S_z/h)`
+/// with `h = √(S_x² + S_z²) = ρ cos θ'`; `R_N`'s partials from [`zyx_partials_of`]. This is
+/// the per-point TPU's kernel for a recovered point.
+pub fn linear_jacobian_at_beam(
+    body_to_ned: &Matrix3<f64>,
+    mounting: &MountingPartials,
+    s_m: &Vector3<f64>,
+) -> (Vector3<f64>, SMatrix<f64, 3, LINEAR_N>) {
+    let rho = s_m.norm();
+    let h = s_m.x.hypot(s_m.z);
+    let d_s = SMatrix::<f64, 3, 2>::from_columns(&[
+        s_m / rho,
+        Vector3::new(-s_m.y * s_m.x / h, h, -s_m.y * s_m.z / h),
+    ]);
+    let r_n = (*body_to_ned, zyx_partials_of(body_to_ned));
+    compose_linear(&r_n, mounting, s_m, &d_s)
+}
+
+/// `R_N (R_M S + ΔP)` and its Jacobian by the chain rule from the stages: `R_N` with its
+/// partials in roll, pitch, heading, the mounting's, and `S` with its partials in ρ and θ.
+fn compose_linear(
+    (r_n, d_r_n): &(Matrix3<f64>, [Matrix3<f64>; 3]),
+    mounting: &MountingPartials,
+    s: &Vector3<f64>,
+    d_s: &SMatrix<f64, 3, 2>,
+) -> (Vector3<f64>, SMatrix<f64, 3, LINEAR_N>) {
+    let MountingPartials {
+        r_m,
+        d_r_m,
+        lever_m,
+    } = mounting;
+    let body = r_m * s + lever_m;
+    let f = r_n * body;
     let r_ns = r_n * r_m;
     let mut j = SMatrix::<f64, 3, LINEAR_N>::zeros();
     j[(0, 0)] = 1.0;
@@ -236,6 +303,29 @@ mod tests {
         let (f2, j2) = g.footprint_jacobian(p);
         assert_relative_eq!(f1, f2, epsilon = 1e-9);
         assert_relative_eq!(j1, j2, epsilon = 1e-9);
+    }
+
+    #[test]
+    fn jacobian_at_the_beam_is_the_parameters_jacobian() {
+        let (att, m) = (Attitude::from_degrees(2.5, -1.5, 123.0), mounting());
+        for s in [
+            Vector3::new(0.39, 120.0, 1000.0),
+            Vector3::new(-2.1, -430.0, 610.0),
+            Vector3::new(0.0, 0.0, 300.0),
+        ] {
+            let obs = LinearObservation {
+                range_m: s.norm(),
+                scan_angle_rad: (s.y / s.norm()).asin(),
+            };
+            let g = OffPlaneLinearScanner {
+                along_track_rad: s.x.atan2(s.z),
+            };
+            let (f1, j1) = g.footprint_jacobian(&g.parameters(&att, &m, &obs));
+            let (f2, j2) =
+                linear_jacobian_at_beam(&att.body_to_ned(), &MountingPartials::new(&m), &s);
+            assert_relative_eq!(f1, f2, max_relative = 1e-14, epsilon = 1e-12);
+            assert_relative_eq!(j1, j2, max_relative = 1e-13, epsilon = 1e-12);
+        }
     }
 
     #[test]

@@ -57,6 +57,23 @@ pub fn rotation_zyx_with_partials(
     (r, [r * kx, rzy * ky * rx, kz * r])
 }
 
+/// The partials of [`rotation_zyx`] in roll, pitch and yaw from the matrix itself, as
+/// [`rotation_zyx_with_partials`] gives them: `[R x̂]× R`, `[Rz ŷ]× R`, `[ẑ]× R` (each
+/// axis a rotation is about, in the output frame), with `Rz ŷ = (−sin ψ, cos ψ, 0)` and
+/// `(cos ψ, sin ψ)` from the first column. No trigonometry: for a per-point caller that has
+/// `R` already. Valid away from pitch = ±90° (as the angles themselves).
+pub fn zyx_partials_of(r: &Matrix3<f64>) -> [Matrix3<f64>; 3] {
+    let h = r[(0, 0)].hypot(r[(1, 0)]);
+    let (c, s) = (r[(0, 0)] / h, r[(1, 0)] / h);
+    let roll_axis = r.column(0).into_owned();
+    let pitch_axis = Vector3::new(-s, c, 0.0);
+    [
+        roll_axis.cross_matrix() * r,
+        pitch_axis.cross_matrix() * r,
+        Vector3::<f64>::z().cross_matrix() * r,
+    ]
+}
+
 /// Roll, pitch and yaw (radians) of a rotation matrix built as [`rotation_zyx`]; the inverse of it
 /// away from pitch = ±90°.
 pub fn zyx_angles(r: &Matrix3<f64>) -> Vector3<f64> {
@@ -75,6 +92,12 @@ pub fn zyx_angles(r: &Matrix3<f64>) -> Vector3<f64> {
 pub fn ecef_from_ned(latitude_rad: f64, longitude_rad: f64) -> Matrix3<f64> {
     let (sp, cp) = latitude_rad.sin_cos();
     let (sl, cl) = longitude_rad.sin_cos();
+    ecef_from_ned_sin_cos(sp, cp, sl, cl)
+}
+
+/// [`ecef_from_ned`] from sin φ, cos φ, sin λ, cos λ (as an inverse projection gives them):
+/// no trigonometry per point.
+pub fn ecef_from_ned_sin_cos(sp: f64, cp: f64, sl: f64, cl: f64) -> Matrix3<f64> {
     Matrix3::new(
         -sp * cl,
         -sl,
@@ -113,6 +136,17 @@ mod tests {
             cp * sr,
             cp * cr,
         )
+    }
+
+    #[test]
+    fn partials_from_the_matrix_are_the_partials() {
+        for (r, p, y) in [(0.1, -0.2, 2.9), (-0.03, 0.05, -1.2), (0.4, 1.2, 0.0)] {
+            let (m, want) = rotation_zyx_with_partials(r, p, y);
+            let got = zyx_partials_of(&m);
+            for k in 0..3 {
+                assert_relative_eq!(got[k], want[k], epsilon = 1e-15);
+            }
+        }
     }
 
     #[test]

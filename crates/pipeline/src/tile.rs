@@ -11,12 +11,12 @@ use crate::summary::{
     IncidenceTally, SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary,
 };
 use lidarqa_io::{
-    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, Crs, Geodetic, LasPoint, LasTimeConverter,
-    LasWriteOptions, LasWriter, PointChunk,
+    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, Crs, InverseKind, LasPoint, LasTimeConverter,
+    LasWriteOptions, LasWriter, LocalInverse, PointChunk, Unprojected,
 };
 use lidarqa_model::{
-    ConicScanner, Ecef, Georeferencer, Grid, LinearScanner, Mounting, Ned, Scanner, Source,
-    ecef_from_ned,
+    ConicScanner, Ecef, Georeferencer, Grid, LinearScanner, Mounting, MountingPartials, Ned,
+    Scanner, Source, ecef_from_ned_sin_cos, linear_jacobian_at_beam,
 };
 use lidarqa_tpu::{
     IhoOrder, Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, SoundingRecovery, Surface,
@@ -152,7 +152,11 @@ pub fn tpu_tile_with_progress(
         unit_m: crs.unit().metres(),
         converter,
         height_offset_m,
-        series_inverse: crs.central_meridian_rad().is_some() && !kernel.has_incidence(),
+        inverse: if crs.central_meridian_rad().is_some() && !kernel.has_incidence() {
+            InverseKind::Series
+        } else {
+            InverseKind::Exact
+        },
     };
     let step_deg = if info.point_format >= 6 { 0.006 } else { 1.0 };
     let mut summary = TpuSummary::new(kernel.kind(), kernel.source_names(), n_sigma);
@@ -180,10 +184,10 @@ pub fn tpu_tile_with_progress(
         recovery_mounting: ctx.recovery_mounting,
         mounting: ctx.sensor.mounting,
         r_m: ctx.recovery_mounting.scanner_to_body(),
+        mounting_partials: MountingPartials::new(&ctx.sensor.mounting),
         tally0,
         central_meridian_rad: crs.utm_zone().map(|z| z.central_meridian_rad()),
         crs_name: &crs_name,
-        crs: &crs,
         file_normals,
     };
     let spent = Recycle {
@@ -306,8 +310,9 @@ struct Prepare {
     /// Transverse Mercator points without an incidence term: the series inverse is enough for
     /// the recovery, which is continuous in the point. The incidence term's neighbourhood
     /// judgement is not (planar or linear, which neighbours): nanometres could move a
-    /// borderline point across, so it keeps the exact inverse and the same products.
-    series_inverse: bool,
+    /// borderline point across, so it keeps the exact inverse. Either is interpolated per
+    /// chunk ([`LocalInverse`]) to its own rounding.
+    inverse: InverseKind,
 }
 
 #[derive(Debug, Clone)]
@@ -323,8 +328,23 @@ struct Prep {
     xyz_m: [f64; 3],
     latitude_rad: f64,
     longitude_rad: f64,
+    /// sin / cos of the latitude, longitude and grid convergence there, and the point scale.
+    unprojected: Unprojected,
     time_sow_s: f64,
     state: PrepState,
+}
+
+impl Prep {
+    /// N at the point → ECEF.
+    fn ecef_from_ned(&self) -> Matrix3<f64> {
+        let u = &self.unprojected;
+        ecef_from_ned_sin_cos(
+            u.sin_latitude,
+            u.cos_latitude,
+            u.sin_longitude,
+            u.cos_longitude,
+        )
+    }
 }
 
 struct Prepared {
@@ -334,12 +354,21 @@ struct Prepared {
 }
 
 impl Prepare {
-    fn point(&self, p: &LasPoint) -> Prep {
+    fn point(&self, p: &LasPoint, inverse: &LocalInverse<'_>) -> Prep {
         let mut out = Prep {
             ecef: Ecef::default(),
             xyz_m: [p.x, p.y, p.z].map(|v| v * self.unit_m),
             latitude_rad: 0.0,
             longitude_rad: 0.0,
+            unprojected: Unprojected {
+                sin_latitude: 0.0,
+                cos_latitude: 1.0,
+                sin_longitude: 0.0,
+                cos_longitude: 1.0,
+                sin_convergence: 0.0,
+                cos_convergence: 1.0,
+                scale: 1.0,
+            },
             time_sow_s: f64::NAN,
             state: PrepState::Ok,
         };
@@ -350,23 +379,15 @@ impl Prepare {
         let [x_m, y_m, z_m] = out.xyz_m;
         // LAS Z plus the geoid separation (0 unless given) is the ellipsoidal height.
         let height_m = z_m + self.height_offset_m;
-        if self.series_inverse {
-            // Krüger's series inverse (nanometres from the exact inverse within a zone, half
-            // its cost) and ECEF from its sines and cosines.
-            let u = self.crs.unproject(x_m, y_m);
-            out.latitude_rad = u.latitude_rad();
-            out.longitude_rad = u.longitude_rad();
-            out.ecef = self.crs.ellipsoid().ecef_from_unprojected(&u, height_m);
-        } else {
-            let (lat, lon) = self.crs.inverse(x_m, y_m);
-            out.latitude_rad = lat;
-            out.longitude_rad = lon;
-            out.ecef = self.crs.ellipsoid().geodetic_to_ecef(&Geodetic {
-                latitude_rad: lat,
-                longitude_rad: lon,
-                height_m,
-            });
-        }
+        // ECEF from the inverse's sines and cosines.
+        let g = inverse.at(x_m, y_m);
+        out.latitude_rad = g.latitude_rad;
+        out.longitude_rad = g.longitude_rad;
+        out.unprojected = g.unprojected;
+        out.ecef = self
+            .crs
+            .ellipsoid()
+            .ecef_from_unprojected(&g.unprojected, height_m);
         match p.gps_time_s.map(|t| self.converter.to_seconds_of_week(t)) {
             Some(Ok(t)) => out.time_sow_s = t,
             Some(Err(e)) => out.state = PrepState::BadTime(e.to_string()),
@@ -419,10 +440,16 @@ impl ChunkSource for TileSource<'_> {
 
     fn prepare(&mut self, chunk: PointChunk) -> Prepared {
         let mut pts: Vec<Prep> = self.preps.pop().unwrap_or_default();
+        let unit_m = self.prep.unit_m;
+        let inverse = LocalInverse::new(
+            &self.prep.crs,
+            self.prep.inverse,
+            chunk.points.iter().map(|p| [p.x * unit_m, p.y * unit_m]),
+        );
         chunk
             .points
             .par_iter()
-            .map(|p| self.prep.point(p))
+            .map(|p| self.prep.point(p, &inverse))
             .collect_into_vec(&mut pts);
         let first_index = self.first_index;
         self.first_index += chunk.len() as u64;
@@ -526,14 +553,14 @@ struct Run<'a> {
     mounting: Mounting,
     /// `R_M` of the mounting the points were made with (the sensor file's), scanner → body.
     r_m: Matrix3<f64>,
+    /// `mounting` prepared for the linear Jacobian.
+    mounting_partials: MountingPartials,
     /// An empty mounting tally for this sensor.
     tally0: MountingTally,
     /// The central meridian of the points' UTM zone, rad (no zone-area check for other CRSs).
     central_meridian_rad: Option<f64>,
     /// The points' CRS, for messages.
     crs_name: &'a str,
-    /// The points' CRS (grid convergence for file normals and the covariance).
-    crs: &'a Crs,
     /// The file has PDAL's NormalX/Y/Z.
     file_normals: bool,
 }
@@ -794,11 +821,10 @@ impl Run<'_> {
                 if !(g.iter().all(|v| v.is_finite()) && g.norm() > 0.0) {
                     return Some(Surface::TooFew);
                 }
-                let gamma = self.crs.grid_convergence(p.latitude_rad, p.longitude_rad);
-                let (sg, cg) = gamma.sin_cos();
+                let (sg, cg) = (p.unprojected.sin_convergence, p.unprojected.cos_convergence);
                 // Grid (E, N) → true (N, E): a grid azimuth α_g is the true azimuth α_g + γ.
                 let ned = Vector3::new(g.y * cg - g.x * sg, g.x * cg + g.y * sg, -g.z);
-                let ecef = ecef_from_ned(p.latitude_rad, p.longitude_rad) * ned;
+                let ecef = p.ecef_from_ned() * ned;
                 Some(Surface::Planar(ecef / ecef.norm()))
             })
             .collect()
@@ -900,8 +926,7 @@ impl Run<'_> {
                 // σ in the local level frame at the point: rotate from N at P0 (the two differ
                 // by the geodesic angle between them, ~1e-4 rad at 600 m; cheap to do exactly).
                 // (`pose.ecef_to_ned` is `ecef_from_ned` at the pose, transposed.)
-                let m = ecef_from_ned(p.latitude_rad, p.longitude_rad).transpose()
-                    * pose.ecef_to_ned.transpose();
+                let m = p.ecef_from_ned().transpose() * pose.ecef_to_ned.transpose();
                 let c = m * cov_at_p0 * m.transpose();
                 let (n2, e2, u2) = (c[(0, 0)].max(0.0), c[(1, 1)].max(0.0), c[(2, 2)].max(0.0));
                 if let Some(r) = recovered {
@@ -931,10 +956,7 @@ impl Run<'_> {
                 let cov = if opts.covariance {
                     // NED (true) → grid (easting, northing, up): a true azimuth α is the grid
                     // azimuth α − γ. Ground metres, not scaled by the point scale factor.
-                    let (sg, cg) = self
-                        .crs
-                        .grid_convergence(p.latitude_rad, p.longitude_rad)
-                        .sin_cos();
+                    let (sg, cg) = (p.unprojected.sin_convergence, p.unprojected.cos_convergence);
                     let t = Matrix3::new(-sg, cg, 0.0, cg, sg, 0.0, 0.0, 0.0, -1.0);
                     let g = t * c * t.transpose();
                     [
@@ -1032,13 +1054,7 @@ impl Run<'_> {
             )],
         };
         let u = pp.propagate_with(&params, sigma, None, &over)?;
-        let vars = u.source_variance_m2.as_slice();
-        let total: f64 = vars.iter().sum();
-        if total > 0.0 {
-            for (s, v) in acc.shares.iter_mut().zip(vars) {
-                *s += v / total;
-            }
-        }
+        add_shares(&mut acc.shares, u.source_variance_m2.as_slice(), 0.0);
         Ok(u.covariance_ned)
     }
 
@@ -1059,15 +1075,18 @@ impl Run<'_> {
                 incidence_rad: incidence_angle(&beam_ned.vector(), &(pose.ecef_to_ned * n)),
             })
         };
-        let (cov, vars, inc_var, recovered) = match self.kernel {
+        let (cov, recovered) = match self.kernel {
             Kernel::Linear(pp) => {
                 let r = self.recoverer.linear_ecef(pose, &p.ecef)?;
                 // The beam as recovered, out-of-plane part included (β): near nadir the range
                 // and attitude σ depend on the small across-track part, which the projection
-                // on the scan plane would change.
-                let (model, obs) = r.off_plane();
-                let params = model.parameters(&pose.attitude, &self.mounting, &obs);
-                let (footprint, j) = model.footprint_jacobian(&params);
+                // on the scan plane would change. The Jacobian at the parameters of
+                // `r.off_plane()`, from S itself.
+                let (footprint, j) = linear_jacobian_at_beam(
+                    &pose.body_to_ned,
+                    &self.mounting_partials,
+                    &r.scanner_m,
+                );
                 let inc = incidence(r.range_m, r.beam_ned);
                 let u = pp.propagate_jacobian(footprint, &j, sigma, inc.as_ref(), &[])?;
                 acc.scan
@@ -1080,10 +1099,13 @@ impl Run<'_> {
                     rho * r.scan_angle_rad.sin(),
                     rho * r.scan_angle_rad.cos(),
                 );
+                add_shares(
+                    &mut acc.shares,
+                    u.source_variance_m2.as_slice(),
+                    u.incidence_variance_m2,
+                );
                 (
                     u.covariance_ned,
-                    u.source_variance_m2.as_slice().to_vec(),
-                    u.incidence_variance_m2,
                     Recovered {
                         range_m: r.range_m,
                         residual_m: r.out_of_plane_m,
@@ -1103,10 +1125,13 @@ impl Run<'_> {
                 } else {
                     pp.propagate(&params, sigma, inc.as_ref())?
                 };
+                add_shares(
+                    &mut acc.shares,
+                    u.source_variance_m2.as_slice(),
+                    u.incidence_variance_m2,
+                );
                 (
                     u.covariance_ned,
-                    u.source_variance_m2.as_slice().to_vec(),
-                    u.incidence_variance_m2,
                     Recovered {
                         range_m: r.range_air_m,
                         residual_m: r.off_cone_m,
@@ -1117,12 +1142,6 @@ impl Run<'_> {
         };
         if normal.is_some() {
             acc.with_normal += 1;
-        }
-        let total: f64 = vars.iter().sum::<f64>() + inc_var;
-        if total > 0.0 {
-            for (s, v) in acc.shares.iter_mut().zip(vars.iter().chain([&inc_var])) {
-                *s += v / total;
-            }
         }
         Ok((cov, recovered))
     }
@@ -1149,6 +1168,17 @@ fn water_returns(c: &Prepared, limit: usize) -> impl Iterator<Item = (u64, Water
                 },
             )
         })
+}
+
+/// Adds a point's share of its variance from each source (the model's, then the incidence
+/// term's) to `shares`.
+fn add_shares(shares: &mut [f64], vars: &[f64], incidence_m2: f64) {
+    let total: f64 = vars.iter().sum::<f64>() + incidence_m2;
+    if total > 0.0 {
+        for (s, v) in shares.iter_mut().zip(vars.iter().chain([&incidence_m2])) {
+            *s += v / total;
+        }
+    }
 }
 
 fn valid_ecef(pts: &[Prep]) -> impl DoubleEndedIterator<Item = Vector3<f64>> + '_ {

@@ -60,6 +60,8 @@ pub struct PointPropagator<G, const N: usize> {
     beam_divergence_rad: Option<f64>,
     /// The non-zero correlations `(i, j, ρ_ij, ρ_ji)`, i < j, for the per-point `J Σ Jᵀ`.
     off_diagonal: Vec<(usize, usize, f64, f64)>,
+    /// Every `ρ_ii` is 1 (a correlation matrix's diagonal): `Σ_i a_i a_iᵀ` is `A Aᵀ`.
+    unit_diagonal: bool,
 }
 
 impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
@@ -90,7 +92,9 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
             .filter(|&(i, j)| correlation[(i, j)] != 0.0 || correlation[(j, i)] != 0.0)
             .map(|(i, j)| (i, j, correlation[(i, j)], correlation[(j, i)]))
             .collect();
+        let unit_diagonal = (0..N).all(|i| correlation[(i, i)] == 1.0);
         Ok(PointPropagator {
+            unit_diagonal,
             model,
             sigma,
             correlation,
@@ -226,15 +230,21 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
         // kernel's largest cost (this runs for every point of a tile).
         let sigma = self.sigma_with(trajectory, sigma_override);
         let a: SMatrix<f64, 3, N> = SMatrix::from_fn(|r, i| j[(r, i)] * sigma[i]);
-        let mut covariance_ned = Matrix3::zeros();
-        let mut source_variance_m2 = SVector::<f64, N>::zeros();
-        for i in 0..N {
-            let ai = a.column(i);
-            // Each source's own variance |J_i|² σ_i² = |a_i|².
-            source_variance_m2[i] =
-                j.column(i).norm_squared() * (self.correlation[(i, i)] * sigma[i] * sigma[i]);
-            covariance_ned += (ai * ai.transpose()) * self.correlation[(i, i)];
-        }
+        // Each source's own variance |J_i|² σ_i² = |a_i|².
+        let source_variance_m2 = SVector::<f64, N>::from_fn(|i, _| {
+            j.column(i).norm_squared() * (self.correlation[(i, i)] * sigma[i] * sigma[i])
+        });
+        let mut covariance_ned = if self.unit_diagonal {
+            // Σ_i a_i a_iᵀ as one 3 × N × 3 product.
+            a * a.transpose()
+        } else {
+            let mut c = Matrix3::zeros();
+            for i in 0..N {
+                let ai = a.column(i);
+                c += (ai * ai.transpose()) * self.correlation[(i, i)];
+            }
+            c
+        };
         for &(i, k, rho_ik, rho_ki) in &self.off_diagonal {
             let cross = a.column(i) * a.column(k).transpose();
             covariance_ned += cross * rho_ik + cross.transpose() * rho_ki;

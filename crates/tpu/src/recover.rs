@@ -47,24 +47,33 @@ pub struct LinearRecovery {
     pub out_of_plane_m: f64,
     /// Unit beam direction (scanner origin → point) in N at P0.
     pub beam_ned: Ned,
-    /// The beam as it is, for [`OffPlaneLinearScanner`]: scan angle θ' = asin(S_y/ρ), rad.
-    pub beam_scan_angle_rad: f64,
-    /// The beam as it is: along-track angle β = atan2(S_x, S_z), rad.
-    pub along_track_rad: f64,
+    /// `S` itself, scanner frame, m (for [`lidarqa_model::linear_jacobian_at_beam`]).
+    pub scanner_m: Vector3<f64>,
 }
 
 impl LinearRecovery {
+    /// The beam as it is, for [`OffPlaneLinearScanner`]: scan angle θ' = asin(S_y/ρ), rad
+    /// (computed on demand: the per-point TPU works from `S` itself).
+    pub fn beam_scan_angle_rad(&self) -> f64 {
+        (self.scanner_m.y / self.range_m).clamp(-1.0, 1.0).asin()
+    }
+
+    /// The beam as it is: along-track angle β = atan2(S_x, S_z), rad.
+    pub fn along_track_rad(&self) -> f64 {
+        self.scanner_m.x.atan2(self.scanner_m.z)
+    }
+
     /// The recovered beam as it is, out-of-plane part included: the model with its β and the
     /// observation (ρ, θ') that give back `S` exactly. The propagation uses these, so the σ
     /// follow the physical beam rather than its projection on the scan plane.
     pub fn off_plane(&self) -> (OffPlaneLinearScanner, LinearObservation) {
         (
             OffPlaneLinearScanner {
-                along_track_rad: self.along_track_rad,
+                along_track_rad: self.along_track_rad(),
             },
             LinearObservation {
                 range_m: self.range_m,
-                scan_angle_rad: self.beam_scan_angle_rad,
+                scan_angle_rad: self.beam_scan_angle_rad(),
             },
         )
     }
@@ -132,8 +141,7 @@ impl Recoverer {
             scan_angle_rad: s.y.atan2(s.z),
             out_of_plane_m: s.x,
             beam_ned: Ned::from_vector(beam / range_m),
-            beam_scan_angle_rad: (s.y / range_m).clamp(-1.0, 1.0).asin(),
-            along_track_rad: s.x.atan2(s.z),
+            scanner_m: s,
         })
     }
 

@@ -63,6 +63,8 @@ pub struct Trajectory {
     positions_ecef_m: Vec<Vector3<f64>>,
     lat_lon_rad: Vec<[f64; 2]>,
     body_to_ecef: Vec<UnitQuaternion<f64>>,
+    /// Segment i's rotation from pose i to pose i + 1.
+    turns: Vec<Option<Turn>>,
 }
 
 fn wrap_pi(a: f64) -> f64 {
@@ -72,19 +74,38 @@ fn wrap_pi(a: f64) -> f64 {
 
 /// `a · (b/a)^w` along the shortest arc, the rotation angle from `atan2` so that small angles
 /// keep full precision (nalgebra's `angle()` uses `acos`, good only to ~1e-8 rad).
-fn slerp(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>, w: f64) -> UnitQuaternion<f64> {
-    let d = a.inverse() * b;
-    let (mut s, mut v) = (d.w, d.imag());
-    if s < 0.0 {
-        s = -s;
-        v = -v;
+fn slerp(a: &UnitQuaternion<f64>, turn: &Option<Turn>, w: f64) -> UnitQuaternion<f64> {
+    match turn {
+        None => *a,
+        Some(t) => a * UnitQuaternion::from_axis_angle(&t.axis, t.angle_rad * w),
     }
-    let n = v.norm();
-    if n == 0.0 {
-        return *a;
+}
+
+/// The rotation from one pose to the next, `a⁻¹ b`, as the unit axis and angle [`slerp`]
+/// scales (computed once per segment, not per point); `None` for no rotation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Turn {
+    axis: Unit<Vector3<f64>>,
+    angle_rad: f64,
+}
+
+impl Turn {
+    fn between(a: &UnitQuaternion<f64>, b: &UnitQuaternion<f64>) -> Option<Turn> {
+        let d = a.inverse() * b;
+        let (mut s, mut v) = (d.w, d.imag());
+        if s < 0.0 {
+            s = -s;
+            v = -v;
+        }
+        let n = v.norm();
+        if n == 0.0 {
+            return None;
+        }
+        Some(Turn {
+            axis: Unit::new_unchecked(v / n),
+            angle_rad: 2.0 * n.atan2(s),
+        })
     }
-    let angle = 2.0 * n.atan2(s);
-    a * UnitQuaternion::from_axis_angle(&Unit::new_unchecked(v / n), angle * w)
 }
 
 impl Trajectory {
@@ -105,6 +126,7 @@ impl Trajectory {
             positions_ecef_m: Vec::with_capacity(poses.len()),
             lat_lon_rad: Vec::with_capacity(poses.len()),
             body_to_ecef: Vec::with_capacity(poses.len()),
+            turns: Vec::with_capacity(poses.len()),
         };
         for (i, p) in poses.iter().enumerate() {
             let a = &p.attitude;
@@ -141,6 +163,11 @@ impl Trajectory {
                 &Rotation3::from_matrix_unchecked(r),
             ));
         }
+        t.turns = t
+            .body_to_ecef
+            .windows(2)
+            .map(|w| Turn::between(&w[0], &w[1]))
+            .collect();
         Ok(t)
     }
 
@@ -180,7 +207,7 @@ impl Trajectory {
         let [la1, lo1] = self.lat_lon_rad[i + 1];
         let latitude_rad = la0 + w * (la1 - la0);
         let longitude_rad = wrap_pi(lo0 + w * wrap_pi(lo1 - lo0));
-        let q = slerp(&self.body_to_ecef[i], &self.body_to_ecef[i + 1], w);
+        let q = slerp(&self.body_to_ecef[i], &self.turns[i], w);
         let ecef_to_ned = ecef_from_ned(latitude_rad, longitude_rad).transpose();
         let body_to_ned = ecef_to_ned * q.to_rotation_matrix().into_inner();
         let a = zyx_angles(&body_to_ned);
@@ -208,7 +235,7 @@ impl Trajectory {
     /// As [`Trajectory::at`].
     pub fn body_to_ecef_at(&self, time_s: f64, hint: &mut usize) -> Result<(Ecef, Matrix3<f64>)> {
         let (i, w) = self.segment_from(time_s, hint)?;
-        let q = slerp(&self.body_to_ecef[i], &self.body_to_ecef[i + 1], w);
+        let q = slerp(&self.body_to_ecef[i], &self.turns[i], w);
         Ok((self.position_at(i, w), q.to_rotation_matrix().into_inner()))
     }
 
