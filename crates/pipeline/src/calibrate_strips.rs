@@ -33,7 +33,9 @@ use lidarqa_calib::{
     PlaneOptions, RawPoint, Strip, Tie, TieKind, TiePick, TrajectorySigma, auto_tie_candidates,
     auto_ties, calibrate_plane, calibrate_vtpm, select_auto_ties, tie_reach_m,
 };
-use lidarqa_io::{ControlPoints, Crs, Geodetic, LasInfo, LasReader, PointChunk, TiePicks};
+use lidarqa_io::{
+    ControlPoints, Crs, Geodetic, InverseKind, LasInfo, LasReader, LocalInverse, PointChunk, TiePicks,
+};
 use lidarqa_model::{Ecef, Source, Warning};
 use lidarqa_tpu::{LinearRecovery, PoseAt, Recoverer, Trajectory};
 use nalgebra::Vector3;
@@ -930,6 +932,12 @@ fn stream_strip(
     let mut index = 0u64;
     let mut hint = 0;
     while reader.fill(&mut chunk, 200_000)? > 0 {
+        // The exact inverse projection, interpolated over the few cells a chunk covers.
+        let inverse = LocalInverse::new(
+            projection,
+            InverseKind::Exact,
+            chunk.points.iter().map(|p| [p.x, p.y]),
+        );
         for p in &chunk.points {
             crate::error::check_finite(path, index, p.x, p.y, p.z)?;
             same_psid &= *psid.get_or_insert(p.point_source_id) == p.point_source_id;
@@ -951,10 +959,10 @@ fn stream_strip(
                     });
                 }
             };
-            let (lat, lon) = projection.inverse(p.x, p.y);
+            let g = inverse.at(p.x, p.y);
             let ecef = ellipsoid.geodetic_to_ecef(&Geodetic {
-                latitude_rad: lat,
-                longitude_rad: lon,
+                latitude_rad: g.latitude_rad,
+                longitude_rad: g.longitude_rad,
                 height_m: z,
             });
             let kept = Kept {
