@@ -26,6 +26,7 @@ mod csv;
 mod error;
 mod geodesy;
 mod gpstime;
+mod grid_to_ecef;
 mod local_inverse;
 mod pointcloud;
 mod sbet;
@@ -46,6 +47,7 @@ pub use gpstime::{
     SECONDS_PER_WEEK_S, adjusted_standard_to_week, gps_week_of_date, gps_week_start,
     week_to_adjusted_standard,
 };
+pub use grid_to_ecef::{CellCache, GridToEcef, MapAt};
 pub use local_inverse::{CELL_M, InverseKind, Inverted, LocalInverse, TOLERANCE};
 pub use pointcloud::{
     CLASS_BATHYMETRY, CLASS_WATER_SURFACE, ExtraDim, LasInfo, LasPoint, LasReader, LasWriteOptions,

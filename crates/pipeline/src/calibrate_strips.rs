@@ -34,7 +34,8 @@ use lidarqa_calib::{
     auto_ties, calibrate_plane, calibrate_vtpm, select_auto_ties, tie_reach_m,
 };
 use lidarqa_io::{
-    ControlPoints, Crs, Geodetic, InverseKind, LasInfo, LasReader, LocalInverse, PointChunk, TiePicks,
+    ControlPoints, Crs, Geodetic, InverseKind, LasInfo, LasReader, LocalInverse, PointChunk,
+    TiePicks,
 };
 use lidarqa_model::{Ecef, Source, Warning};
 use lidarqa_tpu::{LinearRecovery, PoseAt, Recoverer, Trajectory};

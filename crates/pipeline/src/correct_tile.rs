@@ -11,7 +11,7 @@
 //! seed 000 eq. 2), and only Δ is mapped to the grid, with the Jacobian of the map
 //! (easting, northing, height) → ECEF at the point as delivered. Both the point's ECEF position
 //! and that Jacobian come from a biquadratic model of the map per 256 m grid cell
-//! ([`crate::grid_cells`]), built from the exact inverse projection at nine nodes: nanometres
+//! ([`lidarqa_io::GridToEcef`]), built from the exact inverse projection at nine nodes: nanometres
 //! from the exact map anywhere in a zone, for any CRS (conformal or not). The neglected
 //! second-order terms of the displacement are of order |Δ|²/R (R ≈ 6 371 km): 0.7 µm for
 //! |Δ| = 3 m. The test `linearized_equals_the_exact_round_trip` compares with the rigorous
@@ -29,9 +29,8 @@
 
 use crate::context::TpuContext;
 use crate::error::{Error, Result};
-use crate::grid_cells::{CellCache, GridToEcef};
 use crate::stages::{ChunkSource, read_chunks, run_stages, write_chunks};
-use lidarqa_io::{Crs, LasTimeConverter, LasWriteOptions, RawChunk};
+use lidarqa_io::{CellCache, Crs, GridToEcef, LasTimeConverter, LasWriteOptions, RawChunk};
 use lidarqa_model::{Ecef, Mounting};
 use lidarqa_tpu::{Recoverer, Trajectory};
 use nalgebra::{Matrix3, Vector3};

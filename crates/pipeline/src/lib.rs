@@ -57,7 +57,6 @@ mod correct_tile;
 mod digest;
 mod error;
 mod evaluate_files;
-mod grid_cells;
 mod manifest;
 mod overlap_files;
 pub mod plausibility;

@@ -2,6 +2,11 @@
 //! cell of the grid as a biquadratic: what `correct` needs of the projection at each point
 //! without inverting the projection point by point.
 //!
+//! Beside it, [`crate::LocalInverse`] interpolates the inverse projection itself (φ, λ, their
+//! sines and cosines, convergence and scale), which `tpu` and `calibrate` need to build each
+//! point's local frames. This model gives instead the ECEF position and the map's Jacobian
+//! ∂P/∂(x, y, h), which carry a corrected point's displacement back to the grid in one product.
+//!
 //! # Why a biquadratic per cell is exact enough
 //! The grid point (x, y, h) is `S(x, y) + h n(x, y)` in ECEF, with S the point on the ellipsoid
 //! and n its unit normal: linear in h, and S and n vary with (x, y) on the scale of the
@@ -17,7 +22,8 @@
 //! Hand-written: no crate of the field offers a local polynomial model of a projection, and
 //! the model is a few lines of Lagrange interpolation.
 
-use lidarqa_io::{Crs, Ellipsoid, Geodetic};
+use crate::crs::Crs;
+use crate::geodesy::{Ellipsoid, Geodetic};
 use nalgebra::{Matrix3, Vector3};
 
 /// Side of a cell, metres of the grid.
@@ -29,7 +35,7 @@ const SLOTS: usize = 16;
 
 /// The exact map and the constants it needs.
 #[derive(Debug, Clone)]
-pub(crate) struct GridToEcef {
+pub struct GridToEcef {
     crs: Crs,
     ellipsoid: Ellipsoid,
 }
@@ -37,7 +43,7 @@ pub(crate) struct GridToEcef {
 /// A point of the map: position relative to the cell's centre on the ellipsoid and the
 /// Jacobian ∂P/∂(x, y, h).
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct MapAt {
+pub struct MapAt {
     /// ECEF position minus the cell centre's ellipsoid point, m.
     pub from_centre_m: Vector3<f64>,
     /// ECEF of the cell centre on the ellipsoid, m.
@@ -48,7 +54,7 @@ pub(crate) struct MapAt {
 
 impl GridToEcef {
     /// The map of `crs` (grid coordinates in metres: unit conversion is the caller's).
-    pub(crate) fn new(crs: &Crs) -> GridToEcef {
+    pub fn new(crs: &Crs) -> GridToEcef {
         GridToEcef {
             crs: crs.clone(),
             ellipsoid: crs.ellipsoid(),
@@ -74,7 +80,7 @@ impl GridToEcef {
 
     /// The exact ECEF position of grid point (x, y, h), m.
     #[cfg(test)]
-    pub(crate) fn exact(&self, x_m: f64, y_m: f64, h_m: f64) -> Vector3<f64> {
+    pub fn exact(&self, x_m: f64, y_m: f64, h_m: f64) -> Vector3<f64> {
         let (s, n) = self.surface(x_m, y_m);
         s + n * h_m
     }
@@ -107,7 +113,7 @@ impl GridToEcef {
 
     /// The map at grid point (x, y, h), metres, from the cell in `cache` (built there when
     /// missing).
-    pub(crate) fn at(&self, cache: &mut CellCache, x_m: f64, y_m: f64, h_m: f64) -> MapAt {
+    pub fn at(&self, cache: &mut CellCache, x_m: f64, y_m: f64, h_m: f64) -> MapAt {
         let key = ((x_m / CELL_M).floor() as i64, (y_m / CELL_M).floor() as i64);
         // Direct-mapped on the low bits of both indices.
         let slot = (((key.0 & 3) << 2) | (key.1 & 3)) as usize;
@@ -135,7 +141,7 @@ impl GridToEcef {
 
 /// A worker's recently used cells.
 #[derive(Debug, Default)]
-pub(crate) struct CellCache {
+pub struct CellCache {
     slots: [Option<Cell>; SLOTS],
 }
 
@@ -184,7 +190,7 @@ fn eval(c: &[[Vector3<f64>; 3]; 3], u: f64, v: f64) -> (Vector3<f64>, Vector3<f6
 #[cfg(test)]
 mod tests {
     use super::*;
-    use lidarqa_io::{Hemisphere, UtmZone};
+    use crate::{Hemisphere, UtmZone};
 
     #[test]
     fn the_cell_model_matches_the_exact_map() {
