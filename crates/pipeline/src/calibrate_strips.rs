@@ -910,8 +910,6 @@ impl Kept {
 /// A point's pose and its raw observation.
 type Observed = (PoseAt, LinearRecovery);
 
-impl Kept {}
-
 /// Streams one strip's points in file order, each checked (coordinates, time, trajectory,
 /// recovery) and handed to `take` as its [`Kept`] record and its recovered point. Returns the
 /// file's stem and the strip's id (the LAS point source id when every point has the same
@@ -960,12 +958,8 @@ fn stream_strip(
                     });
                 }
             };
-            let g = inverse.at(p.x, p.y);
-            let ecef = ellipsoid.geodetic_to_ecef(&Geodetic {
-                latitude_rad: g.latitude_rad,
-                longitude_rad: g.longitude_rad,
-                height_m: z,
-            });
+            // ECEF from the inverse's sines and cosines (as tpu's tiles do): no trigonometry.
+            let ecef = ellipsoid.ecef_from_unprojected(&inverse.at(p.x, p.y).unprojected, z);
             let kept = Kept {
                 x: p.x,
                 y: p.y,
