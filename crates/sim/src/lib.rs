@@ -68,7 +68,7 @@ pub use scenario::{
 };
 pub use scene::{
     Building, CLASS_BATHYMETRY, CLASS_BUILDING, CLASS_GROUND, CLASS_TARGET, CLASS_WATER_SURFACE,
-    Markings, Paved, Scene, Target, Water, Wave,
+    Markings, Paved, Scene, Sweep, Target, Water, Wave,
 };
 pub use simulate::{PointSink, SimOptions, simulate, simulate_streaming, simulate_with_progress};
 pub use vegetation::{CLASS_HIGH_VEGETATION, REFLECTIVITY_CANOPY, Vegetation, VegetationFile};

@@ -47,6 +47,40 @@ pub const WATER_ATTENUATION_PER_M: f64 = 0.08;
 /// Width over which a paved area blends into the terrain, m.
 const PAVED_BLEND_M: f64 = 5.0;
 
+/// Step of the forward differences of the ground's slope at a hit, m.
+const GRADIENT_STEP_M: f64 = 0.5;
+
+/// What consecutive rays of one sweep share ([`Scene::sweep`], [`Scene::trace_in`]): the
+/// height of the last ground hit, where the next ray's root search starts (a neighbouring
+/// pulse's ground is centimetres away, so one Newton step lands within rounding), the relief's
+/// phases at a point near the last hit (see [`Anchor`]) and the sines and cosines of the
+/// relief's phase steps over [`GRADIENT_STEP_M`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sweep {
+    ground_m: Option<f64>,
+    anchor: Option<Anchor>,
+    steps: [(f64, f64); 3],
+}
+
+/// The relief's phases at `xy`: those of points within [`ANCHOR_REACH_RAD`] of phase from it
+/// follow by angle addition with a short Taylor series instead of three `sin_cos`, the
+/// neighbouring pulses' ground points too. Each hit's phases become the next anchor, `chain`
+/// counting the additions since the last exact evaluation (each adds a rounding error, so after
+/// [`ANCHOR_CHAIN`] the phases are evaluated again).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Anchor {
+    xy: [f64; 2],
+    phases: Phases,
+    chain: u32,
+}
+
+/// Largest phase difference bridged from an [`Anchor`], rad: the Taylor series of
+/// [`small_sin_cos`] is exact to rounding up to it.
+const ANCHOR_REACH_RAD: f64 = 0.01;
+
+/// Angle additions chained from one exact evaluation before the next (a few ulp each).
+const ANCHOR_CHAIN: u32 = 16;
+
 /// Painted markings of a paved area.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Markings {
@@ -202,10 +236,34 @@ pub struct Scene {
     pub vegetation: Option<Vegetation>,
 }
 
+/// `3t² − 2t³` on t clamped to [0, 1], and its derivative.
 #[inline]
-fn smoothstep(t: f64) -> f64 {
+fn smoothstep_slope(t: f64) -> (f64, f64) {
     let t = t.clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
+    (t * t * (3.0 - 2.0 * t), 6.0 * t * (1.0 - t))
+}
+
+/// The sines and cosines of the relief's three phases at a point (see `Scene::relief_phases`).
+type Phases = [(f64, f64); 3];
+
+/// (sin, cos) of |ε| ≤ [`ANCHOR_REACH_RAD`] by their Taylor series to ε⁷ and ε⁸ (the next terms
+/// are below 10⁻²¹ relative).
+#[inline]
+fn small_sin_cos(e: f64) -> (f64, f64) {
+    // Multiplications by the reciprocals (rounded, in terms below 10⁻⁴ of the result).
+    let e2 = e * e;
+    (
+        e * (1.0 - e2 * (1.0 / 6.0) * (1.0 - e2 * (1.0 / 20.0) * (1.0 - e2 * (1.0 / 42.0)))),
+        1.0 - e2
+            * 0.5
+            * (1.0 - e2 * (1.0 / 12.0) * (1.0 - e2 * (1.0 / 30.0) * (1.0 - e2 * (1.0 / 56.0)))),
+    )
+}
+
+/// (sin, cos) of a + b from those of a and of b.
+#[inline]
+fn add_angles((sa, ca): (f64, f64), (sb, cb): (f64, f64)) -> (f64, f64) {
+    (sa * cb + ca * sb, ca * cb - sa * sb)
 }
 
 fn unit_from_azimuth(deg: f64) -> [f64; 2] {
@@ -447,36 +505,124 @@ impl Scene {
         Ok(scene)
     }
 
-    /// Terrain relief without paved areas or the basin: ground height + a smooth sum of sines,
-    /// m.
+    /// The sines and cosines of the relief's three phases at (x, y): `k x + 0.3`, `0.77 k y` and
+    /// `0.61 k (x + y) + 1.1` (k = [`Scene::relief_k_per_m`]). The height and the slope both come
+    /// from them, and a nearby point's from them by the angle-addition identities.
+    #[inline]
+    fn relief_phases(&self, x: f64, y: f64) -> Phases {
+        let k = self.relief_k_per_m;
+        [
+            (k * x + 0.3).sin_cos(),
+            (0.77 * k * y).sin_cos(),
+            (0.61 * k * (x + y) + 1.1).sin_cos(),
+        ]
+    }
+
+    /// Terrain relief without paved areas or the basin, from its phases: ground height + a
+    /// smooth sum of sines, m.
+    #[inline]
+    fn relief_from(&self, ph: &Phases) -> f64 {
+        self.ground_height_m + self.relief_m * (0.6 * ph[0].0 * ph[1].1 + 0.4 * ph[2].0)
+    }
+
+    /// Slope (∂h/∂x, ∂h/∂y) of [`Scene::relief_from`].
+    #[inline]
+    fn relief_slope_from(&self, ph: &Phases) -> [f64; 2] {
+        let (k, a) = (self.relief_k_per_m, self.relief_m);
+        let diagonal = 0.4 * 0.61 * k * ph[2].1;
+        [
+            a * (0.6 * k * ph[0].1 * ph[1].1 + diagonal),
+            a * (-0.6 * 0.77 * k * ph[0].0 * ph[1].0 + diagonal),
+        ]
+    }
+
+    /// Terrain relief without paved areas or the basin, m.
     #[inline]
     fn relief_height(&self, x: f64, y: f64) -> f64 {
         if self.relief_m == 0.0 {
             return self.ground_height_m;
         }
-        let k = self.relief_k_per_m;
-        self.ground_height_m
-            + self.relief_m
-                * (0.6 * (k * x + 0.3).sin() * (0.77 * k * y).cos()
-                    + 0.4 * (0.61 * k * (x + y) + 1.1).sin())
+        self.relief_from(&self.relief_phases(x, y))
     }
 
     /// Ellipsoidal height of the ground (terrain, pavement, basin bottom; no buildings, targets or
     /// water) at local grid (x, y), m.
     pub fn ground_height(&self, x: f64, y: f64) -> f64 {
-        let mut h = self.relief_height(x, y);
+        self.pave_and_cut(x, y, self.relief_height(x, y), [0.0; 2])
+            .0
+    }
+
+    /// Height (m) and slope of the ground at (x, y), the relief's phases from `anchor`'s when
+    /// it is near (see [`Scene::phases_near`]).
+    #[inline]
+    fn ground_with_slope(&self, x: f64, y: f64, anchor: &mut Option<Anchor>) -> (f64, [f64; 2]) {
+        if self.relief_m == 0.0 {
+            return self.pave_and_cut(x, y, self.ground_height_m, [0.0; 2]);
+        }
+        let ph = self.phases_near(x, y, anchor).0;
+        self.pave_and_cut(x, y, self.relief_from(&ph), self.relief_slope_from(&ph))
+    }
+
+    /// The relief's phases at (x, y), turned from `anchor`'s when it is within reach (with the
+    /// chain length they would have as an anchor), else evaluated, and then `anchor` too.
+    #[inline]
+    fn phases_near(&self, x: f64, y: f64, anchor: &mut Option<Anchor>) -> (Phases, u32) {
+        let k = self.relief_k_per_m;
+        if let Some(a) = anchor.as_ref().filter(|a| a.chain < ANCHOR_CHAIN) {
+            let (dx, dy) = (x - a.xy[0], y - a.xy[1]);
+            let turn = [k * dx, 0.77 * k * dy, 0.61 * k * (dx + dy)];
+            if turn[0].abs().max(turn[1].abs()).max(turn[2].abs()) <= ANCHOR_REACH_RAD {
+                let ph = [
+                    add_angles(a.phases[0], small_sin_cos(turn[0])),
+                    add_angles(a.phases[1], small_sin_cos(turn[1])),
+                    add_angles(a.phases[2], small_sin_cos(turn[2])),
+                ];
+                return (ph, a.chain + 1);
+            }
+        }
+        let phases = self.relief_phases(x, y);
+        *anchor = Some(Anchor {
+            xy: [x, y],
+            phases,
+            chain: 0,
+        });
+        (phases, 0)
+    }
+
+    /// The ground at (x, y) from the relief's height `h` and slope `g` there: the paved areas
+    /// blended in and the basin cut out, with their slopes (the slope feeds only the root
+    /// finder, the height is [`Scene::ground_height`]'s).
+    #[inline]
+    fn pave_and_cut(&self, x: f64, y: f64, mut h: f64, mut g: [f64; 2]) -> (f64, [f64; 2]) {
         for p in &self.paved {
             let (u, v) = local_uv(p.center_m, p.axis, x, y);
-            let w = smoothstep((p.half_m[0] + PAVED_BLEND_M - u.abs()) / PAVED_BLEND_M)
-                * smoothstep((p.half_m[1] + PAVED_BLEND_M - v.abs()) / PAVED_BLEND_M);
+            let (su, dsu) =
+                smoothstep_slope((p.half_m[0] + PAVED_BLEND_M - u.abs()) / PAVED_BLEND_M);
+            let (sv, dsv) =
+                smoothstep_slope((p.half_m[1] + PAVED_BLEND_M - v.abs()) / PAVED_BLEND_M);
+            let w = su * sv;
             if w > 0.0 {
-                h += w * (p.height_m - h);
+                // ∂w/∂u and ∂w/∂v; (u, v) turn from (x, y) by the axis.
+                let wu = -u.signum() * dsu * sv / PAVED_BLEND_M;
+                let wv = -v.signum() * su * dsv / PAVED_BLEND_M;
+                let dw = [
+                    wu * p.axis[0] + wv * p.axis[1],
+                    wu * p.axis[1] - wv * p.axis[0],
+                ];
+                let rise = p.height_m - h;
+                g = [
+                    g[0] * (1.0 - w) + dw[0] * rise,
+                    g[1] * (1.0 - w) + dw[1] * rise,
+                ];
+                h += w * rise;
             }
         }
         if let Some(w) = &self.water {
-            h -= basin_cut(w, x, y);
+            let (cut, dc) = basin_cut(w, x, y);
+            h -= cut;
+            g = [g[0] - dc[0], g[1] - dc[1]];
         }
-        h
+        (h, g)
     }
 
     /// Ellipsoidal height of the water surface at (x, y) when there is water there, m.
@@ -540,7 +686,13 @@ impl Scene {
     /// `footprint_per_m` = beam divergence (footprint diameter per metre of range) for mixed
     /// pixels at target edges. `None` if the ray never meets the ground.
     pub fn trace(&self, curve: &Curve, footprint_per_m: f64) -> Option<Hit> {
-        let mut best = self.trace_ground(curve)?;
+        self.trace_in(curve, footprint_per_m, &mut self.sweep())
+    }
+
+    /// [`Scene::trace`] for the next ray of `sweep` (the same hit, found faster when the rays
+    /// are neighbours).
+    pub fn trace_in(&self, curve: &Curve, footprint_per_m: f64, sweep: &mut Sweep) -> Option<Hit> {
+        let mut best = self.trace_ground_in(curve, sweep)?;
         let mut target_mix: Option<(f64, f64)> = None; // (fraction on plate, plate reflectivity)
         for b in &self.buildings {
             if let Some(h) = building_hit(b, curve)
@@ -620,18 +772,98 @@ impl Scene {
     }
 
     /// The ground (terrain, pavement or basin bottom) along `curve`, ignoring everything above
-    /// it: the secant method on `h(ρ) − ground(x(ρ), y(ρ))` to 1 µm.
+    /// it, to 1 µm; see [`Scene::trace_ground_in`].
     pub fn trace_ground(&self, curve: &Curve) -> Option<Hit> {
+        self.trace_ground_in(curve, &mut self.sweep())
+    }
+
+    /// What the rays of one sweep share (see [`Sweep`]): start one with this.
+    pub fn sweep(&self) -> Sweep {
+        let k = self.relief_k_per_m * GRADIENT_STEP_M;
+        Sweep {
+            ground_m: None,
+            anchor: None,
+            steps: [k.sin_cos(), (0.77 * k).sin_cos(), (0.61 * k).sin_cos()],
+        }
+    }
+
+    /// [`Scene::trace_ground`] for the next ray of `sweep`: Newton's method on
+    /// `h(ρ) − ground(x(ρ), y(ρ))` with the ground's slope from the same sines and cosines,
+    /// started where the ray crosses the height of the sweep's last ground hit (or the
+    /// undisturbed ground level) and stopped when a step is under 0.1 µm, the root then within
+    /// rounding; if it does not converge, the secant method from the undisturbed level.
+    pub fn trace_ground_in(&self, curve: &Curve, sweep: &mut Sweep) -> Option<Hit> {
+        const UP: [f64; 3] = [0.0, 0.0, 1.0];
+        // A ray that starts below the undisturbed level, e.g. refracted at a lake surface,
+        // starts at 0.
+        let level = || curve.plane(UP, self.ground_height_m).unwrap_or(0.0);
+        // Where the ray crosses the last hit's height, to a few cm (one division).
+        let near = |h: f64| {
+            let inv = 1.0 / curve.b[2];
+            let r = -(curve.a[2] - h) * inv;
+            let r = -(curve.a[2] - h + curve.c[2] * r * r) * inv;
+            (r > 0.0 && r.is_finite()).then_some(r)
+        };
+        let start = sweep.ground_m.and_then(near).unwrap_or_else(level);
+        if curve.direction(start)[2] >= 0.0 {
+            return None;
+        }
+        let r = match self.newton_ground(curve, start, &mut sweep.anchor) {
+            Some(r) => r,
+            None => self.secant_ground(curve, level())?,
+        };
+        let p = curve.at(r);
+        sweep.ground_m = Some(p[2]);
+        let ph = if self.relief_m == 0.0 {
+            [(0.0, 1.0); 3]
+        } else {
+            // The hit's phases anchor the next ray's.
+            let (phases, chain) = self.phases_near(p[0], p[1], &mut sweep.anchor);
+            sweep.anchor = Some(Anchor {
+                xy: [p[0], p[1]],
+                phases,
+                chain,
+            });
+            phases
+        };
+        let (gx, gy) = self.ground_gradient(p, &ph, &sweep.steps);
+        let (reflectivity, class) = self.ground_material(p[0], p[1]);
+        Some(Hit {
+            range_m: r,
+            position: p,
+            normal: unit([-gx, -gy, 1.0]),
+            class,
+            reflectivity,
+        })
+    }
+
+    /// The root of `h(ρ) − ground` by Newton's method from `r`, the relief's phases from and
+    /// into `anchor`; `None` when it does not converge to a point ahead of the ray's origin.
+    fn newton_ground(&self, curve: &Curve, mut r: f64, anchor: &mut Option<Anchor>) -> Option<f64> {
+        for _ in 0..30 {
+            let p = curve.at(r);
+            let d = curve.direction(r);
+            let (g, slope) = self.ground_with_slope(p[0], p[1], anchor);
+            let step = -(p[2] - g) / (d[2] - slope[0] * d[0] - slope[1] * d[1]);
+            if !step.is_finite() {
+                return None;
+            }
+            r += step;
+            if step.abs() < 1e-7 {
+                // Quadratic convergence: the root is within rounding of r.
+                return (r > 0.0 && r.is_finite()).then_some(r);
+            }
+        }
+        None
+    }
+
+    /// The root of `h(ρ) − ground` by the secant method from `r0` and a Newton step that
+    /// ignores the terrain slope, to 1 µm.
+    fn secant_ground(&self, curve: &Curve, r0: f64) -> Option<f64> {
         let f = |r: f64| {
             let p = curve.at(r);
             p[2] - self.ground_height(p[0], p[1])
         };
-        // Start where the ray meets the undisturbed ground level, then a Newton step that ignores
-        // the terrain slope, then secant steps.
-        // (A ray that starts below that level, e.g. refracted at a lake surface, starts at 0.)
-        let r0 = curve
-            .plane([0.0, 0.0, 1.0], self.ground_height_m)
-            .unwrap_or(0.0);
         let f0 = f(r0);
         let dh = curve.direction(r0)[2];
         if dh >= 0.0 {
@@ -656,28 +888,27 @@ impl Scene {
                 break;
             }
         }
-        if !(rb.is_finite() && rb > 0.0 && fb.abs() < 1e-4) {
-            return None;
-        }
-        let p = curve.at(rb);
-        let (gx, gy) = self.ground_gradient(p[0], p[1], p[2]);
-        let (reflectivity, class) = self.ground_material(p[0], p[1]);
-        Some(Hit {
-            range_m: rb,
-            position: p,
-            normal: unit([-gx, -gy, 1.0]),
-            class,
-            reflectivity,
-        })
+        (rb.is_finite() && rb > 0.0 && fb.abs() < 1e-4).then_some(rb)
     }
 
-    /// Forward-difference slope at a ground point of height `h` (only the intensity uses it, so
-    /// two evaluations instead of four; the error is ~0.5 m × curvature, < 10⁻³).
-    fn ground_gradient(&self, x: f64, y: f64, h: f64) -> (f64, f64) {
-        let e = 0.5;
+    /// Forward-difference slope at the ground point `p` (only the intensity uses it, so two
+    /// evaluations instead of four; the error is ~0.5 m × curvature, < 10⁻³), the relief at the
+    /// two points from its phases `ph` at `p` turned by the sweep's `steps`.
+    fn ground_gradient(&self, p: [f64; 3], ph: &Phases, steps: &[(f64, f64); 3]) -> (f64, f64) {
+        let e = GRADIENT_STEP_M;
+        let (x, y, h) = (p[0], p[1], p[2]);
+        let (rx, ry) = if self.relief_m == 0.0 {
+            (self.ground_height_m, self.ground_height_m)
+        } else {
+            let diagonal = add_angles(ph[2], steps[2]);
+            (
+                self.relief_from(&[add_angles(ph[0], steps[0]), ph[1], diagonal]),
+                self.relief_from(&[ph[0], add_angles(ph[1], steps[1]), diagonal]),
+            )
+        };
         (
-            (self.ground_height(x + e, y) - h) / e,
-            (self.ground_height(x, y + e) - h) / e,
+            (self.pave_and_cut(x + e, y, rx, [0.0; 2]).0 - h) / e,
+            (self.pave_and_cut(x, y + e, ry, [0.0; 2]).0 - h) / e,
         )
     }
 
@@ -734,18 +965,30 @@ fn local_uv(c: [f64; 2], axis: [f64; 2], x: f64, y: f64) -> (f64, f64) {
 }
 
 /// Depth of the basin cut at (x, y), m: full depth inside the basin, a smooth bank inwards of its
-/// rectangle, depth growing linearly from west to east.
+/// rectangle, depth growing linearly from west to east; with its slope (∂/∂x, ∂/∂y).
 #[inline]
-fn basin_cut(w: &Water, x: f64, y: f64) -> f64 {
+fn basin_cut(w: &Water, x: f64, y: f64) -> (f64, [f64; 2]) {
     if x < w.min_m[0] || x > w.max_m[0] || y < w.min_m[1] || y > w.max_m[1] {
-        return 0.0;
+        return (0.0, [0.0; 2]);
     }
-    let s = smoothstep((x - w.min_m[0]) / w.bank_m)
-        * smoothstep((w.max_m[0] - x) / w.bank_m)
-        * smoothstep((y - w.min_m[1]) / w.bank_m)
-        * smoothstep((w.max_m[1] - y) / w.bank_m);
-    let t = (x - w.min_m[0]) / (w.max_m[0] - w.min_m[0]);
-    s * (w.depth_m[0] + t * (w.depth_m[1] - w.depth_m[0]))
+    let b = w.bank_m;
+    let (sw, dsw) = smoothstep_slope((x - w.min_m[0]) / b);
+    let (se, dse) = smoothstep_slope((w.max_m[0] - x) / b);
+    let (ss, dss) = smoothstep_slope((y - w.min_m[1]) / b);
+    let (sn, dsn) = smoothstep_slope((w.max_m[1] - y) / b);
+    let s = sw * se * ss * sn;
+    let width = w.max_m[0] - w.min_m[0];
+    let t = (x - w.min_m[0]) / width;
+    let depth = w.depth_m[0] + t * (w.depth_m[1] - w.depth_m[0]);
+    let sx = (dsw * se - sw * dse) / b * ss * sn;
+    let sy = sw * se * (dss * sn - ss * dsn) / b;
+    (
+        s * depth,
+        [
+            sx * depth + s * (w.depth_m[1] - w.depth_m[0]) / width,
+            sy * depth,
+        ],
+    )
 }
 
 /// Water surface height and its gradient (∂h/∂x, ∂h/∂y) at (x, y).

@@ -24,7 +24,7 @@ use crate::output::{
 use crate::scenario::{Line, ScanPattern, ScanWave, Scenario};
 use crate::scene::{
     CLASS_BATHYMETRY, CLASS_WATER_SURFACE, REFLECTIVITY_BED, REFLECTIVITY_TARGET,
-    REFLECTIVITY_TERRAIN, WATER_ATTENUATION_PER_M,
+    REFLECTIVITY_TERRAIN, Sweep, WATER_ATTENUATION_PER_M,
 };
 use crate::trajectory::{self, Pose, StripTrajectory, trajectory_sigmas};
 use lidarqa_model::{
@@ -420,8 +420,11 @@ fn simulate_strip(
                 let cap = (end - start) as usize;
                 let mut points = Vec::with_capacity(cap + cap / 8);
                 let mut truth = Vec::with_capacity(if options.keep_truth { cap } else { 0 });
+                // The chunk's pulses in order: each ray's ground search starts at the last
+                // one's (the air's and the water's apart).
+                let mut sweeps = [scenario.scene().sweep(); 2];
                 for i in start..end {
-                    kernel.pulse(i, &mut rng, &mut points, &mut truth)?;
+                    kernel.pulse(i, &mut rng, &mut sweeps, &mut points, &mut truth)?;
                 }
                 progress(end - start);
                 Ok((points, truth))
@@ -509,6 +512,7 @@ impl Kernel<'_> {
         &self,
         i: u64,
         rng: &mut ChaCha8Rng,
+        sweeps: &mut [Sweep; 2],
         points: &mut Vec<SimPoint>,
         truth: &mut Vec<PointTruth>,
     ) -> Result<()> {
@@ -594,7 +598,7 @@ impl Kernel<'_> {
                 let curve = map.curve(&origin, &dir);
                 let hit = sc
                     .scene()
-                    .trace(&curve, divergence)
+                    .trace_in(&curve, divergence, &mut sweeps[0])
                     .ok_or_else(|| fail("the beam does not reach the ground"))?;
                 let true_obs = LinearObservation {
                     range_m: hit.range_m,
@@ -659,7 +663,7 @@ impl Kernel<'_> {
                 let curve = map.curve(&origin, &dir);
                 let hit = sc
                     .scene()
-                    .trace(&curve, divergence)
+                    .trace_in(&curve, divergence, &mut sweeps[0])
                     .ok_or_else(|| fail("the beam does not reach the ground"))?;
                 let c = SPEED_OF_LIGHT_AIR_M_PER_S;
                 let scan_deg = l3.y.atan2(l3.z).to_degrees();
@@ -709,7 +713,7 @@ impl Kernel<'_> {
                 // the surface return (as with a real pulse of a few ns): no sounding.
                 let bottom = sc
                     .scene()
-                    .trace_ground(&water_curve)
+                    .trace_ground_in(&water_curve, &mut sweeps[1])
                     .filter(|b| b.range_m >= MIN_WATER_RANGE_M);
                 let (to, o, v) = measure(0.0, 0.0);
                 let n_ret = if bottom.is_some() { 2 } else { 1 };
