@@ -48,6 +48,16 @@ impl Curve {
         ]
     }
 
+    /// Where the ray reaches height `h`, to ~(ρ²/R)²/ρ (µm) with one division: a start or a
+    /// bound, not a hit; `None` behind the origin.
+    #[inline]
+    pub(crate) fn crossing(&self, h: f64) -> Option<f64> {
+        let inv = 1.0 / self.b[2];
+        let r = -(self.a[2] - h) * inv;
+        let r = -(self.a[2] - h + self.c[2] * r * r) * inv;
+        (r > 0.0 && r.is_finite()).then_some(r)
+    }
+
     /// Smallest positive root of `n·g(ρ) = d` (a plane in x, y, h), or `None`.
     #[inline]
     pub(crate) fn plane(&self, n: [f64; 3], d: f64) -> Option<f64> {

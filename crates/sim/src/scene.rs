@@ -58,6 +58,8 @@ const GRADIENT_STEP_M: f64 = 0.5;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sweep {
     ground_m: Option<f64>,
+    /// The lowest and the highest height of the buildings and raised plates, m.
+    objects_m: Option<[f64; 2]>,
     anchor: Option<Anchor>,
     steps: [(f64, f64); 3],
 }
@@ -596,6 +598,10 @@ impl Scene {
     fn pave_and_cut(&self, x: f64, y: f64, mut h: f64, mut g: [f64; 2]) -> (f64, [f64; 2]) {
         for p in &self.paved {
             let (u, v) = local_uv(p.center_m, p.axis, x, y);
+            // Beyond the blend (the smoothstep's argument ≤ 0, as rounded): no weight.
+            if u.abs() >= p.half_m[0] + PAVED_BLEND_M || v.abs() >= p.half_m[1] + PAVED_BLEND_M {
+                continue;
+            }
             let (su, dsu) =
                 smoothstep_slope((p.half_m[0] + PAVED_BLEND_M - u.abs()) / PAVED_BLEND_M);
             let (sv, dsv) =
@@ -694,7 +700,34 @@ impl Scene {
     pub fn trace_in(&self, curve: &Curve, footprint_per_m: f64, sweep: &mut Sweep) -> Option<Hit> {
         let mut best = self.trace_ground_in(curve, sweep)?;
         let mut target_mix: Option<(f64, f64)> = None; // (fraction on plate, plate reflectivity)
+        // The (x, y) box of the ray between the lowest and the highest object, with the widest
+        // mixed-pixel reach there: an object whose box misses it is missed (its own tests
+        // below would refuse it), so most rays test no object.
+        let reach = sweep.objects_m.and_then(|[low, high]| {
+            let (r0, r1) = (curve.crossing(high)?, curve.crossing(low)?);
+            let (p, q) = (curve.at(r0), curve.at(r1));
+            // The parabola strays from its chord by at most |c| (Δρ)²/4.
+            let pad = 0.5 + 0.25 * curve.c[0].abs().max(curve.c[1].abs()) * (r1 - r0).powi(2);
+            let footprint = 0.5 * footprint_per_m.abs() * (r0.max(r1) + pad);
+            Some((
+                [p[0].min(q[0]) - pad, p[1].min(q[1]) - pad],
+                [p[0].max(q[0]) + pad, p[1].max(q[1]) + pad],
+                footprint,
+            ))
+        });
+        let near = |c: [f64; 2], radius: f64| {
+            reach.is_none_or(|(lo, hi, _)| {
+                c[0] + radius >= lo[0]
+                    && c[0] - radius <= hi[0]
+                    && c[1] + radius >= lo[1]
+                    && c[1] - radius <= hi[1]
+            })
+        };
+        let footprint_reach = reach.map_or(0.0, |r| r.2);
         for b in &self.buildings {
+            if !near(b.center_m, b.half_m[0] + b.half_m[1]) {
+                continue;
+            }
             if let Some(h) = building_hit(b, curve)
                 && h.range_m < best.range_m
             {
@@ -702,6 +735,9 @@ impl Scene {
             }
         }
         for t in self.targets.iter().filter(|t| !t.painted) {
+            if !near(t.center_m, t.radius_m + footprint_reach) {
+                continue;
+            }
             let n = [0.0, 0.0, 1.0];
             let Some(r) = curve.plane(n, t.height_m) else {
                 continue;
@@ -780,9 +816,19 @@ impl Scene {
     /// What the rays of one sweep share (see [`Sweep`]): start one with this.
     pub fn sweep(&self) -> Sweep {
         let k = self.relief_k_per_m * GRADIENT_STEP_M;
+        let tops = self
+            .buildings
+            .iter()
+            .map(|b| (b.base_m, b.ridge_height_m()));
+        let plates = self.targets.iter().filter(|t| !t.painted);
+        let objects_m = tops
+            .chain(plates.map(|t| (t.height_m, t.height_m)))
+            .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
+            .map(|(low, high)| [low, high]);
         Sweep {
             ground_m: None,
             anchor: None,
+            objects_m,
             steps: [k.sin_cos(), (0.77 * k).sin_cos(), (0.61 * k).sin_cos()],
         }
     }
@@ -797,14 +843,10 @@ impl Scene {
         // A ray that starts below the undisturbed level, e.g. refracted at a lake surface,
         // starts at 0.
         let level = || curve.plane(UP, self.ground_height_m).unwrap_or(0.0);
-        // Where the ray crosses the last hit's height, to a few cm (one division).
-        let near = |h: f64| {
-            let inv = 1.0 / curve.b[2];
-            let r = -(curve.a[2] - h) * inv;
-            let r = -(curve.a[2] - h + curve.c[2] * r * r) * inv;
-            (r > 0.0 && r.is_finite()).then_some(r)
-        };
-        let start = sweep.ground_m.and_then(near).unwrap_or_else(level);
+        let start = sweep
+            .ground_m
+            .and_then(|h| curve.crossing(h))
+            .unwrap_or_else(level);
         if curve.direction(start)[2] >= 0.0 {
             return None;
         }
