@@ -1,6 +1,11 @@
 //! Writing a simulated survey with lidarqa-io's writers (SPEC §7): one LAS/LAZ per strip,
 //! `sbet.out` + `smrmsg.out`, `control.csv`, `truth.json` and the nominal `sensor.toml` the user
 //! of the survey would have. Every file is atomic.
+//!
+//! A strip without the truth dimensions is written as records encoded here (point format 6,
+//! [`record`]) rather than through a `LasPoint` and `las::Point` per point: that conversion cost
+//! as much as the strip's geometry. A test holds the records to `LasWriter::write_point`'s byte
+//! for byte.
 
 use crate::error::{Error, Result};
 use crate::{PointSink, PointTruth, Scenario, SimOptions, SimPoint, Survey, simulate_streaming};
@@ -49,7 +54,7 @@ pub fn write_survey(
     for (strip, path) in survey.strips.iter().zip(&paths) {
         let mut file = StripFile::create(path, scenario, strip.id, !strip.truth.is_empty())?;
         file.write(&strip.points, &strip.truth)?;
-        file.writer.finish()?;
+        file.finish_uncommitted()?.commit()?;
     }
     write_rest(dir, scenario, survey)?;
     Ok(paths)
@@ -127,7 +132,7 @@ impl PointSink for StreamSink<'_> {
     fn end_strip(&mut self, strip: usize) -> Result<()> {
         self.file(strip)?;
         if let Some((_, file)) = self.open.take() {
-            self.done.push(file.writer.finish_uncommitted()?.0);
+            self.done.push(file.finish_uncommitted()?);
         }
         Ok(())
     }
@@ -201,9 +206,12 @@ pub(crate) fn utm_wkt(zone: &UtmZone, epsg: u32) -> String {
 /// One strip's LAS/LAZ being written.
 struct StripFile {
     writer: LasWriter,
+    path: PathBuf,
     scale: [f64; 3],
     offset: [f64; 3],
     gps_week: u32,
+    /// Records of points without truth not yet given to the writer (a batch at most).
+    records: Vec<u8>,
 }
 
 impl StripFile {
@@ -237,33 +245,100 @@ impl StripFile {
         };
         Ok(StripFile {
             writer: LasWriter::create(path, &options, &[] as &[&Path])?,
+            path: path.to_path_buf(),
             scale: options.scale,
             offset: options.offset,
             gps_week: scenario.gps_week(),
+            records: Vec::new(),
         })
     }
 
     /// Appends points (with their truth when the file has the truth dimensions).
     fn write(&mut self, points: &[SimPoint], truth: &[PointTruth]) -> Result<()> {
+        if truth.is_empty() {
+            return self.write_records(points);
+        }
         let (scale, offset) = (self.scale, self.offset);
         // The error of the coordinates as stored: the LAS record rounds them to its scale.
         let stored = |v: f64, k: usize| ((v - offset[k]) / scale[k]).round() * scale[k] + offset[k];
-        for (i, p) in points.iter().enumerate() {
+        for (p, t) in points.iter().zip(truth) {
             let point = p.to_las(self.gps_week);
-            match truth.get(i) {
-                Some(t) => {
-                    let error = [
-                        (stored(point.x, 0) - t.easting_m) as f32,
-                        (stored(point.y, 1) - t.northing_m) as f32,
-                        (stored(point.z, 2) - t.height_m) as f32,
-                    ];
-                    self.writer.write_point(&point, &error)?;
-                }
-                None => self.writer.write_point(&point, &[])?,
+            let error = [
+                (stored(point.x, 0) - t.easting_m) as f32,
+                (stored(point.y, 1) - t.northing_m) as f32,
+                (stored(point.z, 2) - t.height_m) as f32,
+            ];
+            self.writer.write_point(&point, &error)?;
+        }
+        Ok(())
+    }
+
+    /// Appends points as records, handed to the writer in its batches.
+    fn write_records(&mut self, points: &[SimPoint]) -> Result<()> {
+        let batch = lidarqa_io::WRITE_BATCH_POINTS * RECORD_LEN;
+        for p in points {
+            let index = self.writer.len() + (self.records.len() / RECORD_LEN) as u64;
+            let r = record(p, self.gps_week, self.scale, self.offset).ok_or_else(|| {
+                Error::Io(lidarqa_io::Error::PointMismatch {
+                    path: self.path.clone(),
+                    index,
+                    message: format!(
+                        "coordinates ({}, {}, {}) beyond the i32 range of the scale and offset",
+                        p.easting_m, p.northing_m, p.height_m
+                    ),
+                })
+            })?;
+            self.records.extend_from_slice(&r);
+            if self.records.len() >= batch {
+                self.writer.write_records(std::mem::replace(
+                    &mut self.records,
+                    Vec::with_capacity(batch),
+                ))?;
             }
         }
         Ok(())
     }
+
+    /// Writes what is buffered and completes the file, not yet in place.
+    fn finish_uncommitted(mut self) -> Result<AtomicFile> {
+        if !self.records.is_empty() {
+            self.writer
+                .write_records(std::mem::take(&mut self.records))?;
+        }
+        Ok(self.writer.finish_uncommitted()?.0)
+    }
+}
+
+/// Bytes of a point format 6 record.
+const RECORD_LEN: usize = 30;
+
+/// The point format 6 record of `p` (LAS 1.4 R15 table 13), as `LasWriter::write_point` writes
+/// `p.to_las(gps_week)`: coordinates rounded to the nearest step of `scale` from `offset`, the
+/// scan angle to the nearest 0.006°; `None` for a coordinate beyond the i32 range. The
+/// simulator's return numbers (1–2), classes and scan angles (within ±180°) always fit.
+fn record(p: &SimPoint, gps_week: u32, scale: [f64; 3], offset: [f64; 3]) -> Option<[u8; 30]> {
+    let mut r = [0u8; RECORD_LEN];
+    for (k, v) in [p.easting_m, p.northing_m, p.height_m]
+        .into_iter()
+        .enumerate()
+    {
+        let n = ((v - offset[k]) / scale[k]).round();
+        if !(n >= f64::from(i32::MIN) && n <= f64::from(i32::MAX)) {
+            return None;
+        }
+        r[4 * k..4 * k + 4].copy_from_slice(&(n as i32).to_le_bytes());
+    }
+    r[12..14].copy_from_slice(&p.intensity.to_le_bytes());
+    r[14] = (p.number_of_returns << 4) | p.return_number;
+    // r[15]: no flags, scanner channel 0, scan direction bit clear (as `LasPoint`'s default).
+    r[16] = p.classification;
+    // r[17]: user data 0.
+    let scan = (p.scan_angle_deg / 0.006).round() as i16;
+    r[18..20].copy_from_slice(&scan.to_le_bytes());
+    r[20..22].copy_from_slice(&p.point_source_id.to_le_bytes());
+    let t = lidarqa_io::week_to_adjusted_standard(i64::from(gps_week), p.gps_time_s);
+    r[22..30].copy_from_slice(&t.to_le_bytes());
+    Some(r)
 }
 
 /// The `--truth` extra-bytes dimensions: name and description (each ≤ 32 bytes).
@@ -350,5 +425,51 @@ mod tests {
         let wkt = utm_wkt(&zone, 32649);
         assert_eq!(lidarqa_io::epsg_from_wkt(&wkt), Some(32649));
         assert!(wkt.contains("PARAMETER[\"central_meridian\",111]"));
+    }
+
+    /// `record` against the writer's own `las::Point` path, byte for byte: coordinates and scan
+    /// angles on and beside their rounding boundaries, both signs, every class the simulator
+    /// writes.
+    #[test]
+    fn records_are_those_of_write_point() {
+        let dir = tempfile::tempdir().unwrap();
+        let scenario = Scenario::builtin("demo").unwrap();
+        let path = dir.path().join("a.las");
+        let mut file = StripFile::create(&path, &scenario, 7, false).unwrap();
+        let [e0, n0] = scenario.origin_m();
+        let mut points = Vec::new();
+        for i in 0..4000 {
+            let f = f64::from(i);
+            let step = 0.006 * (f - 2000.0) / 7.0;
+            points.push(SimPoint {
+                easting_m: e0 + (f - 2000.0) * 0.0005 + 1e-9 * (f % 3.0 - 1.0),
+                northing_m: n0 - 1234.5675 + f * 0.25005,
+                height_m: 180.0 + (f - 2000.0) * 0.0015,
+                gps_time_s: 300_000.0 + f * 5e-6,
+                intensity: (i * 17 % 65536) as u16,
+                scan_angle_deg: [step as f32, (0.003 * (f - 2000.0)) as f32][i as usize % 2],
+                return_number: 1 + (i % 2) as u8,
+                number_of_returns: 2,
+                classification: [2, 6, 40, 41, 64, 5][i as usize % 6],
+                point_source_id: 7,
+            });
+        }
+        let records: Vec<u8> = points
+            .iter()
+            .flat_map(|p| record(p, 2200, file.scale, file.offset).unwrap())
+            .collect();
+        for p in &points {
+            file.writer.write_point(&p.to_las(2200), &[]).unwrap();
+        }
+        let (scale, offset) = (file.scale, file.offset);
+        file.finish_uncommitted().unwrap().commit().unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let start = u32::from_le_bytes(bytes[96..100].try_into().unwrap()) as usize;
+        assert_eq!(bytes.len() - start, records.len());
+        assert!(bytes[start..] == records[..], "records differ");
+        // And a coordinate beyond the i32 range is refused.
+        let mut far = points[0];
+        far.easting_m = e0 + 3e6;
+        assert!(record(&far, 2200, scale, offset).is_none());
     }
 }

@@ -451,6 +451,43 @@ impl LasWriter {
             })
     }
 
+    /// Appends whole records already encoded in this file's point format, scale and offset
+    /// (`records.len()` a multiple of the record length), after the points given before: for a
+    /// producer that encodes its own records (the simulator, without a `las::Point` per point).
+    /// They go to `las` as one slab, so give them in [`WRITE_BATCH_POINTS`] for the parallel
+    /// LAZ compressor.
+    ///
+    /// # Errors
+    /// [`Error::PointMismatch`] for bytes that are not whole records; [`Error::LasPoint`] when
+    /// `las` cannot write them.
+    pub fn write_records(&mut self, records: Vec<u8>) -> Result<()> {
+        let len = usize::from(self.format.len());
+        if records.len() % len != 0 {
+            return Err(Error::PointMismatch {
+                path: self.path.clone(),
+                index: self.index,
+                message: format!(
+                    "{} bytes are not whole records of point format {} ({len} bytes each)",
+                    records.len(),
+                    self.format
+                ),
+            });
+        }
+        self.flush_pending()?;
+        let (first, n) = (self.index, records.len() / len);
+        las::PointDataBuilder::new()
+            .for_header(self.inner.header())
+            .build_from_bytes(records)
+            .and_then(|data| self.inner.write_points(&data))
+            .map_err(|source| Error::LasPoint {
+                path: self.path.clone(),
+                index: first,
+                source,
+            })?;
+        self.index += n as u64;
+        Ok(())
+    }
+
     /// Points written so far.
     pub fn len(&self) -> u64 {
         self.index
