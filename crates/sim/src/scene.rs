@@ -58,6 +58,8 @@ const GRADIENT_STEP_M: f64 = 0.5;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sweep {
     ground_m: Option<f64>,
+    /// The paved areas that may reach within [`PAVED_NEAR_M`] of a point: (the point, mask).
+    paved: Option<([f64; 2], u64)>,
     /// The lowest and the highest height of the buildings and raised plates, m.
     objects_m: Option<[f64; 2]>,
     anchor: Option<Anchor>,
@@ -76,12 +78,35 @@ struct Anchor {
     chain: u32,
 }
 
+/// Every paved area, as the mask of `Scene::pave_and_cut`.
+const ALL_PAVED: u64 = u64::MAX;
+
+/// Half size of the square around a ray's ground about which [`Sweep`] keeps the paved areas
+/// that may reach into it, m.
+const PAVED_NEAR_M: f64 = 32.0;
+
+impl Sweep {
+    /// The mask of the paved areas that may reach (x, y): the kept one when (x, y) is in its
+    /// square, else all.
+    #[inline]
+    fn paved_at(&self, x: f64, y: f64) -> u64 {
+        match self.paved {
+            Some((c, mask))
+                if (x - c[0]).abs() <= PAVED_NEAR_M && (y - c[1]).abs() <= PAVED_NEAR_M =>
+            {
+                mask
+            }
+            _ => ALL_PAVED,
+        }
+    }
+}
+
 /// Largest phase difference bridged from an [`Anchor`], rad: the Taylor series of
 /// [`small_sin_cos`] is exact to rounding up to it.
-const ANCHOR_REACH_RAD: f64 = 0.01;
+pub(crate) const ANCHOR_REACH_RAD: f64 = 0.01;
 
 /// Angle additions chained from one exact evaluation before the next (a few ulp each).
-const ANCHOR_CHAIN: u32 = 16;
+pub(crate) const ANCHOR_CHAIN: u32 = 16;
 
 /// Painted markings of a paved area.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -251,7 +276,7 @@ type Phases = [(f64, f64); 3];
 /// (sin, cos) of |ε| ≤ [`ANCHOR_REACH_RAD`] by their Taylor series to ε⁷ and ε⁸ (the next terms
 /// are below 10⁻²¹ relative).
 #[inline]
-fn small_sin_cos(e: f64) -> (f64, f64) {
+pub(crate) fn small_sin_cos(e: f64) -> (f64, f64) {
     // Multiplications by the reciprocals (rounded, in terms below 10⁻⁴ of the result).
     let e2 = e * e;
     (
@@ -264,7 +289,7 @@ fn small_sin_cos(e: f64) -> (f64, f64) {
 
 /// (sin, cos) of a + b from those of a and of b.
 #[inline]
-fn add_angles((sa, ca): (f64, f64), (sb, cb): (f64, f64)) -> (f64, f64) {
+pub(crate) fn add_angles((sa, ca): (f64, f64), (sb, cb): (f64, f64)) -> (f64, f64) {
     (sa * cb + ca * sb, ca * cb - sa * sb)
 }
 
@@ -550,19 +575,38 @@ impl Scene {
     /// Ellipsoidal height of the ground (terrain, pavement, basin bottom; no buildings, targets or
     /// water) at local grid (x, y), m.
     pub fn ground_height(&self, x: f64, y: f64) -> f64 {
-        self.pave_and_cut(x, y, self.relief_height(x, y), [0.0; 2])
+        self.pave_and_cut(x, y, self.relief_height(x, y), [0.0; 2], ALL_PAVED)
             .0
     }
 
     /// Height (m) and slope of the ground at (x, y), the relief's phases from `anchor`'s when
     /// it is near (see [`Scene::phases_near`]).
     #[inline]
-    fn ground_with_slope(&self, x: f64, y: f64, anchor: &mut Option<Anchor>) -> (f64, [f64; 2]) {
+    fn ground_with_slope(&self, x: f64, y: f64, sweep: &mut Sweep) -> (f64, [f64; 2]) {
+        let paved = sweep.paved_at(x, y);
         if self.relief_m == 0.0 {
-            return self.pave_and_cut(x, y, self.ground_height_m, [0.0; 2]);
+            return self.pave_and_cut(x, y, self.ground_height_m, [0.0; 2], paved);
         }
-        let ph = self.phases_near(x, y, anchor).0;
-        self.pave_and_cut(x, y, self.relief_from(&ph), self.relief_slope_from(&ph))
+        let ph = self.phases_near(x, y, &mut sweep.anchor).0;
+        let (h, g) = (self.relief_from(&ph), self.relief_slope_from(&ph));
+        self.pave_and_cut(x, y, h, g, paved)
+    }
+
+    /// The paved areas that may reach a point within [`PAVED_NEAR_M`] (in x and in y) of `c`,
+    /// with that point: an area's blend rectangle lies within `half + half + 2 blend` of its
+    /// centre (all of them beyond 64 areas).
+    fn paved_near(&self, c: [f64; 2]) -> ([f64; 2], u64) {
+        if self.paved.len() > 64 {
+            return (c, ALL_PAVED);
+        }
+        let mut mask = 0;
+        for (i, p) in self.paved.iter().enumerate() {
+            let reach = PAVED_NEAR_M + p.half_m[0] + p.half_m[1] + 2.0 * PAVED_BLEND_M;
+            if (p.center_m[0] - c[0]).abs() <= reach && (p.center_m[1] - c[1]).abs() <= reach {
+                mask |= 1 << i;
+            }
+        }
+        (c, mask)
     }
 
     /// The relief's phases at (x, y), turned from `anchor`'s when it is within reach (with the
@@ -593,10 +637,21 @@ impl Scene {
 
     /// The ground at (x, y) from the relief's height `h` and slope `g` there: the paved areas
     /// blended in and the basin cut out, with their slopes (the slope feeds only the root
-    /// finder, the height is [`Scene::ground_height`]'s).
+    /// finder, the height is [`Scene::ground_height`]'s). Only the paved areas of the mask
+    /// `paved` (bit i: area i) are looked at: the others must not reach (x, y).
     #[inline]
-    fn pave_and_cut(&self, x: f64, y: f64, mut h: f64, mut g: [f64; 2]) -> (f64, [f64; 2]) {
-        for p in &self.paved {
+    fn pave_and_cut(
+        &self,
+        x: f64,
+        y: f64,
+        mut h: f64,
+        mut g: [f64; 2],
+        paved: u64,
+    ) -> (f64, [f64; 2]) {
+        for (i, p) in self.paved.iter().enumerate() {
+            if paved & (1 << i.min(63)) == 0 {
+                continue;
+            }
             let (u, v) = local_uv(p.center_m, p.axis, x, y);
             // Beyond the blend (the smoothstep's argument ≤ 0, as rounded): no weight.
             if u.abs() >= p.half_m[0] + PAVED_BLEND_M || v.abs() >= p.half_m[1] + PAVED_BLEND_M {
@@ -664,8 +719,11 @@ impl Scene {
 
     /// Reflectivity and class of the ground at (x, y): asphalt / paint in paved areas, terrain
     /// elsewhere.
-    fn ground_material(&self, x: f64, y: f64) -> (f64, u8) {
-        for p in &self.paved {
+    fn ground_material(&self, x: f64, y: f64, paved: u64) -> (f64, u8) {
+        for (i, p) in self.paved.iter().enumerate() {
+            if paved & (1 << i.min(63)) == 0 {
+                continue;
+            }
             let (u, v) = local_uv(p.center_m, p.axis, x, y);
             if u.abs() <= p.half_m[0] && v.abs() <= p.half_m[1] {
                 let edge = p.half_m[1] - v.abs() < 0.3 && p.half_m[1] - v.abs() > 0.15;
@@ -827,6 +885,7 @@ impl Scene {
             .map(|(low, high)| [low, high]);
         Sweep {
             ground_m: None,
+            paved: None,
             anchor: None,
             objects_m,
             steps: [k.sin_cos(), (0.77 * k).sin_cos(), (0.61 * k).sin_cos()],
@@ -850,7 +909,12 @@ impl Scene {
         if curve.direction(start)[2] >= 0.0 {
             return None;
         }
-        let r = match self.newton_ground(curve, start, &mut sweep.anchor) {
+        // The paved areas near the start, for this ray's and the next rays' ground.
+        let q = curve.at(start);
+        if sweep.paved_at(q[0], q[1]) == ALL_PAVED {
+            sweep.paved = Some(self.paved_near([q[0], q[1]]));
+        }
+        let r = match self.newton_ground(curve, start, sweep) {
             Some(r) => r,
             None => self.secant_ground(curve, level())?,
         };
@@ -868,8 +932,8 @@ impl Scene {
             });
             phases
         };
-        let (gx, gy) = self.ground_gradient(p, &ph, &sweep.steps);
-        let (reflectivity, class) = self.ground_material(p[0], p[1]);
+        let (gx, gy) = self.ground_gradient(p, &ph, sweep);
+        let (reflectivity, class) = self.ground_material(p[0], p[1], sweep.paved_at(p[0], p[1]));
         Some(Hit {
             range_m: r,
             position: p,
@@ -881,11 +945,11 @@ impl Scene {
 
     /// The root of `h(ρ) − ground` by Newton's method from `r`, the relief's phases from and
     /// into `anchor`; `None` when it does not converge to a point ahead of the ray's origin.
-    fn newton_ground(&self, curve: &Curve, mut r: f64, anchor: &mut Option<Anchor>) -> Option<f64> {
+    fn newton_ground(&self, curve: &Curve, mut r: f64, sweep: &mut Sweep) -> Option<f64> {
         for _ in 0..30 {
             let p = curve.at(r);
             let d = curve.direction(r);
-            let (g, slope) = self.ground_with_slope(p[0], p[1], anchor);
+            let (g, slope) = self.ground_with_slope(p[0], p[1], sweep);
             let step = -(p[2] - g) / (d[2] - slope[0] * d[0] - slope[1] * d[1]);
             if !step.is_finite() {
                 return None;
@@ -936,9 +1000,10 @@ impl Scene {
     /// Forward-difference slope at the ground point `p` (only the intensity uses it, so two
     /// evaluations instead of four; the error is ~0.5 m × curvature, < 10⁻³), the relief at the
     /// two points from its phases `ph` at `p` turned by the sweep's `steps`.
-    fn ground_gradient(&self, p: [f64; 3], ph: &Phases, steps: &[(f64, f64); 3]) -> (f64, f64) {
-        let e = GRADIENT_STEP_M;
+    fn ground_gradient(&self, p: [f64; 3], ph: &Phases, sweep: &Sweep) -> (f64, f64) {
+        let (e, steps) = (GRADIENT_STEP_M, &sweep.steps);
         let (x, y, h) = (p[0], p[1], p[2]);
+        let paved = [sweep.paved_at(x + e, y), sweep.paved_at(x, y + e)];
         let (rx, ry) = if self.relief_m == 0.0 {
             (self.ground_height_m, self.ground_height_m)
         } else {
@@ -949,8 +1014,8 @@ impl Scene {
             )
         };
         (
-            (self.pave_and_cut(x + e, y, rx, [0.0; 2]).0 - h) / e,
-            (self.pave_and_cut(x, y + e, ry, [0.0; 2]).0 - h) / e,
+            (self.pave_and_cut(x + e, y, rx, [0.0; 2], paved[0]).0 - h) / e,
+            (self.pave_and_cut(x, y + e, ry, [0.0; 2], paved[1]).0 - h) / e,
         )
     }
 

@@ -23,8 +23,9 @@ use crate::output::{
 };
 use crate::scenario::{Line, ScanPattern, ScanWave, Scenario};
 use crate::scene::{
-    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, REFLECTIVITY_BED, REFLECTIVITY_TARGET,
-    REFLECTIVITY_TERRAIN, Sweep, WATER_ATTENUATION_PER_M,
+    ANCHOR_CHAIN, ANCHOR_REACH_RAD, CLASS_BATHYMETRY, CLASS_WATER_SURFACE, REFLECTIVITY_BED,
+    REFLECTIVITY_TARGET, REFLECTIVITY_TERRAIN, Sweep, WATER_ATTENUATION_PER_M, add_angles,
+    small_sin_cos,
 };
 use crate::trajectory::{self, Pose, StripTrajectory, trajectory_sigmas};
 use lidarqa_model::{
@@ -423,8 +424,10 @@ fn simulate_strip(
                 // The chunk's pulses in order: each ray's ground search starts at the last
                 // one's (the air's and the water's apart).
                 let mut sweeps = [scenario.scene().sweep(); 2];
+                let mut attitude = None;
                 for i in start..end {
-                    kernel.pulse(i, &mut rng, &mut sweeps, &mut points, &mut truth)?;
+                    let state = (&mut sweeps, &mut attitude);
+                    kernel.pulse(i, &mut rng, state, &mut points, &mut truth)?;
                 }
                 progress(end - start);
                 Ok((points, truth))
@@ -512,7 +515,7 @@ impl Kernel<'_> {
         &self,
         i: u64,
         rng: &mut ChaCha8Rng,
-        sweeps: &mut [Sweep; 2],
+        (sweeps, attitude): (&mut [Sweep; 2], &mut Option<AttitudeAnchor>),
         points: &mut Vec<SimPoint>,
         truth: &mut Vec<PointTruth>,
     ) -> Result<()> {
@@ -526,8 +529,7 @@ impl Kernel<'_> {
         let map = &self.traj.maps[seg.map as usize];
         let att_true = lerp_attitude(&self.traj.truth[k], &self.traj.truth[k + 1], f);
         let (p_true, c_true) = lerp_frame(&seg.truth, f);
-        let m_true =
-            c_true * rotation_zyx(att_true.roll_rad, att_true.pitch_rad, att_true.heading_rad);
+        let m_true = c_true * AttitudeAnchor::rotation(attitude, &att_true);
         let origin = p_true + m_true * self.true_mounting.lever_arm_m;
         let att_meas = lerp_attitude(&self.traj.measured[k], &self.traj.measured[k + 1], f);
         let (p_meas, c_meas) = lerp_frame(&seg.measured, f);
@@ -750,6 +752,62 @@ impl Kernel<'_> {
             _ => return Err(fail("scanner type and scan pattern disagree")),
         }
         Ok(())
+    }
+}
+
+/// The sines and cosines of the true attitude at a recent pulse: the next pulses' (a few µrad
+/// on) follow from them by angle addition instead of three `sin_cos` (as the scene's relief
+/// phases do), evaluated again after `ANCHOR_CHAIN` additions.
+#[derive(Debug, Clone, Copy)]
+struct AttitudeAnchor {
+    angles_rad: [f64; 3],
+    sin_cos: [(f64, f64); 3],
+    chain: u32,
+}
+
+impl AttitudeAnchor {
+    /// `Rz(heading) · Ry(pitch) · Rx(roll)` of `att` (`lidarqa_model::rotation_zyx`, to
+    /// rounding), its sines and cosines from `anchor`'s, which it then becomes.
+    #[inline]
+    fn rotation(anchor: &mut Option<AttitudeAnchor>, att: &Attitude) -> Matrix3<f64> {
+        let angles_rad = [att.roll_rad, att.pitch_rad, att.heading_rad];
+        let mut sin_cos = [(0.0, 1.0); 3];
+        let mut chain = 0;
+        match anchor {
+            Some(a) if a.chain < ANCHOR_CHAIN => {
+                let d = [
+                    angles_rad[0] - a.angles_rad[0],
+                    angles_rad[1] - a.angles_rad[1],
+                    angles_rad[2] - a.angles_rad[2],
+                ];
+                if d[0].abs().max(d[1].abs()).max(d[2].abs()) <= ANCHOR_REACH_RAD {
+                    for i in 0..3 {
+                        sin_cos[i] = add_angles(a.sin_cos[i], small_sin_cos(d[i]));
+                    }
+                    chain = a.chain + 1;
+                } else {
+                    sin_cos = angles_rad.map(f64::sin_cos);
+                }
+            }
+            _ => sin_cos = angles_rad.map(f64::sin_cos),
+        }
+        *anchor = Some(AttitudeAnchor {
+            angles_rad,
+            sin_cos,
+            chain,
+        });
+        let [(sr, cr), (sp, cp), (sy, cy)] = sin_cos;
+        Matrix3::new(
+            cy * cp,
+            cy * sp * sr - sy * cr,
+            cy * sp * cr + sy * sr,
+            sy * cp,
+            sy * sp * sr + cy * cr,
+            sy * sp * cr - cy * sr,
+            -sp,
+            cp * sr,
+            cp * cr,
+        )
     }
 }
 
