@@ -1319,6 +1319,60 @@ mod tests {
         );
     }
 
+    /// The Newton root of a sweep of neighbouring rays (each started at the last one's ground,
+    /// the relief's phases by angle addition) against the scene's own `ground_height` and the
+    /// secant method from the undisturbed level, over relief, paved blends and the basin's
+    /// banks; its slope against the forward differences of `ground_height`.
+    #[test]
+    fn sweep_roots_are_the_ground() {
+        let text = crate::scenario::builtin_toml("bathymetry").unwrap();
+        let mut f: crate::scenario::ScenarioFile = toml::from_str(text).unwrap();
+        let demo: crate::scenario::ScenarioFile =
+            toml::from_str(crate::scenario::builtin_toml("demo").unwrap()).unwrap();
+        f.scene.paved = demo.scene.paved;
+        f.scene.relief_m = 1.5;
+        let s = Scene::from_file(&f.scene).unwrap();
+        let mut sweep = s.sweep();
+        let (mut worst_h, mut worst_r, mut worst_n, mut rays) = (0.0_f64, 0.0_f64, 0.0_f64, 0);
+        for i in 0..40_000 {
+            let t = f64::from(i);
+            // A triangle scan of ±20° across a track from x = −400 m to 400 m at y ≈ −40 m.
+            let u = 4.0 * ((t / 400.0 + 0.25).fract() - 0.5).abs() - 1.0;
+            let theta = 20f64.to_radians() * u;
+            let curve = Curve {
+                a: [-400.0 + 0.02 * t, -40.0, 320.0],
+                b: [0.05, theta.sin(), -theta.cos()],
+                c: [0.0, 0.0, -2e-8],
+            };
+            let Some(hit) = s.trace_ground_in(&curve, &mut sweep) else {
+                continue;
+            };
+            rays += 1;
+            let p = hit.position;
+            worst_h = worst_h.max((p[2] - s.ground_height(p[0], p[1])).abs());
+            let level = curve
+                .plane([0.0, 0.0, 1.0], s.ground_height_m)
+                .unwrap_or(0.0);
+            let r = s.secant_ground(&curve, level).unwrap();
+            worst_r = worst_r.max((hit.range_m - r).abs());
+            let e = GRADIENT_STEP_M;
+            let g = [
+                (s.ground_height(p[0] + e, p[1]) - p[2]) / e,
+                (s.ground_height(p[0], p[1] + e) - p[2]) / e,
+            ];
+            let n = unit([-g[0], -g[1], 1.0]);
+            worst_n = worst_n.max(
+                (0..3)
+                    .map(|k| (n[k] - hit.normal[k]).abs())
+                    .fold(0.0, f64::max),
+            );
+        }
+        assert_eq!(rays, 40_000);
+        assert!(worst_h < 1e-9, "height residual {worst_h} m");
+        assert!(worst_r < 1e-9, "range against the secant {worst_r} m");
+        assert!(worst_n < 1e-9, "normal {worst_n}");
+    }
+
     #[test]
     fn segment_fraction_limits() {
         assert_eq!(segment_fraction(1.0), 1.0);
