@@ -57,7 +57,8 @@ const GRADIENT_STEP_M: f64 = 0.5;
 /// relief's phase steps over [`GRADIENT_STEP_M`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sweep {
-    ground_m: Option<f64>,
+    /// The heights of the last two ground hits, m.
+    ground_m: [Option<f64>; 2],
     /// The paved areas that may reach within [`PAVED_NEAR_M`] of a point: (the point, mask).
     paved: Option<([f64; 2], u64)>,
     /// The lowest and the highest height of the buildings and raised plates, m.
@@ -272,6 +273,12 @@ fn smoothstep_slope(t: f64) -> (f64, f64) {
 
 /// The sines and cosines of the relief's three phases at a point (see `Scene::relief_phases`).
 type Phases = [(f64, f64); 3];
+
+/// [`Phases`] with the length of their chain of angle additions (see [`Anchor`]).
+type Phased = (Phases, u32);
+
+/// A ground root: the range, m, and the relief's phases there.
+type NewtonRoot = (f64, Phased);
 
 /// (sin, cos) of |ε| ≤ [`ANCHOR_REACH_RAD`] by their Taylor series to ε⁷ and ε⁸ (the next terms
 /// are below 10⁻²¹ relative).
@@ -582,14 +589,17 @@ impl Scene {
     /// Height (m) and slope of the ground at (x, y), the relief's phases from `anchor`'s when
     /// it is near (see [`Scene::phases_near`]).
     #[inline]
-    fn ground_with_slope(&self, x: f64, y: f64, sweep: &mut Sweep) -> (f64, [f64; 2]) {
+    fn ground_with_slope(&self, x: f64, y: f64, sweep: &mut Sweep) -> (f64, [f64; 2], Phased) {
         let paved = sweep.paved_at(x, y);
         if self.relief_m == 0.0 {
-            return self.pave_and_cut(x, y, self.ground_height_m, [0.0; 2], paved);
+            let (h, g) = self.pave_and_cut(x, y, self.ground_height_m, [0.0; 2], paved);
+            return (h, g, ([(0.0, 1.0); 3], 0));
         }
-        let ph = self.phases_near(x, y, &mut sweep.anchor).0;
-        let (h, g) = (self.relief_from(&ph), self.relief_slope_from(&ph));
-        self.pave_and_cut(x, y, h, g, paved)
+        let phased = self.phases_near(x, y, &mut sweep.anchor);
+        let ph = &phased.0;
+        let (h, g) = (self.relief_from(ph), self.relief_slope_from(ph));
+        let (h, g) = self.pave_and_cut(x, y, h, g, paved);
+        (h, g, phased)
     }
 
     /// The paved areas that may reach a point within [`PAVED_NEAR_M`] (in x and in y) of `c`,
@@ -884,7 +894,7 @@ impl Scene {
             .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
             .map(|(low, high)| [low, high]);
         Sweep {
-            ground_m: None,
+            ground_m: [None; 2],
             paved: None,
             anchor: None,
             objects_m,
@@ -902,10 +912,13 @@ impl Scene {
         // A ray that starts below the undisturbed level, e.g. refracted at a lake surface,
         // starts at 0.
         let level = || curve.plane(UP, self.ground_height_m).unwrap_or(0.0);
-        let start = sweep
-            .ground_m
-            .and_then(|h| curve.crossing(h))
-            .unwrap_or_else(level);
+        // Where the ray crosses the height extrapolated from the last two hits (a few µm off
+        // the ground along a scan line), or the last one's.
+        let guess = match sweep.ground_m {
+            [Some(h1), Some(h0)] => Some(2.0 * h1 - h0),
+            [h1, _] => h1,
+        };
+        let start = guess.and_then(|h| curve.crossing(h)).unwrap_or_else(level);
         if curve.direction(start)[2] >= 0.0 {
             return None;
         }
@@ -914,24 +927,24 @@ impl Scene {
         if sweep.paved_at(q[0], q[1]) == ALL_PAVED {
             sweep.paved = Some(self.paved_near([q[0], q[1]]));
         }
-        let r = match self.newton_ground(curve, start, sweep) {
-            Some(r) => r,
-            None => self.secant_ground(curve, level())?,
+        let (r, (ph, chain)) = match self.newton_ground(curve, start, sweep) {
+            Some(found) => found,
+            None => {
+                let r = self.secant_ground(curve, level())?;
+                let p = curve.at(r);
+                (r, (self.relief_phases(p[0], p[1]), 0))
+            }
         };
         let p = curve.at(r);
-        sweep.ground_m = Some(p[2]);
-        let ph = if self.relief_m == 0.0 {
-            [(0.0, 1.0); 3]
-        } else {
+        sweep.ground_m = [Some(p[2]), sweep.ground_m[0]];
+        if self.relief_m != 0.0 {
             // The hit's phases anchor the next ray's.
-            let (phases, chain) = self.phases_near(p[0], p[1], &mut sweep.anchor);
             sweep.anchor = Some(Anchor {
                 xy: [p[0], p[1]],
-                phases,
+                phases: ph,
                 chain,
             });
-            phases
-        };
+        }
         let (gx, gy) = self.ground_gradient(p, &ph, sweep);
         let (reflectivity, class) = self.ground_material(p[0], p[1], sweep.paved_at(p[0], p[1]));
         Some(Hit {
@@ -943,22 +956,25 @@ impl Scene {
         })
     }
 
-    /// The root of `h(ρ) − ground` by Newton's method from `r`, the relief's phases from and
-    /// into `anchor`; `None` when it does not converge to a point ahead of the ray's origin.
-    fn newton_ground(&self, curve: &Curve, mut r: f64, sweep: &mut Sweep) -> Option<f64> {
+    /// The root of `h(ρ) − ground` by Newton's method from `r`, to rounding, with the relief's
+    /// phases there (from and into the sweep's anchor); `None` when it does not converge to a
+    /// point ahead of the ray's origin.
+    fn newton_ground(&self, curve: &Curve, mut r: f64, sweep: &mut Sweep) -> Option<NewtonRoot> {
         for _ in 0..30 {
             let p = curve.at(r);
             let d = curve.direction(r);
-            let (g, slope) = self.ground_with_slope(p[0], p[1], sweep);
-            let step = -(p[2] - g) / (d[2] - slope[0] * d[0] - slope[1] * d[1]);
+            let (g, slope, phases) = self.ground_with_slope(p[0], p[1], sweep);
+            let df = d[2] - slope[0] * d[0] - slope[1] * d[1];
+            let step = -(p[2] - g) / df;
             if !step.is_finite() {
                 return None;
             }
-            r += step;
-            if step.abs() < 1e-7 {
-                // Quadratic convergence: the root is within rounding of r.
-                return (r > 0.0 && r.is_finite()).then_some(r);
+            // A step within the rounding of h − ground (a few ulp of h over the slope): r is the
+            // root, and its phases are at hand.
+            if step.abs() <= 1e-12 + 16.0 * f64::EPSILON * p[2].abs() / df.abs() {
+                return (r > 0.0).then_some((r, phases));
             }
+            r += step;
         }
         None
     }
