@@ -8,7 +8,10 @@
 //! A ray is handed to the scene as the exact curve it follows in (x, y, h): because the map from
 //! the local NED frame to grid coordinates is smooth, the ray is a parabola
 //! `g(ρ) = A + B ρ + C ρ²` in (x, y, h) (see `geo.rs`), which planes meet at the root of a
-//! quadratic and the terrain at the root found by the secant method to 1 µm.
+//! quadratic and the terrain at the root found by Newton's method to rounding (the secant
+//! method when it does not converge). Consecutive rays of a scan are a [`Sweep`]: each starts its
+//! search from the last ones' ground, and the relief's sines and cosines near the last hit come
+//! from its own by angle addition, which glibc's `sin_cos` per evaluation cost several times.
 
 use crate::check::{finite, non_negative, positive};
 use crate::error::{Error, Result};
@@ -51,10 +54,10 @@ const PAVED_BLEND_M: f64 = 5.0;
 const GRADIENT_STEP_M: f64 = 0.5;
 
 /// What consecutive rays of one sweep share ([`Scene::sweep`], [`Scene::trace_in`]): the
-/// height of the last ground hit, where the next ray's root search starts (a neighbouring
-/// pulse's ground is centimetres away, so one Newton step lands within rounding), the relief's
-/// phases at a point near the last hit (see [`Anchor`]) and the sines and cosines of the
-/// relief's phase steps over [`GRADIENT_STEP_M`].
+/// heights of the last two ground hits, from which the next ray's root search starts (a
+/// neighbouring pulse's ground is centimetres away, so one Newton step lands within rounding),
+/// the relief's phases at the last hit, the paved areas near it, the height range of the objects
+/// and the sines and cosines of the relief's phase steps over the slope's forward differences.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sweep {
     /// The heights of the last two ground hits, m.
@@ -876,7 +879,7 @@ impl Scene {
     }
 
     /// The ground (terrain, pavement or basin bottom) along `curve`, ignoring everything above
-    /// it, to 1 µm; see [`Scene::trace_ground_in`].
+    /// it, to rounding; see [`Scene::trace_ground_in`].
     pub fn trace_ground(&self, curve: &Curve) -> Option<Hit> {
         self.trace_ground_in(curve, &mut self.sweep())
     }
@@ -904,9 +907,9 @@ impl Scene {
 
     /// [`Scene::trace_ground`] for the next ray of `sweep`: Newton's method on
     /// `h(ρ) − ground(x(ρ), y(ρ))` with the ground's slope from the same sines and cosines,
-    /// started where the ray crosses the height of the sweep's last ground hit (or the
-    /// undisturbed ground level) and stopped when a step is under 0.1 µm, the root then within
-    /// rounding; if it does not converge, the secant method from the undisturbed level.
+    /// started where the ray crosses the height extrapolated from the sweep's last ground hits
+    /// (or the undisturbed ground level) and stopped when a step is within the rounding of
+    /// `h − ground`; if it does not converge, the secant method from the undisturbed level.
     pub fn trace_ground_in(&self, curve: &Curve, sweep: &mut Sweep) -> Option<Hit> {
         const UP: [f64; 3] = [0.0, 0.0, 1.0];
         // A ray that starts below the undisturbed level, e.g. refracted at a lake surface,
