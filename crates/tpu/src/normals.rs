@@ -173,13 +173,10 @@ fn normal_of_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Option<Vector3<
 }
 
 /// The k best (squared distance, point) so far, nearest first, in a buffer reused across
-/// queries. The k-th distance is kept beside them: most candidates of a scan are farther, and
-/// the test against it is all they cost.
+/// queries.
 struct Best {
     k: usize,
     items: Vec<(f64, [f64; 3])>,
-    /// The k-th squared distance (∞ until k are held).
-    worst: f64,
 }
 
 impl Best {
@@ -187,38 +184,40 @@ impl Best {
         Best {
             k,
             items: Vec::with_capacity(k + 1),
-            worst: f64::INFINITY,
         }
     }
 
     fn clear(&mut self) {
         self.items.clear();
-        self.worst = f64::INFINITY;
+    }
+
+    fn full(&self) -> bool {
+        self.items.len() >= self.k
     }
 
     /// The k-th squared distance (∞ until k are held).
     fn worst(&self) -> f64 {
-        self.worst
+        if self.full() {
+            self.items[self.k - 1].0
+        } else {
+            f64::INFINITY
+        }
     }
 
     #[inline]
     fn offer(&mut self, d2: f64, p: [f64; 3]) {
-        // NaN distances are never kept; a tie with the k-th is not either (the first found
-        // stays).
-        if !(d2 < self.worst) {
+        // NaN distances are never kept.
+        if d2.partial_cmp(&self.worst()) != Some(std::cmp::Ordering::Less) {
             return;
         }
         let mut i = self.items.len();
         while i > 0 && self.items[i - 1].0 > d2 {
             i -= 1;
         }
-        if self.items.len() >= self.k {
+        if self.full() {
             self.items.pop();
         }
         self.items.insert(i, (d2, p));
-        if self.items.len() >= self.k {
-            self.worst = self.items[self.k - 1].0;
-        }
     }
 
     fn points(&self) -> &[(f64, [f64; 3])] {
@@ -389,13 +388,9 @@ impl Grid {
             self.start[base + u_lo as usize] as usize,
             self.start[base + u_hi as usize + 1] as usize,
         );
-        let [qx, qy, qz] = *q;
         for p in &self.points[a..b] {
-            let (dx, dy, dz) = (p[0] - qx, p[1] - qy, p[2] - qz);
-            let d2 = dx * dx + dy * dy + dz * dz;
-            if d2 < best.worst {
-                best.offer(d2, *p);
-            }
+            let (dx, dy, dz) = (p[0] - q[0], p[1] - q[1], p[2] - q[2]);
+            best.offer(dx * dx + dy * dy + dz * dz, *p);
         }
     }
 }
