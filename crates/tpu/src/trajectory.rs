@@ -568,8 +568,8 @@ mod tests {
             attitude: Attitude::from_degrees(2.0 * t, -3.0, h),
         };
         let t = Trajectory::new(&[
-            pose(0.0, 0.11, 3.14159, 170.0),
-            pose(0.005, 0.1100003, -3.14159, 171.0),
+            pose(0.0, 0.11, PI - 2e-6, 170.0),
+            pose(0.005, 0.1100003, -PI + 2e-6, 171.0),
             pose(2.0, 0.2, -3.1, -150.0),
         ])
         .unwrap();
