@@ -41,7 +41,7 @@ fn recovered_point_re_georeferences_in_the_local_frame() {
         range_m: 812.5,
         scan_angle_rad: 0.3,
     };
-    let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&at.attitude, &nominal, &obs));
+    let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&at.attitude(), &nominal, &obs));
     let point = p0 + ecef_from_ned(lat, lon) * f;
     let raw = RawPoint::recover(&frame, &at, &Recoverer::new(&nominal), &point, 10).unwrap();
     assert!((raw.observation.range_m - 812.5).abs() < 1e-6);
@@ -52,7 +52,7 @@ fn recovered_point_re_georeferences_in_the_local_frame() {
         lever_arm_m: Vector3::new(0.0, 0.1, 0.0),
         ..Mounting::default()
     };
-    let f2 = LinearScanner.footprint_ned(&LinearScanner.parameters(&at.attitude, &other, &obs));
+    let f2 = LinearScanner.footprint_ned(&LinearScanner.parameters(&at.attitude(), &other, &obs));
     let expect = frame.to_local(&(p0 + ecef_from_ned(lat, lon) * f2));
     assert!(
         (georeference(&raw, &other) - expect).norm() < 1e-6,

@@ -86,10 +86,10 @@ struct Cell {
     centre: [f64; 2],
     /// The exact values at the centre.
     at_centre: [f64; OUTPUTS],
-    /// Chebyshev coefficients `c[k][i · NODES + j]` of output k minus its value at the centre,
+    /// Chebyshev coefficients `c[i · NODES + j][k]` of output k minus its value at the centre,
     /// degree i in easting, j in northing (the differences are small: their sums keep every
-    /// bit).
-    coefficients: [[f64; NODES * NODES]; OUTPUTS],
+    /// bit). Term-major, so that [`Cell::eval`] adds one term to every output at once.
+    coefficients: [[f64; OUTPUTS]; NODES * NODES],
 }
 
 impl<'a> LocalInverse<'a> {
@@ -205,8 +205,8 @@ impl<'a> LocalInverse<'a> {
             }
         }
         let t: [[f64; NODES]; NODES] = nodes.map(chebyshev);
-        let mut coefficients = [[0.0; NODES * NODES]; OUTPUTS];
-        for (k, ck) in coefficients.iter_mut().enumerate() {
+        let mut coefficients = [[0.0; OUTPUTS]; NODES * NODES];
+        for k in 0..OUTPUTS {
             for i in 0..NODES {
                 for j in 0..NODES {
                     let mut s = 0.0;
@@ -216,7 +216,8 @@ impl<'a> LocalInverse<'a> {
                         }
                     }
                     let halve = |d: usize| if d == 0 { 0.5 } else { 1.0 };
-                    ck[i * NODES + j] = s * 4.0 / (NODES * NODES) as f64 * halve(i) * halve(j);
+                    coefficients[i * NODES + j][k] =
+                        s * 4.0 / (NODES * NODES) as f64 * halve(i) * halve(j);
                 }
             }
         }
@@ -253,15 +254,15 @@ impl Cell {
                 basis[i * NODES + j] = tu[i] * tv[j];
             }
         }
-        let mut out = [0.0; OUTPUTS];
-        for ((o, c), v0) in out.iter_mut().zip(&self.coefficients).zip(&self.at_centre) {
-            let mut s = 0.0;
-            for (a, b) in c.iter().zip(&basis) {
-                s += a * b;
+        // Each output's terms are summed in the same order as one dot product per output would
+        // (so to the same bits), all outputs side by side (vectorised).
+        let mut sums = [0.0; OUTPUTS];
+        for (c, b) in self.coefficients.iter().zip(&basis) {
+            for (s, a) in sums.iter_mut().zip(c) {
+                *s += a * b;
             }
-            *o = v0 + s;
         }
-        out
+        std::array::from_fn(|k| self.at_centre[k] + sums[k])
     }
 }
 

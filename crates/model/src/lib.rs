@@ -59,7 +59,7 @@ pub use linear::{
 pub use plane::{Plane, fit_plane, normal_of_scatter, plane_of_scatter};
 pub use rotation::{
     ecef_from_ned, ecef_from_ned_sin_cos, ned_from_ecef, rot_x, rot_y, rot_z, rotation_zyx,
-    rotation_zyx_with_partials, zyx_angles, zyx_partials_of,
+    rotation_zyx_with_partials, zyx_angles, zyx_axes_of, zyx_partials_of,
 };
 pub use scalar::Scalar;
 pub use sensor::{Correlation, Scanner, Sensor, Sigmas};

@@ -8,7 +8,7 @@
 use crate::error::{Error, Result};
 use crate::frames::{Attitude, Mounting};
 use crate::georeferencer::{Georeferencer, gnss_offset_ned, platform_parameters, platform_then};
-use crate::rotation::{rotation_zyx, rotation_zyx_with_partials, zyx_partials_of};
+use crate::rotation::{rotation_zyx, rotation_zyx_with_partials, zyx_axes_of};
 use crate::scalar::Scalar;
 use crate::source::Source;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector2, Vector3};
@@ -82,7 +82,7 @@ fn linear_jacobian(
     p: &SVector<f64, LINEAR_N>,
     along_track_rad: f64,
 ) -> (Vector3<f64>, SMatrix<f64, 3, LINEAR_N>) {
-    let r_n = rotation_zyx_with_partials(p[3], p[4], p[5]);
+    let r_n = rotation_zyx(p[3], p[4], p[5]);
     let (r_m, d_r_m) = rotation_zyx_with_partials(p[6], p[7], p[8]);
     let (s, d_s) = jacobian(
         |q: SVector<DualSVec64<2>, 2>| tilted_scanner_vector(q[0], q[1], along_track_rad),
@@ -126,7 +126,7 @@ impl MountingPartials {
 /// scanner vector is `s_m`, at the attitude `body_to_ned` (`R_N`): the same as
 /// [`Georeferencer::footprint_jacobian`] at the parameters of the β, ρ and θ' that give `s_m`
 /// back, without their trigonometry. `∂S/∂ρ = S/ρ` and `∂S/∂θ' = (−S_y S_x/h, h, −S_y S_z/h)`
-/// with `h = √(S_x² + S_z²) = ρ cos θ'`; `R_N`'s partials from [`zyx_partials_of`]. This is
+/// with `h = √(S_x² + S_z²) = ρ cos θ'`; `R_N`'s partials from its axes ([`zyx_axes_of`]). This is
 /// the per-point TPU's kernel for a recovered point.
 pub fn linear_jacobian_at_beam(
     body_to_ned: &Matrix3<f64>,
@@ -134,19 +134,20 @@ pub fn linear_jacobian_at_beam(
     s_m: &Vector3<f64>,
 ) -> (Vector3<f64>, SMatrix<f64, 3, LINEAR_N>) {
     let rho = s_m.norm();
-    let h = s_m.x.hypot(s_m.z);
+    // Metres: the plain root cannot overflow.
+    let h = (s_m.x * s_m.x + s_m.z * s_m.z).sqrt();
     let d_s = SMatrix::<f64, 3, 2>::from_columns(&[
         s_m / rho,
         Vector3::new(-s_m.y * s_m.x / h, h, -s_m.y * s_m.z / h),
     ]);
-    let r_n = (*body_to_ned, zyx_partials_of(body_to_ned));
-    compose_linear(&r_n, mounting, s_m, &d_s)
+    compose_linear(body_to_ned, mounting, s_m, &d_s)
 }
 
-/// `R_N (R_M S + ΔP)` and its Jacobian by the chain rule from the stages: `R_N` with its
-/// partials in roll, pitch, heading, the mounting's, and `S` with its partials in ρ and θ.
+/// `R_N (R_M S + ΔP)` and its Jacobian by the chain rule from the stages: `R_N` (its partials
+/// in roll, pitch, heading as turns of `R_N (R_M S + ΔP)` about [`zyx_axes_of`]), the
+/// mounting's, and `S` with its partials in ρ and θ.
 fn compose_linear(
-    (r_n, d_r_n): &(Matrix3<f64>, [Matrix3<f64>; 3]),
+    r_n: &Matrix3<f64>,
     mounting: &MountingPartials,
     s: &Vector3<f64>,
     d_s: &SMatrix<f64, 3, 2>,
@@ -159,12 +160,13 @@ fn compose_linear(
     let body = r_m * s + lever_m;
     let f = r_n * body;
     let r_ns = r_n * r_m;
+    let axes = zyx_axes_of(r_n);
     let mut j = SMatrix::<f64, 3, LINEAR_N>::zeros();
     j[(0, 0)] = 1.0;
     j[(1, 1)] = 1.0;
     j[(2, 2)] = -1.0;
     for k in 0..3 {
-        j.set_column(3 + k, &(d_r_n[k] * body));
+        j.set_column(3 + k, &axes[k].cross(&f));
         j.set_column(6 + k, &(r_n * (d_r_m[k] * s)));
         j.set_column(9 + k, &r_n.column(k).into_owned());
     }

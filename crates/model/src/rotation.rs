@@ -58,19 +58,23 @@ pub fn rotation_zyx_with_partials(
 }
 
 /// The partials of [`rotation_zyx`] in roll, pitch and yaw from the matrix itself, as
-/// [`rotation_zyx_with_partials`] gives them: `[R x̂]× R`, `[Rz ŷ]× R`, `[ẑ]× R` (each
-/// axis a rotation is about, in the output frame), with `Rz ŷ = (−sin ψ, cos ψ, 0)` and
-/// `(cos ψ, sin ψ)` from the first column. No trigonometry: for a per-point caller that has
-/// `R` already. Valid away from pitch = ±90° (as the angles themselves).
+/// [`rotation_zyx_with_partials`] gives them: `[a]× R` for each axis `a` of [`zyx_axes_of`].
 pub fn zyx_partials_of(r: &Matrix3<f64>) -> [Matrix3<f64>; 3] {
-    let h = r[(0, 0)].hypot(r[(1, 0)]);
-    let (c, s) = (r[(0, 0)] / h, r[(1, 0)] / h);
-    let roll_axis = r.column(0).into_owned();
-    let pitch_axis = Vector3::new(-s, c, 0.0);
+    zyx_axes_of(r).map(|a| a.cross_matrix() * r)
+}
+
+/// The axes (in the output frame) that roll, pitch and yaw turn [`rotation_zyx`]'s `R` about,
+/// so that `∂R/∂angle = [axis]× R` and `∂(R v)/∂angle = axis × (R v)`: `R x̂`, `Rz ŷ =
+/// (−sin ψ, cos ψ, 0)` with `(cos ψ, sin ψ)` from the first column, and `ẑ`. No trigonometry:
+/// for a per-point caller that has `R` already. Valid away from pitch = ±90° (as the angles
+/// themselves).
+pub fn zyx_axes_of(r: &Matrix3<f64>) -> [Vector3<f64>; 3] {
+    // Entries of a rotation: the plain root cannot overflow (no `hypot` needed).
+    let h = (r[(0, 0)] * r[(0, 0)] + r[(1, 0)] * r[(1, 0)]).sqrt();
     [
-        roll_axis.cross_matrix() * r,
-        pitch_axis.cross_matrix() * r,
-        Vector3::<f64>::z().cross_matrix() * r,
+        r.column(0).into_owned(),
+        Vector3::new(-r[(1, 0)] / h, r[(0, 0)] / h, 0.0),
+        Vector3::z(),
     ]
 }
 

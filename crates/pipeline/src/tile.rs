@@ -1041,7 +1041,7 @@ impl Run<'_> {
                 "a sounding needs a conic scanner".into(),
             ));
         };
-        let params = scanner.parameters(&pose.attitude, &self.mounting, &rec.observation);
+        let params = scanner.parameters(&pose.attitude(), &self.mounting, &rec.observation);
         let over = match rec.surface {
             SurfaceSource::Pulse => Vec::new(),
             SurfaceSource::Modelled { rms_m, .. } => vec![(
@@ -1091,14 +1091,6 @@ impl Run<'_> {
                 let u = pp.propagate_jacobian(footprint, &j, sigma, inc.as_ref(), &[])?;
                 acc.scan
                     .push(r.scan_angle_rad.to_degrees() - f64::from(lp.scan_angle_deg));
-                // S = (S_x, ρ sin θ, ρ cos θ); in the body frame R_M S.
-                let in_plane = r.range_m.powi(2) - r.out_of_plane_m.powi(2);
-                let rho = in_plane.max(0.0).sqrt();
-                let s = Vector3::new(
-                    r.out_of_plane_m,
-                    rho * r.scan_angle_rad.sin(),
-                    rho * r.scan_angle_rad.cos(),
-                );
                 add_shares(
                     &mut acc.shares,
                     u.source_variance_m2.as_slice(),
@@ -1109,13 +1101,14 @@ impl Run<'_> {
                     Recovered {
                         range_m: r.range_m,
                         residual_m: r.out_of_plane_m,
-                        body_m: Some(self.r_m * s),
+                        // S in the body frame: R_M S.
+                        body_m: Some(self.r_m * r.scanner_m),
                     },
                 )
             }
             Kernel::Conic(pp, scanner) => {
                 let r = self.recoverer.conic(scanner, pose, &p.ecef)?;
-                let params = scanner.parameters(&pose.attitude, &self.mounting, &r.observation);
+                let params = scanner.parameters(&pose.attitude(), &self.mounting, &r.observation);
                 let inc = incidence(r.range_air_m, r.beam_ned);
                 // A conic return recovered here has no water leg (topographic or water-surface
                 // return: Δt2 = 0), so the water travel time's σ must not move it; soundings

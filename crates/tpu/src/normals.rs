@@ -113,8 +113,19 @@ fn for_each_neighbourhood<T: Clone + Send + Sync>(
         .zip(targets.par_chunks(QUERY_BLOCK))
         .for_each(|(out, targets)| {
             let mut best = Best::new(k);
+            // Targets come in scan order, so a query's k-th distance is close to the previous
+            // one's: searching first within twice its square skips most insertions of
+            // candidates that would be pushed out later (see `Grid::nearest`).
+            let mut limit_m2 = f64::INFINITY;
             for (o, q) in out.iter_mut().zip(targets) {
-                grid.nearest(q, &mut best);
+                if !grid.nearest(q, &mut best, limit_m2) {
+                    grid.nearest(q, &mut best, f64::INFINITY);
+                }
+                limit_m2 = if best.full() {
+                    2.0 * best.worst()
+                } else {
+                    f64::INFINITY
+                };
                 *o = f(q, best.points());
             }
         });
@@ -173,10 +184,13 @@ fn normal_of_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Option<Vector3<
 }
 
 /// The k best (squared distance, point) so far, nearest first, in a buffer reused across
-/// queries.
+/// queries. The k-th distance is kept beside them (most candidates of a scan are farther, and
+/// the test against it is all they cost); before k are held it is the query's limit.
 struct Best {
     k: usize,
     items: Vec<(f64, [f64; 3])>,
+    /// The k-th squared distance once k are held, the limit until then.
+    worst: f64,
 }
 
 impl Best {
@@ -184,30 +198,30 @@ impl Best {
         Best {
             k,
             items: Vec::with_capacity(k + 1),
+            worst: f64::INFINITY,
         }
     }
 
-    fn clear(&mut self) {
+    /// Empties the buffer for a query that keeps only candidates closer than `limit_m2`.
+    fn clear(&mut self, limit_m2: f64) {
         self.items.clear();
+        self.worst = limit_m2;
     }
 
     fn full(&self) -> bool {
         self.items.len() >= self.k
     }
 
-    /// The k-th squared distance (∞ until k are held).
+    /// The k-th squared distance (the limit until k are held).
     fn worst(&self) -> f64 {
-        if self.full() {
-            self.items[self.k - 1].0
-        } else {
-            f64::INFINITY
-        }
+        self.worst
     }
 
     #[inline]
     fn offer(&mut self, d2: f64, p: [f64; 3]) {
-        // NaN distances are never kept.
-        if d2.partial_cmp(&self.worst()) != Some(std::cmp::Ordering::Less) {
+        // NaN distances are never kept; a tie with the k-th is not either (the first found
+        // stays).
+        if d2.partial_cmp(&self.worst) != Some(std::cmp::Ordering::Less) {
             return;
         }
         let mut i = self.items.len();
@@ -218,6 +232,9 @@ impl Best {
             self.items.pop();
         }
         self.items.insert(i, (d2, p));
+        if self.full() {
+            self.worst = self.items[self.k - 1].0;
+        }
     }
 
     fn points(&self) -> &[(f64, [f64; 3])] {
@@ -313,9 +330,14 @@ impl Grid {
         }
     }
 
-    /// The (up to) k nearest candidates of `q` into `best`, nearest first.
-    fn nearest(&self, q: &[f64; 3], best: &mut Best) {
-        best.clear();
+    /// The (up to) k nearest candidates of `q` into `best`, nearest first, searched among
+    /// those closer than `limit_m2` (squared distance); false when fewer than k are (then the
+    /// caller searches again without a limit). With a limit the cells are scanned in the same
+    /// order and the search stops at the same ring whenever k are found, so the neighbours,
+    /// their order and ties are those of the search without it: the k nearest are all within
+    /// the limit exactly when k candidates are.
+    fn nearest(&self, q: &[f64; 3], best: &mut Best, limit_m2: f64) -> bool {
+        best.clear(limit_m2);
         let (u, v) = (dot(&self.axes[0], q), dot(&self.axes[1], q));
         let (fu, fv) = (
             (u - self.origin[0]) / self.cell,
@@ -367,14 +389,18 @@ impl Grid {
             if cv + r < nv - 1 {
                 bound = bound.min((cv + r + 1) as f64 - fv);
             }
+            let found = best.items.len() >= want;
             if bound == f64::INFINITY {
-                return; // every cell scanned
+                // Every cell scanned.
+                return found || limit_m2 == f64::INFINITY;
             }
-            if best.items.len() >= want {
-                let b = (bound * self.cell - 1e-6).max(0.0);
-                if best.worst() <= b * b {
-                    return;
-                }
+            let b = (bound * self.cell - 1e-6).max(0.0);
+            if found && best.worst() <= b * b {
+                return true;
+            }
+            if !found && limit_m2 <= b * b {
+                // Nothing unscanned is within the limit.
+                return false;
             }
             r += 1;
         }
@@ -589,7 +615,7 @@ mod tests {
     fn condition(pts: &[[f64; 3]], q: &[f64; 3], k: usize) -> f64 {
         let grid = Grid::new(pts, k);
         let mut best = Best::new(k);
-        grid.nearest(q, &mut best);
+        grid.nearest(q, &mut best, f64::INFINITY);
         let mean = best
             .points()
             .iter()
@@ -715,7 +741,7 @@ mod tests {
             .step_by(3)
             .chain(&[[0.0, 0.0, 900.0], [7e5, 0.0, 0.0]])
         {
-            grid.nearest(q, &mut best);
+            assert!(grid.nearest(q, &mut best, f64::INFINITY));
             let want = tree.nearest_n::<SquaredEuclidean>(q, std::num::NonZero::new(k).unwrap());
             assert_eq!(best.points().len(), want.len());
             for (g, w) in best.points().iter().zip(&want) {
@@ -725,8 +751,46 @@ mod tests {
         // Fewer candidates than k: all of them.
         let few = &pts[..5];
         let grid = Grid::new(few, k);
-        grid.nearest(&[0.0; 3], &mut best);
+        assert!(grid.nearest(&[0.0; 3], &mut best, f64::INFINITY));
         assert_eq!(best.points().len(), 5);
+    }
+
+    #[test]
+    fn a_limited_search_finds_the_same_neighbours_or_says_it_did_not() {
+        // Every limit from far too small to ample, on the strip with its wall, stacked returns,
+        // duplicates and outlier: the same points in the same order whenever it reports k found,
+        // and it reports so whenever the k-th is within the limit.
+        let pts = strip(4, 30_000);
+        let k = 10;
+        let grid = Grid::new(&pts, k);
+        let (mut free, mut limited) = (Best::new(k), Best::new(k));
+        let (mut hits, mut misses) = (0, 0);
+        for q in pts
+            .iter()
+            .step_by(7)
+            .chain(&[[0.0, 0.0, 900.0], [7e5, 0.0, 0.0]])
+        {
+            assert!(grid.nearest(q, &mut free, f64::INFINITY));
+            let kth = free.worst();
+            for factor in [0.0, 0.3, 0.9, 1.0, 1.0000001, 1.5, 2.0, 50.0] {
+                let limit = kth * factor;
+                if grid.nearest(q, &mut limited, limit) {
+                    assert_eq!(limited.points(), free.points(), "{q:?} {factor}");
+                    hits += 1;
+                } else {
+                    assert!(kth >= limit, "{q:?} {factor}");
+                    misses += 1;
+                }
+            }
+        }
+        assert!(hits > 10_000 && misses > 10_000, "{hits} {misses}");
+        // The whole neighbourhood pass gives what one unlimited search per target gives.
+        let targets: Vec<[f64; 3]> = pts.iter().step_by(5).copied().collect();
+        let got = for_each_neighbourhood(&pts, &targets, k, Vec::new(), |_, nn| nn.to_vec());
+        for (q, g) in targets.iter().zip(&got) {
+            grid.nearest(q, &mut free, f64::INFINITY);
+            assert_eq!(g.as_slice(), free.points());
+        }
     }
 
     #[test]

@@ -229,24 +229,39 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
         // `budget::propagate_covariance` to rounding without the N × N products, the per-point
         // kernel's largest cost (this runs for every point of a tile).
         let sigma = self.sigma_with(trajectory, sigma_override);
-        let a: SMatrix<f64, 3, N> = SMatrix::from_fn(|r, i| j[(r, i)] * sigma[i]);
         // Each source's own variance |J_i|² σ_i² = |a_i|².
         let source_variance_m2 = SVector::<f64, N>::from_fn(|i, _| {
             j.column(i).norm_squared() * (self.correlation[(i, i)] * sigma[i] * sigma[i])
         });
+        let a = |i: usize| j.column(i) * sigma[i];
         let mut covariance_ned = if self.unit_diagonal {
-            // Σ_i a_i a_iᵀ as one 3 × N × 3 product.
-            a * a.transpose()
+            // Σ_i a_i a_iᵀ: its six distinct sums in one pass over the sources, in the order
+            // (and so to the bit) of the 3 × N × 3 product `a aᵀ`, without forming `a`.
+            let [mut xx, mut xy, mut xz, mut yy, mut yz, mut zz] = [0.0; 6];
+            for i in 0..N {
+                let (x, y, z) = (
+                    j[(0, i)] * sigma[i],
+                    j[(1, i)] * sigma[i],
+                    j[(2, i)] * sigma[i],
+                );
+                xx += x * x;
+                xy += x * y;
+                xz += x * z;
+                yy += y * y;
+                yz += y * z;
+                zz += z * z;
+            }
+            Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz)
         } else {
             let mut c = Matrix3::zeros();
             for i in 0..N {
-                let ai = a.column(i);
+                let ai = a(i);
                 c += (ai * ai.transpose()) * self.correlation[(i, i)];
             }
             c
         };
         for &(i, k, rho_ik, rho_ki) in &self.off_diagonal {
-            let cross = a.column(i) * a.column(k).transpose();
+            let cross = a(i) * a(k).transpose();
             covariance_ned += cross * rho_ik + cross.transpose() * rho_ki;
         }
         let mut incidence_variance_m2 = 0.0;
@@ -283,6 +298,21 @@ mod tests {
                 scan_angle_rad: 0.3,
             },
         )
+    }
+
+    #[test]
+    fn covariance_sums_are_the_matrix_product_to_the_bit() {
+        // The six sums of `propagate_jacobian` against nalgebra's `a aᵀ` on an irregular J.
+        let sensor = Preset::Seed000.sensor();
+        let pp = PointPropagator::new(LinearScanner, &sensor, None).unwrap();
+        let j = SMatrix::<f64, 3, 14>::from_fn(|r, c| {
+            ((r * 14 + c) as f64 * 0.731).sin() * 10f64.powi(c as i32 % 5 - 2)
+        });
+        let u = pp
+            .propagate_jacobian(Vector3::zeros(), &j, None, None, &[])
+            .unwrap();
+        let a = SMatrix::<f64, 3, 14>::from_fn(|r, i| j[(r, i)] * pp.sigma[i]);
+        assert_eq!(u.covariance_ned, a * a.transpose());
     }
 
     #[test]

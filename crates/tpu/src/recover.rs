@@ -120,8 +120,9 @@ impl Recoverer {
     /// `S = R_Mᵀ (R_Nᵀ C_NE (P − P0) − ΔP)`, scanner frame, metres; and the beam (scanner
     /// origin → point) in N.
     pub fn scanner_vector(&self, pose: &PoseAt, point: &Ecef) -> (Vector3<f64>, Vector3<f64>) {
-        let ned = pose.ecef_to_ned * (*point - pose.position_ecef_m);
-        let s = self.scanner_from_body(&(pose.body_to_ned.transpose() * ned));
+        // R_Nᵀ C_NE = (C_EN R_N)ᵀ: straight from ECEF to the body frame.
+        let s = self
+            .scanner_from_body(&(pose.body_to_ecef.transpose() * (*point - pose.position_ecef_m)));
         // Origin → point in N is R_N R_M S.
         (s, pose.body_to_ned * (self.r_m * s))
     }
@@ -235,7 +236,7 @@ mod tests {
             let g = OffPlaneLinearScanner {
                 along_track_rad: beta,
             };
-            let f = g.footprint_ned(&g.parameters(&pose.attitude, &m, &obs));
+            let f = g.footprint_ned(&g.parameters(&pose.attitude(), &m, &obs));
             let point =
                 pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f;
             let r = Recoverer::new(&m).linear_ecef(&pose, &point).unwrap();
@@ -252,9 +253,12 @@ mod tests {
             }
         }
         // seed 000's own scanner gives the same point at β = 0.
-        let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&pose.attitude, &m, &obs));
+        let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&pose.attitude(), &m, &obs));
         let g = OffPlaneLinearScanner::default();
-        assert_eq!(f, g.footprint_ned(&g.parameters(&pose.attitude, &m, &obs)));
+        assert_eq!(
+            f,
+            g.footprint_ned(&g.parameters(&pose.attitude(), &m, &obs))
+        );
     }
 
     #[test]
@@ -274,7 +278,7 @@ mod tests {
                 time_air_s: s.time_air_s(425.7),
                 time_water_s: 0.0,
             };
-            let f = s.footprint_ned(&s.parameters(&pose.attitude, &m, &obs));
+            let f = s.footprint_ned(&s.parameters(&pose.attitude(), &m, &obs));
             let point =
                 pose.position_ecef_m + ecef_from_ned(pose.latitude_rad, pose.longitude_rad) * f;
             let r = Recoverer::new(&m).conic(&s, &pose, &point).unwrap();

@@ -154,7 +154,7 @@ impl Recoverer {
         let surf = self.conic(scanner, pose, surface_ecef_m)?;
         let (s_surface, _) = self.scanner_vector(pose, surface_ecef_m);
         let (s_bed, _) = self.scanner_vector(pose, bed_ecef_m);
-        let p = scanner.parameters(&pose.attitude, mounting, &surf.observation);
+        let p = scanner.parameters(&pose.attitude(), mounting, &surf.observation);
         let (_, l4) = scanner.beam_directions(&p);
         let d = s_bed - s_surface;
         let range_water_m = d.dot(&l4);
@@ -203,7 +203,8 @@ impl Recoverer {
             time_air_s: 0.0,
             time_water_s: 0.0,
         };
-        let p0 = scanner.parameters(&pose.attitude, mounting, &obs0);
+        let attitude = pose.attitude();
+        let p0 = scanner.parameters(&attitude, mounting, &obs0);
         let (l3, _) = scanner.beam_directions(&p0);
         let r_sn = self.body_from_scanner(pose);
         let dir = r_sn * l3;
@@ -222,7 +223,7 @@ impl Recoverer {
                 time_air_s: x[1],
                 time_water_s: x[2],
             };
-            let p = scanner.parameters(&pose.attitude, mounting, &obs);
+            let p = scanner.parameters(&attitude, mounting, &obs);
             let (f, j) = scanner.footprint_jacobian(&p);
             let r = f - target;
             let jj = Matrix3::from_columns(&[j.column(16), j.column(19), j.column(20)]);
@@ -253,7 +254,7 @@ impl Recoverer {
             time_air_s: x[1],
             time_water_s: x[2],
         };
-        let p = scanner.parameters(&pose.attitude, mounting, &obs);
+        let p = scanner.parameters(&attitude, mounting, &obs);
         let (_, l4) = scanner.beam_directions(&p);
         let refraction_above_bed = range_water_m * (r_sn * l4).z;
         Ok(SoundingRecovery {

@@ -18,8 +18,8 @@
 //! extrapolation.
 
 use crate::error::{Error, Result};
-use lidarqa_model::{Attitude, Ecef, ecef_from_ned, zyx_angles};
-use nalgebra::{Matrix3, Rotation3, Unit, UnitQuaternion, Vector3};
+use lidarqa_model::{Attitude, Ecef, ecef_from_ned, ecef_from_ned_sin_cos, zyx_angles};
+use nalgebra::{Matrix3, Quaternion, Rotation3, Unit, UnitQuaternion, Vector3};
 use std::f64::consts::PI;
 
 /// One trajectory pose, SI units.
@@ -52,8 +52,21 @@ pub struct PoseAt {
     pub body_to_ned: Matrix3<f64>,
     /// ECEF → N at P0 (`C_EN ᵀ`).
     pub ecef_to_ned: Matrix3<f64>,
-    /// Roll, pitch, true heading of `R_N`, rad (heading in (−π, π]).
-    pub attitude: Attitude,
+    /// Body → ECEF (`C_EN R_N`), the interpolated rotation itself.
+    pub body_to_ecef: Matrix3<f64>,
+}
+
+impl PoseAt {
+    /// Roll, pitch, true heading of `R_N`, rad (heading in (−π, π]): computed on demand, as
+    /// only the conic scanner's parameters need Euler angles (two `atan2` and an `asin`).
+    pub fn attitude(&self) -> Attitude {
+        let a = zyx_angles(&self.body_to_ned);
+        Attitude {
+            roll_rad: a.x,
+            pitch_rad: a.y,
+            heading_rad: a.z,
+        }
+    }
 }
 
 /// Time-sorted poses, ready for interpolation.
@@ -62,6 +75,8 @@ pub struct Trajectory {
     times_s: Vec<f64>,
     positions_ecef_m: Vec<Vector3<f64>>,
     lat_lon_rad: Vec<[f64; 2]>,
+    /// sin φ, cos φ, sin λ, cos λ of each pose.
+    sin_cos_rad: Vec<[f64; 4]>,
     body_to_ecef: Vec<UnitQuaternion<f64>>,
     /// Segment i's rotation from pose i to pose i + 1.
     turns: Vec<Option<Turn>>,
@@ -73,12 +88,37 @@ fn wrap_pi(a: f64) -> f64 {
 }
 
 /// `a · (b/a)^w` along the shortest arc, the rotation angle from `atan2` so that small angles
-/// keep full precision (nalgebra's `angle()` uses `acos`, good only to ~1e-8 rad).
+/// keep full precision (nalgebra's `angle()` uses `acos`, good only to ~1e-8 rad). The half
+/// angle's sine and cosine come from [`sin_cos_small`]: a segment turns by far less than its
+/// series' range at any trajectory rate.
 fn slerp(a: &UnitQuaternion<f64>, turn: &Option<Turn>, w: f64) -> UnitQuaternion<f64> {
     match turn {
         None => *a,
-        Some(t) => a * UnitQuaternion::from_axis_angle(&t.axis, t.angle_rad * w),
+        Some(t) => {
+            let (s, c) = sin_cos_small(0.5 * t.angle_rad * w);
+            let v = t.axis.into_inner() * s;
+            a * UnitQuaternion::new_unchecked(Quaternion::new(c, v.x, v.y, v.z))
+        }
     }
+}
+
+/// Largest |x| (rad) [`sin_cos_small`] takes its series for: there the first dropped terms,
+/// x¹¹/11! and x¹²/12!, are below 10⁻¹⁷ of the result.
+const SMALL_ANGLE_RAD: f64 = 0.1;
+
+/// `x.sin_cos()` without a libm call for the small angles of interpolation within one
+/// trajectory segment (the turn of one pose interval, the change of latitude or longitude along
+/// it): Taylor series to x⁹ and x¹⁰, exact to rounding for |x| ≤ [`SMALL_ANGLE_RAD`]; libm's
+/// beyond.
+fn sin_cos_small(x: f64) -> (f64, f64) {
+    if x.abs() > SMALL_ANGLE_RAD {
+        return x.sin_cos();
+    }
+    let x2 = x * x;
+    let sin = x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0))));
+    let cos = 1.0
+        - x2 / 2.0 * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0 * (1.0 - x2 / 90.0))));
+    (sin, cos)
 }
 
 /// The rotation from one pose to the next, `a⁻¹ b`, as the unit axis and angle [`slerp`]
@@ -125,6 +165,7 @@ impl Trajectory {
             times_s: Vec::with_capacity(poses.len()),
             positions_ecef_m: Vec::with_capacity(poses.len()),
             lat_lon_rad: Vec::with_capacity(poses.len()),
+            sin_cos_rad: Vec::with_capacity(poses.len()),
             body_to_ecef: Vec::with_capacity(poses.len()),
             turns: Vec::with_capacity(poses.len()),
         };
@@ -159,6 +200,8 @@ impl Trajectory {
             t.times_s.push(p.time_s);
             t.positions_ecef_m.push(p.position_ecef_m.vector());
             t.lat_lon_rad.push([p.latitude_rad, p.longitude_rad]);
+            let ((sp, cp), (sl, cl)) = (p.latitude_rad.sin_cos(), p.longitude_rad.sin_cos());
+            t.sin_cos_rad.push([sp, cp, sl, cl]);
             t.body_to_ecef.push(UnitQuaternion::from_rotation_matrix(
                 &Rotation3::from_matrix_unchecked(r),
             ));
@@ -205,29 +248,32 @@ impl Trajectory {
         let position_ecef_m = self.position_at(i, w);
         let [la0, lo0] = self.lat_lon_rad[i];
         let [la1, lo1] = self.lat_lon_rad[i + 1];
-        let latitude_rad = la0 + w * (la1 - la0);
-        let longitude_rad = wrap_pi(lo0 + w * wrap_pi(lo1 - lo0));
+        let (dla, dlo) = (w * (la1 - la0), w * wrap_pi(lo1 - lo0));
+        let latitude_rad = la0 + dla;
+        let lon = lo0 + dlo;
+        let longitude_rad = if lon.abs() > PI { wrap_pi(lon) } else { lon };
+        // sin and cos of φ0 + Δφ and λ0 + Δλ by the angle sums, from the pose's own: the
+        // changes along one segment are tiny, so no libm call per point.
+        let [sp0, cp0, sl0, cl0] = self.sin_cos_rad[i];
+        let ((sd, cd), (se, ce)) = (sin_cos_small(dla), sin_cos_small(dlo));
+        let (sp, cp) = (sp0 * cd + cp0 * sd, cp0 * cd - sp0 * sd);
+        let (sl, cl) = (sl0 * ce + cl0 * se, cl0 * ce - sl0 * se);
         let q = slerp(&self.body_to_ecef[i], &self.turns[i], w);
-        let ecef_to_ned = ecef_from_ned(latitude_rad, longitude_rad).transpose();
-        let body_to_ned = ecef_to_ned * q.to_rotation_matrix().into_inner();
-        let a = zyx_angles(&body_to_ned);
+        let body_to_ecef = q.to_rotation_matrix().into_inner();
+        let ecef_to_ned = ecef_from_ned_sin_cos(sp, cp, sl, cl).transpose();
         Ok(PoseAt {
             time_s,
             position_ecef_m,
             latitude_rad,
             longitude_rad,
-            body_to_ned,
+            body_to_ned: ecef_to_ned * body_to_ecef,
             ecef_to_ned,
-            attitude: Attitude {
-                roll_rad: a.x,
-                pitch_rad: a.y,
-                heading_rad: a.z,
-            },
+            body_to_ecef,
         })
     }
 
     /// P0 (ECEF metres) and the body → ECEF rotation at `time_s`: the same interpolation as
-    /// [`Trajectory::at`] without the NED frame and the Euler angles, for a caller that works
+    /// [`Trajectory::at`] without the NED frame, for a caller that works
     /// in ECEF (strip correction). `hint` is the pose index found by the previous call (any
     /// value at first): points come in time order, so the search is usually skipped.
     ///
@@ -430,8 +476,8 @@ mod tests {
         let t = Trajectory::new(&[pose(0.0, 179.0), pose(1.0, -179.0)]).unwrap();
         let mid = t.at(0.5).unwrap();
         // 180°, not 0° as per-angle linear interpolation would give.
-        assert_relative_eq!(mid.attitude.heading_rad.abs(), PI, epsilon = 1e-3);
-        assert_relative_eq!(mid.attitude.roll_rad, 1f64.to_radians(), epsilon = 1e-4);
+        assert_relative_eq!(mid.attitude().heading_rad.abs(), PI, epsilon = 1e-3);
+        assert_relative_eq!(mid.attitude().roll_rad, 1f64.to_radians(), epsilon = 1e-4);
         assert_relative_eq!(mid.position_ecef_m.x_m(), 4_000_030.0, epsilon = 1e-9);
     }
 
@@ -462,11 +508,15 @@ mod tests {
         let t = Trajectory::new(&[pose(0.0, 10.0), pose(0.005, 10.01), pose(0.01, 10.02)]).unwrap();
         let a = t.at(0.005).unwrap();
         assert_relative_eq!(
-            a.attitude.heading_rad,
+            a.attitude().heading_rad,
             10.01f64.to_radians(),
             epsilon = 1e-12
         );
-        assert_relative_eq!(a.attitude.pitch_rad, (-2f64).to_radians(), epsilon = 1e-12);
+        assert_relative_eq!(
+            a.attitude().pitch_rad,
+            (-2f64).to_radians(),
+            epsilon = 1e-12
+        );
         let e = t.at(0.0101).unwrap_err();
         assert!(matches!(e, Error::OutsideTrajectory { .. }), "{e}");
         assert!(t.at(f64::NAN).is_err());
@@ -476,10 +526,72 @@ mod tests {
     fn slerp_has_constant_rate_for_a_pure_heading_turn() {
         let t = Trajectory::new(&[pose(0.0, 10.0), pose(1.0, 30.0)]).unwrap();
         for w in [0.1, 0.25, 0.7] {
-            let h = t.at(w).unwrap().attitude.heading_rad.to_degrees();
+            let h = t.at(w).unwrap().attitude().heading_rad.to_degrees();
             // Roll and pitch are body-fixed here, so a heading change is a rotation about N's
             // down axis: exactly linear in time.
             assert_relative_eq!(h, 10.0 + 20.0 * w, epsilon = 1e-9);
+        }
+    }
+
+    #[test]
+    fn small_angle_series_is_libm_to_rounding() {
+        // Every x of the series' range at 1e-4 steps, and tiny ones: within one unit in the
+        // last place of libm's (itself correctly rounded to ~0.5 ulp).
+        let xs = (-1000..=1000).map(|k| f64::from(k) * 1e-4).chain([
+            1e-300,
+            -3e-9,
+            7.3e-8,
+            SMALL_ANGLE_RAD,
+            -SMALL_ANGLE_RAD,
+        ]);
+        for x in xs {
+            let ((s, c), (s0, c0)) = (sin_cos_small(x), x.sin_cos());
+            assert!(
+                (s - s0).abs() <= s0.abs() * f64::EPSILON,
+                "sin {x}: {s} vs {s0}"
+            );
+            assert!((c - c0).abs() <= f64::EPSILON, "cos {x}: {c} vs {c0}");
+        }
+        assert_eq!(sin_cos_small(0.5), 0.5f64.sin_cos());
+    }
+
+    #[test]
+    fn the_interpolated_frame_is_that_of_the_interpolated_position() {
+        // A fast turn and a long segment across the ±180° meridian: the frame from the angle
+        // sums is that of the interpolated latitude and longitude to rounding, and the body →
+        // ECEF rotation that of the slerp through libm.
+        let pose = |t: f64, lat: f64, lon: f64, h: f64| Pose {
+            time_s: t,
+            position_ecef_m: Ecef::new(-6_300_000.0, 1_000.0 * t, 700_000.0),
+            latitude_rad: lat,
+            longitude_rad: lon,
+            attitude: Attitude::from_degrees(2.0 * t, -3.0, h),
+        };
+        let t = Trajectory::new(&[
+            pose(0.0, 0.11, PI - 2e-6, 170.0),
+            pose(0.005, 0.1100003, -PI + 2e-6, 171.0),
+            pose(2.0, 0.2, -3.1, -150.0),
+        ])
+        .unwrap();
+        for time in [0.0, 0.001, 0.0025, 0.00499, 0.005, 0.4, 1.3, 2.0] {
+            let p = t.at(time).unwrap();
+            let exact = ecef_from_ned(p.latitude_rad, p.longitude_rad).transpose();
+            assert_relative_eq!(p.ecef_to_ned, exact, epsilon = 4e-16);
+            assert!(p.longitude_rad.abs() <= PI, "{}", p.longitude_rad);
+            let (i, w) = t.segment(time).unwrap();
+            let q = match &t.turns[i] {
+                None => t.body_to_ecef[i],
+                Some(turn) => {
+                    t.body_to_ecef[i]
+                        * UnitQuaternion::from_axis_angle(&turn.axis, turn.angle_rad * w)
+                }
+            };
+            assert_relative_eq!(
+                p.body_to_ecef,
+                *q.to_rotation_matrix().matrix(),
+                epsilon = 4e-16
+            );
+            assert_relative_eq!(p.body_to_ned, p.ecef_to_ned * p.body_to_ecef, epsilon = 0.0);
         }
     }
 

@@ -93,9 +93,9 @@ proptest! {
     ) {
         let pose = pose_at(lat, lon, h, att);
         // The interpolated attitude is the stored one (both poses share it).
-        prop_assert!((pose.attitude.roll_rad - att.roll_rad).abs() < 1e-12);
+        prop_assert!((pose.attitude().roll_rad - att.roll_rad).abs() < 1e-12);
         let obs = LinearObservation { range_m: rho, scan_angle_rad: theta };
-        let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&pose.attitude, &m, &obs));
+        let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&pose.attitude(), &m, &obs));
         let point = pose.position_ecef_m + ecef_from_ned(lat, lon) * f;
         let r = Recoverer::new(&m).linear_ecef(&pose, &point).unwrap();
         prop_assert!((r.range_m - rho).abs() < 1e-8, "range {} vs {rho}", r.range_m);
@@ -121,7 +121,7 @@ proptest! {
         ).unwrap();
         let pose = pose_at(lat, lon, h, att);
         let obs = ConicObservation { azimuth_rad: az, time_air_s: s.time_air_s(rho), time_water_s: 0.0 };
-        let f = s.footprint_ned(&s.parameters(&pose.attitude, &m, &obs));
+        let f = s.footprint_ned(&s.parameters(&pose.attitude(), &m, &obs));
         let point = pose.position_ecef_m + ecef_from_ned(lat, lon) * f;
         let r = Recoverer::new(&m).conic(&s, &pose, &point).unwrap();
         prop_assert!((r.range_air_m - rho).abs() < 1e-8, "air range {} vs {rho}", r.range_air_m);
