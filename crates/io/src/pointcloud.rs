@@ -45,6 +45,6 @@ mod writer;
 pub use extra_bytes::ExtraDim;
 pub use info::LasInfo;
 pub use point::{CLASS_BATHYMETRY, CLASS_WATER_SURFACE, LasPoint};
-pub use raw_chunk::RawChunk;
+pub use raw_chunk::{RawChunk, RawPoint};
 pub use reader::{LasReader, PointChunk};
-pub use writer::{LasWriteOptions, LasWriter};
+pub use writer::{LasWriteOptions, LasWriter, RawPointWriter};

@@ -11,8 +11,8 @@ use crate::summary::{
     IncidenceTally, SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary,
 };
 use lidarqa_io::{
-    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, Crs, InverseKind, LasPoint, LasTimeConverter,
-    LasWriteOptions, LasWriter, LocalInverse, PointChunk, Unprojected,
+    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, Crs, InverseKind, LasTimeConverter, LasWriteOptions,
+    LasWriter, LocalInverse, RawChunk, RawPoint, Unprojected,
 };
 use lidarqa_model::{
     ConicScanner, Ecef, Georeferencer, Grid, LinearScanner, Mounting, MountingPartials, Ned,
@@ -349,15 +349,17 @@ impl Prep {
 
 struct Prepared {
     first_index: u64,
-    chunk: PointChunk,
+    /// The records as the file stores them: the writer appends the σ to each.
+    chunk: RawChunk,
     pts: Vec<Prep>,
 }
 
 impl Prepare {
-    fn point(&self, p: &LasPoint, inverse: &LocalInverse<'_>) -> Prep {
+    fn point(&self, p: RawPoint<'_>, inverse: &LocalInverse<'_>) -> Prep {
+        let [x, y, z] = p.xyz();
         let mut out = Prep {
             ecef: Ecef::default(),
-            xyz_m: [p.x, p.y, p.z].map(|v| v * self.unit_m),
+            xyz_m: [x, y, z].map(|v| v * self.unit_m),
             latitude_rad: 0.0,
             longitude_rad: 0.0,
             unprojected: Unprojected {
@@ -372,7 +374,7 @@ impl Prepare {
             time_sow_s: f64::NAN,
             state: PrepState::Ok,
         };
-        if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+        if !(x.is_finite() && y.is_finite() && z.is_finite()) {
             out.state = PrepState::NonFinite;
             return out;
         }
@@ -388,7 +390,7 @@ impl Prepare {
             .crs
             .ellipsoid()
             .ecef_from_unprojected(&g.unprojected, height_m);
-        match p.gps_time_s.map(|t| self.converter.to_seconds_of_week(t)) {
+        match p.gps_time().map(|t| self.converter.to_seconds_of_week(t)) {
             Some(Ok(t)) => out.time_sow_s = t,
             Some(Err(e)) => out.state = PrepState::BadTime(e.to_string()),
             None => out.state = PrepState::BadTime("point without GPS time".into()),
@@ -400,7 +402,7 @@ impl Prepare {
 /// Buffers handed back for reuse. A chunk's vectors are tens of MB: allocated afresh for every
 /// chunk, they came from `mmap` each time, and page faults on them were ~5 % of the run.
 enum Spent {
-    Chunk(PointChunk),
+    Chunk(RawChunk),
     Preps(Vec<Prep>),
 }
 
@@ -418,15 +420,15 @@ struct Recycle {
 struct TileSource<'a> {
     prep: &'a Prepare,
     spent: Receiver<Spent>,
-    chunks: Vec<PointChunk>,
+    chunks: Vec<RawChunk>,
     preps: Vec<Vec<Prep>>,
     first_index: u64,
 }
 
-impl ChunkSource for TileSource<'_> {
+impl ChunkSource<RawChunk> for TileSource<'_> {
     type Item = Prepared;
 
-    fn spare(&mut self) -> PointChunk {
+    fn spare(&mut self) -> RawChunk {
         while let Ok(s) = self.spent.try_recv() {
             match s {
                 Spent::Chunk(c) => self.chunks.push(c),
@@ -438,18 +440,20 @@ impl ChunkSource for TileSource<'_> {
         self.chunks.pop().unwrap_or_default()
     }
 
-    fn prepare(&mut self, chunk: PointChunk) -> Prepared {
+    fn prepare(&mut self, chunk: RawChunk) -> Prepared {
         let mut pts: Vec<Prep> = self.preps.pop().unwrap_or_default();
         let unit_m = self.prep.unit_m;
         let inverse = LocalInverse::new(
             &self.prep.crs,
             self.prep.inverse,
-            chunk.points.iter().map(|p| [p.x * unit_m, p.y * unit_m]),
+            chunk.points().map(|p| {
+                let [x, y, _] = p.xyz();
+                [x * unit_m, y * unit_m]
+            }),
         );
-        chunk
-            .points
-            .par_iter()
-            .map(|p| self.prep.point(p, &inverse))
+        (0..chunk.len())
+            .into_par_iter()
+            .map(|i| self.prep.point(chunk.point(i), &inverse))
             .collect_into_vec(&mut pts);
         let first_index = self.first_index;
         self.first_index += chunk.len() as u64;
@@ -462,13 +466,13 @@ impl ChunkSource for TileSource<'_> {
 }
 
 /// A chunk and its computed slots, one per point.
-type WriteMsg = crate::stages::WriteMsg<(PointChunk, Vec<Slot>)>;
+type WriteMsg = crate::stages::WriteMsg<(RawChunk, Vec<Slot>)>;
 
-/// Writes each point's σ (and sounding, covariance) after its record, skipping the points not
-/// propagated, and hands the buffers back.
+/// Writes each point's record as read with its σ (and sounding, covariance) appended, skipping
+/// the points not propagated, and hands the buffers back.
 fn write_chunk(
     writer: &mut LasWriter,
-    (chunk, slots): (PointChunk, Vec<Slot>),
+    (chunk, slots): (RawChunk, Vec<Slot>),
     n_dims: usize,
     covariance: bool,
     progress: &(dyn Fn(u64) + Sync),
@@ -476,7 +480,8 @@ fn write_chunk(
     spent_slots: &SyncSender<Vec<Slot>>,
 ) -> Result<()> {
     let mut extra = [0f32; 9];
-    for (p, s) in chunk.points.iter().zip(&slots) {
+    let mut out = writer.raw_points(&chunk)?;
+    for (i, s) in slots.iter().enumerate() {
         if let Slot::Ok(sig, sounding, cov) = s {
             for (e, v) in extra.iter_mut().zip(sig) {
                 *e = *v as f32;
@@ -493,7 +498,7 @@ fn write_chunk(
                 None => (0.0, -1.0),
             };
             let n64 = if covariance { cov.len() } else { 0 };
-            writer.write_point_f64(p, &extra[..n_dims], &cov[..n64])?;
+            out.write(i, &extra[..n_dims], &cov[..n64])?;
         }
     }
     progress(chunk.len() as u64);
@@ -596,9 +601,8 @@ impl Run<'_> {
             let water = (conic
                 && cur
                     .chunk
-                    .points
-                    .iter()
-                    .any(|p| p.classification == CLASS_BATHYMETRY))
+                    .points()
+                    .any(|p| p.classification() == CLASS_BATHYMETRY))
             .then(|| {
                 let mut w: Vec<WaterReturn> = water_tail.iter().map(|(_, r)| *r).collect();
                 w.extend(water_returns(&cur, cur.pts.len()).map(|(_, r)| r));
@@ -839,7 +843,7 @@ impl Run<'_> {
         acc: &mut Partial,
     ) -> Slot {
         let p = &cur.pts[i];
-        let lp = &cur.chunk.points[i];
+        let lp = cur.chunk.point(i);
         let index = cur.first_index + i as u64;
         let opts = &self.ctx.options;
         let invalid = |reason, e: Error| {
@@ -852,14 +856,15 @@ impl Run<'_> {
         match &p.state {
             PrepState::Ok => {}
             PrepState::NonFinite => {
+                let [x, y, z] = lp.xyz();
                 return invalid(
                     SkipReason::NonFiniteCoordinates,
                     Error::NonFiniteCoordinates {
                         path: self.path.clone(),
                         index,
-                        x: lp.x,
-                        y: lp.y,
-                        z: lp.z,
+                        x,
+                        y,
+                        z,
                     },
                 );
             }
@@ -892,7 +897,7 @@ impl Run<'_> {
         };
         let sigma = self.ctx.sigmas.as_ref().map(|s| s.at(p.time_sow_s));
         let sounding = match (self.kernel, water) {
-            (Kernel::Conic(_, scanner), Some(w)) if lp.classification == CLASS_BATHYMETRY => {
+            (Kernel::Conic(_, scanner), Some(w)) if lp.classification() == CLASS_BATHYMETRY => {
                 Some(self.recover_sounding(scanner, &pose, p, w))
             }
             _ => None,
@@ -1063,7 +1068,7 @@ impl Run<'_> {
         &self,
         pose: &PoseAt,
         p: &Prep,
-        lp: &LasPoint,
+        lp: RawPoint<'_>,
         sigma: Option<&PoseSigma>,
         normal: Option<Vector3<f64>>,
         acc: &mut Partial,
@@ -1090,7 +1095,7 @@ impl Run<'_> {
                 let inc = incidence(r.range_m, r.beam_ned);
                 let u = pp.propagate_jacobian(footprint, &j, sigma, inc.as_ref(), &[])?;
                 acc.scan
-                    .push(r.scan_angle_rad.to_degrees() - f64::from(lp.scan_angle_deg));
+                    .push(r.scan_angle_rad.to_degrees() - f64::from(lp.scan_angle_deg()));
                 // S = (S_x, ρ sin θ, ρ cos θ); in the body frame R_M S.
                 let in_plane = r.range_m.powi(2) - r.out_of_plane_m.powi(2);
                 let rho = in_plane.max(0.0).sqrt();
@@ -1152,11 +1157,11 @@ impl Run<'_> {
 fn water_returns(c: &Prepared, limit: usize) -> impl Iterator<Item = (u64, WaterReturn)> + '_ {
     c.pts
         .iter()
-        .zip(&c.chunk.points)
+        .zip(c.chunk.points())
         .take(limit)
         .enumerate()
         .filter(|(_, (p, lp))| {
-            lp.classification == CLASS_WATER_SURFACE && matches!(p.state, PrepState::Ok)
+            lp.classification() == CLASS_WATER_SURFACE && matches!(p.state, PrepState::Ok)
         })
         .map(move |(k, (p, _))| {
             (

@@ -217,7 +217,8 @@ impl LasReader {
 
     /// Replaces `chunk`'s records with up to `max` next points, as the file stores them (see
     /// [`RawChunk`]); returns how many. As [`LasReader::fill`] otherwise (no extra-bytes values
-    /// are decoded: they stay in the records).
+    /// are decoded: they stay in the records, read by name with
+    /// [`RawChunk::extra_column`]).
     ///
     /// # Errors
     /// As [`LasReader::fill`].
@@ -232,6 +233,9 @@ impl LasReader {
         self.fill_data(max, &mut chunk.data)?;
         chunk.gps_time_at = raw_gps_time_offset(chunk.data.format());
         chunk.first_index = start;
+        if chunk.extra_dims != self.info.extra_dims {
+            chunk.extra_dims.clone_from(&self.info.extra_dims);
+        }
         Ok(chunk.data.len())
     }
 
