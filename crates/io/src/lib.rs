@@ -51,7 +51,7 @@ pub use grid_to_ecef::{CellCache, GridToEcef, MapAt};
 pub use local_inverse::{CELL_M, InverseKind, Inverted, LocalInverse, TOLERANCE};
 pub use pointcloud::{
     CLASS_BATHYMETRY, CLASS_WATER_SURFACE, ExtraDim, LasInfo, LasPoint, LasReader, LasWriteOptions,
-    LasWriter, PointChunk, RawChunk, RawPoint, RawPointWriter,
+    LasWriter, PointChunk, RawChunk, RawPoint,
 };
 pub use sbet::{
     F64Record, RAD_PER_ARCMIN, RecordReader, RecordWriter, SbetPose, SbetReader, SbetWriter,

@@ -47,4 +47,4 @@ pub use info::LasInfo;
 pub use point::{CLASS_BATHYMETRY, CLASS_WATER_SURFACE, LasPoint};
 pub use raw_chunk::{RawChunk, RawPoint};
 pub use reader::{LasReader, PointChunk};
-pub use writer::{LasWriteOptions, LasWriter, RawPointWriter};
+pub use writer::{LasWriteOptions, LasWriter};

@@ -12,7 +12,7 @@ use crate::summary::{
 };
 use lidarqa_io::{
     CLASS_BATHYMETRY, CLASS_WATER_SURFACE, Crs, InverseKind, LasTimeConverter, LasWriteOptions,
-    LasWriter, LocalInverse, RawChunk, RawPoint, Unprojected,
+    LocalInverse, RawChunk, RawPoint, Unprojected,
 };
 use lidarqa_model::{
     ConicScanner, Ecef, Georeferencer, Grid, LinearScanner, Mounting, MountingPartials, Ned,
@@ -26,7 +26,7 @@ use lidarqa_tpu::{
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
-use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+use std::sync::mpsc::{Receiver, Sender, SyncSender, channel};
 
 /// Points per parallel work item.
 const BLOCK: usize = 4096;
@@ -146,6 +146,7 @@ pub fn tpu_tile_with_progress(
         .iter()
         .all(|n| info.extra_dims.iter().any(|d| d.name == *n));
     let writer = ctx.create_output(input, job.output, &options, &[])?;
+    let out_chunk = writer.raw_chunk();
 
     let prep = Prepare {
         crs: crs.clone(),
@@ -170,11 +171,9 @@ pub fn tpu_tile_with_progress(
     let chunk_points = ctx.options.chunk_points;
     let path = input.to_path_buf();
     // Spent buffers go back to the stage that fills them (see `Spent`).
-    let (tx_spent_read, rx_spent_read) = sync_channel::<Spent>(SPARES);
-    let (tx_spent_slots, rx_spent_slots) = sync_channel::<Vec<Slot>>(SPARES);
+    let (tx_spent_read, rx_spent_read) = channel::<Spent>();
+    let (tx_spent_out, rx_spent_out) = channel::<RawChunk>();
     let prep = &prep;
-    let tx_spent_chunk = tx_spent_read.clone();
-    let covariance = ctx.options.covariance;
     let run = Run {
         ctx,
         path: &path,
@@ -191,8 +190,11 @@ pub fn tpu_tile_with_progress(
         file_normals,
     };
     let spent = Recycle {
-        preps: tx_spent_read,
-        slots: rx_spent_slots,
+        inputs: tx_spent_read,
+        outputs: rx_spent_out,
+        out_chunk,
+        n_dims,
+        covariance: ctx.options.covariance,
     };
     run_stages(
         &path,
@@ -207,16 +209,12 @@ pub fn tpu_tile_with_progress(
             read_chunks(input, chunk_points, source, &tx_read);
         },
         move |rx_write| {
-            write_chunks(writer, rx_write, |writer, chunk| {
-                write_chunk(
-                    writer,
-                    chunk,
-                    n_dims,
-                    covariance,
-                    progress,
-                    &tx_spent_chunk,
-                    &tx_spent_slots,
-                )
+            write_chunks(writer, rx_write, |writer, (out, points_read)| {
+                writer.write_raw(&out)?;
+                progress(points_read);
+                // The compute stage may have finished: then the buffer is dropped.
+                let _ = tx_spent_out.send(out);
+                Ok(())
             })
         },
         |rx_read, tx_write| {
@@ -400,19 +398,26 @@ impl Prepare {
 }
 
 /// Buffers handed back for reuse. A chunk's vectors are tens of MB: allocated afresh for every
-/// chunk, they came from `mmap` each time, and page faults on them were ~5 % of the run.
+/// chunk, they come from `mmap` each time and every page faults. The channels that carry them
+/// back are unbounded, so none is dropped: the buffers in circulation are those the
+/// pipeline once held at the same time.
 enum Spent {
     Chunk(RawChunk),
     Preps(Vec<Prep>),
 }
 
-/// Spare buffers kept per kind (more in flight are dropped).
-const SPARES: usize = 1;
-
-/// The compute stage's ends of the recycling channels.
+/// The compute stage's ends of the recycling channels, and how it encodes the output records.
 struct Recycle {
-    preps: SyncSender<Spent>,
-    slots: Receiver<Vec<Slot>>,
+    /// Spent input chunks and their conversions, back to the reader.
+    inputs: Sender<Spent>,
+    /// Written output chunks, back from the writer.
+    outputs: Receiver<RawChunk>,
+    /// An empty chunk of the output's layout.
+    out_chunk: RawChunk,
+    /// σ (and sounding) values per record.
+    n_dims: usize,
+    /// The covariance's six f64 follow them.
+    covariance: bool,
 }
 
 /// The reader stage's work: recycles spent buffers and converts each chunk's points (in
@@ -435,8 +440,6 @@ impl ChunkSource<RawChunk> for TileSource<'_> {
                 Spent::Preps(p) => self.preps.push(p),
             }
         }
-        self.chunks.truncate(SPARES);
-        self.preps.truncate(SPARES);
         self.chunks.pop().unwrap_or_default()
     }
 
@@ -465,22 +468,20 @@ impl ChunkSource<RawChunk> for TileSource<'_> {
     }
 }
 
-/// A chunk and its computed slots, one per point.
-type WriteMsg = crate::stages::WriteMsg<(RawChunk, Vec<Slot>)>;
+/// An output chunk (the records with their σ) and the number of points read for it.
+type WriteMsg = crate::stages::WriteMsg<(RawChunk, u64)>;
 
-/// Writes each point's record as read with its σ (and sounding, covariance) appended, skipping
-/// the points not propagated, and hands the buffers back.
-fn write_chunk(
-    writer: &mut LasWriter,
-    (chunk, slots): (RawChunk, Vec<Slot>),
-    n_dims: usize,
-    covariance: bool,
-    progress: &(dyn Fn(u64) + Sync),
-    spent_chunks: &SyncSender<Spent>,
-    spent_slots: &SyncSender<Vec<Slot>>,
+/// Puts in `out` each propagated point's record as read with its σ (and sounding, covariance)
+/// appended, skipping the points not propagated.
+fn output_records(
+    path: &Path,
+    chunk: &RawChunk,
+    slots: &[Slot],
+    recycle: &Recycle,
+    out: &mut RawChunk,
 ) -> Result<()> {
     let mut extra = [0f32; 9];
-    let mut out = writer.raw_points(&chunk)?;
+    out.clear();
     for (i, s) in slots.iter().enumerate() {
         if let Slot::Ok(sig, sounding, cov) = s {
             for (e, v) in extra.iter_mut().zip(sig) {
@@ -497,13 +498,10 @@ fn write_chunk(
                 ),
                 None => (0.0, -1.0),
             };
-            let n64 = if covariance { cov.len() } else { 0 };
-            out.write(i, &extra[..n_dims], &cov[..n64])?;
+            let n64 = if recycle.covariance { cov.len() } else { 0 };
+            out.push(path, chunk.point(i), &extra[..recycle.n_dims], &cov[..n64])?;
         }
     }
-    progress(chunk.len() as u64);
-    let _ = spent_chunks.try_send(Spent::Chunk(chunk));
-    let _ = spent_slots.try_send(slots);
     Ok(())
 }
 
@@ -591,6 +589,8 @@ impl Run<'_> {
         // Water-surface returns among the last `margin` points, with their file index.
         let mut water_tail: Vec<(u64, WaterReturn)> = Vec::new();
         let mut current = recv()?;
+        // One vector of slots serves every chunk.
+        let mut slots = Vec::new();
         while let Some(cur) = current {
             let next = recv()?;
             let head: Vec<Vector3<f64>> = next
@@ -611,8 +611,12 @@ impl Run<'_> {
                 }
                 WaterSurfaceIndex::new(w)
             });
-            let slots = spent.slots.try_recv().unwrap_or_default();
-            let slots = self.compute_chunk(&cur, &tail, &head, water.as_ref(), slots, summary)?;
+            slots = self.compute_chunk(&cur, &tail, &head, water.as_ref(), slots, summary)?;
+            let mut out = spent
+                .outputs
+                .try_recv()
+                .unwrap_or_else(|_| spent.out_chunk.clone());
+            output_records(self.path, &cur.chunk, &slots, spent, &mut out)?;
             // The last `margin` valid points so far (they may span several small chunks).
             tail.extend(valid_ecef(&cur.pts));
             let excess = tail.len().saturating_sub(margin);
@@ -623,11 +627,13 @@ impl Run<'_> {
                 water_tail.retain(|(i, _)| i + margin as u64 >= end);
             }
             let Prepared { chunk, pts, .. } = cur;
-            if tx.send(WriteMsg::Chunk((chunk, slots))).is_err() {
+            if tx.send(WriteMsg::Chunk((out, chunk.len() as u64))).is_err() {
                 // The writer stopped; its error is reported by the caller.
                 return Ok(());
             }
-            let _ = spent.preps.try_send(Spent::Preps(pts));
+            // The reader may have finished: then the buffers are dropped.
+            let _ = spent.inputs.send(Spent::Chunk(chunk));
+            let _ = spent.inputs.send(Spent::Preps(pts));
             current = next;
         }
         Ok(())

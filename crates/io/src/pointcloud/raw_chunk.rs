@@ -5,13 +5,15 @@
 //! reads the fields these commands need straight from a record's bytes.
 
 use super::extra_bytes::ExtraDim;
+use super::writer::{encode_extra, is_prefix};
 use crate::error::{Error, Result};
 use std::path::Path;
 
 /// Up to a chunk of point records in the layout of the file they were read from, with that
 /// file's scale and offset; filled by [`LasReader::fill_raw`](super::reader::LasReader::fill_raw)
-/// and written by [`LasWriter::write_raw`](super::writer::LasWriter::write_raw) or
-/// [`LasWriter::raw_points`](super::writer::LasWriter::raw_points).
+/// and written by [`LasWriter::write_raw`](super::writer::LasWriter::write_raw); or an
+/// output's records, made by [`LasWriter::raw_chunk`](super::writer::LasWriter::raw_chunk) and
+/// filled by [`RawChunk::push`].
 #[derive(Clone, Debug)]
 pub struct RawChunk {
     pub(super) data: las::PointData,
@@ -21,6 +23,8 @@ pub struct RawChunk {
     pub(super) first_index: u64,
     /// The file's extra-bytes dimensions (offsets inside a record's extra bytes).
     pub(super) extra_dims: Vec<ExtraDim>,
+    /// The f32 and f64 extra-bytes values [`RawChunk::push`] appends (an output's chunk).
+    extra_counts: (usize, usize),
 }
 
 /// One record of a [`RawChunk`], decoded field by field on demand (as `las` decodes them).
@@ -28,6 +32,8 @@ pub struct RawChunk {
 pub struct RawPoint<'a> {
     record: &'a [u8],
     chunk: &'a RawChunk,
+    /// Index in the chunk.
+    index: usize,
 }
 
 impl<'a> RawPoint<'a> {
@@ -69,11 +75,6 @@ impl<'a> RawPoint<'a> {
         }
     }
 
-    /// The record as the file stores it.
-    pub(super) fn record(&self) -> &'a [u8] {
-        self.record
-    }
-
     /// The record's extra bytes (after its format's fields).
     fn extra_bytes(&self) -> &[u8] {
         let n = usize::from(self.chunk.data.format().extra_bytes);
@@ -88,6 +89,7 @@ impl Default for RawChunk {
             gps_time_at: None,
             first_index: 0,
             extra_dims: Vec::new(),
+            extra_counts: (0, 0),
         }
     }
 }
@@ -96,6 +98,72 @@ impl RawChunk {
     /// An empty chunk.
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// An empty chunk of `data`'s layout whose records end in `n32` f32 then `n64` f64 values.
+    pub(super) fn with_layout(data: las::PointData, n32: usize, n64: usize) -> Self {
+        RawChunk {
+            gps_time_at: gps_time_offset(data.format()),
+            data,
+            first_index: 0,
+            extra_dims: Vec::new(),
+            extra_counts: (n32, n64),
+        }
+    }
+
+    /// Removes every point (the buffer is kept).
+    pub fn clear(&mut self) {
+        self.data.resize_for(0);
+    }
+
+    /// Appends `from` (a point of a chunk read from a file) as a record of this chunk's layout:
+    /// its bytes up to this format's fields (without the waveform packet, NIR or extra bytes
+    /// this format does not have), then `extra` and `extra64`. No field is decoded.
+    ///
+    /// # Errors
+    /// [`Error::PointMismatch`] naming `path` (the file the chunk is for) when this format's
+    /// fields are not a prefix of `from`'s record, the scale and offset differ, or the values do
+    /// not match this chunk's extra-bytes dimensions.
+    pub fn push(
+        &mut self,
+        path: &Path,
+        from: RawPoint<'_>,
+        extra: &[f32],
+        extra64: &[f64],
+    ) -> Result<()> {
+        let mut base = *self.data.format();
+        base.extra_bytes = 0;
+        let src = &from.chunk.data;
+        if !is_prefix(&base, src.format())
+            || src.transforms() != self.data.transforms()
+            || (extra.len(), extra64.len()) != self.extra_counts
+        {
+            return Err(Error::PointMismatch {
+                path: path.to_path_buf(),
+                index: from.chunk.first_index + from.index as u64,
+                message: format!(
+                    "a record of point format {} and scale/offset {:?} with {} f32 + {} f64 \
+                     values cannot be written as format {} with {:?} and {} + {}",
+                    src.format(),
+                    src.transforms(),
+                    extra.len(),
+                    extra64.len(),
+                    self.data.format(),
+                    self.data.transforms(),
+                    self.extra_counts.0,
+                    self.extra_counts.1
+                ),
+            });
+        }
+        let (n, len, head) = (
+            self.data.len(),
+            self.data.record_len(),
+            usize::from(base.len()),
+        );
+        let record = &mut self.data.resize_for(n + 1)[n * len..];
+        record[..head].copy_from_slice(&from.record[..head]);
+        encode_extra(&mut record[head..], extra, extra64);
+        Ok(())
     }
 
     /// Number of points.
@@ -114,6 +182,7 @@ impl RawChunk {
         RawPoint {
             record: &self.data.raw_bytes()[i * n..(i + 1) * n],
             chunk: self,
+            index: i,
         }
     }
 
@@ -122,9 +191,11 @@ impl RawChunk {
         self.data
             .raw_bytes()
             .chunks_exact(self.data.record_len())
-            .map(move |record| RawPoint {
+            .enumerate()
+            .map(move |(index, record)| RawPoint {
                 record,
                 chunk: self,
+                index,
             })
     }
 
@@ -184,4 +255,12 @@ impl RawChunk {
         }
         Ok(())
     }
+}
+
+/// Byte offset of the GPS time in a record of `format` (after the 20 bytes of formats 0–5's
+/// base record, the 22 of formats 6–10's), `None` without time.
+pub(super) fn gps_time_offset(format: &las::point::Format) -> Option<usize> {
+    format
+        .has_gps_time
+        .then_some(if format.is_extended { 22 } else { 20 })
 }

@@ -4,7 +4,7 @@
 use super::info::LasInfo;
 use super::laz_layout;
 use super::point::LasPoint;
-use super::raw_chunk::RawChunk;
+use super::raw_chunk::{RawChunk, gps_time_offset};
 use crate::error::{Error, Result};
 use std::fs::File;
 use std::io::{BufReader, Read, Seek};
@@ -231,7 +231,7 @@ impl LasReader {
                 .build();
         }
         self.fill_data(max, &mut chunk.data)?;
-        chunk.gps_time_at = raw_gps_time_offset(chunk.data.format());
+        chunk.gps_time_at = gps_time_offset(chunk.data.format());
         chunk.first_index = start;
         if chunk.extra_dims != self.info.extra_dims {
             chunk.extra_dims.clone_from(&self.info.extra_dims);
@@ -481,14 +481,6 @@ fn from_las_point(p: las::Point) -> LasPoint {
         rgb: p.color.map(|c| [c.red, c.green, c.blue]),
         nir: p.nir,
     }
-}
-
-/// Byte offset of the GPS time in a record of `format` (after the 20 bytes of formats 0–5's
-/// base record, the 22 of formats 6–10's), `None` without time.
-fn raw_gps_time_offset(format: &las::point::Format) -> Option<usize> {
-    format
-        .has_gps_time
-        .then_some(if format.is_extended { 22 } else { 20 })
 }
 
 #[cfg(test)]

@@ -165,7 +165,7 @@ impl LasWriteOptions {
 
 /// Whether the fields of `out` (its extra bytes aside) are the start of a record of `inp`: the
 /// same base, time and colour, `inp` may add NIR, a waveform packet and extra bytes.
-fn is_prefix(out: &las::point::Format, inp: &las::point::Format) -> bool {
+pub(super) fn is_prefix(out: &las::point::Format, inp: &las::point::Format) -> bool {
     out.is_extended == inp.is_extended
         && out.has_gps_time == inp.has_gps_time
         && out.has_color == inp.has_color
@@ -174,7 +174,7 @@ fn is_prefix(out: &las::point::Format, inp: &las::point::Format) -> bool {
 }
 
 /// Puts the little-endian bytes of `extra` then `extra64` in `bytes` (4 and 8 bytes each).
-fn encode_extra(bytes: &mut [u8], extra: &[f32], extra64: &[f64]) {
+pub(super) fn encode_extra(bytes: &mut [u8], extra: &[f32], extra64: &[f64]) {
     let (a, b) = bytes.split_at_mut(4 * extra.len());
     for (t, v) in a.chunks_exact_mut(4).zip(extra) {
         t.copy_from_slice(&v.to_le_bytes());
@@ -366,25 +366,26 @@ impl LasWriter {
                 source,
             });
         }
-        let record = std::mem::take(&mut self.scratch);
-        let pushed = self.push_record(&record, |_| {});
-        self.scratch = record;
-        pushed
-    }
-
-    /// Appends one encoded record: `head` then what `tail` writes in the rest of the record
-    /// (the whole record when `head` is). Flushes a full batch.
-    fn push_record(&mut self, head: &[u8], tail: impl FnOnce(&mut [u8])) -> Result<()> {
         let n = self.pending.len();
         let len = self.pending.record_len();
-        let record = &mut self.pending.resize_for(n + 1)[n * len..];
-        record[..head.len()].copy_from_slice(head);
-        tail(&mut record[head.len()..]);
+        self.pending.resize_for(n + 1)[n * len..].copy_from_slice(&self.scratch);
         self.index += 1;
         if self.pending.len() >= WRITE_BATCH_POINTS {
             self.flush_pending()?;
         }
         Ok(())
+    }
+
+    /// An empty chunk in this file's layout (point format and scale/offset), to fill with
+    /// [`RawChunk::push`] and write with [`LasWriter::write_raw`].
+    pub fn raw_chunk(&self) -> RawChunk {
+        RawChunk::with_layout(
+            las::PointDataBuilder::new()
+                .for_header(self.inner.header())
+                .build(),
+            self.n_extra,
+            self.n_extra_f64,
+        )
     }
 
     /// Refuses extra-bytes values that do not match the dimensions.
@@ -403,29 +404,6 @@ impl LasWriter {
                     self.n_extra, self.n_extra_f64
                 )
             },
-        })
-    }
-
-    /// Writes points of `chunk` (read by
-    /// [`LasReader::fill_raw`](super::reader::LasReader::fill_raw)) with extra-bytes values
-    /// appended: each record as the input stores it up to this file's point format (without the
-    /// waveform packet, NIR or extra bytes this format does not have, as for
-    /// [`LasWriter::write_raw`]), then the values. No record is decoded.
-    ///
-    /// # Errors
-    /// [`Error::PointMismatch`] when this format's fields are not a prefix of the chunk's
-    /// records or the scale and offset differ.
-    pub fn raw_points<'w>(&'w mut self, chunk: &'w RawChunk) -> Result<RawPointWriter<'w>> {
-        let inp = *chunk.data.format();
-        let mut base = self.format;
-        base.extra_bytes = 0;
-        if !is_prefix(&base, &inp) || chunk.data.transforms() != self.inner.header().transforms() {
-            return Err(self.raw_mismatch(chunk));
-        }
-        Ok(RawPointWriter {
-            base_len: usize::from(base.len()),
-            writer: self,
-            chunk,
         })
     }
 
@@ -634,28 +612,6 @@ impl Seek for Sink {
                 Err(e)
             }
         }
-    }
-}
-
-/// Appends points of one [`RawChunk`] to a [`LasWriter`]; see [`LasWriter::raw_points`].
-pub struct RawPointWriter<'w> {
-    writer: &'w mut LasWriter,
-    chunk: &'w RawChunk,
-    /// Bytes of a record this file's format takes from the chunk's.
-    base_len: usize,
-}
-
-impl RawPointWriter<'_> {
-    /// Appends point `i` of the chunk with its extra-bytes values (one per dimension, f32 then
-    /// f64, in option order).
-    ///
-    /// # Errors
-    /// [`Error::PointMismatch`] for the wrong number of values; the writer's I/O errors.
-    pub fn write(&mut self, i: usize, extra: &[f32], extra64: &[f64]) -> Result<()> {
-        self.writer.check_extra(extra.len(), extra64.len())?;
-        let record = &self.chunk.point(i).record()[..self.base_len];
-        self.writer
-            .push_record(record, |tail| encode_extra(tail, extra, extra64))
     }
 }
 
