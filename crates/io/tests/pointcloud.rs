@@ -495,7 +495,7 @@ fn raw_records_refuse_another_layout_or_transform() {
 }
 
 #[test]
-fn raw_points_read_as_decoded_and_written_with_appended_values_as_the_decoded_path() {
+fn raw_points_read_as_decoded_and_pushed_with_appended_values_as_the_decoded_path_writes() {
     // Formats 1, 3 (legacy, colour), 6, 7 (colour) and 8 (colour and NIR), LAS and LAZ; the
     // input has four extra-bytes dimensions the output drops for two f32 and one f64 of its own.
     for (format, ext) in [(1u8, "las"), (3, "laz"), (6, "laz"), (7, "las"), (8, "laz")] {
@@ -533,7 +533,7 @@ fn raw_points_read_as_decoded_and_written_with_appended_values_as_the_decoded_pa
                 assert_eq!(chunk.extra_column(name).unwrap(), want, "{name}");
             }
             assert!(chunk.extra_column("nothing").is_none());
-            let mut out = w_raw.raw_points(&chunk).unwrap();
+            let mut out = w_raw.raw_chunk();
             for (k, p) in chunk.points().enumerate() {
                 let want = &decoded.points[first + k];
                 assert_eq!(p.xyz(), [want.x, want.y, want.z]);
@@ -543,14 +543,15 @@ fn raw_points_read_as_decoded_and_written_with_appended_values_as_the_decoded_pa
                 // Every other point, with values of its own.
                 if (first + k) % 2 == 0 {
                     let (e, e64) = ([k as f32, 0.5], [1e-9 * (first + k) as f64]);
-                    out.write(k, &e, &e64).unwrap();
+                    out.push(&raw_out, p, &e, &e64).unwrap();
                     w_point.write_point_f64(want, &e, &e64).unwrap();
                 }
             }
             assert!(matches!(
-                out.write(0, &[1.0], &[2.0]),
+                out.push(&raw_out, chunk.point(0), &[1.0], &[2.0]),
                 Err(lidarqa_io::Error::PointMismatch { .. })
             ));
+            w_raw.write_raw(&out).unwrap();
         }
         assert_eq!(w_raw.finish().unwrap(), 13);
         assert_eq!(w_point.finish().unwrap(), 13);
