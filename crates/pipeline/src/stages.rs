@@ -84,6 +84,20 @@ pub(crate) trait ChunkSource<C: Chunk = PointChunk> {
     fn prepare(&mut self, chunk: C) -> Self::Item;
 }
 
+/// A reader stage that sends the chunks as they are, filling the spare chunks a later stage
+/// hands back.
+pub(crate) struct Spares(pub(crate) Receiver<RawChunk>);
+
+impl ChunkSource<RawChunk> for Spares {
+    type Item = RawChunk;
+    fn spare(&mut self) -> RawChunk {
+        self.0.try_recv().unwrap_or_default()
+    }
+    fn prepare(&mut self, chunk: RawChunk) -> RawChunk {
+        chunk
+    }
+}
+
 /// The reader stage: opens `input` on its own thread (las's reader is not `Send`), fills chunks of
 /// up to `chunk_points` and sends each as `source.prepare(chunk)`. Stops at the end of the file,
 /// at a read error (sent on, so that the compute stage reports it as the cause), or when the

@@ -6,7 +6,7 @@ use crate::plausibility::{
     DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, MOUNTING_ERROR_M, MountingTally, check_distance,
     check_gaps, crs_name, outside_zone, point_implausible,
 };
-use crate::stages::{ChunkSource, read_chunks, run_stages, write_chunks};
+use crate::stages::{Spares, read_chunks, run_stages, write_chunks};
 use crate::summary::{
     IncidenceTally, SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary,
 };
@@ -171,11 +171,12 @@ pub fn tpu_tile_with_progress(
     let chunk_points = ctx.options.chunk_points;
     let path = input.to_path_buf();
     // Spent buffers go back to the stage that fills them (see `Spent`).
-    let (tx_spent_read, rx_spent_read) = channel::<Spent>();
+    let (tx_spent_read, rx_spent_read) = channel::<RawChunk>();
     let (tx_spent_out, rx_spent_out) = channel::<RawChunk>();
     let prep = &prep;
     let run = Run {
         ctx,
+        prep,
         path: &path,
         trajectory: &trajectory,
         kernel: &kernel,
@@ -198,16 +199,7 @@ pub fn tpu_tile_with_progress(
     };
     run_stages(
         &path,
-        move |tx_read| {
-            let source = TileSource {
-                prep,
-                spent: rx_spent_read,
-                chunks: Vec::new(),
-                preps: Vec::new(),
-                first_index: 0,
-            };
-            read_chunks(input, chunk_points, source, &tx_read);
-        },
+        move |tx_read| read_chunks(input, chunk_points, Spares(rx_spent_read), &tx_read),
         move |rx_write| {
             write_chunks(writer, rx_write, |writer, (out, points_read)| {
                 writer.write_raw(&out)?;
@@ -397,19 +389,14 @@ impl Prepare {
     }
 }
 
-/// Buffers handed back for reuse. A chunk's vectors are tens of MB: allocated afresh for every
-/// chunk, they come from `mmap` each time and every page faults. The channels that carry them
-/// back are unbounded, so none is dropped: the buffers in circulation are those the
-/// pipeline once held at the same time.
-enum Spent {
-    Chunk(RawChunk),
-    Preps(Vec<Prep>),
-}
-
-/// The compute stage's ends of the recycling channels, and how it encodes the output records.
+/// The compute stage's ends of the channels that hand buffers back for reuse, and how it
+/// encodes the output records. A chunk's vectors are tens of MB: allocated afresh for every
+/// chunk, they come from `mmap` each time and every page faults. The channels are unbounded,
+/// so none is dropped: the buffers in circulation are those the pipeline once held at the same
+/// time.
 struct Recycle {
-    /// Spent input chunks and their conversions, back to the reader.
-    inputs: Sender<Spent>,
+    /// Spent input chunks, back to the reader.
+    inputs: Sender<RawChunk>,
     /// Written output chunks, back from the writer.
     outputs: Receiver<RawChunk>,
     /// An empty chunk of the output's layout.
@@ -420,35 +407,13 @@ struct Recycle {
     covariance: bool,
 }
 
-/// The reader stage's work: recycles spent buffers and converts each chunk's points (in
-/// parallel) to ECEF and seconds of week.
-struct TileSource<'a> {
-    prep: &'a Prepare,
-    spent: Receiver<Spent>,
-    chunks: Vec<RawChunk>,
-    preps: Vec<Vec<Prep>>,
-    first_index: u64,
-}
-
-impl ChunkSource<RawChunk> for TileSource<'_> {
-    type Item = Prepared;
-
-    fn spare(&mut self) -> RawChunk {
-        while let Ok(s) = self.spent.try_recv() {
-            match s {
-                Spent::Chunk(c) => self.chunks.push(c),
-                Spent::Preps(p) => self.preps.push(p),
-            }
-        }
-        self.chunks.pop().unwrap_or_default()
-    }
-
-    fn prepare(&mut self, chunk: RawChunk) -> Prepared {
-        let mut pts: Vec<Prep> = self.preps.pop().unwrap_or_default();
-        let unit_m = self.prep.unit_m;
+impl Prepare {
+    /// Converts each point of `chunk` (in parallel) to ECEF and seconds of week, into `pts`.
+    fn chunk(&self, chunk: RawChunk, mut pts: Vec<Prep>) -> Prepared {
+        let unit_m = self.unit_m;
         let inverse = LocalInverse::new(
-            &self.prep.crs,
-            self.prep.inverse,
+            &self.crs,
+            self.inverse,
             chunk.points().map(|p| {
                 let [x, y, _] = p.xyz();
                 [x * unit_m, y * unit_m]
@@ -456,12 +421,10 @@ impl ChunkSource<RawChunk> for TileSource<'_> {
         );
         (0..chunk.len())
             .into_par_iter()
-            .map(|i| self.prep.point(chunk.point(i), &inverse))
+            .map(|i| self.point(chunk.point(i), &inverse))
             .collect_into_vec(&mut pts);
-        let first_index = self.first_index;
-        self.first_index += chunk.len() as u64;
         Prepared {
-            first_index,
+            first_index: chunk.first_index(),
             chunk,
             pts,
         }
@@ -546,6 +509,9 @@ struct Recovered {
 
 struct Run<'a> {
     ctx: &'a TpuContext,
+    /// Converts each chunk received (the reader only decodes: fewer chunks' conversions are
+    /// held at once).
+    prep: &'a Prepare,
     path: &'a PathBuf,
     trajectory: &'a Trajectory,
     kernel: &'a Kernel,
@@ -571,14 +537,16 @@ struct Run<'a> {
 impl Run<'_> {
     fn compute_all(
         &self,
-        rx: &Receiver<Result<Prepared>>,
+        rx: &Receiver<Result<RawChunk>>,
         tx: &SyncSender<WriteMsg>,
         spent: &Recycle,
         summary: &mut TpuSummary,
     ) -> Result<()> {
-        let recv = || -> Result<Option<Prepared>> {
+        // Conversions of chunks already computed, for reuse.
+        let mut spare_pts: Vec<Vec<Prep>> = Vec::new();
+        let recv = |spare: &mut Vec<Vec<Prep>>| -> Result<Option<Prepared>> {
             match rx.recv() {
-                Ok(Ok(p)) => Ok(Some(p)),
+                Ok(Ok(c)) => Ok(Some(self.prep.chunk(c, spare.pop().unwrap_or_default()))),
                 Ok(Err(e)) => Err(e),
                 Err(_) => Ok(None),
             }
@@ -588,11 +556,11 @@ impl Run<'_> {
         let mut tail: Vec<Vector3<f64>> = Vec::new();
         // Water-surface returns among the last `margin` points, with their file index.
         let mut water_tail: Vec<(u64, WaterReturn)> = Vec::new();
-        let mut current = recv()?;
+        let mut current = recv(&mut spare_pts)?;
         // One vector of slots serves every chunk.
         let mut slots = Vec::new();
         while let Some(cur) = current {
-            let next = recv()?;
+            let next = recv(&mut spare_pts)?;
             let head: Vec<Vector3<f64>> = next
                 .as_ref()
                 .map(|n| valid_ecef(&n.pts).take(margin).collect())
@@ -631,9 +599,9 @@ impl Run<'_> {
                 // The writer stopped; its error is reported by the caller.
                 return Ok(());
             }
-            // The reader may have finished: then the buffers are dropped.
-            let _ = spent.inputs.send(Spent::Chunk(chunk));
-            let _ = spent.inputs.send(Spent::Preps(pts));
+            // The reader may have finished: then the chunk is dropped.
+            let _ = spent.inputs.send(chunk);
+            spare_pts.push(pts);
             current = next;
         }
         Ok(())
