@@ -699,7 +699,6 @@ impl Run<'_> {
                     if let Some(r) = sounding {
                         summary.iho.add(r, x_m, y_m);
                     }
-                    summary.map.add(x_m, y_m, sig[4]);
                     for (h, v) in summary.sigma.iter_mut().zip(sig) {
                         h.add(*v);
                     }
@@ -712,6 +711,12 @@ impl Run<'_> {
                 Slot::Pending | Slot::Failed(_) => {}
             }
         }
+        summary
+            .map
+            .add_all(slots.iter().zip(&cur.pts).filter_map(|(s, p)| match s {
+                Slot::Ok(sig, ..) => Some([p.xyz_m[0], p.xyz_m[1], sig[4]]),
+                _ => None,
+            }));
         for ((_, s), v) in summary.share_sums.iter_mut().zip(&partial.shares) {
             *s += v;
         }
