@@ -556,11 +556,19 @@ impl Run<'_> {
         let mut tail: Vec<Vector3<f64>> = Vec::new();
         // Water-surface returns among the last `margin` points, with their file index.
         let mut water_tail: Vec<(u64, WaterReturn)> = Vec::new();
+        // The next chunk's first points are the incidence term's neighbourhood margin and the
+        // soundings' surface; without either, a chunk is computed as soon as it arrives (one
+        // chunk's conversion less is held).
+        let lookahead = conic || self.kernel.has_incidence();
         let mut current = recv(&mut spare_pts)?;
         // One vector of slots serves every chunk.
         let mut slots = Vec::new();
         while let Some(cur) = current {
-            let next = recv(&mut spare_pts)?;
+            let next = if lookahead {
+                recv(&mut spare_pts)?
+            } else {
+                None
+            };
             let head: Vec<Vector3<f64>> = next
                 .as_ref()
                 .map(|n| valid_ecef(&n.pts).take(margin).collect())
@@ -602,7 +610,10 @@ impl Run<'_> {
             // The reader may have finished: then the chunk is dropped.
             let _ = spent.inputs.send(chunk);
             spare_pts.push(pts);
-            current = next;
+            current = match next {
+                None if !lookahead => recv(&mut spare_pts)?,
+                next => next,
+            };
         }
         Ok(())
     }
