@@ -89,10 +89,12 @@ pub fn tpu_tile(job: &TpuTileJob<'_>) -> Result<TileReport> {
 /// Runs one tile, calling `progress(n)` after each chunk of `n` points read is written.
 ///
 /// Three stages run at once on bounded channels (one chunk in flight each): a reader thread
-/// decodes a chunk and converts its points to ECEF and seconds of week (UTM inverse → geodetic
-/// → ECEF on the CRS's ellipsoid); the calling thread recovers and propagates every point
-/// (rayon); a writer thread writes the points with their σ. Memory is a few chunks whatever
-/// the file size. The output is atomic: on any error nothing is left at `job.output`.
+/// decodes a chunk's records; the calling thread converts its points to ECEF and seconds of
+/// week (UTM inverse → geodetic → ECEF on the CRS's ellipsoid), recovers and propagates every
+/// point (rayon) and appends their σ to the records as read (no record is decoded into fields
+/// and encoded again); a writer thread writes them. Memory is a few chunks whatever the file
+/// size, and the chunks' buffers are reused. The output is atomic: on any error nothing is
+/// left at `job.output`.
 ///
 /// The incidence angle's plane fit searches the chunk itself plus the last / first
 /// `margin_points` points of the previous / next chunk, so a time-ordered strip has no edge
