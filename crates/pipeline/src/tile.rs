@@ -6,7 +6,7 @@ use crate::plausibility::{
     DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, MOUNTING_ERROR_M, MountingTally, check_distance,
     check_gaps, crs_name, outside_zone, point_implausible,
 };
-use crate::stages::{Spares, read_chunks, run_stages, write_chunks};
+use crate::stages::{read_chunks, run_stages, write_chunks};
 use crate::summary::{
     IncidenceTally, SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary,
 };
@@ -201,7 +201,7 @@ pub fn tpu_tile_with_progress(
     };
     run_stages(
         &path,
-        move |tx_read| read_chunks(input, chunk_points, Spares(rx_spent_read), &tx_read),
+        move |tx_read| read_chunks(input, chunk_points, &rx_spent_read, &tx_read),
         move |rx_write| {
             write_chunks(writer, rx_write, |writer, (out, points_read)| {
                 writer.write_raw(&out)?;
