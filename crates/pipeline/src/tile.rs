@@ -172,7 +172,7 @@ pub fn tpu_tile_with_progress(
 
     let chunk_points = ctx.options.chunk_points;
     let path = input.to_path_buf();
-    // Spent buffers go back to the stage that fills them (see `Spent`).
+    // Spent buffers go back to the stage that fills them (see `Recycle`).
     let (tx_spent_read, rx_spent_read) = channel::<RawChunk>();
     let (tx_spent_out, rx_spent_out) = channel::<RawChunk>();
     let prep = &prep;
@@ -341,7 +341,7 @@ impl Prep {
 
 struct Prepared {
     first_index: u64,
-    /// The records as the file stores them: the writer appends the σ to each.
+    /// The records as the file stores them: the compute stage appends the σ to each.
     chunk: RawChunk,
     pts: Vec<Prep>,
 }
