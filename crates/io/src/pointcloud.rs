@@ -3,6 +3,9 @@
 //! - [`LasReader`] streams points in chunks into a reusable [`PointChunk`] (memory bounded by the
 //!   chunk size, whatever the file size), decoding each record once into a plain [`LasPoint`]
 //!   plus the file's extra-bytes dimensions by name;
+//! - [`RawChunk`] keeps a chunk's records as the file stores them, for commands that pass them
+//!   through (`correct` rewrites X, Y, Z; `tpu` appends its σ with [`RawChunk::push`]);
+//!   [`RawPoint`] reads the few fields they need straight from a record's bytes;
 //! - [`LasInfo`] holds the header facts lidarqa needs: version, point format, count, bounds, GPS
 //!   time base, creation date, scale/offset and the CRS ([`LasCrs`](crate::crs::LasCrs): the
 //!   raw CRS VLRs to copy into outputs and the EPSG code when one is present);
@@ -31,8 +34,9 @@
 //!
 //! # Modules
 //! One job each: `point` the shared plain types, `extra_bytes` the extra-bytes VLR codec,
-//! `info` the header facts, `reader` and `writer`, and `laz_layout` the checks of a LAZ
-//! file's own layout. The children use one another, never this module.
+//! `info` the header facts, `reader` and `writer`, `raw_chunk` the records kept as bytes, and
+//! `laz_layout` the checks of a LAZ file's own layout. The children use one another, never
+//! this module.
 
 mod extra_bytes;
 mod info;
@@ -45,6 +49,6 @@ mod writer;
 pub use extra_bytes::ExtraDim;
 pub use info::LasInfo;
 pub use point::{CLASS_BATHYMETRY, CLASS_WATER_SURFACE, LasPoint};
-pub use raw_chunk::RawChunk;
+pub use raw_chunk::{RawChunk, RawPoint};
 pub use reader::{LasReader, PointChunk};
 pub use writer::{LasWriteOptions, LasWriter, WRITE_BATCH_POINTS};

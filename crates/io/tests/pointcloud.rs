@@ -493,3 +493,82 @@ fn raw_records_refuse_another_layout_or_transform() {
         .unwrap_err();
     assert!(matches!(e, Error::LasPoint { index: 3, .. }), "{e}");
 }
+
+#[test]
+fn raw_points_read_as_decoded_and_pushed_with_appended_values_as_the_decoded_path_writes() {
+    // Formats 1, 3 (legacy, colour), 6, 7 (colour) and 8 (colour and NIR), LAS and LAZ; the
+    // input has four extra-bytes dimensions the output drops for two f32 and one f64 of its own.
+    for (format, ext) in [(1u8, "las"), (3, "laz"), (6, "laz"), (7, "las"), (8, "laz")] {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join(format!("in.{ext}"));
+        let mut pts = points(format);
+        // A bathymetric class, which only formats 6–10 hold, and a negative scan angle step.
+        if format >= 6 {
+            pts[5].0.classification = 40;
+            pts[6].0.scan_angle_deg = -0.006;
+        }
+        write(&input, &options(4, format, vec![geokeys(32633)]), &pts);
+        let mut decoded = PointChunk::new();
+        LasReader::from_path(&input)
+            .unwrap()
+            .fill(&mut decoded, 100)
+            .unwrap();
+
+        let mut r = LasReader::from_path(&input).unwrap();
+        let mut out_opts = LasWriteOptions::for_input(r.info(), &[("a", ""), ("b", "")]);
+        out_opts.extra_dims_f64 = vec![("c".into(), String::new())];
+        let (raw_out, point_out) = (
+            dir.path().join(format!("raw.{ext}")),
+            dir.path().join(format!("point.{ext}")),
+        );
+        let mut w_raw = LasWriter::create(&raw_out, &out_opts, &[&input]).unwrap();
+        let mut w_point = LasWriter::create(&point_out, &out_opts, &[&input]).unwrap();
+        let mut chunk = lidarqa_io::RawChunk::new();
+        while r.fill_raw(&mut chunk, 7).unwrap() > 0 {
+            let first = chunk.first_index() as usize;
+            for name in ["sigma_up", "total_thu"] {
+                let want: Vec<f64> = (first..first + chunk.len())
+                    .map(|i| decoded.extra(i, name).unwrap())
+                    .collect();
+                assert_eq!(chunk.extra_column(name).unwrap(), want, "{name}");
+            }
+            assert!(chunk.extra_column("nothing").is_none());
+            let mut out = w_raw.raw_chunk();
+            for (k, p) in chunk.points().enumerate() {
+                let want = &decoded.points[first + k];
+                assert_eq!(p.xyz(), [want.x, want.y, want.z]);
+                assert_eq!(p.gps_time(), want.gps_time_s);
+                assert_eq!(p.classification(), want.classification);
+                assert_eq!(p.scan_angle_deg(), want.scan_angle_deg);
+                // Every other point, with values of its own.
+                if (first + k) % 2 == 0 {
+                    let (e, e64) = ([k as f32, 0.5], [1e-9 * (first + k) as f64]);
+                    out.push(&raw_out, p, &e, &e64).unwrap();
+                    w_point.write_point_f64(want, &e, &e64).unwrap();
+                }
+            }
+            assert!(matches!(
+                out.push(&raw_out, chunk.point(0), &[1.0], &[2.0]),
+                Err(lidarqa_io::Error::PointMismatch { .. })
+            ));
+            w_raw.write_raw(&out).unwrap();
+        }
+        assert_eq!(w_raw.finish().unwrap(), 13);
+        assert_eq!(w_point.finish().unwrap(), 13);
+        // The same records and header as the decoded path writes.
+        let (a, b) = (
+            std::fs::read(&raw_out).unwrap(),
+            std::fs::read(&point_out).unwrap(),
+        );
+        assert_eq!(a.len(), b.len(), "format {format}");
+        assert!(a == b, "format {format}: the files differ");
+        let mut back = PointChunk::new();
+        LasReader::from_path(&raw_out)
+            .unwrap()
+            .fill(&mut back, 100)
+            .unwrap();
+        assert_eq!(back.extra_names(), ["a", "b", "c"]);
+        assert_eq!(back.extra(3, "c"), Some(1e-9 * 6.0));
+        assert_eq!(back.points[3], decoded.points[6]);
+    }
+}

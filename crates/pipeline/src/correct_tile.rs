@@ -29,7 +29,7 @@
 
 use crate::context::TpuContext;
 use crate::error::{Error, Result};
-use crate::stages::{ChunkSource, read_chunks, run_stages, write_chunks};
+use crate::stages::{read_chunks, run_stages, write_chunks};
 use lidarqa_io::{CellCache, Crs, GridToEcef, LasTimeConverter, LasWriteOptions, RawChunk};
 use lidarqa_model::{Ecef, Mounting};
 use lidarqa_tpu::{Recoverer, Trajectory};
@@ -117,7 +117,7 @@ pub fn correct_tile_with_progress(
     let points = run_stages(
         input,
         // las's reader is not `Send`: it is opened in its thread.
-        move |tx_read| read_chunks(input, CHUNK, Spares(rx_spent), &tx_read),
+        move |tx_read| read_chunks(input, CHUNK, &rx_spent, &tx_read),
         move |rx_write| {
             write_chunks(writer, rx_write, |writer, chunk: RawChunk| {
                 writer.write_raw(&chunk)?;
@@ -138,19 +138,6 @@ pub fn correct_tile_with_progress(
 const SPARES: usize = 2;
 
 type WriteMsg = crate::stages::WriteMsg<RawChunk>;
-
-/// The reader's spare chunks, handed back by the writer.
-struct Spares(Receiver<RawChunk>);
-
-impl ChunkSource<RawChunk> for Spares {
-    type Item = RawChunk;
-    fn spare(&mut self) -> RawChunk {
-        self.0.try_recv().unwrap_or_default()
-    }
-    fn prepare(&mut self, chunk: RawChunk) -> RawChunk {
-        chunk
-    }
-}
 
 /// The compute stage: what a chunk's points need.
 struct Run<'a> {

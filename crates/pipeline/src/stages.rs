@@ -3,7 +3,7 @@
 //! run reports.
 
 use crate::error::{Error, Result};
-use lidarqa_io::{LasReader, LasWriter, PointChunk, RawChunk};
+use lidarqa_io::{LasReader, LasWriter, RawChunk};
 use std::path::Path;
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
@@ -56,43 +56,15 @@ pub(crate) fn run_stages<R: Send, W: Send>(
     })
 }
 
-/// A chunk [`read_chunks`] fills: decoded points or the file's records.
-pub(crate) trait Chunk {
-    /// Replaces the chunk's contents with up to `max` next points of `reader`; how many.
-    fn fill_from(&mut self, reader: &mut LasReader, max: usize) -> lidarqa_io::Result<usize>;
-}
-
-impl Chunk for PointChunk {
-    fn fill_from(&mut self, reader: &mut LasReader, max: usize) -> lidarqa_io::Result<usize> {
-        reader.fill(self, max)
-    }
-}
-
-impl Chunk for RawChunk {
-    fn fill_from(&mut self, reader: &mut LasReader, max: usize) -> lidarqa_io::Result<usize> {
-        reader.fill_raw(self, max)
-    }
-}
-
-/// What a reader stage makes of the chunks (`C`) [`read_chunks`] fills.
-pub(crate) trait ChunkSource<C: Chunk = PointChunk> {
-    /// What the reader sends the compute stage.
-    type Item;
-    /// An empty chunk to fill: a spent one handed back by a later stage when there is one.
-    fn spare(&mut self) -> C;
-    /// The message for a filled chunk.
-    fn prepare(&mut self, chunk: C) -> Self::Item;
-}
-
 /// The reader stage: opens `input` on its own thread (las's reader is not `Send`), fills chunks of
-/// up to `chunk_points` and sends each as `source.prepare(chunk)`. Stops at the end of the file,
-/// at a read error (sent on, so that the compute stage reports it as the cause), or when the
-/// compute stage has hung up.
-pub(crate) fn read_chunks<C: Chunk, S: ChunkSource<C>>(
+/// up to `chunk_points` records (the spare ones a later stage hands back on `spares`, new ones
+/// when none is there) and sends each. Stops at the end of the file, at a read error (sent on,
+/// so that the compute stage reports it as the cause), or when the compute stage has hung up.
+pub(crate) fn read_chunks(
     input: &Path,
     chunk_points: usize,
-    mut source: S,
-    tx: &SyncSender<Result<S::Item>>,
+    spares: &Receiver<RawChunk>,
+    tx: &SyncSender<Result<RawChunk>>,
 ) {
     let mut reader = match LasReader::from_path(input) {
         Ok(r) => r,
@@ -102,8 +74,8 @@ pub(crate) fn read_chunks<C: Chunk, S: ChunkSource<C>>(
         }
     };
     loop {
-        let mut chunk = source.spare();
-        match chunk.fill_from(&mut reader, chunk_points) {
+        let mut chunk = spares.try_recv().unwrap_or_default();
+        match reader.fill_raw(&mut chunk, chunk_points) {
             Err(e) => {
                 let _ = tx.send(Err(e.into()));
                 return;
@@ -111,7 +83,7 @@ pub(crate) fn read_chunks<C: Chunk, S: ChunkSource<C>>(
             Ok(0) => return,
             Ok(_) => {}
         }
-        if tx.send(Ok(source.prepare(chunk))).is_err() {
+        if tx.send(Ok(chunk)).is_err() {
             return;
         }
     }

@@ -6,13 +6,13 @@ use crate::plausibility::{
     DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, MOUNTING_ERROR_M, MountingTally, check_distance,
     check_gaps, crs_name, outside_zone, point_implausible,
 };
-use crate::stages::{ChunkSource, read_chunks, run_stages, write_chunks};
+use crate::stages::{read_chunks, run_stages, write_chunks};
 use crate::summary::{
     IncidenceTally, SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary,
 };
 use lidarqa_io::{
-    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, Crs, InverseKind, LasPoint, LasTimeConverter,
-    LasWriteOptions, LasWriter, LocalInverse, PointChunk, Unprojected,
+    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, Crs, InverseKind, LasTimeConverter, LasWriteOptions,
+    LocalInverse, RawChunk, RawPoint, Unprojected,
 };
 use lidarqa_model::{
     ConicScanner, Ecef, Georeferencer, Grid, LinearScanner, Mounting, MountingPartials, Ned,
@@ -26,7 +26,7 @@ use lidarqa_tpu::{
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
-use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+use std::sync::mpsc::{Receiver, Sender, SyncSender, channel};
 
 /// Points per parallel work item.
 const BLOCK: usize = 4096;
@@ -89,10 +89,12 @@ pub fn tpu_tile(job: &TpuTileJob<'_>) -> Result<TileReport> {
 /// Runs one tile, calling `progress(n)` after each chunk of `n` points read is written.
 ///
 /// Three stages run at once on bounded channels (one chunk in flight each): a reader thread
-/// decodes a chunk and converts its points to ECEF and seconds of week (UTM inverse → geodetic
-/// → ECEF on the CRS's ellipsoid); the calling thread recovers and propagates every point
-/// (rayon); a writer thread writes the points with their σ. Memory is a few chunks whatever
-/// the file size. The output is atomic: on any error nothing is left at `job.output`.
+/// decodes a chunk's records; the calling thread converts its points to ECEF and seconds of
+/// week (UTM inverse → geodetic → ECEF on the CRS's ellipsoid), recovers and propagates every
+/// point (rayon) and appends their σ to the records as read (no record is decoded into fields
+/// and encoded again); a writer thread writes them. Memory is a few chunks whatever the file
+/// size, and the chunks' buffers are reused. The output is atomic: on any error nothing is
+/// left at `job.output`.
 ///
 /// The incidence angle's plane fit searches the chunk itself plus the last / first
 /// `margin_points` points of the previous / next chunk, so a time-ordered strip has no edge
@@ -146,6 +148,7 @@ pub fn tpu_tile_with_progress(
         .iter()
         .all(|n| info.extra_dims.iter().any(|d| d.name == *n));
     let writer = ctx.create_output(input, job.output, &options, &[])?;
+    let out_chunk = writer.raw_chunk();
 
     let prep = Prepare {
         crs: crs.clone(),
@@ -169,14 +172,13 @@ pub fn tpu_tile_with_progress(
 
     let chunk_points = ctx.options.chunk_points;
     let path = input.to_path_buf();
-    // Spent buffers go back to the stage that fills them (see `Spent`).
-    let (tx_spent_read, rx_spent_read) = sync_channel::<Spent>(SPARES);
-    let (tx_spent_slots, rx_spent_slots) = sync_channel::<Vec<Slot>>(SPARES);
+    // Spent buffers go back to the stage that fills them (see `Recycle`).
+    let (tx_spent_read, rx_spent_read) = channel::<RawChunk>();
+    let (tx_spent_out, rx_spent_out) = channel::<RawChunk>();
     let prep = &prep;
-    let tx_spent_chunk = tx_spent_read.clone();
-    let covariance = ctx.options.covariance;
     let run = Run {
         ctx,
+        prep,
         path: &path,
         trajectory: &trajectory,
         kernel: &kernel,
@@ -191,32 +193,22 @@ pub fn tpu_tile_with_progress(
         file_normals,
     };
     let spent = Recycle {
-        preps: tx_spent_read,
-        slots: rx_spent_slots,
+        inputs: tx_spent_read,
+        outputs: rx_spent_out,
+        out_chunk,
+        n_dims,
+        covariance: ctx.options.covariance,
     };
     run_stages(
         &path,
-        move |tx_read| {
-            let source = TileSource {
-                prep,
-                spent: rx_spent_read,
-                chunks: Vec::new(),
-                preps: Vec::new(),
-                first_index: 0,
-            };
-            read_chunks(input, chunk_points, source, &tx_read);
-        },
+        move |tx_read| read_chunks(input, chunk_points, &rx_spent_read, &tx_read),
         move |rx_write| {
-            write_chunks(writer, rx_write, |writer, chunk| {
-                write_chunk(
-                    writer,
-                    chunk,
-                    n_dims,
-                    covariance,
-                    progress,
-                    &tx_spent_chunk,
-                    &tx_spent_slots,
-                )
+            write_chunks(writer, rx_write, |writer, (out, points_read)| {
+                writer.write_raw(&out)?;
+                progress(points_read);
+                // The compute stage may have finished: then the buffer is dropped.
+                let _ = tx_spent_out.send(out);
+                Ok(())
             })
         },
         |rx_read, tx_write| {
@@ -349,15 +341,17 @@ impl Prep {
 
 struct Prepared {
     first_index: u64,
-    chunk: PointChunk,
+    /// The records as the file stores them: the compute stage appends the σ to each.
+    chunk: RawChunk,
     pts: Vec<Prep>,
 }
 
 impl Prepare {
-    fn point(&self, p: &LasPoint, inverse: &LocalInverse<'_>) -> Prep {
+    fn point(&self, p: RawPoint<'_>, inverse: &LocalInverse<'_>) -> Prep {
+        let [x, y, z] = p.xyz();
         let mut out = Prep {
             ecef: Ecef::default(),
-            xyz_m: [p.x, p.y, p.z].map(|v| v * self.unit_m),
+            xyz_m: [x, y, z].map(|v| v * self.unit_m),
             latitude_rad: 0.0,
             longitude_rad: 0.0,
             unprojected: Unprojected {
@@ -372,7 +366,7 @@ impl Prepare {
             time_sow_s: f64::NAN,
             state: PrepState::Ok,
         };
-        if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+        if !(x.is_finite() && y.is_finite() && z.is_finite()) {
             out.state = PrepState::NonFinite;
             return out;
         }
@@ -388,7 +382,7 @@ impl Prepare {
             .crs
             .ellipsoid()
             .ecef_from_unprojected(&g.unprojected, height_m);
-        match p.gps_time_s.map(|t| self.converter.to_seconds_of_week(t)) {
+        match p.gps_time().map(|t| self.converter.to_seconds_of_week(t)) {
             Some(Ok(t)) => out.time_sow_s = t,
             Some(Err(e)) => out.state = PrepState::BadTime(e.to_string()),
             None => out.state = PrepState::BadTime("point without GPS time".into()),
@@ -397,86 +391,63 @@ impl Prepare {
     }
 }
 
-/// Buffers handed back for reuse. A chunk's vectors are tens of MB: allocated afresh for every
-/// chunk, they came from `mmap` each time, and page faults on them were ~5 % of the run.
-enum Spent {
-    Chunk(PointChunk),
-    Preps(Vec<Prep>),
-}
-
-/// Spare buffers kept per kind (more in flight are dropped).
-const SPARES: usize = 1;
-
-/// The compute stage's ends of the recycling channels.
+/// The compute stage's ends of the channels that hand buffers back for reuse, and how it
+/// encodes the output records. A chunk's vectors are tens of MB: allocated afresh for every
+/// chunk, they come from `mmap` each time and every page faults. The channels are unbounded,
+/// so none is dropped: the buffers in circulation are those the pipeline once held at the same
+/// time.
 struct Recycle {
-    preps: SyncSender<Spent>,
-    slots: Receiver<Vec<Slot>>,
+    /// Spent input chunks, back to the reader.
+    inputs: Sender<RawChunk>,
+    /// Written output chunks, back from the writer.
+    outputs: Receiver<RawChunk>,
+    /// An empty chunk of the output's layout.
+    out_chunk: RawChunk,
+    /// σ (and sounding) values per record.
+    n_dims: usize,
+    /// The covariance's six f64 follow them.
+    covariance: bool,
 }
 
-/// The reader stage's work: recycles spent buffers and converts each chunk's points (in
-/// parallel) to ECEF and seconds of week.
-struct TileSource<'a> {
-    prep: &'a Prepare,
-    spent: Receiver<Spent>,
-    chunks: Vec<PointChunk>,
-    preps: Vec<Vec<Prep>>,
-    first_index: u64,
-}
-
-impl ChunkSource for TileSource<'_> {
-    type Item = Prepared;
-
-    fn spare(&mut self) -> PointChunk {
-        while let Ok(s) = self.spent.try_recv() {
-            match s {
-                Spent::Chunk(c) => self.chunks.push(c),
-                Spent::Preps(p) => self.preps.push(p),
-            }
-        }
-        self.chunks.truncate(SPARES);
-        self.preps.truncate(SPARES);
-        self.chunks.pop().unwrap_or_default()
-    }
-
-    fn prepare(&mut self, chunk: PointChunk) -> Prepared {
-        let mut pts: Vec<Prep> = self.preps.pop().unwrap_or_default();
-        let unit_m = self.prep.unit_m;
+impl Prepare {
+    /// Converts each point of `chunk` (in parallel) to ECEF and seconds of week, into `pts`.
+    fn chunk(&self, chunk: RawChunk, mut pts: Vec<Prep>) -> Prepared {
+        let unit_m = self.unit_m;
         let inverse = LocalInverse::new(
-            &self.prep.crs,
-            self.prep.inverse,
-            chunk.points.iter().map(|p| [p.x * unit_m, p.y * unit_m]),
+            &self.crs,
+            self.inverse,
+            chunk.points().map(|p| {
+                let [x, y, _] = p.xyz();
+                [x * unit_m, y * unit_m]
+            }),
         );
-        chunk
-            .points
-            .par_iter()
-            .map(|p| self.prep.point(p, &inverse))
+        (0..chunk.len())
+            .into_par_iter()
+            .map(|i| self.point(chunk.point(i), &inverse))
             .collect_into_vec(&mut pts);
-        let first_index = self.first_index;
-        self.first_index += chunk.len() as u64;
         Prepared {
-            first_index,
+            first_index: chunk.first_index(),
             chunk,
             pts,
         }
     }
 }
 
-/// A chunk and its computed slots, one per point.
-type WriteMsg = crate::stages::WriteMsg<(PointChunk, Vec<Slot>)>;
+/// An output chunk (the records with their σ) and the number of points read for it.
+type WriteMsg = crate::stages::WriteMsg<(RawChunk, u64)>;
 
-/// Writes each point's σ (and sounding, covariance) after its record, skipping the points not
-/// propagated, and hands the buffers back.
-fn write_chunk(
-    writer: &mut LasWriter,
-    (chunk, slots): (PointChunk, Vec<Slot>),
-    n_dims: usize,
-    covariance: bool,
-    progress: &(dyn Fn(u64) + Sync),
-    spent_chunks: &SyncSender<Spent>,
-    spent_slots: &SyncSender<Vec<Slot>>,
+/// Puts in `out` each propagated point's record as read with its σ (and sounding, covariance)
+/// appended, skipping the points not propagated.
+fn output_records(
+    path: &Path,
+    chunk: &RawChunk,
+    slots: &[Slot],
+    recycle: &Recycle,
+    out: &mut RawChunk,
 ) -> Result<()> {
     let mut extra = [0f32; 9];
-    for (p, s) in chunk.points.iter().zip(&slots) {
+    out.clear();
+    for (i, s) in slots.iter().enumerate() {
         if let Slot::Ok(sig, sounding, cov) = s {
             for (e, v) in extra.iter_mut().zip(sig) {
                 *e = *v as f32;
@@ -492,13 +463,10 @@ fn write_chunk(
                 ),
                 None => (0.0, -1.0),
             };
-            let n64 = if covariance { cov.len() } else { 0 };
-            writer.write_point_f64(p, &extra[..n_dims], &cov[..n64])?;
+            let n64 = if recycle.covariance { cov.len() } else { 0 };
+            out.push(path, chunk.point(i), &extra[..recycle.n_dims], &cov[..n64])?;
         }
     }
-    progress(chunk.len() as u64);
-    let _ = spent_chunks.try_send(Spent::Chunk(chunk));
-    let _ = spent_slots.try_send(slots);
     Ok(())
 }
 
@@ -543,6 +511,9 @@ struct Recovered {
 
 struct Run<'a> {
     ctx: &'a TpuContext,
+    /// Converts each chunk received (the reader only decodes: fewer chunks' conversions are
+    /// held at once).
+    prep: &'a Prepare,
     path: &'a PathBuf,
     trajectory: &'a Trajectory,
     kernel: &'a Kernel,
@@ -568,14 +539,16 @@ struct Run<'a> {
 impl Run<'_> {
     fn compute_all(
         &self,
-        rx: &Receiver<Result<Prepared>>,
+        rx: &Receiver<Result<RawChunk>>,
         tx: &SyncSender<WriteMsg>,
         spent: &Recycle,
         summary: &mut TpuSummary,
     ) -> Result<()> {
-        let recv = || -> Result<Option<Prepared>> {
+        // Conversions of chunks already computed, for reuse.
+        let mut spare_pts: Vec<Vec<Prep>> = Vec::new();
+        let recv = |spare: &mut Vec<Vec<Prep>>| -> Result<Option<Prepared>> {
             match rx.recv() {
-                Ok(Ok(p)) => Ok(Some(p)),
+                Ok(Ok(c)) => Ok(Some(self.prep.chunk(c, spare.pop().unwrap_or_default()))),
                 Ok(Err(e)) => Err(e),
                 Err(_) => Ok(None),
             }
@@ -585,9 +558,19 @@ impl Run<'_> {
         let mut tail: Vec<Vector3<f64>> = Vec::new();
         // Water-surface returns among the last `margin` points, with their file index.
         let mut water_tail: Vec<(u64, WaterReturn)> = Vec::new();
-        let mut current = recv()?;
+        // The next chunk's first points are the incidence term's neighbourhood margin and the
+        // soundings' surface; without either, a chunk is computed as soon as it arrives (one
+        // chunk's conversion less is held).
+        let lookahead = conic || self.kernel.has_incidence();
+        let mut current = recv(&mut spare_pts)?;
+        // One vector of slots serves every chunk.
+        let mut slots = Vec::new();
         while let Some(cur) = current {
-            let next = recv()?;
+            let next = if lookahead {
+                recv(&mut spare_pts)?
+            } else {
+                None
+            };
             let head: Vec<Vector3<f64>> = next
                 .as_ref()
                 .map(|n| valid_ecef(&n.pts).take(margin).collect())
@@ -596,9 +579,8 @@ impl Run<'_> {
             let water = (conic
                 && cur
                     .chunk
-                    .points
-                    .iter()
-                    .any(|p| p.classification == CLASS_BATHYMETRY))
+                    .points()
+                    .any(|p| p.classification() == CLASS_BATHYMETRY))
             .then(|| {
                 let mut w: Vec<WaterReturn> = water_tail.iter().map(|(_, r)| *r).collect();
                 w.extend(water_returns(&cur, cur.pts.len()).map(|(_, r)| r));
@@ -607,8 +589,12 @@ impl Run<'_> {
                 }
                 WaterSurfaceIndex::new(w)
             });
-            let slots = spent.slots.try_recv().unwrap_or_default();
-            let slots = self.compute_chunk(&cur, &tail, &head, water.as_ref(), slots, summary)?;
+            slots = self.compute_chunk(&cur, &tail, &head, water.as_ref(), slots, summary)?;
+            let mut out = spent
+                .outputs
+                .try_recv()
+                .unwrap_or_else(|_| spent.out_chunk.clone());
+            output_records(self.path, &cur.chunk, &slots, spent, &mut out)?;
             // The last `margin` valid points so far (they may span several small chunks).
             tail.extend(valid_ecef(&cur.pts));
             let excess = tail.len().saturating_sub(margin);
@@ -619,12 +605,17 @@ impl Run<'_> {
                 water_tail.retain(|(i, _)| i + margin as u64 >= end);
             }
             let Prepared { chunk, pts, .. } = cur;
-            if tx.send(WriteMsg::Chunk((chunk, slots))).is_err() {
+            if tx.send(WriteMsg::Chunk((out, chunk.len() as u64))).is_err() {
                 // The writer stopped; its error is reported by the caller.
                 return Ok(());
             }
-            let _ = spent.preps.try_send(Spent::Preps(pts));
-            current = next;
+            // The reader may have finished: then the chunk is dropped.
+            let _ = spent.inputs.send(chunk);
+            spare_pts.push(pts);
+            current = match next {
+                None if !lookahead => recv(&mut spare_pts)?,
+                next => next,
+            };
         }
         Ok(())
     }
@@ -721,7 +712,6 @@ impl Run<'_> {
                     if let Some(r) = sounding {
                         summary.iho.add(r, x_m, y_m);
                     }
-                    summary.map.add(x_m, y_m, sig[4]);
                     for (h, v) in summary.sigma.iter_mut().zip(sig) {
                         h.add(*v);
                     }
@@ -734,6 +724,12 @@ impl Run<'_> {
                 Slot::Pending | Slot::Failed(_) => {}
             }
         }
+        summary
+            .map
+            .add_all(slots.iter().zip(&cur.pts).filter_map(|(s, p)| match s {
+                Slot::Ok(sig, ..) => Some([p.xyz_m[0], p.xyz_m[1], sig[4]]),
+                _ => None,
+            }));
         for ((_, s), v) in summary.share_sums.iter_mut().zip(&partial.shares) {
             *s += v;
         }
@@ -839,7 +835,7 @@ impl Run<'_> {
         acc: &mut Partial,
     ) -> Slot {
         let p = &cur.pts[i];
-        let lp = &cur.chunk.points[i];
+        let lp = cur.chunk.point(i);
         let index = cur.first_index + i as u64;
         let opts = &self.ctx.options;
         let invalid = |reason, e: Error| {
@@ -852,14 +848,15 @@ impl Run<'_> {
         match &p.state {
             PrepState::Ok => {}
             PrepState::NonFinite => {
+                let [x, y, z] = lp.xyz();
                 return invalid(
                     SkipReason::NonFiniteCoordinates,
                     Error::NonFiniteCoordinates {
                         path: self.path.clone(),
                         index,
-                        x: lp.x,
-                        y: lp.y,
-                        z: lp.z,
+                        x,
+                        y,
+                        z,
                     },
                 );
             }
@@ -892,7 +889,7 @@ impl Run<'_> {
         };
         let sigma = self.ctx.sigmas.as_ref().map(|s| s.at(p.time_sow_s));
         let sounding = match (self.kernel, water) {
-            (Kernel::Conic(_, scanner), Some(w)) if lp.classification == CLASS_BATHYMETRY => {
+            (Kernel::Conic(_, scanner), Some(w)) if lp.classification() == CLASS_BATHYMETRY => {
                 Some(self.recover_sounding(scanner, &pose, p, w))
             }
             _ => None,
@@ -1063,7 +1060,7 @@ impl Run<'_> {
         &self,
         pose: &PoseAt,
         p: &Prep,
-        lp: &LasPoint,
+        lp: RawPoint<'_>,
         sigma: Option<&PoseSigma>,
         normal: Option<Vector3<f64>>,
         acc: &mut Partial,
@@ -1090,7 +1087,7 @@ impl Run<'_> {
                 let inc = incidence(r.range_m, r.beam_ned);
                 let u = pp.propagate_jacobian(footprint, &j, sigma, inc.as_ref(), &[])?;
                 acc.scan
-                    .push(r.scan_angle_rad.to_degrees() - f64::from(lp.scan_angle_deg));
+                    .push(r.scan_angle_rad.to_degrees() - f64::from(lp.scan_angle_deg()));
                 add_shares(
                     &mut acc.shares,
                     u.source_variance_m2.as_slice(),
@@ -1145,11 +1142,11 @@ impl Run<'_> {
 fn water_returns(c: &Prepared, limit: usize) -> impl Iterator<Item = (u64, WaterReturn)> + '_ {
     c.pts
         .iter()
-        .zip(&c.chunk.points)
+        .zip(c.chunk.points())
         .take(limit)
         .enumerate()
         .filter(|(_, (p, lp))| {
-            lp.classification == CLASS_WATER_SURFACE && matches!(p.state, PrepState::Ok)
+            lp.classification() == CLASS_WATER_SURFACE && matches!(p.state, PrepState::Ok)
         })
         .map(move |(k, (p, _))| {
             (

@@ -1,13 +1,19 @@
 //! A chunk of point records kept as the file's bytes ([`RawChunk`]): for commands that change
-//! only the coordinates (`correct`), so every other field passes through untouched and no
-//! record is decoded into a [`LasPoint`](super::point::LasPoint) and encoded back.
+//! only the coordinates (`correct`) or append values to each record (`tpu`), so every other
+//! field passes through untouched and no record is decoded into a
+//! [`LasPoint`](super::point::LasPoint) and encoded back. [`RawPoint`] is the one place that
+//! reads the fields these commands need straight from a record's bytes.
 
+use super::extra_bytes::ExtraDim;
+use super::writer::{encode_extra, is_prefix};
 use crate::error::{Error, Result};
 use std::path::Path;
 
 /// Up to a chunk of point records in the layout of the file they were read from, with that
 /// file's scale and offset; filled by [`LasReader::fill_raw`](super::reader::LasReader::fill_raw)
-/// and written by [`LasWriter::write_raw`](super::writer::LasWriter::write_raw).
+/// and written by [`LasWriter::write_raw`](super::writer::LasWriter::write_raw); or an
+/// output's records, made by [`LasWriter::raw_chunk`](super::writer::LasWriter::raw_chunk) and
+/// filled by [`RawChunk::push`].
 #[derive(Clone, Debug)]
 pub struct RawChunk {
     pub(super) data: las::PointData,
@@ -15,6 +21,65 @@ pub struct RawChunk {
     pub(super) gps_time_at: Option<usize>,
     /// Index in the file of the chunk's first point.
     pub(super) first_index: u64,
+    /// The file's extra-bytes dimensions (offsets inside a record's extra bytes).
+    pub(super) extra_dims: Vec<ExtraDim>,
+    /// The f32 and f64 extra-bytes values [`RawChunk::push`] appends (an output's chunk).
+    extra_counts: (usize, usize),
+}
+
+/// One record of a [`RawChunk`], decoded field by field on demand (as `las` decodes them).
+#[derive(Clone, Copy, Debug)]
+pub struct RawPoint<'a> {
+    record: &'a [u8],
+    chunk: &'a RawChunk,
+    /// Index in the chunk.
+    index: usize,
+}
+
+impl<'a> RawPoint<'a> {
+    /// X, Y, Z in the file's CRS units (scale and offset applied).
+    pub fn xyz(&self) -> [f64; 3] {
+        let r = self.record;
+        let t = self.chunk.data.transforms();
+        let i = |k: usize| i32::from_le_bytes([r[k], r[k + 1], r[k + 2], r[k + 3]]);
+        [t.x.direct(i(0)), t.y.direct(i(4)), t.z.direct(i(8))]
+    }
+
+    /// GPS time, `None` for point formats without time.
+    pub fn gps_time(&self) -> Option<f64> {
+        self.chunk.gps_time_at.map(|g| {
+            let mut b = [0u8; 8];
+            b.copy_from_slice(&self.record[g..g + 8]);
+            f64::from_le_bytes(b)
+        })
+    }
+
+    /// The classification code as stored: the low 5 bits of the class byte in formats 0–5, the
+    /// class byte in formats 6–10 (class 12 stays 12: no overlap flag is derived from it).
+    pub fn classification(&self) -> u8 {
+        if self.chunk.data.format().is_extended {
+            self.record[16]
+        } else {
+            self.record[15] & 0b1_1111
+        }
+    }
+
+    /// Scan angle, degrees: formats 0–5 store whole degrees (i8 at byte 16), 6–10 steps of
+    /// 0.006° (i16 at byte 18); the same f32 as `las` gives.
+    pub fn scan_angle_deg(&self) -> f32 {
+        let r = self.record;
+        if self.chunk.data.format().is_extended {
+            f32::from(i16::from_le_bytes([r[18], r[19]])) * 0.006
+        } else {
+            f32::from(r[16] as i8)
+        }
+    }
+
+    /// The record's extra bytes (after its format's fields).
+    fn extra_bytes(&self) -> &[u8] {
+        let n = usize::from(self.chunk.data.format().extra_bytes);
+        &self.record[self.record.len() - n..]
+    }
 }
 
 impl Default for RawChunk {
@@ -23,6 +88,8 @@ impl Default for RawChunk {
             data: las::PointDataBuilder::new().build(),
             gps_time_at: None,
             first_index: 0,
+            extra_dims: Vec::new(),
+            extra_counts: (0, 0),
         }
     }
 }
@@ -31,6 +98,72 @@ impl RawChunk {
     /// An empty chunk.
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// An empty chunk of `data`'s layout whose records end in `n32` f32 then `n64` f64 values.
+    pub(super) fn with_layout(data: las::PointData, n32: usize, n64: usize) -> Self {
+        RawChunk {
+            gps_time_at: gps_time_offset(data.format()),
+            data,
+            first_index: 0,
+            extra_dims: Vec::new(),
+            extra_counts: (n32, n64),
+        }
+    }
+
+    /// Removes every point (the buffer is kept).
+    pub fn clear(&mut self) {
+        self.data.resize_for(0);
+    }
+
+    /// Appends `from` (a point of a chunk read from a file) as a record of this chunk's layout:
+    /// its bytes up to this format's fields (without the waveform packet, NIR or extra bytes
+    /// this format does not have), then `extra` and `extra64`. No field is decoded.
+    ///
+    /// # Errors
+    /// [`Error::PointMismatch`] naming `path` (the file the chunk is for) when this format's
+    /// fields are not a prefix of `from`'s record, the scale and offset differ, or the values do
+    /// not match this chunk's extra-bytes dimensions.
+    pub fn push(
+        &mut self,
+        path: &Path,
+        from: RawPoint<'_>,
+        extra: &[f32],
+        extra64: &[f64],
+    ) -> Result<()> {
+        let mut base = *self.data.format();
+        base.extra_bytes = 0;
+        let src = &from.chunk.data;
+        if !is_prefix(&base, src.format())
+            || src.transforms() != self.data.transforms()
+            || (extra.len(), extra64.len()) != self.extra_counts
+        {
+            return Err(Error::PointMismatch {
+                path: path.to_path_buf(),
+                index: from.chunk.first_index + from.index as u64,
+                message: format!(
+                    "a record of point format {} and scale/offset {:?} with {} f32 + {} f64 \
+                     values cannot be written as format {} with {:?} and {} + {}",
+                    src.format(),
+                    src.transforms(),
+                    extra.len(),
+                    extra64.len(),
+                    self.data.format(),
+                    self.data.transforms(),
+                    self.extra_counts.0,
+                    self.extra_counts.1
+                ),
+            });
+        }
+        let (n, len, head) = (
+            self.data.len(),
+            self.data.record_len(),
+            usize::from(base.len()),
+        );
+        let record = &mut self.data.resize_for(n + 1)[n * len..];
+        record[..head].copy_from_slice(&from.record[..head]);
+        encode_extra(&mut record[head..], extra, extra64);
+        Ok(())
     }
 
     /// Number of points.
@@ -43,25 +176,49 @@ impl RawChunk {
         self.data.is_empty()
     }
 
-    /// The records, `len()` × the record length.
-    fn records(&self) -> std::slice::ChunksExact<'_, u8> {
-        self.data.raw_bytes().chunks_exact(self.data.record_len())
+    /// Point `i` (panics beyond [`len`](Self::len), as slice indexing does).
+    pub fn point(&self, i: usize) -> RawPoint<'_> {
+        let n = self.data.record_len();
+        RawPoint {
+            record: &self.data.raw_bytes()[i * n..(i + 1) * n],
+            chunk: self,
+            index: i,
+        }
+    }
+
+    /// Every point, in order.
+    pub fn points(&self) -> impl ExactSizeIterator<Item = RawPoint<'_>> + Clone + '_ {
+        self.data
+            .raw_bytes()
+            .chunks_exact(self.data.record_len())
+            .enumerate()
+            .map(move |(index, record)| RawPoint {
+                record,
+                chunk: self,
+                index,
+            })
     }
 
     /// X, Y, Z of every point in the file's CRS units (scale and offset applied), with the GPS
     /// time (`None` for point formats without time).
     pub fn coordinates(&self) -> impl Iterator<Item = ([f64; 3], Option<f64>)> + '_ {
-        let t = *self.data.transforms();
-        let g = self.gps_time_at;
-        self.records().map(move |r| {
-            let i = |k: usize| i32::from_le_bytes([r[k], r[k + 1], r[k + 2], r[k + 3]]);
-            let time = g.map(|g| {
-                let mut b = [0u8; 8];
-                b.copy_from_slice(&r[g..g + 8]);
-                f64::from_le_bytes(b)
-            });
-            ([t.x.direct(i(0)), t.y.direct(i(4)), t.z.direct(i(8))], time)
-        })
+        self.points().map(|p| (p.xyz(), p.gps_time()))
+    }
+
+    /// The file's extra-bytes dimensions, in file order.
+    pub fn extra_dims(&self) -> &[ExtraDim] {
+        &self.extra_dims
+    }
+
+    /// All values of extra dimension `name`, in point order (scale and offset applied; NaN where
+    /// a value is not decodable); `None` when the file has no such dimension.
+    pub fn extra_column(&self, name: &str) -> Option<Vec<f64>> {
+        let d = self.extra_dims.iter().find(|d| d.name == name)?;
+        Some(
+            self.points()
+                .map(|p| d.decode(p.extra_bytes()).unwrap_or(f64::NAN))
+                .collect(),
+        )
     }
 
     /// Index in the file of the chunk's first point.
@@ -98,4 +255,12 @@ impl RawChunk {
         }
         Ok(())
     }
+}
+
+/// Byte offset of the GPS time in a record of `format` (after the 20 bytes of formats 0–5's
+/// base record, the 22 of formats 6–10's), `None` without time.
+pub(super) fn gps_time_offset(format: &las::point::Format) -> Option<usize> {
+    format
+        .has_gps_time
+        .then_some(if format.is_extended { 22 } else { 20 })
 }

@@ -4,7 +4,7 @@
 use super::info::LasInfo;
 use super::laz_layout;
 use super::point::LasPoint;
-use super::raw_chunk::RawChunk;
+use super::raw_chunk::{RawChunk, gps_time_offset};
 use crate::error::{Error, Result};
 use std::fs::File;
 use std::io::{BufReader, Read, Seek};
@@ -217,7 +217,8 @@ impl LasReader {
 
     /// Replaces `chunk`'s records with up to `max` next points, as the file stores them (see
     /// [`RawChunk`]); returns how many. As [`LasReader::fill`] otherwise (no extra-bytes values
-    /// are decoded: they stay in the records).
+    /// are decoded: they stay in the records, read by name with
+    /// [`RawChunk::extra_column`]).
     ///
     /// # Errors
     /// As [`LasReader::fill`].
@@ -230,8 +231,11 @@ impl LasReader {
                 .build();
         }
         self.fill_data(max, &mut chunk.data)?;
-        chunk.gps_time_at = raw_gps_time_offset(chunk.data.format());
+        chunk.gps_time_at = gps_time_offset(chunk.data.format());
         chunk.first_index = start;
+        if chunk.extra_dims != self.info.extra_dims {
+            chunk.extra_dims.clone_from(&self.info.extra_dims);
+        }
         Ok(chunk.data.len())
     }
 
@@ -477,14 +481,6 @@ fn from_las_point(p: las::Point) -> LasPoint {
         rgb: p.color.map(|c| [c.red, c.green, c.blue]),
         nir: p.nir,
     }
-}
-
-/// Byte offset of the GPS time in a record of `format` (after the 20 bytes of formats 0–5's
-/// base record, the 22 of formats 6–10's), `None` without time.
-fn raw_gps_time_offset(format: &las::point::Format) -> Option<usize> {
-    format
-        .has_gps_time
-        .then_some(if format.is_extended { 22 } else { 20 })
 }
 
 #[cfg(test)]

@@ -163,6 +163,27 @@ impl LasWriteOptions {
     }
 }
 
+/// Whether the fields of `out` (its extra bytes aside) are the start of a record of `inp`: the
+/// same base, time and colour, `inp` may add NIR, a waveform packet and extra bytes.
+pub(super) fn is_prefix(out: &las::point::Format, inp: &las::point::Format) -> bool {
+    out.is_extended == inp.is_extended
+        && out.has_gps_time == inp.has_gps_time
+        && out.has_color == inp.has_color
+        && (inp.has_nir || !out.has_nir)
+        && !out.has_waveform
+}
+
+/// Puts the little-endian bytes of `extra` then `extra64` in `bytes` (4 and 8 bytes each).
+pub(super) fn encode_extra(bytes: &mut [u8], extra: &[f32], extra64: &[f64]) {
+    let (a, b) = bytes.split_at_mut(4 * extra.len());
+    for (t, v) in a.chunks_exact_mut(4).zip(extra) {
+        t.copy_from_slice(&v.to_le_bytes());
+    }
+    for (t, v) in b.chunks_exact_mut(8).zip(extra64) {
+        t.copy_from_slice(&v.to_le_bytes());
+    }
+}
+
 fn is_laz(path: &Path) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
@@ -194,9 +215,11 @@ pub struct LasWriter {
     n_extra_f64: usize,
     index: u64,
     /// Encoded records not yet handed to `las`: they go in batches of [`WRITE_BATCH_POINTS`]
-    /// so that the parallel LAZ compressor has whole chunks to spread over the cores.
-    pending: Vec<u8>,
-    pending_points: usize,
+    /// so that the parallel LAZ compressor has whole chunks to spread over the cores. The same
+    /// buffer serves every batch (a fresh one each time came from `mmap`, page faults and all).
+    pending: las::PointData,
+    /// One record encoded by [`LasWriter::write_point_f64`] before it joins `pending`.
+    scratch: Vec<u8>,
 }
 
 /// Points a [`LasWriter`] encodes before it hands them to `las` in one slab: several LAZ chunks
@@ -222,6 +245,9 @@ impl LasWriter {
         let file = Sink::new(AtomicFile::create(path, inputs)?);
         let inner =
             las::Writer::new(BufWriter::new(file), header).map_err(|e| Error::las(path, e))?;
+        let pending = las::PointDataBuilder::new()
+            .for_header(inner.header())
+            .build();
         Ok(LasWriter {
             inner,
             path: path.to_path_buf(),
@@ -229,8 +255,8 @@ impl LasWriter {
             n_extra: options.extra_dims.len(),
             n_extra_f64: options.extra_dims_f64.len(),
             index: 0,
-            pending: Vec::new(),
-            pending_points: 0,
+            pending,
+            scratch: Vec::new(),
         })
     }
 
@@ -256,23 +282,7 @@ impl LasWriter {
             index: self.index,
             message,
         };
-        if extra.len() != self.n_extra || extra64.len() != self.n_extra_f64 {
-            return Err(mismatch(if self.n_extra_f64 == 0 && extra64.is_empty() {
-                format!(
-                    "{} extra-bytes values for {} dimensions",
-                    extra.len(),
-                    self.n_extra
-                )
-            } else {
-                format!(
-                    "{} f32 + {} f64 extra-bytes values for {} + {} dimensions",
-                    extra.len(),
-                    extra64.len(),
-                    self.n_extra,
-                    self.n_extra_f64
-                )
-            }));
-        }
+        self.check_extra(extra.len(), extra64.len())?;
         let f = &self.format;
         let gps_time = match (f.has_gps_time, p.gps_time_s) {
             (true, None) => return Err(mismatch("the point format needs a GPS time".into())),
@@ -303,13 +313,8 @@ impl LasWriter {
                 p.scan_angle_deg
             )));
         }
-        let mut extra_bytes = Vec::with_capacity(4 * extra.len() + 8 * extra64.len());
-        for v in extra {
-            extra_bytes.extend_from_slice(&v.to_le_bytes());
-        }
-        for v in extra64 {
-            extra_bytes.extend_from_slice(&v.to_le_bytes());
-        }
+        let mut extra_bytes = vec![0; 4 * extra.len() + 8 * extra64.len()];
+        encode_extra(&mut extra_bytes, extra, extra64);
         let point = las::Point {
             x: p.x,
             y: p.y,
@@ -353,21 +358,69 @@ impl LasWriter {
                 index: self.index,
                 source,
             })?;
-        let start = self.pending.len();
-        if let Err(source) = raw.write_to(&mut self.pending, &self.format) {
-            self.pending.truncate(start);
+        self.scratch.clear();
+        if let Err(source) = raw.write_to(&mut self.scratch, &self.format) {
             return Err(Error::LasPoint {
                 path: self.path.clone(),
                 index: self.index,
                 source,
             });
         }
-        self.pending_points += 1;
+        let n = self.pending.len();
+        let len = self.pending.record_len();
+        self.pending.resize_for(n + 1)[n * len..].copy_from_slice(&self.scratch);
         self.index += 1;
-        if self.pending_points >= WRITE_BATCH_POINTS {
+        if self.pending.len() >= WRITE_BATCH_POINTS {
             self.flush_pending()?;
         }
         Ok(())
+    }
+
+    /// An empty chunk in this file's layout (point format and scale/offset), to fill with
+    /// [`RawChunk::push`] and write with [`LasWriter::write_raw`].
+    pub fn raw_chunk(&self) -> RawChunk {
+        RawChunk::with_layout(
+            las::PointDataBuilder::new()
+                .for_header(self.inner.header())
+                .build(),
+            self.n_extra,
+            self.n_extra_f64,
+        )
+    }
+
+    /// Refuses extra-bytes values that do not match the dimensions.
+    fn check_extra(&self, n32: usize, n64: usize) -> Result<()> {
+        if n32 == self.n_extra && n64 == self.n_extra_f64 {
+            return Ok(());
+        }
+        Err(Error::PointMismatch {
+            path: self.path.clone(),
+            index: self.index,
+            message: if self.n_extra_f64 == 0 && n64 == 0 {
+                format!("{n32} extra-bytes values for {} dimensions", self.n_extra)
+            } else {
+                format!(
+                    "{n32} f32 + {n64} f64 extra-bytes values for {} + {} dimensions",
+                    self.n_extra, self.n_extra_f64
+                )
+            },
+        })
+    }
+
+    fn raw_mismatch(&self, chunk: &RawChunk) -> Error {
+        let data = &chunk.data;
+        Error::PointMismatch {
+            path: self.path.clone(),
+            index: self.index,
+            message: format!(
+                "records of point format {} and scale/offset {:?} cannot be written as format {} \
+                 with {:?}",
+                data.format(),
+                data.transforms(),
+                self.format,
+                self.inner.header().transforms()
+            ),
+        }
     }
 
     /// Writes the records of `chunk` (read from a file by
@@ -383,28 +436,14 @@ impl LasWriter {
     pub fn write_raw(&mut self, chunk: &RawChunk) -> Result<()> {
         let data = &chunk.data;
         let (out, inp) = (self.format, *data.format());
-        let prefix = out.is_extended == inp.is_extended
-            && out.has_gps_time == inp.has_gps_time
-            && out.has_color == inp.has_color
-            && (inp.has_nir || !out.has_nir)
-            && !out.has_waveform
-            && out.extra_bytes == 0
+        let prefix = is_prefix(&out, &inp) && out.extra_bytes == 0
             || out.len() == inp.len() && {
                 let mut same = inp;
                 same.is_compressed = out.is_compressed;
                 same == out
             };
         if !prefix || data.transforms() != self.inner.header().transforms() {
-            return Err(Error::PointMismatch {
-                path: self.path.clone(),
-                index: self.index,
-                message: format!(
-                    "records of point format {inp} and scale/offset {:?} cannot be written as \
-                     format {out} with {:?}",
-                    data.transforms(),
-                    self.inner.header().transforms()
-                ),
-            });
+            return Err(self.raw_mismatch(chunk));
         }
         self.flush_pending()?;
         let first = self.index;
@@ -433,22 +472,17 @@ impl LasWriter {
 
     /// Hands the buffered records to `las` in one slab (header statistics and LAZ chunks).
     fn flush_pending(&mut self) -> Result<()> {
-        if self.pending_points == 0 {
+        if self.pending.is_empty() {
             return Ok(());
         }
-        let capacity = self.pending.capacity();
-        let bytes = std::mem::replace(&mut self.pending, Vec::with_capacity(capacity));
-        let first = self.index - self.pending_points as u64;
-        self.pending_points = 0;
-        las::PointDataBuilder::new()
-            .for_header(self.inner.header())
-            .build_from_bytes(bytes)
-            .and_then(|data| self.inner.write_points(&data))
-            .map_err(|source| Error::LasPoint {
-                path: self.path.clone(),
-                index: first,
-                source,
-            })
+        let first = self.index - self.pending.len() as u64;
+        let written = self.inner.write_points(&self.pending);
+        self.pending.resize_for(0);
+        written.map_err(|source| Error::LasPoint {
+            path: self.path.clone(),
+            index: first,
+            source,
+        })
     }
 
     /// Appends whole records already encoded in this file's point format, scale and offset
