@@ -135,16 +135,16 @@ fn check_depth(depth_m: f64, range_water_m: f64) -> Result<()> {
 
 impl Recoverer {
     /// The sounding at `bed_ecef_m` (height `bed_height_m`) from its pulse's water-surface
-    /// return at `surface_ecef_m` (height `surface_height_m`); heights ellipsoidal, m.
+    /// return at `surface_ecef_m` (height `surface_height_m`); heights ellipsoidal, m. The
+    /// in-water direction is the model's at the nominal surface
+    /// ([`ConicScanner::nominal_beams`], with `R_N R_M` of this recoverer's mounting).
     ///
     /// # Errors
     /// [`Error::NegativeDepth`] when the seabed point is not below its surface return;
     /// [`Error::Recovery`] for points at the scanner or not finite.
-    #[allow(clippy::too_many_arguments)]
     pub fn sounding_from_surface_return(
         &self,
         scanner: &ConicScanner,
-        mounting: &Mounting,
         pose: &PoseAt,
         bed_ecef_m: &Ecef,
         bed_height_m: f64,
@@ -152,11 +152,10 @@ impl Recoverer {
         surface_height_m: f64,
     ) -> Result<SoundingRecovery> {
         let surf = self.conic(scanner, pose, surface_ecef_m)?;
-        let (s_surface, _) = self.scanner_vector(pose, surface_ecef_m);
         let (s_bed, _) = self.scanner_vector(pose, bed_ecef_m);
-        let p = scanner.parameters(&pose.attitude, mounting, &surf.observation);
-        let (_, l4) = scanner.beam_directions(&p);
-        let d = s_bed - s_surface;
+        let (_, l4) =
+            scanner.nominal_beams(surf.observation.azimuth_rad, &self.body_from_scanner(pose));
+        let d = s_bed - surf.scanner_m;
         let range_water_m = d.dot(&l4);
         check_depth(surface_height_m - bed_height_m, range_water_m)?;
         let off = (d - l4 * range_water_m).norm();
