@@ -288,12 +288,13 @@ pub const SURFACE_NEIGHBOURS: usize = 32;
 pub const SAME_PULSE_S: f64 = 1e-7;
 
 /// Water-surface returns indexed by time (the pulse's own return) and by position (a modelled
-/// surface).
+/// surface). The position index is built on the first sounding that needs one: when every
+/// sounding has its own surface return (the usual case), none is.
 pub struct WaterSurfaceIndex {
     returns: Vec<WaterReturn>,
-    /// Indices into `returns` sorted by time.
-    by_time: Vec<usize>,
-    tree: Option<kiddo::ImmutableKdTree<f64, 2>>,
+    /// `(time, index into returns)` sorted by time.
+    by_time: Vec<(f64, usize)>,
+    tree: std::sync::OnceLock<Option<kiddo::ImmutableKdTree<f64, 2>>>,
     origin: [f64; 2],
 }
 
@@ -308,27 +309,41 @@ impl std::fmt::Debug for WaterSurfaceIndex {
 impl WaterSurfaceIndex {
     /// Indexes `returns`.
     pub fn new(returns: Vec<WaterReturn>) -> WaterSurfaceIndex {
-        let mut by_time: Vec<usize> = (0..returns.len()).collect();
-        by_time.sort_by(|a, b| returns[*a].time_s.total_cmp(&returns[*b].time_s));
+        let mut by_time: Vec<(f64, usize)> = returns
+            .iter()
+            .enumerate()
+            .map(|(i, r)| (r.time_s, i))
+            .collect();
+        // Usually in time order already (a strip), which the sort only checks.
+        by_time.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let origin = returns
             .first()
             .map_or([0.0; 2], |r| [r.grid.easting_m(), r.grid.northing_m()]);
-        let xy: Vec<[f64; 2]> = returns
-            .iter()
-            .map(|r| {
-                [
-                    r.grid.easting_m() - origin[0],
-                    r.grid.northing_m() - origin[1],
-                ]
-            })
-            .collect();
-        let tree = (!xy.is_empty()).then(|| kiddo::ImmutableKdTree::new_from_slice(&xy));
         WaterSurfaceIndex {
             returns,
             by_time,
-            tree,
+            tree: std::sync::OnceLock::new(),
             origin,
         }
+    }
+
+    /// The k-d tree of the returns' positions relative to `origin` (none without returns).
+    fn tree(&self) -> Option<&kiddo::ImmutableKdTree<f64, 2>> {
+        self.tree
+            .get_or_init(|| {
+                let xy: Vec<[f64; 2]> = self
+                    .returns
+                    .iter()
+                    .map(|r| {
+                        [
+                            r.grid.easting_m() - self.origin[0],
+                            r.grid.northing_m() - self.origin[1],
+                        ]
+                    })
+                    .collect();
+                (!xy.is_empty()).then(|| kiddo::ImmutableKdTree::new_from_slice(&xy))
+            })
+            .as_ref()
     }
 
     /// Number of returns indexed.
@@ -345,11 +360,11 @@ impl WaterSurfaceIndex {
     pub fn same_pulse(&self, time_s: f64) -> Option<&WaterReturn> {
         let k = self
             .by_time
-            .partition_point(|i| self.returns[*i].time_s < time_s - SAME_PULSE_S);
+            .partition_point(|(t, _)| *t < time_s - SAME_PULSE_S);
         self.by_time
             .get(k)
-            .map(|i| &self.returns[*i])
-            .filter(|r| (r.time_s - time_s).abs() <= SAME_PULSE_S)
+            .filter(|(t, _)| (t - time_s).abs() <= SAME_PULSE_S)
+            .map(|(_, i)| &self.returns[*i])
     }
 
     /// The plane through the (at most [`SURFACE_NEIGHBOURS`]) returns within
@@ -362,7 +377,7 @@ impl WaterSurfaceIndex {
             found,
             radius_m: SURFACE_RADIUS_M,
         };
-        let Some(tree) = &self.tree else {
+        let Some(tree) = self.tree() else {
             return Err(none(0));
         };
         let q = [x - self.origin[0], y - self.origin[1]];
