@@ -527,6 +527,9 @@ struct Partial {
     implausible: Vec<(u64, f64, f64)>,
     /// The trajectory segment of the block's previous point ([`Trajectory::at_from`]).
     pose_hint: usize,
+    /// Where the block's previous sounding found its surface return
+    /// ([`WaterSurfaceIndex::same_pulse_from`]).
+    water_hint: usize,
 }
 
 /// What the recovery of a topographic point gives the plausibility checks.
@@ -891,7 +894,7 @@ impl Run<'_> {
         let sigma = self.ctx.sigmas.as_ref().map(|s| s.at(p.time_sow_s));
         let sounding = match (self.kernel, water) {
             (Kernel::Conic(_, scanner), Some(w)) if lp.classification == CLASS_BATHYMETRY => {
-                Some(self.recover_sounding(scanner, &pose, p, w))
+                Some(self.recover_sounding(scanner, &pose, p, w, &mut acc.water_hint))
             }
             _ => None,
         };
@@ -999,8 +1002,9 @@ impl Run<'_> {
         pose: &PoseAt,
         p: &Prep,
         water: &WaterSurfaceIndex,
+        hint: &mut usize,
     ) -> lidarqa_tpu::Result<SoundingRecovery> {
-        match water.same_pulse(p.time_sow_s) {
+        match water.same_pulse_from(p.time_sow_s, hint) {
             Some(s) => self.recoverer.sounding_from_surface_return(
                 scanner,
                 pose,

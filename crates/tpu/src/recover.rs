@@ -166,7 +166,9 @@ impl Recoverer {
         let azimuth_rad = s.y.atan2(s.x) - l3_0.y.atan2(l3_0.x);
         // The nominal beam turned to this azimuth has S's horizontal direction and the
         // horizontal length |l3_0,xy| ρ1: S's distance from it needs no rotation.
-        let horizontal = (s.x * s.x + s.y * s.y).sqrt() - l3_0.x.hypot(l3_0.y) * range_air_m;
+        // Metres and a unit vector: the plain roots cannot overflow (no `hypot` needed).
+        let l3_0_horizontal = (l3_0.x * l3_0.x + l3_0.y * l3_0.y).sqrt();
+        let horizontal = (s.x * s.x + s.y * s.y).sqrt() - l3_0_horizontal * range_air_m;
         let vertical = s.z - l3_0.z * range_air_m;
         let off_cone_m = (horizontal * horizontal + vertical * vertical).sqrt();
         Ok(ConicRecovery {

@@ -358,12 +358,29 @@ impl WaterSurfaceIndex {
 
     /// The surface return of the pulse at `time_s`, if any.
     pub fn same_pulse(&self, time_s: f64) -> Option<&WaterReturn> {
-        let k = self
-            .by_time
-            .partition_point(|(t, _)| *t < time_s - SAME_PULSE_S);
-        self.by_time
-            .get(k)
-            .filter(|(t, _)| (t - time_s).abs() <= SAME_PULSE_S)
+        self.same_pulse_from(time_s, &mut 0)
+    }
+
+    /// [`WaterSurfaceIndex::same_pulse`] starting from the position `hint` the previous call
+    /// left (any value at first): soundings come in time order, so their surface returns are
+    /// usually a few entries on, and the binary search over all of them is skipped.
+    pub fn same_pulse_from(&self, time_s: f64, hint: &mut usize) -> Option<&WaterReturn> {
+        let lo = time_s - SAME_PULSE_S;
+        let t = &self.by_time;
+        // The first entry not before `lo`; every entry before `hint` is before it when the
+        // hint is valid.
+        let k = if *hint <= t.len() && (*hint == 0 || t[*hint - 1].0 < lo) {
+            let end = (*hint + 8).min(t.len());
+            match t[*hint..end].iter().position(|(x, _)| *x >= lo) {
+                Some(d) => *hint + d,
+                None => end + t[end..].partition_point(|(x, _)| *x < lo),
+            }
+        } else {
+            t.partition_point(|(x, _)| *x < lo)
+        };
+        *hint = k;
+        t.get(k)
+            .filter(|(x, _)| (x - time_s).abs() <= SAME_PULSE_S)
             .map(|(_, i)| &self.returns[*i])
     }
 
@@ -390,5 +407,58 @@ impl WaterSurfaceIndex {
             .map(|n| self.returns[n.item as usize].grid.vector().into())
             .collect();
         SurfacePlane::fit(&near).ok_or(none(near.len()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn water(time_s: f64, x: f64) -> WaterReturn {
+        WaterReturn {
+            time_s,
+            ecef_m: Ecef::new(x, 0.0, 0.0),
+            grid: Grid::new(x, 2.0 * x, 19.0),
+        }
+    }
+
+    #[test]
+    fn same_pulse_from_any_hint_is_the_full_search() {
+        // Pulses 5 µs apart, out of order in the input, two of them missing, one pair of
+        // returns closer than a pulse (both within SAME_PULSE_S of t = 0.010005).
+        let mut times: Vec<f64> = (0..400).map(|i| 0.01 + 5e-6 * i as f64).collect();
+        times.retain(|t| (t - 0.0105).abs() > 1e-9 && (t - 0.011).abs() > 1e-9);
+        times.push(0.010_005 + 4e-8);
+        times.reverse();
+        let index = WaterSurfaceIndex::new(
+            times
+                .iter()
+                .enumerate()
+                .map(|(i, t)| water(*t, i as f64))
+                .collect(),
+        );
+        let queries: Vec<f64> = (0..420)
+            .map(|i| 0.01 + 5e-6 * i as f64 - 3e-8)
+            .chain([0.0, 0.0105, 0.011, 0.010_005, 1.0])
+            .collect();
+        let mut found = 0;
+        for hint0 in [0, 7, 150, 399, 400, 10_000] {
+            let mut hint = hint0;
+            for &t in &queries {
+                let full = index.same_pulse(t).map(|r| r.ecef_m);
+                // The reference: the earliest return in time within SAME_PULSE_S.
+                let want = times
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, x)| (*x - t).abs() <= SAME_PULSE_S)
+                    .min_by(|a, b| a.1.total_cmp(b.1))
+                    .map(|(i, _)| Ecef::new(i as f64, 0.0, 0.0));
+                assert_eq!(full, want, "{t}");
+                assert_eq!(index.same_pulse_from(t, &mut hint).map(|r| r.ecef_m), want);
+                found += usize::from(want.is_some());
+            }
+        }
+        // Most pulses have their return; the missing ones and the far queries have none.
+        assert!(found > 6 * 390, "{found}");
     }
 }
