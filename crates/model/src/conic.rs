@@ -473,10 +473,8 @@ impl ConicScanner {
         j[(0, 0)] = 1.0;
         j[(1, 1)] = 1.0;
         j[(2, 2)] = -1.0;
-        for k in 0..3 {
-            let d = &d_r_n[k];
+        for (k, (d, dm)) in d_r_n.iter().zip(&m.d_r_m).enumerate() {
             j.set_column(3 + k, &(d * m.lever_m + through_r(d * m_l3, d * m_z)));
-            let dm = &m.d_r_m[k];
             j.set_column(6 + k, &through_r(r_n * (dm * l3), r_n * dm.column(2)));
             j.set_column(9 + k, &r_n.column(k).into_owned());
         }
