@@ -158,7 +158,8 @@ impl Recoverer {
         let d = s_bed - surf.scanner_m;
         let range_water_m = d.dot(&l4);
         check_depth(surface_height_m - bed_height_m, range_water_m)?;
-        let off = (d - l4 * range_water_m).norm();
+        // Squared: millimetres, the plain root below cannot overflow (no `hypot` needed).
+        let off2 = (d - l4 * range_water_m).norm_squared();
         Ok(SoundingRecovery {
             observation: ConicObservation {
                 time_water_s: scanner.time_water_s(range_water_m),
@@ -168,7 +169,7 @@ impl Recoverer {
             range_water_m,
             depth_m: surface_height_m - bed_height_m,
             surface: SurfaceSource::Pulse,
-            residual_m: off.hypot(surf.off_cone_m),
+            residual_m: (off2 + surf.off_cone_m * surf.off_cone_m).sqrt(),
         })
     }
 
