@@ -112,7 +112,10 @@ impl IhoOrder {
     /// Maximum allowable TVU (95 %) at depth `depth_m`, m: `√(a² + (b·d)²)`.
     pub fn max_tvu_m(self, depth_m: f64) -> f64 {
         let l = self.limits();
-        l.tvu_a_m.hypot(l.tvu_b * depth_m)
+        // Metres: the plain root cannot overflow (no `hypot`, which is slow, for every order
+        // of every sounding).
+        let b_d = l.tvu_b * depth_m;
+        (l.tvu_a_m * l.tvu_a_m + b_d * b_d).sqrt()
     }
 
     /// Whether a sounding at `depth_m` with these 95 % uncertainties meets the order
@@ -295,7 +298,8 @@ pub fn thu_95_m(c: &Matrix2<f64>) -> f64 {
         return 0.0;
     }
     let q = (l2 / l1).sqrt().clamp(0.0, 1.0) * TABLE_STEPS as f64;
-    let i = (q.floor() as usize).min(TABLE_STEPS - 1);
+    // q ≥ 0: truncation is the floor (and NaN gives 0 either way), without a libm call.
+    let i = (q as usize).min(TABLE_STEPS - 1);
     let t = &FACTOR_TABLE;
     let f = t[i] + (q - i as f64) * (t[i + 1] - t[i]);
     f * l1.sqrt()
