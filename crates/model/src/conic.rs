@@ -889,16 +889,46 @@ mod tests {
         assert!(s.footprint_ned(&p).z < f0.z);
     }
 
+    /// A mounting with every boresight angle and lever component non-zero.
+    fn mounting() -> Mounting {
+        Mounting {
+            boresight_roll_rad: 0.01,
+            boresight_pitch_rad: -0.02,
+            boresight_yaw_rad: 0.015,
+            lever_arm_m: Vector3::new(0.3, -0.2, 1.1),
+        }
+    }
+
+    /// Asserts that `(f, j)` is the footprint and Jacobian of one 25-direction dual pass over
+    /// the whole model at `p` (every column within 1e-9 of its length) and returns that pass's
+    /// Jacobian.
+    fn assert_one_pass_agrees(
+        s: &ConicScanner,
+        p: &SVector<f64, CONIC_N>,
+        (f, j): (Vector3<f64>, SMatrix<f64, 3, CONIC_N>),
+    ) -> SMatrix<f64, 3, CONIC_N> {
+        let (f1, j1) = jacobian(
+            |q: SVector<DualSVec64<CONIC_N>, CONIC_N>| s.footprint_ned(&q),
+            p,
+        );
+        assert_relative_eq!(f1, f, epsilon = 1e-9);
+        for k in 0..CONIC_N {
+            let (a, b) = (j1.column(k), j.column(k));
+            assert!(
+                (a - b).norm() <= 1e-9 * a.norm().max(1e-300)
+                    || (a.norm() == 0.0 && b.norm() == 0.0),
+                "{:?} column {k}: {a} vs {b}",
+                s.refraction()
+            );
+        }
+        j1
+    }
+
     #[test]
     fn staged_jacobian_equals_one_pass_dual_jacobian() {
         for mode in [Refraction::ScannerFrame, Refraction::Level] {
             let s = czmil(mode);
-            let m = Mounting {
-                boresight_roll_rad: 0.01,
-                boresight_pitch_rad: -0.02,
-                boresight_yaw_rad: 0.015,
-                lever_arm_m: Vector3::new(0.3, -0.2, 1.1),
-            };
+            let m = mounting();
             let cases = [
                 (
                     Attitude::from_degrees(1.0, -2.0, 30.0),
@@ -936,20 +966,7 @@ mod tests {
                     nominal,
                     s.nominal_prism(p[16]).as_slice() == &p.as_slice()[12..19]
                 );
-                let (f1, j1) = jacobian(
-                    |q: SVector<DualSVec64<CONIC_N>, CONIC_N>| s.footprint_ned(&q),
-                    &p,
-                );
-                let (f2, j2) = s.footprint_jacobian(&p);
-                assert_relative_eq!(f1, f2, epsilon = 1e-9);
-                for k in 0..CONIC_N {
-                    let (a, b) = (j1.column(k), j2.column(k));
-                    let scale = a.norm().max(1e-300);
-                    assert!(
-                        (a - b).norm() <= 1e-9 * scale || (a.norm() == 0.0 && b.norm() == 0.0),
-                        "{mode:?} column {k}: {a} vs {b}"
-                    );
-                }
+                let j1 = assert_one_pass_agrees(&s, &p, s.footprint_jacobian(&p));
                 // Not vacuous: the surface and attitude columns move the point.
                 assert!(j1.column(3).norm() > 1.0 && j1.column(12).norm() > 1.0);
                 assert!(
@@ -1013,12 +1030,7 @@ mod tests {
     fn jacobian_at_pose_equals_the_one_pass_dual_jacobian() {
         for mode in [Refraction::ScannerFrame, Refraction::Level] {
             let s = czmil(mode);
-            let m = Mounting {
-                boresight_roll_rad: 0.01,
-                boresight_pitch_rad: -0.02,
-                boresight_yaw_rad: 0.015,
-                lever_arm_m: Vector3::new(0.3, -0.2, 1.1),
-            };
+            let m = mounting();
             let prepared = MountingPartials::new(&m);
             for (att, water_s, az) in [
                 (
@@ -1039,20 +1051,11 @@ mod tests {
                     time_water_s: water_s,
                 };
                 let p = s.parameters(&att, &m, &obs);
-                let (f1, j1) = jacobian(
-                    |q: SVector<DualSVec64<CONIC_N>, CONIC_N>| s.footprint_ned(&q),
+                let j1 = assert_one_pass_agrees(
+                    &s,
                     &p,
+                    s.jacobian_at_pose(&att.body_to_ned(), &prepared, &obs),
                 );
-                let (f2, j2) = s.jacobian_at_pose(&att.body_to_ned(), &prepared, &obs);
-                assert_relative_eq!(f1, f2, epsilon = 1e-9);
-                for k in 0..CONIC_N {
-                    let (a, b) = (j1.column(k), j2.column(k));
-                    assert!(
-                        (a - b).norm() <= 1e-9 * a.norm().max(1e-300)
-                            || (a.norm() == 0.0 && b.norm() == 0.0),
-                        "{mode:?} column {k}: {a} vs {b}"
-                    );
-                }
                 // The water terms are there at the nominal surface.
                 assert_eq!(water_s > 0.0, j1.column(21).norm() > 0.1);
                 assert!(j1.column(22).norm() > 1.0 || water_s == 0.0);
