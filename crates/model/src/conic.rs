@@ -21,7 +21,10 @@
 use crate::error::{Error, Result};
 use crate::frames::{Attitude, Mounting};
 use crate::georeferencer::{Georeferencer, gnss_offset_ned, platform_parameters, platform_then};
-use crate::rotation::{rot_x, rot_y, rot_z, rotation_zyx, rotation_zyx_with_partials};
+use crate::linear::MountingPartials;
+use crate::rotation::{
+    rot_x, rot_y, rot_z, rotation_zyx, rotation_zyx_with_partials, zyx_partials_of,
+};
 use crate::scalar::{Scalar, c};
 use crate::source::Source;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
@@ -272,9 +275,15 @@ impl ConicScanner {
         if *q != self.nominal_prism(q[4]) {
             return self.air_beam_jacobian(q);
         }
+        self.nominal_beam_at(q[4])
+    }
+
+    /// The air beam and its Jacobian at the nominal prism and emitter, scan azimuth
+    /// `azimuth_rad`: the scanner's nominal beam turned by `Rz(az)` (one `sin_cos`).
+    fn nominal_beam_at(&self, azimuth_rad: f64) -> (Vector3<f64>, SMatrix<f64, 3, 7>) {
         let n = &self.nominal;
-        let (s, c) = q[4].sin_cos();
-        let rz = rot_z(q[4]);
+        let (s, c) = azimuth_rad.sin_cos();
+        let rz = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
         let mut j = rz * n.jacobian;
         // Emitter zenith: the emitter tilts along Rz(−az) e_x = cos az e_x − sin az e_y of the
         // prism's own frame.
@@ -286,6 +295,28 @@ impl ConicScanner {
     /// once per scanner); at azimuth `az` it is `Rz(az)` times this.
     pub fn nominal_air_beam(&self) -> Vector3<f64> {
         self.nominal.l3
+    }
+
+    /// The air and water beams `(l3, l4)` in S of a pulse at scan azimuth `azimuth_rad` with
+    /// the nominal prism, emitter and water surface (level, index `n_water`), where
+    /// `scanner_to_ned` is `R_N R_M`: [`ConicScanner::beam_directions`] at the parameters
+    /// [`Georeferencer::parameters`] gives, from the nominal beam and the matrix itself (one
+    /// `sin_cos`, no rotation built from angles).
+    pub fn nominal_beams(
+        &self,
+        azimuth_rad: f64,
+        scanner_to_ned: &Matrix3<f64>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let (s, c) = azimuth_rad.sin_cos();
+        let l0 = &self.nominal.l3;
+        let l3 = Vector3::new(c * l0.x - s * l0.y, s * l0.x + c * l0.y, l0.z);
+        let base = match self.refraction {
+            Refraction::ScannerFrame => Vector3::z(),
+            // The local vertical in S: (R_N R_M)ᵀ e_z, the matrix's third row.
+            Refraction::Level => scanner_to_ned.row(2).transpose(),
+        };
+        let l4 = refract(&l3, &base.normalize(), self.n_air / self.n_water);
+        (l3, l4)
     }
 
     /// The rays and the surface normals of one pulse (all in S).
@@ -308,19 +339,13 @@ impl ConicScanner {
         Rays { l3, l4, base }
     }
 
-    /// The scanner origin → footprint vector in N, `R X_S` with `R = R_N R_M`, from
-    /// `x = [L, B, Δt1, Δt2, δh, s_N, s_E, nw]`: `L = R l3` the air beam and `B = R base` the
-    /// untilted surface normal, both in N. Snell's law and the ranges do not depend on the frame
-    /// they are written in, so after the rotation the water leg is a function of these twelve
-    /// numbers only; `wet` is `Δt2 > 0` (the water-surface height moves only a sounding).
-    fn leg_ned<D: Scalar>(&self, x: &SVector<D, 12>, wet: bool) -> Vector3<D> {
-        let l = Vector3::new(x[0], x[1], x[2]);
-        let b = Vector3::new(x[3], x[4], x[5]);
-        self.leg_ned_at(&l, &b, &[x[6], x[7], x[8], x[9], x[10], x[11]], wet)
-    }
-
-    /// [`ConicScanner::leg_ned`] with `L`, `B` and the six scalars apart (a `level` surface
-    /// has a constant `B` and needs no derivative along it).
+    /// The scanner origin → footprint vector in N, `R X_S` with `R = R_N R_M`, from the air
+    /// beam `L = R l3` and the untilted surface normal `B = R base`, both in N, and
+    /// `x = [Δt1, Δt2, δh, s_N, s_E, nw]`. Snell's law and the ranges do not depend on the
+    /// frame they are written in, so after the rotation the water leg is a function of these
+    /// twelve numbers only; `wet` is `Δt2 > 0` (the water-surface height moves only a
+    /// sounding). The reference for [`ConicScanner::leg_jacobian`]'s closed form.
+    #[cfg(test)]
     fn leg_ned_at<D: Scalar>(
         &self,
         l: &Vector3<D>,
@@ -343,86 +368,168 @@ impl ConicScanner {
         l * rho1 + l4 * rho2
     }
 
-    /// The footprint and its Jacobian by the chain rule over three stages: `R_N` and `R_M`
-    /// from [`rotation_zyx_with_partials`], the air beam `l3` from a 7-direction dual pass over
-    /// the prism and emitter parameters, and the rotated legs from a 12-direction dual pass
-    /// over [`ConicScanner::leg_ned`]'s inputs (9 for a `level` surface). One 25-direction dual pass over the whole model
-    /// (the trait's default) gives the same Jacobian at many times the cost; a test checks the
-    /// two agree.
-    fn staged_jacobian(
+    /// The water leg `v = ρ1 L + ρ2 l4` (see `leg_ned_at` in the tests) and its Jacobian in
+    /// closed form: columns `∂v/∂L` (3), `∂v/∂B` (3), then `Δt1, Δt2, δh, s_N, s_E, nw`.
+    ///
+    /// With `p3 = u/|u|`, `u = B + [tan s_N, tan s_E, 0]`, `η = na/nw`, `cᵢ = p3·L`,
+    /// `cₜ = √(1 − η²(1 − cᵢ²))` and `l4 = η L + (cₜ − η cᵢ) p3` (vector Snell law):
+    /// `∂l4/∂L = η I + (a − η) p3 p3ᵀ`, `∂l4/∂p3 = (cₜ − η cᵢ) I + (a − η) p3 Lᵀ` with
+    /// `a = ∂cₜ/∂cᵢ = η² cᵢ/cₜ`, `∂p3/∂u = (I − p3 p3ᵀ)/|u|`,
+    /// `∂l4/∂η = L + (−η(1 − cᵢ²)/cₜ − cᵢ) p3`; a sounding's surface-height shift `δh/g`
+    /// (`g = L·B`) moves `ρ1` by `−δh/g` and `ρ2` by `δh/(g nw)`, so `∂v/∂g = δh/g² (L − l4/nw)`.
+    /// A few 3 × 3 products where a 12-direction dual pass spent most of the conic kernel's
+    /// time; a test checks it against that pass.
+    fn leg_jacobian(
         &self,
-        p: &SVector<f64, CONIC_N>,
+        l: &Vector3<f64>,
+        b: &Vector3<f64>,
+        x: &[f64; 6],
+        wet: bool,
+    ) -> (Vector3<f64>, SMatrix<f64, 3, 12>) {
+        let [t_air, t_water, dh, slope_n, slope_e, nw] = *x;
+        // tan 0 = 0 without the call: the per-point TPU is always at the nominal surface.
+        let tan = |s: f64| if s == 0.0 { 0.0 } else { s.tan() };
+        let (tn, te) = (tan(slope_n), tan(slope_e));
+        let u = b + Vector3::new(tn, te, 0.0);
+        let norm_u = u.norm();
+        let p3 = u / norm_u;
+        let eta = self.n_air / nw;
+        let ci = p3.dot(l);
+        let ct = (1.0 - eta * eta * (1.0 - ci * ci)).sqrt();
+        let l4 = l * eta + p3 * (ct - eta * ci);
+        let speed = SPEED_OF_LIGHT_AIR_M_PER_S;
+        let mut rho1 = speed * t_air * 0.5;
+        let mut rho2 = speed * t_water / (nw * 2.0);
+        let (mut d_g, mut d_dh) = (Vector3::zeros(), Vector3::zeros());
+        if wet {
+            let g = l.dot(b);
+            let shift = dh / g;
+            rho1 -= shift;
+            rho2 += shift / nw;
+            let along = l - l4 / nw;
+            d_g = along * (dh / (g * g));
+            d_dh = -along / g;
+        }
+        let v = l * rho1 + l4 * rho2;
+
+        let a = eta * eta * ci / ct;
+        let d_l4_l = Matrix3::from_diagonal_element(eta) + p3 * p3.transpose() * (a - eta);
+        let d_l4_p = Matrix3::from_diagonal_element(ct - eta * ci) + p3 * l.transpose() * (a - eta);
+        let d_p_u = (Matrix3::identity() - p3 * p3.transpose()) / norm_u;
+        // ∂v/∂u: the surface normal's direction moves only l4.
+        let d_u = d_l4_p * d_p_u * rho2;
+        let d_l4_eta = l + p3 * (-eta * (1.0 - ci * ci) / ct - ci);
+
+        let mut h = SMatrix::<f64, 3, 12>::zeros();
+        h.fixed_columns_mut::<3>(0).copy_from(
+            &(Matrix3::from_diagonal_element(rho1) + d_l4_l * rho2 + d_g * b.transpose()),
+        );
+        h.fixed_columns_mut::<3>(3)
+            .copy_from(&(d_u + d_g * l.transpose()));
+        h.set_column(6, &(l * (0.5 * speed)));
+        h.set_column(7, &(l4 * (speed / (2.0 * nw))));
+        h.set_column(8, &d_dh);
+        h.set_column(9, &(d_u.column(0) * (1.0 + tn * tn)));
+        h.set_column(10, &(d_u.column(1) * (1.0 + te * te)));
+        // η = na/nw and ρ2 ∝ 1/nw.
+        h.set_column(11, &((d_l4_eta * (-eta) - l4) * (rho2 / nw)));
+        (v, h)
+    }
+
+    /// The footprint (zero GNSS offsets) and its Jacobian by the chain rule from the stages:
+    /// `R_N` with its partials in roll, pitch and heading, the mounting's, the air beam `l3`
+    /// with its partials in the prism and emitter parameters `p[12..19]`, and the water leg in
+    /// N ([`ConicScanner::leg_jacobian`]) at `x = p[19..25]`.
+    fn compose(
+        &self,
+        (r_n, d_r_n): (&Matrix3<f64>, &[Matrix3<f64>; 3]),
+        m: &MountingPartials,
+        (l3, d_l3): (&Vector3<f64>, &SMatrix<f64, 3, 7>),
+        x: &[f64; 6],
     ) -> (Vector3<f64>, SMatrix<f64, 3, CONIC_N>) {
-        let (r_n, d_r_n) = rotation_zyx_with_partials(p[3], p[4], p[5]);
-        let (r_m, d_r_m) = rotation_zyx_with_partials(p[6], p[7], p[8]);
-        let r = r_n * r_m;
-        let q = SVector::<f64, 7>::from([p[12], p[13], p[14], p[15], p[16], p[17], p[18]]);
-        let (l3, d_l3) = self.air_beam_at(&q);
         // B moves with the attitude only when the surface is fixed in S.
         let scanner_frame = self.refraction == Refraction::ScannerFrame;
+        let r = r_n * m.r_m;
         let b = if scanner_frame {
             r.column(2).into_owned()
         } else {
             Vector3::z()
         };
-        let l = r * l3;
-        let x = SVector::<f64, 12>::from([
-            l.x, l.y, l.z, b.x, b.y, b.z, p[19], p[20], p[21], p[22], p[23], p[24],
-        ]);
-        let wet = p[20] > 0.0;
-        let (v, h) = if scanner_frame {
-            jacobian(|y: SVector<DualSVec64<12>, 12>| self.leg_ned(&y, wet), &x)
-        } else {
-            // B is the constant vertical: 9 directions, B's columns zero.
-            let y0 = SVector::<f64, 9>::from_fn(|i, _| if i < 3 { x[i] } else { x[i + 3] });
-            let (v, h9) = jacobian(
-                |y: SVector<DualSVec64<9>, 9>| {
-                    let l = Vector3::new(y[0], y[1], y[2]);
-                    self.leg_ned_at(
-                        &l,
-                        &Vector3::z().map(c),
-                        &[y[3], y[4], y[5], y[6], y[7], y[8]],
-                        wet,
-                    )
-                },
-                &y0,
-            );
-            let h = SMatrix::<f64, 3, 12>::from_fn(|r, k| match k {
-                0..3 => h9[(r, k)],
-                3..6 => 0.0,
-                _ => h9[(r, k - 3)],
-            });
-            (v, h)
-        };
+        let (v, h) = self.leg_jacobian(&(r * l3), &b, x, x[1] > 0.0);
         let h_l = h.fixed_columns::<3>(0).into_owned();
         let h_b = h.fixed_columns::<3>(3).into_owned();
-        let lever = Vector3::new(p[9], p[10], p[11]);
-        let f = gnss_offset_ned(p[0], p[1], p[2]) + r_n * lever + v;
-        // ∂(R X_S)/∂θ through L = R l3 and (scanner-frame) B = R e_z.
-        let through_r = |d_r: Matrix3<f64>| {
-            let mut col = h_l * (d_r * l3);
+        let f = r_n * m.lever_m + v;
+        // ∂(R X_S)/∂θ through L = R l3 and (scanner-frame) B = R e_z, for ∂R/∂θ · (l3, e_z)
+        // given as `(d_l, d_b)`.
+        let through_r = |d_l: Vector3<f64>, d_b: Vector3<f64>| {
+            let mut col = h_l * d_l;
             if scanner_frame {
-                col += h_b * d_r.column(2);
+                col += h_b * d_b;
             }
             col
         };
+        let (m_l3, m_z) = (m.r_m * l3, m.r_m.column(2).into_owned());
         let mut j = SMatrix::<f64, 3, CONIC_N>::zeros();
         j[(0, 0)] = 1.0;
         j[(1, 1)] = 1.0;
         j[(2, 2)] = -1.0;
-        for k in 0..3 {
-            j.set_column(3 + k, &(d_r_n[k] * lever + through_r(d_r_n[k] * r_m)));
-            j.set_column(6 + k, &through_r(r_n * d_r_m[k]));
+        for (k, (d, dm)) in d_r_n.iter().zip(&m.d_r_m).enumerate() {
+            j.set_column(3 + k, &(d * m.lever_m + through_r(d * m_l3, d * m_z)));
+            j.set_column(6 + k, &through_r(r_n * (dm * l3), r_n * dm.column(2)));
             j.set_column(9 + k, &r_n.column(k).into_owned());
         }
-        let h_l_r = h_l * r;
-        for k in 0..7 {
-            j.set_column(12 + k, &(h_l_r * d_l3.column(k)));
-        }
-        for k in 0..6 {
-            j.set_column(19 + k, &h.column(6 + k).into_owned());
-        }
+        j.fixed_columns_mut::<7>(12).copy_from(&(h_l * r * d_l3));
+        j.fixed_columns_mut::<6>(19)
+            .copy_from(&h.fixed_columns::<6>(6));
         (f, j)
+    }
+
+    /// The footprint and its Jacobian by the chain rule ([`ConicScanner::compose`]): `R_N`
+    /// and `R_M` from [`rotation_zyx_with_partials`], the air beam from the scanner's nominal
+    /// beam (a 7-direction dual pass for an off-nominal prism or emitter), the water leg in
+    /// closed form. One 25-direction dual pass over the whole model (the trait's default)
+    /// gives the same Jacobian at many times the cost; a test checks the two agree.
+    fn staged_jacobian(
+        &self,
+        p: &SVector<f64, CONIC_N>,
+    ) -> (Vector3<f64>, SMatrix<f64, 3, CONIC_N>) {
+        let (r_n, d_r_n) = rotation_zyx_with_partials(p[3], p[4], p[5]);
+        let mounting = MountingPartials::new(&Mounting {
+            boresight_roll_rad: p[6],
+            boresight_pitch_rad: p[7],
+            boresight_yaw_rad: p[8],
+            lever_arm_m: Vector3::new(p[9], p[10], p[11]),
+        });
+        let q = SVector::<f64, 7>::from([p[12], p[13], p[14], p[15], p[16], p[17], p[18]]);
+        let (l3, d_l3) = self.air_beam_at(&q);
+        let x = [p[19], p[20], p[21], p[22], p[23], p[24]];
+        let (f, j) = self.compose((&r_n, &d_r_n), &mounting, (&l3, &d_l3), &x);
+        (f + gnss_offset_ned(p[0], p[1], p[2]), j)
+    }
+
+    /// The footprint (zero GNSS offsets) and Jacobian of a pulse with observation `obs` at the
+    /// attitude `body_to_ned` (`R_N`) and the prepared `mounting`: the same as
+    /// [`Georeferencer::footprint_jacobian`] at [`Georeferencer::parameters`]' vector (nominal
+    /// prism, emitter and water surface), with `R_N`'s partials from the matrix itself
+    /// ([`zyx_partials_of`]) and the mounting's prepared once: the per-point TPU's conic kernel,
+    /// one `sin_cos` (the azimuth) and a few square roots a point.
+    pub fn jacobian_at_pose(
+        &self,
+        body_to_ned: &Matrix3<f64>,
+        mounting: &MountingPartials,
+        obs: &ConicObservation,
+    ) -> (Vector3<f64>, SMatrix<f64, 3, CONIC_N>) {
+        let d_r_n = zyx_partials_of(body_to_ned);
+        let (l3, d_l3) = self.nominal_beam_at(obs.azimuth_rad);
+        let x = [
+            obs.time_air_s,
+            obs.time_water_s,
+            0.0,
+            0.0,
+            0.0,
+            self.n_water,
+        ];
+        self.compose((body_to_ned, &d_r_n), mounting, (&l3, &d_l3), &x)
     }
 
     /// Air and water ranges (m) that put the footprint on a level water surface `height_m` below the
@@ -782,16 +889,46 @@ mod tests {
         assert!(s.footprint_ned(&p).z < f0.z);
     }
 
+    /// A mounting with every boresight angle and lever component non-zero.
+    fn mounting() -> Mounting {
+        Mounting {
+            boresight_roll_rad: 0.01,
+            boresight_pitch_rad: -0.02,
+            boresight_yaw_rad: 0.015,
+            lever_arm_m: Vector3::new(0.3, -0.2, 1.1),
+        }
+    }
+
+    /// Asserts that `(f, j)` is the footprint and Jacobian of one 25-direction dual pass over
+    /// the whole model at `p` (every column within 1e-9 of its length) and returns that pass's
+    /// Jacobian.
+    fn assert_one_pass_agrees(
+        s: &ConicScanner,
+        p: &SVector<f64, CONIC_N>,
+        (f, j): (Vector3<f64>, SMatrix<f64, 3, CONIC_N>),
+    ) -> SMatrix<f64, 3, CONIC_N> {
+        let (f1, j1) = jacobian(
+            |q: SVector<DualSVec64<CONIC_N>, CONIC_N>| s.footprint_ned(&q),
+            p,
+        );
+        assert_relative_eq!(f1, f, epsilon = 1e-9);
+        for k in 0..CONIC_N {
+            let (a, b) = (j1.column(k), j.column(k));
+            assert!(
+                (a - b).norm() <= 1e-9 * a.norm().max(1e-300)
+                    || (a.norm() == 0.0 && b.norm() == 0.0),
+                "{:?} column {k}: {a} vs {b}",
+                s.refraction()
+            );
+        }
+        j1
+    }
+
     #[test]
     fn staged_jacobian_equals_one_pass_dual_jacobian() {
         for mode in [Refraction::ScannerFrame, Refraction::Level] {
             let s = czmil(mode);
-            let m = Mounting {
-                boresight_roll_rad: 0.01,
-                boresight_pitch_rad: -0.02,
-                boresight_yaw_rad: 0.015,
-                lever_arm_m: Vector3::new(0.3, -0.2, 1.1),
-            };
+            let m = mounting();
             let cases = [
                 (
                     Attitude::from_degrees(1.0, -2.0, 30.0),
@@ -829,20 +966,7 @@ mod tests {
                     nominal,
                     s.nominal_prism(p[16]).as_slice() == &p.as_slice()[12..19]
                 );
-                let (f1, j1) = jacobian(
-                    |q: SVector<DualSVec64<CONIC_N>, CONIC_N>| s.footprint_ned(&q),
-                    &p,
-                );
-                let (f2, j2) = s.footprint_jacobian(&p);
-                assert_relative_eq!(f1, f2, epsilon = 1e-9);
-                for k in 0..CONIC_N {
-                    let (a, b) = (j1.column(k), j2.column(k));
-                    let scale = a.norm().max(1e-300);
-                    assert!(
-                        (a - b).norm() <= 1e-9 * scale || (a.norm() == 0.0 && b.norm() == 0.0),
-                        "{mode:?} column {k}: {a} vs {b}"
-                    );
-                }
+                let j1 = assert_one_pass_agrees(&s, &p, s.footprint_jacobian(&p));
                 // Not vacuous: the surface and attitude columns move the point.
                 assert!(j1.column(3).norm() > 1.0 && j1.column(12).norm() > 1.0);
                 assert!(
@@ -850,6 +974,124 @@ mod tests {
                     "the emitter zenith moves the point"
                 );
                 assert_eq!(water_s > 0.0, j1.column(21).norm() > 0.1);
+            }
+        }
+    }
+
+    #[test]
+    fn closed_form_water_leg_equals_its_dual_pass() {
+        // Off-nominal on purpose: tilted surface, a surface-height shift, another index; the
+        // beam and normal of a 20° cone through a rolled scanner.
+        let l = Vector3::new(0.21, -0.28, 0.93).normalize();
+        let b = Vector3::new(-0.03, 0.05, 1.0).normalize();
+        for mode in [Refraction::ScannerFrame, Refraction::Level] {
+            let s = czmil(mode);
+            for (x, wet) in [
+                ([2.8e-6, 3.1e-7, 0.12, 0.02, -0.035, 1.337], true),
+                ([2.8e-6, 1.0e-7, 0.0, 0.0, 0.0, DEFAULT_N_WATER], true),
+                ([2.8e-6, 0.0, 0.3, 0.01, 0.0, DEFAULT_N_WATER], false),
+            ] {
+                let y0 = SVector::<f64, 12>::from_fn(|i, _| match i {
+                    0..3 => l[i],
+                    3..6 => b[i - 3],
+                    _ => x[i - 6],
+                });
+                let (v1, h1) = jacobian(
+                    |y: SVector<DualSVec64<12>, 12>| {
+                        s.leg_ned_at(
+                            &Vector3::new(y[0], y[1], y[2]),
+                            &Vector3::new(y[3], y[4], y[5]),
+                            &[y[6], y[7], y[8], y[9], y[10], y[11]],
+                            wet,
+                        )
+                    },
+                    &y0,
+                );
+                let (v2, h2) = s.leg_jacobian(&l, &b, &x, wet);
+                assert_relative_eq!(v1, v2, epsilon = 1e-12);
+                for k in 0..12 {
+                    let (a, c) = (h1.column(k), h2.column(k));
+                    assert!(
+                        (a - c).norm() <= 1e-12 * a.norm().max(1.0),
+                        "{mode:?} {x:?} column {k}: {a} vs {c}"
+                    );
+                }
+                // Not vacuous: with a water leg the slope and index columns move the point,
+                // and the height column exactly when the leg is wet.
+                if x[1] > 0.0 {
+                    assert!(h1.column(9).norm() > 1.0 && h1.column(11).norm() > 1.0);
+                }
+                assert_eq!(wet, h1.column(8).norm() > 0.1);
+            }
+        }
+    }
+
+    #[test]
+    fn jacobian_at_pose_equals_the_one_pass_dual_jacobian() {
+        for mode in [Refraction::ScannerFrame, Refraction::Level] {
+            let s = czmil(mode);
+            let m = mounting();
+            let prepared = MountingPartials::new(&m);
+            for (att, water_s, az) in [
+                (
+                    Attitude::from_degrees(1.0, -2.0, 30.0),
+                    s.time_water_s(30.0),
+                    2.3,
+                ),
+                (
+                    Attitude::from_degrees(-4.0, 3.0, 250.0),
+                    s.time_water_s(5.0),
+                    -0.4,
+                ),
+                (Attitude::from_degrees(2.0, 1.0, -170.0), 0.0, 3.1),
+            ] {
+                let obs = ConicObservation {
+                    azimuth_rad: az,
+                    time_air_s: s.time_air_s(425.7),
+                    time_water_s: water_s,
+                };
+                let p = s.parameters(&att, &m, &obs);
+                let j1 = assert_one_pass_agrees(
+                    &s,
+                    &p,
+                    s.jacobian_at_pose(&att.body_to_ned(), &prepared, &obs),
+                );
+                // The water terms are there at the nominal surface.
+                assert_eq!(water_s > 0.0, j1.column(21).norm() > 0.1);
+                assert!(j1.column(22).norm() > 1.0 || water_s == 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn nominal_beams_are_the_rays_beams() {
+        for mode in [Refraction::ScannerFrame, Refraction::Level] {
+            let s = czmil(mode);
+            let m = Mounting {
+                boresight_roll_rad: 0.01,
+                boresight_pitch_rad: -0.02,
+                boresight_yaw_rad: 0.015,
+                lever_arm_m: Vector3::zeros(),
+            };
+            let a = Attitude::from_degrees(3.0, -1.0, 40.0);
+            for az in [0.0, 1.2, -2.9] {
+                let obs = ConicObservation {
+                    azimuth_rad: az,
+                    time_air_s: 0.0,
+                    time_water_s: 0.0,
+                };
+                let (l3, l4) = s.beam_directions(&s.parameters(&a, &m, &obs));
+                let r = a.body_to_ned() * m.scanner_to_body();
+                let (n3, n4) = s.nominal_beams(az, &r);
+                assert_relative_eq!(l3, n3, epsilon = 1e-15);
+                assert_relative_eq!(l4, n4, epsilon = 1e-15);
+                // Snell at the surface: na sin θa = nw sin θw about its normal in S.
+                let up = match mode {
+                    Refraction::ScannerFrame => Vector3::z(),
+                    Refraction::Level => r.row(2).transpose(),
+                };
+                let (sa, sw) = (n3.cross(&up).norm(), n4.cross(&up).norm());
+                assert_relative_eq!(DEFAULT_N_AIR * sa, DEFAULT_N_WATER * sw, epsilon = 1e-14);
             }
         }
     }

@@ -101,9 +101,9 @@ fn linear_jacobian(
 /// a mounting: the same for every point of a tile, prepared once.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MountingPartials {
-    r_m: Matrix3<f64>,
-    d_r_m: [Matrix3<f64>; 3],
-    lever_m: Vector3<f64>,
+    pub(crate) r_m: Matrix3<f64>,
+    pub(crate) d_r_m: [Matrix3<f64>; 3],
+    pub(crate) lever_m: Vector3<f64>,
 }
 
 impl MountingPartials {

@@ -184,7 +184,6 @@ pub fn tpu_tile_with_progress(
         kernel: &kernel,
         recoverer: Recoverer::new(&ctx.recovery_mounting),
         recovery_mounting: ctx.recovery_mounting,
-        mounting: ctx.sensor.mounting,
         r_m: ctx.recovery_mounting.scanner_to_body(),
         mounting_partials: MountingPartials::new(&ctx.sensor.mounting),
         tally0,
@@ -496,6 +495,9 @@ struct Partial {
     implausible: Vec<(u64, f64, f64)>,
     /// The trajectory segment of the block's previous point ([`Trajectory::at_from`]).
     pose_hint: usize,
+    /// Where the block's previous sounding found its surface return
+    /// ([`WaterSurfaceIndex::same_pulse_from`]).
+    water_hint: usize,
 }
 
 /// What the recovery of a topographic point gives the plausibility checks.
@@ -520,11 +522,10 @@ struct Run<'a> {
     recoverer: Recoverer,
     /// The mounting the points were made with: raw observations are recovered with it.
     recovery_mounting: Mounting,
-    /// The mounting the σ are propagated at (calibrated, or the sensor file's).
-    mounting: Mounting,
     /// `R_M` of the mounting the points were made with (the sensor file's), scanner → body.
     r_m: Matrix3<f64>,
-    /// `mounting` prepared for the linear Jacobian.
+    /// The mounting the σ are propagated at (calibrated, or the sensor file's), prepared for
+    /// the linear and conic Jacobians.
     mounting_partials: MountingPartials,
     /// An empty mounting tally for this sensor.
     tally0: MountingTally,
@@ -890,7 +891,7 @@ impl Run<'_> {
         let sigma = self.ctx.sigmas.as_ref().map(|s| s.at(p.time_sow_s));
         let sounding = match (self.kernel, water) {
             (Kernel::Conic(_, scanner), Some(w)) if lp.classification() == CLASS_BATHYMETRY => {
-                Some(self.recover_sounding(scanner, &pose, p, w))
+                Some(self.recover_sounding(scanner, &pose, p, w, &mut acc.water_hint))
             }
             _ => None,
         };
@@ -998,11 +999,11 @@ impl Run<'_> {
         pose: &PoseAt,
         p: &Prep,
         water: &WaterSurfaceIndex,
+        hint: &mut usize,
     ) -> lidarqa_tpu::Result<SoundingRecovery> {
-        match water.same_pulse(p.time_sow_s) {
+        match water.same_pulse_from(p.time_sow_s, hint) {
             Some(s) => self.recoverer.sounding_from_surface_return(
                 scanner,
-                &self.recovery_mounting,
                 pose,
                 &p.ecef,
                 p.xyz_m[2],
@@ -1038,19 +1039,20 @@ impl Run<'_> {
                 "a sounding needs a conic scanner".into(),
             ));
         };
-        let params = scanner.parameters(&pose.attitude(), &self.mounting, &rec.observation);
         let over = match rec.surface {
-            SurfaceSource::Pulse => Vec::new(),
-            SurfaceSource::Modelled { rms_m, .. } => vec![(
+            SurfaceSource::Pulse => None,
+            SurfaceSource::Modelled { rms_m, .. } => Some((
                 Source::WaterSurfaceHeight,
                 self.ctx
                     .sensor
                     .sigma
                     .get(Source::WaterSurfaceHeight)
                     .hypot(rms_m),
-            )],
+            )),
         };
-        let u = pp.propagate_with(&params, sigma, None, &over)?;
+        let (footprint, j) =
+            scanner.jacobian_at_pose(&pose.body_to_ned, &self.mounting_partials, &rec.observation);
+        let u = pp.propagate_jacobian(footprint, &j, sigma, None, over.as_slice())?;
         add_shares(&mut acc.shares, u.source_variance_m2.as_slice(), 0.0);
         Ok(u.covariance_ned)
     }
@@ -1105,16 +1107,21 @@ impl Run<'_> {
             }
             Kernel::Conic(pp, scanner) => {
                 let r = self.recoverer.conic(scanner, pose, &p.ecef)?;
-                let params = scanner.parameters(&pose.attitude(), &self.mounting, &r.observation);
                 let inc = incidence(r.range_air_m, r.beam_ned);
+                let (footprint, j) = scanner.jacobian_at_pose(
+                    &pose.body_to_ned,
+                    &self.mounting_partials,
+                    &r.observation,
+                );
                 // A conic return recovered here has no water leg (topographic or water-surface
                 // return: Δt2 = 0), so the water travel time's σ must not move it; soundings
                 // take `propagate_sounding` with their own water terms.
-                let u = if r.observation.time_water_s == 0.0 {
-                    pp.propagate_with(&params, sigma, inc.as_ref(), &NO_WATER_LEG)?
+                let over: &[(Source, f64)] = if r.observation.time_water_s == 0.0 {
+                    &NO_WATER_LEG
                 } else {
-                    pp.propagate(&params, sigma, inc.as_ref())?
+                    &[]
                 };
+                let u = pp.propagate_jacobian(footprint, &j, sigma, inc.as_ref(), over)?;
                 add_shares(
                     &mut acc.shares,
                     u.source_variance_m2.as_slice(),

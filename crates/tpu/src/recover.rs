@@ -90,6 +90,8 @@ pub struct ConicRecovery {
     pub off_cone_m: f64,
     /// Unit beam direction (scanner origin → point) in N at P0.
     pub beam_ned: Ned,
+    /// `S` itself, scanner frame, m.
+    pub scanner_m: Vector3<f64>,
 }
 
 impl Recoverer {
@@ -163,7 +165,13 @@ impl Recoverer {
         }
         let l3_0 = scanner.nominal_air_beam();
         let azimuth_rad = s.y.atan2(s.x) - l3_0.y.atan2(l3_0.x);
-        let nominal = lidarqa_model::rot_z(azimuth_rad) * l3_0 * range_air_m;
+        // The nominal beam turned to this azimuth has S's horizontal direction and the
+        // horizontal length |l3_0,xy| ρ1: S's distance from it needs no rotation.
+        // Metres and a unit vector: the plain roots cannot overflow (no `hypot` needed).
+        let l3_0_horizontal = (l3_0.x * l3_0.x + l3_0.y * l3_0.y).sqrt();
+        let horizontal = (s.x * s.x + s.y * s.y).sqrt() - l3_0_horizontal * range_air_m;
+        let vertical = s.z - l3_0.z * range_air_m;
+        let off_cone_m = (horizontal * horizontal + vertical * vertical).sqrt();
         Ok(ConicRecovery {
             observation: ConicObservation {
                 azimuth_rad,
@@ -171,8 +179,9 @@ impl Recoverer {
                 time_water_s: 0.0,
             },
             range_air_m,
-            off_cone_m: (s - nominal).norm(),
+            off_cone_m,
             beam_ned: Ned::from_vector(beam / range_air_m),
+            scanner_m: s,
         })
     }
 }

@@ -135,16 +135,16 @@ fn check_depth(depth_m: f64, range_water_m: f64) -> Result<()> {
 
 impl Recoverer {
     /// The sounding at `bed_ecef_m` (height `bed_height_m`) from its pulse's water-surface
-    /// return at `surface_ecef_m` (height `surface_height_m`); heights ellipsoidal, m.
+    /// return at `surface_ecef_m` (height `surface_height_m`); heights ellipsoidal, m. The
+    /// in-water direction is the model's at the nominal surface
+    /// ([`ConicScanner::nominal_beams`], with `R_N R_M` of this recoverer's mounting).
     ///
     /// # Errors
     /// [`Error::NegativeDepth`] when the seabed point is not below its surface return;
     /// [`Error::Recovery`] for points at the scanner or not finite.
-    #[allow(clippy::too_many_arguments)]
     pub fn sounding_from_surface_return(
         &self,
         scanner: &ConicScanner,
-        mounting: &Mounting,
         pose: &PoseAt,
         bed_ecef_m: &Ecef,
         bed_height_m: f64,
@@ -152,14 +152,14 @@ impl Recoverer {
         surface_height_m: f64,
     ) -> Result<SoundingRecovery> {
         let surf = self.conic(scanner, pose, surface_ecef_m)?;
-        let (s_surface, _) = self.scanner_vector(pose, surface_ecef_m);
         let (s_bed, _) = self.scanner_vector(pose, bed_ecef_m);
-        let p = scanner.parameters(&pose.attitude(), mounting, &surf.observation);
-        let (_, l4) = scanner.beam_directions(&p);
-        let d = s_bed - s_surface;
+        let (_, l4) =
+            scanner.nominal_beams(surf.observation.azimuth_rad, &self.body_from_scanner(pose));
+        let d = s_bed - surf.scanner_m;
         let range_water_m = d.dot(&l4);
         check_depth(surface_height_m - bed_height_m, range_water_m)?;
-        let off = (d - l4 * range_water_m).norm();
+        // Squared: millimetres, the plain root below cannot overflow (no `hypot` needed).
+        let off2 = (d - l4 * range_water_m).norm_squared();
         Ok(SoundingRecovery {
             observation: ConicObservation {
                 time_water_s: scanner.time_water_s(range_water_m),
@@ -169,7 +169,7 @@ impl Recoverer {
             range_water_m,
             depth_m: surface_height_m - bed_height_m,
             surface: SurfaceSource::Pulse,
-            residual_m: off.hypot(surf.off_cone_m),
+            residual_m: (off2 + surf.off_cone_m * surf.off_cone_m).sqrt(),
         })
     }
 
@@ -290,12 +290,13 @@ pub const SURFACE_NEIGHBOURS: usize = 32;
 pub const SAME_PULSE_S: f64 = 1e-7;
 
 /// Water-surface returns indexed by time (the pulse's own return) and by position (a modelled
-/// surface).
+/// surface). The position index is built on the first sounding that needs one: when every
+/// sounding has its own surface return (the usual case), none is.
 pub struct WaterSurfaceIndex {
     returns: Vec<WaterReturn>,
-    /// Indices into `returns` sorted by time.
-    by_time: Vec<usize>,
-    tree: Option<kiddo::ImmutableKdTree<f64, 2>>,
+    /// `(time, index into returns)` sorted by time.
+    by_time: Vec<(f64, usize)>,
+    tree: std::sync::OnceLock<Option<kiddo::ImmutableKdTree<f64, 2>>>,
     origin: [f64; 2],
 }
 
@@ -310,27 +311,41 @@ impl std::fmt::Debug for WaterSurfaceIndex {
 impl WaterSurfaceIndex {
     /// Indexes `returns`.
     pub fn new(returns: Vec<WaterReturn>) -> WaterSurfaceIndex {
-        let mut by_time: Vec<usize> = (0..returns.len()).collect();
-        by_time.sort_by(|a, b| returns[*a].time_s.total_cmp(&returns[*b].time_s));
+        let mut by_time: Vec<(f64, usize)> = returns
+            .iter()
+            .enumerate()
+            .map(|(i, r)| (r.time_s, i))
+            .collect();
+        // Usually in time order already (a strip), which the sort only checks.
+        by_time.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let origin = returns
             .first()
             .map_or([0.0; 2], |r| [r.grid.easting_m(), r.grid.northing_m()]);
-        let xy: Vec<[f64; 2]> = returns
-            .iter()
-            .map(|r| {
-                [
-                    r.grid.easting_m() - origin[0],
-                    r.grid.northing_m() - origin[1],
-                ]
-            })
-            .collect();
-        let tree = (!xy.is_empty()).then(|| kiddo::ImmutableKdTree::new_from_slice(&xy));
         WaterSurfaceIndex {
             returns,
             by_time,
-            tree,
+            tree: std::sync::OnceLock::new(),
             origin,
         }
+    }
+
+    /// The k-d tree of the returns' positions relative to `origin` (none without returns).
+    fn tree(&self) -> Option<&kiddo::ImmutableKdTree<f64, 2>> {
+        self.tree
+            .get_or_init(|| {
+                let xy: Vec<[f64; 2]> = self
+                    .returns
+                    .iter()
+                    .map(|r| {
+                        [
+                            r.grid.easting_m() - self.origin[0],
+                            r.grid.northing_m() - self.origin[1],
+                        ]
+                    })
+                    .collect();
+                (!xy.is_empty()).then(|| kiddo::ImmutableKdTree::new_from_slice(&xy))
+            })
+            .as_ref()
     }
 
     /// Number of returns indexed.
@@ -345,13 +360,30 @@ impl WaterSurfaceIndex {
 
     /// The surface return of the pulse at `time_s`, if any.
     pub fn same_pulse(&self, time_s: f64) -> Option<&WaterReturn> {
-        let k = self
-            .by_time
-            .partition_point(|i| self.returns[*i].time_s < time_s - SAME_PULSE_S);
-        self.by_time
-            .get(k)
-            .map(|i| &self.returns[*i])
-            .filter(|r| (r.time_s - time_s).abs() <= SAME_PULSE_S)
+        self.same_pulse_from(time_s, &mut 0)
+    }
+
+    /// [`WaterSurfaceIndex::same_pulse`] starting from the position `hint` the previous call
+    /// left (any value at first): soundings come in time order, so their surface returns are
+    /// usually a few entries on, and the binary search over all of them is skipped.
+    pub fn same_pulse_from(&self, time_s: f64, hint: &mut usize) -> Option<&WaterReturn> {
+        let lo = time_s - SAME_PULSE_S;
+        let t = &self.by_time;
+        // The first entry not before `lo`; every entry before `hint` is before it when the
+        // hint is valid.
+        let k = if *hint <= t.len() && (*hint == 0 || t[*hint - 1].0 < lo) {
+            let end = (*hint + 8).min(t.len());
+            match t[*hint..end].iter().position(|(x, _)| *x >= lo) {
+                Some(d) => *hint + d,
+                None => end + t[end..].partition_point(|(x, _)| *x < lo),
+            }
+        } else {
+            t.partition_point(|(x, _)| *x < lo)
+        };
+        *hint = k;
+        t.get(k)
+            .filter(|(x, _)| (x - time_s).abs() <= SAME_PULSE_S)
+            .map(|(_, i)| &self.returns[*i])
     }
 
     /// The plane through the (at most [`SURFACE_NEIGHBOURS`]) returns within
@@ -364,7 +396,7 @@ impl WaterSurfaceIndex {
             found,
             radius_m: SURFACE_RADIUS_M,
         };
-        let Some(tree) = &self.tree else {
+        let Some(tree) = self.tree() else {
             return Err(none(0));
         };
         let q = [x - self.origin[0], y - self.origin[1]];
@@ -377,5 +409,58 @@ impl WaterSurfaceIndex {
             .map(|n| self.returns[n.item as usize].grid.vector().into())
             .collect();
         SurfacePlane::fit(&near).ok_or(none(near.len()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn water(time_s: f64, x: f64) -> WaterReturn {
+        WaterReturn {
+            time_s,
+            ecef_m: Ecef::new(x, 0.0, 0.0),
+            grid: Grid::new(x, 2.0 * x, 19.0),
+        }
+    }
+
+    #[test]
+    fn same_pulse_from_any_hint_is_the_full_search() {
+        // Pulses 5 µs apart, out of order in the input, two of them missing, one pair of
+        // returns closer than a pulse (both within SAME_PULSE_S of t = 0.010005).
+        let mut times: Vec<f64> = (0..400).map(|i| 0.01 + 5e-6 * i as f64).collect();
+        times.retain(|t| (t - 0.0105).abs() > 1e-9 && (t - 0.011).abs() > 1e-9);
+        times.push(0.010_005 + 4e-8);
+        times.reverse();
+        let index = WaterSurfaceIndex::new(
+            times
+                .iter()
+                .enumerate()
+                .map(|(i, t)| water(*t, i as f64))
+                .collect(),
+        );
+        let queries: Vec<f64> = (0..420)
+            .map(|i| 0.01 + 5e-6 * i as f64 - 3e-8)
+            .chain([0.0, 0.0105, 0.011, 0.010_005, 1.0])
+            .collect();
+        let mut found = 0;
+        for hint0 in [0, 7, 150, 399, 400, 10_000] {
+            let mut hint = hint0;
+            for &t in &queries {
+                let full = index.same_pulse(t).map(|r| r.ecef_m);
+                // The reference: the earliest return in time within SAME_PULSE_S.
+                let want = times
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, x)| (*x - t).abs() <= SAME_PULSE_S)
+                    .min_by(|a, b| a.1.total_cmp(b.1))
+                    .map(|(i, _)| Ecef::new(i as f64, 0.0, 0.0));
+                assert_eq!(full, want, "{t}");
+                assert_eq!(index.same_pulse_from(t, &mut hint).map(|r| r.ecef_m), want);
+                found += usize::from(want.is_some());
+            }
+        }
+        // Most pulses have their return; the missing ones and the far queries have none.
+        assert!(found > 6 * 390, "{found}");
     }
 }
