@@ -20,6 +20,101 @@ const LOG_MIN: f64 = -6.0; // 1 µm
 const LOG_MAX: f64 = 4.0; // 10 km
 const N_BINS: usize = ((LOG_MAX - LOG_MIN) * BINS_PER_DECADE) as usize;
 
+/// Where a value falls among the histogram's bins.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Bin {
+    Below,
+    In(usize),
+    Above,
+}
+
+/// The bin of a value by `⌊(log₁₀ v − LOG_MIN) · BINS_PER_DECADE⌋`, found without a logarithm:
+/// a summary adds five to seven values a point, and the logarithm was a visible share of `tpu`.
+/// That index never decreases with v, so it is fixed by the smallest value of each bin
+/// (`lower`, found once with the same logarithm, so bins are exactly as the formula puts them),
+/// and a table keyed by the top bits of a value's f64 pattern (exponent and 10 mantissa bits:
+/// each key spans under half a bin) gives the first candidate.
+struct BinEdges {
+    /// `lower[i]`: the smallest positive f64 whose index is ≥ i, for i in 0..=N_BINS.
+    lower: Vec<f64>,
+    /// The index of the bin holding the smallest value of each key, from `key_min` on.
+    start: Vec<u16>,
+    key_min: u64,
+}
+
+/// Key of a positive f64: its exponent and first 10 mantissa bits.
+const KEY_SHIFT: u32 = 42;
+
+impl BinEdges {
+    fn get() -> &'static BinEdges {
+        static EDGES: std::sync::OnceLock<BinEdges> = std::sync::OnceLock::new();
+        EDGES.get_or_init(BinEdges::new)
+    }
+
+    /// The index as the formula gives it: −1 below the first bin, N_BINS above the last.
+    fn index_by_log(v: f64) -> i64 {
+        let b = (v.log10() - LOG_MIN) * BINS_PER_DECADE;
+        if b < 0.0 {
+            -1
+        } else if b >= N_BINS as f64 {
+            N_BINS as i64
+        } else {
+            b as i64
+        }
+    }
+
+    fn new() -> BinEdges {
+        // Start at 10^(LOG_MIN + i / BINS_PER_DECADE) and walk by units in the last place to the
+        // first value the formula puts at i or above (a step or two).
+        let lower: Vec<f64> = (0..=N_BINS)
+            .map(|i| {
+                let target = i as i64;
+                let mut v = 10f64.powf(LOG_MIN + i as f64 / BINS_PER_DECADE);
+                while BinEdges::index_by_log(v) < target {
+                    v = f64::from_bits(v.to_bits() + 1);
+                }
+                loop {
+                    let below = f64::from_bits(v.to_bits() - 1);
+                    if BinEdges::index_by_log(below) >= target {
+                        v = below;
+                    } else {
+                        break v;
+                    }
+                }
+            })
+            .collect();
+        let key_min = lower[0].to_bits() >> KEY_SHIFT;
+        let key_max = lower[N_BINS].to_bits() >> KEY_SHIFT;
+        let start = (key_min..=key_max)
+            .map(|k| {
+                let smallest = f64::from_bits(k << KEY_SHIFT).max(lower[0]);
+                // Bins whose lower value is ≤ smallest, less one: the bin holding it.
+                (lower.partition_point(|l| *l <= smallest) - 1) as u16
+            })
+            .collect();
+        BinEdges {
+            lower,
+            start,
+            key_min,
+        }
+    }
+
+    /// The bin of a finite value.
+    fn bin(&self, v: f64) -> Bin {
+        if v.is_nan() || v < self.lower[0] {
+            return Bin::Below;
+        }
+        if v >= self.lower[N_BINS] {
+            return Bin::Above;
+        }
+        let mut i = usize::from(self.start[((v.to_bits() >> KEY_SHIFT) - self.key_min) as usize]);
+        while v >= self.lower[i + 1] {
+            i += 1;
+        }
+        Bin::In(i)
+    }
+}
+
 /// A value distribution (metres) with exact count / min / max / sum and histogram percentiles.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Histogram {
@@ -57,13 +152,10 @@ impl Histogram {
         self.sum += v;
         self.min = self.min.min(v);
         self.max = self.max.max(v);
-        let b = (v.log10() - LOG_MIN) * BINS_PER_DECADE;
-        if v <= 0.0 || b < 0.0 {
-            self.below += 1;
-        } else if b >= N_BINS as f64 {
-            self.above += 1;
-        } else {
-            self.counts[b as usize] += 1;
+        match BinEdges::get().bin(v) {
+            Bin::Below => self.below += 1,
+            Bin::Above => self.above += 1,
+            Bin::In(i) => self.counts[i] += 1,
         }
     }
 
@@ -1213,6 +1305,42 @@ mod tests {
         assert!((s.median / 0.05 - 1.0).abs() < 1.2e-3, "{}", s.median);
         assert!((s.p95 / 0.095 - 1.0).abs() < 1.2e-3, "{}", s.p95);
         assert!((s.mean - 0.05005).abs() < 1e-12);
+    }
+
+    /// The table's bins are the formula's, at every bin edge (a few ulps either side) and at
+    /// random values over the whole range and beyond it.
+    #[test]
+    fn bins_without_a_logarithm_are_the_formulas() {
+        let edges = BinEdges::get();
+        let by_log = |v: f64| match BinEdges::index_by_log(v) {
+            -1 => Bin::Below,
+            i if i == N_BINS as i64 => Bin::Above,
+            i => Bin::In(i as usize),
+        };
+        let mut checked = 0;
+        for l in &edges.lower {
+            for d in -3i64..=3 {
+                let v = f64::from_bits((l.to_bits() as i64 + d) as u64);
+                assert_eq!(edges.bin(v), by_log(v), "{v:e}");
+                checked += 1;
+            }
+        }
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        for _ in 0..1_000_000 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let v = 10f64.powf(-7.5 + 13.0 * (state >> 11) as f64 / (1u64 << 53) as f64);
+            assert_eq!(edges.bin(v), by_log(v), "{v:e}");
+            checked += 1;
+        }
+        assert!(checked > 1_070_000);
+        for v in [0.0, -1.0, 1e-300, f64::MIN_POSITIVE] {
+            assert_eq!(edges.bin(v), Bin::Below, "{v:e}");
+        }
+        assert_eq!(edges.bin(1e300), Bin::Above);
+        assert_eq!(edges.bin(1e-6), by_log(1e-6));
+        assert_eq!(edges.bin(1.0), Bin::In(6000));
     }
 
     #[test]
