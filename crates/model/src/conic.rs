@@ -19,9 +19,9 @@
 //!   scanner's nw; none of them moves a topographic or water-surface return (`Δt2 = 0`).
 
 use crate::error::{Error, Result};
+use crate::frames::MountingPartials;
 use crate::frames::{Attitude, Mounting};
 use crate::georeferencer::{Georeferencer, gnss_offset_ned, platform_parameters, platform_then};
-use crate::linear::MountingPartials;
 use crate::rotation::{
     rot_x, rot_y, rot_z, rotation_zyx, rotation_zyx_with_partials, zyx_partials_of,
 };

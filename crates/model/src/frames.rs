@@ -24,7 +24,7 @@
 //! ecef_only(&Grid::new(500_000.0, 4_000_000.0, 12.0)); // grid where ECEF is expected: refused
 //! ```
 
-use crate::rotation::rotation_zyx;
+use crate::rotation::{rotation_zyx, rotation_zyx_with_partials};
 use nalgebra::{Matrix3, Vector3};
 
 /// A position in Earth-centred, Earth-fixed coordinates (X, Y, Z), metres.
@@ -212,5 +212,30 @@ impl Mounting {
             self.boresight_pitch_rad,
             self.boresight_yaw_rad,
         )
+    }
+}
+
+/// `R_M` (scanner → body), its partials in boresight roll, pitch, yaw and the lever arm ΔP of
+/// a mounting: the same for every point of a tile, prepared once.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MountingPartials {
+    pub(crate) r_m: Matrix3<f64>,
+    pub(crate) d_r_m: [Matrix3<f64>; 3],
+    pub(crate) lever_m: Vector3<f64>,
+}
+
+impl MountingPartials {
+    /// Prepares `m`.
+    pub fn new(m: &Mounting) -> MountingPartials {
+        let (r_m, d_r_m) = rotation_zyx_with_partials(
+            m.boresight_roll_rad,
+            m.boresight_pitch_rad,
+            m.boresight_yaw_rad,
+        );
+        MountingPartials {
+            r_m,
+            d_r_m,
+            lever_m: m.lever_arm_m,
+        }
     }
 }

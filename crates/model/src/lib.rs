@@ -50,11 +50,11 @@ pub use conic::{
 };
 pub use eigen3::symmetric_eigen3;
 pub use error::{Error, Result};
-pub use frames::{Attitude, Ecef, Grid, Mounting, Ned};
+pub use frames::{Attitude, Ecef, Grid, Mounting, MountingPartials, Ned};
 pub use georeferencer::{Georeferencer, TRAJECTORY_SOURCES};
 pub use linear::{
-    LINEAR_N, LinearObservation, LinearScanner, MountingPartials, OffPlaneLinearScanner,
-    linear_jacobian_at_beam, linear_range_for_height, scanner_vector,
+    LINEAR_N, LinearObservation, LinearScanner, OffPlaneLinearScanner, linear_jacobian_at_beam,
+    linear_range_for_height, scanner_vector,
 };
 pub use plane::{Plane, fit_plane, normal_of_scatter, plane_of_scatter};
 pub use rotation::{

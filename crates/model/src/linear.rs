@@ -6,7 +6,7 @@
 //! leaves that plane by a small along-track angle.
 
 use crate::error::{Error, Result};
-use crate::frames::{Attitude, Mounting};
+use crate::frames::{Attitude, Mounting, MountingPartials};
 use crate::georeferencer::{Georeferencer, gnss_offset_ned, platform_parameters, platform_then};
 use crate::rotation::{rotation_zyx, rotation_zyx_with_partials, zyx_axes_of};
 use crate::scalar::Scalar;
@@ -95,31 +95,6 @@ fn linear_jacobian(
     };
     let (f, j) = compose_linear(&r_n, &mounting, &s, &d_s);
     (f + gnss_offset_ned(p[0], p[1], p[2]), j)
-}
-
-/// `R_M` (scanner → body), its partials in boresight roll, pitch, yaw and the lever arm ΔP of
-/// a mounting: the same for every point of a tile, prepared once.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MountingPartials {
-    pub(crate) r_m: Matrix3<f64>,
-    pub(crate) d_r_m: [Matrix3<f64>; 3],
-    pub(crate) lever_m: Vector3<f64>,
-}
-
-impl MountingPartials {
-    /// Prepares `m`.
-    pub fn new(m: &Mounting) -> MountingPartials {
-        let (r_m, d_r_m) = rotation_zyx_with_partials(
-            m.boresight_roll_rad,
-            m.boresight_pitch_rad,
-            m.boresight_yaw_rad,
-        );
-        MountingPartials {
-            r_m,
-            d_r_m,
-            lever_m: m.lever_arm_m,
-        }
-    }
 }
 
 /// The [`OffPlaneLinearScanner`] footprint (zero GNSS offsets) and Jacobian of the pulse whose
