@@ -446,28 +446,25 @@ impl LasWriter {
             return Err(self.raw_mismatch(chunk));
         }
         self.flush_pending()?;
-        let first = self.index;
-        let las_err = |source| Error::LasPoint {
-            path: self.path.clone(),
-            index: first,
-            source,
-        };
         let (out_len, in_len) = (usize::from(out.len()), usize::from(inp.len()));
         if out_len == in_len {
-            self.inner.write_points(data).map_err(las_err)?;
+            let first = self.index;
+            self.inner
+                .write_points(data)
+                .map_err(|source| Error::LasPoint {
+                    path: self.path.clone(),
+                    index: first,
+                    source,
+                })?;
+            self.index += data.len() as u64;
+            Ok(())
         } else {
             let mut bytes = Vec::with_capacity(out_len * data.len());
             for r in data.raw_bytes().chunks_exact(in_len) {
                 bytes.extend_from_slice(&r[..out_len]);
             }
-            las::PointDataBuilder::new()
-                .for_header(self.inner.header())
-                .build_from_bytes(bytes)
-                .and_then(|d| self.inner.write_points(&d))
-                .map_err(las_err)?;
+            self.write_slab(bytes)
         }
-        self.index += data.len() as u64;
-        Ok(())
     }
 
     /// Hands the buffered records to `las` in one slab (header statistics and LAZ chunks).
@@ -508,10 +505,16 @@ impl LasWriter {
             });
         }
         self.flush_pending()?;
-        let (first, n) = (self.index, records.len() / len);
+        self.write_slab(records)
+    }
+
+    /// Hands `bytes`, whole records of this file's layout, to `las` as one slab, after the
+    /// points given before.
+    fn write_slab(&mut self, bytes: Vec<u8>) -> Result<()> {
+        let (first, n) = (self.index, bytes.len() / usize::from(self.format.len()));
         las::PointDataBuilder::new()
             .for_header(self.inner.header())
-            .build_from_bytes(records)
+            .build_from_bytes(bytes)
             .and_then(|data| self.inner.write_points(&data))
             .map_err(|source| Error::LasPoint {
                 path: self.path.clone(),
