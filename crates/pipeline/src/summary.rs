@@ -9,7 +9,7 @@
 //! Storing every value would give exact percentiles but memory proportional to the survey.
 
 use crate::plausibility::{MountingView, PlausibilityTally};
-use lidarqa_model::{NORMAL_95_FACTOR, Warning};
+use lidarqa_model::{NORMAL_95_FACTOR, Warning, floor_i64};
 use lidarqa_tpu::{IhoLimits, IhoOrder, THU_95_CBLUE, TVU_95_FACTOR};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -280,10 +280,7 @@ impl SigmaMap {
             if !(x.is_finite() && y.is_finite() && sigma_vertical_m.is_finite()) {
                 continue;
             }
-            let key = (
-                (x / self.cell_m).floor() as i64,
-                (y / self.cell_m).floor() as i64,
-            );
+            let key = (floor_i64(x / self.cell_m), floor_i64(y / self.cell_m));
             let e = match &mut run {
                 Some((k, e)) if *k == key => e,
                 _ => {

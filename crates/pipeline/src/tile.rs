@@ -160,6 +160,7 @@ pub fn tpu_tile_with_progress(
         } else {
             InverseKind::Exact
         },
+        convergence: ctx.options.covariance || file_normals,
     };
     let step_deg = if info.point_format >= 6 { 0.006 } else { 1.0 };
     let mut summary = TpuSummary::new(kernel.kind(), kernel.source_names(), n_sigma);
@@ -304,6 +305,9 @@ struct Prepare {
     /// borderline point across, so it keeps the exact inverse. Either is interpolated per
     /// chunk ([`LocalInverse`]) to its own rounding.
     inverse: InverseKind,
+    /// The grid convergence is used (the covariance in grid axes, the file's normals): else
+    /// only the latitude's and longitude's sines and cosines are interpolated.
+    convergence: bool,
 }
 
 #[derive(Debug, Clone)]
@@ -317,9 +321,9 @@ struct Prep {
     ecef: Ecef,
     /// X, Y, Z of the CRS in metres (feet converted).
     xyz_m: [f64; 3],
-    latitude_rad: f64,
     longitude_rad: f64,
-    /// sin / cos of the latitude, longitude and grid convergence there, and the point scale.
+    /// sin / cos of the latitude, longitude and grid convergence there, and the point scale
+    /// (the convergence and scale NaN unless [`Prepare::convergence`]).
     unprojected: Unprojected,
     time_sow_s: f64,
     state: PrepState,
@@ -351,7 +355,6 @@ impl Prepare {
         let mut out = Prep {
             ecef: Ecef::default(),
             xyz_m: [x, y, z].map(|v| v * self.unit_m),
-            latitude_rad: 0.0,
             longitude_rad: 0.0,
             unprojected: Unprojected {
                 sin_latitude: 0.0,
@@ -373,14 +376,27 @@ impl Prepare {
         // LAS Z plus the geoid separation (0 unless given) is the ellipsoidal height.
         let height_m = z_m + self.height_offset_m;
         // ECEF from the inverse's sines and cosines.
-        let g = inverse.at(x_m, y_m);
-        out.latitude_rad = g.latitude_rad;
-        out.longitude_rad = g.longitude_rad;
-        out.unprojected = g.unprojected;
+        if self.convergence {
+            let g = inverse.at(x_m, y_m);
+            out.longitude_rad = g.longitude_rad;
+            out.unprojected = g.unprojected;
+        } else {
+            let g = inverse.at_located(x_m, y_m);
+            out.longitude_rad = g.longitude_rad;
+            out.unprojected = Unprojected {
+                sin_latitude: g.sin_latitude,
+                cos_latitude: g.cos_latitude,
+                sin_longitude: g.sin_longitude,
+                cos_longitude: g.cos_longitude,
+                sin_convergence: f64::NAN,
+                cos_convergence: f64::NAN,
+                scale: f64::NAN,
+            };
+        }
         out.ecef = self
             .crs
             .ellipsoid()
-            .ecef_from_unprojected(&g.unprojected, height_m);
+            .ecef_from_unprojected(&out.unprojected, height_m);
         match p.gps_time().map(|t| self.converter.to_seconds_of_week(t)) {
             Some(Ok(t)) => out.time_sow_s = t,
             Some(Err(e)) => out.state = PrepState::BadTime(e.to_string()),
@@ -493,6 +509,10 @@ struct Partial {
     mounting: MountingTally,
     /// Implausible points written: index, range (m), residual (m).
     implausible: Vec<(u64, f64, f64)>,
+    /// Usable points outside the UTM zone's area.
+    outside_zone: u64,
+    /// Usable points outside the trajectory σ's time span.
+    outside_sigma_span: u64,
     /// The trajectory segment of the block's previous point ([`Trajectory::at_from`]).
     pose_hint: usize,
     /// Where the block's previous sounding found its surface return
@@ -596,10 +616,16 @@ impl Run<'_> {
                 .try_recv()
                 .unwrap_or_else(|_| spent.out_chunk.clone());
             output_records(self.path, &cur.chunk, &slots, spent, &mut out)?;
-            // The last `margin` valid points so far (they may span several small chunks).
-            tail.extend(valid_ecef(&cur.pts));
-            let excess = tail.len().saturating_sub(margin);
-            tail.drain(..excess);
+            // The last `margin` valid points so far (they may span several small chunks): the
+            // incidence term's neighbourhood margin, not needed without it.
+            if self.kernel.has_incidence() {
+                let mut last: Vec<Vector3<f64>> = valid_ecef(&cur.pts).rev().take(margin).collect();
+                last.reverse();
+                let keep = margin - last.len();
+                let excess = tail.len().saturating_sub(keep);
+                tail.drain(..excess);
+                tail.extend(last);
+            }
             if conic {
                 water_tail.extend(water_returns(&cur, cur.pts.len()));
                 let end = cur.first_index + cur.pts.len() as u64;
@@ -657,13 +683,15 @@ impl Run<'_> {
         let n_sources = summary.share_sums.len();
         slots.clear();
         slots.resize_with(n, Slot::default);
-        let partial = slots
+        let partials = slots
             .par_chunks_mut(BLOCK)
             .enumerate()
             .map(|(b, block)| {
                 let mut acc = Partial {
                     shares: vec![0.0; n_sources],
                     mounting: self.tally0,
+                    scan: Vec::with_capacity(block.len()),
+                    residual: Vec::with_capacity(block.len()),
                     ..Partial::default()
                 };
                 for (k, slot) in block.iter_mut().enumerate() {
@@ -676,27 +704,28 @@ impl Run<'_> {
             // Collected in block order and summed sequentially: a parallel `reduce` would add
             // the shares in an order that depends on work stealing, and the summary would
             // differ in the last bits from run to run (and between the CLI and a job array).
-            .collect::<Vec<Partial>>()
-            .into_iter()
-            .fold(
-                Partial {
-                    shares: vec![0.0; n_sources],
-                    mounting: self.tally0,
-                    ..Partial::default()
-                },
-                |mut a, b| {
-                    a.mounting.merge(&b.mounting);
-                    a.implausible.extend(b.implausible);
-                    for (x, y) in a.shares.iter_mut().zip(&b.shares) {
-                        *x += y;
-                    }
-                    a.with_normal += b.with_normal;
-                    a.incidence.merge(&b.incidence);
-                    a.scan.extend(b.scan);
-                    a.residual.extend(b.residual);
-                    a
-                },
-            );
+            .collect::<Vec<Partial>>();
+        // The blocks' scan-angle and residual values are added to the summary in file order
+        // below, straight from each block's vector.
+        let partial = partials.iter().fold(
+            Partial {
+                shares: vec![0.0; n_sources],
+                mounting: self.tally0,
+                ..Partial::default()
+            },
+            |mut a, b| {
+                a.mounting.merge(&b.mounting);
+                a.implausible.extend(&b.implausible);
+                for (x, y) in a.shares.iter_mut().zip(&b.shares) {
+                    *x += y;
+                }
+                a.with_normal += b.with_normal;
+                a.incidence.merge(&b.incidence);
+                a.outside_zone += b.outside_zone;
+                a.outside_sigma_span += b.outside_sigma_span;
+                a
+            },
+        );
         // The first failure in file order, so the message is deterministic.
         if let Some(i) = slots.iter().position(|s| matches!(s, Slot::Failed(_))) {
             if let Slot::Failed(e) = std::mem::take(&mut slots[i]) {
@@ -736,12 +765,18 @@ impl Run<'_> {
         }
         summary.with_normal += partial.with_normal;
         summary.incidence.merge(&partial.incidence);
-        for d in partial.scan {
-            summary.scan_angle.add(d);
+        for b in &partials {
+            for d in &b.scan {
+                summary.scan_angle.add(*d);
+            }
         }
-        for q in partial.residual {
-            summary.recovery_residual.add(q);
+        for b in &partials {
+            for q in &b.residual {
+                summary.recovery_residual.add(*q);
+            }
         }
+        summary.plausibility.outside_zone += partial.outside_zone;
+        summary.plausibility.outside_sigma_span += partial.outside_sigma_span;
         summary.plausibility.mounting.merge(&partial.mounting);
         for (index, range_m, q) in partial.implausible {
             summary
@@ -752,17 +787,22 @@ impl Run<'_> {
     }
 
     /// The chunk-level plausibility checks: the points near the trajectory (else an error naming
-    /// the CRS), none in a trajectory gap, within the zone's area and the
-    /// trajectory σ's span (counted for warnings).
+    /// the CRS), none in a trajectory gap.
     fn check_chunk(&self, cur: &Prepared, summary: &mut TpuSummary) -> Result<()> {
         let ok = || cur.pts.iter().filter(|p| matches!(p.state, PrepState::Ok));
-        if ok().next().is_none() {
+        let n_ok = ok().count();
+        if n_ok == 0 {
             return Ok(());
         }
         // Only the points the check looks at are put on the trajectory (cost: ~101 per chunk).
-        let step = ok().count().div_ceil(DISTANCE_SAMPLES).max(1);
-        let samples: Vec<_> = ok()
-            .step_by(step)
+        let step = n_ok.div_ceil(DISTANCE_SAMPLES).max(1);
+        let sampled: Box<dyn Iterator<Item = &Prep>> = if n_ok == cur.pts.len() {
+            // Every point is usable (the usual case): the same points, without a walk.
+            Box::new(cur.pts.iter().step_by(step))
+        } else {
+            Box::new(ok().step_by(step))
+        };
+        let samples: Vec<_> = sampled
             .filter_map(|p| {
                 let pose = self.trajectory.at(p.time_sow_s).ok()?;
                 Some((
@@ -786,19 +826,8 @@ impl Run<'_> {
                 &times,
             )?
         };
-        let p = &mut summary.plausibility;
-        p.warn(w);
-        p.outside_zone += ok()
-            .filter(|q| {
-                self.central_meridian_rad
-                    .is_some_and(|c| outside_zone(q.longitude_rad, c))
-            })
-            .count() as u64;
-        if let Some([a, b]) = self.ctx.sigma_span_s {
-            p.outside_sigma_span += ok()
-                .filter(|q| q.time_sow_s < a || q.time_sow_s > b)
-                .count() as u64;
-        }
+        // Points outside the zone's area and the σ's span are counted in the per-point loop.
+        summary.plausibility.warn(w);
         Ok(())
     }
 
@@ -871,6 +900,18 @@ impl Run<'_> {
                 );
             }
         }
+        // Within the zone's area and the trajectory σ's span (counted for warnings).
+        if self
+            .central_meridian_rad
+            .is_some_and(|c| outside_zone(p.longitude_rad, c))
+        {
+            acc.outside_zone += 1;
+        }
+        if let Some([a, b]) = self.ctx.sigma_span_s
+            && (p.time_sow_s < a || p.time_sow_s > b)
+        {
+            acc.outside_sigma_span += 1;
+        }
         let pose = match self.trajectory.at_from(p.time_sow_s, &mut acc.pose_hint) {
             Ok(pose) => pose,
             Err(_) => {
@@ -925,8 +966,13 @@ impl Run<'_> {
                 // by the geodesic angle between them, ~1e-4 rad at 600 m; cheap to do exactly).
                 // (`pose.ecef_to_ned` is `ecef_from_ned` at the pose, transposed.)
                 let m = p.ecef_from_ned().transpose() * pose.ecef_to_ned.transpose();
-                let c = m * cov_at_p0 * m.transpose();
-                let (n2, e2, u2) = (c[(0, 0)].max(0.0), c[(1, 1)].max(0.0), c[(2, 2)].max(0.0));
+                // The whole matrix for a sounding's THU and the covariance, else its diagonal.
+                let c = (rec.is_some() || opts.covariance).then(|| m * cov_at_p0 * m.transpose());
+                let [n2, e2, u2] = match &c {
+                    Some(c) => [c[(0, 0)], c[(1, 1)], c[(2, 2)]],
+                    None => rotated_diagonal(&m, &cov_at_p0),
+                }
+                .map(|v| v.max(0.0));
                 if let Some(r) = recovered {
                     let sigma_3d = (n2 + e2 + u2).sqrt();
                     if point_implausible(r.range_m, r.residual_m, sigma_3d) {
@@ -942,7 +988,7 @@ impl Run<'_> {
                         acc.mounting.add(r.residual_m, sigma_3d, r.body_m.as_ref());
                     }
                 }
-                let result = rec.map(|r| SoundingResult {
+                let result = rec.zip(c.as_ref()).map(|(r, c)| SoundingResult {
                     depth_m: r.depth_m,
                     thu_95_m: thu_95_m(&c.fixed_view::<2, 2>(0, 0).into_owned()),
                     tvu_95_m: TVU_95_FACTOR * u2.sqrt(),
@@ -951,7 +997,7 @@ impl Run<'_> {
                     sigma_horizontal_m: (n2 + e2).sqrt(),
                     sigma_vertical_m: u2.sqrt(),
                 });
-                let cov = if opts.covariance {
+                let cov = if let (true, Some(c)) = (opts.covariance, c) {
                     // NED (true) → grid (easting, northing, up): a true azimuth α is the grid
                     // azimuth α − γ. Ground metres, not scaled by the point scale factor.
                     let (sg, cg) = (p.unprojected.sin_convergence, p.unprojected.cos_convergence);
@@ -1178,6 +1224,15 @@ fn add_shares(shares: &mut [f64], vars: &[f64], incidence_m2: f64) {
     }
 }
 
+/// The diagonal of `m c mᵀ`, each element the same sums in the same order as nalgebra's
+/// product (so to the same bits), without the off-diagonal ones.
+fn rotated_diagonal(m: &Matrix3<f64>, c: &Matrix3<f64>) -> [f64; 3] {
+    std::array::from_fn(|r| {
+        let t = |k: usize| m[(r, 0)] * c[(0, k)] + m[(r, 1)] * c[(1, k)] + m[(r, 2)] * c[(2, k)];
+        t(0) * m[(r, 0)] + t(1) * m[(r, 1)] + t(2) * m[(r, 2)]
+    })
+}
+
 fn valid_ecef(pts: &[Prep]) -> impl DoubleEndedIterator<Item = Vector3<f64>> + '_ {
     pts.iter()
         .filter(|p| !matches!(p.state, PrepState::NonFinite))
@@ -1187,6 +1242,27 @@ fn valid_ecef(pts: &[Prep]) -> impl DoubleEndedIterator<Item = Vector3<f64>> + '
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rotated_diagonal_is_that_of_the_product_to_the_bit() {
+        let mut s = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for k in 0..20_000 {
+            let m = Matrix3::from_fn(|_, _| next());
+            let a = Matrix3::from_fn(|_, _| next() * 10f64.powi(k % 7 - 4));
+            let c = a * a.transpose();
+            let want = m * c * m.transpose();
+            let got = rotated_diagonal(&m, &c);
+            for r in 0..3 {
+                assert_eq!(got[r].to_bits(), want[(r, r)].to_bits(), "{m} {c}");
+            }
+        }
+    }
 
     #[test]
     fn descriptions_carry_the_factors_the_writer_uses_and_fit_las() {
