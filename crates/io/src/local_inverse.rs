@@ -143,19 +143,20 @@ impl<'a> LocalInverse<'a> {
             cells: Vec::new(),
         };
         let mut n = 0usize;
-        let mut lo = [i64::MAX; 2];
-        let mut hi = [i64::MIN; 2];
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
         for p in xy_m.filter(|p| p[0].is_finite() && p[1].is_finite()) {
             n += 1;
             for k in 0..2 {
-                let c = cell_index(p[k]);
-                lo[k] = lo[k].min(c);
-                hi[k] = hi[k].max(c);
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
             }
         }
         if n == 0 {
             return empty;
         }
+        // The cell index is monotonic in the coordinate: the cells of the extremes bound all.
+        let (lo, hi) = (lo.map(cell_index), hi.map(cell_index));
         let span = |k: usize| hi[k].saturating_sub(lo[k]).saturating_add(1);
         let (columns, rows) = (span(0), span(1));
         let cells = columns.saturating_mul(rows);

@@ -26,6 +26,7 @@ use lidarqa_tpu::{
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, Sender, SyncSender, channel};
 
 /// Points per parallel work item.
@@ -347,6 +348,8 @@ struct Prepared {
     /// The records as the file stores them: the compute stage appends the σ to each.
     chunk: RawChunk,
     pts: Vec<Prep>,
+    /// Points with a finite position and a usable time ([`PrepState::Ok`]).
+    usable: usize,
 }
 
 impl Prepare {
@@ -436,12 +439,21 @@ impl Prepare {
                 [x * unit_m, y * unit_m]
             }),
         );
+        // Counted as they are made: no walk of the chunk for it later.
+        let unusable = AtomicUsize::new(0);
         (0..chunk.len())
             .into_par_iter()
-            .map(|i| self.point(chunk.point(i), &inverse))
+            .map(|i| {
+                let p = self.point(chunk.point(i), &inverse);
+                if !matches!(p.state, PrepState::Ok) {
+                    unusable.fetch_add(1, Ordering::Relaxed);
+                }
+                p
+            })
             .collect_into_vec(&mut pts);
         Prepared {
             first_index: chunk.first_index(),
+            usable: pts.len() - unusable.into_inner(),
             chunk,
             pts,
         }
@@ -790,7 +802,7 @@ impl Run<'_> {
     /// the CRS), none in a trajectory gap.
     fn check_chunk(&self, cur: &Prepared, summary: &mut TpuSummary) -> Result<()> {
         let ok = || cur.pts.iter().filter(|p| matches!(p.state, PrepState::Ok));
-        let n_ok = ok().count();
+        let n_ok = cur.usable;
         if n_ok == 0 {
             return Ok(());
         }
@@ -912,7 +924,9 @@ impl Run<'_> {
         {
             acc.outside_sigma_span += 1;
         }
-        let pose = match self.trajectory.at_from(p.time_sow_s, &mut acc.pose_hint) {
+        // Borrowed where it was returned, not moved out of the `Result` (a copy per point).
+        let pose_at = self.trajectory.at_from(p.time_sow_s, &mut acc.pose_hint);
+        let pose = match &pose_at {
             Ok(pose) => pose,
             Err(_) => {
                 let (start_s, end_s) = self.trajectory.span_s();
@@ -932,7 +946,7 @@ impl Run<'_> {
         let sigma = self.ctx.sigmas.as_ref().map(|s| s.at(p.time_sow_s));
         let sounding = match (self.kernel, water) {
             (Kernel::Conic(_, scanner), Some(w)) if lp.classification() == CLASS_BATHYMETRY => {
-                Some(self.recover_sounding(scanner, &pose, p, w, &mut acc.water_hint))
+                Some(self.recover_sounding(scanner, pose, p, w, &mut acc.water_hint))
             }
             _ => None,
         };
@@ -953,11 +967,11 @@ impl Run<'_> {
         let shares_before = opts.skip_invalid.then(|| acc.shares.clone());
         let result = match sounding {
             None => self
-                .propagate(&pose, p, lp, sigma.as_ref(), normal, acc)
+                .propagate(pose, p, lp, sigma.as_ref(), normal, acc)
                 .map(|(c, r)| (c, None, Some(r))),
             Some(Err(e)) => Err(e),
             Some(Ok(rec)) => self
-                .propagate_sounding(&rec, &pose, sigma.as_ref(), acc)
+                .propagate_sounding(&rec, pose, sigma.as_ref(), acc)
                 .map(|c| (c, Some(rec), None)),
         };
         match result {
@@ -1127,13 +1141,18 @@ impl Run<'_> {
                 // and attitude σ depend on the small across-track part, which the projection
                 // on the scan plane would change. The Jacobian at the parameters of
                 // `r.off_plane()`, from S itself.
-                let (footprint, j) = linear_jacobian_at_beam(
+                let fj = linear_jacobian_at_beam(
                     &pose.body_to_ned,
                     &self.mounting_partials,
                     &r.scanner_m,
                 );
                 let inc = incidence(r.range_m, r.beam_ned);
-                let u = pp.propagate_jacobian(footprint, &j, sigma, inc.as_ref(), &[])?;
+                // Borrowed, not moved out of the `Result`.
+                let propagated = pp.propagate_jacobian(fj.0, &fj.1, sigma, inc.as_ref(), &[]);
+                let u = match propagated {
+                    Ok(ref u) => u,
+                    Err(e) => return Err(e),
+                };
                 acc.scan
                     .push(r.scan_angle_rad.to_degrees() - f64::from(lp.scan_angle_deg()));
                 add_shares(
