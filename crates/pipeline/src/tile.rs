@@ -525,6 +525,8 @@ struct Partial {
     outside_zone: u64,
     /// Usable points outside the trajectory σ's time span.
     outside_sigma_span: u64,
+    /// A point failed ([`Slot::Failed`]).
+    failed: bool,
     /// The trajectory segment of the block's previous point ([`Trajectory::at_from`]).
     pose_hint: usize,
     /// Where the block's previous sounding found its surface return
@@ -693,7 +695,8 @@ impl Run<'_> {
                 .collect()
         };
         let n_sources = summary.share_sums.len();
-        slots.clear();
+        // Every slot is written below: the last chunk's are overwritten, not cleared first.
+        slots.truncate(n);
         slots.resize_with(n, Slot::default);
         let partials = slots
             .par_chunks_mut(BLOCK)
@@ -710,6 +713,7 @@ impl Run<'_> {
                     let i = b * BLOCK + k;
                     let surface = surfaces.get(i).copied().flatten();
                     *slot = self.point(cur, i, surface, water, &mut acc);
+                    acc.failed |= matches!(slot, Slot::Failed(_));
                 }
                 acc
             })
@@ -735,11 +739,14 @@ impl Run<'_> {
                 a.incidence.merge(&b.incidence);
                 a.outside_zone += b.outside_zone;
                 a.outside_sigma_span += b.outside_sigma_span;
+                a.failed |= b.failed;
                 a
             },
         );
         // The first failure in file order, so the message is deterministic.
-        if let Some(i) = slots.iter().position(|s| matches!(s, Slot::Failed(_))) {
+        if partial.failed
+            && let Some(i) = slots.iter().position(|s| matches!(s, Slot::Failed(_)))
+        {
             if let Slot::Failed(e) = std::mem::take(&mut slots[i]) {
                 return Err(*e);
             }
@@ -1136,7 +1143,12 @@ impl Run<'_> {
         };
         let (cov, recovered) = match self.kernel {
             Kernel::Linear(pp) => {
-                let r = self.recoverer.linear_ecef(pose, &p.ecef)?;
+                // The beam is the incidence term's alone.
+                let r = if normal.is_some() {
+                    self.recoverer.linear_ecef(pose, &p.ecef)?
+                } else {
+                    self.recoverer.linear_ecef_without_beam(pose, &p.ecef)?
+                };
                 // The beam as recovered, out-of-plane part included (β): near nadir the range
                 // and attitude σ depend on the small across-track part, which the projection
                 // on the scan plane would change. The Jacobian at the parameters of
