@@ -753,32 +753,38 @@ impl Run<'_> {
         }
         summary.points_read += n as u64;
         let conic = matches!(self.kernel, Kernel::Conic(..));
-        for (i, s) in slots.iter().enumerate() {
-            match s {
-                Slot::Ok(sig, sounding, _) => {
-                    summary.points_written += 1;
-                    let [x_m, y_m, _] = cur.pts[i].xyz_m;
-                    if let Some(r) = sounding {
-                        summary.iho.add(r, x_m, y_m);
-                    }
-                    for (h, v) in summary.sigma.iter_mut().zip(sig) {
-                        h.add(*v);
-                    }
-                    if conic {
-                        summary.sigma[5].add(THU_95_CBLUE * sig[3]);
-                        summary.sigma[6].add(TVU_95_FACTOR * sig[4]);
-                    }
+        // One walk of the slots and points: the σ map takes them as an iterator, and the
+        // other tallies are added as it goes (each in file order, as before).
+        let TpuSummary {
+            points_written,
+            iho,
+            sigma,
+            skipped,
+            map,
+            ..
+        } = summary;
+        map.add_all(slots.iter().zip(&cur.pts).filter_map(|(s, p)| match s {
+            Slot::Ok(sig, sounding, _) => {
+                *points_written += 1;
+                let [x_m, y_m, _] = p.xyz_m;
+                if let Some(r) = sounding {
+                    iho.add(r, x_m, y_m);
                 }
-                Slot::Skipped(r) => *summary.skipped.entry(*r).or_default() += 1,
-                Slot::Pending | Slot::Failed(_) => {}
+                for (h, v) in sigma.iter_mut().zip(sig) {
+                    h.add(*v);
+                }
+                if conic {
+                    sigma[5].add(THU_95_CBLUE * sig[3]);
+                    sigma[6].add(TVU_95_FACTOR * sig[4]);
+                }
+                Some([x_m, y_m, sig[4]])
             }
-        }
-        summary
-            .map
-            .add_all(slots.iter().zip(&cur.pts).filter_map(|(s, p)| match s {
-                Slot::Ok(sig, ..) => Some([p.xyz_m[0], p.xyz_m[1], sig[4]]),
-                _ => None,
-            }));
+            Slot::Skipped(r) => {
+                *skipped.entry(*r).or_default() += 1;
+                None
+            }
+            Slot::Pending | Slot::Failed(_) => None,
+        }));
         for ((_, s), v) in summary.share_sums.iter_mut().zip(&partial.shares) {
             *s += v;
         }

@@ -219,7 +219,10 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
         incidence: Option<&Incidence>,
         sigma_override: &[(Source, f64)],
     ) -> Result<PointUncertainty<N>> {
-        if !(footprint_ned.iter().all(|v| v.is_finite()) && j.iter().all(|v| v.is_finite())) {
+        // Over the slices: nalgebra's element iterator does not vectorise, and this runs for
+        // every point.
+        let finite = |v: &[f64]| v.iter().fold(true, |ok, x| ok & x.is_finite());
+        if !(finite(footprint_ned.as_slice()) && finite(j.as_slice())) {
             return Err(Error::NotFinite {
                 what: "footprint or its Jacobian",
             });
