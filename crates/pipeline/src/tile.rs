@@ -1255,8 +1255,13 @@ fn water_returns(c: &Prepared, limit: usize) -> impl Iterator<Item = (u64, Water
 fn add_shares(shares: &mut [f64], vars: &[f64], incidence_m2: f64) {
     let total: f64 = vars.iter().sum::<f64>() + incidence_m2;
     if total > 0.0 {
-        for (s, v) in shares.iter_mut().zip(vars.iter().chain([&incidence_m2])) {
+        // The model's sources over plain slices (the divisions vectorise), then the incidence.
+        let (model, incidence) = shares.split_at_mut(vars.len().min(shares.len()));
+        for (s, v) in model.iter_mut().zip(vars) {
             *s += v / total;
+        }
+        if let Some(s) = incidence.first_mut() {
+            *s += incidence_m2 / total;
         }
     }
 }
