@@ -181,6 +181,7 @@ impl<'a> LocalInverse<'a> {
     }
 
     /// [`LocalInverse::at`]'s sines, cosines and longitude alone (the same bits).
+    #[inline]
     pub fn at_located(&self, x_m: f64, y_m: f64) -> Located {
         match self.cell(x_m, y_m) {
             Some(cell) => Located::from_values(&cell.eval::<LOCATED>(x_m, y_m)),

@@ -151,10 +151,12 @@ impl Recoverer {
     ///
     /// # Errors
     /// As [`Recoverer::linear_ecef`].
+    #[inline]
     pub fn linear_ecef_without_beam(&self, pose: &PoseAt, point: &Ecef) -> Result<LinearRecovery> {
         self.linear(pose, point, false)
     }
 
+    #[inline]
     fn linear(&self, pose: &PoseAt, point: &Ecef, beam: bool) -> Result<LinearRecovery> {
         let s = self.scanner_from_ecef(pose, point);
         let range_m = s.norm();
