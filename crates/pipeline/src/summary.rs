@@ -275,7 +275,9 @@ impl SigmaMap {
     /// scan order): the same additions in the same order, one search of the map per cell
     /// entered.
     pub fn add_all(&mut self, points: impl IntoIterator<Item = [f64; 3]>) {
-        let mut run: Option<((i64, i64), &mut (f64, u64))> = None;
+        // The current cell's key and its (Σ σ, count).
+        type Run<'a> = Option<((i64, i64), &'a mut (f64, u64))>;
+        let mut run: Run<'_> = None;
         for [x, y, sigma_vertical_m] in points {
             if !(x.is_finite() && y.is_finite() && sigma_vertical_m.is_finite()) {
                 continue;
