@@ -12,69 +12,36 @@
 //! This is D. Eberly's non-iterative algorithm ("A Robust Eigensolver for 3 × 3 Symmetric
 //! Matrices", Geometric Tools, 2014, the `NISymmetricEigensolver3x3` of the Geometric Tools
 //! Engine): the matrix is scaled by its largest entry and shifted by its mean eigenvalue, the
-//! eigenvalues come from the trigonometric solution of the depressed characteristic cubic, the
-//! eigenvector of the *better separated* extreme eigenvalue from the largest cross product of
-//! two rows of `A − λI`, the middle one from a 2 × 2 problem in that vector's orthogonal
-//! complement, and the third from a cross product. Each eigenvector's error is of order
-//! `ε‖A‖ / gap`, as for an iterative solver; a test compares it with nalgebra's on random and
-//! near-degenerate matrices.
+//! *better separated* extreme eigenvalue is a root of the depressed characteristic cubic (found
+//! by Newton steps from a polynomial fit of the trigonometric solution, which would cost an
+//! `acos` and a `cos`), its eigenvector the largest cross product of two rows of `A − λI`, the
+//! other two eigenvalues and the middle vector come from a 2 × 2 problem in that vector's
+//! orthogonal complement, and the third vector from a cross product. Each eigenvector's error is
+//! of order `ε‖A‖ / gap`, as for an iterative solver; a test compares it with nalgebra's on
+//! random and near-degenerate matrices. The plane fits' judgement of a neighbourhood needs only
+//! the values and, for a plane, the smallest one's vector: [`symmetric_eigenvalues3`] and
+//! [`symmetric_eigenvector3`] give those without the 2 × 2 problem.
 
 use nalgebra::{Matrix3, Vector3};
 
 /// Eigenvalues in increasing order and their unit eigenvectors, of the symmetric part of `a`
 /// (only the upper triangle is read).
 pub fn symmetric_eigen3(a: &Matrix3<f64>) -> ([f64; 3], [Vector3<f64>; 3]) {
-    let (a00, a01, a02) = (a[(0, 0)], a[(0, 1)], a[(0, 2)]);
-    let (a11, a12, a22) = (a[(1, 1)], a[(1, 2)], a[(2, 2)]);
     let identity = [Vector3::x(), Vector3::y(), Vector3::z()];
-    let max_abs = a00
-        .abs()
-        .max(a01.abs())
-        .max(a02.abs())
-        .max(a11.abs())
-        .max(a12.abs())
-        .max(a22.abs());
-    if max_abs == 0.0 || !max_abs.is_finite() {
-        // Zero: any basis. Non-finite: let the NaN/∞ reach the caller through the values.
-        let v = if max_abs == 0.0 { 0.0 } else { f64::NAN };
-        return ([v; 3], identity);
-    }
-    // Scale to [−1, 1] to avoid overflow and underflow.
-    let inv = 1.0 / max_abs;
-    let (a00, a01, a02, a11, a12, a22) = (
-        a00 * inv,
-        a01 * inv,
-        a02 * inv,
-        a11 * inv,
-        a12 * inv,
-        a22 * inv,
-    );
-    let norm = a01 * a01 + a02 * a02 + a12 * a12;
-    let q = (a00 + a11 + a22) / 3.0;
-    let (b00, b11, b22) = (a00 - q, a11 - q, a22 - q);
-    let p = ((b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * norm) / 6.0).sqrt();
-    if p == 0.0 {
-        // A multiple of the identity.
-        return ([q * max_abs; 3], identity);
-    }
-    // B = (A − qI)/p has eigenvalues β = 2 cos(θ + 2πk/3), with cos 3θ = det(B)/2.
-    let c00 = b11 * b22 - a12 * a12;
-    let c01 = a01 * b22 - a12 * a02;
-    let c02 = a01 * a12 - b11 * a02;
-    let det = (b00 * c00 - a01 * c01 + a02 * c02) / (p * p * p);
-    let half_det = (det * 0.5).clamp(-1.0, 1.0);
-    let m = Sym {
-        a00,
-        a01,
-        a02,
-        a11,
-        a12,
-        a22,
+    let Cubic {
+        m,
+        max_abs,
+        q,
+        p,
+        half_det,
+    } = match Cubic::of(a) {
+        Ok(c) => c,
+        Err(values) => return (values, identity),
     };
     // The extreme eigenvalue farther from the mean (β2 when det ≥ 0) is well separated and
     // accurate; the other two come from the 2 × 2 problem in its eigenvector's complement, which
     // keeps them (and their vectors) accurate when they are close together, where the
-    // trigonometric values lose half their digits.
+    // values from the cubic lose half their digits.
     let (vals, vecs) = if half_det >= 0.0 {
         let e2 = q + p * largest_root(2.0 * half_det);
         let v2 = m.eigenvector_from_rows(e2);
@@ -87,6 +54,119 @@ pub fn symmetric_eigen3(a: &Matrix3<f64>) -> ([f64; 3], [Vector3<f64>; 3]) {
         ([e0, e1, e2], [v0, v1, v0.cross(&v1)])
     };
     (vals.map(|e| e * max_abs), vecs)
+}
+
+/// The eigenvalues of [`symmetric_eigen3`] (increasing) without the vectors, all three from the
+/// characteristic cubic: the one farther from the mean as there, the other two from the sum and
+/// product of the roots. Cheaper, and as accurate but for two nearly equal eigenvalues, which
+/// keep only about half their digits relative to the largest (their difference is
+/// ill-conditioned in the cubic; [`symmetric_eigen3`] gets it from a 2 × 2 problem).
+pub fn symmetric_eigenvalues3(a: &Matrix3<f64>) -> [f64; 3] {
+    let Cubic {
+        max_abs,
+        q,
+        p,
+        half_det,
+        ..
+    } = match Cubic::of(a) {
+        Ok(c) => c,
+        Err(values) => return values,
+    };
+    // Roots β of β³ − 3β − det: they sum to 0 and, given one (β), the other two are
+    // (−β ± √(3(4 − β²)))/2.
+    let pair = |b: f64| {
+        let half_gap = 0.5 * (3.0 * (4.0 - b * b)).max(0.0).sqrt();
+        (-0.5 * b - half_gap, -0.5 * b + half_gap)
+    };
+    let betas = if half_det >= 0.0 {
+        let b2 = largest_root(2.0 * half_det);
+        let (b0, b1) = pair(b2);
+        [b0, b1, b2]
+    } else {
+        let b0 = -largest_root(-2.0 * half_det);
+        let (b1, b2) = pair(b0);
+        [b0, b1, b2]
+    };
+    betas.map(|b| (q + p * b) * max_abs)
+}
+
+/// Unit eigenvector of `a` (upper triangle) for its eigenvalue `lambda`, which must be simple
+/// (e.g. the smallest from [`symmetric_eigenvalues3`] when well below the other two): the
+/// largest cross product of two rows of `A − λI`, as [`symmetric_eigen3`] gets its first one.
+/// Its error is of order `ε‖A‖ / gap`. `x` for a zero or non-finite `a`.
+pub fn symmetric_eigenvector3(a: &Matrix3<f64>, lambda: f64) -> Vector3<f64> {
+    match Cubic::of(a) {
+        Ok(c) => c.m.eigenvector_from_rows(lambda / c.max_abs),
+        Err(_) => Vector3::x(),
+    }
+}
+
+/// A symmetric matrix scaled to its largest entry, with the mean `q` of its eigenvalues, their
+/// spread `p` and the determinant of `B = (A − qI)/p` halved: B's eigenvalues are the roots of
+/// `β³ − 3β − det B`, in [−2, 2].
+struct Cubic {
+    m: Sym,
+    max_abs: f64,
+    q: f64,
+    p: f64,
+    half_det: f64,
+}
+
+impl Cubic {
+    /// The cubic of the upper triangle of `a`, or the eigenvalues where there is none to solve:
+    /// zero (any basis), non-finite (NaN/∞ reach the caller through the values), a multiple of
+    /// the identity.
+    #[inline]
+    fn of(a: &Matrix3<f64>) -> Result<Cubic, [f64; 3]> {
+        let (a00, a01, a02) = (a[(0, 0)], a[(0, 1)], a[(0, 2)]);
+        let (a11, a12, a22) = (a[(1, 1)], a[(1, 2)], a[(2, 2)]);
+        let max_abs = a00
+            .abs()
+            .max(a01.abs())
+            .max(a02.abs())
+            .max(a11.abs())
+            .max(a12.abs())
+            .max(a22.abs());
+        if max_abs == 0.0 || !max_abs.is_finite() {
+            let v = if max_abs == 0.0 { 0.0 } else { f64::NAN };
+            return Err([v; 3]);
+        }
+        // Scale to [−1, 1] to avoid overflow and underflow.
+        let inv = 1.0 / max_abs;
+        let (a00, a01, a02, a11, a12, a22) = (
+            a00 * inv,
+            a01 * inv,
+            a02 * inv,
+            a11 * inv,
+            a12 * inv,
+            a22 * inv,
+        );
+        let norm = a01 * a01 + a02 * a02 + a12 * a12;
+        let q = (a00 + a11 + a22) / 3.0;
+        let (b00, b11, b22) = (a00 - q, a11 - q, a22 - q);
+        let p = ((b00 * b00 + b11 * b11 + b22 * b22 + 2.0 * norm) / 6.0).sqrt();
+        if p == 0.0 {
+            return Err([q * max_abs; 3]);
+        }
+        let c00 = b11 * b22 - a12 * a12;
+        let c01 = a01 * b22 - a12 * a02;
+        let c02 = a01 * a12 - b11 * a02;
+        let det = (b00 * c00 - a01 * c01 + a02 * c02) / (p * p * p);
+        Ok(Cubic {
+            m: Sym {
+                a00,
+                a01,
+                a02,
+                a11,
+                a12,
+                a22,
+            },
+            max_abs,
+            q,
+            p,
+            half_det: (det * 0.5).clamp(-1.0, 1.0),
+        })
+    }
 }
 
 /// The largest root of `β³ − 3β − d` for `d` in [0, 2] (the trigonometric solution is
@@ -306,6 +386,70 @@ mod tests {
         check(&Matrix3::identity(), 1e-6);
         check(&Matrix3::from_diagonal(&Vector3::new(3.0, 1.0, 2.0)), 1e-6);
         check(&Matrix3::from_diagonal(&Vector3::new(0.0, 0.0, 5.0)), 1e-6);
+    }
+
+    #[test]
+    fn values_alone_and_one_vector_agree_with_the_full_solver() {
+        // Random and near-degenerate matrices (as above): the values within 1e-13 of the
+        // largest, plus rounding / the smallest gap (a close pair's difference is
+        // ill-conditioned in the cubic), within 1e-7 where two are within 1e-6 of each other;
+        // the vector of a separated eigenvalue within that error / its gap of the full solver's.
+        let mut rng = ChaCha8Rng::seed_from_u64(23);
+        let mut separated = 0;
+        for case in 0..30_000 {
+            let s: f64 = rng.random_range(0.01..100.0);
+            let tiny = 10f64.powf(rng.random_range(-14.0..-2.0)) * s;
+            let mid = s * rng.random_range(0.2..1.0);
+            let a = match case % 5 {
+                0 => {
+                    let m = Matrix3::from_fn(|_, _| rng.random_range(-1.0..1.0));
+                    (m + m.transpose()) * s
+                }
+                1 => rotated(&mut rng, [tiny, mid, s]),
+                2 => rotated(&mut rng, [tiny * 0.3, tiny, s]),
+                3 => rotated(&mut rng, [tiny, s, s]),
+                _ => rotated(&mut rng, [tiny, tiny, s]),
+            };
+            let (want, vecs) = symmetric_eigen3(&a);
+            let got = symmetric_eigenvalues3(&a);
+            let scale = a.abs().max();
+            let gap = |i: usize| {
+                (0..3)
+                    .filter(|&j| j != i)
+                    .map(|j| (want[i] - want[j]).abs())
+                    .fold(f64::INFINITY, f64::min)
+            };
+            let min_gap = (0..3).map(gap).fold(f64::INFINITY, f64::min);
+            let tol = if min_gap <= 1e-6 * scale {
+                1e-7 * scale
+            } else {
+                (1e-13 + 1e-15 * scale / min_gap) * scale
+            };
+            for i in 0..3 {
+                assert!(
+                    (got[i] - want[i]).abs() <= tol,
+                    "{got:?} vs {want:?} for {a}"
+                );
+                if gap(i) > 1e-3 * scale {
+                    let v = symmetric_eigenvector3(&a, got[i]);
+                    let d = (v - vecs[i]).norm().min((v + vecs[i]).norm());
+                    // The error of its value (tol) over its gap.
+                    assert!(d <= 2.0 * tol / gap(i), "vector {i}: {d} for {a}");
+                    separated += 1;
+                }
+            }
+        }
+        assert!(separated > 40_000, "{separated}");
+        assert_eq!(symmetric_eigenvalues3(&Matrix3::zeros()), [0.0; 3]);
+        assert_eq!(
+            symmetric_eigenvalues3(&(Matrix3::identity() * 2.0)),
+            [2.0; 3]
+        );
+        let d = symmetric_eigenvalues3(&Matrix3::from_diagonal(&Vector3::new(3.0, 1.0, 2.0)));
+        assert!(
+            (d[0] - 1.0).abs() < 1e-15 && (d[1] - 2.0).abs() < 1e-15 && (d[2] - 3.0).abs() < 1e-15
+        );
+        assert!(symmetric_eigenvalues3(&Matrix3::from_element(f64::NAN))[0].is_nan());
     }
 
     #[test]

@@ -37,7 +37,9 @@
 //! sorted `Vec` allocated per query) it is several times faster on airborne strips; the tree
 //! build was also serial.
 
-use lidarqa_model::{normal_of_scatter, symmetric_eigen3};
+use lidarqa_model::{
+    normal_of_scatter, symmetric_eigen3, symmetric_eigenvalues3, symmetric_eigenvector3,
+};
 use nalgebra::{Matrix3, Vector3};
 
 /// Fewest neighbours (the point included) a plane fit uses.
@@ -151,7 +153,9 @@ fn judge_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
         return Surface::TooFew;
     }
     let scatter = scatter_of(q, nn);
-    let ([l3, l2, l1], [n, ..]) = symmetric_eigen3(&scatter);
+    // The values alone decide; only a planar neighbourhood needs its smallest one's vector,
+    // then well separated from the other two (σ₂ > 2σ₃ and σ₂ ≥ σ₁/2).
+    let [l3, l2, l1] = symmetric_eigenvalues3(&scatter);
     let (s1, s2, s3) = (l1.max(0.0).sqrt(), l2.max(0.0).sqrt(), l3.max(0.0).sqrt());
     if !(s1 > 0.0 && s1.is_finite()) {
         return Surface::TooFew;
@@ -164,6 +168,7 @@ fn judge_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
     } else if scattering > planarity {
         Surface::Scattered
     } else {
+        let n = symmetric_eigenvector3(&scatter, l3);
         let norm = n.norm();
         if norm > 0.0 && norm.is_finite() {
             Surface::Planar(n / norm)
@@ -925,6 +930,57 @@ mod tests {
             }
             assert!(hits > 15_000 && misses > 15_000, "{hits} {misses}");
         }
+    }
+
+    #[test]
+    fn judgement_from_the_values_alone_is_that_of_the_full_solver() {
+        // The judgement as it was (every eigenvalue and vector from `symmetric_eigen3`)
+        // against this one's (the values from the cubic, the smallest one's vector only for a
+        // plane), on the strip's neighbourhoods (planes, single scan lines, the wall, the
+        // stacked column, duplicates): the same kind everywhere, normals to rounding.
+        fn previous(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
+            let ([l3, l2, l1], [n, ..]) = symmetric_eigen3(&scatter_of(q, nn));
+            let (s1, s2, s3) = (l1.max(0.0).sqrt(), l2.max(0.0).sqrt(), l3.max(0.0).sqrt());
+            if !(s1 > 0.0 && s1.is_finite()) {
+                return Surface::TooFew;
+            }
+            let (linearity, planarity, scattering) = ((s1 - s2) / s1, (s2 - s3) / s1, s3 / s1);
+            if linearity >= planarity && linearity >= scattering {
+                Surface::Linear
+            } else if scattering > planarity {
+                Surface::Scattered
+            } else {
+                Surface::Planar(n / n.norm())
+            }
+        }
+        let mut kinds = [0usize; 4];
+        for (seed, k) in [(7, 10), (8, 4), (9, 30)] {
+            let pts = strip(seed, 40_000);
+            let both = for_each_neighbourhood(&pts, &pts, k, None, |q, nn| {
+                Some((judge_neighbours(q, nn), previous(q, nn)))
+            });
+            for (now, before) in both.into_iter().flatten() {
+                match (now, before) {
+                    (Surface::Planar(a), Surface::Planar(b)) => {
+                        let d = (a - b).norm().min((a + b).norm());
+                        assert!(d < 1e-12, "{a} vs {b}");
+                        kinds[0] += 1;
+                    }
+                    (a, b) => {
+                        assert_eq!(a, b);
+                        kinds[match a {
+                            Surface::Linear => 1,
+                            Surface::Scattered => 2,
+                            _ => 3,
+                        }] += 1;
+                    }
+                }
+            }
+        }
+        assert!(
+            kinds[0] > 50_000 && kinds[1] > 30_000 && kinds[2] > 30,
+            "{kinds:?}"
+        );
     }
 
     #[test]
