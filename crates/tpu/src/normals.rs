@@ -559,8 +559,14 @@ pub fn fit_normal(points: &[Vector3<f64>]) -> Option<Vector3<f64>> {
 /// Angle between a beam direction and a surface normal, rad in [0, π/2] (the sign of either
 /// does not matter).
 pub fn incidence_angle(beam: &Vector3<f64>, normal: &Vector3<f64>) -> f64 {
+    cos_incidence(beam, normal).acos()
+}
+
+/// |cos| of the angle between a beam direction and a surface normal, in [0, 1] (the sign of
+/// either does not matter): what the incidence term takes ([`crate::Incidence`]).
+pub fn cos_incidence(beam: &Vector3<f64>, normal: &Vector3<f64>) -> f64 {
     let c = (beam.dot(normal) / (beam.norm() * normal.norm())).abs();
-    c.clamp(0.0, 1.0).acos()
+    c.clamp(0.0, 1.0)
 }
 
 #[cfg(test)]
@@ -805,7 +811,7 @@ mod tests {
                 let inc = Incidence {
                     range_m: 800.0,
                     beam_ned: lidarqa_model::Ned::from_vector(beam),
-                    incidence_rad: incidence_angle(&beam, n),
+                    cos_incidence: cos_incidence(&beam, n),
                 };
                 let u = pp.propagate(&p, None, Some(&inc)).unwrap();
                 u.covariance_ned.diagonal().map(f64::sqrt)
