@@ -863,26 +863,15 @@ mod tests {
         let pts = strip(4, 30_000);
         let k = 10;
         let grid = Grid::new(&pts, k);
-        let (mut free, mut limited) = (Best::new(k), Best::new(k));
-        let (mut hits, mut misses) = (0, 0);
-        for q in pts
-            .iter()
-            .step_by(7)
-            .chain(&[[0.0, 0.0, 900.0], [7e5, 0.0, 0.0]])
-        {
-            assert!(grid.nearest(q, &mut free, f64::INFINITY));
-            let kth = free.worst();
-            for factor in [0.0, 0.3, 0.9, 1.0, 1.0000001, 1.5, 2.0, 50.0] {
-                let limit = kth * factor;
-                if grid.nearest(q, &mut limited, limit) {
-                    assert_eq!(limited.points(), free.points(), "{q:?} {factor}");
-                    hits += 1;
-                } else {
-                    assert!(kth >= limit, "{q:?} {factor}");
-                    misses += 1;
-                }
-            }
-        }
+        let mut free = Best::new(k);
+        let (hits, misses) = limited_searches(
+            &grid,
+            &pts,
+            7,
+            k,
+            &[0.0, 0.3, 0.9, 1.0, 1.0000001, 1.5, 2.0, 50.0],
+            Grid::nearest,
+        );
         assert!(hits > 10_000 && misses > 10_000, "{hits} {misses}");
         // The whole neighbourhood pass gives what one unlimited search per target gives.
         let targets: Vec<[f64; 3]> = pts.iter().step_by(5).copied().collect();
@@ -903,17 +892,12 @@ mod tests {
             *p = p.map(|x| (x * 1000.0).round() / 1000.0);
         }
         for k in [10, 40] {
-            let grid = Grid::new(&pts, k);
-            let (mut free, mut window) = (Best::new(k), Best::new(k));
-            let (mut hits, mut misses) = (0, 0);
-            for q in pts
-                .iter()
-                .step_by(5)
-                .chain(&[[0.0, 0.0, 900.0], [7e5, 0.0, 0.0]])
-            {
-                assert!(grid.nearest(q, &mut free, f64::INFINITY));
-                let kth = free.worst();
-                for factor in [
+            let (hits, misses) = limited_searches(
+                &Grid::new(&pts, k),
+                &pts,
+                5,
+                k,
+                &[
                     0.0,
                     0.3,
                     0.9,
@@ -923,19 +907,46 @@ mod tests {
                     2.0,
                     50.0,
                     f64::INFINITY,
-                ] {
-                    let limit = kth * factor;
-                    if grid.within(q, &mut window, limit) {
-                        assert_eq!(window.points(), free.points(), "{q:?} {factor}");
-                        hits += 1;
-                    } else {
-                        assert!(kth >= limit || limit == f64::INFINITY, "{q:?} {factor}");
-                        misses += 1;
-                    }
-                }
-            }
+                ],
+                Grid::within,
+            );
             assert!(hits > 15_000 && misses > 15_000, "{hits} {misses}");
         }
+    }
+
+    /// `search` with limits of `factors` times the k-th squared distance, from every `step`-th
+    /// point and two far queries, against [`Grid::nearest`] without a limit: the same points in
+    /// the same order whenever it reports k found, and it reports so whenever the k-th is
+    /// within the limit. (Reports, misses.)
+    fn limited_searches(
+        grid: &Grid,
+        pts: &[[f64; 3]],
+        step: usize,
+        k: usize,
+        factors: &[f64],
+        search: impl Fn(&Grid, &[f64; 3], &mut Best, f64) -> bool,
+    ) -> (usize, usize) {
+        let (mut free, mut limited) = (Best::new(k), Best::new(k));
+        let (mut hits, mut misses) = (0, 0);
+        for q in pts
+            .iter()
+            .step_by(step)
+            .chain(&[[0.0, 0.0, 900.0], [7e5, 0.0, 0.0]])
+        {
+            assert!(grid.nearest(q, &mut free, f64::INFINITY));
+            let kth = free.worst();
+            for factor in factors {
+                let limit = kth * factor;
+                if search(grid, q, &mut limited, limit) {
+                    assert_eq!(limited.points(), free.points(), "{q:?} {factor}");
+                    hits += 1;
+                } else {
+                    assert!(kth >= limit || limit == f64::INFINITY, "{q:?} {factor}");
+                    misses += 1;
+                }
+            }
+        }
+        (hits, misses)
     }
 
     #[test]
