@@ -21,7 +21,7 @@ use lidarqa_model::{
 use lidarqa_tpu::{
     IhoOrder, Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, SoundingRecovery, Surface,
     SurfaceSource, THU_95_CBLUE, TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex,
-    incidence_angle, judge_surfaces, thu_95_m,
+    cos_incidence, judge_surfaces, thu_95_m,
 };
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
@@ -682,12 +682,10 @@ impl Run<'_> {
                 let d = v - origin;
                 [d.x, d.y, d.z]
             };
-            let candidates: Vec<[f64; 3]> = tail
-                .iter()
-                .chain(valid_ecef(&cur.pts).collect::<Vec<_>>().iter())
-                .chain(head)
-                .map(rel)
-                .collect();
+            let mut candidates: Vec<[f64; 3]> = Vec::with_capacity(tail.len() + n + head.len());
+            candidates.extend(tail.iter().map(rel));
+            candidates.extend(valid_ecef(&cur.pts).map(|v| rel(&v)));
+            candidates.extend(head.iter().map(rel));
             let targets: Vec<[f64; 3]> = cur.pts.iter().map(|p| rel(&p.ecef.vector())).collect();
             judge_surfaces(&candidates, &targets, self.ctx.options.neighbours)
                 .into_iter()
@@ -1144,7 +1142,7 @@ impl Run<'_> {
             normal.map(|n| Incidence {
                 range_m,
                 beam_ned,
-                incidence_rad: incidence_angle(&beam_ned.vector(), &(pose.ecef_to_ned * n)),
+                cos_incidence: cos_incidence(&beam_ned.vector(), &(pose.ecef_to_ned * n)),
             })
         };
         let (cov, recovered) = match self.kernel {

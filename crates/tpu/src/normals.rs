@@ -23,16 +23,23 @@
 //! The k nearest neighbours are exact (the same set as a k-d tree's, up to ties in distance),
 //! found in a uniform grid of cells rather than a tree: airborne points lie near a surface, so
 //! the candidates are bucketed on the plane of their two principal axes (from a sample's
-//! covariance) with about `k/2` points per occupied cell, and each query scans rings of cells
+//! covariance) in cells much smaller than a neighbourhood (about `k/8` points per occupied
+//! cell). Targets come in scan order, so a query first scans only the cells within a little
+//! more than the previous query's k-th distance (a rectangle of rows, each row's cells
+//! contiguous in memory); when fewer than k candidates are that close it scans rings of cells
 //! around its own until the k-th distance found is within the distance to the unscanned cells
-//! (a 3-D distance is never shorter than its projection on the plane, so the search stays exact
-//! for any point layout, only slower where many points share a cell, e.g. under vegetation).
-//! Cells are filled by a counting sort (two passes, no per-cell allocation); a query keeps its k
+//! (a 3-D distance is never shorter than its projection on the plane, so both searches stay
+//! exact for any point layout, only slower where many points share a cell, e.g. under
+//! vegetation). Neighbours are ordered by (distance, index), so ties in distance are settled the
+//! same way by both searches. Cells are filled by a counting sort (two passes, no per-cell
+//! allocation) into one array per coordinate; a query keeps the distances and indices of its k
 //! best in a reused fixed-capacity buffer. Against kiddo's `ImmutableKdTree::nearest_n` (one
 //! sorted `Vec` allocated per query) it is several times faster on airborne strips; the tree
 //! build was also serial.
 
-use lidarqa_model::{normal_of_scatter, symmetric_eigen3};
+use lidarqa_model::{
+    normal_of_scatter, symmetric_eigen3, symmetric_eigenvalues3, symmetric_eigenvector3,
+};
 use nalgebra::{Matrix3, Vector3};
 
 /// Fewest neighbours (the point included) a plane fit uses.
@@ -44,6 +51,13 @@ pub const MAX_NEIGHBOURS: usize = 256;
 
 /// Targets per parallel work item.
 const QUERY_BLOCK: usize = 2048;
+
+/// A query first searches within this many times the previous query's k-th squared distance.
+const LIMIT_FACTOR: f64 = 1.25;
+
+/// Candidates per occupied cell per neighbour sought: cells a fraction of a neighbourhood
+/// wide, so the window of [`Grid::within`] holds few candidates beyond the k-th distance.
+const CELL_FILL: f64 = 0.12;
 
 /// Unit normals (`n_z ≥ 0`) of `targets`, searched among `candidates`, with `k` nearest
 /// neighbours each (the point itself is among them when it is a candidate). Coordinates in any
@@ -114,15 +128,16 @@ fn for_each_neighbourhood<T: Clone + Send + Sync>(
         .for_each(|(out, targets)| {
             let mut best = Best::new(k);
             // Targets come in scan order, so a query's k-th distance is close to the previous
-            // one's: searching first within twice its square skips most insertions of
-            // candidates that would be pushed out later (see `Grid::nearest`).
+            // one's: searching first only the cells within a little more than it skips most
+            // candidates, and most insertions of those that would be pushed out later (see
+            // `Grid::within`); the ring search without a limit takes the rest.
             let mut limit_m2 = f64::INFINITY;
             for (o, q) in out.iter_mut().zip(targets) {
-                if !grid.nearest(q, &mut best, limit_m2) {
+                if !grid.within(q, &mut best, limit_m2) {
                     grid.nearest(q, &mut best, f64::INFINITY);
                 }
                 limit_m2 = if best.full() {
-                    2.0 * best.worst()
+                    LIMIT_FACTOR * best.worst()
                 } else {
                     f64::INFINITY
                 };
@@ -138,7 +153,9 @@ fn judge_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
         return Surface::TooFew;
     }
     let scatter = scatter_of(q, nn);
-    let ([l3, l2, l1], [n, ..]) = symmetric_eigen3(&scatter);
+    // The values alone decide; only a planar neighbourhood needs its smallest one's vector,
+    // then well separated from the other two (σ₂ > 2σ₃ and σ₂ ≥ σ₁/2).
+    let [l3, l2, l1] = symmetric_eigenvalues3(&scatter);
     let (s1, s2, s3) = (l1.max(0.0).sqrt(), l2.max(0.0).sqrt(), l3.max(0.0).sqrt());
     if !(s1 > 0.0 && s1.is_finite()) {
         return Surface::TooFew;
@@ -151,6 +168,7 @@ fn judge_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
     } else if scattering > planarity {
         Surface::Scattered
     } else {
+        let n = symmetric_eigenvector3(&scatter, l3);
         let norm = n.norm();
         if norm > 0.0 && norm.is_finite() {
             Surface::Planar(n / norm)
@@ -162,16 +180,25 @@ fn judge_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
 
 /// Scatter matrix about the mean of `nn`, from offsets to `q`.
 fn scatter_of(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Matrix3<f64> {
-    let q = Vector3::from(*q);
-    let (mut sum, mut outer) = (Vector3::zeros(), Matrix3::zeros());
+    // The six distinct sums of the symmetric matrix, each as `Σ d dᵀ − s sᵀ / k` would give it.
+    let (mut s, mut o) = ([0.0; 3], [0.0; 6]);
     for (_, p) in nn {
-        let d = Vector3::from(*p) - q;
-        sum += d;
-        outer += d * d.transpose();
+        let d = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
+        for (s, d) in s.iter_mut().zip(&d) {
+            *s += d;
+        }
+        for (o, (i, j)) in o.iter_mut().zip(UPPER) {
+            *o += d[i] * d[j];
+        }
     }
     let k = nn.len() as f64;
-    outer - sum * sum.transpose() / k
+    let c = |n: usize| o[n] - s[UPPER[n].0] * s[UPPER[n].1] / k;
+    let (c00, c01, c02, c11, c12, c22) = (c(0), c(1), c(2), c(3), c(4), c(5));
+    Matrix3::new(c00, c01, c02, c01, c11, c12, c02, c12, c22)
 }
+
+/// The (row, column) of the upper triangle of a 3 × 3 matrix.
+const UPPER: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
 
 /// Plane normal from the neighbours of `q` (nearest first).
 fn normal_of_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Option<Vector3<f64>> {
@@ -183,33 +210,43 @@ fn normal_of_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Option<Vector3<
     normal_of_scatter(&scatter_of(q, nn))
 }
 
-/// The k best (squared distance, point) so far, nearest first, in a buffer reused across
-/// queries. The k-th distance is kept beside them (most candidates of a scan are farther, and
-/// the test against it is all they cost); before k are held it is the query's limit.
+/// The k best (squared distance, candidate index) so far, nearest first, in buffers reused
+/// across queries; [`Grid::nearest`] then copies their points out. The k-th distance is kept
+/// beside them (most candidates of a scan are farther, and the test against it is all they
+/// cost); before k are held it is the query's limit.
 struct Best {
     k: usize,
-    items: Vec<(f64, [f64; 3])>,
+    /// How many of `d2` / `index` are held (≤ k); both have room for k + 1, so an insertion
+    /// into a full buffer shifts the k-th out into the spare slot instead of testing for it.
+    len: usize,
+    d2: Vec<f64>,
+    index: Vec<u32>,
     /// The k-th squared distance once k are held, the limit until then.
     worst: f64,
+    /// The neighbours found by the last complete search, as (squared distance, point).
+    items: Vec<(f64, [f64; 3])>,
 }
 
 impl Best {
     fn new(k: usize) -> Best {
         Best {
             k,
-            items: Vec::with_capacity(k + 1),
+            len: 0,
+            d2: vec![0.0; k + 1],
+            index: vec![0; k + 1],
             worst: f64::INFINITY,
+            items: Vec::with_capacity(k),
         }
     }
 
     /// Empties the buffer for a query that keeps only candidates closer than `limit_m2`.
     fn clear(&mut self, limit_m2: f64) {
-        self.items.clear();
+        self.len = 0;
         self.worst = limit_m2;
     }
 
     fn full(&self) -> bool {
-        self.items.len() >= self.k
+        self.len >= self.k
     }
 
     /// The k-th squared distance (the limit until k are held).
@@ -217,26 +254,39 @@ impl Best {
         self.worst
     }
 
+    /// Keeps candidate `index` at squared distance `d2` if it comes before the k-th in the
+    /// order of (squared distance, index): the k kept are then the same whatever order the
+    /// candidates are offered in. NaN distances are never kept.
     #[inline]
-    fn offer(&mut self, d2: f64, p: [f64; 3]) {
-        // NaN distances are never kept; a tie with the k-th is not either (the first found
-        // stays).
-        if d2.partial_cmp(&self.worst) != Some(std::cmp::Ordering::Less) {
-            return;
-        }
-        let mut i = self.items.len();
-        while i > 0 && self.items[i - 1].0 > d2 {
-            i -= 1;
-        }
-        if self.full() {
-            self.items.pop();
-        }
-        self.items.insert(i, (d2, p));
-        if self.full() {
-            self.worst = self.items[self.k - 1].0;
+    fn offer(&mut self, d2: f64, index: u32) {
+        let before_kth =
+            d2 < self.worst || (d2 == self.worst && self.full() && index < self.index[self.k - 1]);
+        if before_kth {
+            self.insert(d2, index);
         }
     }
 
+    #[inline]
+    fn insert(&mut self, d2: f64, index: u32) {
+        let len = self.len;
+        let (d, ix) = (&mut self.d2[..=len], &mut self.index[..=len]);
+        let mut i = len;
+        while i > 0 && (d[i - 1] > d2 || (d[i - 1] == d2 && ix[i - 1] > index)) {
+            d[i] = d[i - 1];
+            ix[i] = ix[i - 1];
+            i -= 1;
+        }
+        d[i] = d2;
+        ix[i] = index;
+        if len < self.k {
+            self.len = len + 1;
+        }
+        if self.len == self.k {
+            self.worst = self.d2[self.k - 1];
+        }
+    }
+
+    /// The neighbours of the last complete search (see [`Grid::nearest`]).
     fn points(&self) -> &[(f64, [f64; 3])] {
         &self.items
     }
@@ -252,10 +302,13 @@ struct Grid {
     cell: f64,
     nu: usize,
     nv: usize,
-    /// `start[c] .. start[c + 1]` indexes `points` for cell `c = iv · nu + iu`.
+    /// `start[c] .. start[c + 1]` indexes the candidates for cell `c = iv · nu + iu`.
     start: Vec<u32>,
-    /// The candidates in cell order.
-    points: Vec<[f64; 3]>,
+    /// The candidates' coordinates in cell order, one array per axis (a row's distances are
+    /// then computed side by side).
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+    zs: Vec<f64>,
 }
 
 impl Grid {
@@ -281,10 +334,10 @@ impl Grid {
             (v[cut], v[v.len() - 1 - cut])
         };
         let ((u0, u1), (v0, v1)) = (range(0), range(1));
-        // About k/2 candidates per cell on an evenly covered extent (the k-th neighbour is then
-        // mostly found within the 3 × 3 cells around the query); at most ~2 cells per candidate.
+        // About k · CELL_FILL candidates per cell on an evenly covered extent (at least one per
+        // two cells); at most ~2 cells per candidate.
         let (du, dv) = ((u1 - u0).max(0.0), (v1 - v0).max(0.0));
-        let per_cell = (k as f64 * 0.5).max(2.0);
+        let per_cell = (k as f64 * CELL_FILL).max(0.5);
         let mut cell = (du * dv * per_cell / n as f64).sqrt();
         let floor = (du.max(dv) / (2.0 * n as f64)).max(1e-9);
         if !(cell.is_finite() && cell >= floor) {
@@ -313,10 +366,11 @@ impl Grid {
             start[c + 1] += start[c];
         }
         let mut fill = start.clone();
-        let mut points = vec![[0.0; 3]; n];
+        let (mut xs, mut ys, mut zs) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         for (p, &c) in candidates.iter().zip(&ids) {
             let slot = &mut fill[c as usize];
-            points[*slot as usize] = *p;
+            let j = *slot as usize;
+            (xs[j], ys[j], zs[j]) = (p[0], p[1], p[2]);
             *slot += 1;
         }
         Grid {
@@ -326,16 +380,45 @@ impl Grid {
             nu,
             nv,
             start,
-            points,
+            xs,
+            ys,
+            zs,
         }
     }
 
-    /// The (up to) k nearest candidates of `q` into `best`, nearest first, searched among
-    /// those closer than `limit_m2` (squared distance); false when fewer than k are (then the
-    /// caller searches again without a limit). With a limit the cells are scanned in the same
-    /// order and the search stops at the same ring whenever k are found, so the neighbours,
-    /// their order and ties are those of the search without it: the k nearest are all within
-    /// the limit exactly when k candidates are.
+    /// The k nearest candidates of `q` searched among those closer than `limit_m2` (squared
+    /// distance) in the cells that can hold them, i.e. the rows and columns of cells within
+    /// √limit of `q` on the grid's plane (a distance is never shorter than its projection;
+    /// points clamped into the border cells are scanned with them); false when fewer than k
+    /// are that close (then the caller searches with [`Grid::nearest`]). The k nearest are all
+    /// within the limit exactly when k candidates are, and [`Best`] orders ties by index, so
+    /// when it reports k found they are those of [`Grid::nearest`], in the same order.
+    fn within(&self, q: &[f64; 3], best: &mut Best, limit_m2: f64) -> bool {
+        if !limit_m2.is_finite() {
+            return false;
+        }
+        best.clear(limit_m2);
+        // 1 µm for the rounding of the projection, as in `nearest`.
+        let r = limit_m2.sqrt() + 1e-6;
+        let (u, v) = (
+            (dot(&self.axes[0], q) - self.origin[0]) / self.cell,
+            (dot(&self.axes[1], q) - self.origin[1]) / self.cell,
+        );
+        let r = r / self.cell;
+        let (u_lo, u_hi) = (clamp_cell(u - r, self.nu), clamp_cell(u + r, self.nu));
+        let (v_lo, v_hi) = (clamp_cell(v - r, self.nv), clamp_cell(v + r, self.nv));
+        for row in v_lo..=v_hi {
+            self.scan(row as isize, u_lo as isize, u_hi as isize, q, best);
+        }
+        best.full() && self.copy_out(best)
+    }
+
+    /// The (up to) k nearest candidates of `q` into `best`, nearest first (ties by index),
+    /// searched among those closer than `limit_m2` (squared distance); false when fewer than
+    /// k are (then the caller searches again without a limit). With a limit the cells are
+    /// scanned in the same order and the search stops at the same ring whenever k are found,
+    /// so the neighbours and their order are those of the search without it: the k nearest
+    /// are all within the limit exactly when k candidates are.
     fn nearest(&self, q: &[f64; 3], best: &mut Best, limit_m2: f64) -> bool {
         best.clear(limit_m2);
         let (u, v) = (dot(&self.axes[0], q), dot(&self.axes[1], q));
@@ -349,7 +432,7 @@ impl Grid {
             clamp_cell(fv, self.nv) as isize,
         );
         let (nu, nv) = (self.nu as isize, self.nv as isize);
-        let want = best.k.min(self.points.len());
+        let want = best.k.min(self.xs.len());
         let mut r: isize = 0;
         loop {
             // Scan ring r: rows cv ± r in full, columns cu ± r between them.
@@ -389,14 +472,14 @@ impl Grid {
             if cv + r < nv - 1 {
                 bound = bound.min((cv + r + 1) as f64 - fv);
             }
-            let found = best.items.len() >= want;
+            let found = best.len >= want;
             if bound == f64::INFINITY {
                 // Every cell scanned.
-                return found || limit_m2 == f64::INFINITY;
+                return (found || limit_m2 == f64::INFINITY) && self.copy_out(best);
             }
             let b = (bound * self.cell - 1e-6).max(0.0);
-            if found && best.worst() <= b * b {
-                return true;
+            if found && best.worst() < b * b {
+                return self.copy_out(best);
             }
             if !found && limit_m2 <= b * b {
                 // Nothing unscanned is within the limit.
@@ -406,7 +489,17 @@ impl Grid {
         }
     }
 
-    /// Offers the candidates of cells `u_lo ..= u_hi` of row `row` (contiguous in `points`).
+    /// The points of `best`'s neighbours into its `items`; true.
+    fn copy_out(&self, best: &mut Best) -> bool {
+        best.items.clear();
+        for (&d2, &j) in best.d2[..best.len].iter().zip(&best.index) {
+            let j = j as usize;
+            best.items.push((d2, [self.xs[j], self.ys[j], self.zs[j]]));
+        }
+        true
+    }
+
+    /// Offers the candidates of cells `u_lo ..= u_hi` of row `row` (contiguous in the arrays).
     #[inline]
     fn scan(&self, row: isize, u_lo: isize, u_hi: isize, q: &[f64; 3], best: &mut Best) {
         let base = row as usize * self.nu;
@@ -414,9 +507,10 @@ impl Grid {
             self.start[base + u_lo as usize] as usize,
             self.start[base + u_hi as usize + 1] as usize,
         );
-        for p in &self.points[a..b] {
-            let (dx, dy, dz) = (p[0] - q[0], p[1] - q[1], p[2] - q[2]);
-            best.offer(dx * dx + dy * dy + dz * dz, *p);
+        let (xs, ys, zs) = (&self.xs[a..b], &self.ys[a..b], &self.zs[a..b]);
+        for (j, ((x, y), z)) in xs.iter().zip(ys).zip(zs).enumerate() {
+            let (dx, dy, dz) = (x - q[0], y - q[1], z - q[2]);
+            best.offer(dx * dx + dy * dy + dz * dz, (a + j) as u32);
         }
     }
 }
@@ -465,8 +559,14 @@ pub fn fit_normal(points: &[Vector3<f64>]) -> Option<Vector3<f64>> {
 /// Angle between a beam direction and a surface normal, rad in [0, π/2] (the sign of either
 /// does not matter).
 pub fn incidence_angle(beam: &Vector3<f64>, normal: &Vector3<f64>) -> f64 {
+    cos_incidence(beam, normal).acos()
+}
+
+/// |cos| of the angle between a beam direction and a surface normal, in [0, 1] (the sign of
+/// either does not matter): what the incidence term takes ([`crate::Incidence`]).
+pub fn cos_incidence(beam: &Vector3<f64>, normal: &Vector3<f64>) -> f64 {
     let c = (beam.dot(normal) / (beam.norm() * normal.norm())).abs();
-    c.clamp(0.0, 1.0).acos()
+    c.clamp(0.0, 1.0)
 }
 
 #[cfg(test)]
@@ -711,7 +811,7 @@ mod tests {
                 let inc = Incidence {
                     range_m: 800.0,
                     beam_ned: lidarqa_model::Ned::from_vector(beam),
-                    incidence_rad: incidence_angle(&beam, n),
+                    cos_incidence: cos_incidence(&beam, n),
                 };
                 let u = pp.propagate(&p, None, Some(&inc)).unwrap();
                 u.covariance_ned.diagonal().map(f64::sqrt)
@@ -763,26 +863,15 @@ mod tests {
         let pts = strip(4, 30_000);
         let k = 10;
         let grid = Grid::new(&pts, k);
-        let (mut free, mut limited) = (Best::new(k), Best::new(k));
-        let (mut hits, mut misses) = (0, 0);
-        for q in pts
-            .iter()
-            .step_by(7)
-            .chain(&[[0.0, 0.0, 900.0], [7e5, 0.0, 0.0]])
-        {
-            assert!(grid.nearest(q, &mut free, f64::INFINITY));
-            let kth = free.worst();
-            for factor in [0.0, 0.3, 0.9, 1.0, 1.0000001, 1.5, 2.0, 50.0] {
-                let limit = kth * factor;
-                if grid.nearest(q, &mut limited, limit) {
-                    assert_eq!(limited.points(), free.points(), "{q:?} {factor}");
-                    hits += 1;
-                } else {
-                    assert!(kth >= limit, "{q:?} {factor}");
-                    misses += 1;
-                }
-            }
-        }
+        let mut free = Best::new(k);
+        let (hits, misses) = limited_searches(
+            &grid,
+            &pts,
+            7,
+            k,
+            &[0.0, 0.3, 0.9, 1.0, 1.0000001, 1.5, 2.0, 50.0],
+            Grid::nearest,
+        );
         assert!(hits > 10_000 && misses > 10_000, "{hits} {misses}");
         // The whole neighbourhood pass gives what one unlimited search per target gives.
         let targets: Vec<[f64; 3]> = pts.iter().step_by(5).copied().collect();
@@ -791,6 +880,124 @@ mod tests {
             grid.nearest(q, &mut free, f64::INFINITY);
             assert_eq!(g.as_slice(), free.points());
         }
+    }
+
+    #[test]
+    fn a_window_search_finds_the_same_neighbours_or_says_it_did_not() {
+        // `within` against `nearest` without a limit, for limits from far too small to ample,
+        // with two cell sizes (k sets the cells) and with points on the mm grid of a LAS file
+        // (many exact ties in distance: the order by index settles them the same way).
+        let mut pts = strip(6, 30_000);
+        for p in pts.iter_mut().step_by(2) {
+            *p = p.map(|x| (x * 1000.0).round() / 1000.0);
+        }
+        for k in [10, 40] {
+            let (hits, misses) = limited_searches(
+                &Grid::new(&pts, k),
+                &pts,
+                5,
+                k,
+                &[
+                    0.0,
+                    0.3,
+                    0.9,
+                    1.0,
+                    1.0000001,
+                    1.25,
+                    2.0,
+                    50.0,
+                    f64::INFINITY,
+                ],
+                Grid::within,
+            );
+            assert!(hits > 15_000 && misses > 15_000, "{hits} {misses}");
+        }
+    }
+
+    /// `search` with limits of `factors` times the k-th squared distance, from every `step`-th
+    /// point and two far queries, against [`Grid::nearest`] without a limit: the same points in
+    /// the same order whenever it reports k found, and it reports so whenever the k-th is
+    /// within the limit. (Reports, misses.)
+    fn limited_searches(
+        grid: &Grid,
+        pts: &[[f64; 3]],
+        step: usize,
+        k: usize,
+        factors: &[f64],
+        search: impl Fn(&Grid, &[f64; 3], &mut Best, f64) -> bool,
+    ) -> (usize, usize) {
+        let (mut free, mut limited) = (Best::new(k), Best::new(k));
+        let (mut hits, mut misses) = (0, 0);
+        for q in pts
+            .iter()
+            .step_by(step)
+            .chain(&[[0.0, 0.0, 900.0], [7e5, 0.0, 0.0]])
+        {
+            assert!(grid.nearest(q, &mut free, f64::INFINITY));
+            let kth = free.worst();
+            for factor in factors {
+                let limit = kth * factor;
+                if search(grid, q, &mut limited, limit) {
+                    assert_eq!(limited.points(), free.points(), "{q:?} {factor}");
+                    hits += 1;
+                } else {
+                    assert!(kth >= limit || limit == f64::INFINITY, "{q:?} {factor}");
+                    misses += 1;
+                }
+            }
+        }
+        (hits, misses)
+    }
+
+    #[test]
+    fn judgement_from_the_values_alone_is_that_of_the_full_solver() {
+        // The judgement as it was (every eigenvalue and vector from `symmetric_eigen3`)
+        // against this one's (the values from the cubic, the smallest one's vector only for a
+        // plane), on the strip's neighbourhoods (planes, single scan lines, the wall, the
+        // stacked column, duplicates): the same kind everywhere, normals to rounding.
+        fn previous(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
+            let ([l3, l2, l1], [n, ..]) = symmetric_eigen3(&scatter_of(q, nn));
+            let (s1, s2, s3) = (l1.max(0.0).sqrt(), l2.max(0.0).sqrt(), l3.max(0.0).sqrt());
+            if !(s1 > 0.0 && s1.is_finite()) {
+                return Surface::TooFew;
+            }
+            let (linearity, planarity, scattering) = ((s1 - s2) / s1, (s2 - s3) / s1, s3 / s1);
+            if linearity >= planarity && linearity >= scattering {
+                Surface::Linear
+            } else if scattering > planarity {
+                Surface::Scattered
+            } else {
+                Surface::Planar(n / n.norm())
+            }
+        }
+        let mut kinds = [0usize; 4];
+        for (seed, k) in [(7, 10), (8, 4), (9, 30)] {
+            let pts = strip(seed, 40_000);
+            let both = for_each_neighbourhood(&pts, &pts, k, None, |q, nn| {
+                Some((judge_neighbours(q, nn), previous(q, nn)))
+            });
+            for (now, before) in both.into_iter().flatten() {
+                match (now, before) {
+                    (Surface::Planar(a), Surface::Planar(b)) => {
+                        let d = (a - b).norm().min((a + b).norm());
+                        assert!(d < 1e-12, "{a} vs {b}");
+                        kinds[0] += 1;
+                    }
+                    (a, b) => {
+                        assert_eq!(a, b);
+                        kinds[match a {
+                            Surface::Linear => 1,
+                            Surface::Scattered => 2,
+                            _ => 3,
+                        }] += 1;
+                    }
+                }
+            }
+        }
+        assert!(
+            kinds[0] > 50_000 && kinds[1] > 30_000 && kinds[2] > 30,
+            "{kinds:?}"
+        );
     }
 
     #[test]

@@ -24,6 +24,16 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 /// The largest incidence angle used in the incidence term, rad (85°: tan = 11.4).
 pub const MAX_INCIDENCE_RAD: f64 = 85.0 * std::f64::consts::PI / 180.0;
 
+/// `tan(min(α, MAX_INCIDENCE_RAD))` from `cos α` in [0, 1] (`sin α = √((1 − c)(1 + c))`); capped
+/// also where the cosine is not a number, as `f64::min` capped a NaN angle.
+fn tan_capped(c: f64) -> f64 {
+    if c > MAX_INCIDENCE_RAD.cos() {
+        ((1.0 - c) * (1.0 + c)).max(0.0).sqrt() / c
+    } else {
+        MAX_INCIDENCE_RAD.tan()
+    }
+}
+
 /// Geometry of the incidence term at one point.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Incidence {
@@ -31,8 +41,9 @@ pub struct Incidence {
     pub range_m: f64,
     /// Unit beam direction in N at P0.
     pub beam_ned: Ned,
-    /// Angle between the beam and the local surface normal, rad, in [0, π/2].
-    pub incidence_rad: f64,
+    /// |cos α| of the angle α between the beam and the local surface normal, in [0, 1]
+    /// ([`crate::cos_incidence`]): the term needs tan α, which follows from it without α.
+    pub cos_incidence: f64,
 }
 
 /// The propagated uncertainty of one point.
@@ -174,9 +185,7 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
     /// σ of the incidence term, m: `ρ · γ/2 · tan(min(α, 85°))`; 0 without a beam divergence.
     pub fn incidence_sigma_m(&self, incidence: &Incidence) -> f64 {
         match self.beam_divergence_rad {
-            Some(g) => {
-                incidence.range_m * g / 2.0 * incidence.incidence_rad.min(MAX_INCIDENCE_RAD).tan()
-            }
+            Some(g) => incidence.range_m * g / 2.0 * tan_capped(incidence.cos_incidence),
             None => 0.0,
         }
     }
@@ -426,6 +435,22 @@ mod tests {
     }
 
     #[test]
+    fn the_incidence_tangent_from_its_cosine_is_that_of_the_angle() {
+        // tan(min(acos c, 85°)) as before, to rounding, over the whole range; capped for a NaN.
+        for i in 0..=100_000 {
+            let c = f64::from(i) / 100_000.0;
+            let want = c.acos().min(MAX_INCIDENCE_RAD).tan();
+            assert!(
+                (tan_capped(c) - want).abs() <= 1e-13 * want.max(1e-3),
+                "{c}: {} vs {want}",
+                tan_capped(c)
+            );
+        }
+        assert_eq!(tan_capped(f64::NAN), MAX_INCIDENCE_RAD.tan());
+        assert_eq!(tan_capped(1.0), 0.0);
+    }
+
+    #[test]
     fn incidence_term_is_along_the_beam() {
         let sensor = lidarqa_model::Sensor {
             sigma: lidarqa_model::Sigmas::zero(),
@@ -436,7 +461,7 @@ mod tests {
         let inc = Incidence {
             range_m: 1000.0,
             beam_ned: Ned::from_vector(beam),
-            incidence_rad: 45f64.to_radians(),
+            cos_incidence: 45f64.to_radians().cos(),
         };
         let u = pp.propagate(&params(), None, Some(&inc)).unwrap();
         // 1000 m · 0.25 mrad · tan 45° = 0.25 m along the beam.
