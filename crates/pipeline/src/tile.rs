@@ -596,9 +596,13 @@ impl Run<'_> {
                     .any(|p| p.classification() == CLASS_BATHYMETRY))
             .then(|| {
                 let mut w: Vec<WaterReturn> = water_tail.iter().map(|(_, r)| *r).collect();
-                w.extend(water_returns(&cur, 0, cur.pts.len()).map(|(_, r)| r));
+                w.extend(
+                    water_returns(&cur, 0, cur.pts.len())
+                        .into_iter()
+                        .map(|(_, r)| r),
+                );
                 if let Some(n) = &next {
-                    w.extend(water_returns(n, 0, margin).map(|(_, r)| r));
+                    w.extend(water_returns(n, 0, margin).into_iter().map(|(_, r)| r));
                 }
                 WaterSurfaceIndex::new(w)
             });
@@ -843,7 +847,13 @@ impl Run<'_> {
         let w = if self.ctx.facts.gaps.is_empty() {
             Vec::new()
         } else {
-            let mut times: Vec<f64> = ok().map(|p| p.time_sow_s).collect();
+            // Only the times inside a gap can be the first in it: with a few gaps, the rest
+            // need no sort.
+            let gaps = &self.ctx.facts.gaps;
+            let mut times: Vec<f64> = ok()
+                .map(|p| p.time_sow_s)
+                .filter(|t| gaps.len() > 16 || gaps.iter().any(|g| *t > g.start_s && *t < g.end_s))
+                .collect();
             times.sort_by(f64::total_cmp);
             check_gaps(
                 self.path,
@@ -1211,29 +1221,28 @@ impl Run<'_> {
 }
 
 /// The water-surface returns (class 41, usable time) among the points `from..to` of a chunk
-/// (`to` clamped to its length), with their file index.
-fn water_returns(
-    c: &Prepared,
-    from: usize,
-    to: usize,
-) -> impl Iterator<Item = (u64, WaterReturn)> + '_ {
+/// (`to` clamped to its length), with their file index, in parallel (in file order).
+fn water_returns(c: &Prepared, from: usize, to: usize) -> Vec<(u64, WaterReturn)> {
     let to = to.min(c.pts.len());
-    let from = from.min(to);
-    (from..to)
-        .map(|k| (k, (&c.pts[k], c.chunk.point(k))))
-        .filter(|(_, (p, lp))| {
-            lp.classification() == CLASS_WATER_SURFACE && matches!(p.state, PrepState::Ok)
+    (from.min(to)..to)
+        .into_par_iter()
+        .with_min_len(BLOCK)
+        .filter_map(|k| {
+            let p = &c.pts[k];
+            (c.chunk.point(k).classification() == CLASS_WATER_SURFACE
+                && matches!(p.state, PrepState::Ok))
+            .then(|| {
+                (
+                    c.first_index + k as u64,
+                    WaterReturn {
+                        time_s: p.time_sow_s,
+                        ecef_m: p.ecef,
+                        grid: Grid::from_vector(p.xyz_m.into()),
+                    },
+                )
+            })
         })
-        .map(move |(k, (p, _))| {
-            (
-                c.first_index + k as u64,
-                WaterReturn {
-                    time_s: p.time_sow_s,
-                    ecef_m: p.ecef,
-                    grid: Grid::from_vector(p.xyz_m.into()),
-                },
-            )
-        })
+        .collect()
 }
 
 /// Adds a point's share of its variance from each source (the model's, then the incidence
