@@ -114,7 +114,7 @@ impl GridToEcef {
     /// The map at grid point (x, y, h), metres, from the cell in `cache` (built there when
     /// missing).
     pub fn at(&self, cache: &mut CellCache, x_m: f64, y_m: f64, h_m: f64) -> MapAt {
-        let key = ((x_m / CELL_M).floor() as i64, (y_m / CELL_M).floor() as i64);
+        let key = (floor_i64(x_m / CELL_M), floor_i64(y_m / CELL_M));
         // Direct-mapped on the low bits of both indices.
         let slot = (((key.0 & 3) << 2) | (key.1 & 3)) as usize;
         let cell = match &mut cache.slots[slot] {
@@ -136,6 +136,19 @@ impl GridToEcef {
                 n,
             ]),
         }
+    }
+}
+
+/// `v.floor() as i64` without the libm call `floor` is on the default x86-64 target (no
+/// SSE4.1 `roundsd`): the truncation, one less below zero when it rounded up. The same value
+/// for every `v`, NaN (0) and beyond the i64 range (saturated) included.
+#[inline]
+fn floor_i64(v: f64) -> i64 {
+    let t = v as i64;
+    if (t as f64) > v {
+        t.saturating_sub(1)
+    } else {
+        t
     }
 }
 
@@ -191,6 +204,42 @@ fn eval(c: &[[Vector3<f64>; 3]; 3], u: f64, v: f64) -> (Vector3<f64>, Vector3<f6
 mod tests {
     use super::*;
     use crate::{Hemisphere, UtmZone};
+
+    #[test]
+    fn floor_i64_is_floor() {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            1e300,
+            -1e300,
+            9.3e18,
+            -9.3e18,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+        ];
+        for k in [
+            -3.0f64,
+            -1.0,
+            0.0,
+            1.0,
+            2.0,
+            4503599627370495.0,
+            -4503599627370495.0,
+        ] {
+            for d in [-0.5, -1e-12, 0.0, 1e-12, 0.5] {
+                let v = k + d;
+                for ulps in -2i64..=2 {
+                    values.push(f64::from_bits((v.to_bits() as i64 + ulps) as u64));
+                }
+            }
+        }
+        for v in values {
+            assert_eq!(floor_i64(v), v.floor() as i64, "{v}");
+        }
+    }
 
     #[test]
     fn the_cell_model_matches_the_exact_map() {

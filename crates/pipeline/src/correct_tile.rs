@@ -312,7 +312,13 @@ impl Correction {
         p0: &Ecef,
         r_be: &Matrix3<f64>,
     ) -> std::result::Result<[f64; 3], lidarqa_tpu::Error> {
-        let g = Vector3::from(xyz.map(|v| v * self.unit_m));
+        // (× and ÷ 1 are exact: skipped for metres.)
+        let metres = self.unit_m == 1.0;
+        let g = Vector3::from(if metres {
+            xyz
+        } else {
+            xyz.map(|v| v * self.unit_m)
+        });
         let at = self.map.at(cells, g.x, g.y, g.z);
         // Recovery: B = R_BEᵀ (P − P0), S = R_Mᵀ (B − ΔP); range ρ = |S|, scan angle
         // θ = atan2(S_y, S_z), S' = ρ (0, sin θ, cos θ). P − P0 is formed from the cell
@@ -353,7 +359,12 @@ impl Correction {
                 "the projection is singular at the point".into(),
             ));
         }
-        Ok((g + step).map(|v| v / self.unit_m).into())
+        let moved = g + step;
+        Ok(if metres {
+            moved.into()
+        } else {
+            moved.map(|v| v / self.unit_m).into()
+        })
     }
 }
 

@@ -349,21 +349,17 @@ impl CoordinateBlock<'_> {
 fn step_of(t: &las::Transform, n: f64) -> Option<i32> {
     let v = (n - t.offset) / t.scale;
     // (NaN fails the comparison.)
-    if v.abs().partial_cmp(&2_147_483_647.0) != Some(std::cmp::Ordering::Less) {
-        return None;
-    }
-    // |v| < 2³¹: the truncation is exact in i64 and `v − i` exact in f64.
-    let i = v as i64;
-    let f = v - i as f64;
-    let r = if f >= 0.5 {
-        i + 1
-    } else if f <= -0.5 {
-        i - 1
+    if v.abs() < 2_147_483_647.0 {
+        // |v| < 2³¹: the truncation is exact in i64 and `v − i` exact in f64; the halves go
+        // away from zero. Without branches: the fractions are random.
+        let i = v as i64;
+        let f = v - i as f64;
+        let r = i + i64::from(f >= 0.5) - i64::from(f <= -0.5);
+        // |r| ≤ 2³¹ − 1: within i32.
+        Some(r as i32)
     } else {
-        i
-    };
-    // |r| ≤ 2³¹ − 1: within i32.
-    Some(r as i32)
+        None
+    }
 }
 
 /// X, Y, Z of a record (scale and offset applied).
