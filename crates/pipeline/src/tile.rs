@@ -32,7 +32,7 @@ use std::sync::mpsc::{Receiver, Sender, SyncSender, channel};
 const BLOCK: usize = 4096;
 
 /// Points of a chunk computed and handed to the writer at a time (whole blocks).
-const PIECE: usize = 24 * BLOCK;
+const PIECE: usize = 12 * BLOCK;
 
 /// σ overrides for a conic return without a water leg: no water travel time.
 const NO_WATER_LEG: [(Source, f64); 1] = [(Source::TimeWater, 0.0)];
