@@ -91,6 +91,7 @@ fn wrap_pi(a: f64) -> f64 {
 /// keep full precision (nalgebra's `angle()` uses `acos`, good only to ~1e-8 rad). The half
 /// angle's sine and cosine come from [`sin_cos_small`]: a segment turns by far less than its
 /// series' range at any trajectory rate.
+#[inline(always)]
 fn slerp(a: &UnitQuaternion<f64>, turn: &Option<Turn>, w: f64) -> UnitQuaternion<f64> {
     match turn {
         None => *a,
