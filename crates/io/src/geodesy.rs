@@ -87,6 +87,7 @@ impl Ellipsoid {
 
     /// [`Ellipsoid::geodetic_to_ecef`] from the sines and cosines of latitude and longitude an
     /// inverse projection gives ([`Unprojected`]): no trigonometry per point.
+    #[inline]
     pub fn ecef_from_unprojected(&self, u: &Unprojected, height_m: f64) -> Ecef {
         let (sp, cp) = (u.sin_latitude, u.cos_latitude);
         let n = self.a_m / (1.0 - self.e2() * sp * sp).sqrt();

@@ -158,7 +158,7 @@ pub struct GpsWeekTime {
 /// assert_eq!(w.seconds_of_week_s, 10.25);
 /// ```
 pub fn adjusted_standard_to_week(adjusted_s: f64) -> GpsWeekTime {
-    let week = ((adjusted_s + ADJUSTED_GPS_OFFSET_S) / SECONDS_PER_WEEK_S).floor();
+    let week = lidarqa_model::floor_f64((adjusted_s + ADJUSTED_GPS_OFFSET_S) / SECONDS_PER_WEEK_S);
     let mut sow = adjusted_s - (week * SECONDS_PER_WEEK_S - ADJUSTED_GPS_OFFSET_S);
     let mut week = week as i64;
     // Guard the floor against rounding at a week boundary.

@@ -24,6 +24,7 @@
 
 use crate::crs::Crs;
 use crate::geodesy::{Ellipsoid, Geodetic};
+use lidarqa_model::floor_i64;
 use nalgebra::{Matrix3, Vector3};
 
 /// Side of a cell, metres of the grid.
@@ -139,19 +140,6 @@ impl GridToEcef {
     }
 }
 
-/// `v.floor() as i64` without the libm call `floor` is on the default x86-64 target (no
-/// SSE4.1 `roundsd`): the truncation, one less below zero when it rounded up. The same value
-/// for every `v`, NaN (0) and beyond the i64 range (saturated) included.
-#[inline]
-fn floor_i64(v: f64) -> i64 {
-    let t = v as i64;
-    if (t as f64) > v {
-        t.saturating_sub(1)
-    } else {
-        t
-    }
-}
-
 /// A worker's recently used cells.
 #[derive(Debug, Default)]
 pub struct CellCache {
@@ -204,42 +192,6 @@ fn eval(c: &[[Vector3<f64>; 3]; 3], u: f64, v: f64) -> (Vector3<f64>, Vector3<f6
 mod tests {
     use super::*;
     use crate::{Hemisphere, UtmZone};
-
-    #[test]
-    fn floor_i64_is_floor() {
-        let mut values = vec![
-            0.0,
-            -0.0,
-            f64::NAN,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            1e300,
-            -1e300,
-            9.3e18,
-            -9.3e18,
-            f64::MIN_POSITIVE,
-            -f64::MIN_POSITIVE,
-        ];
-        for k in [
-            -3.0f64,
-            -1.0,
-            0.0,
-            1.0,
-            2.0,
-            4503599627370495.0,
-            -4503599627370495.0,
-        ] {
-            for d in [-0.5, -1e-12, 0.0, 1e-12, 0.5] {
-                let v = k + d;
-                for ulps in -2i64..=2 {
-                    values.push(f64::from_bits((v.to_bits() as i64 + ulps) as u64));
-                }
-            }
-        }
-        for v in values {
-            assert_eq!(floor_i64(v), v.floor() as i64, "{v}");
-        }
-    }
 
     #[test]
     fn the_cell_model_matches_the_exact_map() {

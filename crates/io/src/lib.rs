@@ -48,7 +48,7 @@ pub use gpstime::{
     week_to_adjusted_standard,
 };
 pub use grid_to_ecef::{CellCache, GridToEcef, MapAt};
-pub use local_inverse::{CELL_M, InverseKind, Inverted, LocalInverse, TOLERANCE};
+pub use local_inverse::{CELL_M, InverseKind, Inverted, LocalInverse, Located, TOLERANCE};
 pub use pointcloud::{
     CLASS_BATHYMETRY, CLASS_WATER_SURFACE, CoordinateBlock, ExtraDim, LasInfo, LasPoint, LasReader,
     LasWriteOptions, LasWriter, PointChunk, RawChunk, RawPoint, WRITE_BATCH_POINTS,

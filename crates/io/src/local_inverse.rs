@@ -13,6 +13,7 @@
 
 use crate::crs::Crs;
 use crate::geodesy::Unprojected;
+use lidarqa_model::floor_i64;
 
 /// Side of a cell, m (grid metres).
 pub const CELL_M: f64 = 2000.0;
@@ -25,8 +26,11 @@ pub const TOLERANCE: f64 = 2e-15;
 
 /// Nodes per axis (degree + 1).
 const NODES: usize = 5;
-/// Values interpolated: φ, λ, sin φ, cos φ, sin λ, cos λ, sin γ, cos γ, k.
+/// Values interpolated: sin φ, cos φ, sin λ, cos λ, λ, φ, sin γ, cos γ, k (what
+/// [`LocalInverse::at_located`] needs first, so that it sums only those).
 const OUTPUTS: usize = 9;
+/// The first outputs: what [`Located`] holds.
+const LOCATED: usize = 5;
 /// Check points per axis (between and beyond the nodes, corners included).
 const CHECKS: usize = 7;
 
@@ -44,17 +48,47 @@ pub struct Inverted {
 impl Inverted {
     fn from_values(v: &[f64; OUTPUTS]) -> Inverted {
         Inverted {
-            latitude_rad: v[0],
-            longitude_rad: v[1],
+            latitude_rad: v[5],
+            longitude_rad: v[4],
             unprojected: Unprojected {
-                sin_latitude: v[2],
-                cos_latitude: v[3],
-                sin_longitude: v[4],
-                cos_longitude: v[5],
+                sin_latitude: v[0],
+                cos_latitude: v[1],
+                sin_longitude: v[2],
+                cos_longitude: v[3],
                 sin_convergence: v[6],
                 cos_convergence: v[7],
                 scale: v[8],
             },
+        }
+    }
+}
+
+/// What a point's ECEF position and local level frame need: the sines and cosines of its
+/// latitude and longitude, and the longitude (a zone check). [`Inverted`] without the
+/// latitude, the grid convergence and the scale: a per-point caller that needs no more has
+/// fewer terms summed (each value to the same bits as [`LocalInverse::at`]'s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Located {
+    /// sin φ of the geodetic latitude.
+    pub sin_latitude: f64,
+    /// cos φ.
+    pub cos_latitude: f64,
+    /// sin λ of the longitude.
+    pub sin_longitude: f64,
+    /// cos λ.
+    pub cos_longitude: f64,
+    /// Longitude λ, radians.
+    pub longitude_rad: f64,
+}
+
+impl Located {
+    fn from_values(v: &[f64]) -> Located {
+        Located {
+            sin_latitude: v[0],
+            cos_latitude: v[1],
+            sin_longitude: v[2],
+            cos_longitude: v[3],
+            longitude_rad: v[4],
         }
     }
 }
@@ -109,19 +143,20 @@ impl<'a> LocalInverse<'a> {
             cells: Vec::new(),
         };
         let mut n = 0usize;
-        let mut lo = [i64::MAX; 2];
-        let mut hi = [i64::MIN; 2];
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
         for p in xy_m.filter(|p| p[0].is_finite() && p[1].is_finite()) {
             n += 1;
             for k in 0..2 {
-                let c = cell_index(p[k]);
-                lo[k] = lo[k].min(c);
-                hi[k] = hi[k].max(c);
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
             }
         }
         if n == 0 {
             return empty;
         }
+        // The cell index is monotonic in the coordinate: the cells of the extremes bound all.
+        let (lo, hi) = (lo.map(cell_index), hi.map(cell_index));
         let span = |k: usize| hi[k].saturating_sub(lo[k]).saturating_add(1);
         let (columns, rows) = (span(0), span(1));
         let cells = columns.saturating_mul(rows);
@@ -140,8 +175,17 @@ impl<'a> LocalInverse<'a> {
     /// The inverse at a grid point (metres): from its cell's interpolant, else exactly.
     pub fn at(&self, x_m: f64, y_m: f64) -> Inverted {
         match self.cell(x_m, y_m) {
-            Some(cell) => Inverted::from_values(&cell.eval(x_m, y_m)),
+            Some(cell) => Inverted::from_values(&cell.eval::<OUTPUTS>(x_m, y_m)),
             None => Inverted::from_values(&self.exact(x_m, y_m)),
+        }
+    }
+
+    /// [`LocalInverse::at`]'s sines, cosines and longitude alone (the same bits).
+    #[inline]
+    pub fn at_located(&self, x_m: f64, y_m: f64) -> Located {
+        match self.cell(x_m, y_m) {
+            Some(cell) => Located::from_values(&cell.eval::<LOCATED>(x_m, y_m)),
+            None => Located::from_values(&self.exact(x_m, y_m)),
         }
     }
 
@@ -161,7 +205,7 @@ impl<'a> LocalInverse<'a> {
             .as_ref()
     }
 
-    /// The exact function: φ, λ, sin φ, cos φ, sin λ, cos λ, sin γ, cos γ, k.
+    /// The exact function: sin φ, cos φ, sin λ, cos λ, λ, φ, sin γ, cos γ, k.
     fn exact(&self, x_m: f64, y_m: f64) -> [f64; OUTPUTS] {
         match self.kind {
             InverseKind::Exact => {
@@ -170,17 +214,17 @@ impl<'a> LocalInverse<'a> {
                 let (sp, cp) = lat.sin_cos();
                 let (sl, cl) = lon.sin_cos();
                 let (sg, cg) = p.convergence_rad.sin_cos();
-                [lat, lon, sp, cp, sl, cl, sg, cg, p.scale]
+                [sp, cp, sl, cl, lon, lat, sg, cg, p.scale]
             }
             InverseKind::Series => {
                 let u = self.crs.unproject(x_m, y_m);
                 [
-                    u.latitude_rad(),
-                    u.longitude_rad(),
                     u.sin_latitude,
                     u.cos_latitude,
                     u.sin_longitude,
                     u.cos_longitude,
+                    u.longitude_rad(),
+                    u.latitude_rad(),
                     u.sin_convergence,
                     u.cos_convergence,
                     u.scale,
@@ -231,7 +275,7 @@ impl<'a> LocalInverse<'a> {
             for b in 0..CHECKS {
                 let x = centre[0] - half + step * a as f64;
                 let y = centre[1] - half + step * b as f64;
-                let (got, want) = (cell.eval(x, y), self.exact(x, y));
+                let (got, want) = (cell.eval::<OUTPUTS>(x, y), self.exact(x, y));
                 if got.iter().zip(&want).any(|(g, w)| {
                     (g - w).abs().is_nan() || (g - w).abs() > TOLERANCE * w.abs().max(1.0)
                 }) {
@@ -244,7 +288,8 @@ impl<'a> LocalInverse<'a> {
 }
 
 impl Cell {
-    fn eval(&self, x_m: f64, y_m: f64) -> [f64; OUTPUTS] {
+    /// The first `M` outputs at a grid point.
+    fn eval<const M: usize>(&self, x_m: f64, y_m: f64) -> [f64; M] {
         let half = CELL_M / 2.0;
         let tu = chebyshev((x_m - self.centre[0]) / half);
         let tv = chebyshev((y_m - self.centre[1]) / half);
@@ -256,9 +301,9 @@ impl Cell {
         }
         // Each output's terms are summed in the same order as one dot product per output would
         // (so to the same bits), all outputs side by side (vectorised).
-        let mut sums = [0.0; OUTPUTS];
+        let mut sums = [0.0; M];
         for (c, b) in self.coefficients.iter().zip(&basis) {
-            for (s, a) in sums.iter_mut().zip(c) {
+            for (s, a) in sums.iter_mut().zip(&c[..M]) {
                 *s += a * b;
             }
         }
@@ -277,8 +322,9 @@ fn chebyshev(u: f64) -> [f64; NODES] {
     t
 }
 
+/// `⌊v / CELL_M⌋` ([`floor_i64`]: no libm call per point).
 fn cell_index(v_m: f64) -> i64 {
-    (v_m / CELL_M).floor() as i64
+    floor_i64(v_m / CELL_M)
 }
 
 #[cfg(test)]
@@ -341,6 +387,36 @@ mod tests {
             for kind in [InverseKind::Exact, InverseKind::Series] {
                 let e = max_error(&c, kind, &pts);
                 assert!(e <= TOLERANCE, "EPSG {epsg} {kind:?}: {e:e}");
+            }
+        }
+    }
+
+    #[test]
+    fn located_values_are_those_of_the_full_inverse() {
+        let c = crs(32632);
+        for kind in [InverseKind::Exact, InverseKind::Series] {
+            let pts = points(499_000.0, 5_320_000.0, 3000.0, 2000.0, 5000);
+            let li = LocalInverse::new(&c, kind, pts.iter().copied());
+            assert!(li.all_cells_fitted());
+            // The last point is outside the cells: the exact function.
+            for p in pts.iter().chain([&[530_000.0, 5_300_000.0]]) {
+                let (a, l) = (li.at(p[0], p[1]), li.at_located(p[0], p[1]));
+                let u = a.unprojected;
+                let want = [
+                    u.sin_latitude,
+                    u.cos_latitude,
+                    u.sin_longitude,
+                    u.cos_longitude,
+                    a.longitude_rad,
+                ];
+                let got = [
+                    l.sin_latitude,
+                    l.cos_latitude,
+                    l.sin_longitude,
+                    l.cos_longitude,
+                    l.longitude_rad,
+                ];
+                assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits));
             }
         }
     }

@@ -35,6 +35,7 @@ mod frames;
 mod georeferencer;
 mod linear;
 pub mod lm;
+mod numeric;
 mod plane;
 mod rotation;
 mod scalar;
@@ -56,6 +57,7 @@ pub use linear::{
     LINEAR_N, LinearObservation, LinearScanner, OffPlaneLinearScanner, linear_jacobian_at_beam,
     linear_range_for_height, scanner_vector,
 };
+pub use numeric::{floor_f64, floor_i64};
 pub use plane::{Plane, fit_plane, normal_of_scatter, plane_of_scatter};
 pub use rotation::{
     ecef_from_ned, ecef_from_ned_sin_cos, ned_from_ecef, rot_x, rot_y, rot_z, rotation_zyx,

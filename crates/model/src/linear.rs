@@ -103,6 +103,7 @@ fn linear_jacobian(
 /// back, without their trigonometry. `∂S/∂ρ = S/ρ` and `∂S/∂θ' = (−S_y S_x/h, h, −S_y S_z/h)`
 /// with `h = √(S_x² + S_z²) = ρ cos θ'`; `R_N`'s partials from its axes ([`zyx_axes_of`]). This is
 /// the per-point TPU's kernel for a recovered point.
+#[inline]
 pub fn linear_jacobian_at_beam(
     body_to_ned: &Matrix3<f64>,
     mounting: &MountingPartials,

@@ -450,6 +450,11 @@ pub fn crs_name(crs: &lidarqa_io::Crs) -> String {
 /// Whether a point at `longitude_rad` lies outside a UTM zone with central meridian
 /// `central_meridian_rad` (± 3° + [`ZONE_MARGIN_DEG`]).
 pub fn outside_zone(longitude_rad: f64, central_meridian_rad: f64) -> bool {
+    // Within 3.5° without wrapping (no `fmod` per point of a tile): inside, whatever the
+    // rounding of the wrap below.
+    if (longitude_rad - central_meridian_rad).abs() < 3.5f64.to_radians() {
+        return false;
+    }
     wrapped(longitude_rad, central_meridian_rad)
         .to_degrees()
         .abs()

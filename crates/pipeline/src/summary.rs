@@ -9,7 +9,7 @@
 //! Storing every value would give exact percentiles but memory proportional to the survey.
 
 use crate::plausibility::{MountingView, PlausibilityTally};
-use lidarqa_model::{NORMAL_95_FACTOR, Warning};
+use lidarqa_model::{NORMAL_95_FACTOR, Warning, floor_i64};
 use lidarqa_tpu::{IhoLimits, IhoOrder, THU_95_CBLUE, TVU_95_FACTOR};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -271,34 +271,25 @@ impl SigmaMap {
     }
 
     /// Adds points' σ vertical, `[x, y, σ]` each, as [`add`](Self::add) one by one. The
-    /// current cell's sums are taken out of the map while consecutive points fall in it (the
-    /// common case in scan order) and put back when they leave it: the same additions in the
-    /// same order, without a search of the map per point.
+    /// current cell's entry is kept while consecutive points fall in it (the common case in
+    /// scan order): the same additions in the same order, one search of the map per cell
+    /// entered.
     pub fn add_all(&mut self, points: impl IntoIterator<Item = [f64; 3]>) {
-        let mut run: Option<((i64, i64), (f64, u64))> = None;
+        // The current cell's key and its (Σ σ, count).
+        type Run<'a> = Option<((i64, i64), &'a mut (f64, u64))>;
+        let mut run: Run<'_> = None;
         for [x, y, sigma_vertical_m] in points {
             if !(x.is_finite() && y.is_finite() && sigma_vertical_m.is_finite()) {
                 continue;
             }
-            let key = (
-                (x / self.cell_m).floor() as i64,
-                (y / self.cell_m).floor() as i64,
-            );
-            let e = match &mut run {
-                Some((k, e)) if *k == key => e,
-                _ => {
-                    if let Some((k, e)) = run.take() {
-                        self.cells.insert(k, e);
-                    }
-                    let e = self.cells.remove(&key).unwrap_or((0.0, 0));
-                    &mut run.insert((key, e)).1
-                }
-            };
-            e.0 += sigma_vertical_m;
-            e.1 += 1;
-        }
-        if let Some((k, e)) = run {
-            self.cells.insert(k, e);
+            let key = (floor_i64(x / self.cell_m), floor_i64(y / self.cell_m));
+            if !matches!(&run, Some((k, _)) if *k == key) {
+                run = Some((key, self.cells.entry(key).or_insert((0.0, 0))));
+            }
+            if let Some((_, e)) = &mut run {
+                e.0 += sigma_vertical_m;
+                e.1 += 1;
+            }
         }
     }
 

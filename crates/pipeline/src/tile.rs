@@ -26,6 +26,7 @@ use lidarqa_tpu::{
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, Sender, SyncSender, channel};
 
 /// Points per parallel work item.
@@ -163,6 +164,7 @@ pub fn tpu_tile_with_progress(
         } else {
             InverseKind::Exact
         },
+        convergence: ctx.options.covariance || file_normals,
     };
     let step_deg = if info.point_format >= 6 { 0.006 } else { 1.0 };
     let mut summary = TpuSummary::new(kernel.kind(), kernel.source_names(), n_sigma);
@@ -307,6 +309,9 @@ struct Prepare {
     /// borderline point across, so it keeps the exact inverse. Either is interpolated per
     /// chunk ([`LocalInverse`]) to its own rounding.
     inverse: InverseKind,
+    /// The grid convergence is used (the covariance in grid axes, the file's normals): else
+    /// only the latitude's and longitude's sines and cosines are interpolated.
+    convergence: bool,
 }
 
 #[derive(Debug, Clone)]
@@ -320,9 +325,9 @@ struct Prep {
     ecef: Ecef,
     /// X, Y, Z of the CRS in metres (feet converted).
     xyz_m: [f64; 3],
-    latitude_rad: f64,
     longitude_rad: f64,
-    /// sin / cos of the latitude, longitude and grid convergence there, and the point scale.
+    /// sin / cos of the latitude, longitude and grid convergence there, and the point scale
+    /// (the convergence and scale NaN unless [`Prepare::convergence`]).
     unprojected: Unprojected,
     time_sow_s: f64,
     state: PrepState,
@@ -346,6 +351,8 @@ struct Prepared {
     /// The records as the file stores them: the compute stage appends the σ to each.
     chunk: RawChunk,
     pts: Vec<Prep>,
+    /// Points with a finite position and a usable time ([`PrepState::Ok`]).
+    usable: usize,
 }
 
 impl Prepare {
@@ -354,7 +361,6 @@ impl Prepare {
         let mut out = Prep {
             ecef: Ecef::default(),
             xyz_m: [x, y, z].map(|v| v * self.unit_m),
-            latitude_rad: 0.0,
             longitude_rad: 0.0,
             unprojected: Unprojected {
                 sin_latitude: 0.0,
@@ -376,14 +382,27 @@ impl Prepare {
         // LAS Z plus the geoid separation (0 unless given) is the ellipsoidal height.
         let height_m = z_m + self.height_offset_m;
         // ECEF from the inverse's sines and cosines.
-        let g = inverse.at(x_m, y_m);
-        out.latitude_rad = g.latitude_rad;
-        out.longitude_rad = g.longitude_rad;
-        out.unprojected = g.unprojected;
+        if self.convergence {
+            let g = inverse.at(x_m, y_m);
+            out.longitude_rad = g.longitude_rad;
+            out.unprojected = g.unprojected;
+        } else {
+            let g = inverse.at_located(x_m, y_m);
+            out.longitude_rad = g.longitude_rad;
+            out.unprojected = Unprojected {
+                sin_latitude: g.sin_latitude,
+                cos_latitude: g.cos_latitude,
+                sin_longitude: g.sin_longitude,
+                cos_longitude: g.cos_longitude,
+                sin_convergence: f64::NAN,
+                cos_convergence: f64::NAN,
+                scale: f64::NAN,
+            };
+        }
         out.ecef = self
             .crs
             .ellipsoid()
-            .ecef_from_unprojected(&g.unprojected, height_m);
+            .ecef_from_unprojected(&out.unprojected, height_m);
         match p.gps_time().map(|t| self.converter.to_seconds_of_week(t)) {
             Some(Ok(t)) => out.time_sow_s = t,
             Some(Err(e)) => out.state = PrepState::BadTime(e.to_string()),
@@ -423,12 +442,21 @@ impl Prepare {
                 [x * unit_m, y * unit_m]
             }),
         );
+        // Counted as they are made: no walk of the chunk for it later.
+        let unusable = AtomicUsize::new(0);
         (0..chunk.len())
             .into_par_iter()
-            .map(|i| self.point(chunk.point(i), &inverse))
+            .map(|i| {
+                let p = self.point(chunk.point(i), &inverse);
+                if !matches!(p.state, PrepState::Ok) {
+                    unusable.fetch_add(1, Ordering::Relaxed);
+                }
+                p
+            })
             .collect_into_vec(&mut pts);
         Prepared {
             first_index: chunk.first_index(),
+            usable: pts.len() - unusable.into_inner(),
             chunk,
             pts,
         }
@@ -502,6 +530,12 @@ struct Partial {
     mounting: MountingTally,
     /// Implausible points written: index, range (m), residual (m).
     implausible: Vec<(u64, f64, f64)>,
+    /// Usable points outside the UTM zone's area.
+    outside_zone: u64,
+    /// Usable points outside the trajectory σ's time span.
+    outside_sigma_span: u64,
+    /// A point failed ([`Slot::Failed`]).
+    failed: bool,
     /// The trajectory segment of the block's previous point ([`Trajectory::at_from`]).
     pose_hint: usize,
     /// Where the block's previous sounding found its surface return
@@ -719,19 +753,23 @@ impl Run<'_> {
                 let mut acc = Partial {
                     shares: vec![0.0; n_sources],
                     mounting: self.tally0,
+                    scan: Vec::with_capacity(block.len()),
+                    residual: Vec::with_capacity(block.len()),
                     ..Partial::default()
                 };
                 for (k, slot) in block.iter_mut().enumerate() {
                     let i = first + b * BLOCK + k;
                     let surface = surfaces.get(i).copied().flatten();
                     *slot = self.point(cur, i, surface, water, &mut acc);
+                    acc.failed |= matches!(slot, Slot::Failed(_));
                 }
                 acc
             })
             .collect::<Vec<Partial>>();
+        let failed = partials.iter().any(|p| p.failed);
         blocks.extend(partials);
         // The first failure in file order, so the message is deterministic.
-        if let Some(i) = slots.iter().position(|s| matches!(s, Slot::Failed(_))) {
+        if failed && let Some(i) = slots.iter().position(|s| matches!(s, Slot::Failed(_))) {
             if let Slot::Failed(e) = std::mem::take(&mut slots[i]) {
                 return Err(*e);
             }
@@ -748,33 +786,43 @@ impl Run<'_> {
         summary: &mut TpuSummary,
     ) {
         let conic = matches!(self.kernel, Kernel::Conic(..));
-        let pts = &cur.pts[first..];
-        for (i, s) in slots.iter().enumerate() {
-            match s {
-                Slot::Ok(sig, sounding, _) => {
-                    summary.points_written += 1;
-                    let [x_m, y_m, _] = pts[i].xyz_m;
-                    if let Some(r) = sounding {
-                        summary.iho.add(r, x_m, y_m);
+        // One walk of the slots and points: the σ map takes them as an iterator, and the
+        // other tallies are added as it goes (each in file order, as before).
+        let TpuSummary {
+            points_written,
+            iho,
+            sigma,
+            skipped,
+            map,
+            ..
+        } = summary;
+        map.add_all(
+            slots
+                .iter()
+                .zip(&cur.pts[first..])
+                .filter_map(|(s, p)| match s {
+                    Slot::Ok(sig, sounding, _) => {
+                        *points_written += 1;
+                        let [x_m, y_m, _] = p.xyz_m;
+                        if let Some(r) = sounding {
+                            iho.add(r, x_m, y_m);
+                        }
+                        for (h, v) in sigma.iter_mut().zip(sig) {
+                            h.add(*v);
+                        }
+                        if conic {
+                            sigma[5].add(THU_95_CBLUE * sig[3]);
+                            sigma[6].add(TVU_95_FACTOR * sig[4]);
+                        }
+                        Some([x_m, y_m, sig[4]])
                     }
-                    for (h, v) in summary.sigma.iter_mut().zip(sig) {
-                        h.add(*v);
+                    Slot::Skipped(r) => {
+                        *skipped.entry(*r).or_default() += 1;
+                        None
                     }
-                    if conic {
-                        summary.sigma[5].add(THU_95_CBLUE * sig[3]);
-                        summary.sigma[6].add(TVU_95_FACTOR * sig[4]);
-                    }
-                }
-                Slot::Skipped(r) => *summary.skipped.entry(*r).or_default() += 1,
-                Slot::Pending | Slot::Failed(_) => {}
-            }
-        }
-        summary
-            .map
-            .add_all(slots.iter().zip(pts).filter_map(|(s, p)| match s {
-                Slot::Ok(sig, ..) => Some([p.xyz_m[0], p.xyz_m[1], sig[4]]),
-                _ => None,
-            }));
+                    Slot::Pending | Slot::Failed(_) => None,
+                }),
+        );
     }
 
     /// Adds a chunk's block statistics (in block order) to the summary.
@@ -782,8 +830,9 @@ impl Run<'_> {
         let n_sources = summary.share_sums.len();
         // Summed sequentially in block order: a parallel `reduce` would add the shares in an
         // order that depends on work stealing, and the summary would differ in the last bits
-        // from run to run (and between the CLI and a job array).
-        let partial = blocks.into_iter().fold(
+        // from run to run (and between the CLI and a job array). The blocks' scan-angle and
+        // residual values are added in file order below, straight from each block's vector.
+        let partial = blocks.iter().fold(
             Partial {
                 shares: vec![0.0; n_sources],
                 mounting: self.tally0,
@@ -791,14 +840,15 @@ impl Run<'_> {
             },
             |mut a, b| {
                 a.mounting.merge(&b.mounting);
-                a.implausible.extend(b.implausible);
+                a.implausible.extend(&b.implausible);
                 for (x, y) in a.shares.iter_mut().zip(&b.shares) {
                     *x += y;
                 }
                 a.with_normal += b.with_normal;
                 a.incidence.merge(&b.incidence);
-                a.scan.extend(b.scan);
-                a.residual.extend(b.residual);
+                a.outside_zone += b.outside_zone;
+                a.outside_sigma_span += b.outside_sigma_span;
+                a.failed |= b.failed;
                 a
             },
         );
@@ -807,12 +857,18 @@ impl Run<'_> {
         }
         summary.with_normal += partial.with_normal;
         summary.incidence.merge(&partial.incidence);
-        for d in partial.scan {
-            summary.scan_angle.add(d);
+        for b in &blocks {
+            for d in &b.scan {
+                summary.scan_angle.add(*d);
+            }
         }
-        for q in partial.residual {
-            summary.recovery_residual.add(q);
+        for b in &blocks {
+            for q in &b.residual {
+                summary.recovery_residual.add(*q);
+            }
         }
+        summary.plausibility.outside_zone += partial.outside_zone;
+        summary.plausibility.outside_sigma_span += partial.outside_sigma_span;
         summary.plausibility.mounting.merge(&partial.mounting);
         for (index, range_m, q) in partial.implausible {
             summary
@@ -822,17 +878,22 @@ impl Run<'_> {
     }
 
     /// The chunk-level plausibility checks: the points near the trajectory (else an error naming
-    /// the CRS), none in a trajectory gap, within the zone's area and the
-    /// trajectory σ's span (counted for warnings).
+    /// the CRS), none in a trajectory gap.
     fn check_chunk(&self, cur: &Prepared, summary: &mut TpuSummary) -> Result<()> {
         let ok = || cur.pts.iter().filter(|p| matches!(p.state, PrepState::Ok));
-        if ok().next().is_none() {
+        let n_ok = cur.usable;
+        if n_ok == 0 {
             return Ok(());
         }
         // Only the points the check looks at are put on the trajectory (cost: ~101 per chunk).
-        let step = ok().count().div_ceil(DISTANCE_SAMPLES).max(1);
-        let samples: Vec<_> = ok()
-            .step_by(step)
+        let step = n_ok.div_ceil(DISTANCE_SAMPLES).max(1);
+        let sampled: Box<dyn Iterator<Item = &Prep>> = if n_ok == cur.pts.len() {
+            // Every point is usable (the usual case): the same points, without a walk.
+            Box::new(cur.pts.iter().step_by(step))
+        } else {
+            Box::new(ok().step_by(step))
+        };
+        let samples: Vec<_> = sampled
             .filter_map(|p| {
                 let pose = self.trajectory.at(p.time_sow_s).ok()?;
                 Some((
@@ -862,19 +923,8 @@ impl Run<'_> {
                 &times,
             )?
         };
-        let p = &mut summary.plausibility;
-        p.warn(w);
-        p.outside_zone += ok()
-            .filter(|q| {
-                self.central_meridian_rad
-                    .is_some_and(|c| outside_zone(q.longitude_rad, c))
-            })
-            .count() as u64;
-        if let Some([a, b]) = self.ctx.sigma_span_s {
-            p.outside_sigma_span += ok()
-                .filter(|q| q.time_sow_s < a || q.time_sow_s > b)
-                .count() as u64;
-        }
+        // Points outside the zone's area and the σ's span are counted in the per-point loop.
+        summary.plausibility.warn(w);
         Ok(())
     }
 
@@ -947,7 +997,21 @@ impl Run<'_> {
                 );
             }
         }
-        let pose = match self.trajectory.at_from(p.time_sow_s, &mut acc.pose_hint) {
+        // Within the zone's area and the trajectory σ's span (counted for warnings).
+        if self
+            .central_meridian_rad
+            .is_some_and(|c| outside_zone(p.longitude_rad, c))
+        {
+            acc.outside_zone += 1;
+        }
+        if let Some([a, b]) = self.ctx.sigma_span_s
+            && (p.time_sow_s < a || p.time_sow_s > b)
+        {
+            acc.outside_sigma_span += 1;
+        }
+        // Borrowed where it was returned, not moved out of the `Result` (a copy per point).
+        let pose_at = self.trajectory.at_from(p.time_sow_s, &mut acc.pose_hint);
+        let pose = match &pose_at {
             Ok(pose) => pose,
             Err(_) => {
                 let (start_s, end_s) = self.trajectory.span_s();
@@ -967,7 +1031,7 @@ impl Run<'_> {
         let sigma = self.ctx.sigmas.as_ref().map(|s| s.at(p.time_sow_s));
         let sounding = match (self.kernel, water) {
             (Kernel::Conic(_, scanner), Some(w)) if lp.classification() == CLASS_BATHYMETRY => {
-                Some(self.recover_sounding(scanner, &pose, p, w, &mut acc.water_hint))
+                Some(self.recover_sounding(scanner, pose, p, w, &mut acc.water_hint))
             }
             _ => None,
         };
@@ -988,11 +1052,11 @@ impl Run<'_> {
         let shares_before = opts.skip_invalid.then(|| acc.shares.clone());
         let result = match sounding {
             None => self
-                .propagate(&pose, p, lp, sigma.as_ref(), normal, acc)
+                .propagate(pose, p, lp, sigma.as_ref(), normal, acc)
                 .map(|(c, r)| (c, None, Some(r))),
             Some(Err(e)) => Err(e),
             Some(Ok(rec)) => self
-                .propagate_sounding(&rec, &pose, sigma.as_ref(), acc)
+                .propagate_sounding(&rec, pose, sigma.as_ref(), acc)
                 .map(|c| (c, Some(rec), None)),
         };
         match result {
@@ -1001,8 +1065,13 @@ impl Run<'_> {
                 // by the geodesic angle between them, ~1e-4 rad at 600 m; cheap to do exactly).
                 // (`pose.ecef_to_ned` is `ecef_from_ned` at the pose, transposed.)
                 let m = p.ecef_from_ned().transpose() * pose.ecef_to_ned.transpose();
-                let c = m * cov_at_p0 * m.transpose();
-                let (n2, e2, u2) = (c[(0, 0)].max(0.0), c[(1, 1)].max(0.0), c[(2, 2)].max(0.0));
+                // The whole matrix for a sounding's THU and the covariance, else its diagonal.
+                let c = (rec.is_some() || opts.covariance).then(|| m * cov_at_p0 * m.transpose());
+                let [n2, e2, u2] = match &c {
+                    Some(c) => [c[(0, 0)], c[(1, 1)], c[(2, 2)]],
+                    None => rotated_diagonal(&m, &cov_at_p0),
+                }
+                .map(|v| v.max(0.0));
                 if let Some(r) = recovered {
                     let sigma_3d = (n2 + e2 + u2).sqrt();
                     if point_implausible(r.range_m, r.residual_m, sigma_3d) {
@@ -1018,7 +1087,7 @@ impl Run<'_> {
                         acc.mounting.add(r.residual_m, sigma_3d, r.body_m.as_ref());
                     }
                 }
-                let result = rec.map(|r| SoundingResult {
+                let result = rec.zip(c.as_ref()).map(|(r, c)| SoundingResult {
                     depth_m: r.depth_m,
                     thu_95_m: thu_95_m(&c.fixed_view::<2, 2>(0, 0).into_owned()),
                     tvu_95_m: TVU_95_FACTOR * u2.sqrt(),
@@ -1027,7 +1096,7 @@ impl Run<'_> {
                     sigma_horizontal_m: (n2 + e2).sqrt(),
                     sigma_vertical_m: u2.sqrt(),
                 });
-                let cov = if opts.covariance {
+                let cov = if let (true, Some(c)) = (opts.covariance, c) {
                     // NED (true) → grid (easting, northing, up): a true azimuth α is the grid
                     // azimuth α − γ. Ground metres, not scaled by the point scale factor.
                     let (sg, cg) = (p.unprojected.sin_convergence, p.unprojected.cos_convergence);
@@ -1152,18 +1221,28 @@ impl Run<'_> {
         };
         let (cov, recovered) = match self.kernel {
             Kernel::Linear(pp) => {
-                let r = self.recoverer.linear_ecef(pose, &p.ecef)?;
+                // The beam is the incidence term's alone.
+                let r = if normal.is_some() {
+                    self.recoverer.linear_ecef(pose, &p.ecef)?
+                } else {
+                    self.recoverer.linear_ecef_without_beam(pose, &p.ecef)?
+                };
                 // The beam as recovered, out-of-plane part included (β): near nadir the range
                 // and attitude σ depend on the small across-track part, which the projection
                 // on the scan plane would change. The Jacobian at the parameters of
                 // `r.off_plane()`, from S itself.
-                let (footprint, j) = linear_jacobian_at_beam(
+                let fj = linear_jacobian_at_beam(
                     &pose.body_to_ned,
                     &self.mounting_partials,
                     &r.scanner_m,
                 );
                 let inc = incidence(r.range_m, r.beam_ned);
-                let u = pp.propagate_jacobian(footprint, &j, sigma, inc.as_ref(), &[])?;
+                // Borrowed, not moved out of the `Result`.
+                let propagated = pp.propagate_jacobian(fj.0, &fj.1, sigma, inc.as_ref(), &[]);
+                let u = match propagated {
+                    Ok(ref u) => u,
+                    Err(e) => return Err(e),
+                };
                 acc.scan
                     .push(r.scan_angle_rad.to_degrees() - f64::from(lp.scan_angle_deg()));
                 add_shares(
@@ -1250,10 +1329,24 @@ fn water_returns(c: &Prepared, from: usize, to: usize) -> Vec<(u64, WaterReturn)
 fn add_shares(shares: &mut [f64], vars: &[f64], incidence_m2: f64) {
     let total: f64 = vars.iter().sum::<f64>() + incidence_m2;
     if total > 0.0 {
-        for (s, v) in shares.iter_mut().zip(vars.iter().chain([&incidence_m2])) {
+        // The model's sources over plain slices (the divisions vectorise), then the incidence.
+        let (model, incidence) = shares.split_at_mut(vars.len().min(shares.len()));
+        for (s, v) in model.iter_mut().zip(vars) {
             *s += v / total;
         }
+        if let Some(s) = incidence.first_mut() {
+            *s += incidence_m2 / total;
+        }
     }
+}
+
+/// The diagonal of `m c mᵀ`, each element the same sums in the same order as nalgebra's
+/// product (so to the same bits), without the off-diagonal ones.
+fn rotated_diagonal(m: &Matrix3<f64>, c: &Matrix3<f64>) -> [f64; 3] {
+    std::array::from_fn(|r| {
+        let t = |k: usize| m[(r, 0)] * c[(0, k)] + m[(r, 1)] * c[(1, k)] + m[(r, 2)] * c[(2, k)];
+        t(0) * m[(r, 0)] + t(1) * m[(r, 1)] + t(2) * m[(r, 2)]
+    })
 }
 
 fn valid_ecef(pts: &[Prep]) -> impl DoubleEndedIterator<Item = Vector3<f64>> + '_ {
@@ -1265,6 +1358,27 @@ fn valid_ecef(pts: &[Prep]) -> impl DoubleEndedIterator<Item = Vector3<f64>> + '
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rotated_diagonal_is_that_of_the_product_to_the_bit() {
+        let mut s = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for k in 0..20_000 {
+            let m = Matrix3::from_fn(|_, _| next());
+            let a = Matrix3::from_fn(|_, _| next() * 10f64.powi(k % 7 - 4));
+            let c = a * a.transpose();
+            let want = m * c * m.transpose();
+            let got = rotated_diagonal(&m, &c);
+            for r in 0..3 {
+                assert_eq!(got[r].to_bits(), want[(r, r)].to_bits(), "{m} {c}");
+            }
+        }
+    }
 
     #[test]
     fn descriptions_carry_the_factors_the_writer_uses_and_fit_las() {

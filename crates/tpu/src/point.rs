@@ -62,6 +62,9 @@ pub struct PointPropagator<G, const N: usize> {
     off_diagonal: Vec<(usize, usize, f64, f64)>,
     /// Every `ρ_ii` is 1 (a correlation matrix's diagonal): `Σ_i a_i a_iᵀ` is `A Aᵀ`.
     unit_diagonal: bool,
+    /// `ρ_ii σ_i σ_i` of the sensor file's σ: a point without trajectory σ or overrides
+    /// (the usual case) takes them from here.
+    own_variance: SVector<f64, N>,
 }
 
 impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
@@ -93,7 +96,9 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
             .map(|(i, j)| (i, j, correlation[(i, j)], correlation[(j, i)]))
             .collect();
         let unit_diagonal = (0..N).all(|i| correlation[(i, i)] == 1.0);
+        let own_variance = SVector::from_fn(|i, _| correlation[(i, i)] * sigma[i] * sigma[i]);
         Ok(PointPropagator {
+            own_variance,
             unit_diagonal,
             model,
             sigma,
@@ -219,7 +224,10 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
         incidence: Option<&Incidence>,
         sigma_override: &[(Source, f64)],
     ) -> Result<PointUncertainty<N>> {
-        if !(footprint_ned.iter().all(|v| v.is_finite()) && j.iter().all(|v| v.is_finite())) {
+        // Over the slices: nalgebra's element iterator does not vectorise, and this runs for
+        // every point.
+        let finite = |v: &[f64]| v.iter().fold(true, |ok, x| ok & x.is_finite());
+        if !(finite(footprint_ned.as_slice()) && finite(j.as_slice())) {
             return Err(Error::NotFinite {
                 what: "footprint or its Jacobian",
             });
@@ -230,8 +238,14 @@ impl<G: Georeferencer<N>, const N: usize> PointPropagator<G, N> {
         // kernel's largest cost (this runs for every point of a tile).
         let sigma = self.sigma_with(trajectory, sigma_override);
         // Each source's own variance |J_i|² σ_i² = |a_i|².
+        let default_sigma = trajectory.is_none() && sigma_override.is_empty();
         let source_variance_m2 = SVector::<f64, N>::from_fn(|i, _| {
-            j.column(i).norm_squared() * (self.correlation[(i, i)] * sigma[i] * sigma[i])
+            let own = if default_sigma {
+                self.own_variance[i]
+            } else {
+                self.correlation[(i, i)] * sigma[i] * sigma[i]
+            };
+            j.column(i).norm_squared() * own
         });
         let a = |i: usize| j.column(i) * sigma[i];
         let mut covariance_ned = if self.unit_diagonal {

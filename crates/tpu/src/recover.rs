@@ -122,11 +122,19 @@ impl Recoverer {
     /// `S = R_Mᵀ (R_Nᵀ C_NE (P − P0) − ΔP)`, scanner frame, metres; and the beam (scanner
     /// origin → point) in N.
     pub fn scanner_vector(&self, pose: &PoseAt, point: &Ecef) -> (Vector3<f64>, Vector3<f64>) {
+        let s = self.scanner_from_ecef(pose, point);
+        (s, self.beam_of(pose, &s))
+    }
+
+    /// `S` of [`Recoverer::scanner_vector`] alone.
+    fn scanner_from_ecef(&self, pose: &PoseAt, point: &Ecef) -> Vector3<f64> {
         // R_Nᵀ C_NE = (C_EN R_N)ᵀ: straight from ECEF to the body frame.
-        let s = self
-            .scanner_from_body(&(pose.body_to_ecef.transpose() * (*point - pose.position_ecef_m)));
-        // Origin → point in N is R_N R_M S.
-        (s, pose.body_to_ned * (self.r_m * s))
+        self.scanner_from_body(&(pose.body_to_ecef.transpose() * (*point - pose.position_ecef_m)))
+    }
+
+    /// Origin → point in N: `R_N R_M S`.
+    fn beam_of(&self, pose: &PoseAt, s: &Vector3<f64>) -> Vector3<f64> {
+        pose.body_to_ned * (self.r_m * s)
     }
 
     /// Range and scan angle of a linear-scanner point given in ECEF.
@@ -134,16 +142,37 @@ impl Recoverer {
     /// # Errors
     /// [`Error::Recovery`] when the point is at the scanner origin or not finite.
     pub fn linear_ecef(&self, pose: &PoseAt, point: &Ecef) -> Result<LinearRecovery> {
-        let (s, beam) = self.scanner_vector(pose, point);
+        self.linear(pose, point, true)
+    }
+
+    /// [`Recoverer::linear_ecef`] without the beam (`beam_ned` is NaN), for a caller with no
+    /// use for it (the per-point TPU without an incidence term): two rotations and three
+    /// divisions less per point; every other value the same.
+    ///
+    /// # Errors
+    /// As [`Recoverer::linear_ecef`].
+    #[inline]
+    pub fn linear_ecef_without_beam(&self, pose: &PoseAt, point: &Ecef) -> Result<LinearRecovery> {
+        self.linear(pose, point, false)
+    }
+
+    #[inline]
+    fn linear(&self, pose: &PoseAt, point: &Ecef, beam: bool) -> Result<LinearRecovery> {
+        let s = self.scanner_from_ecef(pose, point);
         let range_m = s.norm();
         if !(range_m.is_finite() && range_m > 0.0) {
             return Err(Error::Recovery(format!("range {range_m} m")));
         }
+        let beam_ned = if beam {
+            self.beam_of(pose, &s) / range_m
+        } else {
+            Vector3::repeat(f64::NAN)
+        };
         Ok(LinearRecovery {
             range_m,
             scan_angle_rad: s.y.atan2(s.z),
             out_of_plane_m: s.x,
-            beam_ned: Ned::from_vector(beam / range_m),
+            beam_ned: Ned::from_vector(beam_ned),
             scanner_m: s,
         })
     }
@@ -260,6 +289,18 @@ mod tests {
             if beta == 0.0 {
                 assert_relative_eq!(r.scan_angle_rad, -0.4321, epsilon = 1e-12);
             }
+            // Without the beam: every other value the same bits.
+            let nb = Recoverer::new(&m)
+                .linear_ecef_without_beam(&pose, &point)
+                .unwrap();
+            assert!(nb.beam_ned.vector().iter().all(|v| v.is_nan()));
+            assert_eq!(
+                LinearRecovery {
+                    beam_ned: r.beam_ned,
+                    ..nb
+                },
+                r
+            );
         }
         // seed 000's own scanner gives the same point at β = 0.
         let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&pose.attitude(), &m, &obs));

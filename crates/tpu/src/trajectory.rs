@@ -80,6 +80,9 @@ pub struct Trajectory {
     body_to_ecef: Vec<UnitQuaternion<f64>>,
     /// Segment i's rotation from pose i to pose i + 1.
     turns: Vec<Option<Turn>>,
+    /// Segment i's change of latitude and of longitude (wrapped to (−π, π]), rad: once per
+    /// segment, not per point (the wrap is an `fmod`).
+    lat_lon_steps_rad: Vec<[f64; 2]>,
 }
 
 fn wrap_pi(a: f64) -> f64 {
@@ -91,7 +94,7 @@ fn wrap_pi(a: f64) -> f64 {
 /// keep full precision (nalgebra's `angle()` uses `acos`, good only to ~1e-8 rad). The half
 /// angle's sine and cosine come from [`sin_cos_small`]: a segment turns by far less than its
 /// series' range at any trajectory rate.
-#[inline(always)]
+#[inline]
 fn slerp(a: &UnitQuaternion<f64>, turn: &Option<Turn>, w: f64) -> UnitQuaternion<f64> {
     match turn {
         None => *a,
@@ -169,6 +172,7 @@ impl Trajectory {
             sin_cos_rad: Vec::with_capacity(poses.len()),
             body_to_ecef: Vec::with_capacity(poses.len()),
             turns: Vec::with_capacity(poses.len()),
+            lat_lon_steps_rad: Vec::with_capacity(poses.len()),
         };
         for (i, p) in poses.iter().enumerate() {
             let a = &p.attitude;
@@ -212,6 +216,11 @@ impl Trajectory {
             .windows(2)
             .map(|w| Turn::between(&w[0], &w[1]))
             .collect();
+        t.lat_lon_steps_rad = t
+            .lat_lon_rad
+            .windows(2)
+            .map(|w| [w[1][0] - w[0][0], wrap_pi(w[1][1] - w[0][1])])
+            .collect();
         Ok(t)
     }
 
@@ -248,8 +257,8 @@ impl Trajectory {
         let (i, w) = self.segment_from(time_s, hint)?;
         let position_ecef_m = self.position_at(i, w);
         let [la0, lo0] = self.lat_lon_rad[i];
-        let [la1, lo1] = self.lat_lon_rad[i + 1];
-        let (dla, dlo) = (w * (la1 - la0), w * wrap_pi(lo1 - lo0));
+        let [step_la, step_lo] = self.lat_lon_steps_rad[i];
+        let (dla, dlo) = (w * step_la, w * step_lo);
         let latitude_rad = la0 + dla;
         let lon = lo0 + dlo;
         let longitude_rad = if lon.abs() > PI { wrap_pi(lon) } else { lon };

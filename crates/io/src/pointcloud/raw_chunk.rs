@@ -38,17 +38,20 @@ pub struct RawPoint<'a> {
 
 impl<'a> RawPoint<'a> {
     /// X, Y, Z in the file's CRS units (scale and offset applied).
+    #[inline]
     pub fn xyz(&self) -> [f64; 3] {
         record_xyz(self.record, self.chunk.data.transforms())
     }
 
     /// GPS time, `None` for point formats without time.
+    #[inline]
     pub fn gps_time(&self) -> Option<f64> {
         record_gps_time(self.record, self.chunk.gps_time_at)
     }
 
     /// The classification code as stored: the low 5 bits of the class byte in formats 0–5, the
     /// class byte in formats 6–10 (class 12 stays 12: no overlap flag is derived from it).
+    #[inline]
     pub fn classification(&self) -> u8 {
         if self.chunk.data.format().is_extended {
             self.record[16]
@@ -59,6 +62,7 @@ impl<'a> RawPoint<'a> {
 
     /// Scan angle, degrees: formats 0–5 store whole degrees (i8 at byte 16), 6–10 steps of
     /// 0.006° (i16 at byte 18); the same f32 as `las` gives.
+    #[inline]
     pub fn scan_angle_deg(&self) -> f32 {
         let r = self.record;
         if self.chunk.data.format().is_extended {
@@ -170,6 +174,7 @@ impl RawChunk {
     }
 
     /// Point `i` (panics beyond [`len`](Self::len), as slice indexing does).
+    #[inline]
     pub fn point(&self, i: usize) -> RawPoint<'_> {
         let n = self.data.record_len();
         RawPoint {
