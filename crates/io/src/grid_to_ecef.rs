@@ -24,6 +24,7 @@
 
 use crate::crs::Crs;
 use crate::geodesy::{Ellipsoid, Geodetic};
+use lidarqa_model::floor_i64;
 use nalgebra::{Matrix3, Vector3};
 
 /// Side of a cell, metres of the grid.
@@ -114,7 +115,7 @@ impl GridToEcef {
     /// The map at grid point (x, y, h), metres, from the cell in `cache` (built there when
     /// missing).
     pub fn at(&self, cache: &mut CellCache, x_m: f64, y_m: f64, h_m: f64) -> MapAt {
-        let key = ((x_m / CELL_M).floor() as i64, (y_m / CELL_M).floor() as i64);
+        let key = (floor_i64(x_m / CELL_M), floor_i64(y_m / CELL_M));
         // Direct-mapped on the low bits of both indices.
         let slot = (((key.0 & 3) << 2) | (key.1 & 3)) as usize;
         let cell = match &mut cache.slots[slot] {

@@ -49,6 +49,6 @@ mod writer;
 pub use extra_bytes::ExtraDim;
 pub use info::LasInfo;
 pub use point::{CLASS_BATHYMETRY, CLASS_WATER_SURFACE, LasPoint};
-pub use raw_chunk::{RawChunk, RawPoint};
+pub use raw_chunk::{CoordinateBlock, RawChunk, RawPoint};
 pub use reader::{LasReader, PointChunk};
 pub use writer::{LasWriteOptions, LasWriter, WRITE_BATCH_POINTS};

@@ -137,6 +137,9 @@ pub fn correct_tile_with_progress(
 /// Spare chunks handed back from the writer to the reader (their vectors are reused).
 const SPARES: usize = 2;
 
+/// Points per parallel task: a few grid cells' worth, so that a task's cells are built once.
+const BLOCK: usize = 1024;
+
 type WriteMsg = crate::stages::WriteMsg<RawChunk>;
 
 /// The compute stage: what a chunk's points need.
@@ -158,32 +161,28 @@ impl Run<'_> {
         tx: &SyncSender<WriteMsg>,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Result<()> {
-        // Reused from chunk to chunk.
-        let (mut points, mut corrected) = (Vec::new(), Vec::new());
         for msg in rx {
             let mut chunk = msg?;
-            points.clear();
-            points.extend(chunk.coordinates());
-            self.check_distance(&points)?;
-            let first_index = chunk.first_index();
-            corrected.clear();
-            corrected.resize(points.len(), [0.0; 3]);
-            // The first bad point in file order, whatever the thread count.
-            // Each work item keeps the trajectory segment of its last point and its cells.
-            if let Some(e) = corrected
-                .par_iter_mut()
-                .zip(&points)
-                .enumerate()
-                .with_min_len(1024)
-                .map_init(Worker::default, |worker, (k, (out, &(xyz, time)))| {
-                    *out = self.point(first_index + k as u64, xyz, time, worker)?;
-                    Ok(())
+            self.check_distance(&chunk)?;
+            // Each task reads its run's records, moves its points and writes them back in
+            // place; each work item keeps the trajectory segment of its last point and its cells
+            // (boxed: rayon moves the work item with every run). The first bad point in file
+            // order, whatever the thread count.
+            if let Some(e) = chunk
+                .coordinate_blocks(BLOCK)
+                .into_par_iter()
+                .map_init(Worker::default, |worker, mut block| {
+                    for k in 0..block.len() {
+                        let (xyz, time) = block.get(k);
+                        let moved = self.point(block.index(k), xyz, time, worker)?;
+                        block.set(self.output, k, moved)?;
+                    }
+                    Ok::<(), Error>(())
                 })
                 .find_map_first(Result::err)
             {
                 return Err(e);
             }
-            chunk.set_coordinates(self.output, corrected.iter().copied())?;
             progress(chunk.len() as u64);
             if tx.send(WriteMsg::Chunk(chunk)).is_err() {
                 // The writer stopped; its own error is reported by the caller.
@@ -195,17 +194,17 @@ impl Run<'_> {
 
     /// Points hundreds of kilometres from the trajectory (a wrong zone) are refused before any
     /// is moved (see [`crate::plausibility::check_distance`]).
-    fn check_distance(&self, points: &[([f64; 3], Option<f64>)]) -> Result<()> {
+    fn check_distance(&self, chunk: &RawChunk) -> Result<()> {
         let (ellipsoid, unit_m) = (self.crs.ellipsoid(), self.crs.unit().metres());
-        let step = points
+        let step = chunk
             .len()
             .div_ceil(crate::plausibility::DISTANCE_SAMPLES)
             .max(1);
-        let samples: Vec<_> = points
-            .iter()
+        let samples: Vec<_> = chunk
+            .coordinates()
             .step_by(step)
             .filter(|(p, _)| p.iter().all(|c| c.is_finite()))
-            .filter_map(|&([x, y, z], time)| {
+            .filter_map(|([x, y, z], time)| {
                 let sow = self.converter.to_seconds_of_week(time?).ok()?;
                 let pose = self.trajectory.at(sow).ok()?;
                 let (lat, lon) = self.crs.inverse(x * unit_m, y * unit_m);
@@ -286,7 +285,7 @@ pub(crate) struct Correction {
 #[derive(Debug, Default)]
 pub(crate) struct Worker {
     hint: usize,
-    cells: CellCache,
+    cells: Box<CellCache>,
 }
 
 impl Correction {
@@ -313,7 +312,13 @@ impl Correction {
         p0: &Ecef,
         r_be: &Matrix3<f64>,
     ) -> std::result::Result<[f64; 3], lidarqa_tpu::Error> {
-        let g = Vector3::from(xyz.map(|v| v * self.unit_m));
+        // (× and ÷ 1 are exact: skipped for metres.)
+        let metres = self.unit_m == 1.0;
+        let g = Vector3::from(if metres {
+            xyz
+        } else {
+            xyz.map(|v| v * self.unit_m)
+        });
         let at = self.map.at(cells, g.x, g.y, g.z);
         // Recovery: B = R_BEᵀ (P − P0), S = R_Mᵀ (B − ΔP); range ρ = |S|, scan angle
         // θ = atan2(S_y, S_z), S' = ρ (0, sin θ, cos θ). P − P0 is formed from the cell
@@ -354,7 +359,12 @@ impl Correction {
                 "the projection is singular at the point".into(),
             ));
         }
-        Ok((g + step).map(|v| v / self.unit_m).into())
+        let moved = g + step;
+        Ok(if metres {
+            moved.into()
+        } else {
+            moved.map(|v| v / self.unit_m).into()
+        })
     }
 }
 

@@ -32,6 +32,9 @@ use std::sync::mpsc::{Receiver, Sender, SyncSender, channel};
 /// Points per parallel work item.
 const BLOCK: usize = 4096;
 
+/// Points of a chunk computed and handed to the writer at a time (whole blocks).
+const PIECE: usize = 12 * BLOCK;
+
 /// σ overrides for a conic return without a water leg: no water travel time.
 const NO_WATER_LEG: [(Source, f64); 1] = [(Source::TimeWater, 0.0)];
 
@@ -463,11 +466,12 @@ impl Prepare {
 /// An output chunk (the records with their σ) and the number of points read for it.
 type WriteMsg = crate::stages::WriteMsg<(RawChunk, u64)>;
 
-/// Puts in `out` each propagated point's record as read with its σ (and sounding, covariance)
-/// appended, skipping the points not propagated.
+/// Puts in `out` the record of each propagated point `first + i` (`slots[i]`) as read with its
+/// σ (and sounding, covariance) appended, skipping the points not propagated.
 fn output_records(
     path: &Path,
     chunk: &RawChunk,
+    first: usize,
     slots: &[Slot],
     recycle: &Recycle,
     out: &mut RawChunk,
@@ -491,7 +495,12 @@ fn output_records(
                 None => (0.0, -1.0),
             };
             let n64 = if recycle.covariance { cov.len() } else { 0 };
-            out.push(path, chunk.point(i), &extra[..recycle.n_dims], &cov[..n64])?;
+            out.push(
+                path,
+                chunk.point(first + i),
+                &extra[..recycle.n_dims],
+                &cov[..n64],
+            )?;
         }
     }
     Ok(())
@@ -606,8 +615,11 @@ impl Run<'_> {
             } else {
                 None
             };
+            // Only the incidence term's neighbourhoods reach into the neighbouring chunks' points.
+            let incidence = self.kernel.has_incidence() && !self.file_normals;
             let head: Vec<Vector3<f64>> = next
                 .as_ref()
+                .filter(|_| incidence)
                 .map(|n| valid_ecef(&n.pts).take(margin).collect())
                 .unwrap_or_default();
             // Soundings look for their surface in the chunk and the same margins.
@@ -618,38 +630,63 @@ impl Run<'_> {
                     .any(|p| p.classification() == CLASS_BATHYMETRY))
             .then(|| {
                 let mut w: Vec<WaterReturn> = water_tail.iter().map(|(_, r)| *r).collect();
-                w.extend(water_returns(&cur, cur.pts.len()).map(|(_, r)| r));
+                w.extend(
+                    water_returns(&cur, 0, cur.pts.len())
+                        .into_iter()
+                        .map(|(_, r)| r),
+                );
                 if let Some(n) = &next {
-                    w.extend(water_returns(n, margin).map(|(_, r)| r));
+                    w.extend(water_returns(n, 0, margin).into_iter().map(|(_, r)| r));
                 }
                 WaterSurfaceIndex::new(w)
             });
-            slots = self.compute_chunk(&cur, &tail, &head, water.as_ref(), slots, summary)?;
-            let mut out = spent
-                .outputs
-                .try_recv()
-                .unwrap_or_else(|_| spent.out_chunk.clone());
-            output_records(self.path, &cur.chunk, &slots, spent, &mut out)?;
-            // The last `margin` valid points so far (they may span several small chunks): the
-            // incidence term's neighbourhood margin, not needed without it.
-            if self.kernel.has_incidence() {
+            self.check_chunk(&cur, summary)?;
+            let surfaces = self.surfaces(&cur, &tail, &head);
+            // The chunk goes to the writer in pieces: it encodes one while the next is computed,
+            // and the slots and output records of a piece are reused for the next.
+            let n = cur.pts.len();
+            let mut blocks = Vec::new();
+            for first in (0..n).step_by(PIECE) {
+                let piece = first..(first + PIECE).min(n);
+                slots = self.compute_piece(
+                    &cur,
+                    piece.clone(),
+                    &surfaces,
+                    water.as_ref(),
+                    slots,
+                    (&mut blocks, summary.share_sums.len()),
+                )?;
+                let mut out = spent
+                    .outputs
+                    .try_recv()
+                    .unwrap_or_else(|_| spent.out_chunk.clone());
+                output_records(self.path, &cur.chunk, first, &slots, spent, &mut out)?;
+                let sent = tx.send(WriteMsg::Chunk((out, piece.len() as u64)));
+                // The piece's statistics are added while the writer encodes its records.
+                self.summarize_points(&cur, first, &slots, summary);
+                if sent.is_err() {
+                    // The writer stopped; its error is reported by the caller.
+                    return Ok(());
+                }
+            }
+            summary.points_read += n as u64;
+            self.summarize_blocks(blocks, summary);
+            if incidence {
+                // The last `margin` valid points so far (they may span several small chunks).
                 let mut last: Vec<Vector3<f64>> = valid_ecef(&cur.pts).rev().take(margin).collect();
                 last.reverse();
-                let keep = margin - last.len();
-                let excess = tail.len().saturating_sub(keep);
-                tail.drain(..excess);
                 tail.extend(last);
+                let excess = tail.len().saturating_sub(margin);
+                tail.drain(..excess);
             }
+            let end = cur.first_index + cur.pts.len() as u64;
             if conic {
-                water_tail.extend(water_returns(&cur, cur.pts.len()));
-                let end = cur.first_index + cur.pts.len() as u64;
+                // Only the chunk's last `margin` points can be within `margin` of its end.
+                let from = cur.pts.len().saturating_sub(margin);
+                water_tail.extend(water_returns(&cur, from, cur.pts.len()));
                 water_tail.retain(|(i, _)| i + margin as u64 >= end);
             }
             let Prepared { chunk, pts, .. } = cur;
-            if tx.send(WriteMsg::Chunk((out, chunk.len() as u64))).is_err() {
-                // The writer stopped; its error is reported by the caller.
-                return Ok(());
-            }
             // The reader may have finished: then the chunk is dropped.
             let _ = spent.inputs.send(chunk);
             spare_pts.push(pts);
@@ -661,18 +698,15 @@ impl Run<'_> {
         Ok(())
     }
 
-    fn compute_chunk(
+    /// The incidence term's surface at each point of the chunk (none without the term), from
+    /// the file's normals or the neighbourhoods among the chunk's points and its margins.
+    fn surfaces(
         &self,
         cur: &Prepared,
         tail: &[Vector3<f64>],
         head: &[Vector3<f64>],
-        water: Option<&WaterSurfaceIndex>,
-        mut slots: Vec<Slot>,
-        summary: &mut TpuSummary,
-    ) -> Result<Vec<Slot>> {
-        let n = cur.pts.len();
-        self.check_chunk(cur, summary)?;
-        let surfaces: Vec<Option<Surface>> = if !self.kernel.has_incidence() {
+    ) -> Vec<Option<Surface>> {
+        if !self.kernel.has_incidence() {
             Vec::new()
         } else if self.file_normals {
             self.file_normals_of(cur)
@@ -691,11 +725,25 @@ impl Run<'_> {
                 .into_iter()
                 .map(Some)
                 .collect()
-        };
-        let n_sources = summary.share_sums.len();
-        // Every slot is written below: the last chunk's are overwritten, not cleared first.
-        slots.truncate(n);
-        slots.resize_with(n, Slot::default);
+        }
+    }
+
+    /// Computes the points `piece` of the chunk (its start a multiple of [`BLOCK`]) into
+    /// `slots` (slot `k` is point `piece.start + k`), appending each block's statistics (of
+    /// `n_sources` shares) to `blocks`; the first failure in file order is the error.
+    fn compute_piece(
+        &self,
+        cur: &Prepared,
+        piece: std::ops::Range<usize>,
+        surfaces: &[Option<Surface>],
+        water: Option<&WaterSurfaceIndex>,
+        mut slots: Vec<Slot>,
+        (blocks, n_sources): (&mut Vec<Partial>, usize),
+    ) -> Result<Vec<Slot>> {
+        let first = piece.start;
+        slots.clear();
+        // Filled in parallel: the pages of a new vector fault on both cores.
+        slots.par_extend(piece.into_par_iter().map(|_| Slot::default()));
         let partials = slots
             .par_chunks_mut(BLOCK)
             .enumerate()
@@ -708,20 +756,81 @@ impl Run<'_> {
                     ..Partial::default()
                 };
                 for (k, slot) in block.iter_mut().enumerate() {
-                    let i = b * BLOCK + k;
+                    let i = first + b * BLOCK + k;
                     let surface = surfaces.get(i).copied().flatten();
                     *slot = self.point(cur, i, surface, water, &mut acc);
                     acc.failed |= matches!(slot, Slot::Failed(_));
                 }
                 acc
             })
-            // Collected in block order and summed sequentially: a parallel `reduce` would add
-            // the shares in an order that depends on work stealing, and the summary would
-            // differ in the last bits from run to run (and between the CLI and a job array).
             .collect::<Vec<Partial>>();
-        // The blocks' scan-angle and residual values are added to the summary in file order
-        // below, straight from each block's vector.
-        let partial = partials.iter().fold(
+        let failed = partials.iter().any(|p| p.failed);
+        blocks.extend(partials);
+        // The first failure in file order, so the message is deterministic.
+        if failed && let Some(i) = slots.iter().position(|s| matches!(s, Slot::Failed(_))) {
+            if let Slot::Failed(e) = std::mem::take(&mut slots[i]) {
+                return Err(*e);
+            }
+        }
+        Ok(slots)
+    }
+
+    /// Adds the computed points `first..` (in `slots`) of a chunk to the summary.
+    fn summarize_points(
+        &self,
+        cur: &Prepared,
+        first: usize,
+        slots: &[Slot],
+        summary: &mut TpuSummary,
+    ) {
+        let conic = matches!(self.kernel, Kernel::Conic(..));
+        // One walk of the slots and points: the σ map takes them as an iterator, and the
+        // other tallies are added as it goes (each in file order, as before).
+        let TpuSummary {
+            points_written,
+            iho,
+            sigma,
+            skipped,
+            map,
+            ..
+        } = summary;
+        map.add_all(
+            slots
+                .iter()
+                .zip(&cur.pts[first..])
+                .filter_map(|(s, p)| match s {
+                    Slot::Ok(sig, sounding, _) => {
+                        *points_written += 1;
+                        let [x_m, y_m, _] = p.xyz_m;
+                        if let Some(r) = sounding {
+                            iho.add(r, x_m, y_m);
+                        }
+                        for (h, v) in sigma.iter_mut().zip(sig) {
+                            h.add(*v);
+                        }
+                        if conic {
+                            sigma[5].add(THU_95_CBLUE * sig[3]);
+                            sigma[6].add(TVU_95_FACTOR * sig[4]);
+                        }
+                        Some([x_m, y_m, sig[4]])
+                    }
+                    Slot::Skipped(r) => {
+                        *skipped.entry(*r).or_default() += 1;
+                        None
+                    }
+                    Slot::Pending | Slot::Failed(_) => None,
+                }),
+        );
+    }
+
+    /// Adds a chunk's block statistics (in block order) to the summary.
+    fn summarize_blocks(&self, blocks: Vec<Partial>, summary: &mut TpuSummary) {
+        let n_sources = summary.share_sums.len();
+        // Summed sequentially in block order: a parallel `reduce` would add the shares in an
+        // order that depends on work stealing, and the summary would differ in the last bits
+        // from run to run (and between the CLI and a job array). The blocks' scan-angle and
+        // residual values are added in file order below, straight from each block's vector.
+        let partial = blocks.iter().fold(
             Partial {
                 shares: vec![0.0; n_sources],
                 mounting: self.tally0,
@@ -741,59 +850,17 @@ impl Run<'_> {
                 a
             },
         );
-        // The first failure in file order, so the message is deterministic.
-        if partial.failed
-            && let Some(i) = slots.iter().position(|s| matches!(s, Slot::Failed(_)))
-        {
-            if let Slot::Failed(e) = std::mem::take(&mut slots[i]) {
-                return Err(*e);
-            }
-        }
-        summary.points_read += n as u64;
-        let conic = matches!(self.kernel, Kernel::Conic(..));
-        // One walk of the slots and points: the σ map takes them as an iterator, and the
-        // other tallies are added as it goes (each in file order, as before).
-        let TpuSummary {
-            points_written,
-            iho,
-            sigma,
-            skipped,
-            map,
-            ..
-        } = summary;
-        map.add_all(slots.iter().zip(&cur.pts).filter_map(|(s, p)| match s {
-            Slot::Ok(sig, sounding, _) => {
-                *points_written += 1;
-                let [x_m, y_m, _] = p.xyz_m;
-                if let Some(r) = sounding {
-                    iho.add(r, x_m, y_m);
-                }
-                for (h, v) in sigma.iter_mut().zip(sig) {
-                    h.add(*v);
-                }
-                if conic {
-                    sigma[5].add(THU_95_CBLUE * sig[3]);
-                    sigma[6].add(TVU_95_FACTOR * sig[4]);
-                }
-                Some([x_m, y_m, sig[4]])
-            }
-            Slot::Skipped(r) => {
-                *skipped.entry(*r).or_default() += 1;
-                None
-            }
-            Slot::Pending | Slot::Failed(_) => None,
-        }));
         for ((_, s), v) in summary.share_sums.iter_mut().zip(&partial.shares) {
             *s += v;
         }
         summary.with_normal += partial.with_normal;
         summary.incidence.merge(&partial.incidence);
-        for b in &partials {
+        for b in &blocks {
             for d in &b.scan {
                 summary.scan_angle.add(*d);
             }
         }
-        for b in &partials {
+        for b in &blocks {
             for q in &b.residual {
                 summary.recovery_residual.add(*q);
             }
@@ -806,7 +873,6 @@ impl Run<'_> {
                 .plausibility
                 .add_implausible(self.path, index, range_m, q);
         }
-        Ok(slots)
     }
 
     /// The chunk-level plausibility checks: the points near the trajectory (else an error naming
@@ -840,7 +906,13 @@ impl Run<'_> {
         let w = if self.ctx.facts.gaps.is_empty() {
             Vec::new()
         } else {
-            let mut times: Vec<f64> = ok().map(|p| p.time_sow_s).collect();
+            // Only the times inside a gap can be the first in it: with a few gaps, the rest
+            // need no sort.
+            let gaps = &self.ctx.facts.gaps;
+            let mut times: Vec<f64> = ok()
+                .map(|p| p.time_sow_s)
+                .filter(|t| gaps.len() > 16 || gaps.iter().any(|g| *t > g.start_s && *t < g.end_s))
+                .collect();
             times.sort_by(f64::total_cmp);
             check_gaps(
                 self.path,
@@ -1225,27 +1297,29 @@ impl Run<'_> {
     }
 }
 
-/// The water-surface returns (class 41, usable time) among the first `limit` points of a chunk,
-/// with their file index.
-fn water_returns(c: &Prepared, limit: usize) -> impl Iterator<Item = (u64, WaterReturn)> + '_ {
-    c.pts
-        .iter()
-        .zip(c.chunk.points())
-        .take(limit)
-        .enumerate()
-        .filter(|(_, (p, lp))| {
-            lp.classification() == CLASS_WATER_SURFACE && matches!(p.state, PrepState::Ok)
+/// The water-surface returns (class 41, usable time) among the points `from..to` of a chunk
+/// (`to` clamped to its length), with their file index, in parallel (in file order).
+fn water_returns(c: &Prepared, from: usize, to: usize) -> Vec<(u64, WaterReturn)> {
+    let to = to.min(c.pts.len());
+    (from.min(to)..to)
+        .into_par_iter()
+        .with_min_len(BLOCK)
+        .filter_map(|k| {
+            let p = &c.pts[k];
+            (c.chunk.point(k).classification() == CLASS_WATER_SURFACE
+                && matches!(p.state, PrepState::Ok))
+            .then(|| {
+                (
+                    c.first_index + k as u64,
+                    WaterReturn {
+                        time_s: p.time_sow_s,
+                        ecef_m: p.ecef,
+                        grid: Grid::from_vector(p.xyz_m.into()),
+                    },
+                )
+            })
         })
-        .map(move |(k, (p, _))| {
-            (
-                c.first_index + k as u64,
-                WaterReturn {
-                    time_s: p.time_sow_s,
-                    ecef_m: p.ecef,
-                    grid: Grid::from_vector(p.xyz_m.into()),
-                },
-            )
-        })
+        .collect()
 }
 
 /// Adds a point's share of its variance from each source (the model's, then the incidence

@@ -40,20 +40,13 @@ impl<'a> RawPoint<'a> {
     /// X, Y, Z in the file's CRS units (scale and offset applied).
     #[inline]
     pub fn xyz(&self) -> [f64; 3] {
-        let r = self.record;
-        let t = self.chunk.data.transforms();
-        let i = |k: usize| i32::from_le_bytes([r[k], r[k + 1], r[k + 2], r[k + 3]]);
-        [t.x.direct(i(0)), t.y.direct(i(4)), t.z.direct(i(8))]
+        record_xyz(self.record, self.chunk.data.transforms())
     }
 
     /// GPS time, `None` for point formats without time.
     #[inline]
     pub fn gps_time(&self) -> Option<f64> {
-        self.chunk.gps_time_at.map(|g| {
-            let mut b = [0u8; 8];
-            b.copy_from_slice(&self.record[g..g + 8]);
-            f64::from_le_bytes(b)
-        })
+        record_gps_time(self.record, self.chunk.gps_time_at)
     }
 
     /// The classification code as stored: the low 5 bits of the class byte in formats 0–5, the
@@ -243,23 +236,150 @@ impl RawChunk {
         path: &Path,
         xyz: impl IntoIterator<Item = [f64; 3]>,
     ) -> Result<()> {
-        let t = *self.data.transforms();
-        let len = self.data.len();
-        let record_len = self.data.record_len();
-        let bytes = self.data.resize_for(len);
-        for (k, (r, p)) in bytes.chunks_exact_mut(record_len).zip(xyz).enumerate() {
-            let raw = [t.x.inverse(p[0]), t.y.inverse(p[1]), t.z.inverse(p[2])];
-            for (j, v) in raw.into_iter().enumerate() {
-                let v = v.map_err(|source| Error::LasPoint {
-                    path: path.to_path_buf(),
-                    index: self.first_index + k as u64,
-                    source,
-                })?;
-                r[4 * j..4 * j + 4].copy_from_slice(&v.to_le_bytes());
+        let mut xyz = xyz.into_iter();
+        for mut block in self.coordinate_blocks(self.len().max(1)) {
+            for (k, p) in (0..block.len()).zip(xyz.by_ref()) {
+                block.set(path, k, p)?;
             }
         }
         Ok(())
     }
+
+    /// The records cut into runs of up to `points` (at least 1), each of which reads and
+    /// rewrites its points' coordinates in place: for a caller that moves the points of a
+    /// chunk in parallel, one run per task, without copying the coordinates out and back.
+    pub fn coordinate_blocks(&mut self, points: usize) -> Vec<CoordinateBlock<'_>> {
+        let points = points.max(1);
+        let transforms = *self.data.transforms();
+        let (gps_time_at, first_index) = (self.gps_time_at, self.first_index);
+        let record_len = self.data.record_len();
+        let len = self.data.len();
+        self.data
+            .resize_for(len)
+            .chunks_mut(record_len * points)
+            .enumerate()
+            .map(|(b, records)| CoordinateBlock {
+                records,
+                record_len,
+                transforms,
+                gps_time_at,
+                first_index: first_index + (b * points) as u64,
+            })
+            .collect()
+    }
+}
+
+/// A run of consecutive records of a [`RawChunk`] whose X, Y and Z are rewritten in place
+/// ([`RawChunk::coordinate_blocks`]); every other byte stays as read.
+#[derive(Debug)]
+pub struct CoordinateBlock<'a> {
+    records: &'a mut [u8],
+    record_len: usize,
+    transforms: las::Vector<las::Transform>,
+    gps_time_at: Option<usize>,
+    /// Index in the file of the run's first point.
+    first_index: u64,
+}
+
+impl CoordinateBlock<'_> {
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.records.len() / self.record_len
+    }
+
+    /// Whether the run holds no point.
+    pub fn is_empty(&self) -> bool {
+        self.records.is_empty()
+    }
+
+    /// Index in the file of point `k` of the run.
+    #[inline]
+    pub fn index(&self, k: usize) -> u64 {
+        self.first_index + k as u64
+    }
+
+    /// X, Y, Z of point `k` in the file's CRS units and its GPS time (`None` for point formats
+    /// without time), as [`RawPoint::xyz`] and [`RawPoint::gps_time`] read them.
+    #[inline]
+    pub fn get(&self, k: usize) -> ([f64; 3], Option<f64>) {
+        let r = &self.records[k * self.record_len..(k + 1) * self.record_len];
+        (
+            record_xyz(r, &self.transforms),
+            record_gps_time(r, self.gps_time_at),
+        )
+    }
+
+    /// Replaces the coordinates of point `k` with `xyz` (CRS units; the file's scale and
+    /// offset, rounded to the nearest step as `las` does).
+    ///
+    /// # Errors
+    /// [`Error::LasPoint`] naming `path` (the file the chunk is written to) and the point when
+    /// a coordinate does not fit the record (beyond the i32 range of the scale and offset); the
+    /// record is then unchanged.
+    #[inline]
+    pub fn set(&mut self, path: &Path, k: usize, xyz: [f64; 3]) -> Result<()> {
+        let t = &self.transforms;
+        let raw = [
+            step_of(&t.x, xyz[0]),
+            step_of(&t.y, xyz[1]),
+            step_of(&t.z, xyz[2]),
+        ];
+        let raw = match raw {
+            [Some(x), Some(y), Some(z)] => [x, y, z],
+            // Beyond the range (or NaN): `las`'s own function, its value or its error.
+            _ => {
+                let index = self.index(k);
+                let las = |t: &las::Transform, v: f64| {
+                    t.inverse(v).map_err(|source| Error::LasPoint {
+                        path: path.to_path_buf(),
+                        index,
+                        source,
+                    })
+                };
+                [las(&t.x, xyz[0])?, las(&t.y, xyz[1])?, las(&t.z, xyz[2])?]
+            }
+        };
+        let r = &mut self.records[k * self.record_len..][..12];
+        for (b, v) in r.chunks_exact_mut(4).zip(raw) {
+            b.copy_from_slice(&v.to_le_bytes());
+        }
+        Ok(())
+    }
+}
+
+/// `las`'s [`Transform::inverse`](las::Transform::inverse) (the nearest step, halves away from
+/// zero) for values well inside the i32 range, with the rounding done inline: `f64::round` is
+/// a libm call on the default x86-64 target, and every coordinate of a corrected strip takes
+/// it. `None` beyond ±(2³¹ − 1) and for NaN, which take `las`'s own function.
+fn step_of(t: &las::Transform, n: f64) -> Option<i32> {
+    let v = (n - t.offset) / t.scale;
+    // (NaN fails the comparison.)
+    if v.abs() < 2_147_483_647.0 {
+        // |v| < 2³¹: the truncation is exact in i64 and `v − i` exact in f64; the halves go
+        // away from zero. Without branches: the fractions are random.
+        let i = v as i64;
+        let f = v - i as f64;
+        let r = i + i64::from(f >= 0.5) - i64::from(f <= -0.5);
+        // |r| ≤ 2³¹ − 1: within i32.
+        Some(r as i32)
+    } else {
+        None
+    }
+}
+
+/// X, Y, Z of a record (scale and offset applied).
+fn record_xyz(r: &[u8], t: &las::Vector<las::Transform>) -> [f64; 3] {
+    let i = |k: usize| i32::from_le_bytes([r[k], r[k + 1], r[k + 2], r[k + 3]]);
+    [t.x.direct(i(0)), t.y.direct(i(4)), t.z.direct(i(8))]
+}
+
+/// The GPS time of a record whose time is at byte `at` (`None`: the format has none).
+fn record_gps_time(r: &[u8], at: Option<usize>) -> Option<f64> {
+    at.map(|g| {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(&r[g..g + 8]);
+        f64::from_le_bytes(b)
+    })
 }
 
 /// Byte offset of the GPS time in a record of `format` (after the 20 bytes of formats 0–5's
@@ -268,4 +388,76 @@ pub(super) fn gps_time_offset(format: &las::point::Format) -> Option<usize> {
     format
         .has_gps_time
         .then_some(if format.is_extended { 22 } else { 20 })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::step_of;
+
+    #[test]
+    fn inline_rounding_is_las_own_within_the_range() {
+        // Halves on both sides of zero, values a few ulps off a half, the ends of the i32
+        // range, beyond it and NaN, at three scales and offsets.
+        let transforms = [
+            las::Transform {
+                scale: 0.001,
+                offset: 0.0,
+            },
+            las::Transform {
+                scale: 0.01,
+                offset: 500_000.0,
+            },
+            las::Transform {
+                scale: 0.000_25,
+                offset: -1234.5,
+            },
+        ];
+        for t in transforms {
+            let mut values = vec![f64::NAN, 0.0, -0.0];
+            for k in [
+                -3.0f64,
+                -2.0,
+                -1.0,
+                0.0,
+                1.0,
+                2.0,
+                1e6,
+                -1e6,
+                2_147_483_646.0,
+            ] {
+                for half in [0.5, -0.5, 0.25, 0.75] {
+                    let v = k + half;
+                    for ulps in -3i64..=3 {
+                        values.push(f64::from_bits((v.to_bits() as i64 + ulps) as u64));
+                    }
+                }
+            }
+            values.extend([
+                2_147_483_647.0,
+                2_147_483_647.4,
+                2_147_483_647.6,
+                -2_147_483_648.4,
+            ]);
+            values.extend([-2_147_483_648.6, 3e9, -3e9, f64::INFINITY]);
+            let mut state = 0x9e37_79b9_7f4a_7c15u64;
+            for _ in 0..100_000 {
+                state = state
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1);
+                values.push(((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 4.4e9);
+            }
+            for v in values {
+                let n = v * t.scale + t.offset;
+                // Where it gives a step, las's; where not, las's is an error or NaN's 0.
+                match (step_of(&t, n), t.inverse(n)) {
+                    (Some(a), Ok(b)) => assert_eq!(a, b, "{n} {t:?}"),
+                    (None, Err(_)) => {}
+                    (None, Ok(_)) => {
+                        assert!(n.is_nan() || ((n - t.offset) / t.scale).abs() >= 2_147_483_647.0)
+                    }
+                    (ours, las) => panic!("{n} {t:?}: {ours:?} {las:?}"),
+                }
+            }
+        }
+    }
 }
