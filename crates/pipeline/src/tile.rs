@@ -716,7 +716,8 @@ impl Run<'_> {
                 let d = v - origin;
                 [d.x, d.y, d.z]
             };
-            let mut candidates: Vec<[f64; 3]> = Vec::with_capacity(tail.len() + n + head.len());
+            let mut candidates: Vec<[f64; 3]> =
+                Vec::with_capacity(tail.len() + cur.pts.len() + head.len());
             candidates.extend(tail.iter().map(rel));
             candidates.extend(valid_ecef(&cur.pts).map(|v| rel(&v)));
             candidates.extend(head.iter().map(rel));
