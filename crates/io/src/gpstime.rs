@@ -157,6 +157,7 @@ pub struct GpsWeekTime {
 /// assert_eq!(w.week, 2200);
 /// assert_eq!(w.seconds_of_week_s, 10.25);
 /// ```
+#[inline]
 pub fn adjusted_standard_to_week(adjusted_s: f64) -> GpsWeekTime {
     let week = lidarqa_model::floor_f64((adjusted_s + ADJUSTED_GPS_OFFSET_S) / SECONDS_PER_WEEK_S);
     let mut sow = adjusted_s - (week * SECONDS_PER_WEEK_S - ADJUSTED_GPS_OFFSET_S);
@@ -273,7 +274,31 @@ impl LasTimeConverter {
     ///
     /// # Errors
     /// [`Error::GpsTime`] naming the file and the value, as described on the type.
+    #[inline]
     pub fn to_seconds_of_week(&self, t_las_s: f64) -> Result<f64> {
+        // Without a call per point where the time is good; every error in full below.
+        let sow = match (self.base, self.week_flag) {
+            (LasTimeBase::GpsWeekSeconds, _) => t_las_s,
+            (LasTimeBase::AdjustedStandard, Some(w)) => {
+                t_las_s - (w as f64 * SECONDS_PER_WEEK_S - ADJUSTED_GPS_OFFSET_S)
+            }
+            (LasTimeBase::AdjustedStandard, None) => {
+                let own = adjusted_standard_to_week(t_las_s);
+                let plausible = self.creation.is_none_or(|(_, cw)| own.week <= cw);
+                if t_las_s.is_finite() && plausible {
+                    return Ok(own.seconds_of_week_s);
+                }
+                return self.convert(t_las_s);
+            }
+        };
+        if (0.0..SECONDS_PER_WEEK_S).contains(&sow) {
+            return Ok(sow);
+        }
+        self.convert(t_las_s)
+    }
+
+    /// [`LasTimeConverter::to_seconds_of_week`] in full.
+    fn convert(&self, t_las_s: f64) -> Result<f64> {
         if !t_las_s.is_finite() {
             return Err(self.err(format!("GPS time {t_las_s} is not finite")));
         }

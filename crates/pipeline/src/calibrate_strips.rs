@@ -38,7 +38,7 @@ use lidarqa_io::{
     TiePicks,
 };
 use lidarqa_model::{Ecef, Source, Warning};
-use lidarqa_tpu::{LinearRecovery, PoseAt, Recoverer, Trajectory};
+use lidarqa_tpu::{LinearRecovery, PoseAt, Recoverer, SegmentRotation, Trajectory};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 use serde_json::Value;
@@ -486,7 +486,13 @@ fn scan_strip(
     let extremes = extreme_kept
         .iter()
         .map(|(k, kept)| {
-            let observed = kept.observe(&tile.trajectory, &mut 0, &recoverer, path, *k)?;
+            let observed = kept.observe(
+                &tile.trajectory,
+                &mut SegmentRotation::default(),
+                &recoverer,
+                path,
+                *k,
+            )?;
             Ok((*k, kept.raw_point(frame, &observed)))
         })
         .collect::<Result<Vec<_>>>()?;
@@ -665,7 +671,7 @@ fn cut_strip(
     if !ranges.is_empty() {
         let tile = ctx.open_tile(&scan.path)?;
         let recoverer = Recoverer::new(&ctx.recovery_mounting);
-        let mut hint = 0;
+        let mut segment = SegmentRotation::default();
         let mut scratch = scan.scratch.lock().unwrap_or_else(|e| e.into_inner());
         let scratch_error = |source| Error::Scratch {
             path: scan.path.clone(),
@@ -691,7 +697,7 @@ fn cut_strip(
                         continue;
                     }
                     let observed =
-                        kept.observe(&tile.trajectory, &mut hint, &recoverer, &scan.path, k)?;
+                        kept.observe(&tile.trajectory, &mut segment, &recoverer, &scan.path, k)?;
                     let p = kept.raw_point(frame, &observed);
                     while let Some((_, e)) = extremes.next_if(|(j, _)| *j < k) {
                         points.push(*e);
@@ -873,12 +879,12 @@ impl Kept {
         }
     }
 
-    /// The point's pose (`hint`: the previous point's segment) and its raw observation
+    /// The point's pose (`segment`: the previous point's) and its raw observation
     /// recovered with the sensor file's mounting: the checks every point passes.
     fn observe(
         &self,
         trajectory: &Trajectory,
-        hint: &mut usize,
+        segment: &mut SegmentRotation,
         recoverer: &Recoverer,
         path: &Path,
         index: u64,
@@ -888,7 +894,7 @@ impl Kept {
             index,
             source,
         };
-        let pose = trajectory.at_from(self.sow, hint).map_err(point_error)?;
+        let pose = trajectory.at_from(self.sow, segment).map_err(point_error)?;
         let recovery = recoverer
             .linear_ecef(&pose, &Ecef::from_vector(Vector3::from(self.ecef)))
             .map_err(point_error)?;
@@ -929,7 +935,7 @@ fn stream_strip(
     let mut psid: Option<u16> = None;
     let mut same_psid = true;
     let mut index = 0u64;
-    let mut hint = 0;
+    let mut segment = SegmentRotation::default();
     while reader.fill(&mut chunk, 200_000)? > 0 {
         // The exact inverse projection, interpolated over the few cells a chunk covers.
         let inverse = LocalInverse::new(
@@ -967,7 +973,7 @@ fn stream_strip(
                 sow,
                 intensity: p.intensity,
             };
-            let observed = kept.observe(&tile.trajectory, &mut hint, &recoverer, path, k)?;
+            let observed = kept.observe(&tile.trajectory, &mut segment, &recoverer, path, k)?;
             take(k, &kept, &observed)?;
         }
     }

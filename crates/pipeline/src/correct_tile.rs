@@ -32,7 +32,7 @@ use crate::error::{Error, Result};
 use crate::stages::{read_chunks, run_stages, write_chunks};
 use lidarqa_io::{CellCache, Crs, GridToEcef, LasTimeConverter, LasWriteOptions, RawChunk};
 use lidarqa_model::{Ecef, Mounting};
-use lidarqa_tpu::{Recoverer, Trajectory};
+use lidarqa_tpu::{Recoverer, SegmentRotation, Trajectory};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -245,7 +245,7 @@ impl Run<'_> {
         let sow = self.converter.to_seconds_of_week(t)?;
         let (p0, r_be) = self
             .trajectory
-            .body_to_ecef_at(sow, &mut worker.hint)
+            .body_to_ecef_at(sow, &mut worker.segment)
             .map_err(|_| {
                 let (start_s, end_s) = self.trajectory.span_s();
                 Error::OutsideTrajectory {
@@ -284,7 +284,7 @@ pub(crate) struct Correction {
 /// grid cells it used last.
 #[derive(Debug, Default)]
 pub(crate) struct Worker {
-    hint: usize,
+    segment: SegmentRotation,
     cells: Box<CellCache>,
 }
 
@@ -326,16 +326,21 @@ impl Correction {
         let beam = (at.centre_ecef_m - p0.vector()) + at.from_centre_m;
         let body = r_be.transpose() * beam;
         let s = self.old.scanner_from_body(&body);
-        let range = s.norm();
-        if !(range.is_finite() && range > 0.0) {
-            return Err(lidarqa_tpu::Error::Recovery(format!("range {range} m")));
+        // S' = (0, S_y, S_z) scaled to the range ρ = |S|: by ρ / r_yz = √(1 + S_x² / r_yz²),
+        // one root and one division (S_x is the small out-of-plane residual).
+        let (x2, r2) = (s.x * s.x, s.y * s.y + s.z * s.z);
+        let range2 = r2 + x2;
+        if !(range2.is_finite() && range2 > 0.0) {
+            return Err(lidarqa_tpu::Error::Recovery(format!(
+                "range {} m",
+                range2.sqrt()
+            )));
         }
-        // No overflow at ranges in metres: the plain root, faster than `hypot`.
-        let r_yz = (s.y * s.y + s.z * s.z).sqrt();
-        let s_obs = if r_yz > 0.0 {
-            Vector3::new(0.0, s.y * (range / r_yz), s.z * (range / r_yz))
+        let s_obs = if r2 > 0.0 {
+            let k = (1.0 + x2 / r2).sqrt();
+            Vector3::new(0.0, s.y * k, s.z * k)
         } else {
-            Vector3::new(0.0, 0.0, range)
+            Vector3::new(0.0, 0.0, range2.sqrt())
         };
         // Δ = P0 + R_BE (R_M' S' + ΔP') − P, taken in the body frame: R_BE (R_M' S' + ΔP' − B),
         // then on the grid through the map's Jacobian at the point (module docs).
@@ -353,7 +358,10 @@ impl Correction {
         );
         let yh = jy.cross(&jh);
         let det = jx.dot(&yh);
-        let step = Vector3::new(d.dot(&yh), jx.dot(&d.cross(&jh)), jx.dot(&jy.cross(&d))) / det;
+        // One division: the three quotients then differ from dividing each by at most an ulp
+        // of a step of metres.
+        let step =
+            Vector3::new(d.dot(&yh), jx.dot(&d.cross(&jh)), jx.dot(&jy.cross(&d))) * det.recip();
         if !step.iter().all(|c| c.is_finite()) {
             return Err(lidarqa_tpu::Error::Recovery(
                 "the projection is singular at the point".into(),
@@ -535,7 +543,9 @@ mod tests {
                 let mut cells = CellCache::default();
                 for &(t, xyz) in &pts {
                     let want = exact(&zone, &trajectory.at(t).unwrap(), xyz, &old(), &new);
-                    let (p0, r_be) = trajectory.body_to_ecef_at(t, &mut 0).unwrap();
+                    let (p0, r_be) = trajectory
+                        .body_to_ecef_at(t, &mut SegmentRotation::default())
+                        .unwrap();
                     let got = c.apply(&mut cells, xyz, &p0, &r_be).unwrap();
                     max_h = max_h.max((got[0] - want[0]).hypot(got[1] - want[1]));
                     max_v = max_v.max((got[2] - want[2]).abs());

@@ -19,9 +19,9 @@ use lidarqa_model::{
     Scanner, Source, ecef_from_ned_sin_cos, linear_jacobian_at_beam,
 };
 use lidarqa_tpu::{
-    IhoOrder, Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, SoundingRecovery, Surface,
-    SurfaceSource, THU_95_CBLUE, TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex,
-    cos_incidence, judge_surfaces, thu_95_m,
+    IhoOrder, Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, SegmentRotation,
+    SoundingRecovery, Surface, SurfaceSource, THU_95_CBLUE, TVU_95_FACTOR, Trajectory, WaterReturn,
+    WaterSurfaceIndex, cos_incidence, judge_surfaces, thu_95_m,
 };
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
@@ -537,7 +537,7 @@ struct Partial {
     /// A point failed ([`Slot::Failed`]).
     failed: bool,
     /// The trajectory segment of the block's previous point ([`Trajectory::at_from`]).
-    pose_hint: usize,
+    pose_segment: SegmentRotation,
     /// Where the block's previous sounding found its surface return
     /// ([`WaterSurfaceIndex::same_pulse_from`]).
     water_hint: usize,
@@ -1009,7 +1009,7 @@ impl Run<'_> {
             acc.outside_sigma_span += 1;
         }
         // Borrowed where it was returned, not moved out of the `Result` (a copy per point).
-        let pose_at = self.trajectory.at_from(p.time_sow_s, &mut acc.pose_hint);
+        let pose_at = self.trajectory.at_from(p.time_sow_s, &mut acc.pose_segment);
         let pose = match &pose_at {
             Ok(pose) => pose,
             Err(_) => {

@@ -71,4 +71,4 @@ pub use sounding::{
     SurfaceSource, WaterReturn, WaterSurfaceIndex,
 };
 pub use sweep::{MAX_SWEEP_POINTS, Sweep, SweepVariable};
-pub use trajectory::{Pose, PoseAt, PoseSigma, Trajectory, TrajectorySigmas};
+pub use trajectory::{Pose, PoseAt, PoseSigma, SegmentRotation, Trajectory, TrajectorySigmas};

@@ -9,7 +9,8 @@
 //!   change nothing measurable;
 //! - **latitude / longitude** of the N frame: linear (longitude through the ±180° seam);
 //! - **attitude**: the body → ECEF rotations `C_EN(φ, λ) · R_N` of the two poses are
-//!   interpolated by slerp (constant angular rate along the shortest arc), then expressed in the
+//!   interpolated by slerp (constant angular rate along the shortest arc; evaluated by
+//!   Rodrigues' formula on each segment's turn, [`SegmentRotation`]), then expressed in the
 //!   N frame at the interpolated position. Interpolating roll, pitch and heading one by one would
 //!   jump across ±180° of heading and is not a rotation interpolation at all; going through
 //!   ECEF also keeps the slow turn of the N frame with position out of the attitude.
@@ -19,7 +20,9 @@
 
 use crate::error::{Error, Result};
 use lidarqa_model::{Attitude, Ecef, ecef_from_ned, ecef_from_ned_sin_cos, zyx_angles};
-use nalgebra::{Matrix3, Quaternion, Rotation3, Unit, UnitQuaternion, Vector3};
+#[cfg(test)]
+use nalgebra::Quaternion;
+use nalgebra::{Matrix3, Rotation3, Unit, UnitQuaternion, Vector3};
 use std::f64::consts::PI;
 
 /// One trajectory pose, SI units.
@@ -90,11 +93,11 @@ fn wrap_pi(a: f64) -> f64 {
     if w == -PI { PI } else { w }
 }
 
-/// `a · (b/a)^w` along the shortest arc, the rotation angle from `atan2` so that small angles
-/// keep full precision (nalgebra's `angle()` uses `acos`, good only to ~1e-8 rad). The half
-/// angle's sine and cosine come from [`sin_cos_small`]: a segment turns by far less than its
-/// series' range at any trajectory rate.
-#[inline]
+/// `a · (b/a)^w` along the shortest arc as a quaternion: the definition the interpolation of
+/// [`SegmentRotation`] is tested against. The rotation angle comes from `atan2` (in
+/// [`Turn::between`]) so that small angles keep full precision (nalgebra's `angle()` uses
+/// `acos`, good only to ~1e-8 rad).
+#[cfg(test)]
 fn slerp(a: &UnitQuaternion<f64>, turn: &Option<Turn>, w: f64) -> UnitQuaternion<f64> {
     match turn {
         None => *a,
@@ -118,14 +121,30 @@ fn sin_cos_small(x: f64) -> (f64, f64) {
     if x.abs() > SMALL_ANGLE_RAD {
         return x.sin_cos();
     }
+    // Multiplications by the rounded reciprocals, not divisions: a division's latency is many
+    // multiplications', and each term is so much smaller than the 1 it is taken from that the
+    // reciprocal's half-ulp does not reach the result's last place (the test below).
+    const INV: [f64; 9] = [
+        1.0 / 6.0,
+        1.0 / 20.0,
+        1.0 / 42.0,
+        1.0 / 72.0,
+        1.0 / 2.0,
+        1.0 / 12.0,
+        1.0 / 30.0,
+        1.0 / 56.0,
+        1.0 / 90.0,
+    ];
     let x2 = x * x;
-    let sin = x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0))));
+    let sin =
+        x * (1.0 - x2 * INV[0] * (1.0 - x2 * INV[1] * (1.0 - x2 * INV[2] * (1.0 - x2 * INV[3]))));
     let cos = 1.0
-        - x2 / 2.0 * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0 * (1.0 - x2 / 90.0))));
+        - x2 * INV[4]
+            * (1.0 - x2 * INV[5] * (1.0 - x2 * INV[6] * (1.0 - x2 * INV[7] * (1.0 - x2 * INV[8]))));
     (sin, cos)
 }
 
-/// The rotation from one pose to the next, `a⁻¹ b`, as the unit axis and angle [`slerp`]
+/// The rotation from one pose to the next, `a⁻¹ b`, as the unit axis and angle the slerp
 /// scales (computed once per segment, not per point); `None` for no rotation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Turn {
@@ -150,6 +169,71 @@ impl Turn {
             angle_rad: 2.0 * n.atan2(s),
         })
     }
+}
+
+/// One trajectory segment's body → ECEF rotation prepared for interpolation at many times:
+/// `R(w) = R_i (I + sin φ K + (1 − cos φ) K²)` with φ = w θ, K the cross-product matrix of the
+/// segment's turn axis (Rodrigues' formula), i.e. the slerp's rotation at `w`, from the
+/// three matrices `R_i`, `R_i K`, `R_i K²` and one small-angle sine and versine per point
+/// instead of a quaternion product and its rotation matrix. A caller keeps one per worker and
+/// passes it to [`Trajectory::at_from`] or [`Trajectory::body_to_ecef_at`].
+#[derive(Debug, Clone, Default)]
+pub struct SegmentRotation {
+    /// The segment last searched for (the search's hint).
+    index: usize,
+    /// The segment the matrices below belong to (`None` until the first call).
+    prepared: Option<usize>,
+    r: Matrix3<f64>,
+    r_k: Matrix3<f64>,
+    r_k2: Matrix3<f64>,
+    angle_rad: f64,
+}
+
+impl SegmentRotation {
+    fn of(start: &UnitQuaternion<f64>, turn: &Option<Turn>, index: usize) -> SegmentRotation {
+        let r = start.to_rotation_matrix().into_inner();
+        let (r_k, r_k2, angle_rad) = match turn {
+            None => (Matrix3::zeros(), Matrix3::zeros(), 0.0),
+            Some(t) => {
+                let k = t.axis.into_inner().cross_matrix();
+                let r_k = r * k;
+                (r_k, r_k * k, t.angle_rad)
+            }
+        };
+        SegmentRotation {
+            index,
+            prepared: Some(index),
+            r,
+            r_k,
+            r_k2,
+            angle_rad,
+        }
+    }
+
+    /// The rotation at the fraction `w` of the segment.
+    #[inline]
+    fn at(&self, w: f64) -> Matrix3<f64> {
+        let (s, v) = sin_versine_small(w * self.angle_rad);
+        self.r + self.r_k * s + self.r_k2 * v
+    }
+}
+
+/// `(sin x, 1 − cos x)` for the small turn of one segment: Taylor series (the versine's own, so
+/// that no 1 − cos cancels), exact to rounding for |x| ≤ [`SMALL_ANGLE_RAD`]; libm's beyond
+/// (the versine as 2 sin²(x/2)).
+#[inline]
+fn sin_versine_small(x: f64) -> (f64, f64) {
+    if x.abs() > SMALL_ANGLE_RAD {
+        let h = (0.5 * x).sin();
+        return (x.sin(), 2.0 * h * h);
+    }
+    let (sin, _) = sin_cos_small(x);
+    const INV: [f64; 5] = [1.0 / 2.0, 1.0 / 12.0, 1.0 / 30.0, 1.0 / 56.0, 1.0 / 90.0];
+    let x2 = x * x;
+    let versine = x2
+        * INV[0]
+        * (1.0 - x2 * INV[1] * (1.0 - x2 * INV[2] * (1.0 - x2 * INV[3] * (1.0 - x2 * INV[4]))));
+    (sin, versine)
 }
 
 impl Trajectory {
@@ -244,17 +328,22 @@ impl Trajectory {
     /// # Errors
     /// [`Error::OutsideTrajectory`] when `time_s` is not finite or outside the span.
     pub fn at(&self, time_s: f64) -> Result<PoseAt> {
-        self.at_from(time_s, &mut 0)
+        self.at_from(time_s, &mut SegmentRotation::default())
     }
 
-    /// [`Trajectory::at`] starting the search at the pose index `hint` found by the previous
-    /// call (any value at first; updated): points come in time order, so the segment is
-    /// usually the same or the next one and the binary search is skipped. Same result.
+    /// [`Trajectory::at`] keeping the segment of the previous call in `segment` (start with its
+    /// `Default`): points come in time order, so the segment is usually the same or the next
+    /// one, the binary search is skipped, and the segment's rotation is prepared once
+    /// ([`SegmentRotation`]). The same result to rounding.
     ///
     /// # Errors
     /// As [`Trajectory::at`].
-    pub fn at_from(&self, time_s: f64, hint: &mut usize) -> Result<PoseAt> {
-        let (i, w) = self.segment_from(time_s, hint)?;
+    #[inline]
+    pub fn at_from(&self, time_s: f64, segment: &mut SegmentRotation) -> Result<PoseAt> {
+        let (i, w) = self.segment_from(time_s, &mut segment.index)?;
+        if segment.prepared != Some(i) {
+            *segment = SegmentRotation::of(&self.body_to_ecef[i], &self.turns[i], i);
+        }
         let position_ecef_m = self.position_at(i, w);
         let [la0, lo0] = self.lat_lon_rad[i];
         let [step_la, step_lo] = self.lat_lon_steps_rad[i];
@@ -268,8 +357,7 @@ impl Trajectory {
         let ((sd, cd), (se, ce)) = (sin_cos_small(dla), sin_cos_small(dlo));
         let (sp, cp) = (sp0 * cd + cp0 * sd, cp0 * cd - sp0 * sd);
         let (sl, cl) = (sl0 * ce + cl0 * se, cl0 * ce - sl0 * se);
-        let q = slerp(&self.body_to_ecef[i], &self.turns[i], w);
-        let body_to_ecef = q.to_rotation_matrix().into_inner();
+        let body_to_ecef = segment.at(w);
         let ecef_to_ned = ecef_from_ned_sin_cos(sp, cp, sl, cl).transpose();
         Ok(PoseAt {
             time_s,
@@ -283,16 +371,24 @@ impl Trajectory {
     }
 
     /// P0 (ECEF metres) and the body → ECEF rotation at `time_s`: the same interpolation as
-    /// [`Trajectory::at`] without the NED frame, for a caller that works
-    /// in ECEF (strip correction). `hint` is the pose index found by the previous call (any
-    /// value at first): points come in time order, so the search is usually skipped.
+    /// [`Trajectory::at`] without the NED frame, for a caller that works in ECEF (strip
+    /// correction). `segment` keeps the segment of the previous call (start with its
+    /// `Default`): points come in time order, so the search is usually skipped, and the
+    /// segment's rotation is prepared once for Rodrigues' formula (see [`SegmentRotation`]).
     ///
     /// # Errors
     /// As [`Trajectory::at`].
-    pub fn body_to_ecef_at(&self, time_s: f64, hint: &mut usize) -> Result<(Ecef, Matrix3<f64>)> {
-        let (i, w) = self.segment_from(time_s, hint)?;
-        let q = slerp(&self.body_to_ecef[i], &self.turns[i], w);
-        Ok((self.position_at(i, w), q.to_rotation_matrix().into_inner()))
+    #[inline]
+    pub fn body_to_ecef_at(
+        &self,
+        time_s: f64,
+        segment: &mut SegmentRotation,
+    ) -> Result<(Ecef, Matrix3<f64>)> {
+        let (i, w) = self.segment_from(time_s, &mut segment.index)?;
+        if segment.prepared != Some(i) {
+            *segment = SegmentRotation::of(&self.body_to_ecef[i], &self.turns[i], i);
+        }
+        Ok((self.position_at(i, w), segment.at(w)))
     }
 
     /// P0 at the fraction `w` of segment `i` (linear in ECEF, module docs).
@@ -467,18 +563,19 @@ mod tests {
             .map(|k| pose(f64::from(k) * 0.1, 3.0 * f64::from(k)))
             .collect();
         let t = Trajectory::new(&poses).unwrap();
-        let mut hint = 0;
+        let mut segment = SegmentRotation::default();
         // In order (same and next segment), on pose times, backwards, the last time, a jump.
         for time in [
             0.0, 0.01, 0.1, 0.15, 0.2, 0.31, 0.3, 4.9, 2.25, 2.3, 0.05, 4.85,
         ] {
             let a = t.at(time).unwrap();
-            let b = t.at_from(time, &mut hint).unwrap();
+            let b = t.at_from(time, &mut segment).unwrap();
             assert_eq!(a.position_ecef_m, b.position_ecef_m, "{time}");
             assert_eq!(a.body_to_ned, b.body_to_ned, "{time}");
-            assert!(t.times_s[hint] <= time && (time < t.times_s[hint + 1] || hint + 2 == 50));
+            let i = segment.index;
+            assert!(t.times_s[i] <= time && (time < t.times_s[i + 1] || i + 2 == 50));
         }
-        assert!(t.at_from(5.5, &mut hint).is_err());
+        assert!(t.at_from(5.5, &mut segment).is_err());
     }
 
     #[test]
@@ -494,23 +591,27 @@ mod tests {
     #[test]
     fn body_to_ecef_is_the_pose_without_its_ned_frame() {
         let t = Trajectory::new(&[pose(0.0, 30.0), pose(0.005, 31.0), pose(0.01, 29.5)]).unwrap();
-        // In order, backwards, repeated, at the nodes: the hint never changes the result.
-        let mut hint = 7;
+        // In order, backwards, repeated, at the nodes: the kept segment never changes the
+        // result.
+        let mut segment = SegmentRotation {
+            index: 7,
+            ..SegmentRotation::default()
+        };
         for time in [
             0.0, 0.0012, 0.005, 0.0099, 0.01, 0.0051, 0.0, 0.0049, 0.0049,
         ] {
             let p = t.at(time).unwrap();
-            let (position, r) = t.body_to_ecef_at(time, &mut hint).unwrap();
+            let (position, r) = t.body_to_ecef_at(time, &mut segment).unwrap();
             assert_eq!(position, p.position_ecef_m);
             assert_relative_eq!(
                 r,
                 p.ecef_to_ned.transpose() * p.body_to_ned,
                 epsilon = 1e-15
             );
-            assert_eq!(hint, if time < 0.005 { 0 } else { 1 });
+            assert_eq!(segment.index, if time < 0.005 { 0 } else { 1 });
         }
-        assert!(t.body_to_ecef_at(0.0101, &mut hint).is_err());
-        assert!(t.body_to_ecef_at(f64::NAN, &mut hint).is_err());
+        assert!(t.body_to_ecef_at(0.0101, &mut segment).is_err());
+        assert!(t.body_to_ecef_at(f64::NAN, &mut segment).is_err());
     }
 
     #[test]
@@ -540,6 +641,61 @@ mod tests {
             // Roll and pitch are body-fixed here, so a heading change is a rotation about N's
             // down axis: exactly linear in time.
             assert_relative_eq!(h, 10.0 + 20.0 * w, epsilon = 1e-9);
+        }
+    }
+
+    #[test]
+    fn rodrigues_rotation_is_the_slerp_to_rounding() {
+        // Segments turning by a few mrad (within the series) and by 0.3 rad (libm's), points
+        // in time order across segment changes and back again: the rotation of
+        // `body_to_ecef_at` is the slerp's quaternion within a few ulps of its unit entries.
+        let pose = |t: f64, h: f64| Pose {
+            time_s: t,
+            position_ecef_m: Ecef::new(4_000_000.0 + t, 1_000.0 * t, 4_800_000.0),
+            latitude_rad: 0.85,
+            longitude_rad: 0.2,
+            attitude: Attitude::from_degrees(2.0 * t, -3.0 + 0.1 * t, h),
+        };
+        let t = Trajectory::new(&[
+            pose(0.0, 10.0),
+            pose(0.005, 10.2),
+            pose(0.01, 10.2),
+            pose(1.0, 27.0),
+            pose(1.5, 27.3),
+        ])
+        .unwrap();
+        let mut segment = SegmentRotation::default();
+        let times = (0..=300)
+            .map(|k| f64::from(k) * 0.005)
+            .chain([0.0, 0.004, 1.2, 0.003]);
+        let mut worst = 0f64;
+        for time in times {
+            let (i, w) = t.segment(time).unwrap();
+            let q = slerp(&t.body_to_ecef[i], &t.turns[i], w);
+            let (p, r) = t.body_to_ecef_at(time, &mut segment).unwrap();
+            worst = worst.max((r - q.to_rotation_matrix().into_inner()).amax());
+            assert_eq!(p.vector(), t.position_at(i, w).vector());
+        }
+        assert!(worst <= 4.0 * f64::EPSILON, "largest difference {worst:e}");
+    }
+
+    #[test]
+    fn small_angle_versine_is_libm_to_rounding() {
+        for x in (-1000..=1000)
+            .map(|k| f64::from(k) * 1e-4)
+            .chain([1e-300, 7.3e-8, 0.3])
+        {
+            let (s, v) = sin_versine_small(x);
+            assert!(
+                (s - x.sin()).abs() <= x.sin().abs() * f64::EPSILON,
+                "sin {x}"
+            );
+            // The versine against 2 sin²(x/2), which has no cancellation.
+            let v0 = 2.0 * (0.5 * x).sin().powi(2);
+            assert!(
+                (v - v0).abs() <= 2.0 * v0 * f64::EPSILON,
+                "versine {x}: {v} vs {v0}"
+            );
         }
     }
 

@@ -351,6 +351,7 @@ impl CoordinateBlock<'_> {
 /// zero) for values well inside the i32 range, with the rounding done inline: `f64::round` is
 /// a libm call on the default x86-64 target, and every coordinate of a corrected strip takes
 /// it. `None` beyond ±(2³¹ − 1) and for NaN, which take `las`'s own function.
+#[inline]
 fn step_of(t: &las::Transform, n: f64) -> Option<i32> {
     let v = (n - t.offset) / t.scale;
     // (NaN fails the comparison.)
@@ -368,12 +369,14 @@ fn step_of(t: &las::Transform, n: f64) -> Option<i32> {
 }
 
 /// X, Y, Z of a record (scale and offset applied).
+#[inline]
 fn record_xyz(r: &[u8], t: &las::Vector<las::Transform>) -> [f64; 3] {
     let i = |k: usize| i32::from_le_bytes([r[k], r[k + 1], r[k + 2], r[k + 3]]);
     [t.x.direct(i(0)), t.y.direct(i(4)), t.z.direct(i(8))]
 }
 
 /// The GPS time of a record whose time is at byte `at` (`None`: the format has none).
+#[inline]
 fn record_gps_time(r: &[u8], at: Option<usize>) -> Option<f64> {
     at.map(|g| {
         let mut b = [0u8; 8];
