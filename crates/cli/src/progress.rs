@@ -12,7 +12,8 @@ pub fn set_quiet(quiet: bool) {
     QUIET.store(quiet, Ordering::Relaxed);
 }
 
-/// A bar of `total` `unit`s labelled `what`; hidden when stderr is not a terminal or `--quiet`.
+/// A bar of `total` `unit`s labelled `what` (and the bar's message after it, for a command
+/// that says which step it is in); hidden when stderr is not a terminal or `--quiet`.
 pub fn bar(what: &str, total: u64, unit: &str) -> ProgressBar {
     if QUIET.load(Ordering::Relaxed) || !std::io::stderr().is_terminal() {
         return ProgressBar::hidden();
@@ -20,7 +21,7 @@ pub fn bar(what: &str, total: u64, unit: &str) -> ProgressBar {
     let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
     bar.set_style(
         ProgressStyle::with_template(&format!(
-            "{what} [{{elapsed_precise}}] {{wide_bar}} {{human_pos}}/{{human_len}} {unit} ({{per_sec}}, eta {{eta}})"
+            "{what} [{{elapsed_precise}}] {{wide_bar}} {{human_pos}}/{{human_len}} {unit} ({{per_sec}}, eta {{eta}}) {{msg}}"
         ))
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );

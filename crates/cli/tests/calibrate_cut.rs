@@ -9,7 +9,8 @@ use binary::{simulate_scenario, small_demo_scenario};
 
 use lidarqa_calib::{AutoTieOptions, VtpmOptions, auto_ties};
 use lidarqa_pipeline::{
-    CalibrateJob, TieSource, TpuContext, TpuOptions, VTPM_NEIGHBOURS, calibrate_strips, load_all,
+    CalibrateJob, CalibrateStep, TieSource, TpuContext, TpuOptions, VTPM_NEIGHBOURS,
+    calibrate_strips_with_progress, load_all,
 };
 use std::path::PathBuf;
 
@@ -29,23 +30,54 @@ fn cut_strips_give_the_whole_strips_ties_and_calibration() {
         TpuOptions::default(),
     )
     .unwrap();
+    let steps = std::sync::Mutex::new(Vec::new());
     let run = |tile_points: u64| {
-        calibrate_strips(&CalibrateJob {
-            strips: &strips,
-            context: &ctx,
-            ties: TieSource::Automatic,
-            control: Some(&sim.join("control.csv")),
-            method: lidarqa_calib::Method::Vtpm,
-            options: lidarqa_calib::CalibrationOptions::default(),
-            radius_given: false,
-            weighting: None,
-            tile_points,
-        })
+        steps.lock().unwrap().clear();
+        calibrate_strips_with_progress(
+            &CalibrateJob {
+                strips: &strips,
+                context: &ctx,
+                ties: TieSource::Automatic,
+                control: Some(&sim.join("control.csv")),
+                method: lidarqa_calib::Method::Vtpm,
+                options: lidarqa_calib::CalibrationOptions::default(),
+                radius_given: false,
+                weighting: None,
+                tile_points,
+            },
+            &|step| steps.lock().unwrap().push(step),
+        )
         .unwrap()
     };
     let one = run(u64::MAX);
     let many = run(40_000);
     assert_eq!(one.to_json(), many.to_json());
+
+    // The progress bar's steps: every point of the first pass once, then the ties, then the
+    // adjustment.
+    let steps = steps.into_inner().unwrap();
+    let in_files: u64 = strips
+        .iter()
+        .map(|p| {
+            lidarqa_io::LasReader::from_path(p)
+                .unwrap()
+                .info()
+                .point_count
+        })
+        .sum();
+    let reads = steps.len() - 2;
+    let read: u64 = steps[..reads]
+        .iter()
+        .map(|s| match s {
+            CalibrateStep::Read(n) => *n,
+            other => panic!("{other:?} before the first pass ended"),
+        })
+        .sum();
+    assert_eq!(read, in_files);
+    assert_eq!(
+        steps[reads..],
+        [CalibrateStep::Ties, CalibrateStep::Adjustment]
+    );
 
     // The ties of the whole strips, found as before the cut (same radius rule).
     let (_, _, loaded) = load_all(&strips, &ctx).unwrap();

@@ -146,6 +146,29 @@ pub struct LoadedStrip {
 /// errors, and [`Error::Calibration`] for a failed adjustment, told in the CSV's terms (file,
 /// line, the x, y written there) when it is about a pick or a control point.
 pub fn calibrate_strips(job: &CalibrateJob<'_>) -> Result<StripCalibration> {
+    calibrate_strips_with_progress(job, &|_| {})
+}
+
+/// How far [`calibrate_strips_with_progress`] has come, for a progress bar.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CalibrateStep {
+    /// This many more points were read in the first pass over the strips (their sum over a
+    /// run is the strips' point count).
+    Read(u64),
+    /// The first pass is done; the ties are being found (automatic) or placed (hand picks).
+    Ties,
+    /// The ties are known; the points around them are read again and the adjustment runs.
+    Adjustment,
+}
+
+/// As [`calibrate_strips`], calling `progress` as it goes (from any thread).
+///
+/// # Errors
+/// As [`calibrate_strips`].
+pub fn calibrate_strips_with_progress(
+    job: &CalibrateJob<'_>,
+    progress: &(dyn Fn(CalibrateStep) + Sync),
+) -> Result<StripCalibration> {
     let ctx = job.context;
     let mut options = job.options;
     options.prior_sigma = ctx.mounting_sigma;
@@ -182,10 +205,11 @@ pub fn calibrate_strips(job: &CalibrateJob<'_>) -> Result<StripCalibration> {
         .par_iter()
         .map(|p| {
             let picks = tie_picks.as_ref().map(|t| (t, guesses.as_slice()));
-            scan_strip(p, ctx, &frame, picks, !job.radius_given)
+            scan_strip(p, ctx, &frame, picks, !job.radius_given, progress)
         })
         .collect();
     let scans = scans.into_iter().collect::<Result<Vec<_>>>()?;
+    progress(CalibrateStep::Ties);
     // Strip id → the names a CSV may use for it (id and file stem).
     let loaded_ids: Vec<(String, String)> = scans
         .iter()
@@ -244,6 +268,7 @@ pub fn calibrate_strips(job: &CalibrateJob<'_>) -> Result<StripCalibration> {
         squares.push(square(c.position_m.x, c.position_m.y, reach));
     }
     let region = Region::new(squares, &frame, &zone);
+    progress(CalibrateStep::Adjustment);
     let strips = cut_all(&scans, ctx, &frame, &region)?;
     let calibration = match job.method {
         Method::Plane => {
@@ -427,6 +452,7 @@ fn scan_strip(
     frame: &LocalFrame,
     picks: Option<(&TiePicks, &[[f64; 2]])>,
     want_radius: bool,
+    progress: &(dyn Fn(CalibrateStep) + Sync),
 ) -> Result<StripScan> {
     let mut xy: Vec<[f64; 2]> = Vec::new();
     let mut down: Vec<f64> = Vec::new();
@@ -447,6 +473,9 @@ fn scan_strip(
         let (x, y) = (kept.x, kept.y);
         if k % BLOCK_POINTS == 0 {
             blocks.push([x, y, x, y]);
+            if k > 0 {
+                progress(CalibrateStep::Read(BLOCK_POINTS));
+            }
         }
         if let Some(b) = blocks.last_mut() {
             *b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
@@ -471,6 +500,10 @@ fn scan_strip(
         count = k + 1;
         scratch.write_all(&kept.to_bytes()).map_err(scratch_error)
     })?;
+    // The last (partial) block's points.
+    progress(CalibrateStep::Read(
+        count - count.saturating_sub(1) / BLOCK_POINTS * BLOCK_POINTS,
+    ));
     let scratch = scratch
         .into_inner()
         .map_err(|e| scratch_error(e.into_error()))?;

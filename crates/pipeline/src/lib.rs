@@ -72,8 +72,9 @@ mod tpu_tiles;
 pub mod trajectory_from_returns;
 
 pub use calibrate_strips::{
-    CalibrateJob, LoadedStrip, POINTS_PER_TILE, StripCalibration, TieSource, TrajectoryWeighting,
-    VTPM_NEIGHBOURS, calibrate_strips, frame_for, load_all, local_to_projected, projected_to_local,
+    CalibrateJob, CalibrateStep, LoadedStrip, POINTS_PER_TILE, StripCalibration, TieSource,
+    TrajectoryWeighting, VTPM_NEIGHBOURS, calibrate_strips, calibrate_strips_with_progress,
+    frame_for, load_all, local_to_projected, projected_to_local,
 };
 pub use context::{TpuContext, TpuOptions, read_calibrated_mounting};
 pub use correct_tile::{

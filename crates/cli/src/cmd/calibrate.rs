@@ -10,7 +10,8 @@ use clap::Args;
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use lidarqa_calib::{CalibrationOptions, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Method};
 use lidarqa_pipeline::{
-    CalibrateJob, POINTS_PER_TILE, TieSource, TrajectoryWeighting, calibrate_strips,
+    CalibrateJob, CalibrateStep, POINTS_PER_TILE, TieSource, TrajectoryWeighting,
+    calibrate_strips_with_progress,
 };
 use std::path::PathBuf;
 
@@ -205,7 +206,25 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         .with_context(|| format!("{}: cannot create", plan.output_dir.display()))?;
     let a = &plan.args;
     let ctx = a.survey.context(&a.sensor, &a.trajectory)?;
-    let run = calibrate_strips(&CalibrateJob {
+    // Headers only, for the progress bar's length: the first pass reads every point once.
+    let total: u64 = a
+        .strips
+        .iter()
+        .map(|p| lidarqa_io::LasReader::from_path(p).map(|r| r.info().point_count))
+        .sum::<lidarqa_io::Result<u64>>()?;
+    let bar = crate::progress::bar("calibrate", total, "points");
+    let progress = |step| match step {
+        CalibrateStep::Read(n) => bar.inc(n),
+        CalibrateStep::Ties => bar.set_message(if a.ties.is_some() {
+            "placing the picked ties"
+        } else {
+            "finding the ties"
+        }),
+        CalibrateStep::Adjustment => {
+            bar.set_message("reading the points around the ties, adjusting")
+        }
+    };
+    let job = CalibrateJob {
         strips: &a.strips,
         context: &ctx,
         ties: a
@@ -221,7 +240,10 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
             attitude_correlation_s: a.attitude_correlation_s,
         }),
         tile_points: POINTS_PER_TILE,
-    })?;
+    };
+    let run = calibrate_strips_with_progress(&job, &progress);
+    bar.finish_and_clear();
+    let run = run?;
     let mut inputs: Vec<PathBuf> = a.strips.clone();
     inputs.extend([a.trajectory.clone(), a.sensor.clone()]);
     inputs.extend(a.ties.clone());
