@@ -23,7 +23,10 @@
 //! ```
 //! Other options: `--dir DIR` keeps the files there (default: a temporary directory, removed),
 //! `--lidarqa PATH` the binary to measure, `--only LIST` runs only some rows (comma-separated:
-//! `simulate`, `tpu`, `correct`, `conic`, `calibrate`), `--calibrate` adds the calibration row.
+//! `simulate`, `tpu`, `correct`, `conic`, `calibrate`), `--calibrate` adds the calibration row,
+//! `--repeat N` runs every row N times and shows each one's median ratio (the calibration row's
+//! median wall time) and the range: one run of a row near its bar says little on a machine whose
+//! timings move by a few per cent from run to run.
 //!
 //! The calibration row (not in the default run: it simulates 32 M points first) is issue #21's
 //! absolute bar, ≤ 30 s and ≤ 1 GB: `calibrate --auto-ties --control` on the 24-strip
@@ -55,6 +58,8 @@ struct Args {
     only: Vec<String>,
     dir: Option<PathBuf>,
     lidarqa: PathBuf,
+    /// Runs of every row; each row shows its median (by ratio) and the range.
+    repeat: usize,
 }
 
 fn parse_args() -> Result<Args> {
@@ -64,6 +69,7 @@ fn parse_args() -> Result<Args> {
         only: DEFAULT_ROWS.iter().map(|r| r.to_string()).collect(),
         dir: None,
         lidarqa: exe.with_file_name("lidarqa"),
+        repeat: 1,
     };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -78,6 +84,14 @@ fn parse_args() -> Result<Args> {
                     .with_context(|| format!("--points {v}: expected a count ≥ 10000"))?;
             }
             "--dir" => args.dir = Some(PathBuf::from(value()?)),
+            "--repeat" => {
+                let v = value()?;
+                args.repeat = v
+                    .parse()
+                    .ok()
+                    .filter(|n| (1..=20).contains(n))
+                    .with_context(|| format!("--repeat {v}: expected 1 to 20"))?;
+            }
             "--only" => {
                 let v = value()?;
                 args.only = v.split(',').map(|r| r.trim().to_string()).collect();
@@ -93,11 +107,12 @@ fn parse_args() -> Result<Args> {
             "-h" | "--help" => {
                 println!(
                     "usage: lidarqa-bench [--points N] [--dir DIR] [--lidarqa PATH] [--only LIST] \
-                     [--calibrate]\n\
+                     [--calibrate] [--repeat N]\n\
                      Times simulate, tpu (with/without incidence), correct and the conic TPU \
                      against a parallel LAZ copy of each one's output; --calibrate adds \
                      calibrate on the 24-strip calibration scenario; --only LIST (of {}) runs \
-                     only those.",
+                     only those; --repeat N runs every row N times and shows each one's median \
+                     and range.",
                     ALL_ROWS.join(", ")
                 );
                 std::process::exit(0);
@@ -316,6 +331,96 @@ fn main() -> Result<()> {
         std::thread::available_parallelism().map_or(0, |n| n.get()),
         load()
     );
+    // Each row's median over the repeats (by ratio), with the range.
+    let runs = (0..args.repeat)
+        .map(|_| measure_all(&args, &dir, bin, &scratch))
+        .collect::<Result<Vec<_>>>()?;
+    let median_of = |rows: Vec<(Row, f64)>| -> (Row, f64, f64, f64) {
+        let mut rows = rows;
+        rows.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let (lo, hi) = (rows[0].1, rows[rows.len() - 1].1);
+        let (row, ratio) = rows.swap_remove(rows.len() / 2);
+        (row, ratio, lo, hi)
+    };
+    let mut columns: Vec<Vec<(Row, f64)>> = Vec::new();
+    let mut calibrations: Vec<(Row, f64)> = Vec::new();
+    for (rows, calibration) in runs {
+        for (i, r) in rows.into_iter().enumerate() {
+            let ratio = r.copy.seconds / r.command.seconds;
+            if columns.len() <= i {
+                columns.push(Vec::new());
+            }
+            columns[i].push((r, ratio));
+        }
+        // The calibration row's median is by wall time, its bar.
+        calibrations.extend(calibration.map(|r| {
+            let seconds = r.command.seconds;
+            (r, seconds)
+        }));
+    }
+    let rows: Vec<(Row, f64, f64, f64)> = columns.into_iter().map(median_of).collect();
+    let calibration_row = (!calibrations.is_empty()).then(|| median_of(calibrations).0);
+    let range = |lo: f64, hi: f64| {
+        if args.repeat > 1 {
+            format!(" ({lo:.2}–{hi:.2} over {})", args.repeat)
+        } else {
+            String::new()
+        }
+    };
+
+    println!();
+    println!(
+        "| command | points | command s | copy s | ratio | bar | command CPU s | copy CPU s | peak MB |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let secs = |v: Option<f64>| v.map_or("?".into(), |v| format!("{v:.2}"));
+    for (r, ratio, lo, hi) in &rows {
+        let ratio = *ratio;
+        println!(
+            "| {} | {} | {:.2} | {:.2} | {:.2}{} | {} | {} | {} | {} |",
+            r.what,
+            r.copy.points,
+            r.command.seconds,
+            r.copy.seconds,
+            ratio,
+            range(*lo, *hi),
+            r.bar.map_or("none in #21".into(), |bar| format!(
+                "≥ {bar} {}",
+                if ratio >= bar { "✓" } else { "✗" }
+            )),
+            secs(r.command.cpu_s),
+            secs(r.copy.cpu_s),
+            r.command.peak_mb.map_or("?".into(), |m| format!("{m:.0}")),
+        );
+    }
+    if let Some(r) = calibration_row {
+        let (seconds, mb) = CALIBRATE_BAR;
+        let peak = r.command.peak_mb;
+        let met = r.command.seconds <= seconds && peak.is_some_and(|m| m <= mb);
+        println!(
+            "\n| {} | {} | {:.2} | {:.2} | {:.2} | ≤ {seconds} s, ≤ {mb} MB {} | {} | {} | {} |",
+            r.what,
+            r.copy.points,
+            r.command.seconds,
+            r.copy.seconds,
+            r.copy.seconds / r.command.seconds,
+            if met { "✓" } else { "✗" },
+            secs(r.command.cpu_s),
+            secs(r.copy.cpu_s),
+            peak.map_or("?".into(), |m| format!("{m:.0}")),
+        );
+    }
+    println!("\nload average at the end: {}", load());
+    Ok(())
+}
+
+/// One pass over the rows `args.only` names: their runs, and the calibration row's.
+fn measure_all(
+    args: &Args,
+    dir: &Path,
+    bin: &Path,
+    scratch: &Path,
+) -> Result<(Vec<Row>, Option<Row>)> {
     let mut rows = Vec::new();
 
     let wants = |row: &str| args.only.iter().any(|r| r == row);
@@ -324,13 +429,13 @@ fn main() -> Result<()> {
         std::fs::write(&scen, scenario(args.points)?)?;
         let sim = dir.join("sim");
         let command = run(
-            &dir,
+            dir,
             bin,
             &["simulate", "--scenario", s(&scen), "-o", s(&sim)],
         )?;
         let strip = sim.join("strip_001.laz");
         if wants("simulate") {
-            let copy = laz_copy(&strip, &scratch)?;
+            let copy = laz_copy(&strip, scratch)?;
             rows.push(Row {
                 what: "simulate",
                 command,
@@ -379,8 +484,8 @@ fn main() -> Result<()> {
                 "-o",
                 s(&out),
             ];
-            let command = run(&dir, bin, &cmd)?;
-            let copy = laz_copy(&out, &scratch)?;
+            let command = run(dir, bin, &cmd)?;
+            let copy = laz_copy(&out, scratch)?;
             rows.push(Row {
                 what,
                 command,
@@ -401,7 +506,7 @@ fn main() -> Result<()> {
         let calibration = ["--calibration", s(&cal)];
         if wants("correct") {
             rows.push(measure_dir(
-                &dir,
+                dir,
                 bin,
                 ("correct", Some(0.8)),
                 ["correct", s(&strip), s(&sbet), s(&sensor)],
@@ -414,13 +519,13 @@ fn main() -> Result<()> {
     if wants("conic") {
         let bathy = dir.join("bathymetry");
         run(
-            &dir,
+            dir,
             bin,
             &["simulate", "--scenario", "bathymetry", "-o", s(&bathy)],
         )?;
         let (bathy_sbet, bathy_sensor) = (bathy.join("sbet.out"), bathy.join("sensor.toml"));
         rows.push(measure_dir(
-            &dir,
+            dir,
             bin,
             ("tpu, conic (bathymetry scenario)", Some(0.7)),
             ["tpu", s(&bathy), s(&bathy_sbet), s(&bathy_sensor)],
@@ -429,54 +534,11 @@ fn main() -> Result<()> {
         )?);
     }
     let calibration_row = if wants("calibrate") {
-        Some(measure_calibrate(&dir, bin)?)
+        Some(measure_calibrate(dir, bin)?)
     } else {
         None
     };
-
-    println!();
-    println!(
-        "| command | points | command s | copy s | ratio | bar | command CPU s | copy CPU s | peak MB |"
-    );
-    println!("|---|---|---|---|---|---|---|---|---|");
-    let secs = |v: Option<f64>| v.map_or("?".into(), |v| format!("{v:.2}"));
-    for r in &rows {
-        let ratio = r.copy.seconds / r.command.seconds;
-        println!(
-            "| {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {} | {} |",
-            r.what,
-            r.copy.points,
-            r.command.seconds,
-            r.copy.seconds,
-            ratio,
-            r.bar.map_or("none in #21".into(), |bar| format!(
-                "≥ {bar} {}",
-                if ratio >= bar { "✓" } else { "✗" }
-            )),
-            secs(r.command.cpu_s),
-            secs(r.copy.cpu_s),
-            r.command.peak_mb.map_or("?".into(), |m| format!("{m:.0}")),
-        );
-    }
-    if let Some(r) = calibration_row {
-        let (seconds, mb) = CALIBRATE_BAR;
-        let peak = r.command.peak_mb;
-        let met = r.command.seconds <= seconds && peak.is_some_and(|m| m <= mb);
-        println!(
-            "\n| {} | {} | {:.2} | {:.2} | {:.2} | ≤ {seconds} s, ≤ {mb} MB {} | {} | {} | {} |",
-            r.what,
-            r.copy.points,
-            r.command.seconds,
-            r.copy.seconds,
-            r.copy.seconds / r.command.seconds,
-            if met { "✓" } else { "✗" },
-            secs(r.command.cpu_s),
-            secs(r.copy.cpu_s),
-            peak.map_or("?".into(), |m| format!("{m:.0}")),
-        );
-    }
-    println!("\nload average at the end: {}", load());
-    Ok(())
+    Ok((rows, calibration_row))
 }
 
 /// The calibration row: simulates the `calibration` scenario (seed 11, not timed), then times

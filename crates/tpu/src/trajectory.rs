@@ -86,6 +86,9 @@ pub struct Trajectory {
     /// Segment i's change of latitude and of longitude (wrapped to (−π, π]), rad: once per
     /// segment, not per point (the wrap is an `fmod`).
     lat_lon_steps_rad: Vec<[f64; 2]>,
+    /// 1 / (t_{i+1} − t_i) of segment i (0 for two poses at one time): a point's weight in its
+    /// segment by a multiplication, not a division.
+    inverse_durations: Vec<f64>,
 }
 
 fn wrap_pi(a: f64) -> f64 {
@@ -257,6 +260,7 @@ impl Trajectory {
             body_to_ecef: Vec::with_capacity(poses.len()),
             turns: Vec::with_capacity(poses.len()),
             lat_lon_steps_rad: Vec::with_capacity(poses.len()),
+            inverse_durations: Vec::with_capacity(poses.len()),
         };
         for (i, p) in poses.iter().enumerate() {
             let a = &p.attitude;
@@ -304,6 +308,17 @@ impl Trajectory {
             .lat_lon_rad
             .windows(2)
             .map(|w| [w[1][0] - w[0][0], wrap_pi(w[1][1] - w[0][1])])
+            .collect();
+        t.inverse_durations = t
+            .times_s
+            .windows(2)
+            .map(|w| {
+                if w[1] > w[0] {
+                    1.0 / (w[1] - w[0])
+                } else {
+                    0.0
+                }
+            })
             .collect();
         Ok(t)
     }
@@ -404,7 +419,7 @@ impl Trajectory {
         let fits = |i: usize| i + 1 < t.len() && t[i] <= time_s && time_s < t[i + 1];
         let found = [*hint, *hint + 1].into_iter().find(|&i| fits(i));
         let (i, w) = match found {
-            Some(i) => (i, (time_s - t[i]) / (t[i + 1] - t[i])),
+            Some(i) => (i, (time_s - t[i]) * self.inverse_durations[i]),
             None => self.segment(time_s)?,
         };
         *hint = i;
@@ -427,13 +442,8 @@ impl Trajectory {
             .partition_point(|&x| x <= time_s)
             .saturating_sub(1)
             .min(n - 2);
-        let (t0, t1) = (self.times_s[i], self.times_s[i + 1]);
-        let w = if t1 > t0 {
-            (time_s - t0) / (t1 - t0)
-        } else {
-            0.0
-        };
-        Ok((i, w))
+        // (0 for two poses at one time.)
+        Ok((i, (time_s - self.times_s[i]) * self.inverse_durations[i]))
     }
 }
 
