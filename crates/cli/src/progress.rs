@@ -21,11 +21,24 @@ pub fn bar(what: &str, total: u64, unit: &str) -> ProgressBar {
     let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
     bar.set_style(
         ProgressStyle::with_template(&format!(
-            "{what} [{{elapsed_precise}}] {{wide_bar}} {{human_pos}}/{{human_len}} {unit} ({{per_sec}}, eta {{eta}}) {{msg}}"
+            "{what} [{{elapsed_precise}}] {{wide_bar}} {{human_pos}}/{{human_len}} {unit} ({{per_sec:0}}, eta {{eta}}) {{msg}}"
         ))
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar
+}
+
+/// The points the files' headers declare, summed: a bar's length (no point is read).
+///
+/// # Errors
+/// A file that cannot be opened or whose header is not LAS, naming it.
+pub fn points_in<'a>(
+    files: impl IntoIterator<Item = &'a std::path::Path>,
+) -> lidarqa_io::Result<u64> {
+    files
+        .into_iter()
+        .map(|p| lidarqa_io::LasReader::from_path(p).map(|r| r.info().point_count))
+        .sum()
 }
 
 #[cfg(test)]

@@ -206,12 +206,8 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
         .with_context(|| format!("{}: cannot create", plan.output_dir.display()))?;
     let a = &plan.args;
     let ctx = a.survey.context(&a.sensor, &a.trajectory)?;
-    // Headers only, for the progress bar's length: the first pass reads every point once.
-    let total: u64 = a
-        .strips
-        .iter()
-        .map(|p| lidarqa_io::LasReader::from_path(p).map(|r| r.info().point_count))
-        .sum::<lidarqa_io::Result<u64>>()?;
+    // The first pass reads every point once.
+    let total = crate::progress::points_in(a.strips.iter().map(PathBuf::as_path))?;
     let bar = crate::progress::bar("calibrate", total, "points");
     let progress = |step| match step {
         CalibrateStep::Read(n) => bar.inc(n),

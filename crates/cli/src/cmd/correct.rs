@@ -60,12 +60,7 @@ pub fn run(a: CorrectArgs) -> Result<()> {
     // No output may overwrite any strip (not only its own input) or the calibration.
     let mut others: Vec<&Path> = a.strips.iter().map(PathBuf::as_path).collect();
     others.push(&a.calibration);
-    // Headers only, for the progress bar's length.
-    let total: u64 = a
-        .strips
-        .iter()
-        .map(|p| lidarqa_io::LasReader::from_path(p).map(|r| r.info().point_count))
-        .sum::<lidarqa_io::Result<u64>>()?;
+    let total = crate::progress::points_in(a.strips.iter().map(PathBuf::as_path))?;
     let bar = crate::progress::bar("correct", total, "points");
     for (path, out) in a.strips.iter().zip(&outputs) {
         let job = CorrectTileJob {

@@ -7,7 +7,6 @@ use super::tpu_table;
 use crate::format::{OutputFormat, print_json, print_text, print_warnings, write_json_file};
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lidarqa_io::LasReader;
 use lidarqa_pipeline::{TileReport, TpuContext, TpuOptions, TpuTileJob, tpu_tiles};
 use std::path::{Path, PathBuf};
 
@@ -162,12 +161,7 @@ pub fn run(args: TpuArgs) -> Result<()> {
         Some(path) => ctx.with_calibration(path)?,
         None => ctx,
     };
-    // Headers only, for the progress bar's length.
-    let total: u64 = plan
-        .tiles
-        .iter()
-        .map(|t| LasReader::from_path(&t.input).map(|r| r.info().point_count))
-        .sum::<lidarqa_io::Result<u64>>()?;
+    let total = crate::progress::points_in(plan.tiles.iter().map(|t| t.input.as_path()))?;
     let bar = crate::progress::bar("tpu", total, "points");
     let progress = |n: u64| bar.inc(n);
     let jobs: Vec<TpuTileJob> = plan
