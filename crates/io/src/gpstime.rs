@@ -276,34 +276,12 @@ impl LasTimeConverter {
     /// [`Error::GpsTime`] naming the file and the value, as described on the type.
     #[inline]
     pub fn to_seconds_of_week(&self, t_las_s: f64) -> Result<f64> {
-        // Without a call per point where the time is good; every error in full below.
-        let sow = match (self.base, self.week_flag) {
-            (LasTimeBase::GpsWeekSeconds, _) => t_las_s,
-            (LasTimeBase::AdjustedStandard, Some(w)) => {
-                t_las_s - (w as f64 * SECONDS_PER_WEEK_S - ADJUSTED_GPS_OFFSET_S)
-            }
-            (LasTimeBase::AdjustedStandard, None) => {
-                let own = adjusted_standard_to_week(t_las_s);
-                let plausible = self.creation.is_none_or(|(_, cw)| own.week <= cw);
-                if t_las_s.is_finite() && plausible {
-                    return Ok(own.seconds_of_week_s);
-                }
-                return self.convert(t_las_s);
-            }
-        };
-        if (0.0..SECONDS_PER_WEEK_S).contains(&sow) {
-            return Ok(sow);
-        }
-        self.convert(t_las_s)
-    }
-
-    /// [`LasTimeConverter::to_seconds_of_week`] in full.
-    fn convert(&self, t_las_s: f64) -> Result<f64> {
+        // Inlined per point: the messages are built out of line, only for a bad time.
         if !t_las_s.is_finite() {
             return Err(self.err(format!("GPS time {t_las_s} is not finite")));
         }
-        match self.base {
-            LasTimeBase::GpsWeekSeconds => {
+        match (self.base, self.week_flag) {
+            (LasTimeBase::GpsWeekSeconds, _) => {
                 if (0.0..SECONDS_PER_WEEK_S).contains(&t_las_s) {
                     Ok(t_las_s)
                 } else {
@@ -313,36 +291,43 @@ impl LasTimeConverter {
                     )))
                 }
             }
-            LasTimeBase::AdjustedStandard => {
+            (LasTimeBase::AdjustedStandard, Some(w)) => {
+                let sow = t_las_s - (w as f64 * SECONDS_PER_WEEK_S - ADJUSTED_GPS_OFFSET_S);
+                if (0.0..SECONDS_PER_WEEK_S).contains(&sow) {
+                    Ok(sow)
+                } else {
+                    Err(self.not_in_given_week(t_las_s, w, sow))
+                }
+            }
+            (LasTimeBase::AdjustedStandard, None) => {
                 let own = adjusted_standard_to_week(t_las_s);
-                if let Some(w) = self.week_flag {
-                    let sow = t_las_s - (w as f64 * SECONDS_PER_WEEK_S - ADJUSTED_GPS_OFFSET_S);
-                    if (0.0..SECONDS_PER_WEEK_S).contains(&sow) {
-                        return Ok(sow);
-                    }
-                    return Err(self.err(format!(
-                        "adjusted standard GPS time {t_las_s} s lies in GPS week {} (starting {}), \
-                         not in week {w} given by --gps-week: {sow} s is outside [0, 604800)",
+                match self.creation {
+                    Some((date, cw)) if own.week > cw => Err(self.err(format!(
+                        "adjusted standard GPS time {t_las_s} s lies in GPS week {} (starting \
+                         {}), after the file creation date {date} (week {cw}); the clues \
+                         disagree: pass --gps-week",
                         own.week,
                         gps_week_start(own.week)
-                    )));
+                    ))),
+                    _ => Ok(own.seconds_of_week_s),
                 }
-                if let Some((date, cw)) = self.creation {
-                    if own.week > cw {
-                        return Err(self.err(format!(
-                            "adjusted standard GPS time {t_las_s} s lies in GPS week {} (starting \
-                             {}), after the file creation date {date} (week {cw}); the clues \
-                             disagree: pass --gps-week",
-                            own.week,
-                            gps_week_start(own.week)
-                        )));
-                    }
-                }
-                Ok(own.seconds_of_week_s)
             }
         }
     }
 
+    /// The error of an adjusted standard time outside the week `--gps-week` gives.
+    #[cold]
+    fn not_in_given_week(&self, t_las_s: f64, w: i64, sow: f64) -> Error {
+        let own = adjusted_standard_to_week(t_las_s);
+        self.err(format!(
+            "adjusted standard GPS time {t_las_s} s lies in GPS week {} (starting {}), \
+             not in week {w} given by --gps-week: {sow} s is outside [0, 604800)",
+            own.week,
+            gps_week_start(own.week)
+        ))
+    }
+
+    #[cold]
     fn err(&self, message: String) -> Error {
         Error::GpsTime {
             path: self.path.clone(),
