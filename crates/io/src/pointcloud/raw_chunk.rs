@@ -262,7 +262,6 @@ impl RawChunk {
                 records,
                 record_len,
                 transforms,
-                inverse_scales: [transforms.x, transforms.y, transforms.z].map(|t| 1.0 / t.scale),
                 gps_time_at,
                 first_index: first_index + (b * points) as u64,
             })
@@ -277,8 +276,6 @@ pub struct CoordinateBlock<'a> {
     records: &'a mut [u8],
     record_len: usize,
     transforms: las::Vector<las::Transform>,
-    /// 1 / scale of X, Y, Z ([`step_of`]).
-    inverse_scales: [f64; 3],
     gps_time_at: Option<usize>,
     /// Index in the file of the run's first point.
     first_index: u64,
@@ -321,11 +318,11 @@ impl CoordinateBlock<'_> {
     /// record is then unchanged.
     #[inline]
     pub fn set(&mut self, path: &Path, k: usize, xyz: [f64; 3]) -> Result<()> {
-        let (t, inv) = (&self.transforms, &self.inverse_scales);
+        let t = &self.transforms;
         let raw = [
-            step_of(&t.x, inv[0], xyz[0]),
-            step_of(&t.y, inv[1], xyz[1]),
-            step_of(&t.z, inv[2], xyz[2]),
+            step_of(&t.x, xyz[0]),
+            step_of(&t.y, xyz[1]),
+            step_of(&t.z, xyz[2]),
         ];
         let raw = match raw {
             [Some(x), Some(y), Some(z)] => [x, y, z],
@@ -354,23 +351,9 @@ impl CoordinateBlock<'_> {
 /// zero) for values well inside the i32 range, with the rounding done inline: `f64::round` is
 /// a libm call on the default x86-64 target, and every coordinate of a corrected strip takes
 /// it. `None` beyond ±(2³¹ − 1) and for NaN, which take `las`'s own function.
-///
-/// The quotient by the scale is first taken as a product with its reciprocal
-/// (`inverse_scale`, which the caller computes once): within a few ulps of the quotient, so it
-/// rounds to the same step unless it lies within 10⁻⁶ of a half or near the i32 limits, where
-/// the quotient itself decides (a division per coordinate is many multiplications' time).
 #[inline]
-fn step_of(t: &las::Transform, inverse_scale: f64, n: f64) -> Option<i32> {
-    let d = n - t.offset;
-    let product = d * inverse_scale;
-    let i = product as i64;
-    let near_half = ((product - i as f64).abs() - 0.5).abs() < 1e-6;
-    let near_limit = product.abs() >= 2_147_483_646.0;
-    let v = if near_half || near_limit {
-        d / t.scale
-    } else {
-        product
-    };
+fn step_of(t: &las::Transform, n: f64) -> Option<i32> {
+    let v = (n - t.offset) / t.scale;
     // (NaN fails the comparison.)
     if v.abs() < 2_147_483_647.0 {
         // |v| < 2³¹: the truncation is exact in i64 and `v − i` exact in f64; the halves go
@@ -450,7 +433,7 @@ mod tests {
                     for ulps in -3i64..=3 {
                         values.push(f64::from_bits((v.to_bits() as i64 + ulps) as u64));
                     }
-                    // Just outside the band where the quotient decides: the product's step.
+                    // A few millionths of a step off a half.
                     for off in [1.01e-6, -1.01e-6, 3e-6, -3e-6] {
                         values.push(v + off);
                     }
@@ -473,7 +456,7 @@ mod tests {
             for v in values {
                 let n = v * t.scale + t.offset;
                 // Where it gives a step, las's; where not, las's is an error or NaN's 0.
-                match (step_of(&t, 1.0 / t.scale, n), t.inverse(n)) {
+                match (step_of(&t, n), t.inverse(n)) {
                     (Some(a), Ok(b)) => assert_eq!(a, b, "{n} {t:?}"),
                     (None, Err(_)) => {}
                     (None, Ok(_)) => {
