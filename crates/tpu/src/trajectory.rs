@@ -355,10 +355,7 @@ impl Trajectory {
     /// As [`Trajectory::at`].
     #[inline]
     pub fn at_from(&self, time_s: f64, segment: &mut SegmentRotation) -> Result<PoseAt> {
-        let (i, w) = self.segment_from(time_s, &mut segment.index)?;
-        if segment.prepared != Some(i) {
-            *segment = SegmentRotation::of(&self.body_to_ecef[i], &self.turns[i], i);
-        }
+        let (i, w) = self.prepared_segment(time_s, segment)?;
         let position_ecef_m = self.position_at(i, w);
         let [la0, lo0] = self.lat_lon_rad[i];
         let [step_la, step_lo] = self.lat_lon_steps_rad[i];
@@ -399,11 +396,19 @@ impl Trajectory {
         time_s: f64,
         segment: &mut SegmentRotation,
     ) -> Result<(Ecef, Matrix3<f64>)> {
+        let (i, w) = self.prepared_segment(time_s, segment)?;
+        Ok((self.position_at(i, w), segment.at(w)))
+    }
+
+    /// The segment `[i, i + 1]` holding `time_s` and the weight of pose `i + 1`, searched from
+    /// `segment`'s and with `segment` prepared for it.
+    #[inline]
+    fn prepared_segment(&self, time_s: f64, segment: &mut SegmentRotation) -> Result<(usize, f64)> {
         let (i, w) = self.segment_from(time_s, &mut segment.index)?;
         if segment.prepared != Some(i) {
             *segment = SegmentRotation::of(&self.body_to_ecef[i], &self.turns[i], i);
         }
-        Ok((self.position_at(i, w), segment.at(w)))
+        Ok((i, w))
     }
 
     /// P0 at the fraction `w` of segment `i` (linear in ECEF, module docs).
