@@ -26,15 +26,24 @@
 //! bounded channels, so the coding of one chunk overlaps the computation of the next. The
 //! records pass as the file stores them ([`RawChunk`]): only X, Y and Z are rewritten, no
 //! record is decoded into fields and encoded back.
+//!
+//! Within a chunk, each worker takes its points in batches of a few dozen through one step at a
+//! time (pose and map, then the arithmetic, then the records), and the arithmetic four points
+//! at once on nalgebra's SIMD scalar type (simba's `WideF64x4`): the same IEEE operations lane
+//! by lane as on one `f64`, so the same bits (test `four_at_once_is_one_at_a_time_bit_for_bit`),
+//! from one generic function ([`displacement`]).
 
 use crate::context::TpuContext;
 use crate::error::{Error, Result};
 use crate::stages::{read_chunks, run_stages, write_chunks};
-use lidarqa_io::{CellCache, Crs, GridToEcef, LasTimeConverter, LasWriteOptions, RawChunk};
+use lidarqa_io::{
+    CellCache, CoordinateBlock, Crs, GridToEcef, LasTimeConverter, LasWriteOptions, RawChunk,
+};
 use lidarqa_model::{Ecef, Mounting};
-use lidarqa_tpu::{Recoverer, SegmentRotation, Trajectory};
-use nalgebra::{Matrix3, Vector3};
+use lidarqa_tpu::{SegmentRotation, Trajectory};
+use nalgebra::{Matrix3, SimdRealField, SimdValue, Vector3};
 use rayon::prelude::*;
+use simba::simd::WideF64x4;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
@@ -164,20 +173,15 @@ impl Run<'_> {
         for msg in rx {
             let mut chunk = msg?;
             self.check_distance(&chunk)?;
-            // Each task reads its run's records, moves its points and writes them back in
-            // place; each work item keeps the trajectory segment of its last point and its cells
-            // (boxed: rayon moves the work item with every run). The first bad point in file
-            // order, whatever the thread count.
+            // Each task moves its run's points in place; each work item keeps the trajectory
+            // segment of its last point, its cells and its batch (boxed: rayon moves the work
+            // item with every run). The first bad point in file order, whatever the thread
+            // count.
             if let Some(e) = chunk
                 .coordinate_blocks(BLOCK)
                 .into_par_iter()
                 .map_init(Worker::default, |worker, mut block| {
-                    for k in 0..block.len() {
-                        let (xyz, time) = block.get(k);
-                        let moved = self.point(block.index(k), xyz, time, worker)?;
-                        block.set(self.output, k, moved)?;
-                    }
-                    Ok::<(), Error>(())
+                    self.correct_block(&mut block, worker)
                 })
                 .find_map_first(Result::err)
             {
@@ -228,14 +232,75 @@ impl Run<'_> {
         )
     }
 
-    /// The corrected coordinates of the point `index` at `xyz` with GPS time `time`.
-    fn point(
+    /// Moves the points of `block`, [`BATCH`] at a time through each step in turn: the
+    /// trajectory and the map for all of them, then the arithmetic ([`Correction::steps`]),
+    /// then the records. (Taken one point at a time through all steps, the work of a point is
+    /// too long for the processor to overlap it with the next one's.) A batch with a point the
+    /// first step refuses is done again one point at a time, so that the error is the first
+    /// bad point's.
+    fn correct_block(&self, block: &mut CoordinateBlock<'_>, worker: &mut Worker) -> Result<()> {
+        let len = block.len();
+        for start in (0..len).step_by(BATCH) {
+            let points = start..(start + BATCH).min(len);
+            if self.prepare_batch(block, points.clone(), worker).is_ok() {
+                self.finish_batch(block, points, worker)?;
+            } else {
+                for k in points {
+                    self.prepare_batch(block, k..k + 1, worker)?;
+                    self.finish_batch(block, k..k + 1, worker)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The first step for the points `points` of `block` (at most [`BATCH`]), into the
+    /// worker's batch: their pose and the map at them. Stops at the first bad point.
+    fn prepare_batch(
+        &self,
+        block: &CoordinateBlock<'_>,
+        points: std::ops::Range<usize>,
+        worker: &mut Worker,
+    ) -> Result<()> {
+        for (k, slot) in points.zip(worker.batch.iter_mut()) {
+            let (xyz, time) = block.get(k);
+            let (p0, r_be) = self.pose(block.index(k), xyz, time, &mut worker.segment)?;
+            self.correction
+                .prepare(&mut worker.cells, xyz, &p0, &r_be, slot);
+        }
+        Ok(())
+    }
+
+    /// The arithmetic and the records for the points `points` of `block`, prepared in the
+    /// worker's batch. Stops at the first bad point.
+    fn finish_batch(
+        &self,
+        block: &mut CoordinateBlock<'_>,
+        points: std::ops::Range<usize>,
+        worker: &mut Worker,
+    ) -> Result<()> {
+        let batch = &mut worker.batch[..points.len()];
+        self.correction.steps(batch);
+        for (k, slot) in points.zip(batch.iter()) {
+            let moved = self
+                .correction
+                .moved(slot)
+                .map_err(|source| self.point_error(block.index(k), source))?;
+            block.set(self.output, k, moved)?;
+        }
+        Ok(())
+    }
+
+    /// P0 and the body → ECEF rotation at the time of the point `index` at `xyz`, after the
+    /// checks of its coordinates and its time.
+    #[inline]
+    fn pose(
         &self,
         index: u64,
         [x, y, z]: [f64; 3],
         time: Option<f64>,
-        worker: &mut Worker,
-    ) -> Result<[f64; 3]> {
+        segment: &mut SegmentRotation,
+    ) -> Result<(Ecef, Matrix3<f64>)> {
         let path = self.path;
         crate::error::check_finite(path, index, x, y, z)?;
         let t = time.ok_or_else(|| Error::BadTime {
@@ -243,26 +308,26 @@ impl Run<'_> {
             message: format!("{}: point without GPS time", path.display()),
         })?;
         let sow = self.converter.to_seconds_of_week(t)?;
-        let (p0, r_be) = self
-            .trajectory
-            .body_to_ecef_at(sow, &mut worker.segment)
-            .map_err(|_| {
-                let (start_s, end_s) = self.trajectory.span_s();
-                Error::OutsideTrajectory {
-                    path: path.to_path_buf(),
-                    index,
-                    time_s: sow,
-                    start_s,
-                    end_s,
-                }
-            })?;
-        self.correction
-            .apply(&mut worker.cells, [x, y, z], &p0, &r_be)
-            .map_err(|source| Error::Point {
+        self.trajectory.body_to_ecef_at(sow, segment).map_err(|_| {
+            let (start_s, end_s) = self.trajectory.span_s();
+            Error::OutsideTrajectory {
                 path: path.to_path_buf(),
                 index,
-                source,
-            })
+                time_s: sow,
+                start_s,
+                end_s,
+            }
+        })
+    }
+
+    /// A point the correction cannot move.
+    #[cold]
+    fn point_error(&self, index: u64, source: lidarqa_tpu::Error) -> Error {
+        Error::Point {
+            path: self.path.to_path_buf(),
+            index,
+            source,
+        }
     }
 }
 
@@ -273,19 +338,74 @@ pub(crate) struct Correction {
     unit_m: f64,
     /// Grid (m) → ECEF, per cell (module docs).
     map: GridToEcef,
-    /// The mounting the points were made with, for the recovery.
-    old: Recoverer,
-    /// `R_M` and ΔP of the calibrated mounting.
-    new_r_m: Matrix3<f64>,
-    new_lever_m: Vector3<f64>,
+    /// Both mountings, for one point and for four.
+    mountings: Mountings<f64>,
+    mountings4: Mountings<WideF64x4>,
 }
 
-/// What one worker keeps from point to point: the trajectory segment of its last point and the
-/// grid cells it used last.
-#[derive(Debug, Default)]
+/// The mounting the points were made with (for the recovery) and the calibrated one, for
+/// [`Correction::displacement`] on `T`.
+#[derive(Debug, Clone)]
+struct Mountings<T: nalgebra::Scalar> {
+    old_r_m: Matrix3<T>,
+    old_lever_m: Vector3<T>,
+    new_r_m: Matrix3<T>,
+    new_lever_m: Vector3<T>,
+}
+
+impl<T: SimdRealField<Element = f64> + Copy> Mountings<T> {
+    fn new(old: &Mounting, new: &Mounting) -> Mountings<T> {
+        let m = |m: Matrix3<f64>| m.map(T::splat);
+        let v = |v: Vector3<f64>| v.map(T::splat);
+        Mountings {
+            old_r_m: m(old.scanner_to_body()),
+            old_lever_m: v(old.lever_arm_m),
+            new_r_m: m(new.scanner_to_body()),
+            new_lever_m: v(new.lever_arm_m),
+        }
+    }
+}
+
+/// Points a worker takes through each step of [`Run::correct_block`] together: enough for the
+/// processor to overlap one point's work with the next one's, few enough that the batch stays
+/// in the first-level cache.
+const BATCH: usize = 64;
+
+/// What one worker keeps from point to point: the trajectory segment of its last point, the
+/// grid cells it used last and its batch.
+#[derive(Debug)]
 pub(crate) struct Worker {
     segment: SegmentRotation,
     cells: Box<CellCache>,
+    batch: Box<[Slot; BATCH]>,
+}
+
+impl Default for Worker {
+    fn default() -> Worker {
+        Worker {
+            segment: SegmentRotation::default(),
+            cells: Box::default(),
+            batch: Box::new([Slot::default(); BATCH]),
+        }
+    }
+}
+
+/// One point on its way through [`Correction`]: what the trajectory and the map give
+/// ([`Correction::prepare`]), then what [`Correction::step`] makes of it.
+#[derive(Debug, Default, Clone, Copy)]
+pub(crate) struct Slot {
+    /// The point as delivered, metres of the grid.
+    grid_m: Vector3<f64>,
+    /// P − P0, ECEF, m.
+    beam_m: Vector3<f64>,
+    /// Body → ECEF at the point's time.
+    r_be: Matrix3<f64>,
+    /// The map's Jacobian ∂P/∂(x, y, h) at the point.
+    jacobian: Matrix3<f64>,
+    /// The recovered range squared, m².
+    range2_m2: f64,
+    /// The displacement on the grid, m.
+    step_m: Vector3<f64>,
 }
 
 impl Correction {
@@ -294,17 +414,18 @@ impl Correction {
         Correction {
             unit_m: crs.unit().metres(),
             map: GridToEcef::new(crs),
-            old: Recoverer::new(old),
-            new_r_m: new.scanner_to_body(),
-            new_lever_m: new.lever_arm_m,
+            mountings: Mountings::new(old, new),
+            mountings4: Mountings::new(old, new),
         }
     }
 
     /// The corrected `[easting, northing, ellipsoidal height]` of the point at `xyz` (same
-    /// units), with the trajectory's P0 (ECEF, m) and body → ECEF rotation at its time.
+    /// units), with the trajectory's P0 (ECEF, m) and body → ECEF rotation at its time: one
+    /// point through [`Correction::prepare`], [`Correction::step`] and [`Correction::moved`].
     ///
     /// # Errors
-    /// [`lidarqa_tpu::Error::Recovery`] when the point is at the scanner origin or not finite.
+    /// As [`Correction::moved`].
+    #[cfg(test)]
     pub(crate) fn apply(
         &self,
         cells: &mut CellCache,
@@ -312,68 +433,136 @@ impl Correction {
         p0: &Ecef,
         r_be: &Matrix3<f64>,
     ) -> std::result::Result<[f64; 3], lidarqa_tpu::Error> {
-        // (× and ÷ 1 are exact: skipped for metres.)
-        let metres = self.unit_m == 1.0;
-        let g = Vector3::from(if metres {
+        let mut slot = Slot::default();
+        self.prepare(cells, xyz, p0, r_be, &mut slot);
+        self.step(&mut slot);
+        self.moved(&slot)
+    }
+
+    /// Into `slot`, the point at `xyz` (CRS units) with the trajectory's P0 and body → ECEF
+    /// rotation at its time, with the map at it.
+    #[inline]
+    pub(crate) fn prepare(
+        &self,
+        cells: &mut CellCache,
+        xyz: [f64; 3],
+        p0: &Ecef,
+        r_be: &Matrix3<f64>,
+        slot: &mut Slot,
+    ) {
+        // (× 1 is exact: skipped for metres.)
+        slot.grid_m = Vector3::from(if self.unit_m == 1.0 {
             xyz
         } else {
             xyz.map(|v| v * self.unit_m)
         });
-        let at = self.map.at(cells, g.x, g.y, g.z);
-        // Recovery: B = R_BEᵀ (P − P0), S = R_Mᵀ (B − ΔP); range ρ = |S|, scan angle
-        // θ = atan2(S_y, S_z), S' = ρ (0, sin θ, cos θ). P − P0 is formed from the cell
-        // centre so that no ECEF-sized coordinates cancel.
-        let beam = (at.centre_ecef_m - p0.vector()) + at.from_centre_m;
-        let body = r_be.transpose() * beam;
-        let s = self.old.scanner_from_body(&body);
-        // S' = (0, S_y, S_z) scaled to the range ρ = |S|: by ρ / r_yz = √(1 + S_x² / r_yz²),
-        // one root and one division (S_x is the small out-of-plane residual).
-        let (x2, r2) = (s.x * s.x, s.y * s.y + s.z * s.z);
-        let range2 = r2 + x2;
+        let at = self
+            .map
+            .at(cells, slot.grid_m.x, slot.grid_m.y, slot.grid_m.z);
+        // Formed from the cell centre so that no ECEF-sized coordinates cancel.
+        slot.beam_m = (at.centre_ecef_m - p0.vector()) + at.from_centre_m;
+        slot.r_be = *r_be;
+        slot.jacobian = at.jacobian;
+    }
+
+    /// The displacements of the points in `slots`, four at a time.
+    #[inline]
+    pub(crate) fn steps(&self, slots: &mut [Slot]) {
+        let mut fours = slots.chunks_exact_mut(4);
+        for four in &mut fours {
+            let lanes = |f: &dyn Fn(&Slot) -> f64| {
+                WideF64x4::from([f(&four[0]), f(&four[1]), f(&four[2]), f(&four[3])])
+            };
+            let beam = Vector3::from_fn(|i, _| lanes(&|s| s.beam_m[i]));
+            let r_be = Matrix3::from_fn(|i, j| lanes(&|s| s.r_be[(i, j)]));
+            let jacobian = Matrix3::from_fn(|i, j| lanes(&|s| s.jacobian[(i, j)]));
+            let (range2, step) = displacement(&self.mountings4, &beam, &r_be, &jacobian);
+            for (l, slot) in four.iter_mut().enumerate() {
+                slot.range2_m2 = range2.extract(l);
+                slot.step_m = step.map(|c| c.extract(l));
+            }
+        }
+        for slot in fours.into_remainder() {
+            self.step(slot);
+        }
+    }
+
+    /// The point's displacement on the grid (module docs), into `slot`. A point at the scanner
+    /// origin or not finite gets a meaningless one, which [`Correction::moved`] refuses.
+    #[inline]
+    pub(crate) fn step(&self, slot: &mut Slot) {
+        (slot.range2_m2, slot.step_m) =
+            displacement(&self.mountings, &slot.beam_m, &slot.r_be, &slot.jacobian);
+    }
+
+    /// The corrected `[easting, northing, ellipsoidal height]` of the point in `slot`, in the
+    /// CRS's units.
+    ///
+    /// # Errors
+    /// [`lidarqa_tpu::Error::Recovery`] when the point is at the scanner origin or not finite,
+    /// or the projection is singular there.
+    #[inline]
+    pub(crate) fn moved(&self, slot: &Slot) -> std::result::Result<[f64; 3], lidarqa_tpu::Error> {
+        let range2 = slot.range2_m2;
         if !(range2.is_finite() && range2 > 0.0) {
             return Err(lidarqa_tpu::Error::Recovery(format!(
                 "range {} m",
                 range2.sqrt()
             )));
         }
-        let s_obs = if r2 > 0.0 {
-            let k = (1.0 + x2 / r2).sqrt();
-            Vector3::new(0.0, s.y * k, s.z * k)
-        } else {
-            Vector3::new(0.0, 0.0, range2.sqrt())
-        };
-        // Δ = P0 + R_BE (R_M' S' + ΔP') − P, taken in the body frame: R_BE (R_M' S' + ΔP' − B),
-        // then on the grid through the map's Jacobian at the point (module docs).
-        // (S'_x = 0: two columns of R_M'.)
-        let d = r_be
-            * (self.new_r_m.column(1) * s_obs.y
-                + self.new_r_m.column(2) * s_obs.z
-                + self.new_lever_m
-                - body);
-        // Cramer's rule on the columns (∂P/∂x, ∂P/∂y, ∂P/∂h).
-        let (jx, jy, jh) = (
-            at.jacobian.column(0),
-            at.jacobian.column(1),
-            at.jacobian.column(2),
-        );
-        let yh = jy.cross(&jh);
-        let det = jx.dot(&yh);
-        // One division: the three quotients then differ from dividing each by at most an ulp
-        // of a step of metres.
-        let step =
-            Vector3::new(d.dot(&yh), jx.dot(&d.cross(&jh)), jx.dot(&jy.cross(&d))) * det.recip();
-        if !step.iter().all(|c| c.is_finite()) {
+        if !slot.step_m.iter().all(|c| c.is_finite()) {
             return Err(lidarqa_tpu::Error::Recovery(
                 "the projection is singular at the point".into(),
             ));
         }
-        let moved = g + step;
-        Ok(if metres {
+        let moved = slot.grid_m + slot.step_m;
+        // (÷ 1 is exact: skipped for metres.)
+        Ok(if self.unit_m == 1.0 {
             moved.into()
         } else {
             moved.map(|v| v / self.unit_m).into()
         })
     }
+}
+
+/// The range squared (m²) and the displacement on the grid (m) of a point with `beam` = P − P0
+/// (ECEF), the body → ECEF rotation `r_be` and the map's Jacobian at it (module docs): for one
+/// point (`T = f64`) or four at once (`T = WideF64x4`, the same IEEE operations lane by lane,
+/// so the same bits).
+#[inline(always)]
+fn displacement<T: SimdRealField<Element = f64> + Copy>(
+    m: &Mountings<T>,
+    beam: &Vector3<T>,
+    r_be: &Matrix3<T>,
+    jacobian: &Matrix3<T>,
+) -> (T, Vector3<T>) {
+    // Recovery: B = R_BEᵀ (P − P0), S = R_Mᵀ (B − ΔP) (as `Recoverer::scanner_from_body`);
+    // range ρ = |S|, scan angle θ = atan2(S_y, S_z), S' = ρ (0, sin θ, cos θ).
+    let body = r_be.transpose() * beam;
+    let s = m.old_r_m.transpose() * (body - m.old_lever_m);
+    // S' = (0, S_y, S_z) scaled to the range ρ = |S|: by ρ / r_yz = √(1 + S_x² / r_yz²), one
+    // root and one division (S_x is the small out-of-plane residual); (0, 0, ρ) for r_yz = 0.
+    let (x2, r2) = (s.x * s.x, s.y * s.y + s.z * s.z);
+    let range2 = r2 + x2;
+    let k = (T::one() + x2 / r2).simd_sqrt();
+    let in_plane = r2.simd_gt(T::zero());
+    let (s_y, s_z) = (
+        (s.y * k).select(in_plane, T::zero()),
+        (s.z * k).select(in_plane, range2.simd_sqrt()),
+    );
+    // Δ = P0 + R_BE (R_M' S' + ΔP') − P, taken in the body frame: R_BE (R_M' S' + ΔP' − B),
+    // then on the grid through the map's Jacobian at the point (module docs).
+    // (S'_x = 0: two columns of R_M'.)
+    let d = r_be * (m.new_r_m.column(1) * s_y + m.new_r_m.column(2) * s_z + m.new_lever_m - body);
+    // Cramer's rule on the columns (∂P/∂x, ∂P/∂y, ∂P/∂h).
+    let (jx, jy, jh) = (jacobian.column(0), jacobian.column(1), jacobian.column(2));
+    let yh = jy.cross(&jh);
+    let det = jx.dot(&yh);
+    // One division: the three quotients then differ from dividing each by at most an ulp of a
+    // step of metres.
+    let step =
+        Vector3::new(d.dot(&yh), jx.dot(&d.cross(&jh)), jx.dot(&jy.cross(&d))) * det.simd_recip();
+    (range2, step)
 }
 
 #[cfg(test)]
@@ -382,7 +571,7 @@ mod tests {
     use lidarqa_calib::{Georeferencing, LocalFrame, RawPoint};
     use lidarqa_io::{Geodetic, Hemisphere, UtmDatum, UtmZone};
     use lidarqa_model::Attitude;
-    use lidarqa_tpu::Pose;
+    use lidarqa_tpu::{Pose, Recoverer};
 
     /// The mounting the points are made with.
     fn old() -> Mounting {
@@ -571,5 +760,78 @@ mod tests {
         // far inside the 0.1 mm asked for and a LAS scale of 0.1–1 mm.
         assert!(max_shift > 4.0, "{max_shift}");
         assert!(max_h < 5e-6 && max_v < 5e-6, "{max_h} {max_v}");
+    }
+
+    #[test]
+    fn four_at_once_is_one_at_a_time_bit_for_bit() {
+        // The batch of `Correction::steps` (four lanes, then the rest one by one) against
+        // `Correction::step` on each point: the same IEEE operations, so the same bits, for
+        // ordinary points, a point at the scanner origin (r_yz = 0, range 0), one on the scanner's
+        // x axis (r_yz = 0, range > 0) and a NaN.
+        let zone = UtmZone::new(33, Hemisphere::North).unwrap();
+        let trajectory = trajectory(&zone, 47.0, 1.0, 1200.0);
+        // Points made with a level scanner (R_M = I exactly), so that the special points below
+        // are exactly at the origin and on the axis.
+        let level = Mounting {
+            boresight_roll_rad: 0.0,
+            boresight_pitch_rad: 0.0,
+            boresight_yaw_rad: 0.0,
+            lever_arm_m: old().lever_arm_m,
+        };
+        let c = Correction::new(
+            &Crs::from(zone),
+            &level,
+            &changed([0.05, 0.08, -0.1, 0.2, 0.1, -0.3]),
+        );
+        let mut cells = CellCache::default();
+        let mut slots: Vec<Slot> = points(&zone, &trajectory)
+            .into_iter()
+            .take(41)
+            .map(|(t, xyz)| {
+                let (p0, r_be) = trajectory
+                    .body_to_ecef_at(t, &mut SegmentRotation::default())
+                    .unwrap();
+                let mut slot = Slot::default();
+                c.prepare(&mut cells, xyz, &p0, &r_be, &mut slot);
+                slot
+            })
+            .collect();
+        for k in [5, 6] {
+            slots[k].r_be = Matrix3::identity();
+        }
+        slots[5].beam_m = level.lever_arm_m;
+        slots[6].beam_m = level.lever_arm_m + Vector3::new(700.0, 0.0, 0.0);
+        slots[9].beam_m.y = f64::NAN;
+        let mut one = slots.clone();
+        for slot in &mut one {
+            c.step(slot);
+        }
+        let bits = |s: &Slot| {
+            let mut b = vec![s.range2_m2.to_bits()];
+            b.extend(s.step_m.iter().map(|v| v.to_bits()));
+            b
+        };
+        for start in 0..4 {
+            let mut four = slots.clone();
+            c.steps(&mut four[start..]);
+            for (k, (a, b)) in one.iter().zip(&four).enumerate().skip(start) {
+                assert_eq!(bits(a), bits(b), "point {k} of a batch from {start}");
+            }
+        }
+        // Refused at the origin and for the NaN; on the axis, moved along it (S' = (0, 0, ρ)).
+        assert_eq!(one[5].range2_m2, 0.0);
+        assert!(c.moved(&one[5]).is_err());
+        assert!(
+            (one[6].range2_m2.sqrt() - 700.0).abs() < 1e-9,
+            "{}",
+            one[6].range2_m2
+        );
+        assert!(c.moved(&one[6]).is_ok());
+        assert!(c.moved(&one[9]).is_err());
+        assert!(
+            one.iter()
+                .enumerate()
+                .all(|(k, s)| [5, 9].contains(&k) || c.moved(s).is_ok())
+        );
     }
 }

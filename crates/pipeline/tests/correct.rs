@@ -120,3 +120,29 @@ fn a_tile_without_crs_takes_the_context_zone() {
     }
     assert!(moved > 400, "{moved}");
 }
+
+#[test]
+fn the_error_names_the_first_bad_point_in_file_order() {
+    // Points are moved in batches (trajectory and map for a batch, then the arithmetic, then
+    // the records) and in parallel runs; a point outside the trajectory is reported as the first
+    // such point of the file, wherever it falls in a batch, and no output is left.
+    let dir = tempfile::tempdir().unwrap();
+    let sv = common::survey(dir.path(), 3000, "las", None);
+    let ctx = TpuContext::from_files(&sv.sensor, &sv.sbet, None, TpuOptions::default()).unwrap();
+    for bad in [[1300, 1500, 2900], [2101, 700, 2100], [1, 0, 63]] {
+        let mut truth = sv.truth.clone();
+        for k in bad {
+            truth[k].las.gps_time_s = truth[k].las.gps_time_s.map(|t| t + 3600.0);
+        }
+        let input = dir.path().join("late.las");
+        common::write_las(&input, &truth, &common::las_options(true, 6));
+        let out = dir.path().join("out.las");
+        let e = correct(&ctx, &input, &out).unwrap_err();
+        let first = *bad.iter().min().unwrap();
+        assert!(
+            matches!(e, Error::OutsideTrajectory { index, .. } if index == first as u64),
+            "{bad:?}: {e}"
+        );
+        assert!(!out.exists());
+    }
+}
