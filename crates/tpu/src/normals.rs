@@ -161,6 +161,7 @@ pub const WIDEN_FLATNESS: f64 = 4.0;
 /// on both sides). A line above a surface (a wire) fails it: a plane fits the wire and a patch
 /// of the ground below, but that patch lies flat under the wire, across that plane.
 const WIDEN_ALIGNMENT_RAD: f64 = 15.0 * std::f64::consts::PI / 180.0;
+
 /// The judgement of `q`'s widened neighbourhoods, given its k nearest `nn` (nearest first),
 /// which were linear: the candidates within [`WIDEN_RADIUS_FACTOR`] times the k-th distance,
 /// ordered by (distance, index), are judged by prefixes of 2k, 4k, … up to
@@ -173,23 +174,11 @@ fn widen(q: &[f64; 3], nn: &[(f64, [f64; 3])], grid: &Grid, wide: &mut Vec<(f64,
     let Some(&(kth_m2, _)) = nn.last() else {
         return Surface::Linear;
     };
-    let limit_m2 = WIDEN_RADIUS_FACTOR * WIDEN_RADIUS_FACTOR * kth_m2;
-    if !(limit_m2 > 0.0 && limit_m2.is_finite()) || k >= MAX_NEIGHBOURS {
+    if !(kth_m2 > 0.0 && (WIDEN_RADIUS_FACTOR * WIDEN_RADIUS_FACTOR * kth_m2).is_finite())
+        || k >= MAX_NEIGHBOURS
+    {
         return Surface::Linear;
     }
-    grid.gather(q, limit_m2, wide);
-    let most = wide.len().min(MAX_NEIGHBOURS);
-    if most <= k {
-        return Surface::Linear;
-    }
-    // The nearest `most` in the total order of (distance, index), as the k-nearest search
-    // orders them, so the prefixes do not depend on the order of the cells.
-    let order = |a: &(f64, u32), b: &(f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
-    if wide.len() > most {
-        wide.select_nth_unstable_by(most - 1, order);
-        wide.truncate(most);
-    }
-    wide.sort_unstable_by(order);
     // The first neighbourhood's line: its mean (as an offset from q) and direction. A point
     // farther from it than half the first radius is not on it (the line's own thickness is
     // noise, far smaller).
@@ -202,27 +191,65 @@ fn widen(q: &[f64; 3], nn: &[(f64, [f64; 3])], grid: &Grid, wide: &mut Vec<(f64,
     let off_m2 = kth_m2 / 4.0;
     let (mut all, mut off) = (Sums::default(), Sums::default());
     let (mut size, mut taken) = (k, 0);
-    loop {
-        size = (2 * size).min(most);
-        for &(_, j) in &wide[taken..size] {
-            let p = grid.point(j as usize);
-            all.add(q, &p);
-            let d = Vector3::new(p[0] - q[0], p[1] - q[1], p[2] - q[2]) - mean;
-            if d.norm_squared() - d.dot(&along).powi(2) > off_m2 {
-                off.add(q, &p);
-            }
+    // The nearest candidates in the total order of (distance, index), as the k-nearest search
+    // orders them, so the prefixes do not depend on the order of the cells. Most widened
+    // neighbourhoods are accepted within a few times the first radius: the candidates are
+    // gathered within growing radii, and a prefix is judged once all of it lies within the
+    // radius gathered (the nearest n are exact when n candidates are that close), so the
+    // prefixes are those of one gathering within the widest radius.
+    let order = |a: &(f64, u32), b: &(f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+    for factor in WIDEN_STEPS {
+        let widest = factor == WIDEN_RADIUS_FACTOR;
+        grid.gather(q, factor * factor * kth_m2, wide);
+        // The points already taken first (the same set: the nearest `taken`); each prefix is
+        // then selected, not sorted (the sums do not need the order within it).
+        if taken > 0 {
+            wide.select_nth_unstable_by(taken - 1, order);
         }
-        taken = size;
-        match judge_scatter(&all.scatter(), WIDEN_FLATNESS) {
-            Surface::Planar(n) if off_line_agrees(&off, &n) => {
-                return Surface::PlanarWidened(n);
+        let most = wide.len().min(MAX_NEIGHBOURS);
+        loop {
+            let mut next = (2 * size).min(MAX_NEIGHBOURS);
+            if next > most {
+                if !widest {
+                    break;
+                }
+                // The last prefix: all within the widest radius.
+                next = most;
             }
-            Surface::Scattered => return Surface::Linear,
-            _ if size == most => return Surface::Linear,
-            _ => {}
+            if next <= size {
+                return Surface::Linear;
+            }
+            let rest = &mut wide[taken..];
+            if next - taken < rest.len() {
+                rest.select_nth_unstable_by(next - taken - 1, order);
+            }
+            for &(_, j) in &wide[taken..next] {
+                let p = grid.point(j as usize);
+                all.add(q, &p);
+                let d = Vector3::new(p[0] - q[0], p[1] - q[1], p[2] - q[2]) - mean;
+                if d.norm_squared() - d.dot(&along).powi(2) > off_m2 {
+                    off.add(q, &p);
+                }
+            }
+            (taken, size) = (next, next);
+            match judge_scatter(&all.scatter(), WIDEN_FLATNESS) {
+                Surface::Planar(n) if off_line_agrees(&off, &n) => {
+                    return Surface::PlanarWidened(n);
+                }
+                Surface::Scattered => return Surface::Linear,
+                _ if size == MAX_NEIGHBOURS || (widest && size == most) => {
+                    return Surface::Linear;
+                }
+                _ => {}
+            }
         }
     }
+    Surface::Linear
 }
+
+/// The radii, as multiples of the first neighbourhood's, within which [`widen`] gathers
+/// candidates in turn (the last is [`WIDEN_RADIUS_FACTOR`]).
+const WIDEN_STEPS: [f64; 3] = [3.0, 6.0, WIDEN_RADIUS_FACTOR];
 
 /// Whether the points off the first line (their sums `off`) lie as scan lines of the plane of
 /// normal `n` would: in the plane when they are elongated, with the plane's normal when they
