@@ -828,7 +828,11 @@ pub struct IncidenceTally {
     pub invalid_file_normals: u64,
     /// Planar neighbourhoods: a fitted normal.
     pub planar: u64,
-    /// Linear neighbourhoods (e.g. one scan line): term left out.
+    /// Of `planar`, those whose k nearest neighbours were linear (e.g. one scan line) and whose
+    /// widened neighbourhood, reaching the next scan lines, is planar.
+    #[serde(default)]
+    pub planar_widened: u64,
+    /// Linear neighbourhoods (e.g. one scan line, a wire), also when widened: term left out.
     pub linear: u64,
     /// Scattered neighbourhoods (vegetation, noise): term left out.
     pub scattered: u64,
@@ -842,6 +846,7 @@ impl IncidenceTally {
         self.file_normals += o.file_normals;
         self.invalid_file_normals += o.invalid_file_normals;
         self.planar += o.planar;
+        self.planar_widened += o.planar_widened;
         self.linear += o.linear;
         self.scattered += o.scattered;
         self.too_few_points += o.too_few_points;
@@ -869,12 +874,14 @@ impl IncidenceTally {
                      incidence term is left out: linear {:.1} %, scattered {:.1} %, too few \
                      points {:.1} %, invalid file normals {:.1} %; the vertical sigma of those \
                      points lacks the beam-footprint term (more --neighbours, or NormalX/Y/Z \
-                     from PDAL filters.normal, may define one)",
+                     from PDAL filters.normal, may define one); linear means linear even with \
+                     the neighbourhood widened (planar only when widened: {:.1} %)",
                     pc(out),
                     pc(self.linear),
                     pc(self.scattered),
                     pc(self.too_few_points),
-                    pc(self.invalid_file_normals)
+                    pc(self.invalid_file_normals),
+                    pc(self.planar_widened)
                 ),
             )
         })

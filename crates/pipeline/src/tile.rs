@@ -102,8 +102,11 @@ pub fn tpu_tile(job: &TpuTileJob<'_>) -> Result<TileReport> {
 ///
 /// The incidence angle's plane fit searches the chunk itself plus the last / first
 /// `margin_points` points of the previous / next chunk, so a time-ordered strip has no edge
-/// effect at chunk borders as long as the margin covers a few scan lines (20 000 points by
-/// default: ≥ 40 ms at 500 kHz); a spatially sorted tile may lose neighbours at a border only
+/// effect at chunk borders as long as the margin covers the neighbourhoods: a few scan lines
+/// for the k nearest, and as many lines as a widened neighbourhood (up to
+/// [`lidarqa_tpu::MAX_NEIGHBOURS`] points, see [`judge_surfaces`]) spans where the lines are
+/// sparse (20 000 points by default: ≥ 40 ms at 500 kHz); a spatially sorted tile may lose
+/// neighbours at a border only
 /// when they lie more than the margin away in file order. The look-ahead reaches into the next
 /// chunk only, so it is `min(margin_points, chunk_points)`.
 ///
@@ -1038,9 +1041,13 @@ impl Run<'_> {
             let t = &mut acc.incidence;
             match (surface, self.file_normals) {
                 (None, _) => {}
-                (Some(Surface::Planar(_)), true) => t.file_normals += 1,
+                (Some(Surface::Planar(_) | Surface::PlanarWidened(_)), true) => t.file_normals += 1,
                 (Some(_), true) => t.invalid_file_normals += 1,
                 (Some(Surface::Planar(_)), false) => t.planar += 1,
+                (Some(Surface::PlanarWidened(_)), false) => {
+                    t.planar += 1;
+                    t.planar_widened += 1;
+                }
                 (Some(Surface::Linear), false) => t.linear += 1,
                 (Some(Surface::Scattered), false) => t.scattered += 1,
                 (Some(Surface::TooFew), false) => t.too_few_points += 1,

@@ -13,6 +13,34 @@
 //! [`Surface::TooFew`] (fewer than [`MIN_NEIGHBOURS`] points). Only planar neighbourhoods get an
 //! incidence term.
 //!
+//! # Widening
+//! Airborne scanners put points much closer together along a scan line than between lines, so
+//! the k nearest neighbours of a point on perfectly planar ground often all lie on its own line
+//! and are judged linear. The surface is there; the neighbourhood is too small in one direction.
+//! [`judge_surfaces`] therefore widens a linear neighbourhood before giving up: it takes the
+//! candidates within [`WIDEN_RADIUS_FACTOR`] times the k-th distance, in the same (distance,
+//! index) order as the k-nearest search, and judges the nearest 2k, 4k, … of them up to
+//! [`MAX_NEIGHBOURS`] (all of them when fewer are that close), keeping the first accepted as
+//! [`Surface::PlanarWidened`]. Growing k in the scan order of the data is a form of Demantke et
+//! al.'s scale selection restricted to the one failure it has to fix: their eigen-entropy
+//! minimum over radii would also move the neighbourhoods that are already planar, and with them
+//! every σ measured so far, and would need a full range of radii per point. A widened
+//! neighbourhood is accepted only when
+//! - it is planar and flat (σ₂ ≥ [`WIDEN_FLATNESS`] · σ₃): scattered points (vegetation) stay
+//!   scattered however many are taken, and a scattered prefix stops the widening;
+//! - the points off the first line lie as other scan lines of that plane would (in the plane,
+//!   or spanning the same plane, [`WIDEN_ALIGNMENT_RAD`]): a line and any blob beside it fit
+//!   some plane, so a wire above the ground would otherwise borrow the ground's patch; a line
+//!   with nothing beside it within the radius stays linear.
+//!
+//! The radius bound keeps the widening local (a multiple of the first neighbourhood's size,
+//! enough to reach scan lines tens of point spacings apart) and the k bound keeps memory and
+//! time per point bounded. Both searches are exact and each point's answer depends only on the
+//! candidates, so the result is the same whatever the number of threads. One case geometry
+//! cannot settle: returns of one scan plane only (one scan cycle through a tree) are coplanar
+//! whatever they hit, and are judged planar with the scan plane's normal, as the k nearest
+//! alone already judge them where they are not one line.
+//!
 //! The normal is the eigenvector of the smallest eigenvalue of the neighbours' 3 × 3 scatter
 //! matrix (total least squares plane, [`lidarqa_model::normal_of_scatter`]), from the closed-form
 //! solver of [`lidarqa_model::symmetric_eigen3`] (its docs say why it is not nalgebra's). The
@@ -79,6 +107,9 @@ pub fn plane_normals(
 pub enum Surface {
     /// Planar: the unit normal (sign arbitrary).
     Planar(Vector3<f64>),
+    /// The k nearest were linear, and a wider neighbourhood (see the module docs, "Widening")
+    /// is planar: its unit normal (sign arbitrary).
+    PlanarWidened(Vector3<f64>),
     /// Points along a line (one scan line, a wire): no surface normal.
     Linear,
     /// Points spread in 3-D (vegetation, noise): no surface normal.
@@ -91,16 +122,157 @@ impl Surface {
     /// The normal of a planar neighbourhood.
     pub fn normal(&self) -> Option<Vector3<f64>> {
         match self {
-            Surface::Planar(n) => Some(*n),
+            Surface::Planar(n) | Surface::PlanarWidened(n) => Some(*n),
             _ => None,
         }
     }
 }
 
 /// Each target's neighbourhood judged (see the module docs), with the `k` nearest neighbours
-/// among `candidates`; coordinates as for [`plane_normals`]. Parallel over targets (rayon).
+/// among `candidates`, widened where those are linear ([`Surface::PlanarWidened`] when a wider
+/// one is planar); coordinates as for [`plane_normals`]. Parallel over targets (rayon); the
+/// result does not depend on the number of threads.
 pub fn judge_surfaces(candidates: &[[f64; 3]], targets: &[[f64; 3]], k: usize) -> Vec<Surface> {
-    for_each_neighbourhood(candidates, targets, k, Surface::TooFew, judge_neighbours)
+    search_each(
+        candidates,
+        targets,
+        k,
+        Surface::TooFew,
+        |q, nn, grid, wide| match judge_neighbours(q, nn) {
+            Surface::Linear => widen(q, nn, grid, wide),
+            first => first,
+        },
+    )
+}
+
+/// The widest neighbourhood [`judge_surfaces`] widens a linear one to, as a multiple of the
+/// first one's radius (its k-th distance): wide enough to reach the next scan lines where they
+/// are tens of point spacings apart, and no wider, so that the plane still describes the
+/// surface around the point rather than one some way off.
+pub const WIDEN_RADIUS_FACTOR: f64 = 12.0;
+
+/// A widened neighbourhood is accepted as planar only when σ₂ ≥ this × σ₃ (the k-nearest rule
+/// asks for 2, implied by planarity ≥ scattering): flat, not merely more planar than scattered.
+pub const WIDEN_FLATNESS: f64 = 4.0;
+
+/// Largest angle, rad, between the widened plane and the structure of the points off the first
+/// neighbourhood's line: their own line must lie in the plane (one or two neighbouring scan
+/// lines, short ones first) or their own plane's normal along the widened plane's (scan lines
+/// on both sides). A line above a surface (a wire) fails it: a plane fits the wire and a patch
+/// of the ground below, but that patch lies flat under the wire, across that plane.
+const WIDEN_ALIGNMENT_RAD: f64 = 15.0 * std::f64::consts::PI / 180.0;
+
+/// The judgement of `q`'s widened neighbourhoods, given its k nearest `nn` (nearest first),
+/// which were linear: the candidates within [`WIDEN_RADIUS_FACTOR`] times the k-th distance,
+/// ordered by (distance, index), are judged by prefixes of 2k, 4k, … up to
+/// [`MAX_NEIGHBOURS`] (the last prefix is all of them when fewer are that close). The first
+/// prefix that is flat and planar ([`WIDEN_FLATNESS`]) and whose points off the first line
+/// agree with the plane ([`WIDEN_ALIGNMENT_RAD`]) is the answer; a scattered one, or none
+/// accepted, leaves the point linear.
+fn widen(q: &[f64; 3], nn: &[(f64, [f64; 3])], grid: &Grid, wide: &mut Vec<(f64, u32)>) -> Surface {
+    let k = nn.len();
+    let Some(&(kth_m2, _)) = nn.last() else {
+        return Surface::Linear;
+    };
+    if !(kth_m2 > 0.0 && (WIDEN_RADIUS_FACTOR * WIDEN_RADIUS_FACTOR * kth_m2).is_finite())
+        || k >= MAX_NEIGHBOURS
+    {
+        return Surface::Linear;
+    }
+    // The first neighbourhood's line: its mean (as an offset from q) and direction. A point
+    // farther from it than half the first radius is not on it (the line's own thickness is
+    // noise, far smaller).
+    let first = scatter_of(q, nn);
+    let (_, axes) = symmetric_eigen3(&first);
+    let along = axes[2];
+    let mean = nn.iter().fold(Vector3::zeros(), |m, (_, p)| {
+        m + Vector3::new(p[0] - q[0], p[1] - q[1], p[2] - q[2])
+    }) / k as f64;
+    let off_m2 = kth_m2 / 4.0;
+    let (mut all, mut off) = (Sums::default(), Sums::default());
+    let (mut size, mut taken) = (k, 0);
+    // The nearest candidates in the total order of (distance, index), as the k-nearest search
+    // orders them, so the prefixes do not depend on the order of the cells. Most widened
+    // neighbourhoods are accepted within a few times the first radius: the candidates are
+    // gathered within growing radii, and a prefix is judged once all of it lies within the
+    // radius gathered (the nearest n are exact when n candidates are that close), so the
+    // prefixes are those of one gathering within the widest radius.
+    let order = |a: &(f64, u32), b: &(f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+    for factor in WIDEN_STEPS {
+        let widest = factor == WIDEN_RADIUS_FACTOR;
+        grid.gather(q, factor * factor * kth_m2, wide);
+        // The points already taken first (the same set: the nearest `taken`); each prefix is
+        // then selected, not sorted (the sums do not need the order within it).
+        if taken > 0 {
+            wide.select_nth_unstable_by(taken - 1, order);
+        }
+        let most = wide.len().min(MAX_NEIGHBOURS);
+        loop {
+            let mut next = (2 * size).min(MAX_NEIGHBOURS);
+            if next > most {
+                if !widest {
+                    break;
+                }
+                // The last prefix: all within the widest radius.
+                next = most;
+            }
+            if next <= size {
+                return Surface::Linear;
+            }
+            let rest = &mut wide[taken..];
+            if next - taken < rest.len() {
+                rest.select_nth_unstable_by(next - taken - 1, order);
+            }
+            for &(_, j) in &wide[taken..next] {
+                let p = grid.point(j as usize);
+                all.add(q, &p);
+                let d = Vector3::new(p[0] - q[0], p[1] - q[1], p[2] - q[2]) - mean;
+                if d.norm_squared() - d.dot(&along).powi(2) > off_m2 {
+                    off.add(q, &p);
+                }
+            }
+            (taken, size) = (next, next);
+            match judge_scatter(&all.scatter(), WIDEN_FLATNESS) {
+                Surface::Planar(n) if off_line_agrees(&off, &n) => {
+                    return Surface::PlanarWidened(n);
+                }
+                Surface::Scattered => return Surface::Linear,
+                _ if size == MAX_NEIGHBOURS || (widest && size == most) => {
+                    return Surface::Linear;
+                }
+                _ => {}
+            }
+        }
+    }
+    Surface::Linear
+}
+
+/// The radii, as multiples of the first neighbourhood's, within which [`widen`] gathers
+/// candidates in turn (the last is [`WIDEN_RADIUS_FACTOR`]).
+const WIDEN_STEPS: [f64; 3] = [3.0, 6.0, WIDEN_RADIUS_FACTOR];
+
+/// Whether the points off the first line (their sums `off`) lie as scan lines of the plane of
+/// normal `n` would: in the plane when they are elongated, with the plane's normal when they
+/// span a plane.
+fn off_line_agrees(off: &Sums, n: &Vector3<f64>) -> bool {
+    if off.n < MIN_NEIGHBOURS {
+        return false;
+    }
+    let (vals, axes) = symmetric_eigen3(&off.scatter());
+    let (s1, s2, s3) = (
+        vals[2].max(0.0).sqrt(),
+        vals[1].max(0.0).sqrt(),
+        vals[0].max(0.0).sqrt(),
+    );
+    if !(s1 > 0.0 && s1.is_finite()) {
+        return false;
+    }
+    if (s1 - s2) >= (s2 - s3) {
+        // Elongated (one line, or two short ones side by side): in the plane.
+        axes[2].dot(n).abs() <= WIDEN_ALIGNMENT_RAD.sin()
+    } else {
+        axes[0].dot(n).abs() >= WIDEN_ALIGNMENT_RAD.cos()
+    }
 }
 
 /// `f(target, its k nearest candidates as (squared distance, point))` for every target, in parallel over blocks of targets
@@ -113,6 +285,18 @@ fn for_each_neighbourhood<T: Clone + Send + Sync>(
     k: usize,
     none: T,
     f: impl Fn(&[f64; 3], &[(f64, [f64; 3])]) -> T + Sync,
+) -> Vec<T> {
+    search_each(candidates, targets, k, none, |q, nn, _, _| f(q, nn))
+}
+
+/// [`for_each_neighbourhood`], with `f` also given the grid and a buffer reused within a block
+/// (for [`widen`]).
+fn search_each<T: Clone + Send + Sync>(
+    candidates: &[[f64; 3]],
+    targets: &[[f64; 3]],
+    k: usize,
+    none: T,
+    f: impl Fn(&[f64; 3], &[(f64, [f64; 3])], &Grid, &mut Vec<(f64, u32)>) -> T + Sync,
 ) -> Vec<T> {
     use rayon::prelude::*;
     if candidates.len() < MIN_NEIGHBOURS {
@@ -127,6 +311,7 @@ fn for_each_neighbourhood<T: Clone + Send + Sync>(
         .zip(targets.par_chunks(QUERY_BLOCK))
         .for_each(|(out, targets)| {
             let mut best = Best::new(k);
+            let mut wide = Vec::new();
             // Targets come in scan order, so a query's k-th distance is close to the previous
             // one's: searching first only the cells within a little more than it skips most
             // candidates, and most insertions of those that would be pushed out later (see
@@ -141,7 +326,7 @@ fn for_each_neighbourhood<T: Clone + Send + Sync>(
                 } else {
                     f64::INFINITY
                 };
-                *o = f(q, best.points());
+                *o = f(q, best.points(), &grid, &mut wide);
             }
         });
     out
@@ -152,10 +337,15 @@ fn judge_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
     if nn.len() < MIN_NEIGHBOURS {
         return Surface::TooFew;
     }
-    let scatter = scatter_of(q, nn);
+    judge_scatter(&scatter_of(q, nn), 0.0)
+}
+
+/// The judgement of a scatter matrix (see the module docs); a planar one must also have
+/// σ₂ ≥ `flatness` · σ₃ (planarity ≥ scattering alone implies 2).
+fn judge_scatter(scatter: &Matrix3<f64>, flatness: f64) -> Surface {
     // The values alone decide; only a planar neighbourhood needs its smallest one's vector,
     // then well separated from the other two (σ₂ > 2σ₃ and σ₂ ≥ σ₁/2).
-    let [l3, l2, l1] = symmetric_eigenvalues3(&scatter);
+    let [l3, l2, l1] = symmetric_eigenvalues3(scatter);
     let (s1, s2, s3) = (l1.max(0.0).sqrt(), l2.max(0.0).sqrt(), l3.max(0.0).sqrt());
     if !(s1 > 0.0 && s1.is_finite()) {
         return Surface::TooFew;
@@ -167,8 +357,10 @@ fn judge_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
         Surface::Linear
     } else if scattering > planarity {
         Surface::Scattered
+    } else if s2 < flatness * s3 {
+        Surface::Linear
     } else {
-        let n = symmetric_eigenvector3(&scatter, l3);
+        let n = symmetric_eigenvector3(scatter, l3);
         let norm = n.norm();
         if norm > 0.0 && norm.is_finite() {
             Surface::Planar(n / norm)
@@ -180,21 +372,42 @@ fn judge_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
 
 /// Scatter matrix about the mean of `nn`, from offsets to `q`.
 fn scatter_of(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Matrix3<f64> {
-    // The six distinct sums of the symmetric matrix, each as `Σ d dᵀ − s sᵀ / k` would give it.
-    let (mut s, mut o) = ([0.0; 3], [0.0; 6]);
+    let mut sums = Sums::default();
     for (_, p) in nn {
+        sums.add(q, p);
+    }
+    sums.scatter()
+}
+
+/// Running sums of offsets to a query point and of their products, from which the scatter
+/// matrix about the points' mean follows (so a widened neighbourhood adds only its new points).
+#[derive(Default)]
+struct Sums {
+    s: [f64; 3],
+    /// The six distinct products of the symmetric matrix, in the order of [`UPPER`].
+    o: [f64; 6],
+    n: usize,
+}
+
+impl Sums {
+    fn add(&mut self, q: &[f64; 3], p: &[f64; 3]) {
         let d = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
-        for (s, d) in s.iter_mut().zip(&d) {
+        for (s, d) in self.s.iter_mut().zip(&d) {
             *s += d;
         }
-        for (o, (i, j)) in o.iter_mut().zip(UPPER) {
+        for (o, (i, j)) in self.o.iter_mut().zip(UPPER) {
             *o += d[i] * d[j];
         }
+        self.n += 1;
     }
-    let k = nn.len() as f64;
-    let c = |n: usize| o[n] - s[UPPER[n].0] * s[UPPER[n].1] / k;
-    let (c00, c01, c02, c11, c12, c22) = (c(0), c(1), c(2), c(3), c(4), c(5));
-    Matrix3::new(c00, c01, c02, c01, c11, c12, c02, c12, c22)
+
+    /// `Σ d dᵀ − s sᵀ / n`, each of the six sums as that formula gives it.
+    fn scatter(&self) -> Matrix3<f64> {
+        let (s, o, k) = (&self.s, &self.o, self.n as f64);
+        let c = |n: usize| o[n] - s[UPPER[n].0] * s[UPPER[n].1] / k;
+        let (c00, c01, c02, c11, c12, c22) = (c(0), c(1), c(2), c(3), c(4), c(5));
+        Matrix3::new(c00, c01, c02, c01, c11, c12, c02, c12, c22)
+    }
 }
 
 /// The (row, column) of the upper triangle of a 3 × 3 matrix.
@@ -487,6 +700,40 @@ impl Grid {
             }
             r += 1;
         }
+    }
+
+    /// Every candidate within `limit_m2` (squared distance) of `q`, as (squared distance,
+    /// index into the grid's arrays), into `out` (cleared first), in cell order.
+    fn gather(&self, q: &[f64; 3], limit_m2: f64, out: &mut Vec<(f64, u32)>) {
+        out.clear();
+        // 1 µm for the rounding of the projection, as in `nearest`.
+        let r = (limit_m2.sqrt() + 1e-6) / self.cell;
+        let (u, v) = (
+            (dot(&self.axes[0], q) - self.origin[0]) / self.cell,
+            (dot(&self.axes[1], q) - self.origin[1]) / self.cell,
+        );
+        let (u_lo, u_hi) = (clamp_cell(u - r, self.nu), clamp_cell(u + r, self.nu));
+        let (v_lo, v_hi) = (clamp_cell(v - r, self.nv), clamp_cell(v + r, self.nv));
+        for row in v_lo..=v_hi {
+            let base = row * self.nu;
+            let (a, b) = (
+                self.start[base + u_lo] as usize,
+                self.start[base + u_hi + 1] as usize,
+            );
+            let (xs, ys, zs) = (&self.xs[a..b], &self.ys[a..b], &self.zs[a..b]);
+            for (j, ((x, y), z)) in xs.iter().zip(ys).zip(zs).enumerate() {
+                let (dx, dy, dz) = (x - q[0], y - q[1], z - q[2]);
+                let d2 = dx * dx + dy * dy + dz * dz;
+                if d2 <= limit_m2 {
+                    out.push((d2, (a + j) as u32));
+                }
+            }
+        }
+    }
+
+    /// Candidate `j` (an index into the grid's arrays).
+    fn point(&self, j: usize) -> [f64; 3] {
+        [self.xs[j], self.ys[j], self.zs[j]]
     }
 
     /// The points of `best`'s neighbours into its `items`; true.
@@ -997,6 +1244,86 @@ mod tests {
         assert!(
             kinds[0] > 50_000 && kinds[1] > 30_000 && kinds[2] > 30,
             "{kinds:?}"
+        );
+    }
+
+    /// The plane z = 0.2 x sampled on lines `across` m apart, points `along` m apart on them
+    /// (1 mm noise), 5 km from the [`strip`]: the k = 10 nearest lie on one line.
+    fn scan_lines(along: f64, across: f64, lines: usize) -> Vec<[f64; 3]> {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut pts = Vec::new();
+        for l in 0..lines {
+            for i in 0..(60.0 / along) as usize {
+                let z = 0.2 * i as f64 * along + rng.random_range(-0.001..0.001);
+                pts.push([
+                    5000.0 + i as f64 * along,
+                    5000.0 + l as f64 * across,
+                    1000.0 + z,
+                ]);
+            }
+        }
+        pts
+    }
+
+    #[test]
+    fn widening_gives_the_same_judgements_on_any_number_of_threads() {
+        // Scan lines 2.5 m apart, 0.1 m along: linear at k = 10, planar when widened. The
+        // result must not depend on how rayon splits the targets.
+        let mut pts = scan_lines(0.1, 2.5, 12);
+        pts.extend(strip(12, 20_000));
+        let run = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| judge_surfaces(&pts, &pts, 10))
+        };
+        let one = run(1);
+        assert_eq!(one, run(3));
+        let widened = one[..7200]
+            .iter()
+            .filter(|s| matches!(s, Surface::PlanarWidened(_)))
+            .count();
+        assert!(widened > 7000, "{widened}");
+        // Normal of z = 0.2 x, widened or not: within 0.1° of the truth.
+        let truth = Vector3::new(-0.2, 0.0, 1.0).normalize();
+        for s in &one[..7200] {
+            let n = s.normal().unwrap();
+            assert!(n.dot(&truth).abs() > 0.1f64.to_radians().cos(), "{n}");
+        }
+    }
+
+    #[test]
+    fn widened_neighbourhoods_are_the_exact_nearest() {
+        // The candidates `gather` finds within a radius, ordered by (distance, index), against
+        // the exact search for as many: the same points in the same order.
+        let mut pts = scan_lines(0.1, 2.5, 6);
+        pts.extend(strip(13, 10_000));
+        let grid = Grid::new(&pts, 10);
+        let mut wide = Vec::new();
+        for q in pts.iter().step_by(37) {
+            grid.gather(q, 9.0, &mut wide);
+            let m = wide.len().min(MAX_NEIGHBOURS);
+            if m < MIN_NEIGHBOURS {
+                continue;
+            }
+            wide.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            let mut best = Best::new(m);
+            assert!(grid.nearest(q, &mut best, f64::INFINITY));
+            for ((d2, j), (want_d2, want_p)) in wide.iter().zip(best.points()) {
+                assert_eq!((*d2, grid.point(*j as usize)), (*want_d2, *want_p));
+            }
+        }
+    }
+
+    #[test]
+    fn a_line_alone_stays_linear_however_wide() {
+        let line: Vec<[f64; 3]> = (0..2000).map(|i| [f64::from(i) * 0.1, 0.0, 0.0]).collect();
+        assert!(
+            judge_surfaces(&line, &line, 10)
+                .iter()
+                .all(|s| *s == Surface::Linear)
         );
     }
 

@@ -54,10 +54,12 @@ pub(crate) fn table(r: &SurveyReport) -> String {
     if inc.total() > 0 {
         let _ = writeln!(
             out,
-            "\nincidence term: {} normals from the file, {} planar neighbourhoods; left out: {} \
-             linear, {} scattered, {} too few points, {} invalid file normals",
+            "\nincidence term: {} normals from the file, {} planar neighbourhoods ({} of them only \
+             when widened); left out: {} linear, {} scattered, {} too few points, {} invalid file \
+             normals",
             inc.file_normals,
             inc.planar,
+            inc.planar_widened,
             inc.linear,
             inc.scattered,
             inc.too_few_points,
