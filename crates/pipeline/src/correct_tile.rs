@@ -344,7 +344,7 @@ pub(crate) struct Correction {
 }
 
 /// The mounting the points were made with (for the recovery) and the calibrated one, for
-/// [`Correction::displacement`] on `T`.
+/// [`displacement`] on `T`.
 #[derive(Debug, Clone)]
 struct Mountings<T: nalgebra::Scalar> {
     old_r_m: Matrix3<T>,

@@ -599,6 +599,22 @@ impl Grid {
         }
     }
 
+    /// The columns and rows of cells (inclusive ranges, clamped into the grid) that hold every
+    /// candidate within `limit_m2` (squared distance) of `q`: a 3-D distance is never shorter
+    /// than its projection on the grid's plane.
+    fn window(&self, q: &[f64; 3], limit_m2: f64) -> ((usize, usize), (usize, usize)) {
+        // 1 µm for the rounding of the projection, as in `nearest`.
+        let r = (limit_m2.sqrt() + 1e-6) / self.cell;
+        let (u, v) = (
+            (dot(&self.axes[0], q) - self.origin[0]) / self.cell,
+            (dot(&self.axes[1], q) - self.origin[1]) / self.cell,
+        );
+        (
+            (clamp_cell(u - r, self.nu), clamp_cell(u + r, self.nu)),
+            (clamp_cell(v - r, self.nv), clamp_cell(v + r, self.nv)),
+        )
+    }
+
     /// The k nearest candidates of `q` searched among those closer than `limit_m2` (squared
     /// distance) in the cells that can hold them, i.e. the rows and columns of cells within
     /// √limit of `q` on the grid's plane (a distance is never shorter than its projection;
@@ -611,15 +627,7 @@ impl Grid {
             return false;
         }
         best.clear(limit_m2);
-        // 1 µm for the rounding of the projection, as in `nearest`.
-        let r = limit_m2.sqrt() + 1e-6;
-        let (u, v) = (
-            (dot(&self.axes[0], q) - self.origin[0]) / self.cell,
-            (dot(&self.axes[1], q) - self.origin[1]) / self.cell,
-        );
-        let r = r / self.cell;
-        let (u_lo, u_hi) = (clamp_cell(u - r, self.nu), clamp_cell(u + r, self.nu));
-        let (v_lo, v_hi) = (clamp_cell(v - r, self.nv), clamp_cell(v + r, self.nv));
+        let ((u_lo, u_hi), (v_lo, v_hi)) = self.window(q, limit_m2);
         for row in v_lo..=v_hi {
             self.scan(row as isize, u_lo as isize, u_hi as isize, q, best);
         }
@@ -706,14 +714,7 @@ impl Grid {
     /// index into the grid's arrays), into `out` (cleared first), in cell order.
     fn gather(&self, q: &[f64; 3], limit_m2: f64, out: &mut Vec<(f64, u32)>) {
         out.clear();
-        // 1 µm for the rounding of the projection, as in `nearest`.
-        let r = (limit_m2.sqrt() + 1e-6) / self.cell;
-        let (u, v) = (
-            (dot(&self.axes[0], q) - self.origin[0]) / self.cell,
-            (dot(&self.axes[1], q) - self.origin[1]) / self.cell,
-        );
-        let (u_lo, u_hi) = (clamp_cell(u - r, self.nu), clamp_cell(u + r, self.nu));
-        let (v_lo, v_hi) = (clamp_cell(v - r, self.nv), clamp_cell(v + r, self.nv));
+        let ((u_lo, u_hi), (v_lo, v_hi)) = self.window(q, limit_m2);
         for row in v_lo..=v_hi {
             let base = row * self.nu;
             let (a, b) = (
