@@ -90,8 +90,8 @@ fn errors(cal: &Value, truth: &Value) -> [f64; 6] {
 
 #[test]
 fn independent_cross_recovers_the_mounting_and_lists_a_pick_off_the_strips() {
-    let Some(python) = std::env::var_os("LIDARQA_PYTHON") else {
-        eprintln!("independent cross not run: set LIDARQA_PYTHON=python3 (numpy, laspy, pyproj)");
+    let Some(python) = lidarqa_testkit::python("the independent cross (numpy, laspy, pyproj)")
+    else {
         return;
     };
     let temp = tempfile::tempdir().unwrap();

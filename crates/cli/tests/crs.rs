@@ -29,8 +29,7 @@ fn sigmas(path: &Path) -> Vec<Vec<f64>> {
 
 #[test]
 fn the_same_points_in_five_crss_have_the_same_sigma() {
-    let Some(python) = std::env::var_os("LIDARQA_PYTHON") else {
-        eprintln!("LIDARQA_PYTHON not set: skipped");
+    let Some(python) = lidarqa_testkit::python("the CRS scenes (pyproj)") else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();

@@ -92,8 +92,8 @@ fn same_seed_byte_identical_files_read_by_laspy_and_numpy() {
         assert!(a == b, "{name} differs between 1 and 2 threads");
     }
 
-    let Some(python) = std::env::var_os("LIDARQA_PYTHON") else {
-        eprintln!("LIDARQA_PYTHON not set: the laspy / numpy read of the outputs is skipped");
+    let Some(python) = lidarqa_testkit::python("the laspy / numpy read of the simulator's outputs")
+    else {
         return;
     };
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/simulate_check.py");

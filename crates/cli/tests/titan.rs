@@ -1,7 +1,6 @@
-//! NCALM's Optech Titan sample as shipped (LAZ with NormalX/Y/Z + PDAL sritrajectory text), when
-//! `LIDARQA_TITAN_DIR` names a directory holding `112-one-scan-cycle.laz` and
-//! `112-trajectory.txt` (github.com/NCALM-UH/pdal-als-tpu @ 0305671, test/data; fetch step in
-//! docs/real-data.md). With `LIDARQA_PYTHON` too, docs/real-data/titan_check.py compares the σ
+//! NCALM's Optech Titan sample as shipped (LAZ with NormalX/Y/Z + PDAL sritrajectory text), read
+//! in place from the real samples (`ncalm_titan`: `112-one-scan-cycle.laz` and
+//! `112-trajectory.txt`, from NCALM-UH/pdal-als-tpu @ 0305671, test/data). With `LIDARQA_PYTHON` too, docs/real-data/titan_check.py compares the σ
 //! of range, attitude and GNSS with its independent physical-beam computation, point by point.
 
 mod binary;
@@ -33,8 +32,7 @@ fn tpu(data: &Path, sensor: &str, out: &Path) -> Value {
 
 #[test]
 fn titan_sample_as_shipped() {
-    let Some(data) = std::env::var_os("LIDARQA_TITAN_DIR").map(PathBuf::from) else {
-        eprintln!("LIDARQA_TITAN_DIR not set: skipped");
+    let Some(data) = lidarqa_testkit::realdata("ncalm_titan") else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -50,7 +48,8 @@ fn titan_sample_as_shipped() {
             .iter()
             .any(|w| w["code"] == "trajectory_without_roll")
     );
-    let Some(python) = std::env::var_os("LIDARQA_PYTHON") else {
+    let Some(python) = lidarqa_testkit::python("the Titan cross-check against NCALM's script")
+    else {
         return;
     };
     for g in ["range", "attitude", "gnss"] {
@@ -95,8 +94,7 @@ fn titan_sample_as_shipped() {
 /// output at that time, per axis within 2 σ of what lidarqa reports.
 #[test]
 fn titan_trajectory_from_returns_matches_sritrajectory() {
-    let Some(data) = std::env::var_os("LIDARQA_TITAN_DIR").map(PathBuf::from) else {
-        eprintln!("LIDARQA_TITAN_DIR not set: skipped");
+    let Some(data) = lidarqa_testkit::realdata("ncalm_titan") else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();

@@ -314,24 +314,19 @@ fn tpu_output_for_laspy() {
     });
     let json_path = dir.path().join("tpu_check.json");
     std::fs::write(&json_path, serde_json::to_string_pretty(&spec).unwrap()).unwrap();
-    match std::env::var_os("LIDARQA_PYTHON") {
-        Some(python) => {
-            let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../io/tests/laspy_check.py");
-            let out = Command::new(python)
-                .arg(script)
-                .arg(&json_path)
-                .output()
-                .unwrap();
-            let stdout = String::from_utf8_lossy(&out.stdout);
-            assert!(
-                out.status.success(),
-                "laspy_check.py failed:\n{stdout}\n{}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-            assert!(stdout.contains(" passed, 0 failed"), "{stdout}");
-        }
-        None => eprintln!(
-            "laspy cross-check not run: set LIDARQA_PYTHON=python3 (with laspy, lazrs) to run it"
-        ),
+    if let Some(python) = lidarqa_testkit::python("the laspy cross-check") {
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../io/tests/laspy_check.py");
+        let out = Command::new(python)
+            .arg(script)
+            .arg(&json_path)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "laspy_check.py failed:\n{stdout}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(stdout.contains(" passed, 0 failed"), "{stdout}");
     }
 }

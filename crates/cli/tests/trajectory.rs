@@ -398,8 +398,7 @@ fn full_forest_strip_sigma_is_honest() {
 /// `LIDARQA_PYTHON` names an interpreter with laspy, lazrs, numpy and pyproj.
 #[test]
 fn independent_generator_flight_is_recovered() {
-    let Some(python) = std::env::var_os("LIDARQA_PYTHON") else {
-        eprintln!("LIDARQA_PYTHON not set: the independent generator is skipped");
+    let Some(python) = lidarqa_testkit::python("the independent trajectory generator") else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();

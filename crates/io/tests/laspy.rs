@@ -108,24 +108,19 @@ fn las_and_laz_for_laspy() {
     assert_eq!(chunk.len(), n as usize);
     assert_eq!(chunk.extra_column("total_tvu").unwrap(), extra[6]);
 
-    match std::env::var_os("LIDARQA_PYTHON") {
-        Some(python) => {
-            let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/laspy_check.py");
-            let out = std::process::Command::new(python)
-                .arg(script)
-                .arg(&json_path)
-                .output()
-                .unwrap();
-            let stdout = String::from_utf8_lossy(&out.stdout);
-            assert!(
-                out.status.success(),
-                "laspy_check.py failed:\n{stdout}\n{}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-            assert!(stdout.contains(" passed, 0 failed"), "{stdout}");
-        }
-        None => eprintln!(
-            "laspy cross-check not run: set LIDARQA_PYTHON=python3 (with laspy, lazrs) to run it"
-        ),
+    if let Some(python) = lidarqa_testkit::python("the laspy cross-check") {
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/laspy_check.py");
+        let out = std::process::Command::new(python)
+            .arg(script)
+            .arg(&json_path)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "laspy_check.py failed:\n{stdout}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(stdout.contains(" passed, 0 failed"), "{stdout}");
     }
 }

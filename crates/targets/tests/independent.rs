@@ -12,8 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn scenes(seed: u64) -> Option<(tempfile::TempDir, PathBuf)> {
-    let Some(python) = std::env::var_os("LIDARQA_PYTHON") else {
-        eprintln!("independent target scenes not run: set LIDARQA_PYTHON=python3 (numpy, laspy)");
+    let Some(python) = lidarqa_testkit::python("independent target scenes (numpy, laspy)") else {
         return None;
     };
     let temp = tempfile::tempdir().unwrap();

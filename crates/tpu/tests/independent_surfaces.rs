@@ -19,8 +19,7 @@ struct Point {
 }
 
 fn generated() -> Option<Vec<Point>> {
-    let Some(python) = std::env::var_os("LIDARQA_PYTHON") else {
-        eprintln!("LIDARQA_PYTHON not set: skipped");
+    let Some(python) = lidarqa_testkit::python("the independent surfaces (numpy)") else {
         return None;
     };
     let dir = std::env::temp_dir().join(format!("lidarqa-surfaces-{}", std::process::id()));
