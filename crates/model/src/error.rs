@@ -41,6 +41,9 @@ pub enum Error {
     /// A correlation matrix that is not square, symmetric, unit-diagonal and positive semi-definite.
     #[error("correlation matrix: {0}")]
     InvalidCorrelation(String),
+    /// A beam scanner constant is out of range (see `BeamScanner::check`).
+    #[error("beam scanner: {0}")]
+    InvalidBeam(String),
     /// The beam never reaches the level surface below the sensor (it points up or sideways).
     #[error(
         "the beam cannot reach the surface {height_m} m below the sensor: it points {elevation_deg:.3} deg above the horizon"

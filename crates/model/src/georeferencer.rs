@@ -119,10 +119,14 @@ mod tests {
         assert_eq!(linear[12..], LinearScanner::SCANNER_SOURCES);
         assert_eq!(conic[12..], ConicScanner::SCANNER_SOURCES);
         for s in Source::ALL {
+            // The beam scanner shares range and scan angle with the linear one; its own are the
+            // second encoder and the channel elevation.
+            let beam_only = &crate::BeamScanner::SCANNER_SOURCES[2..];
             let n = [
                 &linear[..12],
                 &LinearScanner::SCANNER_SOURCES,
                 &ConicScanner::SCANNER_SOURCES,
+                beam_only,
             ]
             .iter()
             .filter(|l| l.contains(s))

@@ -4,6 +4,8 @@
 //! - the linear scanner of seed 000 eq. (2), `P = P0 + R_N (R_M S + ΔP)` ([`LinearScanner`]),
 //! - the constant-angle conic prism scanner of seed 004 with vector Snell refraction through the prism
 //!   and at the water surface ([`ConicScanner`]),
+//! - the beam model of every scanner that measures a range along an encoder-given beam (rotating
+//!   mirror, spinning multi-beam, Risley prism pair, elliptical) ([`BeamScanner`]),
 //! - the checked [`Sensor`] that computation crates accept,
 //! - the workspace's one Levenberg–Marquardt ([`lm`]) and one plane fit ([`fit_plane`], normal
 //!   `n_z ≥ 0`).
@@ -27,6 +29,7 @@
 //! ```
 
 mod axes;
+mod beam;
 mod confidence;
 mod conic;
 mod eigen3;
@@ -44,6 +47,7 @@ mod source;
 mod warning;
 
 pub use axes::Axes;
+pub use beam::{BEAM_N, BeamKind, BeamObservation, BeamScanner, beam_jacobian};
 pub use confidence::{CIRCULAR_95_FACTOR, NORMAL_95_FACTOR};
 pub use conic::{
     CONIC_N, ConicObservation, ConicScanner, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER,

@@ -1,6 +1,7 @@
 //! The checked sensor description that computation crates accept (built from a sensor file by
 //! lidarqa-io, or from a preset).
 
+use crate::beam::BeamScanner;
 use crate::conic::ConicScanner;
 use crate::error::{Error, Result};
 use crate::frames::Mounting;
@@ -17,14 +18,17 @@ pub enum Scanner {
     Linear,
     /// Constant-angle conic prism scanner of seed 004.
     Conic(ConicScanner),
+    /// A scanner of the beam model (rotating mirror, spinning multi-beam, Risley, elliptical).
+    Beam(BeamScanner),
 }
 
 impl Scanner {
-    /// `"linear"` or `"conic"`, as in the sensor file and JSON.
+    /// `"linear"`, `"conic"` or a beam kind's name, as in the sensor file and JSON.
     pub fn kind(&self) -> &'static str {
         match self {
             Scanner::Linear => "linear",
             Scanner::Conic(_) => "conic",
+            Scanner::Beam(b) => b.kind.name(),
         }
     }
 }

@@ -134,6 +134,10 @@ sources! {
     /// Refraction index of the water (dimensionless): Snell's law at the surface and the speed
     /// of light in water, `ρ2 = c Δt2 / (2 nw)`. Bathymetric soundings only.
     NWater = "n_water", One;
+    /// The second encoder angle of a beam scanner (rad): the second prism of a Risley pair.
+    ScanAngle2 = "scan_angle_2", Radian;
+    /// Elevation of a spinning multi-beam head's channel above the head's rotation plane (rad).
+    ChannelElevation = "channel_elevation", Radian;
 }
 
 impl Source {
@@ -174,7 +178,7 @@ mod tests {
 
     #[test]
     fn names_and_keys_round_trip() {
-        assert_eq!(Source::COUNT, 27);
+        assert_eq!(Source::COUNT, 29);
         for (i, s) in Source::ALL.iter().enumerate() {
             assert_eq!(s.index(), i);
             assert_eq!(Source::from_name(s.name()), Some(*s));
