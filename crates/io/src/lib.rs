@@ -14,6 +14,7 @@
 //! Every error names the file and, where there is one, the line, record or key at fault.
 
 mod sensor;
+mod sensor_beam;
 pub use sensor::{
     CovarianceSection, MountingSection, MountingSigmaSection, ScannerSection, SensorExtras,
     SensorFile, parse_sensor, parse_sensor_with_extras, read_sensor, read_sensor_with_extras,

@@ -7,7 +7,7 @@
 
 use crate::error::{Error, Result};
 use lidarqa_model::{
-    ConicScanner, Correlation, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER, LinearScanner,
+    ConicScanner, Correlation, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER,
     Mounting, Refraction, Scanner, Sensor, Sigmas, Source,
 };
 use nalgebra::{DMatrix, Vector3};
@@ -87,6 +87,27 @@ pub struct ScannerSection {
     /// term, `σ = ρ · γ/2 · tan α`). Any scanner type.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub beam_divergence_mrad: Option<f64>,
+    /// Beam types: head roll in the scanner frame, degrees (see [`crate::sensor_beam`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub head_roll_deg: Option<f64>,
+    /// Beam types: head pitch in the scanner frame, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub head_pitch_deg: Option<f64>,
+    /// Beam types: head yaw in the scanner frame, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub head_yaw_deg: Option<f64>,
+    /// Beam types: range σ per million of range, added to `[sigma] range_m`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub range_sigma_ppm: Option<f64>,
+    /// Spinning multi-beam: each channel's elevation, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub channel_elevations_deg: Option<Vec<f64>>,
+    /// Risley: the two wedges' deviations, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prism_deviations_deg: Option<Vec<f64>>,
+    /// Elliptical: the half-angle of the cone the mirror sweeps, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cone_half_angle_deg: Option<f64>,
 }
 
 /// Sensor-file settings that are not part of the georeferencing model ([`Sensor`]).
@@ -266,7 +287,12 @@ impl SensorFile {
                 format!("must be a finite number >= 0, got {v}"),
             ));
         }
+        let beam = crate::sensor_beam::check_beam(s, path)?;
+        if beam.is_none() {
+            crate::sensor_beam::refuse_beam_keys(s, path)?;
+        }
         let scanner = match s.kind.as_str() {
+            _ if beam.is_some() => beam.unwrap_or(Scanner::Linear),
             "linear" => {
                 for (key, given) in [
                     ("exit_angle_deg", s.exit_angle_deg.is_some()),
@@ -332,7 +358,10 @@ impl SensorFile {
             other => {
                 return Err(err(
                     "scanner.type",
-                    format!("'{other}' is not one of linear, conic"),
+                    format!(
+                        "'{other}' is not one of linear, conic, {}",
+                        lidarqa_model::BeamKind::NAMES.join(", ")
+                    ),
                 ));
             }
         };
@@ -356,10 +385,7 @@ impl SensorFile {
         for (key, value) in &file.sigma {
             let dotted = format!("sigma.{key}");
             let source = source_for_key(key).map_err(|m| err(&dotted, m))?;
-            let not_here: &[Source] = match scanner {
-                Scanner::Linear => &ConicScanner::SCANNER_SOURCES,
-                Scanner::Conic(_) => &LinearScanner::SCANNER_SOURCES,
-            };
+            let not_here = crate::sensor_beam::sources_not_here(&scanner);
             if not_here.contains(&source) {
                 return Err(err(
                     &dotted,
@@ -456,6 +482,7 @@ pub fn sensor_to_toml(sensor: &Sensor) -> String {
         Scanner::Linear => {
             let _ = writeln!(out, "type = \"linear\"");
         }
+        Scanner::Beam(b) => crate::sensor_beam::write_beam(&mut out, b),
         Scanner::Conic(c) => {
             let _ = writeln!(out, "type = \"conic\"");
             let _ = writeln!(
@@ -622,7 +649,7 @@ correlation = [[1.0, 0.3], [0.3, 1.0]]
             ),
             (
                 "[scanner]\ntype = \"helical\"\n",
-                "sensor.toml: key `scanner.type`: 'helical' is not one of linear, conic",
+                "sensor.toml: key `scanner.type`: 'helical' is not one of linear, conic, rotating-mirror",
             ),
         ];
         for (text, want) in cases {

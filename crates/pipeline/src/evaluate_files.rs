@@ -70,7 +70,8 @@ pub fn predicted_from_sensor(
         heading_rad: 0.0,
     };
     let geometry = match sensor.scanner {
-        Scanner::Linear => Geometry::Linear {
+        // A beam scanner: the budget refuses it by name.
+        Scanner::Linear | Scanner::Beam(_) => Geometry::Linear {
             attitude,
             scan_angle_rad: scan_angle_deg.unwrap_or(0.0).to_radians(),
             range: LinearRange::Height(height_m),

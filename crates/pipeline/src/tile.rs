@@ -261,6 +261,12 @@ impl Kernel {
                 PointPropagator::new(*c, &ctx.sensor, ctx.beam_divergence_rad).map_err(bad)?,
                 *c,
             ),
+            Scanner::Beam(b) => {
+                return Err(bad(lidarqa_tpu::Error::Geometry(format!(
+                    "the per-point TPU of delivered points from a {} scanner is not available yet (its raw observations are not recovered from points); the sensor file's type must be linear or conic",
+                    b.kind.name()
+                ))));
+            }
         })
     }
     fn kind(&self) -> &'static str {

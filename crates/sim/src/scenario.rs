@@ -462,6 +462,13 @@ impl Scenario {
                 }
             }
             Scanner::Conic(_) => ScanPattern::Conic { rotation_hz: freq },
+            Scanner::Beam(ref b) => {
+                return Err(invalid(
+                    "sensor.scanner.type",
+                    format!("{:?}", b.kind.name()),
+                    "the simulator flies linear and conic scanners; a beam scanner is not simulated yet",
+                ));
+            }
         };
         let errors = check_errors(&file.errors, &sensor)?;
         let motion = check_motion(&file.motion)?;

@@ -383,7 +383,11 @@ fn simulate_strip(
     let random = scenario.errors().random;
     let sig = |s: Source| if random { sensor.sigma.get(s) } else { 0.0 };
     let (conic, sigma) = match &sensor.scanner {
-        Scanner::Linear => (None, [sig(Source::Range), sig(Source::ScanAngle), 0.0]),
+        // A beam scanner is refused by `Scenario::from_file`; its range and first encoder are the
+        // linear scanner's sources.
+        Scanner::Linear | Scanner::Beam(_) => {
+            (None, [sig(Source::Range), sig(Source::ScanAngle), 0.0])
+        }
         Scanner::Conic(c) => (
             Some(*c),
             [

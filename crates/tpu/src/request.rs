@@ -64,6 +64,12 @@ impl GeometryRequest {
                 .map_or(base_attitude.heading_rad, f64::to_radians),
         };
         let geometry = match &sensor.scanner {
+            Scanner::Beam(b) => {
+                return Err(Error::Geometry(format!(
+                    "the budget of a {} scanner is not available yet: its σ come from the beam model (lidarqa_model::BeamScanner::covariance_ned); budget and sweep handle linear and conic scanners",
+                    b.kind.name()
+                )));
+            }
             Scanner::Linear => {
                 for (flag, given) in [
                     ("--azimuth", self.azimuth_deg.is_some()),
