@@ -13,6 +13,7 @@
 //!
 //! Every error names the file and, where there is one, the line, record or key at fault.
 
+pub mod presets;
 mod sensor;
 mod sensor_beam;
 pub use sensor::{

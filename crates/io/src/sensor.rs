@@ -7,8 +7,8 @@
 
 use crate::error::{Error, Result};
 use lidarqa_model::{
-    ConicScanner, Correlation, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER,
-    Mounting, Refraction, Scanner, Sensor, Sigmas, Source,
+    ConicScanner, Correlation, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER, Mounting,
+    Refraction, Scanner, Sensor, Sigmas, Source,
 };
 use nalgebra::{DMatrix, Vector3};
 use serde::{Deserialize, Serialize};

@@ -81,7 +81,10 @@ pub(crate) fn check_beam(s: &ScannerSection, path: &Path) -> Result<Option<Scann
             return Err(err(
                 path,
                 &format!("scanner.{key}"),
-                format!("applies to a conic scanner only, not to a {} scanner", s.kind),
+                format!(
+                    "applies to a conic scanner only, not to a {} scanner",
+                    s.kind
+                ),
             ));
         }
     }
@@ -134,7 +137,10 @@ pub(crate) fn check_beam(s: &ScannerSection, path: &Path) -> Result<Option<Scann
                 return Err(err(
                     path,
                     "scanner.prism_deviations_deg",
-                    format!("must list the two wedges' deviations, got {} values", d.len()),
+                    format!(
+                        "must list the two wedges' deviations, got {} values",
+                        d.len()
+                    ),
                 ));
             }
             BeamKind::Risley {
@@ -191,8 +197,7 @@ pub(crate) fn check_beam(s: &ScannerSection, path: &Path) -> Result<Option<Scann
     }
     // Checked (finite, >= 0) with the other types in `SensorFile::check`.
     b.beam_divergence_rad = s.beam_divergence_mrad.unwrap_or(0.0) * 1e-3;
-    b.check()
-        .map_err(|e| err(path, "scanner", e.to_string()))?;
+    b.check().map_err(|e| err(path, "scanner", e.to_string()))?;
     Ok(Some(Scanner::Beam(b)))
 }
 
@@ -249,7 +254,11 @@ pub(crate) fn write_beam(out: &mut String, b: &BeamScanner) {
     let _ = writeln!(out, "head_pitch_deg = {}", h.y.to_degrees());
     let _ = writeln!(out, "head_yaw_deg = {}", h.z.to_degrees());
     let _ = writeln!(out, "range_sigma_ppm = {}", b.range_sigma_per_m * 1e6);
-    let _ = writeln!(out, "beam_divergence_mrad = {}", b.beam_divergence_rad * 1e3);
+    let _ = writeln!(
+        out,
+        "beam_divergence_mrad = {}",
+        b.beam_divergence_rad * 1e3
+    );
 }
 
 #[cfg(test)]

@@ -302,7 +302,8 @@ fn resolve<'a>(sensor: &'a Sensor, geometry: &Geometry) -> Result<Resolved<'a>> 
             match s {
                 Scanner::Linear => "--scan-angle with --range or --height",
                 Scanner::Conic(_) => "--azimuth with --range-air/--range-water or --height/--depth",
-                Scanner::Beam(_) => "a linear or conic sensor: the budget of a beam scanner is not available yet",
+                Scanner::Beam(_) =>
+                    "a linear or conic sensor: the budget of a beam scanner is not available yet",
             }
         ))),
     }
