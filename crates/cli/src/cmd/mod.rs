@@ -13,6 +13,7 @@ mod overlap;
 mod plan;
 mod report;
 mod run;
+mod sensor;
 mod simulate;
 mod targets;
 mod tile;
@@ -45,6 +46,10 @@ pub enum Command {
     /// Per-point TPU of a LAS/LAZ strip (or a directory of tiles) with its trajectory.
     #[command(after_help = tpu::AFTER_HELP)]
     Tpu(tpu::TpuArgs),
+    /// Print a sensor file from the spec-sheet presets (a scanner with a navigation grade), or
+    /// list them.
+    #[command(after_help = sensor::AFTER_HELP)]
+    Sensor(sensor::SensorArgs),
     /// Rebuild the trajectory of strips without one from their multi-return pulses.
     #[command(after_help = trajectory::AFTER_HELP)]
     Trajectory(trajectory::TrajectoryArgs),
@@ -87,6 +92,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Evaluate(args) => evaluate::run(args),
         Command::Tpu(args) => tpu::run(args),
         Command::Trajectory(args) => trajectory::run(args),
+        Command::Sensor(args) => sensor::run(args),
         Command::Report(args) => report::run(args),
         Command::Tile(args) => tile::run(args),
         Command::Plan(args) => plan::run(args),
