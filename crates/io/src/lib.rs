@@ -15,7 +15,6 @@
 
 pub mod presets;
 mod sensor;
-mod sensor_beam;
 pub use sensor::{
     CovarianceSection, MountingSection, MountingSigmaSection, ScannerSection, SensorExtras,
     SensorFile, parse_sensor, parse_sensor_with_extras, read_sensor, read_sensor_with_extras,

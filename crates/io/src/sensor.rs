@@ -5,6 +5,8 @@
 //! (`range_deg`), a negative σ or a source the scanner does not have are errors that name the key and
 //! the file, never silently ignored.
 
+mod beam;
+
 use crate::error::{Error, Result};
 use lidarqa_model::{
     ConicScanner, Correlation, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER, Mounting,
@@ -87,7 +89,7 @@ pub struct ScannerSection {
     /// term, `σ = ρ · γ/2 · tan α`). Any scanner type.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub beam_divergence_mrad: Option<f64>,
-    /// Beam types: head roll in the scanner frame, degrees (see [`crate::sensor_beam`]).
+    /// Beam types: head roll in the scanner frame, degrees (the beam types' keys).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub head_roll_deg: Option<f64>,
     /// Beam types: head pitch in the scanner frame, degrees.
@@ -287,9 +289,9 @@ impl SensorFile {
                 format!("must be a finite number >= 0, got {v}"),
             ));
         }
-        let beam = crate::sensor_beam::check_beam(s, path)?;
+        let beam = beam::check_beam(s, path)?;
         if beam.is_none() {
-            crate::sensor_beam::refuse_beam_keys(s, path)?;
+            beam::refuse_beam_keys(s, path)?;
         }
         let scanner = match s.kind.as_str() {
             _ if beam.is_some() => beam.unwrap_or(Scanner::Linear),
@@ -385,7 +387,7 @@ impl SensorFile {
         for (key, value) in &file.sigma {
             let dotted = format!("sigma.{key}");
             let source = source_for_key(key).map_err(|m| err(&dotted, m))?;
-            let not_here = crate::sensor_beam::sources_not_here(&scanner);
+            let not_here = beam::sources_not_here(&scanner);
             if not_here.contains(&source) {
                 return Err(err(
                     &dotted,
@@ -482,7 +484,7 @@ pub fn sensor_to_toml(sensor: &Sensor) -> String {
         Scanner::Linear => {
             let _ = writeln!(out, "type = \"linear\"");
         }
-        Scanner::Beam(b) => crate::sensor_beam::write_beam(&mut out, b),
+        Scanner::Beam(b) => beam::write_beam(&mut out, b),
         Scanner::Conic(c) => {
             let _ = writeln!(out, "type = \"conic\"");
             let _ = writeln!(

@@ -43,7 +43,6 @@ use crate::frames::{Attitude, Mounting};
 use crate::georeferencer::{Georeferencer, gnss_offset_ned, platform_parameters, platform_then};
 use crate::rotation::{rot_y, rot_z, rotation_zyx};
 use crate::scalar::Scalar;
-use crate::sensor::Sensor;
 use crate::source::Source;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
@@ -251,48 +250,6 @@ impl BeamScanner {
     pub fn range_sigma(&self, sigma_0_m: f64, range_m: f64) -> f64 {
         sigma_0_m + self.range_sigma_per_m * range_m
     }
-
-    /// Covariance of the footprint, NED m², of the return `observation` at `attitude` and
-    /// `mounting`: `J Σ Jᵀ` over the sixteen sources (the range σ grown by the ppm part, the
-    /// sensor's correlations kept), plus the beam divergence's `(ρ γ/4)² (I − d̂ d̂ᵀ)` across the
-    /// beam `d̂` (NED).
-    pub fn covariance_ned(
-        &self,
-        sensor: &Sensor,
-        attitude: &Attitude,
-        mounting: &Mounting,
-        observation: &BeamObservation,
-    ) -> Matrix3<f64> {
-        let p = self.parameters(attitude, mounting, observation);
-        let (_, j) = self.footprint_jacobian(&p);
-        let mut sigma = sensor.covariance(&<BeamScanner as Georeferencer<BEAM_N>>::SOURCES);
-        // The range σ at this range: rescale the range row and column (keeps any correlation).
-        let range_at = 12;
-        let s0 = sensor.sigma.get(Source::Range);
-        let s = self.range_sigma(s0, observation.range_m);
-        if s0 > 0.0 {
-            let f = s / s0;
-            for k in 0..BEAM_N {
-                sigma[(range_at, k)] *= f;
-                sigma[(k, range_at)] *= f;
-            }
-        } else {
-            sigma[(range_at, range_at)] = s * s;
-        }
-        let mut c = j * sigma * j.transpose();
-        if self.beam_divergence_rad > 0.0 {
-            let d = attitude.body_to_ned()
-                * mounting.scanner_to_body()
-                * self.scanner_direction(
-                    observation.angle_rad,
-                    observation.angle_2_rad,
-                    observation.channel_elevation_rad,
-                );
-            let across = observation.range_m * self.beam_divergence_rad / 4.0;
-            c += (Matrix3::identity() - d * d.transpose()) * (across * across);
-        }
-        c
-    }
 }
 
 impl Georeferencer<BEAM_N> for BeamScanner {
@@ -333,7 +290,7 @@ pub fn beam_jacobian(
 mod tests {
     use super::*;
     use crate::linear::{LINEAR_N, LinearObservation, LinearScanner};
-    use crate::sensor::{Scanner, Sigmas};
+    use crate::sensor::{Scanner, Sensor, Sigmas};
 
     fn sensor(range_m: f64, angle_deg: f64) -> Sensor {
         let deg = 1f64.to_radians();

@@ -30,6 +30,7 @@
 
 mod axes;
 mod beam;
+mod beam_sigma;
 mod confidence;
 mod conic;
 mod eigen3;

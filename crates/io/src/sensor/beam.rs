@@ -11,8 +11,8 @@
 //! - `prism_deviations_deg = [δ₁, δ₂]` (Risley, required): each wedge's deviation;
 //! - `cone_half_angle_deg` (elliptical, required): the cone the nutating mirror sweeps.
 
+use super::ScannerSection;
 use crate::error::{Error, Result};
-use crate::sensor::ScannerSection;
 use lidarqa_model::{BeamKind, BeamScanner, Scanner, Source, rotation_zyx, zyx_angles};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -221,7 +221,7 @@ pub(crate) fn sources_not_here(scanner: &Scanner) -> Vec<Source> {
     }
 }
 
-/// The `[scanner]` lines of a beam scanner, for [`crate::sensor_to_toml`].
+/// The `[scanner]` lines of a beam scanner, for [`super::sensor_to_toml`].
 pub(crate) fn write_beam(out: &mut String, b: &BeamScanner) {
     let _ = writeln!(out, "type = \"{}\"", b.kind.name());
     match b.kind {
@@ -263,7 +263,7 @@ pub(crate) fn write_beam(out: &mut String, b: &BeamScanner) {
 
 #[cfg(test)]
 mod tests {
-    use crate::sensor::parse_sensor;
+    use super::super::parse_sensor;
     use lidarqa_model::{Scanner, Source};
     use std::path::Path;
 
@@ -284,7 +284,7 @@ mod tests {
             let Scanner::Beam(b) = &s.scanner else {
                 panic!("{text}")
             };
-            let again = parse(&crate::sensor_to_toml(&s)).unwrap();
+            let again = parse(&super::super::sensor_to_toml(&s)).unwrap();
             let Scanner::Beam(b2) = &again.scanner else {
                 panic!()
             };
