@@ -77,8 +77,8 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
             .and_then(|p| if vertical { p.vertical } else { p.horizontal })
     };
     for (name, vertical) in [
-        ("plane RMSE (seed 000 eq. 7)", false),
-        ("elevation RMSE (seed 000 eq. 8)", true),
+        ("plane RMSE (Zhang et al. 2018, eq. 7)", false),
+        ("elevation RMSE (Zhang et al. 2018, eq. 8)", true),
     ] {
         let rmse = |e: &Evaluation| {
             if vertical {
