@@ -57,7 +57,10 @@ fn examples(subcommand: &str) -> Vec<String> {
     assert!(out.status.success());
     let help = String::from_utf8(out.stdout).unwrap();
     let mut lines = help.lines().skip_while(|l| !l.starts_with("Example"));
-    assert!(lines.next().is_some(), "`lidarqa {subcommand} --help` has no Example(s) block");
+    assert!(
+        lines.next().is_some(),
+        "`lidarqa {subcommand} --help` has no Example(s) block"
+    );
     let mut found = Vec::new();
     let mut current = String::new();
     for line in lines {
@@ -182,7 +185,10 @@ fn fixtures(w: &Path) {
     for row in rows {
         let cells: Vec<&str> = row.split(',').collect();
         for strip in 1..=4 {
-            ties.push_str(&format!("{},{strip},{},{}\n", cells[id], cells[x], cells[y]));
+            ties.push_str(&format!(
+                "{},{strip},{},{}\n",
+                cells[id], cells[x], cells[y]
+            ));
         }
     }
     std::fs::write(w.join("ties.csv"), ties).unwrap();
@@ -240,7 +246,11 @@ fn fixtures(w: &Path) {
         std::fs::create_dir_all(w.join(dir)).unwrap();
     }
     for dir in ["lidarqa-demo", "run1"] {
-        std::fs::copy(w.join("tpu_summary.json"), w.join(dir).join("tpu_summary.json")).unwrap();
+        std::fs::copy(
+            w.join("tpu_summary.json"),
+            w.join(dir).join("tpu_summary.json"),
+        )
+        .unwrap();
     }
 }
 
@@ -310,5 +320,8 @@ fn explanations_are_cut_and_flags_kept() {
         without_explanation("lidarqa run manifest.json   # index from $SLURM_ARRAY_TASK_ID"),
         "lidarqa run manifest.json # index from $SLURM_ARRAY_TASK_ID"
     );
-    assert_eq!(as_run("lidarqa demo -o /tmp/demo"), "lidarqa demo -o tmp-demo --quick");
+    assert_eq!(
+        as_run("lidarqa demo -o /tmp/demo"),
+        "lidarqa demo -o tmp-demo --quick"
+    );
 }
