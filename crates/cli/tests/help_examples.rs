@@ -109,8 +109,8 @@ fn without_explanation(line: &str) -> String {
     kept.trim().to_string()
 }
 
-/// The demo's scenario cut to four lines of ±60 m at 20 kHz (as `tests/simulate.rs` does), keeping
-/// the targets the short lines cover.
+/// The demo's scenario cut to four lines of ±60 m at 20 kHz (as `tests/simulate.rs` does), with
+/// two targets where every strip sees them.
 fn small_scenario(dir: &Path) -> PathBuf {
     let out = Command::new(bin())
         .args(["simulate", "--scenario", "demo", "--print"])
@@ -129,16 +129,19 @@ fn small_scenario(dir: &Path) -> PathBuf {
         }
     }
     doc["scanner"].as_table_mut().unwrap()["pulse_rate_hz"] = toml::Value::Float(20_000.0);
+    // Two of the demo's targets, moved to where all four short strips see them.
     let targets = doc["scene"]["targets"].as_array().unwrap().clone();
-    doc["scene"].as_table_mut().unwrap()["targets"] = toml::Value::Array(
-        targets
-            .into_iter()
-            .filter(|t| {
-                let c = t["center_m"].as_array().unwrap();
-                c.iter().all(|v| v.as_float().unwrap().abs() < 50.0)
-            })
-            .collect(),
-    );
+    let moved: Vec<toml::Value> = targets
+        .into_iter()
+        .take(2)
+        .zip([[-30.0, 10.0], [30.0, -25.0]])
+        .map(|(mut t, c)| {
+            t.as_table_mut().unwrap()["center_m"] =
+                toml::Value::Array(c.iter().map(|&v| toml::Value::Float(v)).collect());
+            t
+        })
+        .collect();
+    doc["scene"].as_table_mut().unwrap()["targets"] = toml::Value::Array(moved);
     let path = dir.join("small.toml");
     std::fs::write(&path, toml::to_string(&doc).unwrap()).unwrap();
     path
