@@ -68,9 +68,13 @@ fn examples(subcommand: &str) -> Vec<String> {
             break;
         }
         let text = line.trim();
-        if current.is_empty() && !text.starts_with("lidarqa ") {
-            continue;
-        }
+        // A line that starts no example and continues none is an example wrapped by clap at
+        // the help's width: a reader copying it would get a broken command.
+        assert!(
+            !current.is_empty() || text.starts_with("lidarqa "),
+            "`lidarqa {subcommand} --help`: the example line `{text}` does not start with \
+             `lidarqa` (too long, wrapped? end the line before with `\\`)"
+        );
         let (body, continues) = match text.strip_suffix('\\') {
             Some(b) => (b.trim_end(), true),
             None => (text, false),

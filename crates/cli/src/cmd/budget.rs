@@ -15,11 +15,12 @@ use std::path::PathBuf;
 
 pub const AFTER_HELP: &str = "\
 Examples:
-  lidarqa budget --preset czmil                        Li et al. 2016, Table 4 (conic, 425.7 m air, 51.7 m water)
-  lidarqa budget --preset zhang2018 --format json      Zhang et al. 2018, Table 1 at scan angle 30°, 80 m below
+  lidarqa budget --preset czmil                        Li et al. 2016, Table 4 (conic scanner)
+  lidarqa budget --preset zhang2018 --format json      Zhang et al. 2018, Table 1 (linear scanner)
   lidarqa budget --preset czmil --sweep azimuth=0:360:10
-  lidarqa budget --preset czmil --sweep depth=0:50:5     Li et al. 2016, §3 (3): the budget grows with depth
-  lidarqa budget --preset zhang2018 --height 1000 --sweep scan-angle=-30:30:5 --bias boresight_roll_deg=0.1
+  lidarqa budget --preset czmil --sweep depth=0:50:5   σ grows with depth (Li et al. 2016, §3)
+  lidarqa budget --preset zhang2018 --height 1000 --sweep scan-angle=-30:30:5 \\
+      --bias boresight_roll_deg=0.1
   lidarqa budget --sensor my_sensor.toml --scan-angle 20 --height 1200 --roll 2
   lidarqa budget --preset czmil --print-sensor > my_sensor.toml
 

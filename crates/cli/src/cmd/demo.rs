@@ -19,7 +19,7 @@ pub const AFTER_HELP: &str = "\
 Example:
   lidarqa demo                 writes every product and report.html to lidarqa-demo/
   lidarqa demo -o /tmp/demo --quick
-  lidarqa demo --bathymetry    the conic bathymetric survey (Li et al. 2016) to lidarqa-demo-bathymetry/
+  lidarqa demo --bathymetry    the conic bathymetric survey, to lidarqa-demo-bathymetry/
 
 Steps: simulate (a survey with injected boresight and lever-arm errors and twelve surveyed targets) →
 budget → tpu → targets → evaluate → calibrate → correct → targets → evaluate → overlap → report.";
