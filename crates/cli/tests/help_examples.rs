@@ -3,10 +3,12 @@
 //! new or changed example is tested without touching this file; each is run by `sh` in a
 //! directory holding the files the examples name, made here from a small simulated survey (the
 //! demo's scenario cut to four short lines). `lidarqa` is first on `PATH`, so the examples run
-//! exactly as printed, pipes, `&&`, redirections and globs included. Three changes are made, all
+//! exactly as printed, pipes, `&&`, redirections and globs included. Four changes are made, three
 //! to keep the test small: `lidarqa demo` runs with `--quick`, the scenarios an example simulates
 //! (`--scenario demo`, `--scenario my-survey.toml`) are the small one, and `/tmp/…` output paths
-//! are put inside the test's directory. `$SLURM_ARRAY_TASK_ID` is 0.
+//! are put inside the test's directory; and one for the data: the `trajectory` examples run on
+//! two short strips of the forest scenario, since the demo's scene has no multi-return pulses.
+//! `$SLURM_ARRAY_TASK_ID` is 0.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -151,6 +153,33 @@ fn small_scenario(dir: &Path) -> PathBuf {
     path
 }
 
+/// The forest scenario (canopy: multi-return pulses, which `lidarqa trajectory` needs) cut to two
+/// opposite 4 s lines at 20 kHz.
+fn small_forest(dir: &Path) -> PathBuf {
+    let out = Command::new(bin())
+        .args(["simulate", "--scenario", "forest", "--print"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let mut doc: toml::Table = toml::from_str(&String::from_utf8(out.stdout).unwrap()).unwrap();
+    let lines = doc["lines"].as_array_mut().unwrap();
+    lines.truncate(1);
+    let first = lines[0].as_table_mut().unwrap();
+    first["start_m"] = toml::Value::Array(vec![(-120.0).into(), 0.0.into()]);
+    first["end_m"] = toml::Value::Array(vec![120.0.into(), 0.0.into()]);
+    let mut second = first.clone();
+    second["id"] = toml::Value::Integer(2);
+    second["start_m"] = toml::Value::Array(vec![120.0.into(), 40.0.into()]);
+    second["end_m"] = toml::Value::Array(vec![(-120.0).into(), 40.0.into()]);
+    let t0 = second["start_time_s"].as_float().unwrap();
+    second["start_time_s"] = (t0 + 100.0).into();
+    lines.push(toml::Value::Table(second));
+    doc["scanner"].as_table_mut().unwrap()["pulse_rate_hz"] = toml::Value::Float(20_000.0);
+    let path = dir.join("forest.toml");
+    std::fs::write(&path, toml::to_string(&doc).unwrap()).unwrap();
+    path
+}
+
 /// The files the examples name, in `w`.
 fn fixtures(w: &Path) {
     let scenario = small_scenario(w);
@@ -182,6 +211,10 @@ fn fixtures(w: &Path) {
         copy(&sim.join(name), name);
     }
     copy(&sim.join("control.csv"), "nva.csv");
+    let forest = small_forest(w);
+    lidarqa(w, &["simulate", "--scenario", s(&forest), "-o", "forest"]);
+    copy(&w.join("forest/strip_001.laz"), "forest1.laz");
+    copy(&w.join("forest/strip_002.laz"), "forest2.laz");
     // Hand picks: every control point picked at its plan position in every strip.
     let control = std::fs::read_to_string(w.join("control.csv")).unwrap();
     let mut rows = control.lines();
@@ -265,8 +298,19 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
-/// The example as run: `demo` gets `--quick`, `/tmp/NAME` becomes `tmp-NAME` in the directory.
+/// The example as run: `demo` gets `--quick`, `/tmp/NAME` becomes `tmp-NAME` in the directory,
+/// and a trajectory is rebuilt from (and used with) the forest's strips, which have multi-return
+/// pulses.
 fn as_run(example: &str) -> String {
+    let example = if example.starts_with("lidarqa trajectory")
+        || example.contains("--trajectory trajectory.csv")
+    {
+        example
+            .replace("strip1.laz", "forest1.laz")
+            .replace("strip2.laz", "forest2.laz")
+    } else {
+        example.to_string()
+    };
     let mut line = example
         .replace("/tmp/", "tmp-")
         .replace("--scenario demo -o", "--scenario small.toml -o")
