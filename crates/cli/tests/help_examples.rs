@@ -8,7 +8,7 @@
 //! (`--scenario demo`, `--scenario my-survey.toml`) are the small one, and `/tmp/…` output paths
 //! are put inside the test's directory; and one for the data: the `trajectory` examples run on
 //! two short strips of the forest scenario, since the demo's scene has no multi-return pulses.
-//! `$SLURM_ARRAY_TASK_ID` is 0.
+//! `$SLURM_ARRAY_TASK_ID` is 0, and `lidarqa collect` runs after every manifest entry was run.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -300,7 +300,7 @@ fn s(p: &Path) -> &str {
 
 /// The example as run: `demo` gets `--quick`, `/tmp/NAME` becomes `tmp-NAME` in the directory,
 /// and a trajectory is rebuilt from (and used with) the forest's strips, which have multi-return
-/// pulses.
+/// pulses, its SBET written beside the survey's rather than over it.
 fn as_run(example: &str) -> String {
     let example = if example.starts_with("lidarqa trajectory")
         || example.contains("--trajectory trajectory.csv")
@@ -308,6 +308,7 @@ fn as_run(example: &str) -> String {
         example
             .replace("strip1.laz", "forest1.laz")
             .replace("strip2.laz", "forest2.laz")
+            .replace("--sbet sbet.out", "--sbet forest_sbet.out")
     } else {
         example.to_string()
     };
@@ -347,7 +348,7 @@ fn every_help_example_runs() {
                 .env("PATH", &path)
                 .env("SLURM_ARRAY_TASK_ID", "0")
                 .env_remove("JOB_COMPLETION_INDEX")
-                .args(["-c", &format!("set -e; {line}")])
+                .args(["-c", &format!("set -e; {}{line}", before(&line))])
                 .output()
                 .unwrap();
             assert!(
@@ -360,6 +361,16 @@ fn every_help_example_runs() {
     }
     // Every subcommand has an example, and the count is no accident of the parsing.
     assert!(ran >= 35, "only {ran} examples found");
+}
+
+/// What runs before an example, as the examples say in words: `lidarqa collect` follows a
+/// `lidarqa run` of every entry ("one per tile"), here in a loop until the index is past the end.
+fn before(line: &str) -> &'static str {
+    if line.starts_with("lidarqa collect manifest.json") {
+        "i=0; while lidarqa run manifest.json --index $i >/dev/null 2>&1; do i=$((i+1)); done; "
+    } else {
+        ""
+    }
 }
 
 /// The command line without its `-o DIR`, to tell two runs of the same thing.
