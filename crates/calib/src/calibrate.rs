@@ -4,12 +4,17 @@ use crate::error::{Error, Result};
 use crate::lm::{LmModel, LmOptions, Termination, jacobian, minimize};
 use crate::params::{PARAM_COUNT, Param, mounting_from_vector, mounting_to_vector};
 use crate::strip::{Strip, check_strips};
+use crate::strip_adjust::{
+    self, GROUP_NAMES, SigmaTest, StripAdjustment, StripModel, chi2_quantile_99, group_of,
+};
 use crate::vtpm::{
     ControlPoint, DroppedPick, Indexed, NOISE_GROUPS, Tie, TieModel, VtpmOptions, build_tie_model,
 };
-use crate::weighting::{TrajectorySensitivity, TrajectorySigma, Whitening, group_noise_factors};
+use crate::weighting::{
+    Column, TrajectorySensitivity, TrajectorySigma, Whitening, group_noise_factors,
+};
 use lidarqa_model::{Mounting, Warning};
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 use serde_json::{Map, Value, json};
 
 /// Which method produced a calibration.
@@ -63,6 +68,9 @@ pub struct CalibrationOptions {
     /// prior with an honest σ, and it is "not observable" when the data alone would not determine
     /// it within [`CalibrationOptions::max_sigma_lever_m`] / `max_sigma_angle_rad`.
     pub prior_sigma: [Option<f64>; PARAM_COUNT],
+    /// Estimate per-line trajectory corrections with the mounting ([`crate::StripModel`]);
+    /// needs [`CalibrationOptions::trajectory_sigma`] (their priors) and no correlation times.
+    pub strip_adjustment: Option<StripModel>,
 }
 
 impl Default for CalibrationOptions {
@@ -77,6 +85,7 @@ impl Default for CalibrationOptions {
             sigma_floor_m: 0.01,
             trajectory_sigma: None,
             prior_sigma: [None; PARAM_COUNT],
+            strip_adjustment: None,
         }
     }
 }
@@ -164,6 +173,20 @@ impl CalibrationOptions {
                 }
             }
         }
+        if let Some(m) = self.strip_adjustment {
+            let Some(t) = &self.trajectory_sigma else {
+                return Err(Error::InvalidStripAdjustment(format!(
+                    "{}: the strip adjustment needs the trajectory's sigma (the sensor file's [sigma] gnss_* and roll/pitch/heading) as the corrections' priors",
+                    m.name()
+                )));
+            };
+            if t.position_correlation_s.is_some() || t.attitude_correlation_s.is_some() {
+                return Err(Error::InvalidStripAdjustment(format!(
+                    "{}: the strip adjustment models each line's error as an offset (and drift), not with a correlation time; give one or the other",
+                    m.name()
+                )));
+            }
+        }
         if self.lm.max_iterations == 0 {
             return Err(Error::InvalidOption {
                 name: "max_iterations",
@@ -248,6 +271,8 @@ pub struct Calibration {
     pub dropped_picks: Vec<DroppedPick>,
     /// Doubtful findings about the inputs (one per dropped pick, ...), for the CLI to print.
     pub warnings: Vec<Warning>,
+    /// The per-line trajectory corrections, when the strip adjustment ran.
+    pub strip_adjustment: Option<StripAdjustment>,
 }
 
 fn enu(v: &Vector3<f64>) -> [f64; 3] {
@@ -312,6 +337,9 @@ impl Calibration {
             );
         }
         doc["warnings"] = json!(self.warnings);
+        if let Some(sa) = &self.strip_adjustment {
+            doc["strip_adjustment"] = sa.to_json(strip_json);
+        }
         // Beyond SPEC §8, only when it happened: control points no strip could triangulate.
         if !self.skipped_control.is_empty() {
             doc["skipped_control"] = json!(self.skipped_control);
@@ -510,6 +538,7 @@ impl<M> Solved<M> {
             }),
             dropped_picks: Vec::new(),
             warnings: Vec::new(),
+            strip_adjustment: None,
         }
     }
 }
@@ -903,6 +932,7 @@ pub fn calibrate_vtpm(
         model: model.clone(),
         whitening: None,
     };
+    let mut strip_result: Option<StripAdjustment> = None;
     let solved = match &options.trajectory_sigma {
         None => solve_with_observability(&problem, x0, observations, options, true, None)?,
         Some(ts) => {
@@ -918,8 +948,9 @@ pub fn calibrate_vtpm(
                 ..options.holding_nothing()
             };
             let not_finite = || Error::Diverged("the trajectory weighting is not finite".into());
-            let sensitivity =
-                TrajectorySensitivity::new(strips, &model, &x0, ts).ok_or_else(not_finite)?;
+            let drift = options.strip_adjustment.is_some_and(StripModel::drift);
+            let base = TrajectorySensitivity::with_drift(strips, &model, &x0, ts, drift)
+                .ok_or_else(not_finite)?;
             // The ties' own noise is not known in advance, and a pick's horizontal position
             // and a surface's height have different ones (`NoiseGroup`): start both from the
             // unweighted fit's σ0 (which still holds the trajectory's share) and re-estimate
@@ -932,41 +963,174 @@ pub fn calibrate_vtpm(
             let groups = model.row_groups();
             let group_observations = model.group_observations();
             let mut group_sigma_m = [reference_m; NOISE_GROUPS];
-            let mut pass = 1;
+            // With the strip adjustment, the trajectory's σ per group (GNSS position, attitude)
+            // is scaled by the data too, in an outer loop (module docs of `strip_adjust`).
+            let mut trajectory_factor = [1.0f64; 2];
+            let mut first_tests: Option<[(f64, f64); 2]> = None;
+            let mut outer = 1;
             let mut solved = loop {
-                let rows: Vec<f64> = groups.iter().map(|g| group_sigma_m[*g as usize]).collect();
-                let w = sensitivity
-                    .whitening(&rows, reference_m)
-                    .ok_or_else(not_finite)?;
-                problem.whitening = Some(w.clone());
-                let fit = solve_with_observability(
-                    &problem,
-                    x0,
-                    observations,
-                    &weighted,
-                    true,
-                    Some(reference_m),
-                )?;
-                let factors = group_noise_factors(
-                    &w,
-                    &groups,
-                    &group_observations,
-                    &fit.jacobian,
-                    &fit.inverse_normal,
-                    &fit.residuals,
-                    reference_m,
-                );
-                let mut agreed = true;
-                for (sigma_m, factor) in group_sigma_m.iter_mut().zip(factors) {
-                    let Some(f) = factor else { continue };
-                    let next = (*sigma_m * f).max(MIN_TIE_SIGMA_M);
-                    agreed &= (next - *sigma_m).abs() <= NOISE_AGREEMENT * *sigma_m;
-                    *sigma_m = next;
-                }
-                if agreed || pass == MAX_NOISE_PASSES {
+                // The factors this solve uses (the test below may update them).
+                let used = trajectory_factor;
+                let sensitivity = base.scaled(|c| match c {
+                    Column::Line { component, .. } => used[group_of(*component)],
+                    Column::Other => 1.0,
+                });
+                let mut pass = 1;
+                let fit = loop {
+                    let rows: Vec<f64> =
+                        groups.iter().map(|g| group_sigma_m[*g as usize]).collect();
+                    let w = sensitivity
+                        .whitening(&rows, reference_m)
+                        .ok_or_else(not_finite)?;
+                    problem.whitening = Some(w.clone());
+                    let fit = solve_with_observability(
+                        &problem,
+                        x0,
+                        observations,
+                        &weighted,
+                        true,
+                        Some(reference_m),
+                    )?;
+                    let factors = group_noise_factors(
+                        &w,
+                        &groups,
+                        &group_observations,
+                        &fit.jacobian,
+                        &fit.inverse_normal,
+                        &fit.residuals,
+                        reference_m,
+                    );
+                    let mut agreed = true;
+                    for (sigma_m, factor) in group_sigma_m.iter_mut().zip(factors) {
+                        let Some(f) = factor else { continue };
+                        let next = (*sigma_m * f).max(MIN_TIE_SIGMA_M);
+                        agreed &= (next - *sigma_m).abs() <= NOISE_AGREEMENT * *sigma_m;
+                        *sigma_m = next;
+                    }
+                    if agreed || pass == MAX_NOISE_PASSES {
+                        break fit;
+                    }
+                    pass += 1;
+                };
+                let Some(strip_model) = options.strip_adjustment else {
                     break fit;
+                };
+                let rows: Vec<f64> = groups.iter().map(|g| group_sigma_m[*g as usize]).collect();
+                let free: Vec<usize> = (0..PARAM_COUNT).filter(|&i| !fit.held[i]).collect();
+                let raw = VtpmProblem {
+                    strips,
+                    model: fit.model.model.clone(),
+                    whitening: None,
+                };
+                let r = raw.residuals(&fit.x);
+                let j = jacobian(&raw, &fit.x, &free, &options.lm, r.len());
+                let prior_info: Vec<f64> = free
+                    .iter()
+                    .map(|&i| options.prior_sigma[i].map_or(0.0, |s| 1.0 / (s * s)))
+                    .collect();
+                let joint = strip_adjust::joint(&j, sensitivity.matrix(), &rows, &r, &prior_info)
+                    .ok_or_else(|| {
+                    Error::Diverged("the strip adjustment is singular".into())
+                })?;
+                let stats = strip_adjust::group_statistics(&joint, &sensitivity.labels, free.len());
+                let first = *first_tests.get_or_insert(stats);
+                let mut agreed = true;
+                for (g, (t, red)) in stats.iter().enumerate() {
+                    // Scaled only up, and only once the declared σ failed the test: smaller
+                    // residuals than declared are no reason to trust the trajectory more.
+                    let failed = first[g].1 > 0.5 && first[g].0 > chi2_quantile_99(first[g].1);
+                    if !failed || *red <= 0.5 {
+                        continue;
+                    }
+                    let f = (t / red).sqrt();
+                    if f.is_finite() {
+                        let next = (trajectory_factor[g] * f).max(1.0);
+                        agreed &= (next - trajectory_factor[g]).abs()
+                            <= TRAJECTORY_AGREEMENT * trajectory_factor[g];
+                        trajectory_factor[g] = next;
+                    }
                 }
-                pass += 1;
+                if !agreed && outer < MAX_TRAJECTORY_PASSES {
+                    outer += 1;
+                    continue;
+                }
+                let spans: Vec<(String, [f64; 2])> = strips
+                    .iter()
+                    .map(|s| {
+                        let span = s
+                            .points
+                            .iter()
+                            .fold([f64::INFINITY, f64::NEG_INFINITY], |[a, b], p| {
+                                [a.min(p.time_s), b.max(p.time_s)]
+                            });
+                        (s.id.clone(), span)
+                    })
+                    .collect();
+                let sigma_of = |component: usize| {
+                    used[group_of(component)]
+                        * match component {
+                            0..3 => ts.position_m[component],
+                            3..6 => ts.attitude_rad[component - 3],
+                            _ => ts.position_m[component - 6],
+                        }
+                };
+                trajectory_factor = used;
+                let lines = strip_adjust::line_corrections(
+                    &joint,
+                    &sensitivity.labels,
+                    free.len(),
+                    strip_model,
+                    &spans,
+                    sigma_of,
+                );
+                let has_control = model.ties.iter().any(|t| t.control.is_some());
+                let has_prior: [bool; PARAM_COUNT] =
+                    std::array::from_fn(|i| options.prior_sigma[i].is_some());
+                let confounded = strip_adjust::confounded(
+                    &joint,
+                    &sensitivity.labels,
+                    &free,
+                    has_control,
+                    &has_prior,
+                );
+                let adjusted = DVector::from_vec(r.clone()) - sensitivity.matrix() * &joint.u;
+                let rms = |v: &[f64]| {
+                    (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
+                };
+                let before = VtpmProblem {
+                    strips,
+                    model: model.clone(),
+                    whitening: None,
+                }
+                .residuals(&x0);
+                let tests = (0..2)
+                    .filter(|&g| first[g].1 > 0.5)
+                    .map(|g| SigmaTest {
+                        group: GROUP_NAMES[g],
+                        statistic: first[g].0,
+                        redundancy: first[g].1,
+                        quantile_99: chi2_quantile_99(first[g].1),
+                        factor: trajectory_factor[g],
+                    })
+                    .collect();
+                let datum = if has_control {
+                    "control: the control points fix the common correction of all lines".to_string()
+                } else {
+                    "minimal constraint: without control the ties see only the lines' corrections \
+                     relative to one another; their common part is held at zero by the priors \
+                     (each line's correction with the sensor file's sigma), a weighted minimal \
+                     constraint"
+                        .to_string()
+                };
+                strip_result = Some(StripAdjustment {
+                    model: strip_model,
+                    datum,
+                    lines,
+                    tests,
+                    confounded,
+                    tie_rms_m: [rms(&before), rms(&r), rms(adjusted.as_slice())],
+                });
+                break fit;
             };
             // Holds are decided on the unweighted fit; what the data add to a prior, on the
             // weighted one (its σ include the trajectory).
@@ -981,6 +1145,9 @@ pub fn calibrate_vtpm(
     };
     let mut warnings = warnings;
     warnings.extend(held_parameter_warnings(&solved));
+    if let Some(sa) = &strip_result {
+        warnings.extend(sigma_understated_warnings(sa, options));
+    }
     let history = solved
         .history
         .iter()
@@ -998,6 +1165,7 @@ pub fn calibrate_vtpm(
         trajectory_sigma: options.trajectory_sigma,
         dropped_picks: model.dropped_picks.clone(),
         warnings,
+        strip_adjustment: strip_result,
         ..solved.into_calibration(Method::Vtpm, prior, options, ties)
     })
 }
@@ -1046,10 +1214,63 @@ fn held_parameter_warnings<M>(solved: &Solved<M>) -> Vec<Warning> {
         .collect()
 }
 
+/// One warning `trajectory_sigma_understated` per trajectory group whose declared σ failed the
+/// χ² test and were scaled by the data.
+fn sigma_understated_warnings(sa: &StripAdjustment, options: &CalibrationOptions) -> Vec<Warning> {
+    let Some(ts) = &options.trajectory_sigma else {
+        return Vec::new();
+    };
+    sa.tests
+        .iter()
+        .filter(|t| t.factor > 1.0)
+        .map(|t| {
+            let (keys, declared, scaled) = if t.group == "gnss_position" {
+                let f = |v: &[f64; 3], k: f64| {
+                    format!("{:.3}/{:.3}/{:.3} m", v[0] * k, v[1] * k, v[2] * k)
+                };
+                (
+                    "gnss_north_m, gnss_east_m, gnss_up_m",
+                    f(&ts.position_m, 1.0),
+                    f(&ts.position_m, t.factor),
+                )
+            } else {
+                let f = |v: &[f64; 3], k: f64| {
+                    format!(
+                        "{:.4}/{:.4}/{:.4} deg",
+                        v[0].to_degrees() * k,
+                        v[1].to_degrees() * k,
+                        v[2].to_degrees() * k
+                    )
+                };
+                (
+                    "roll_deg, pitch_deg, heading_deg",
+                    f(&ts.attitude_rad, 1.0),
+                    f(&ts.attitude_rad, t.factor),
+                )
+            };
+            Warning::new(
+                "trajectory_sigma_understated",
+                format!(
+                    "the lines' {} corrections exceed what the sensor file's sigma allow (chi-square {:.1} on {:.1} degrees of freedom, 99 % limit {:.1}): their sigma were multiplied by {:.2}, from {declared} to {scaled}; fix [sigma] {keys} in the sensor file (or the navigation processing)",
+                    if t.group == "gnss_position" { "GNSS position" } else { "attitude" },
+                    t.statistic,
+                    t.redundancy,
+                    t.quantile_99,
+                    t.factor
+                ),
+            )
+        })
+        .collect()
+}
+
 /// Most re-weightings of the ties' own noise against the trajectory's (see `calibrate_vtpm`).
 const MAX_NOISE_PASSES: usize = 8;
 /// When the weighted fit's σ0 and the σ_t it was weighted with agree (relative).
 const NOISE_AGREEMENT: f64 = 0.02;
+/// Most re-solves with the trajectory's σ scaled by the data (strip adjustment).
+const MAX_TRAJECTORY_PASSES: usize = 8;
+/// When the trajectory σ factor and the data agree (relative).
+const TRAJECTORY_AGREEMENT: f64 = 0.03;
 
 /// Removes blunders before the adjustment proper: solve once with every parameter free, then drop
 /// the tie with the largest residual (RMS per observed direction) while it exceeds 4 robust σ

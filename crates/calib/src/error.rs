@@ -16,6 +16,9 @@ pub enum Error {
         /// The value given.
         value: f64,
     },
+    /// The strip adjustment cannot run with these options.
+    #[error("strip adjustment {0}")]
+    InvalidStripAdjustment(String),
     /// Fewer strips than the job needs.
     #[error("{what} needs at least {needed} strips, got {got}")]
     TooFewStrips {

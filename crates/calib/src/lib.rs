@@ -52,6 +52,7 @@ mod overlap;
 mod params;
 mod plane;
 mod strip;
+mod strip_adjust;
 mod vtpm;
 mod weighting;
 
@@ -75,6 +76,7 @@ pub use strip::{
     Georeferencing, LocalFrame, RawPoint, Strip, correct_strip, georeference,
     radius_for_neighbours_m,
 };
+pub use strip_adjust::{Confounded, LineCorrection, SigmaTest, StripAdjustment, StripModel};
 pub use vtpm::{
     ControlPoint, DroppedPick, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Tie, TieKind, TiePick,
     VtpmOptions, tie_reach_m,

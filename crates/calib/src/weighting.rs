@@ -181,18 +181,35 @@ pub(crate) struct Whitening {
 pub(crate) struct TrajectorySensitivity {
     /// `A`, m (observations × offsets, then × control points' axes).
     a: DMatrix<f64>,
+    /// What each column of `A` is (empty when built without labels).
+    pub(crate) labels: Vec<Column>,
+}
+
+/// What one column of [`TrajectorySensitivity`]'s `A` is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Column {
+    /// Strip `strip`'s trajectory component `component` (0–2 position north, east, up; 3–5
+    /// roll, pitch, heading; 6–8 the position's linear drift north, east, up), at 1 σ.
+    Line { strip: usize, component: usize },
+    /// A Gauss–Markov mode of a strip's component, or a control point's survey error.
+    Other,
 }
 
 impl TrajectorySensitivity {
-    /// `A` at the parameters `x`; `None` for non-finite input.
-    pub(crate) fn new(
+    /// `A` at the parameters `x` (`None` for non-finite input), every column labelled
+    /// ([`Column`]); with `drift` three more columns per strip: the position error changing
+    /// linearly over the strip's time, from −1 σ at its start to +1 σ at its end (σ the
+    /// position's).
+    pub(crate) fn with_drift(
         strips: &[Strip],
         model: &TieModel,
         x: &[f64; 6],
         sigma: &TrajectorySigma,
+        drift: bool,
     ) -> Option<TrajectorySensitivity> {
         let n = model.residuals_from(&model.coords_at(strips, x)).len();
         let mut columns: Vec<DVector<f64>> = Vec::new();
+        let mut labels: Vec<Column> = Vec::new();
         for (s, strip) in strips.iter().enumerate() {
             let (start_s, end_s) = strip
                 .points
@@ -200,16 +217,40 @@ impl TrajectorySensitivity {
                 .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
                     (a.min(p.time_s), b.max(p.time_s))
                 });
-            for (unit, sd, tau) in sigma.unit_offsets() {
+            let units = sigma.unit_offsets();
+            let drifts = units[..3].iter().map(|(u, sd, _)| {
+                let ramp = TimeProfile {
+                    start_s,
+                    step_s: (end_s - start_s).max(0.0),
+                    values: vec![-1.0, 1.0],
+                };
+                (u.clone(), *sd, None, Some(ramp))
+            });
+            let drifts: Vec<_> = drifts.collect();
+            let all: Vec<(TrajectoryOffset, f64, Option<f64>, Option<TimeProfile>)> = units
+                .into_iter()
+                .map(|(u, sd, tau)| (u, sd, tau, None))
+                .chain(drifts.into_iter().filter(|_| drift))
+                .collect();
+            for (component, (unit, sd, tau, ramp)) in all.into_iter().enumerate() {
                 if sd <= 0.0 {
                     continue;
                 }
-                let profiles: Vec<Option<TimeProfile>> = match tau {
-                    Some(tau_s) => gauss_markov_modes(start_s, end_s, tau_s)
+                let profiles: Vec<Option<TimeProfile>> = match (tau, ramp) {
+                    (_, Some(r)) => vec![Some(r)],
+                    (Some(tau_s), None) => gauss_markov_modes(start_s, end_s, tau_s)
                         .into_iter()
                         .map(Some)
                         .collect(),
-                    None => vec![None],
+                    (None, None) => vec![None],
+                };
+                let label = if profiles.len() == 1 {
+                    Column::Line {
+                        strip: s,
+                        component,
+                    }
+                } else {
+                    Column::Other
                 };
                 // Steps small against the nonlinearity, large against rounding: 1 cm, 2 µrad.
                 let step = if unit.position_m.norm() > 0.0 {
@@ -233,11 +274,14 @@ impl TrajectorySensitivity {
                     );
                     if col.iter().any(|v| *v != 0.0) {
                         columns.push(col);
+                        labels.push(label);
                     }
                 }
             }
         }
-        columns.extend(control_columns(&model.ties, n));
+        let control = control_columns(&model.ties, n);
+        labels.extend(control.iter().map(|_| Column::Other));
+        columns.extend(control);
         let a = if columns.is_empty() {
             DMatrix::zeros(n, 0)
         } else {
@@ -245,7 +289,28 @@ impl TrajectorySensitivity {
         };
         a.iter()
             .all(|v| v.is_finite())
-            .then_some(TrajectorySensitivity { a })
+            .then_some(TrajectorySensitivity { a, labels })
+    }
+
+    /// `A`, m.
+    pub(crate) fn matrix(&self) -> &DMatrix<f64> {
+        &self.a
+    }
+
+    /// These sensitivities with each column multiplied by `factor(label)` (a trajectory σ
+    /// scaled by the data: the columns are linear in it).
+    pub(crate) fn scaled(&self, factor: impl Fn(&Column) -> f64) -> TrajectorySensitivity {
+        let mut a = self.a.clone();
+        for (c, label) in self.labels.iter().enumerate() {
+            let f = factor(label);
+            if f != 1.0 {
+                a.column_mut(c).scale_mut(f);
+            }
+        }
+        TrajectorySensitivity {
+            a,
+            labels: self.labels.clone(),
+        }
     }
 
     /// `W` for ties whose rows have their own noise `row_sigma_m` (one per residual row),
@@ -485,9 +550,12 @@ mod tests {
         let mut sigma = [reference; NOISE_GROUPS];
         for _ in 0..20 {
             let rows: Vec<f64> = groups.iter().map(|g| sigma[*g as usize]).collect();
-            let w = TrajectorySensitivity { a: a.clone() }
-                .whitening(&rows, reference)
-                .unwrap();
+            let w = TrajectorySensitivity {
+                a: a.clone(),
+                labels: Vec::new(),
+            }
+            .whitening(&rows, reference)
+            .unwrap();
             // Weighted least squares for the line: whiten the design and the observations.
             let cols: Vec<DVector<f64>> = [vec![1.0; n], x.clone()]
                 .into_iter()
@@ -546,6 +614,7 @@ mod tests {
         );
         let w = TrajectorySensitivity {
             a: DMatrix::from_columns(&columns),
+            labels: Vec::new(),
         }
         .whitening(&[sigma_t; 5], sigma_t)
         .unwrap();

@@ -107,6 +107,8 @@ pub struct StripCalibration {
     pub zone: Crs,
     /// The trajectory's warnings followed by the calibration's own (dropped picks), SPEC §7.
     pub warnings: Vec<Warning>,
+    /// Each strip's id and file stem (the strip adjustment's lines name both).
+    pub files: Vec<(String, String)>,
 }
 
 impl StripCalibration {
@@ -116,6 +118,20 @@ impl StripCalibration {
         if let Some(m) = doc.as_object_mut() {
             let w = serde_json::to_value(&self.warnings).unwrap_or(Value::Null);
             m.insert("warnings".into(), w);
+        }
+        if let Some(lines) = doc
+            .pointer_mut("/strip_adjustment/lines")
+            .and_then(Value::as_array_mut)
+        {
+            for line in lines {
+                let id = match &line["strip"] {
+                    Value::String(s) => s.clone(),
+                    v => v.to_string(),
+                };
+                if let Some((_, stem)) = self.files.iter().find(|(i, _)| *i == id) {
+                    line["file"] = Value::String(stem.clone());
+                }
+            }
         }
         doc
     }
@@ -300,6 +316,7 @@ pub fn calibrate_strips_with_progress(
         frame,
         zone,
         warnings,
+        files: loaded_ids,
     })
 }
 

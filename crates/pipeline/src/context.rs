@@ -148,6 +148,38 @@ pub fn read_calibrated_mounting(path: &Path) -> Result<Mounting> {
     })
 }
 
+/// The strip adjustment's per-line corrections of the `calibration.json` at `path`
+/// (`strip_adjustment.lines`), each with the file stem it was computed from; empty when the
+/// calibration has none.
+///
+/// # Errors
+/// [`Error::Calib`] naming the file and the key when a line cannot be read.
+pub fn read_line_corrections(
+    path: &Path,
+) -> Result<Vec<(lidarqa_calib::LineCorrection, Option<String>)>> {
+    let doc = read_calibration_json(path)?;
+    let Some(lines) = doc
+        .pointer("/strip_adjustment/lines")
+        .and_then(|v| v.as_array())
+    else {
+        return Ok(Vec::new());
+    };
+    lines
+        .iter()
+        .enumerate()
+        .map(|(k, v)| {
+            let line = lidarqa_calib::LineCorrection::from_json(v).map_err(|m| Error::Calib {
+                path: path.to_path_buf(),
+                source: lidarqa_calib::Error::InvalidCalibration(format!(
+                    "strip_adjustment.lines[{k}].{m}"
+                )),
+            })?;
+            let file = v.get("file").and_then(|f| f.as_str()).map(str::to_string);
+            Ok((line, file))
+        })
+        .collect()
+}
+
 impl TpuContext {
     /// From data already read. `trajectory_path` names the SBET in messages.
     ///

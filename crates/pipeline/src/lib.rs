@@ -76,9 +76,10 @@ pub use calibrate_strips::{
     TrajectoryWeighting, VTPM_NEIGHBOURS, calibrate_strips, calibrate_strips_with_progress,
     frame_for, load_all, local_to_projected, projected_to_local,
 };
-pub use context::{TpuContext, TpuOptions, read_calibrated_mounting};
+pub use context::{TpuContext, TpuOptions, read_calibrated_mounting, read_line_corrections};
 pub use correct_tile::{
-    CorrectTileJob, CorrectTileReport, correct_tile, correct_tile_with_progress,
+    CorrectTileJob, CorrectTileReport, correct_tile, correct_tile_with_line,
+    correct_tile_with_progress,
 };
 pub use digest::{FileDigest, seed_for_tile};
 pub use error::{Error, Result};

@@ -725,6 +725,91 @@ pub struct Calibration {
     /// Picks no virtual tie could be formed from in their strip, left out (SPEC §8).
     #[serde(default)]
     pub dropped_picks: Vec<DroppedPick>,
+    /// The strip adjustment's per-line corrections (`calibrate --adjust-strips`).
+    #[serde(default)]
+    pub strip_adjustment: Option<StripAdjustment>,
+}
+
+/// North, east, up, m.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct NorthEastUp {
+    /// North, m.
+    pub north: f64,
+    /// East, m.
+    pub east: f64,
+    /// Up, m.
+    pub up: f64,
+}
+
+/// Roll, pitch, heading, degrees.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RollPitchHeading {
+    /// Roll, deg.
+    pub roll: f64,
+    /// Pitch, deg.
+    pub pitch: f64,
+    /// Heading, deg.
+    pub heading: f64,
+}
+
+/// One line's trajectory correction (`strip_adjustment.lines`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StripLine {
+    /// Strip id.
+    pub strip: Id,
+    /// Position error at the line's middle.
+    pub offset_m: NorthEastUp,
+    /// Its 1 σ.
+    pub offset_sigma_m: NorthEastUp,
+    /// The position error's change from the middle to the end of the line.
+    #[serde(default)]
+    pub drift_m: Option<NorthEastUp>,
+    /// Attitude error.
+    #[serde(default)]
+    pub attitude_deg: Option<RollPitchHeading>,
+}
+
+/// The χ² test of one group of the trajectory's σ.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SigmaTest {
+    /// `gnss_position` or `attitude`.
+    pub group: String,
+    /// ûᵀû with the declared σ.
+    pub statistic: f64,
+    /// The group's redundancy.
+    pub redundancy: f64,
+    /// By how much the declared σ were multiplied.
+    pub sigma_factor: f64,
+}
+
+/// RMS of the tie residual rows, m.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TieRms {
+    /// At the prior mounting.
+    pub prior: f64,
+    /// After the mounting alone.
+    pub mounting_only: f64,
+    /// After the mounting and the lines' corrections.
+    pub strip_adjusted: f64,
+}
+
+/// `calibration.json`'s `strip_adjustment`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StripAdjustment {
+    /// `offset`, `offset+drift` or `offset+drift+attitude`.
+    pub model: String,
+    /// Where the datum comes from.
+    #[serde(default)]
+    pub datum: String,
+    /// One per line.
+    #[serde(default)]
+    pub lines: Vec<StripLine>,
+    /// The χ² tests of the trajectory's σ.
+    #[serde(default)]
+    pub sigma_tests: Vec<SigmaTest>,
+    /// Tie residual RMS before and after.
+    #[serde(default)]
+    pub tie_rms_m: Option<TieRms>,
 }
 
 /// A pick the calibration left out (SPEC §8 `dropped_picks`).

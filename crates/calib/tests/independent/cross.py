@@ -13,6 +13,7 @@ NED. Writes strip_1..4.las (LAS 1.2, format 1, GPS week time), sbet.out, sensor.
 control.csv and truth.json into the output directory.
 
     python3 cross.py OUT_DIR [--seed N] [--bad-pick] [--pick-sigma-m 0.01] [--trajectory-errors]
+                     [--strip-errors] [--range-noise-m 0.02]
 
 --bad-pick moves tie M01's pick in strip 2 a kilometre away, off every strip's points.
 --trajectory-errors gives each strip's navigation (the SBET, and the points georeferenced with it)
@@ -20,6 +21,13 @@ a constant error drawn at the sensor file's [sigma] (GNSS north, east, up; roll,
 the data then hold every error the σ of the calibration models, so error/σ can be checked both
 ways. Its draws come from their own generator, so the markings and picks of a seed are the same
 with and without it.
+--strip-errors gives each strip's navigation per-line errors larger than the sensor file admits:
+GNSS offsets of 5 cm per axis (1-sigma), a linear drift of 5 cm per axis (the change from the
+middle of the line to its end), attitude offsets of 0.005 deg per axis; the sensor file then
+declares 2/2/3 cm and 0.002 deg. truth.json lists each line's error ("lines").
+--range-noise-m adds Gaussian noise along each beam to the strips' points, and writes floor/ with
+the same points georeferenced without any error (true trajectory and mounting, the same noise):
+the overlap height differences there are the noise floor.
 """
 import argparse
 import json
@@ -47,6 +55,10 @@ GPS_T0 = 302400.0
 # The sensor file's navigation 1-sigma: GNSS north, east, up (m); roll, pitch, heading (deg).
 NAV_SIGMA_M = [0.003, 0.003, 0.005]
 NAV_SIGMA_DEG = [0.0005, 0.0005, 0.001]
+# --strip-errors: the true per-line errors (1-sigma) and what the sensor file declares instead.
+STRIP_POS_M, STRIP_DRIFT_M, STRIP_ATT_DEG = 0.05, 0.05, 0.005
+DECLARED_M = [0.02, 0.02, 0.03]
+DECLARED_DEG = [0.002, 0.002, 0.002]
 
 
 def rx(a):
@@ -101,7 +113,8 @@ def mounting(values):
 
 
 class Strip:
-    def __init__(self, sid, heading_deg, height, roll_deg, pitch_deg, index, nav_error=None):
+    def __init__(self, sid, heading_deg, height, roll_deg, pitch_deg, index, nav_error=None,
+                 drift=None):
         self.id = sid
         self.height = height
         psi = math.radians(heading_deg)
@@ -111,18 +124,22 @@ class Strip:
         # The navigation solution: the true trajectory plus a constant error (NED m, rad).
         e = np.zeros(6) if nav_error is None else np.asarray(nav_error)
         self.nav_offset = e[:3]
+        self.attitude_error = e[3:]
         self.r_n_nav = rzyx(math.radians(roll_deg) + e[3], math.radians(pitch_deg) + e[4],
                             psi + e[5])
         self.t0 = GPS_T0 + 100.0 * index
         self.duration = 2 * HALF_LENGTH / SPEED
         self.line_rate = SPEED / LINE_SPACING
+        # Linear drift of the position error: +drift at the end, -drift at the start (NED m).
+        self.drift = np.zeros(3) if drift is None else np.asarray(drift)
         self.per_line = int(round(2 * HALF_FOV / (POINT_SPACING / height)))
 
     def position(self, t):
         return self.start + np.outer(t - self.t0, SPEED * self.dir)
 
     def nav_position(self, t):
-        return self.position(t) + self.nav_offset
+        tau = (np.asarray(t) - (self.t0 + 0.5 * self.duration)) / (0.5 * self.duration)
+        return self.position(t) + self.nav_offset + np.outer(np.atleast_1d(tau), self.drift)
 
     def pulses(self):
         n = int(self.duration * self.line_rate) * self.per_line
@@ -141,6 +158,12 @@ def hit_ground(strip, t, theta, r_m, lever):
     o = strip.position(t) + strip.r_n @ lever
     rho = -o[:, 2] / d[:, 2]
     return o + rho[:, None] * d, rho
+
+
+def true_points(strip, t, theta, rho, r_m, lever):
+    """The points georeferenced with the true trajectory and mounting (no navigation error)."""
+    s = np.stack([np.zeros_like(theta), rho * np.sin(theta), rho * np.cos(theta)], axis=1)
+    return strip.position(t) + (s @ r_m.T + lever) @ strip.r_n.T
 
 
 def delivered(strip, t, theta, rho, r_m, lever):
@@ -201,6 +224,11 @@ def main():
                     help="pick noise (and the control heights' noise), 1-sigma; 0: noise-free")
     ap.add_argument("--trajectory-errors", action="store_true",
                     help="a constant navigation error per strip at the sensor file's [sigma]")
+    ap.add_argument("--strip-errors", action="store_true",
+                    help="per-line GNSS offsets and drifts of 5 cm, attitude offsets of 0.005 deg, "
+                         "the sensor file declaring 2/2/3 cm and 0.002 deg")
+    ap.add_argument("--range-noise-m", type=float, default=0.0,
+                    help="noise along each beam, 1-sigma; writes floor/ (no errors, same noise)")
     a = ap.parse_args()
     rng = np.random.default_rng(a.seed)
     os.makedirs(a.out, exist_ok=True)
@@ -208,9 +236,16 @@ def main():
     nominal_m = mounting({k: 0.0 for k in INJECTED})
     nav_rng = np.random.default_rng([a.seed, 7])
     nav_sigma = np.array(NAV_SIGMA_M + [math.radians(v) for v in NAV_SIGMA_DEG])
-    strips = [Strip(*s, index=i,
-                    nav_error=nav_rng.normal(0.0, nav_sigma) if a.trajectory_errors else None)
-              for i, s in enumerate(STRIPS)]
+    strip_rng = np.random.default_rng([a.seed, 11])
+    strips = []
+    for i, s in enumerate(STRIPS):
+        nav_error, drift = (nav_rng.normal(0.0, nav_sigma) if a.trajectory_errors else None), None
+        if a.strip_errors:
+            nav_error = np.concatenate([strip_rng.normal(0.0, STRIP_POS_M, 3),
+                                        strip_rng.normal(0.0, math.radians(STRIP_ATT_DEG), 3)])
+            drift = strip_rng.normal(0.0, STRIP_DRIFT_M, 3)
+        strips.append(Strip(*s, index=i, nav_error=nav_error, drift=drift))
+    noise_rng = np.random.default_rng([a.seed, 13])
     # 20 markings (0.5 m x 1.5 m painted bars, picked at their centre) in the cross's centre,
     # where all four strips overlap; 6 control points on the open ground between them.
     marks = np.column_stack([rng.uniform(-98, 98, 20), rng.uniform(-98, 98, 20), np.zeros(20)])
@@ -223,18 +258,24 @@ def main():
         bright = np.zeros(len(t), bool)
         for m in marks:
             bright |= (np.abs(g[:, 0] - m[0]) < 0.25) & (np.abs(g[:, 1] - m[1]) < 0.75)
-        q = delivered(s, t, theta, rho, *nominal_m)
-        x, y, h = ned0_to_utm(q)
-        hdr = laspy.LasHeader(point_format=1, version="1.2")
-        hdr.scales = np.array([0.001, 0.001, 0.001])
-        hdr.offsets = np.array([np.floor(x.min()), np.floor(y.min()), 0.0])
-        las = laspy.LasData(hdr)
-        las.x, las.y, las.z = x, y, h
-        las.gps_time = t
-        las.intensity = np.where(bright, 220, 40).astype(np.uint16)
-        las.point_source_id = np.full(len(t), s.id, np.uint16)
-        las.scan_angle_rank = np.round(np.degrees(theta)).astype(np.int8)
-        las.write(os.path.join(a.out, f"strip_{s.id}.las"))
+        if a.range_noise_m > 0:
+            rho = rho + noise_rng.normal(0.0, a.range_noise_m, len(rho))
+        outputs = [(a.out, delivered(s, t, theta, rho, *nominal_m))]
+        if a.range_noise_m > 0:
+            outputs.append((os.path.join(a.out, "floor"), true_points(s, t, theta, rho, *true_m)))
+        for folder, q in outputs:
+            os.makedirs(folder, exist_ok=True)
+            x, y, h = ned0_to_utm(q)
+            hdr = laspy.LasHeader(point_format=1, version="1.2")
+            hdr.scales = np.array([0.001, 0.001, 0.001])
+            hdr.offsets = np.array([np.floor(x.min()), np.floor(y.min()), 0.0])
+            las = laspy.LasData(hdr)
+            las.x, las.y, las.z = x, y, h
+            las.gps_time = t
+            las.intensity = np.where(bright, 220, 40).astype(np.uint16)
+            las.point_source_id = np.full(len(t), s.id, np.uint16)
+            las.scan_angle_rank = np.round(np.degrees(theta)).astype(np.int8)
+            las.write(os.path.join(folder, f"strip_{s.id}.las"))
     write_sbet(os.path.join(a.out, "sbet.out"), strips)
     with open(os.path.join(a.out, "ties.csv"), "w") as f:
         f.write("tie,strip,x,y\n")
@@ -251,6 +292,7 @@ def main():
             x, y, h = ned0_to_utm(c)
             z = float(h[0]) + rng.normal(0, a.pick_sigma_m)
             f.write(f"C{i + 1},{float(x[0]):.4f},{float(y[0]):.4f},{z:.4f},0.005,0.01\n")
+    sig_m, sig_deg = (DECLARED_M, DECLARED_DEG) if a.strip_errors else (NAV_SIGMA_M, NAV_SIGMA_DEG)
     with open(os.path.join(a.out, "sensor.toml"), "w") as f:
         f.write(f"""[scanner]
 type = "linear"
@@ -264,12 +306,12 @@ lever_arm_m = [0.0, 0.0, 0.0]
 [sigma]
 range_m = 0.01
 scan_angle_deg = 0.001
-roll_deg = {NAV_SIGMA_DEG[0]}
-pitch_deg = {NAV_SIGMA_DEG[1]}
-heading_deg = {NAV_SIGMA_DEG[2]}
-gnss_north_m = {NAV_SIGMA_M[0]}
-gnss_east_m = {NAV_SIGMA_M[1]}
-gnss_up_m = {NAV_SIGMA_M[2]}
+roll_deg = {sig_deg[0]}
+pitch_deg = {sig_deg[1]}
+heading_deg = {sig_deg[2]}
+gnss_north_m = {sig_m[0]}
+gnss_east_m = {sig_m[1]}
+gnss_up_m = {sig_m[2]}
 
 [mounting_sigma]
 lever_x_m = 0.2
@@ -280,7 +322,17 @@ boresight_pitch_deg = 0.2
 boresight_yaw_deg = 0.2
 """)
     with open(os.path.join(a.out, "truth.json"), "w") as f:
-        json.dump({"mounting": INJECTED}, f, indent=1)
+        lines = [{
+            "strip": s.id, "start_time_s": s.t0, "end_time_s": s.t0 + s.duration,
+            # NED -> north, east, up; the drift as the change from the middle to the end.
+            "offset_m": {"north": s.nav_offset[0], "east": s.nav_offset[1], "up": -s.nav_offset[2]},
+            "drift_m": {"north": s.drift[0], "east": s.drift[1], "up": -s.drift[2]},
+            "attitude_deg": dict(zip(["roll", "pitch", "heading"],
+                                     [math.degrees(v) for v in
+                                      (np.zeros(3) if not (a.strip_errors or a.trajectory_errors)
+                                       else s.attitude_error)])),
+        } for s in strips]
+        json.dump({"mounting": INJECTED, "lines": lines}, f, indent=1)
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ use crate::format::{OutputFormat, print_json, print_text, write_json_file};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use clap::builder::{PossibleValuesParser, TypedValueParser};
-use lidarqa_calib::{CalibrationOptions, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Method};
+use lidarqa_calib::{CalibrationOptions, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Method, StripModel};
 use lidarqa_pipeline::{
     CalibrateJob, CalibrateStep, POINTS_PER_TILE, TieSource, TrajectoryWeighting,
     calibrate_strips_with_progress,
@@ -112,6 +112,21 @@ pub struct CalibrateArgs {
         conflicts_with = "no_trajectory_weighting"
     )]
     attitude_correlation_s: Option<f64>,
+    /// Strip adjustment: estimate each line's trajectory correction with the mounting, MODEL
+    /// `offset` (position offsets, the default), `offset+drift` (and a linear drift in time) or
+    /// `offset+drift+attitude` (and roll, pitch, heading offsets), each with the sensor file's
+    /// [sigma] as its prior, scaled up by the data when they show it too small (warning
+    /// trajectory_sigma_understated); `lidarqa correct` then applies them per line
+    #[arg(
+        long,
+        value_name = "MODEL",
+        num_args = 0..=1,
+        require_equals = true,
+        default_missing_value = "offset",
+        value_parser = parse_strip_model(),
+        conflicts_with_all = ["no_trajectory_weighting", "gnss_correlation_s", "attitude_correlation_s"]
+    )]
+    adjust_strips: Option<StripModel>,
     #[command(flatten)]
     survey: SurveyFlags,
     /// Output format of the summary on stdout.
@@ -127,6 +142,12 @@ fn parse_method() -> impl TypedValueParser<Value = Method> {
             .find(|m| m.name() == name)
             .ok_or("not a calibration method")
     })
+}
+
+/// `--adjust-strips`: one of calib's [`StripModel`] names.
+fn parse_strip_model() -> impl TypedValueParser<Value = StripModel> {
+    PossibleValuesParser::new(StripModel::ALL.map(StripModel::name))
+        .try_map(|name| StripModel::from_name(&name).ok_or("not a strip model"))
 }
 
 struct Plan {
@@ -148,6 +169,12 @@ impl TryFrom<CalibrateArgs> for Plan {
         options.vtpm.ransac_iterations = args.ransac_iterations;
         options.vtpm.patch = args.tie_carrier == "patch";
         options.lm.max_iterations = args.max_iterations;
+        options.strip_adjustment = args.adjust_strips;
+        if args.adjust_strips.is_some() && args.method != Method::Vtpm {
+            bail!(
+                "--adjust-strips needs --method vtpm (the plane baseline solves the boresight only)"
+            );
+        }
         if let Some(r) = args.radius_m
             && !(r.is_finite() && r > 0.0 && r <= MAX_RADIUS_M)
         {

@@ -7,7 +7,9 @@
 use super::tpu_flags::SurveyFlags;
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lidarqa_pipeline::{CorrectTileJob, correct_tile_with_progress, read_calibrated_mounting};
+use lidarqa_pipeline::{
+    CorrectTileJob, correct_tile_with_line, read_calibrated_mounting, read_line_corrections,
+};
 use std::path::{Path, PathBuf};
 
 pub const AFTER_HELP: &str = "\
@@ -51,6 +53,21 @@ pub fn run(a: CorrectArgs) -> Result<()> {
     let shared = [&a.calibration, &a.sensor, &a.trajectory];
     let outputs = lidarqa_io::outputs_in_dir(&a.output, &a.strips, &shared)?;
     let mounting = read_calibrated_mounting(&a.calibration)?;
+    // The strip adjustment's per-line corrections, matched to each strip by its file stem.
+    let lines = read_line_corrections(&a.calibration)?;
+    let mut per_strip = Vec::new();
+    for path in &a.strips {
+        let stem = path.file_stem().map(|s| s.to_string_lossy().to_string());
+        let line = lines.iter().find(|(_, f)| f.is_some() && *f == stem);
+        if !lines.is_empty() && line.is_none() {
+            bail!(
+                "{}: {} has per-line corrections (strip_adjustment.lines) but none for this file's stem; correct the strips the calibration was computed from",
+                path.display(),
+                a.calibration.display()
+            );
+        }
+        per_strip.push(line.map(|(l, _)| l.clone()));
+    }
     if a.output.is_file() {
         bail!("{}: the output must be a directory", a.output.display());
     }
@@ -62,7 +79,7 @@ pub fn run(a: CorrectArgs) -> Result<()> {
     others.push(&a.calibration);
     let total = crate::progress::points_in(a.strips.iter().map(PathBuf::as_path))?;
     let bar = crate::progress::bar("correct", total, "points");
-    for (path, out) in a.strips.iter().zip(&outputs) {
+    for ((path, out), line) in a.strips.iter().zip(&outputs).zip(&per_strip) {
         let job = CorrectTileJob {
             input: path,
             output: out,
@@ -70,7 +87,7 @@ pub fn run(a: CorrectArgs) -> Result<()> {
             mounting: &mounting,
             other_inputs: &others,
         };
-        let r = correct_tile_with_progress(&job, &|n| bar.inc(n))?;
+        let r = correct_tile_with_line(&job, line.as_ref(), &|n| bar.inc(n))?;
         bar.suspend(|| {
             eprintln!(
                 "lidarqa: {} -> {} ({} points)",

@@ -58,6 +58,9 @@ pub(super) fn calibration_section(
             tie_plot(&mut o, c);
         }
         dropped_picks_table(&mut o, c);
+        if let Some(sa) = &c.strip_adjustment {
+            strip_adjustment_table(&mut o, sa);
+        }
         let unobs: Vec<String> = c
             .parameters
             .iter()
@@ -229,6 +232,60 @@ fn mounting_table(
     }
     o.push_str("</tbody></table>\n");
     worst
+}
+
+/// The strip adjustment: each line's correction, the tie residuals before and after, and the
+/// trajectory σ the data asked for.
+fn strip_adjustment_table(o: &mut String, sa: &StripAdjustment) {
+    let _ = write!(
+        o,
+        "<table id=\"strip-adjustment\"><caption>Per-line trajectory corrections (model <code>{}</code>; cm, deg)</caption><thead><tr><th>strip</th><th>north</th><th>east</th><th>up</th><th>σ up</th><th>drift N/E/U</th><th>roll/pitch/heading</th></tr></thead><tbody>\n",
+        esc(&sa.model)
+    );
+    for l in &sa.lines {
+        let drift = l
+            .drift_m
+            .map(|d| format!("{} / {} / {}", cm(d.north), cm(d.east), cm(d.up)))
+            .unwrap_or_else(|| "—".into());
+        let att = l
+            .attitude_deg
+            .map(|a| format!("{:+.4} / {:+.4} / {:+.4}", a.roll, a.pitch, a.heading))
+            .unwrap_or_else(|| "—".into());
+        let _ = writeln!(
+            o,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{drift}</td><td>{att}</td></tr>",
+            esc(&l.strip.0),
+            cm(l.offset_m.north),
+            cm(l.offset_m.east),
+            cm(l.offset_m.up),
+            cm(l.offset_sigma_m.up),
+        );
+    }
+    o.push_str("</tbody></table>\n");
+    let mut text = String::new();
+    if let Some(r) = sa.tie_rms_m {
+        let _ = write!(
+            text,
+            "Tie residuals (RMS of every observed direction): {} cm at the prior mounting, {} cm with the calibrated mounting alone, {} cm with the per-line corrections too. ",
+            cm(r.prior),
+            cm(r.mounting_only),
+            cm(r.strip_adjusted)
+        );
+    }
+    for t in sa.sigma_tests.iter().filter(|t| t.sigma_factor > 1.0) {
+        let _ = write!(
+            text,
+            "The lines' {} corrections exceeded the sensor file's σ (χ² {:.1} on {:.1} degrees of freedom): those σ were multiplied by {:.2}. ",
+            esc(&t.group.replace('_', " ")),
+            t.statistic,
+            t.redundancy,
+            t.sigma_factor
+        );
+    }
+    if !sa.datum.is_empty() {
+        let _ = write!(text, "Datum: {}.", esc(&sa.datum));
+    }
+    meaning(o, &text);
 }
 
 /// The correlation matrix of the estimated parameters, coloured by |r|.
