@@ -278,15 +278,23 @@ fn widen(q: &[f64; 3], nn: &[(f64, [f64; 3])], grid: &Grid, wide: &mut Vec<(f64,
     // farther from it than half the first radius is not on it (the line's own thickness is
     // noise, far smaller).
     let first = scatter_of(q, nn);
-    let (_, axes) = symmetric_eigen3(&first);
+    let (vals, axes) = symmetric_eigen3(&first);
     let along = axes[2];
+    // What the point is when no widened neighbourhood is accepted: a thin line (σ₁ ≥
+    // FLATNESS · σ₂, one scan line) lies in its surface; a thick one (a run of leaves in one
+    // scan plane) does not define one.
+    let line = if vals[2].max(0.0).sqrt() >= FLATNESS * vals[1].max(0.0).sqrt() {
+        Surface::Linear(along)
+    } else {
+        Surface::Scattered
+    };
     let Some(&(kth_m2, _)) = nn.last() else {
-        return Surface::Linear(along);
+        return line;
     };
     if !(kth_m2 > 0.0 && (WIDEN_RADIUS_FACTOR * WIDEN_RADIUS_FACTOR * kth_m2).is_finite())
         || k >= MAX_NEIGHBOURS
     {
-        return Surface::Linear(along);
+        return line;
     }
     let mean = nn.iter().fold(Vector3::zeros(), |m, (_, p)| {
         m + Vector3::new(p[0] - q[0], p[1] - q[1], p[2] - q[2])
@@ -320,7 +328,7 @@ fn widen(q: &[f64; 3], nn: &[(f64, [f64; 3])], grid: &Grid, wide: &mut Vec<(f64,
                 next = most;
             }
             if next <= size {
-                return Surface::Linear(along);
+                return line;
             }
             let rest = &mut wide[taken..];
             if next - taken < rest.len() {
@@ -335,19 +343,19 @@ fn widen(q: &[f64; 3], nn: &[(f64, [f64; 3])], grid: &Grid, wide: &mut Vec<(f64,
                 }
             }
             (taken, size) = (next, next);
-            match judge_scatter(&all.scatter(), WIDEN_FLATNESS) {
+            match judge_scatter(&all.scatter(), WIDEN_FLATNESS, false) {
                 Surface::Planar(n) if off_line_agrees(&off, &n) => {
                     return Surface::PlanarWidened(n);
                 }
-                Surface::Scattered => return Surface::Linear(along),
+                Surface::Scattered => return line,
                 _ if size == MAX_NEIGHBOURS || (widest && size == most) => {
-                    return Surface::Linear(along);
+                    return line;
                 }
                 _ => {}
             }
         }
     }
-    Surface::Linear(along)
+    line
 }
 
 /// The radii, as multiples of the first neighbourhood's, within which [`widen`] gathers
@@ -440,12 +448,17 @@ fn judge_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
     if nn.len() < MIN_NEIGHBOURS {
         return Surface::TooFew;
     }
-    judge_scatter(&scatter_of(q, nn), 0.0)
+    judge_scatter(&scatter_of(q, nn), FLATNESS, true)
 }
+
+/// The k nearest neighbours are planar only when σ₂ ≥ this × σ₃: a neighbourhood more planar
+/// than scattered but thicker than that (a plane through leaves) is judged scattered; see the
+/// module docs, "Beam-aware incidence".
+pub const FLATNESS: f64 = 4.0;
 
 /// The judgement of a scatter matrix (see the module docs); a planar one must also have
 /// σ₂ ≥ `flatness` · σ₃ (planarity ≥ scattering alone implies 2).
-fn judge_scatter(scatter: &Matrix3<f64>, flatness: f64) -> Surface {
+fn judge_scatter(scatter: &Matrix3<f64>, flatness: f64, thick_scattered: bool) -> Surface {
     // The values alone decide; only a planar neighbourhood needs its smallest one's vector,
     // then well separated from the other two (σ₂ > 2σ₃ and σ₂ ≥ σ₁/2).
     let [l3, l2, l1] = symmetric_eigenvalues3(scatter);
@@ -461,7 +474,11 @@ fn judge_scatter(scatter: &Matrix3<f64>, flatness: f64) -> Surface {
     } else if scattering > planarity {
         Surface::Scattered
     } else if s2 < flatness * s3 {
-        Surface::Linear(line_direction(scatter, l1))
+        if thick_scattered {
+            Surface::Scattered
+        } else {
+            Surface::Linear(line_direction(scatter, l1))
+        }
     } else {
         let n = symmetric_eigenvector3(scatter, l3);
         let norm = n.norm();
