@@ -1083,21 +1083,20 @@ impl Run<'_> {
         };
         // A sounding has its own terms: no incidence surface.
         let surface = if sounding.is_none() { surface } else { None };
-        let mut class = IncidenceClass::NoTerm;
         // With skip_invalid an implausible point is dropped after propagation: its shares too.
         let shares_before = opts.skip_invalid.then(|| acc.shares.clone());
         let result = match sounding {
             None => self
-                .propagate(pose, p, lp, sigma.as_ref(), surface, acc, &mut class)
-                .map(|(c, r)| (c, None, Some(r))),
+                .propagate(pose, p, lp, sigma.as_ref(), surface, acc)
+                .map(|(c, r, class)| (c, None, Some(r), class)),
             Some(Err(e)) => Err(e),
             Some(Ok(rec)) => self
                 .propagate_sounding(&rec, pose, sigma.as_ref(), acc)
-                .map(|c| (c, Some(rec), None)),
+                .map(|c| (c, Some(rec), None, IncidenceClass::NoTerm)),
         };
-        acc.incidence.add(class);
         match result {
-            Ok((cov_at_p0, rec, recovered)) => {
+            Ok((cov_at_p0, rec, recovered, class)) => {
+                acc.incidence.add(class);
                 // σ in the local level frame at the point: rotate from N at P0 (the two differ
                 // by the geodesic angle between them, ~1e-4 rad at 600 m; cheap to do exactly).
                 // (`pose.ecef_to_ned` is `ecef_from_ned` at the pose, transposed.)
@@ -1249,11 +1248,11 @@ impl Run<'_> {
         sigma: Option<&PoseSigma>,
         surface: Option<Surface>,
         acc: &mut Partial,
-        class: &mut IncidenceClass,
-    ) -> lidarqa_tpu::Result<(Matrix3<f64>, Recovered)> {
+    ) -> lidarqa_tpu::Result<(Matrix3<f64>, Recovered, IncidenceClass)> {
+        let mut class = IncidenceClass::NoTerm;
         let mut incidence = |range_m: f64, beam_ned: Ned| {
             let (c, cos) = self.incidence_of(surface, pose, &beam_ned);
-            *class = c;
+            class = c;
             cos.map(|cos_incidence| Incidence {
                 range_m,
                 beam_ned,
@@ -1333,10 +1332,10 @@ impl Run<'_> {
                 )
             }
         };
-        if !matches!(*class, IncidenceClass::NoTerm) && !class.left_out() {
+        if !matches!(class, IncidenceClass::NoTerm) && !class.left_out() {
             acc.with_normal += 1;
         }
-        Ok((cov, recovered))
+        Ok((cov, recovered, class))
     }
 }
 
