@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Compare two `lidarqa demo` product trees (issue #22): byte for byte, except dates/times and the LAS
+"""Compare two `lidarqa demo` product trees: byte for byte, except dates/times and the LAS
 creation date; overlap_*.json compared numerically (rel. 1e-9): its per-cell sums vary run to run on
 main too. Usage: python3 docs/compare-demo.py BEFORE_DIR AFTER_DIR"""
 import json, math, os, re, sys

@@ -37,7 +37,7 @@ import laspy
 import numpy as np
 import pyproj
 
-SBET_FIELDS = 17  # f64 per record (SPEC §5)
+SBET_FIELDS = 17  # f64 per record (docs/reference/formats.md)
 SMRMSG_FIELDS = 10
 GPS_EPOCH = datetime.date(1980, 1, 6)
 SURFACE_CLASS = 41

@@ -1,4 +1,4 @@
-"""Compare lidarqa's per-point σ with leeward's own TPU of the same points (docs/real-data.md).
+"""Compare lidarqa's per-point σ with leeward's own TPU of the same points (docs/guide/real-data.md).
 
     python3 docs/real-data/compare_leeward.py OUT.las LEEWARD_TPU.csv
 

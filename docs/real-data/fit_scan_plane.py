@@ -1,4 +1,4 @@
-"""Fit the scan plane of the leeward sample strip (docs/real-data.md): numpy + pyproj.
+"""Fit the scan plane of the leeward sample strip (docs/guide/real-data.md): numpy + pyproj.
 
 Takes every LAS point into the body frame with the SBET pose at its GPS time (linear
 interpolation; true heading = platform heading - wander angle, as lidarqa reads SBETs; the

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Independent check of `lidarqa tpu` on NCALM's Optech Titan sample (docs/real-data.md).
+"""Independent check of `lidarqa tpu` on NCALM's Optech Titan sample (docs/guide/real-data.md).
 
 Written from first principles and the sensor model of NCALM's doc/model/model.py (IMU frame X
 forward, Y right, Z down; R = Rz(heading) Ry(pitch) Rx(roll); roll 0 since
@@ -19,14 +19,14 @@ It compares these with the sigma_horizontal / sigma_up extra bytes of three lida
 with one source group each (docs/real-data/titan-{range,attitude,gnss}.toml) and prints the
 relative differences per group, twice: with the physical beam, which lidarqa propagates (its
 linear scanner keeps the recovered beam's along-track angle), and, for information, with the
-beam turned into the body Y-Z plane (same length), the seed-000 scanner without that angle (the
+beam turned into the body Y-Z plane (same length), the Zhang et al. (2018) scanner without that angle (the
 beam's along-track component, 0.39 m RMS off the plane here, is its recovery residual). Exit
 status 1 when the physical-beam comparison differs by more than 0.1 % anywhere (an
 implementation error; the acceptance bound is 1 %).
 
     python3 docs/real-data/titan_check.py DATA_DIR OUT_DIR
       DATA_DIR: 112-one-scan-cycle.laz and 112-trajectory.txt
-      OUT_DIR:  range.laz, attitude.laz, gnss.laz from lidarqa tpu (see docs/real-data.md)
+      OUT_DIR:  range.laz, attitude.laz, gnss.laz from lidarqa tpu (see docs/guide/real-data.md)
 """
 import sys
 from pathlib import Path

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""NCALM's published per-point TPU model next to lidarqa's, on the Titan sample (docs/real-data.md).
+"""NCALM's published per-point TPU model next to lidarqa's, on the Titan sample (docs/guide/real-data.md).
 
 The model is the one written down in NCALM-UH/pdal-als-tpu @ 0305671, doc/model/model.py and
 doc/details.md (re-derived here with numpy and central differences, not copied): the projected

@@ -11,7 +11,7 @@ pub enum OutputFormat {
     /// Aligned text for people.
     #[default]
     Table,
-    /// One JSON object, stable field names (SPEC §6).
+    /// One JSON object, stable field names (docs/reference/formats.md).
     Json,
 }
 

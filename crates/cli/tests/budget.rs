@@ -200,3 +200,32 @@ fn bad_input_is_one_line_and_exit_1() {
     );
     fails_with(&["budget"], "--preset");
 }
+
+/// The preset's former name still works, gives the same budget, and says once on stderr what to
+/// write instead; the new name says nothing.
+#[test]
+fn former_preset_name_is_a_deprecated_alias() {
+    let new = binary::run_ok(&["budget", "--preset", "zhang2018", "--format", "json"]);
+    assert!(
+        new.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&new.stderr)
+    );
+    let old = binary::run_ok(&["budget", "--preset", "seed000", "--format", "json"]);
+    assert_eq!(old.stdout, new.stdout);
+    let err = String::from_utf8_lossy(&old.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("deprecated") && err.contains("--preset zhang2018"),
+        "{err}"
+    );
+    // The text table names the preset by its new name either way.
+    let table = binary::stdout_ok(&["budget", "--preset", "seed000"]);
+    assert!(table.contains("preset zhang2018"), "{table}");
+    // Help lists the new name only.
+    let help = binary::stdout_ok(&["budget", "--help"]);
+    assert!(
+        help.contains("zhang2018") && !help.contains("seed000"),
+        "{help}"
+    );
+}

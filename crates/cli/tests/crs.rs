@@ -4,7 +4,7 @@
 //! state plane (EPSG:2264, Lambert conformal conic), each with its trajectory as text in that
 //! CRS (grid azimuths). `lidarqa tpu` on each must give the same per-point σ (metres) within
 //! 0.5 %. Runs when `LIDARQA_PYTHON` names a Python with numpy, pyproj and laspy; 10 000 points
-//! here, the 200 000-point run's command and result are in docs/crs.md.
+//! here, the 200 000-point run's command and result are in docs/reference/crs.md.
 
 mod binary;
 use binary::{lidarqa, s};

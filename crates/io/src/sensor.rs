@@ -384,7 +384,7 @@ impl SensorFile {
                     sources.push(Source::from_name(name).ok_or_else(|| {
                         err(
                             "covariance.sources",
-                            format!("unknown source '{name}' (a name of SPEC §4 without unit)"),
+                            format!("unknown source '{name}' (a source name of docs/reference/formats.md, without unit)"),
                         )
                     })?);
                 }
@@ -439,7 +439,7 @@ fn source_for_key(key: &str) -> std::result::Result<Source, String> {
         }
     }
     Err(
-        "unknown source (keys are a SPEC §4 name with its unit: range_m, heading_deg, time_water_ns, …)"
+        "unknown source (keys are a source name of docs/reference/formats.md with its unit: range_m, heading_deg, time_water_ns, …)"
             .into(),
     )
 }
@@ -449,7 +449,7 @@ pub fn sensor_to_toml(sensor: &Sensor) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "# lidarqa sensor file (SPEC §5). Every key carries its unit; a missing [sigma] key means 0."
+        "# lidarqa sensor file (docs/reference/formats.md). Every key carries its unit; a missing [sigma] key means 0."
     );
     let _ = writeln!(out, "\n[scanner]");
     match &sensor.scanner {

@@ -295,7 +295,7 @@ fn evaluate_nva(
 
 /// The error budget of one geometry (degrees and metres, each optional: what is not given comes
 /// from the preset, else level flight heading north at scan angle or azimuth 0), of a `preset`
-/// (`seed000`, `czmil`) or a `sensor` file; with `sweep` (`NAME=START:STOP:STEP`) the budget at
+/// (`zhang2018`, formerly `seed000`; `czmil`) or a `sensor` file; with `sweep` (`NAME=START:STOP:STEP`) the budget at
 /// every value; with `bias` (`key=value,…`) the displacement those systematic errors cause. Returns
 /// what `lidarqa budget --format json` prints, as JSON.
 #[pyfunction]
@@ -321,7 +321,7 @@ fn budget(
         (Some(name), None) => {
             let p = Preset::from_name(name).ok_or_else(|| {
                 err(format!(
-                    "preset: unknown preset '{name}' (one of seed000, czmil)"
+                    "preset: unknown preset '{name}' (one of zhang2018, czmil)"
                 ))
             })?;
             (p.sensor(), Some(p.geometry()))

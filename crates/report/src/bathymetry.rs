@@ -1,7 +1,7 @@
 //! The bathymetry section: shown whenever `tpu_summary.json` holds soundings (its `iho_s44`
 //! block). It tells a hydrographer which IHO S-44 order the survey meets in each depth band, how
-//! σ grows with depth against the orders' allowances (seed 004 §3), how the budget varies around
-//! the conic scan (seed 004 Fig. 4, from `budget_sweep_azimuth.json`), which sources dominate,
+//! σ grows with depth against the orders' allowances (Li et al. 2016, §3), how the budget varies around
+//! the conic scan (Li et al. 2016, Fig. 4, from `budget_sweep_azimuth.json`), which sources dominate,
 //! and where each order is achieved.
 
 use crate::plot::{self, Line, Scale};
@@ -327,7 +327,7 @@ fn sigma_vs_depth(iho: &TpuIho, sweep: Option<&Sweep>, o: &mut String) {
     if let Some(s) = sweep {
         if let (Some(a), Some(b)) = (s.points.first(), s.points.last()) {
             let text = format!(
-                "At one geometry the predicted σ grows from {} cm horizontally and {} cm vertically at {} m to {} and {} cm at {} m (seed 004 §3: the water leg lengthens with depth). The survey's soundings, at all scan positions and wave states, are the second curve.",
+                "At one geometry the predicted σ grows from {} cm horizontally and {} cm vertically at {} m to {} and {} cm at {} m (Li et al. 2016, §3: the water leg lengthens with depth). The survey's soundings, at all scan positions and wave states, are the second curve.",
                 cm(a.budget.total.horizontal),
                 cm(a.budget.total.vertical),
                 a.at,
@@ -340,7 +340,7 @@ fn sigma_vs_depth(iho: &TpuIho, sweep: Option<&Sweep>, o: &mut String) {
     }
 }
 
-/// Seed 004 Fig. 4: the budget around the conic scan.
+/// Li et al. (2016), Fig. 4: the budget around the conic scan.
 fn across_azimuth(s: &Sweep, o: &mut String) {
     let series = |f: fn(&Components) -> f64| -> Vec<(f64, Option<f64>)> {
         s.points
@@ -363,7 +363,7 @@ fn across_azimuth(s: &Sweep, o: &mut String) {
     ];
     o.push_str(&plot::lines(
         "plot-bathy-azimuth",
-        "Uncertainty around the conic scan (seed 004 Fig. 4)",
+        "Uncertainty around the conic scan (Li et al. 2016, Fig. 4)",
         "scan azimuth (deg, 0 forward, 90 right wing)",
         "uncertainty (cm, 1σ)",
         &lines,
@@ -381,9 +381,9 @@ fn across_azimuth(s: &Sweep, o: &mut String) {
         cm(v1)
     );
     if h1 - h0 < 0.05 * h1 && v1 - v0 < 0.05 * v1 {
-        text.push_str(" The conic scan meets the water at the same incidence angle at every azimuth, so only the attitude, boresight and emitter-angle terms make σ vary around the circle (seed 004 §3 (1)); here they are small next to the water-time, wave-slope and GNSS terms, and every azimuth is about equally good.");
+        text.push_str(" The conic scan meets the water at the same incidence angle at every azimuth, so only the attitude, boresight and emitter-angle terms make σ vary around the circle (Li et al. 2016, §3 (1)); here they are small next to the water-time, wave-slope and GNSS terms, and every azimuth is about equally good.");
     } else {
-        text.push_str(" The attitude, boresight and emitter-angle terms make σ vary around the circle (seed 004 §3 (1)): the scan's footprint becomes an oval.");
+        text.push_str(" The attitude, boresight and emitter-angle terms make σ vary around the circle (Li et al. 2016, §3 (1)): the scan's footprint becomes an oval.");
     }
     meaning(o, &esc(&text));
 }

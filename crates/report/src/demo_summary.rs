@@ -69,7 +69,7 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
     // calibration's after, each with the targets' centre σ and the control σ added.
     let _ = writeln!(
         t,
-        "{:<34}{:>12}{:>10}{:>12}{:>10}",
+        "{:<44}{:>12}{:>10}{:>12}{:>10}",
         "accuracy at the targets (cm)", "pred. before", "before", "pred. after", "after"
     );
     let predicted = |e: &Evaluation, vertical: bool| {
@@ -77,8 +77,8 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
             .and_then(|p| if vertical { p.vertical } else { p.horizontal })
     };
     for (name, vertical) in [
-        ("plane RMSE (seed 000 eq. 7)", false),
-        ("elevation RMSE (seed 000 eq. 8)", true),
+        ("plane RMSE (Zhang et al. 2018, eq. 7)", false),
+        ("elevation RMSE (Zhang et al. 2018, eq. 8)", true),
     ] {
         let rmse = |e: &Evaluation| {
             if vertical {
@@ -89,7 +89,7 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
         };
         let _ = writeln!(
             t,
-            "{:<34}{:>12}{:>10}{:>12}{:>10}",
+            "{:<44}{:>12}{:>10}{:>12}{:>10}",
             name,
             cm(predicted(&before, vertical)),
             cm(Some(rmse(&before))),

@@ -856,7 +856,7 @@ pub struct ProfileStrip {
     pub z_m: Vec<Option<f64>>,
 }
 
-/// A height profile across overlapping strips (seed 001 Fig. 10).
+/// A height profile across overlapping strips (Zhang & Jiang 2011, Fig. 10).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Profile {
     /// Distance along the profile, m.

@@ -112,13 +112,13 @@ fn accuracy_table(p: &Products, last: &Evaluation, o: &mut String) {
     }
     o.push_str("<th class=\"text\">verdict</th></tr></thead><tbody>\n");
     let rows: [(&str, MeasuredAndPredicted); 2] = [
-        ("horizontal (radial, seed 000 eq. 7)", |e| {
+        ("horizontal (radial, Zhang et al. 2018, eq. 7)", |e| {
             (
                 e.rmse.horizontal,
                 e.predicted_rmse().and_then(|p| p.horizontal),
             )
         }),
-        ("vertical (seed 000 eq. 8)", |e| {
+        ("vertical (Zhang et al. 2018, eq. 8)", |e| {
             (e.rmse.vertical, e.predicted_rmse().and_then(|p| p.vertical))
         }),
     ];

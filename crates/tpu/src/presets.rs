@@ -1,4 +1,6 @@
-//! Built-in sensors and geometries from the seed papers (SPEC §6 `--preset`).
+//! Built-in sensors and geometries from the source papers (`lidarqa budget --preset`): `zhang2018`
+//! (Zhang et al. 2018, ISPRS Archives) and `czmil` (Li et al. 2016, Acta Geodaetica et
+//! Cartographica Sinica).
 
 use crate::geometry::{ConicRanges, Geometry, LinearRange};
 use lidarqa_model::{
@@ -9,9 +11,10 @@ use lidarqa_model::{
 /// A named preset.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Preset {
-    /// Seed 000 Table 1 σ; linear scanner; scan angle 30°, range 80/cos 30° m.
+    /// Zhang et al. (2018), Table 1 σ; linear scanner; scan angle 30°, range 80/cos 30° m.
+    /// Named `zhang2018` on the command line (formerly `seed000`, still accepted).
     Seed000,
-    /// Seed 004 Table 3 σ; conic scanner, exit angle 20°, scanner-frame refraction; azimuth 0,
+    /// Li et al. (2016), Table 3 σ; conic scanner, exit angle 20°, scanner-frame refraction; azimuth 0,
     /// ρ1 = 425.7 m, ρ2 = 51.7 m.
     Czmil,
 }
@@ -23,14 +26,26 @@ impl Preset {
     /// The preset's name on the command line.
     pub fn name(self) -> &'static str {
         match self {
-            Preset::Seed000 => "seed000",
+            Preset::Seed000 => "zhang2018",
             Preset::Czmil => "czmil",
         }
     }
 
-    /// Look a preset up by name.
+    /// Look a preset up by name; a former name ([`Preset::deprecated_alias`]) is accepted too.
     pub fn from_name(name: &str) -> Option<Preset> {
-        Preset::ALL.into_iter().find(|p| p.name() == name)
+        Preset::ALL
+            .into_iter()
+            .find(|p| p.name() == name)
+            .or_else(|| Preset::deprecated_alias(name))
+    }
+
+    /// The preset a former name stands for, so that scripts written for it keep working: the
+    /// caller says the name is deprecated (this library does not print).
+    pub fn deprecated_alias(name: &str) -> Option<Preset> {
+        match name {
+            "seed000" => Some(Preset::Seed000),
+            _ => None,
+        }
     }
 
     /// The preset's sensor.

@@ -15,11 +15,12 @@ use std::path::PathBuf;
 
 pub const AFTER_HELP: &str = "\
 Examples:
-  lidarqa budget --preset czmil                        seed 004 Table 4 (conic, 425.7 m air, 51.7 m water)
-  lidarqa budget --preset seed000 --format json        seed 000 Table 1 at scan angle 30°, 80 m below
+  lidarqa budget --preset czmil                        Li et al. 2016, Table 4 (conic scanner)
+  lidarqa budget --preset zhang2018 --format json      Zhang et al. 2018, Table 1 (linear scanner)
   lidarqa budget --preset czmil --sweep azimuth=0:360:10
-  lidarqa budget --preset czmil --sweep depth=0:50:5     seed 004 §3 (3): the budget grows with depth
-  lidarqa budget --preset seed000 --height 1000 --sweep scan-angle=-30:30:5 --bias boresight_roll_deg=0.1
+  lidarqa budget --preset czmil --sweep depth=0:50:5   σ grows with depth (Li et al. 2016, §3)
+  lidarqa budget --preset zhang2018 --height 1000 --sweep scan-angle=-30:30:5 \\
+      --bias boresight_roll_deg=0.1
   lidarqa budget --sensor my_sensor.toml --scan-angle 20 --height 1200 --roll 2
   lidarqa budget --preset czmil --print-sensor > my_sensor.toml
 
@@ -30,7 +31,7 @@ Writes nothing but stdout.";
 /// Flags of `lidarqa budget`, exactly as typed (converted and checked by [`Plan::try_from`]).
 #[derive(Debug, Args)]
 pub struct BudgetArgs {
-    /// Built-in sensor and geometry: `seed000` (seed 000 Table 1, linear) or `czmil` (seed 004
+    /// Built-in sensor and geometry: `zhang2018` (Zhang et al. 2018, Table 1, linear) or `czmil` (Li et al. 2016,
     /// Table 3, conic).
     #[arg(
         long,
@@ -39,7 +40,7 @@ pub struct BudgetArgs {
         required_unless_present = "sensor"
     )]
     preset: Option<String>,
-    /// Sensor file (TOML, SPEC §5).
+    /// Sensor file (TOML; docs/reference/formats.md).
     #[arg(long, value_name = "FILE")]
     sensor: Option<PathBuf>,
     /// Print the preset as a sensor file (a starting point for your own) and exit.
@@ -131,7 +132,7 @@ impl TryFrom<BudgetArgs> for Plan {
             (Some(name), _) => {
                 let preset = preset(name)?;
                 (
-                    format!("preset {name}"),
+                    format!("preset {}", preset.name()),
                     preset.sensor(),
                     Some(preset.geometry()),
                 )
@@ -191,11 +192,30 @@ impl TryFrom<BudgetArgs> for Plan {
 /// The preset named `name`.
 fn preset(name: &str) -> Result<Preset> {
     Preset::from_name(name)
-        .with_context(|| format!("--preset: unknown preset '{name}' (one of seed000, czmil)"))
+        .with_context(|| format!("--preset: unknown preset '{name}' (one of zhang2018, czmil)"))
 }
 
 /// Run `lidarqa budget`.
 pub fn run(args: BudgetArgs) -> Result<()> {
+    // A former preset name still works (users' scripts); say so once on stderr, after the flags
+    // were accepted, so that an error stays one line.
+    let deprecated = args.preset.as_deref().and_then(|name| {
+        Preset::deprecated_alias(name).map(|p| {
+            format!(
+                "lidarqa: warning: --preset {name} is deprecated, use --preset {} (the same sensor and geometry)",
+                p.name()
+            )
+        })
+    });
+    run_budget(args)?;
+    if let Some(line) = deprecated {
+        eprintln!("{line}");
+    }
+    Ok(())
+}
+
+/// The budget, its sweep or the preset's sensor file, printed.
+fn run_budget(args: BudgetArgs) -> Result<()> {
     if args.print_sensor {
         let preset = preset(args.preset.as_deref().unwrap_or_default())?;
         return print_text(&lidarqa_io::sensor_to_toml(&preset.sensor()));
@@ -258,7 +278,7 @@ mod tests {
     fn flags_reach_the_request() {
         let p = plan(&[
             "--preset",
-            "seed000",
+            "zhang2018",
             "--scan-angle",
             "-12.5",
             "--height",
@@ -275,23 +295,23 @@ mod tests {
             roll_deg: Some(2.0),
             ..GeometryRequest::default()
         };
-        let seed000 = Preset::Seed000;
+        let zhang2018 = Preset::from_name("zhang2018").unwrap();
         let want = request
-            .resolve(&seed000.sensor(), Some(seed000.geometry()), None)
+            .resolve(&zhang2018.sensor(), Some(zhang2018.geometry()), None)
             .unwrap();
         assert_eq!(p.geometry, want);
-        assert_ne!(want, seed000.geometry());
+        assert_ne!(want, zhang2018.geometry());
         assert_eq!(p.biases.unwrap().get(Source::LeverX), -0.05);
     }
 
     #[test]
     fn errors_name_the_flag() {
-        let e = plan(&["--preset", "seed000", "--bias", "boresight_roll=0.1"])
+        let e = plan(&["--preset", "zhang2018", "--bias", "boresight_roll=0.1"])
             .err()
             .unwrap();
         let e = format!("{e:#}");
         assert!(e.starts_with("--bias: unknown key 'boresight_roll'"), "{e}");
-        let e = plan(&["--preset", "seed000", "--azimuth", "10"])
+        let e = plan(&["--preset", "zhang2018", "--azimuth", "10"])
             .err()
             .unwrap();
         assert!(e.to_string().contains("conic scanner"), "{e}");

@@ -38,7 +38,7 @@ const WATER_SURFACE_SOURCES: [Source; 4] = [
     Source::NWater,
 ];
 
-/// Seed 004 Table 4 layout: one row per source, cm, totals at the bottom, geometry on top.
+/// Li et al. (2016), Table 4 layout: one row per source, cm, totals at the bottom, geometry on top.
 pub fn table(label: &str, e: &Evaluation) -> String {
     let mut t = String::new();
     let _ = writeln!(
@@ -56,8 +56,8 @@ pub fn table(label: &str, e: &Evaluation) -> String {
         e.footprint.north, e.footprint.east, e.footprint.up
     );
     let _ = writeln!(t);
-    // The water-surface sources (not in seed 004) are listed only when they have a σ, so the
-    // czmil preset prints seed 004's Table 4 rows exactly; JSON lists every source.
+    // The water-surface sources (not in Li et al. 2016) are listed only when they have a σ, so the
+    // czmil preset prints the rows of Li et al. (2016), Table 4 exactly; JSON lists every source.
     let rows: Vec<_> = e
         .sources
         .iter()

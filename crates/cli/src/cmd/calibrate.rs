@@ -1,5 +1,5 @@
 //! `lidarqa calibrate`: boresight + lever-arm self-calibration from overlapping strips (SPEC §7,
-//! seed 001), writing `calibration.json` (SPEC §8) and `calibration_iterations.json` beside it.
+//! Zhang & Jiang 2011), writing `calibration.json` (SPEC §8) and `calibration_iterations.json` beside it.
 //! The work is lidarqa-pipeline's `calibrate_strips`; this module parses, checks and prints.
 
 use super::calibrate_table;
@@ -44,7 +44,7 @@ pub struct CalibrateArgs {
     /// Trajectory (SBET).
     #[arg(long, value_name = "FILE")]
     trajectory: PathBuf,
-    /// Sensor file (TOML, SPEC §5); its [mounting] is the prior the strips were made with.
+    /// Sensor file (TOML; docs/reference/formats.md); its [mounting] is the prior the strips were made with.
     #[arg(long, value_name = "FILE")]
     sensor: PathBuf,
     /// Hand-picked ties (CSV tie,strip,x,y).
@@ -61,14 +61,14 @@ pub struct CalibrateArgs {
     /// Control points (CSV id,x,y,z).
     #[arg(long, value_name = "FILE")]
     control: Option<PathBuf>,
-    /// vtpm (seed 001, lever arm + boresight) or plane (point-to-plane baseline, boresight only).
+    /// vtpm (virtual tie point model of Zhang & Jiang 2011, lever arm + boresight) or plane (point-to-plane baseline, boresight only).
     #[arg(long, default_value = "vtpm", value_parser = parse_method())]
     method: Method,
     /// Output calibration.json.
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
     /// VTPM search radius around a pick, metres [default: the radius that holds ~20 points of
-    /// the sparsest strip, at least seed 001's 1 m].
+    /// the sparsest strip, at least the 1 m of Zhang & Jiang (2011)].
     #[arg(long, value_name = "M", allow_negative_numbers = true)]
     radius_m: Option<f64>,
     /// RANSAC plane threshold, metres.
@@ -82,7 +82,7 @@ pub struct CalibrateArgs {
     /// RANSAC iterations.
     #[arg(long, value_name = "N", default_value_t = 200)]
     ransac_iterations: usize,
-    /// What carries a tie in a strip: `triangle` is seed 001's rule (the three coplanar points
+    /// What carries a tie in a strip: `triangle` is the rule of Zhang & Jiang (2011) (the three coplanar points
     /// around the pick); `patch` uses every coplanar point of the window (height from their
     /// least-squares plane, moved rigidly with all of them), which averages the points' noise
     #[arg(long, value_name = "CARRIER", default_value = "patch", value_parser = ["patch", "triangle"])]
@@ -90,7 +90,7 @@ pub struct CalibrateArgs {
     /// Levenberg–Marquardt iteration limit.
     #[arg(long, value_name = "N", default_value_t = 50)]
     max_iterations: usize,
-    /// Plain least squares, as seed 001: do not weigh the ties by each strip's trajectory error
+    /// Plain least squares, as Zhang & Jiang (2011): do not weigh the ties by each strip's trajectory error
     /// (the sensor file's GNSS and attitude σ), and report σ from the tie scatter alone
     #[arg(long)]
     no_trajectory_weighting: bool,

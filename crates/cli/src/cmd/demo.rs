@@ -19,7 +19,7 @@ pub const AFTER_HELP: &str = "\
 Example:
   lidarqa demo                 writes every product and report.html to lidarqa-demo/
   lidarqa demo -o /tmp/demo --quick
-  lidarqa demo --bathymetry    the conic bathymetric survey (seed 004) to lidarqa-demo-bathymetry/
+  lidarqa demo --bathymetry    the conic bathymetric survey, to lidarqa-demo-bathymetry/
 
 Steps: simulate (a survey with injected boresight and lever-arm errors and twelve surveyed targets) →
 budget → tpu → targets → evaluate → calibrate → correct → targets → evaluate → overlap → report.";
@@ -31,7 +31,7 @@ pub struct DemoArgs {
     /// lidarqa-demo-bathymetry with --bathymetry].
     #[arg(short, long, value_name = "DIR")]
     output: Option<PathBuf>,
-    /// The bathymetric demo instead: simulate the conic survey (seed 004) → budget vs depth and
+    /// The bathymetric demo instead: simulate the conic survey (Li et al. 2016) → budget vs depth and
     /// azimuth → tpu with IHO S-44 → report.
     #[arg(long)]
     bathymetry: bool,

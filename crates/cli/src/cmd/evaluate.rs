@@ -1,4 +1,4 @@
-//! `lidarqa evaluate`: accuracy statistics of targets against control (seed 000 eqs. 7–8, ASPRS
+//! `lidarqa evaluate`: accuracy statistics of targets against control (Zhang et al. 2018, eqs. 7–8, ASPRS
 //! Ed. 2, NSSDA), side by side with the predicted accuracy.
 
 use crate::format::{OutputFormat, axes_cm, cm, print_json, print_text};
@@ -16,9 +16,9 @@ Examples:
   lidarqa evaluate --targets targets.csv --control control.csv --sensor sensor.toml --height 200
   lidarqa evaluate --ground strip1.laz strip2.laz --checkpoints nva.csv
 
-Residual = lidar − control (m). rmse.horizontal is seed 000's formula (7), rmse.vertical its
-formula (8). With --tpu, the predicted σ (the median per-point σ of the TPU summary) is shown beside
-the measured RMSE, as seed 000's Table 3; with --sensor, the budget at --height (and --scan-angle)
+Residual = lidar − control (m). rmse.horizontal is Zhang et al. (2018), eq. 7, rmse.vertical their
+eq. 8. With --tpu, the predicted σ (the median per-point σ of the TPU summary) is shown beside
+the measured RMSE, as in Zhang et al. (2018), Table 3; with --sensor, the budget at --height (and --scan-angle)
 is. The \"predicted RMSE\" row (predicted_at_targets) adds to it each target's own σ (the
 targets CSV's sigma_h_m / sigma_v_m) and its control point's σ: the RMSE the targets should show.
 --ground with --checkpoints tests vertical checkpoints against a TIN of the ground points (ASPRS
@@ -40,7 +40,7 @@ pub struct EvaluateArgs {
     /// TPU summary JSON (`lidarqa tpu --summary`): its median σ is the prediction.
     #[arg(long, value_name = "FILE", conflicts_with = "sensor")]
     tpu: Option<PathBuf>,
-    /// Sensor file (TOML, SPEC §5): the budget at --height is the prediction.
+    /// Sensor file (TOML; docs/reference/formats.md): the budget at --height is the prediction.
     #[arg(long, value_name = "FILE", requires = "height")]
     sensor: Option<PathBuf>,
     /// With --sensor: flying height above the targets, m.
@@ -232,7 +232,7 @@ pub fn table(e: &Evaluation) -> String {
     );
     let _ = writeln!(
         t,
-        "seed 000 formula (7) plane RMSE {:.2} cm, formula (8) elevation RMSE {:.2} cm",
+        "plane RMSE (Zhang et al. 2018, eq. 7) {:.2} cm, elevation RMSE (eq. 8) {:.2} cm",
         e.rmse.horizontal * 100.0,
         e.rmse.vertical * 100.0
     );

@@ -36,7 +36,7 @@ pub enum Command {
     /// Extract high-reflectivity targets near control points and fit their centres.
     #[command(after_help = targets::AFTER_HELP)]
     Targets(targets::TargetsArgs),
-    /// Accuracy statistics of targets against control (seed 000, ASPRS Ed. 2, NSSDA).
+    /// Accuracy statistics of targets against control (Zhang et al. 2018, ASPRS Ed. 2, NSSDA).
     #[command(after_help = evaluate::AFTER_HELP)]
     Evaluate(evaluate::EvaluateArgs),
     /// Simulate a survey with known truth: strips, trajectory, control, truth.json, sensor.toml.
@@ -51,7 +51,7 @@ pub enum Command {
     /// HTML report from the JSON products in a directory (one offline file, inline SVG plots).
     #[command(after_help = report::AFTER_HELP)]
     Report(report::ReportArgs),
-    /// Boresight + lever-arm self-calibration from overlapping strips (seed 001 VTPM).
+    /// Boresight + lever-arm self-calibration from overlapping strips (virtual tie point model, Zhang & Jiang 2011).
     #[command(after_help = calibrate::AFTER_HELP)]
     Calibrate(calibrate::CalibrateArgs),
     /// Re-georeference strips with a calibration.
@@ -63,7 +63,7 @@ pub enum Command {
     /// Cut strips into a grid of tiles (input of `lidarqa plan` and `lidarqa tpu DIR`).
     #[command(after_help = tile::AFTER_HELP)]
     Tile(tile::TileArgs),
-    /// Write a tile manifest for job arrays and Dask (SPEC §9).
+    /// Write a tile manifest for job arrays and Dask (docs/guide/beyond-one-machine.md).
     #[command(after_help = plan::AFTER_HELP)]
     Plan(plan::PlanArgs),
     /// Run one entry of a tile manifest, skipping it when already complete.

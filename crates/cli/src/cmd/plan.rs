@@ -47,7 +47,7 @@ struct PlanTpuArgs {
     /// SBET trajectory (GPS seconds of week).
     #[arg(long, value_name = "FILE")]
     trajectory: PathBuf,
-    /// Sensor file (TOML, SPEC §5).
+    /// Sensor file (TOML; docs/reference/formats.md).
     #[arg(long, value_name = "FILE")]
     sensor: PathBuf,
     /// SMRMSG accuracy file.

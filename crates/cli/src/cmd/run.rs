@@ -9,7 +9,7 @@ use std::path::PathBuf;
 pub const AFTER_HELP: &str = "\
 Examples:
   lidarqa run manifest.json --index 3
-  lidarqa run manifest.json                 # index from $SLURM_ARRAY_TASK_ID or $JOB_COMPLETION_INDEX
+  lidarqa run manifest.json     # index from $SLURM_ARRAY_TASK_ID or $JOB_COMPLETION_INDEX
 
 An entry is complete when its tile report exists, was written for this plan, and the output still
 has the size and BLAKE3 the report recorded; a complete entry is skipped (--force runs it anyway).

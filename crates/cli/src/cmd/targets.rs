@@ -37,7 +37,7 @@ pub struct TargetsArgs {
     /// either it is estimated).
     #[arg(long, value_name = "M")]
     radius_m: Option<f64>,
-    /// Centre estimator: circle-fit (default), sector-mec (seed 000) or centroid.
+    /// Centre estimator: circle-fit (default), sector-mec (Zhang et al. 2018) or centroid.
     #[arg(long, value_name = "NAME", default_value = "circle-fit")]
     method: String,
     /// Half-width of the square window read around each control point, m.

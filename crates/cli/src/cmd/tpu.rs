@@ -41,7 +41,7 @@ pub struct TpuArgs {
     /// text with a header (told apart by content; GPS seconds of week).
     #[arg(long, value_name = "FILE")]
     trajectory: PathBuf,
-    /// Sensor file (TOML, SPEC §5); `[scanner] beam_divergence_mrad` enables the incidence term.
+    /// Sensor file (TOML; docs/reference/formats.md); `[scanner] beam_divergence_mrad` enables the incidence term.
     #[arg(long, value_name = "FILE")]
     sensor: PathBuf,
     /// Output file (for a file input) or directory (for a directory input; created if missing).

@@ -94,7 +94,7 @@ def overlap(strips, cell_m=1.0, max_roughness_m=0.05, max_slope_deg=10.0):
 
 
 def budget(preset=None, sensor=None, **geometry):
-    """The error budget of one geometry (``lidarqa budget --format json``): ``preset`` (seed000,
+    """The error budget of one geometry (``lidarqa budget --format json``): ``preset`` (zhang2018, formerly seed000;
     czmil) or ``sensor`` (a sensor file), and keywords in degrees and metres: heading_deg,
     pitch_deg, roll_deg, scan_angle_deg, range_m, height_m, azimuth_deg, range_air_m,
     range_water_m, depth_m, sweep ("NAME=START:STOP:STEP"), bias ("key=value,...")."""

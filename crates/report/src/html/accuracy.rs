@@ -35,7 +35,7 @@ pub(super) fn accuracy_section(
 
 // ---------------------------------------------------------------------------------------------
 
-/// Predicted σ beside each run's measured RMSE (seed 000 Table 3); returns the predicted
+/// Predicted σ beside each run's measured RMSE (Zhang et al. 2018, Table 3); returns the predicted
 /// horizontal and vertical σ, m.
 fn predicted_vs_measured(
     o: &mut String,
@@ -96,7 +96,7 @@ fn predicted_vs_measured(
     if !pred_from.is_empty() {
         let _ = writeln!(
             o,
-            "<p class=\"note\">Predicted σ from {pred_from}. Plane precision is RMSE<sub>H</sub> = √(RMSE<sub>N</sub>² + RMSE<sub>E</sub>²) (seed 000 formula 7), elevation precision RMSE<sub>V</sub> (formula 8).</p>"
+            "<p class=\"note\">Predicted σ from {pred_from}. Plane precision is RMSE<sub>H</sub> = √(RMSE<sub>N</sub>² + RMSE<sub>E</sub>²) (Zhang et al. 2018, eq. 7), elevation precision RMSE<sub>V</sub> (eq. 8).</p>"
         );
     }
     (pred_h, pred_v)

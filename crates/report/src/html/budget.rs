@@ -1,4 +1,4 @@
-//! The error budget of one geometry (seed 000 Table 1, seed 004 Table 4 layout).
+//! The error budget of one geometry (Zhang et al. 2018, Table 1, Li et al. 2016, Table 4 layout).
 
 use crate::plot::{self};
 use crate::products::*;

@@ -90,7 +90,7 @@ pub(super) fn calibration_section(
     o
 }
 
-/// Seed 001 Fig. 9: tie coordinates minus their final value, per iteration (RMS over ties).
+/// Zhang & Jiang (2011), Fig. 9: tie coordinates minus their final value, per iteration (RMS over ties).
 pub(super) fn convergence(its: &CalibrationIterations) -> String {
     let mut o = String::new();
     let last = match its.iterations.last() {

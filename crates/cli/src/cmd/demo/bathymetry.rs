@@ -1,4 +1,4 @@
-//! `lidarqa demo --bathymetry`: seed 004's conic bathymetric survey as ordinary `lidarqa`
+//! `lidarqa demo --bathymetry`: the conic bathymetric survey of Li et al. (2016) as ordinary `lidarqa`
 //! commands (simulate → budget across depth and azimuth → tpu with IHO S-44 → report), printed
 //! and run like the topographic demo's.
 
@@ -47,12 +47,12 @@ pub(super) fn run(dir: &Path, quick: bool, seed: u64) -> Result<()> {
             Some(dir.join("budget.json")),
         ),
         step(
-            "predict: the budget vs depth (seed 004 §3)",
+            "predict: the budget vs depth (Li et al. 2016, §3)",
             &budget(&["--depth", "5", "--sweep", "depth=0:50:5"]),
             Some(dir.join("budget_sweep_depth.json")),
         ),
         step(
-            "predict: the budget around the conic scan at 20 m depth (seed 004 Fig. 4)",
+            "predict: the budget around the conic scan at 20 m depth (Li et al. 2016, Fig. 4)",
             &budget(&["--depth", "20", "--sweep", "azimuth=0:360:10"]),
             Some(dir.join("budget_sweep_azimuth.json")),
         ),
