@@ -10,7 +10,7 @@
 
 use crate::plausibility::{MountingView, PlausibilityTally};
 use lidarqa_model::{NORMAL_95_FACTOR, Warning, floor_i64};
-use lidarqa_tpu::{IhoLimits, IhoOrder, THU_95_CBLUE, TVU_95_FACTOR};
+use lidarqa_tpu::{IhoLimits, IhoOrder, IncidenceClass, THU_95_CBLUE, TVU_95_FACTOR};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -819,28 +819,52 @@ pub struct TpuSummary {
     pub plausibility: PlausibilityTally,
 }
 
-/// Where the incidence term's surface normal came from, per point, or why there was none.
+/// How the incidence term was taken, per point (the `incidence_class` written with each point,
+/// [`lidarqa_tpu::IncidenceClass`]), or why it was left out.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct IncidenceTally {
     /// Normals read from the file's `NormalX/NormalY/NormalZ` (PDAL `filters.normal`).
     pub file_normals: u64,
     /// File normals that were zero or not finite (term left out).
     pub invalid_file_normals: u64,
-    /// Planar neighbourhoods: a fitted normal.
+    /// Planar neighbourhoods whose plane the beam meets: a fitted normal.
     pub planar: u64,
     /// Of `planar`, those whose k nearest neighbours were linear (e.g. one scan line) and whose
     /// widened neighbourhood, reaching the next scan lines, is planar.
     #[serde(default)]
     pub planar_widened: u64,
-    /// Linear neighbourhoods (e.g. one scan line, a wire), also when widened: term left out.
+    /// Linear neighbourhoods (e.g. one scan line), also when widened: the normal across the
+    /// line nearest the vertical.
     pub linear: u64,
-    /// Scattered neighbourhoods (vegetation, noise): term left out.
+    /// Judged planes (or normals across a line) that contain the beam, as the returns of one
+    /// scan plane do whatever they hit: the prior for an unmeasured surface.
+    #[serde(default)]
+    pub beam_in_plane: u64,
+    /// Scattered neighbourhoods (vegetation, noise): the prior for an unmeasured surface.
     pub scattered: u64,
     /// Fewer neighbours than a plane needs: term left out.
     pub too_few_points: u64,
 }
 
 impl IncidenceTally {
+    /// Counts one point of class `c` (nothing for [`IncidenceClass::NoTerm`]).
+    pub fn add(&mut self, c: IncidenceClass) {
+        match c {
+            IncidenceClass::NoTerm => {}
+            IncidenceClass::FileNormal => self.file_normals += 1,
+            IncidenceClass::InvalidFileNormal => self.invalid_file_normals += 1,
+            IncidenceClass::Planar => self.planar += 1,
+            IncidenceClass::PlanarWidened => {
+                self.planar += 1;
+                self.planar_widened += 1;
+            }
+            IncidenceClass::AcrossLine => self.linear += 1,
+            IncidenceClass::BeamInPlane => self.beam_in_plane += 1,
+            IncidenceClass::Scattered => self.scattered += 1,
+            IncidenceClass::TooFew => self.too_few_points += 1,
+        }
+    }
+
     /// Adds another tally.
     pub fn merge(&mut self, o: &IncidenceTally) {
         self.file_normals += o.file_normals;
@@ -848,43 +872,69 @@ impl IncidenceTally {
         self.planar += o.planar;
         self.planar_widened += o.planar_widened;
         self.linear += o.linear;
+        self.beam_in_plane += o.beam_in_plane;
         self.scattered += o.scattered;
         self.too_few_points += o.too_few_points;
     }
 
     /// Points whose term was left out.
     pub fn left_out(&self) -> u64 {
-        self.invalid_file_normals + self.linear + self.scattered + self.too_few_points
+        self.invalid_file_normals + self.too_few_points
     }
 
-    /// Points judged.
+    /// Points whose term is the prior for an unmeasured surface.
+    pub fn prior(&self) -> u64 {
+        self.beam_in_plane + self.scattered
+    }
+
+    /// Points counted.
     pub fn total(&self) -> u64 {
-        self.left_out() + self.file_normals + self.planar
+        self.left_out() + self.prior() + self.file_normals + self.planar + self.linear
     }
 
-    /// A warning when more than a tenth of the points have no incidence term.
-    pub fn warning(&self) -> Option<Warning> {
-        let (out, n) = (self.left_out(), self.total());
-        (n > 0 && out * 10 > n).then(|| {
-            let pc = |v: u64| 100.0 * v as f64 / n as f64;
-            Warning::new(
+    /// Warnings when more than a tenth of the points have no incidence term
+    /// (`incidence_left_out`), or one that rests on no measured plane (`incidence_assumed`:
+    /// a line's across normal or the prior).
+    pub fn warnings(&self) -> Vec<Warning> {
+        let n = self.total();
+        let pc = |v: u64| 100.0 * v as f64 / n.max(1) as f64;
+        let mut w = Vec::new();
+        let out = self.left_out();
+        if n > 0 && out * 10 > n {
+            w.push(Warning::new(
                 "incidence_left_out",
                 format!(
                     "no surface is defined around {out} of {n} points ({:.1} %), so their \
-                     incidence term is left out: linear {:.1} %, scattered {:.1} %, too few \
-                     points {:.1} %, invalid file normals {:.1} %; the vertical sigma of those \
-                     points lacks the beam-footprint term (more --neighbours, or NormalX/Y/Z \
-                     from PDAL filters.normal, may define one); linear means linear even with \
-                     the neighbourhood widened (planar only when widened: {:.1} %)",
+                     incidence term is left out: too few points {:.1} %, invalid file normals \
+                     {:.1} %; the vertical sigma of those points lacks the beam-footprint term \
+                     (incidence_class 7 and 8 in the output)",
                     pc(out),
-                    pc(self.linear),
-                    pc(self.scattered),
                     pc(self.too_few_points),
                     pc(self.invalid_file_normals),
+                ),
+            ));
+        }
+        let assumed = self.prior() + self.linear;
+        if n > 0 && assumed * 10 > n {
+            w.push(Warning::new(
+                "incidence_assumed",
+                format!(
+                    "no plane the beam meets is measured around {assumed} of {n} points ({:.1} \
+                     %): linear {:.1} % take the normal across their scan line nearest the \
+                     vertical (incidence_class 4); the plane contains the beam (one scan plane) \
+                     at {:.1} % and scattered at {:.1} %, which take the incidence of randomly \
+                     oriented surfaces, 65.6 degrees (incidence_class 5 and 6); NormalX/Y/Z from \
+                     PDAL filters.normal, or more passes over the area, measure it (planar only \
+                     when widened: {:.1} %)",
+                    pc(assumed),
+                    pc(self.linear),
+                    pc(self.beam_in_plane),
+                    pc(self.scattered),
                     pc(self.planar_widened)
                 ),
-            )
-        })
+            ));
+        }
+        w
     }
 }
 
@@ -1011,7 +1061,7 @@ impl TpuSummary {
             .plausibility
             .all_warnings(!skipped)
             .into_iter()
-            .chain(self.incidence.warning())
+            .chain(self.incidence.warnings())
         {
             if !all.contains(&w) {
                 all.push(w);
@@ -1257,26 +1307,41 @@ mod tests {
     }
 
     #[test]
-    fn incidence_left_out_warns_past_a_tenth_with_the_reasons() {
+    fn incidence_warnings_past_a_tenth_with_the_reasons() {
         let mut t = IncidenceTally {
             planar: 91,
             linear: 9,
             ..IncidenceTally::default()
         };
-        assert_eq!(t.warning(), None);
+        assert_eq!(t.warnings(), vec![]);
         t.merge(&IncidenceTally {
             scattered: 20,
             ..IncidenceTally::default()
         });
-        let w = t.warning().unwrap();
-        assert_eq!(w.code, "incidence_left_out");
+        let w = t.warnings();
+        assert_eq!(w.len(), 1);
+        assert_eq!(w[0].code, "incidence_assumed");
         assert!(
-            w.message.starts_with(
-                "no surface is defined around 29 of 120 points (24.2 %), so their incidence \
-                 term is left out: linear 7.5 %, scattered 16.7 %, too few points 0.0 %"
+            w[0].message.starts_with(
+                "no plane the beam meets is measured around 29 of 120 points (24.2 %): linear \
+                 7.5 % take"
             ),
             "{}",
-            w.message
+            w[0].message
+        );
+        t.add(IncidenceClass::TooFew);
+        for _ in 0..14 {
+            t.add(IncidenceClass::InvalidFileNormal);
+        }
+        let w = t.warnings();
+        assert_eq!(w[0].code, "incidence_left_out");
+        assert!(
+            w[0].message.starts_with(
+                "no surface is defined around 15 of 135 points (11.1 %), so their incidence \
+                 term is left out: too few points 0.7 %, invalid file normals 10.4 %"
+            ),
+            "{}",
+            w[0].message
         );
     }
 

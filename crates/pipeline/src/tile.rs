@@ -19,9 +19,10 @@ use lidarqa_model::{
     Scanner, Source, ecef_from_ned_sin_cos, linear_jacobian_at_beam,
 };
 use lidarqa_tpu::{
-    IhoOrder, Incidence, PointPropagator, PoseAt, PoseSigma, Recoverer, SegmentRotation,
-    SoundingRecovery, Surface, SurfaceSource, THU_95_CBLUE, TVU_95_FACTOR, Trajectory, WaterReturn,
-    WaterSurfaceIndex, cos_incidence, judge_surfaces, thu_95_m,
+    IhoOrder, Incidence, IncidenceClass, PointPropagator, PoseAt, PoseSigma, Recoverer,
+    SegmentRotation, SoundingRecovery, Surface, SurfaceSource, THU_95_CBLUE, TVU_95_FACTOR,
+    Trajectory, WaterReturn, WaterSurfaceIndex, cos_incidence, judge_surfaces, judged_incidence,
+    thu_95_m,
 };
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
@@ -53,6 +54,12 @@ fn descriptions() -> [String; 9] {
         "IHO S-44 order met, -1 n/a".into(),
     ]
 }
+
+/// The per-point class of the incidence term (with a beam divergence), after the σ and the
+/// soundings' dimensions: [`lidarqa_tpu::IncidenceClass`]'s value (0 no term, 1 file normal,
+/// 2 planar, 3 planar widened, 4 across a line, 5 plane contains the beam and 6 scattered
+/// (both the prior), 7 too few points and 8 invalid file normal (both left out)).
+pub const INCIDENCE_CLASS_DIM: (&str, &str) = ("incidence_class", "incidence term: how, 0-8");
 
 /// Names of the sounding dimensions written after the σ for conic sensors.
 pub const SOUNDING_DIMS: [&str; 2] = ["depth", "iho_order"];
@@ -135,15 +142,19 @@ pub fn tpu_tile_with_progress(
     } = ctx.open_tile(input)?;
     let kernel = Kernel::new(ctx)?;
     let n_sigma = kernel.n_sigma();
-    let n_dims = kernel.n_dims();
+    // With the incidence term, each point's `incidence_class` follows the σ (and soundings).
+    let n_dims = kernel.n_dims() + usize::from(kernel.has_incidence());
     let descriptions = descriptions();
-    let dims: Vec<(&str, &str)> = SIGMA_NAMES
+    let mut dims: Vec<(&str, &str)> = SIGMA_NAMES
         .iter()
         .chain(&SOUNDING_DIMS)
-        .take(n_dims)
+        .take(kernel.n_dims())
         .zip(&descriptions)
         .map(|(n, d)| (*n, d.as_str()))
         .collect();
+    if kernel.has_incidence() {
+        dims.push(INCIDENCE_CLASS_DIM);
+    }
     let mut options = LasWriteOptions::for_input(&info, &dims);
     if ctx.options.covariance {
         options.extra_dims_f64 = COVARIANCE_DIMS
@@ -204,6 +215,7 @@ pub fn tpu_tile_with_progress(
         outputs: rx_spent_out,
         out_chunk,
         n_dims,
+        incidence_class: kernel.has_incidence(),
         covariance: ctx.options.covariance,
     };
     run_stages(
@@ -433,8 +445,10 @@ struct Recycle {
     outputs: Receiver<RawChunk>,
     /// An empty chunk of the output's layout.
     out_chunk: RawChunk,
-    /// σ (and sounding) values per record.
+    /// σ (and sounding) values per record, and the incidence class when there is a term.
     n_dims: usize,
+    /// Whether the last of them is the incidence class.
+    incidence_class: bool,
     /// The covariance's six f64 follow them.
     covariance: bool,
 }
@@ -485,10 +499,10 @@ fn output_records(
     recycle: &Recycle,
     out: &mut RawChunk,
 ) -> Result<()> {
-    let mut extra = [0f32; 9];
+    let mut extra = [0f32; 10];
     out.clear();
     for (i, s) in slots.iter().enumerate() {
-        if let Slot::Ok(sig, sounding, cov) = s {
+        if let Slot::Ok(sig, sounding, cov, class) = s {
             for (e, v) in extra.iter_mut().zip(sig) {
                 *e = *v as f32;
             }
@@ -503,6 +517,9 @@ fn output_records(
                 ),
                 None => (0.0, -1.0),
             };
+            if recycle.incidence_class {
+                extra[recycle.n_dims - 1] = f32::from(*class);
+            }
             let n64 = if recycle.covariance { cov.len() } else { 0 };
             out.push(
                 path,
@@ -523,7 +540,7 @@ enum Slot {
     /// σ north, east, up, horizontal, vertical (m, local level frame at the point), for a
     /// sounding its depth and 95 % uncertainties, and the covariance in the projected axes
     /// (xx, yy, zz, xy, xz, yz, m²; zeros unless asked for).
-    Ok([f64; 5], Option<SoundingResult>, [f64; 6]),
+    Ok([f64; 5], Option<SoundingResult>, [f64; 6], u8),
     Skipped(SkipReason),
     Failed(Box<Error>),
 }
@@ -809,7 +826,7 @@ impl Run<'_> {
                 .iter()
                 .zip(&cur.pts[first..])
                 .filter_map(|(s, p)| match s {
-                    Slot::Ok(sig, sounding, _) => {
+                    Slot::Ok(sig, sounding, _, _) => {
                         *points_written += 1;
                         let [x_m, y_m, _] = p.xyz_m;
                         if let Some(r) = sounding {
@@ -961,6 +978,33 @@ impl Run<'_> {
             .collect()
     }
 
+    /// How the incidence term is taken at a point whose surface (file normal or judged
+    /// neighbourhood, none without the term) is `surface`, for the beam `beam_ned` (NED at the
+    /// pose): its class and `|cos α|` (`None`: left out). A file's normal is used as it is
+    /// (capped at 85° like any other); a judged one is checked against the beam
+    /// ([`judged_incidence`]).
+    fn incidence_of(
+        &self,
+        surface: Option<Surface>,
+        pose: &PoseAt,
+        beam_ned: &Ned,
+    ) -> (IncidenceClass, Option<f64>) {
+        let Some(s) = surface else {
+            return (IncidenceClass::NoTerm, None);
+        };
+        if self.file_normals {
+            match s.normal() {
+                Some(n) => (
+                    IncidenceClass::FileNormal,
+                    Some(cos_incidence(&beam_ned.vector(), &(pose.ecef_to_ned * n))),
+                ),
+                None => (IncidenceClass::InvalidFileNormal, None),
+            }
+        } else {
+            judged_incidence(&s, &pose.ecef_to_ned, &beam_ned.vector())
+        }
+    }
+
     fn point(
         &self,
         cur: &Prepared,
@@ -1043,36 +1087,22 @@ impl Run<'_> {
             }
             _ => None,
         };
-        if sounding.is_none() {
-            let t = &mut acc.incidence;
-            match (surface, self.file_normals) {
-                (None, _) => {}
-                (Some(Surface::Planar(_) | Surface::PlanarWidened(_)), true) => t.file_normals += 1,
-                (Some(_), true) => t.invalid_file_normals += 1,
-                (Some(Surface::Planar(_)), false) => t.planar += 1,
-                (Some(Surface::PlanarWidened(_)), false) => {
-                    t.planar += 1;
-                    t.planar_widened += 1;
-                }
-                (Some(Surface::Linear), false) => t.linear += 1,
-                (Some(Surface::Scattered), false) => t.scattered += 1,
-                (Some(Surface::TooFew), false) => t.too_few_points += 1,
-            }
-        }
-        let normal = surface.and_then(|s| s.normal());
+        // A sounding has its own terms: no incidence surface.
+        let surface = if sounding.is_none() { surface } else { None };
         // With skip_invalid an implausible point is dropped after propagation: its shares too.
         let shares_before = opts.skip_invalid.then(|| acc.shares.clone());
         let result = match sounding {
             None => self
-                .propagate(pose, p, lp, sigma.as_ref(), normal, acc)
-                .map(|(c, r)| (c, None, Some(r))),
+                .propagate(pose, p, lp, sigma.as_ref(), surface, acc)
+                .map(|(c, r, class)| (c, None, Some(r), class)),
             Some(Err(e)) => Err(e),
             Some(Ok(rec)) => self
                 .propagate_sounding(&rec, pose, sigma.as_ref(), acc)
-                .map(|c| (c, Some(rec), None)),
+                .map(|c| (c, Some(rec), None, IncidenceClass::NoTerm)),
         };
         match result {
-            Ok((cov_at_p0, rec, recovered)) => {
+            Ok((cov_at_p0, rec, recovered, class)) => {
+                acc.incidence.add(class);
                 // σ in the local level frame at the point: rotate from N at P0 (the two differ
                 // by the geodesic angle between them, ~1e-4 rad at 600 m; cheap to do exactly).
                 // (`pose.ecef_to_ned` is `ecef_from_ned` at the pose, transposed.)
@@ -1129,6 +1159,7 @@ impl Run<'_> {
                     [n2.sqrt(), e2.sqrt(), u2.sqrt(), (n2 + e2).sqrt(), u2.sqrt()],
                     result,
                     cov,
+                    class as u8,
                 )
             }
             Err(source) => {
@@ -1221,20 +1252,23 @@ impl Run<'_> {
         p: &Prep,
         lp: RawPoint<'_>,
         sigma: Option<&PoseSigma>,
-        normal: Option<Vector3<f64>>,
+        surface: Option<Surface>,
         acc: &mut Partial,
-    ) -> lidarqa_tpu::Result<(Matrix3<f64>, Recovered)> {
-        let incidence = |range_m: f64, beam_ned: Ned| {
-            normal.map(|n| Incidence {
+    ) -> lidarqa_tpu::Result<(Matrix3<f64>, Recovered, IncidenceClass)> {
+        let mut class = IncidenceClass::NoTerm;
+        let mut incidence = |range_m: f64, beam_ned: Ned| {
+            let (c, cos) = self.incidence_of(surface, pose, &beam_ned);
+            class = c;
+            cos.map(|cos_incidence| Incidence {
                 range_m,
                 beam_ned,
-                cos_incidence: cos_incidence(&beam_ned.vector(), &(pose.ecef_to_ned * n)),
+                cos_incidence,
             })
         };
         let (cov, recovered) = match self.kernel {
             Kernel::Linear(pp) => {
                 // The beam is the incidence term's alone.
-                let r = if normal.is_some() {
+                let r = if surface.is_some_and(|s| s != Surface::TooFew) {
                     self.recoverer.linear_ecef(pose, &p.ecef)?
                 } else {
                     self.recoverer.linear_ecef_without_beam(pose, &p.ecef)?
@@ -1304,10 +1338,10 @@ impl Run<'_> {
                 )
             }
         };
-        if normal.is_some() {
+        if !matches!(class, IncidenceClass::NoTerm) && !class.left_out() {
             acc.with_normal += 1;
         }
-        Ok((cov, recovered))
+        Ok((cov, recovered, class))
     }
 }
 

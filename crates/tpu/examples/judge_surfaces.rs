@@ -49,7 +49,7 @@ fn run(input: &str, output: &str, k: Option<&str>) -> Result<(), String> {
         let (kind, n) = match s {
             Surface::Planar(n) => ("planar", n),
             Surface::PlanarWidened(n) => ("planar_widened", n),
-            Surface::Linear => ("linear", Default::default()),
+            Surface::Linear(_) => ("linear", Default::default()),
             Surface::Scattered => ("scattered", Default::default()),
             _ => ("too_few", Default::default()),
         };

@@ -59,8 +59,9 @@ pub use iho::{
 };
 pub use montecarlo::{MonteCarlo, monte_carlo};
 pub use normals::{
-    MAX_NEIGHBOURS, MIN_NEIGHBOURS, Surface, WIDEN_FLATNESS, WIDEN_RADIUS_FACTOR, cos_incidence,
-    fit_normal, incidence_angle, judge_surfaces, plane_normals,
+    IncidenceClass, MAX_NEIGHBOURS, MIN_NEIGHBOURS, Surface, WIDEN_FLATNESS, WIDEN_RADIUS_FACTOR,
+    cos_incidence, fit_normal, incidence_angle, judge_surfaces, judged_incidence, plane_normals,
+    prior_cos_incidence,
 };
 pub use point::{Incidence, MAX_INCIDENCE_RAD, PointPropagator, PointUncertainty};
 pub use presets::Preset;

@@ -41,6 +41,27 @@
 //! whatever they hit, and are judged planar with the scan plane's normal, as the k nearest
 //! alone already judge them where they are not one line.
 //!
+//! # Beam-aware incidence
+//! A surface the footprint lies on must be one the beam meets. [`judged_incidence`] turns a
+//! point's judgement and its beam into the incidence term's `|cos α|` and an
+//! [`IncidenceClass`] (written per point by `lidarqa tpu` as `incidence_class`):
+//! - a plane (k nearest or widened) whose normal is within 90° − 85° of perpendicular to the
+//!   beam *contains* the beam (`|cos α| ≤ cos 85°`, the term's cap): that is what the returns of
+//!   one scan plane give whatever they hit (a tree crossed by one scan cycle), and no surface
+//!   seen by that beam; it takes the prior below ([`IncidenceClass::BeamInPlane`]);
+//! - a thin line (σ₁ ≥ [`FLATNESS`] · σ₂: one scan line, even widened) lies in its surface: the
+//!   normal across the line nearest the local vertical, i.e. the line's own slope and level
+//!   across it ([`IncidenceClass::AcrossLine`]); if that normal contains the beam, the prior;
+//! - a scattered neighbourhood, a planar one thicker than σ₂ ≥ [`FLATNESS`] · σ₃ (a "plane"
+//!   through leaves) and a thick line take the prior ([`IncidenceClass::Scattered`]): facets
+//!   oriented at random as the beam meets them, in proportion to their projected area
+//!   (the spherical leaf-angle distribution of Ross 1981), `E[tan² α] = −2 ln cos 85°`
+//!   ([`prior_cos_incidence`], α = 65.6°);
+//! - too few neighbours: the term is left out ([`IncidenceClass::TooFew`]).
+//!
+//! An independent generator (the crate's `tests/incidence_sigma.rs`: slopes, gable roofs,
+//! tree crowns, one and two passes) holds RMS(error/σ_up) within 0.8–1.25 per surface class.
+//!
 //! The normal is the eigenvector of the smallest eigenvalue of the neighbours' 3 × 3 scatter
 //! matrix (total least squares plane, [`lidarqa_model::normal_of_scatter`]), from the closed-form
 //! solver of [`lidarqa_model::symmetric_eigen3`] (its docs say why it is not nalgebra's). The
@@ -110,8 +131,9 @@ pub enum Surface {
     /// The k nearest were linear, and a wider neighbourhood (see the module docs, "Widening")
     /// is planar: its unit normal (sign arbitrary).
     PlanarWidened(Vector3<f64>),
-    /// Points along a line (one scan line, a wire): no surface normal.
-    Linear,
+    /// Points along a line (one scan line, a wire), also when widened: no surface normal, only
+    /// the line's unit direction (sign arbitrary), which lies in the surface.
+    Linear(Vector3<f64>),
     /// Points spread in 3-D (vegetation, noise): no surface normal.
     Scattered,
     /// Fewer than [`MIN_NEIGHBOURS`] points.
@@ -139,10 +161,112 @@ pub fn judge_surfaces(candidates: &[[f64; 3]], targets: &[[f64; 3]], k: usize) -
         k,
         Surface::TooFew,
         |q, nn, grid, wide| match judge_neighbours(q, nn) {
-            Surface::Linear => widen(q, nn, grid, wide),
+            Surface::Linear(_) => widen(q, nn, grid, wide),
             first => first,
         },
     )
+}
+
+/// How a point's incidence term was taken: the per-point `incidence_class` of `lidarqa tpu`'s
+/// output (its `u8` value) and the summary's counts (see the module docs, "Beam-aware
+/// incidence").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum IncidenceClass {
+    /// No incidence term: no beam divergence, or a bathymetric sounding (its own terms).
+    NoTerm = 0,
+    /// The file's `NormalX/Y/Z`.
+    FileNormal = 1,
+    /// The plane of the k nearest neighbours.
+    Planar = 2,
+    /// The plane of a widened neighbourhood ([`Surface::PlanarWidened`]).
+    PlanarWidened = 3,
+    /// A linear neighbourhood: the normal across the line nearest the local vertical.
+    AcrossLine = 4,
+    /// The judged plane (or the normal across a line) contains the beam, so it cannot be the
+    /// surface the footprint lies on: the prior of [`prior_cos_incidence`].
+    BeamInPlane = 5,
+    /// A scattered neighbourhood (vegetation): the prior of [`prior_cos_incidence`].
+    Scattered = 6,
+    /// Too few neighbours: term left out.
+    TooFew = 7,
+    /// A zero or non-finite file normal: term left out.
+    InvalidFileNormal = 8,
+}
+
+impl IncidenceClass {
+    /// Whether the term is left out (no incidence variance at all).
+    pub fn left_out(self) -> bool {
+        matches!(
+            self,
+            IncidenceClass::TooFew | IncidenceClass::InvalidFileNormal
+        )
+    }
+
+    /// Whether the term rests on the prior rather than on a measured surface.
+    pub fn prior(self) -> bool {
+        matches!(
+            self,
+            IncidenceClass::BeamInPlane | IncidenceClass::Scattered
+        )
+    }
+}
+
+/// The `|cos α|` the incidence term takes where no surface is measured (a scattered
+/// neighbourhood, or a plane that contains the beam): that of facets oriented at random
+/// (isotropic normals) as the beam meets them, i.e. with probability proportional to their
+/// projected area `cos α` (the spherical leaf-angle distribution of radiative transfer, Ross
+/// 1981), so `cos α` has density `2c` on [0, 1]. With `tan α` capped at
+/// [`crate::MAX_INCIDENCE_RAD`] like every other incidence, `E[tan² α] = −2 ln cos α_max`
+/// (4.88 at 85°), and the term takes the angle of that mean square: `cos α = 1/√(1 + E[tan² α])`
+/// (α = 65.6°), so its variance is the expected one.
+pub fn prior_cos_incidence() -> f64 {
+    1.0 / (1.0 - 2.0 * crate::MAX_INCIDENCE_RAD.cos().ln()).sqrt()
+}
+
+/// The incidence term at a point: how it is taken and the `|cos α|` it uses (`None`: left
+/// out), from the point's judged `surface` (any frame), the rotation `to_ned` from that frame
+/// to the local level NED frame of the beam, and the beam's direction `beam_ned` there (any
+/// length). A plane is used as judged unless the beam lies within 90° − α_max of it
+/// (`|cos α| ≤ cos α_max`, [`crate::MAX_INCIDENCE_RAD`]): a plane that (nearly) contains the
+/// beam is what one scan plane's returns give whatever they hit, so it takes the prior
+/// ([`prior_cos_incidence`]), as a scattered neighbourhood does. A line lies in its surface:
+/// the normal across it nearest the vertical (level along the line's own slope), with the
+/// same test against the beam.
+pub fn judged_incidence(
+    surface: &Surface,
+    to_ned: &Matrix3<f64>,
+    beam_ned: &Vector3<f64>,
+) -> (IncidenceClass, Option<f64>) {
+    let cap = crate::MAX_INCIDENCE_RAD.cos();
+    let seen = |n: &Vector3<f64>, class| {
+        let c = cos_incidence(beam_ned, &(to_ned * n));
+        if c > cap {
+            (class, Some(c))
+        } else {
+            (IncidenceClass::BeamInPlane, Some(prior_cos_incidence()))
+        }
+    };
+    match surface {
+        Surface::Planar(n) => seen(n, IncidenceClass::Planar),
+        Surface::PlanarWidened(n) => seen(n, IncidenceClass::PlanarWidened),
+        Surface::Linear(d) => {
+            // Up in NED is −z: the normal across the line nearest it.
+            let d = to_ned * d;
+            let up = Vector3::new(0.0, 0.0, -1.0);
+            let across = up - d * (d.dot(&up) / d.norm_squared());
+            let norm = across.norm();
+            if norm > 1e-6 && norm.is_finite() {
+                let c = cos_incidence(beam_ned, &across);
+                if c > cap {
+                    return (IncidenceClass::AcrossLine, Some(c));
+                }
+            }
+            (IncidenceClass::BeamInPlane, Some(prior_cos_incidence()))
+        }
+        Surface::Scattered => (IncidenceClass::Scattered, Some(prior_cos_incidence())),
+        Surface::TooFew => (IncidenceClass::TooFew, None),
+    }
 }
 
 /// The widest neighbourhood [`judge_surfaces`] widens a linear one to, as a multiple of the
@@ -171,20 +295,28 @@ const WIDEN_ALIGNMENT_RAD: f64 = 15.0 * std::f64::consts::PI / 180.0;
 /// accepted, leaves the point linear.
 fn widen(q: &[f64; 3], nn: &[(f64, [f64; 3])], grid: &Grid, wide: &mut Vec<(f64, u32)>) -> Surface {
     let k = nn.len();
-    let Some(&(kth_m2, _)) = nn.last() else {
-        return Surface::Linear;
-    };
-    if !(kth_m2 > 0.0 && (WIDEN_RADIUS_FACTOR * WIDEN_RADIUS_FACTOR * kth_m2).is_finite())
-        || k >= MAX_NEIGHBOURS
-    {
-        return Surface::Linear;
-    }
     // The first neighbourhood's line: its mean (as an offset from q) and direction. A point
     // farther from it than half the first radius is not on it (the line's own thickness is
     // noise, far smaller).
     let first = scatter_of(q, nn);
-    let (_, axes) = symmetric_eigen3(&first);
+    let (vals, axes) = symmetric_eigen3(&first);
     let along = axes[2];
+    // What the point is when no widened neighbourhood is accepted: a thin line (σ₁ ≥
+    // [`FLATNESS`] · σ₂, one scan line) lies in its surface; a thick one (a run of leaves in
+    // one scan plane) does not define one.
+    let line = if vals[2].max(0.0).sqrt() >= FLATNESS * vals[1].max(0.0).sqrt() {
+        Surface::Linear(along)
+    } else {
+        Surface::Scattered
+    };
+    let Some(&(kth_m2, _)) = nn.last() else {
+        return line;
+    };
+    if !(kth_m2 > 0.0 && (WIDEN_RADIUS_FACTOR * WIDEN_RADIUS_FACTOR * kth_m2).is_finite())
+        || k >= MAX_NEIGHBOURS
+    {
+        return line;
+    }
     let mean = nn.iter().fold(Vector3::zeros(), |m, (_, p)| {
         m + Vector3::new(p[0] - q[0], p[1] - q[1], p[2] - q[2])
     }) / k as f64;
@@ -217,7 +349,7 @@ fn widen(q: &[f64; 3], nn: &[(f64, [f64; 3])], grid: &Grid, wide: &mut Vec<(f64,
                 next = most;
             }
             if next <= size {
-                return Surface::Linear;
+                return line;
             }
             let rest = &mut wide[taken..];
             if next - taken < rest.len() {
@@ -232,19 +364,19 @@ fn widen(q: &[f64; 3], nn: &[(f64, [f64; 3])], grid: &Grid, wide: &mut Vec<(f64,
                 }
             }
             (taken, size) = (next, next);
-            match judge_scatter(&all.scatter(), WIDEN_FLATNESS) {
+            match judge_scatter(&all.scatter(), WIDEN_FLATNESS, false) {
                 Surface::Planar(n) if off_line_agrees(&off, &n) => {
                     return Surface::PlanarWidened(n);
                 }
-                Surface::Scattered => return Surface::Linear,
+                Surface::Scattered => return line,
                 _ if size == MAX_NEIGHBOURS || (widest && size == most) => {
-                    return Surface::Linear;
+                    return line;
                 }
                 _ => {}
             }
         }
     }
-    Surface::Linear
+    line
 }
 
 /// The radii, as multiples of the first neighbourhood's, within which [`widen`] gathers
@@ -337,12 +469,17 @@ fn judge_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
     if nn.len() < MIN_NEIGHBOURS {
         return Surface::TooFew;
     }
-    judge_scatter(&scatter_of(q, nn), 0.0)
+    judge_scatter(&scatter_of(q, nn), FLATNESS, true)
 }
+
+/// The k nearest neighbours are planar only when σ₂ ≥ this × σ₃: a neighbourhood more planar
+/// than scattered but thicker than that (a plane through leaves) is judged scattered; see the
+/// module docs, "Beam-aware incidence".
+pub const FLATNESS: f64 = 3.0;
 
 /// The judgement of a scatter matrix (see the module docs); a planar one must also have
 /// σ₂ ≥ `flatness` · σ₃ (planarity ≥ scattering alone implies 2).
-fn judge_scatter(scatter: &Matrix3<f64>, flatness: f64) -> Surface {
+fn judge_scatter(scatter: &Matrix3<f64>, flatness: f64, thick_scattered: bool) -> Surface {
     // The values alone decide; only a planar neighbourhood needs its smallest one's vector,
     // then well separated from the other two (σ₂ > 2σ₃ and σ₂ ≥ σ₁/2).
     let [l3, l2, l1] = symmetric_eigenvalues3(scatter);
@@ -354,11 +491,15 @@ fn judge_scatter(scatter: &Matrix3<f64>, flatness: f64) -> Surface {
     let planarity = (s2 - s3) / s1;
     let scattering = s3 / s1;
     if linearity >= planarity && linearity >= scattering {
-        Surface::Linear
+        Surface::Linear(line_direction(scatter, l1))
     } else if scattering > planarity {
         Surface::Scattered
     } else if s2 < flatness * s3 {
-        Surface::Linear
+        if thick_scattered {
+            Surface::Scattered
+        } else {
+            Surface::Linear(line_direction(scatter, l1))
+        }
     } else {
         let n = symmetric_eigenvector3(scatter, l3);
         let norm = n.norm();
@@ -367,6 +508,18 @@ fn judge_scatter(scatter: &Matrix3<f64>, flatness: f64) -> Surface {
         } else {
             Surface::TooFew
         }
+    }
+}
+
+/// The unit eigenvector of the largest eigenvalue `l1` of a linear neighbourhood's scatter
+/// matrix: the line's direction (`x` where it is not defined).
+fn line_direction(scatter: &Matrix3<f64>, l1: f64) -> Vector3<f64> {
+    let d = symmetric_eigenvector3(scatter, l1);
+    let norm = d.norm();
+    if norm > 0.0 && norm.is_finite() {
+        d / norm
+    } else {
+        Vector3::x()
     }
 }
 
@@ -842,10 +995,11 @@ mod tests {
                 [x, 0.01 * (x * 3.0).sin(), 0.01 * (x * 5.0).cos()]
             })
             .collect();
-        assert_eq!(
-            judge_surfaces(&line, &[[10.0, 0.0, 0.0]], 10)[0],
-            Surface::Linear
-        );
+        let Surface::Linear(d) = judge_surfaces(&line, &[[10.0, 0.0, 0.0]], 10)[0] else {
+            panic!("linear")
+        };
+        // The line's direction is x, to its 1 cm wiggle over a 5 m neighbourhood.
+        assert!(d.x.abs() > 0.999, "{d}");
         // A cube of points: scattered.
         let cube: Vec<[f64; 3]> = (0..125)
             .map(|i| [f64::from(i % 5), f64::from((i / 5) % 5), f64::from(i / 25)])
@@ -1204,15 +1358,15 @@ mod tests {
         // plane), on the strip's neighbourhoods (planes, single scan lines, the wall, the
         // stacked column, duplicates): the same kind everywhere, normals to rounding.
         fn previous(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
-            let ([l3, l2, l1], [n, ..]) = symmetric_eigen3(&scatter_of(q, nn));
+            let ([l3, l2, l1], [n, _, along]) = symmetric_eigen3(&scatter_of(q, nn));
             let (s1, s2, s3) = (l1.max(0.0).sqrt(), l2.max(0.0).sqrt(), l3.max(0.0).sqrt());
             if !(s1 > 0.0 && s1.is_finite()) {
                 return Surface::TooFew;
             }
             let (linearity, planarity, scattering) = ((s1 - s2) / s1, (s2 - s3) / s1, s3 / s1);
             if linearity >= planarity && linearity >= scattering {
-                Surface::Linear
-            } else if scattering > planarity {
+                Surface::Linear(along)
+            } else if scattering > planarity || s2 < FLATNESS * s3 {
                 Surface::Scattered
             } else {
                 Surface::Planar(n / n.norm())
@@ -1231,10 +1385,14 @@ mod tests {
                         assert!(d < 1e-12, "{a} vs {b}");
                         kinds[0] += 1;
                     }
+                    (Surface::Linear(a), Surface::Linear(b)) => {
+                        assert!(a.dot(&b).abs() > 1.0 - 1e-9, "{a} vs {b}");
+                        kinds[1] += 1;
+                    }
                     (a, b) => {
                         assert_eq!(a, b);
                         kinds[match a {
-                            Surface::Linear => 1,
+                            Surface::Linear(_) => 1,
                             Surface::Scattered => 2,
                             _ => 3,
                         }] += 1;
@@ -1324,7 +1482,7 @@ mod tests {
         assert!(
             judge_surfaces(&line, &line, 10)
                 .iter()
-                .all(|s| *s == Surface::Linear)
+                .all(|s| matches!(s, Surface::Linear(_)))
         );
     }
 

@@ -82,7 +82,7 @@ fn anisotropic_planes_get_a_normal_and_lines_and_vegetation_do_not() {
                     t.within_2deg += usize::from(angle <= 2.0);
                 }
             }
-            Surface::Linear => t.linear += 1,
+            Surface::Linear(_) => t.linear += 1,
             _ => {}
         }
     }

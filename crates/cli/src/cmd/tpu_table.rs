@@ -55,12 +55,14 @@ pub(crate) fn table(r: &SurveyReport) -> String {
         let _ = writeln!(
             out,
             "\nincidence term: {} normals from the file, {} planar neighbourhoods ({} of them only \
-             when widened); left out: {} linear, {} scattered, {} too few points, {} invalid file \
+             when widened), {} across a scan line; the prior (no surface measured): {} planes \
+             containing the beam, {} scattered; left out: {} too few points, {} invalid file \
              normals",
             inc.file_normals,
             inc.planar,
             inc.planar_widened,
             inc.linear,
+            inc.beam_in_plane,
             inc.scattered,
             inc.too_few_points,
             inc.invalid_file_normals
