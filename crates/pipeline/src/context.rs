@@ -681,7 +681,9 @@ impl TpuContext {
         };
         if !same(file, input) {
             return Err(Error::InvalidOption(format!(
-                "{}: posed by the sensor pose stored with the points of {}, whose GPS time is                  too coarse to tell the pose of another file's points: give each file as its                  own trajectory",
+                "{}: posed by the sensor pose stored with the points of {}, whose GPS time is \
+                 too coarse to tell the pose of another file's points: give each file as its \
+                 own trajectory",
                 input.display(),
                 file.display()
             )));
@@ -723,11 +725,14 @@ impl TpuContext {
     pub(crate) fn heights_note(&self, info: &LasInfo, heights: &Heights) -> Option<Warning> {
         let v = info.crs.orthometric.as_ref()?;
         let how = match heights {
-            Heights::Offset(n) if *n == 0.0 => format!(
-                "the trajectory {} was rebuilt from the points and is in their height system:                  no geoid applied",
+            Heights::Offset(n) if self.options.geoid_separation_m.is_some() => {
+                format!("the geoid separation {n} m given with --geoid-separation-m added")
+            }
+            Heights::Offset(_) => format!(
+                "the trajectory {} was rebuilt from the points and is in their height system: \
+                 no geoid applied",
                 self.trajectory_path.display()
             ),
-            Heights::Offset(n) => format!("the geoid separation {n} m added"),
             Heights::Geoid(g) => format!("{} added at each point", g.describe()),
         };
         Some(Warning::new(

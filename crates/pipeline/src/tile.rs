@@ -250,7 +250,7 @@ pub fn tpu_tile_with_progress(
 
 /// The warning when the scan angle recovered from the points and the trajectory disagrees with
 /// the file's scan-angle field beyond what the field's step and the angles' σ explain: RMS of
-/// the difference above half the step plus 3 σ of √(σ_scan² + σ_roll² + σ_boresight_roll²).
+/// the difference above the step plus 3 σ of √(σ_scan² + σ_roll² + σ_boresight_roll²).
 /// Likely causes: the trajectory is not the one the points were georeferenced with (or lacks
 /// roll), a mounting (boresight, lever arm) far from the one used, or a scanner whose field is
 /// not an angle in the scan plane.
@@ -270,12 +270,16 @@ fn scan_angle_disagreement(
         .sum::<f64>()
         .sqrt()
         .to_degrees();
-    let bound_deg = check.step_deg / 2.0 + 3.0 * sigma_deg;
+    let bound_deg = check.step_deg + 3.0 * sigma_deg;
     (rms_deg > bound_deg).then(|| {
         lidarqa_model::Warning::new(
             "scan_angle_disagrees",
             format!(
-                "{}: the scan angle recovered from the points and the trajectory ({}) differs                  from the file's scan-angle field by {rms_deg:.2}° RMS ({:.2}° at most) over {}                  points, beyond the field's step {}° and 3 σ ({:.3}°) of the angles: likely the                  trajectory is not the one the points were made with, the mounting (boresight,                  lever arm) is not the one used, or the field is not the angle in the scan plane",
+                "{}: the scan angle recovered from the points and the trajectory ({}) differs \
+                 from the file's scan-angle field by {rms_deg:.2}° RMS ({:.2}° at most) over {} \
+                 points, beyond the field's step {}° and 3 σ ({:.3}°) of the angles: likely the \
+                 trajectory is not the one the points were made with, the mounting (boresight, \
+                 lever arm) is not the one used, or the field is not the angle in the scan plane",
                 input.display(),
                 format.describe(),
                 check.max_deg,
