@@ -57,7 +57,7 @@ pub use pointcloud::{
     CLASS_BATHYMETRY, CLASS_WATER_SURFACE, CoordinateBlock, ExtraDim, LasInfo, LasPoint, LasReader,
     LasWriteOptions, LasWriter, PointChunk, RawChunk, RawPoint, WRITE_BATCH_POINTS,
 };
-pub use pointpose::{POSE_DIMS, has_point_pose, read_point_pose};
+pub use pointpose::{POSE_DIMS, has_point_pose};
 pub use sbet::{
     F64Record, RAD_PER_ARCMIN, RecordReader, RecordWriter, SbetPose, SbetReader, SbetWriter,
     SmrmsgReader, SmrmsgSigma, SmrmsgWriter, raw as sbet_raw, read_sbet, read_smrmsg,
@@ -65,6 +65,6 @@ pub use sbet::{
 };
 pub use trajtext::{
     HEIGHTS_AS_POINTS, HeadingReference, TextPose, TextSigma, TextTrajectory, TrajectoryFile,
-    TrajectoryFormat, TrajectoryPosition, parse_text_trajectory, read_trajectory,
+    TrajectoryFormat, TrajectoryPosition, parse_text_trajectory, read_point_pose, read_trajectory,
     write_reconstructed_trajectory,
 };

@@ -17,12 +17,18 @@
 use crate::error::{Error, Result};
 use crate::gpstime::{SECONDS_PER_WEEK_S, adjusted_standard_to_week};
 use crate::pointcloud::{LasReader, PointChunk};
-use crate::trajtext::{
-    HeadingReference, TextPose, TextTrajectory, TrajectoryFormat, TrajectoryPosition,
-};
-use lidarqa_model::Warning;
 use std::path::Path;
 use std::sync::Arc;
+
+/// A per-point pose as read, before it becomes a trajectory (`trajtext` builds that).
+pub(crate) struct PointPoses {
+    /// (key, x, y, z, roll, pitch, yaw) in key order, one per distinct key.
+    pub(crate) poses: Vec<[f64; 7]>,
+    /// Each point's key in file order, when GPS time is coarse (else the GPS time is the key).
+    pub(crate) point_keys: Option<Arc<Vec<f64>>>,
+    /// What was read and how it was ordered, for a note.
+    pub(crate) note: String,
+}
 
 /// The pose dimensions: x, y, z, roll, pitch, yaw.
 pub const POSE_DIMS: [&str; 6] = [
@@ -46,12 +52,12 @@ pub fn has_point_pose(path: &Path) -> bool {
     })
 }
 
-/// Reads the per-point pose of `path` as a trajectory (see the module docs).
+/// Reads the per-point pose of `path` (see the module docs).
 ///
 /// # Errors
 /// The reader's errors; [`Error::InvalidLas`] naming the file when a pose dimension is missing,
 /// a pose is not finite, or GPS time is coarse and no frame counter orders the points.
-pub fn read_point_pose(path: &Path) -> Result<TextTrajectory> {
+pub(crate) fn read_point_poses(path: &Path) -> Result<PointPoses> {
     let mut r = LasReader::from_path(path)?;
     let info = r.info().clone();
     let bad = |message: String| Error::InvalidLas {
@@ -156,40 +162,23 @@ pub fn read_point_pose(path: &Path) -> Result<TextTrajectory> {
     // One pose per distinct key, in key order.
     let mut by_key: Vec<usize> = (0..n).collect();
     by_key.sort_by(|a, b| keys[*a].total_cmp(&keys[*b]));
-    let mut poses: Vec<TextPose> = Vec::with_capacity(n);
+    let mut poses: Vec<[f64; 7]> = Vec::with_capacity(n);
     for i in by_key {
-        if poses.last().is_some_and(|p| p.time_s >= keys[i]) {
+        if poses.last().is_some_and(|p| p[0] >= keys[i]) {
             continue;
         }
         let [x, y, z, roll, pitch, yaw] = pose[i];
-        poses.push(TextPose {
-            time_s: keys[i],
-            position: [x, y, z],
-            roll_rad: roll,
-            pitch_rad: pitch,
-            heading_rad: yaw,
-            sigma: None,
-        });
+        poses.push([keys[i], x, y, z, roll, pitch, yaw]);
     }
-    let warnings = vec![Warning::new(
-        "per_point_pose",
-        format!(
-            "{}: the sensor pose stored with each of its {n} points is the trajectory ({} \
-             poses), ordered by {order}",
-            path.display(),
-            poses.len()
-        ),
-    )];
-    Ok(TextTrajectory {
-        format: TrajectoryFormat::PointPose,
-        position: TrajectoryPosition::Projected,
-        heading: HeadingReference::Grid,
+    let note = format!(
+        "{}: the sensor pose stored with each of its {n} points is the trajectory ({} poses), \
+         ordered by {order}",
+        path.display(),
+        poses.len()
+    );
+    Ok(PointPoses {
         poses,
-        warnings,
-        sigma_added: false,
-        position_units_m: None,
-        // The pose and the points come from the same file: one height system.
-        heights_as_points: true,
-        point_keys: (!fine).then(|| (path.to_path_buf(), Arc::new(keys))),
+        point_keys: (!fine).then(|| Arc::new(keys)),
+        note,
     })
 }

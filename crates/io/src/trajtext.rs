@@ -188,9 +188,7 @@ pub fn read_trajectory(path: impl AsRef<Path>) -> Result<TrajectoryFile> {
     let texty =
         |b: &u8| b.is_ascii_graphic() || *b >= 0x80 || matches!(b, b' ' | b'\t' | b'\r' | b'\n');
     if head.starts_with(b"LASF") {
-        return Ok(TrajectoryFile::Text(crate::pointpose::read_point_pose(
-            path,
-        )?));
+        return Ok(TrajectoryFile::Text(read_point_pose(path)?));
     }
     if head.is_empty() || !head.iter().all(texty) {
         return Ok(TrajectoryFile::Sbet(read_sbet(path)?));
@@ -202,6 +200,40 @@ pub fn read_trajectory(path: impl AsRef<Path>) -> Result<TrajectoryFile> {
         message: format!("not UTF-8 text: {e}"),
     })?;
     Ok(TrajectoryFile::Text(parse_text_trajectory(path, &text)?))
+}
+
+/// The sensor pose stored with every point of a LAS/LAZ as a trajectory (see the `pointpose`
+/// module): projected positions in the points' CRS, the yaw a grid heading, heights in the
+/// points' own system.
+///
+/// # Errors
+/// The reader's errors; [`Error::InvalidLas`] naming the file when a pose dimension is missing,
+/// a pose is not finite, or GPS time is coarse and no frame counter orders the points.
+pub fn read_point_pose(path: &Path) -> Result<TextTrajectory> {
+    let p = crate::pointpose::read_point_poses(path)?;
+    Ok(TextTrajectory {
+        format: TrajectoryFormat::PointPose,
+        position: TrajectoryPosition::Projected,
+        heading: HeadingReference::Grid,
+        poses: p
+            .poses
+            .iter()
+            .map(|[t, x, y, z, roll, pitch, yaw]| TextPose {
+                time_s: *t,
+                position: [*x, *y, *z],
+                roll_rad: *roll,
+                pitch_rad: *pitch,
+                heading_rad: *yaw,
+                sigma: None,
+            })
+            .collect(),
+        warnings: vec![Warning::new("per_point_pose", p.note)],
+        sigma_added: false,
+        position_units_m: None,
+        // The pose and the points come from the same file: one height system.
+        heights_as_points: true,
+        point_keys: p.point_keys.map(|k| (path.to_path_buf(), k)),
+    })
 }
 
 /// Column indices of a header.
