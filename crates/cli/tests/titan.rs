@@ -185,6 +185,7 @@ fn titan_trajectory_from_returns_matches_sritrajectory() {
         std::fs::read_to_string(path)
             .unwrap()
             .lines()
+            .filter(|l| !l.starts_with('#'))
             .skip(1)
             .map(|l| {
                 l.split(',')

@@ -48,7 +48,8 @@ struct Row {
 
 fn rows(path: &Path) -> Vec<Row> {
     let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
+    // The first line is the mark of a rebuilt trajectory's height system (a comment).
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let col = |n: &str| header.iter().position(|h| *h == n).unwrap();
     let c = [

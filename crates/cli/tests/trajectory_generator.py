@@ -146,7 +146,7 @@ def fly(seed):
     if run.returncode != 0:
         sys.exit(f"lidarqa trajectory failed: {run.stderr}")
 
-    rows = list(csv.DictReader(open(out)))
+    rows = list(csv.DictReader(l for l in open(out) if not l.startswith("#")))
     col = lambda k: np.array([float(r[k]) for r in rows])
     tt = col("time")
     xyz = np.c_[col("x"), col("y"), col("z")]

@@ -218,6 +218,15 @@ pub enum Error {
         second: PathBuf,
     },
 
+    /// A geoid grid (`--geoid`) that cannot be read or used.
+    #[error("{}: {message}", path.display())]
+    Geoid {
+        /// The grid file.
+        path: PathBuf,
+        /// What is wrong and the likely cause.
+        message: String,
+    },
+
     /// A LAS time that cannot be put on the trajectory's seconds-of-week time base.
     #[error("{}: {message}", path.display())]
     GpsTime {

@@ -9,6 +9,7 @@
 //! - the sensor file of SPEC §5 ([`read_sensor`]);
 //! - WGS84 geodetic ↔ ECEF ↔ NED, UTM ([`UtmZone`]) and any projected CRS in metres or feet
 //!   ([`Crs`]); GPS time bases ([`LasTimeConverter`]);
+//! - geoid models: EGM2008 built in and GTX / GeoTIFF grids ([`GeoidModel`]);
 //! - atomic outputs: a temporary file beside the target, renamed when complete ([`AtomicFile`]).
 //!
 //! Every error names the file and, where there is one, the line, record or key at fault.
@@ -26,10 +27,12 @@ mod crs;
 mod csv;
 mod error;
 mod geodesy;
+mod geoid;
 mod gpstime;
 mod grid_to_ecef;
 mod local_inverse;
 mod pointcloud;
+mod pointpose;
 mod sbet;
 mod trajtext;
 
@@ -43,6 +46,7 @@ pub use geodesy::{
     Ellipsoid, Geodetic, Hemisphere, Projected, TransverseMercator, Unprojected, UtmDatum, UtmZone,
     ecef_to_geodetic, geodetic_to_ecef,
 };
+pub use geoid::{GeoidGrid, GeoidModel};
 pub use gpstime::{
     ADJUSTED_GPS_OFFSET_S, CivilDate, GpsWeekTime, LasTimeBase, LasTimeConverter,
     SECONDS_PER_WEEK_S, adjusted_standard_to_week, gps_week_of_date, gps_week_start,
@@ -54,12 +58,14 @@ pub use pointcloud::{
     CLASS_BATHYMETRY, CLASS_WATER_SURFACE, CoordinateBlock, ExtraDim, LasInfo, LasPoint, LasReader,
     LasWriteOptions, LasWriter, PointChunk, RawChunk, RawPoint, WRITE_BATCH_POINTS,
 };
+pub use pointpose::{POSE_DIMS, has_point_pose};
 pub use sbet::{
     F64Record, RAD_PER_ARCMIN, RecordReader, RecordWriter, SbetPose, SbetReader, SbetWriter,
     SmrmsgReader, SmrmsgSigma, SmrmsgWriter, raw as sbet_raw, read_sbet, read_smrmsg,
     write_records_to_path,
 };
 pub use trajtext::{
-    HeadingReference, TextPose, TextSigma, TextTrajectory, TrajectoryFile, TrajectoryFormat,
-    TrajectoryPosition, parse_text_trajectory, read_trajectory, write_reconstructed_trajectory,
+    HEIGHTS_AS_POINTS, HeadingReference, TextPose, TextSigma, TextTrajectory, TrajectoryFile,
+    TrajectoryFormat, TrajectoryPosition, parse_text_trajectory, read_point_pose, read_trajectory,
+    write_reconstructed_trajectory,
 };

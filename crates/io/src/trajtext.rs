@@ -13,7 +13,11 @@
 //!   latitude (degrees), easting, northing, ellipsoidal height (m), roll, pitch, heading (degrees,
 //!   true), σ easting, σ northing, σ height (m), σ roll, σ pitch, σ heading (degrees), the order
 //!   cBLUE's `Sbet.py` reads. lidarqa takes the geodetic position and the σ.
-//! - **Any CSV or whitespace text with a header**, columns matched case-insensitively: time
+//! - **Any CSV or whitespace text with a header**, columns matched case-insensitively, each
+//!   name optionally followed by its unit in brackets or parentheses as exporters write them
+//!   (`Time[s]`, `Roll[deg]`, `Height (m)`, `Easting[US ft]`: s; deg, rad; m, ft, US ft; an
+//!   unknown unit is refused naming the column; no unit means degrees for angles and the CRS's
+//!   own unit for a projected position): time
 //!   (`gpstime`, `gps_time`, `time`, `t`); a geodetic position (`latitude`/`lat`,
 //!   `longitude`/`lon`, degrees, and `height`/`h`/`ellipsoidal_height`/`z`) or else a projected one
 //!   in the points' CRS (`x`/`easting`, `y`/`northing`, `z`/`height`); attitude in degrees
@@ -48,6 +52,8 @@ pub enum TrajectoryFormat {
     PospacAscii,
     /// CSV or whitespace text with a header.
     Csv,
+    /// The sensor pose stored with every point of a LAS/LAZ (`SensorX` … `SensorYawRads`).
+    PointPose,
 }
 
 impl TrajectoryFormat {
@@ -58,6 +64,7 @@ impl TrajectoryFormat {
             TrajectoryFormat::SriTrajectory => "PDAL filters.sritrajectory text",
             TrajectoryFormat::PospacAscii => "PosPac ASCII (cBLUE's 15 columns)",
             TrajectoryFormat::Csv => "text with a header",
+            TrajectoryFormat::PointPose => "the sensor pose stored with each point",
         }
     }
 }
@@ -131,6 +138,15 @@ pub struct TextTrajectory {
     /// The poses' σ are those of a reconstruction, to be added to the sensor's GNSS and
     /// attitude σ (not an SMRMSG-like σ that replaces them).
     pub sigma_added: bool,
+    /// Metres per stored unit of a projected position's x, y, z when the header names their
+    /// units (`Easting[m]`, `Height (ft)`); `None`: the points' CRS's own unit.
+    pub position_units_m: Option<[f64; 3]>,
+    /// The heights are in the points' own vertical system (a trajectory rebuilt from the same
+    /// points by `lidarqa trajectory`, marked so in its file): no geoid is needed between them.
+    pub heights_as_points: bool,
+    /// For a per-point pose whose file has coarse GPS time: that file and the key each of its
+    /// points (in file order) is posed at, instead of its GPS time.
+    pub point_keys: Option<(std::path::PathBuf, std::sync::Arc<Vec<f64>>)>,
 }
 
 /// A trajectory file of any supported layout.
@@ -153,7 +169,8 @@ impl TrajectoryFile {
 }
 
 /// Reads a trajectory, telling binary SBET from text by the content: a control byte other than
-/// whitespace in the first 4 KiB means SBET.
+/// whitespace in the first 4 KiB means SBET; a LAS/LAZ signature (`LASF`) a file whose points
+/// carry the sensor pose (see the `pointpose` module).
 ///
 /// # Errors
 /// The SBET reader's errors; for text, [`Error::Csv`], [`Error::MissingColumn`] and
@@ -170,6 +187,9 @@ pub fn read_trajectory(path: impl AsRef<Path>) -> Result<TrajectoryFile> {
     // SBET's zeros) means binary. 4 KiB of f64 records without one does not happen.
     let texty =
         |b: &u8| b.is_ascii_graphic() || *b >= 0x80 || matches!(b, b' ' | b'\t' | b'\r' | b'\n');
+    if head.starts_with(b"LASF") {
+        return Ok(TrajectoryFile::Text(read_point_pose(path)?));
+    }
     if head.is_empty() || !head.iter().all(texty) {
         return Ok(TrajectoryFile::Sbet(read_sbet(path)?));
     }
@@ -180,6 +200,40 @@ pub fn read_trajectory(path: impl AsRef<Path>) -> Result<TrajectoryFile> {
         message: format!("not UTF-8 text: {e}"),
     })?;
     Ok(TrajectoryFile::Text(parse_text_trajectory(path, &text)?))
+}
+
+/// The sensor pose stored with every point of a LAS/LAZ as a trajectory (see the `pointpose`
+/// module): projected positions in the points' CRS, the yaw a grid heading, heights in the
+/// points' own system.
+///
+/// # Errors
+/// The reader's errors; [`Error::InvalidLas`] naming the file when a pose dimension is missing,
+/// a pose is not finite, or GPS time is coarse and no frame counter orders the points.
+pub fn read_point_pose(path: &Path) -> Result<TextTrajectory> {
+    let p = crate::pointpose::read_point_poses(path)?;
+    Ok(TextTrajectory {
+        format: TrajectoryFormat::PointPose,
+        position: TrajectoryPosition::Projected,
+        heading: HeadingReference::Grid,
+        poses: p
+            .poses
+            .iter()
+            .map(|[t, x, y, z, roll, pitch, yaw]| TextPose {
+                time_s: *t,
+                position: [*x, *y, *z],
+                roll_rad: *roll,
+                pitch_rad: *pitch,
+                heading_rad: *yaw,
+                sigma: None,
+            })
+            .collect(),
+        warnings: vec![Warning::new("per_point_pose", p.note)],
+        sigma_added: false,
+        position_units_m: None,
+        // The pose and the points come from the same file: one height system.
+        heights_as_points: true,
+        point_keys: p.point_keys.map(|k| (path.to_path_buf(), k)),
+    })
 }
 
 /// Column indices of a header.
@@ -212,6 +266,10 @@ pub fn parse_text_trajectory(path: &Path, text: &str) -> Result<TextTrajectory> 
     let first_cells = split(first);
     let numeric = first_cells.iter().all(|c| c.parse::<f64>().is_ok());
     let mut warnings = Vec::new();
+    let mut header_scale = HeaderScale {
+        angle_rad: [1f64.to_radians(); 3],
+        length_m: None,
+    };
     let (format, position, heading, cols, names, data_start): (_, _, _, _, Vec<String>, _) =
         if numeric {
             if first_cells.len() != 15 {
@@ -260,10 +318,7 @@ pub fn parse_text_trajectory(path: &Path, text: &str) -> Result<TextTrajectory> 
                 None,
             )
         } else {
-            let names: Vec<String> = first_cells
-                .iter()
-                .map(|c| c.trim_matches('"').trim().to_ascii_lowercase())
-                .collect();
+            let (names, units) = header_units(path, first_no, &first_cells)?;
             let find = |alts: &[&str]| names.iter().position(|n| alts.contains(&n.as_str()));
             let missing = |column: &str| Error::MissingColumn {
                 path: path.to_path_buf(),
@@ -328,6 +383,50 @@ pub fn parse_text_trajectory(path: &Path, text: &str) -> Result<TextTrajectory> 
                     ),
                 ));
             }
+            // Units from the header: angles (roll, pitch, heading) deg or rad; a projected
+            // position's lengths m or ft / US ft; time s. A unit on the wrong kind of column
+            // (metres on an angle) is refused naming it.
+            let mut angle_rad = [1f64.to_radians(); 3];
+            for (k, c) in [roll, Some(pitch), Some(heading)].into_iter().enumerate() {
+                if let Some(c) = c {
+                    angle_rad[k] = units[c].angle(path, first_no, &names[c])?;
+                }
+            }
+            let mut length_m = [None; 3];
+            for (k, c) in pos.iter().enumerate() {
+                let geodetic_angle = position == TrajectoryPosition::Geodetic && k < 2;
+                if geodetic_angle {
+                    if units[*c].angle(path, first_no, &names[*c])? != 1f64.to_radians() {
+                        return Err(Error::BadValue {
+                            path: path.to_path_buf(),
+                            line: first_no,
+                            column: names[*c].clone(),
+                            message: "latitude and longitude are read in degrees only".into(),
+                        });
+                    }
+                } else {
+                    length_m[k] = units[*c].length(path, first_no, &names[*c])?;
+                }
+            }
+            // All three lengths given, or none (then the CRS's unit); a mix is refused.
+            let given = length_m.iter().filter(|l| l.is_some()).count();
+            if position == TrajectoryPosition::Projected && given != 0 && given != 3 {
+                let k = length_m.iter().position(Option::is_none).unwrap_or(0);
+                return Err(Error::BadValue {
+                    path: path.to_path_buf(),
+                    line: first_no,
+                    column: names[pos[k]].clone(),
+                    message: "no unit where the other position columns give one: give all \
+                              three or none"
+                        .into(),
+                });
+            }
+            units[time].time(path, first_no, &names[time])?;
+            header_scale = HeaderScale {
+                angle_rad,
+                length_m: (given == 3 && position == TrajectoryPosition::Projected)
+                    .then(|| length_m.map(|l| l.unwrap_or(1.0))),
+            };
             let sri = names.len() == 6
                 && ["gpstime", "x", "y", "z", "pitch", "azimuth"]
                     .iter()
@@ -434,8 +533,9 @@ pub fn parse_text_trajectory(path: &Path, text: &str) -> Result<TextTrajectory> 
                 p[k] = p[k].to_radians();
             }
         }
+        let a = header_scale.angle_rad;
         let roll_rad = match cols.roll {
-            Some(r) => get(r)?.to_radians(),
+            Some(r) => get(r)? * a[0],
             None => 0.0,
         };
         let sigma = match cols.sigma {
@@ -453,13 +553,18 @@ pub fn parse_text_trajectory(path: &Path, text: &str) -> Result<TextTrajectory> 
             time_s,
             position: p,
             roll_rad,
-            pitch_rad: get(cols.pitch)?.to_radians(),
-            heading_rad: get(cols.heading)?.to_radians(),
+            pitch_rad: get(cols.pitch)? * a[1],
+            heading_rad: get(cols.heading)? * a[2],
             sigma,
         });
     }
+    let sigma_added = format == TrajectoryFormat::Csv && cols.sigma.is_some();
     Ok(TextTrajectory {
-        sigma_added: format == TrajectoryFormat::Csv && cols.sigma.is_some(),
+        // The mark `lidarqa trajectory` writes; its σ columns alone say the same of older files.
+        heights_as_points: sigma_added || text.lines().any(|l| l.trim() == HEIGHTS_AS_POINTS),
+        position_units_m: header_scale.length_m,
+        point_keys: None,
+        sigma_added,
         format,
         position,
         heading,
@@ -467,6 +572,11 @@ pub fn parse_text_trajectory(path: &Path, text: &str) -> Result<TextTrajectory> 
         warnings,
     })
 }
+
+/// The comment line [`write_reconstructed_trajectory`] puts first: the heights are those of the
+/// points the trajectory was rebuilt from, in their own vertical system.
+pub const HEIGHTS_AS_POINTS: &str =
+    "# lidarqa trajectory: heights in the points' own vertical system (no geoid between them)";
 
 /// Header of [`write_reconstructed_trajectory`].
 const RECONSTRUCTED_HEADER: &str = "time,x,y,z,roll,pitch,azimuth,reconstruction_sigma_x_m,\
@@ -490,11 +600,12 @@ pub fn write_reconstructed_trajectory<P: AsRef<Path>>(
     use std::io::Write as _;
     let mut f = crate::AtomicFile::create(path, inputs)?;
     let io = |e| Error::io(path, e);
+    writeln!(f, "{HEIGHTS_AS_POINTS}").map_err(io)?;
     writeln!(f, "{RECONSTRUCTED_HEADER}").map_err(io)?;
     for (i, p) in poses.iter().enumerate() {
         let s = p.sigma.ok_or_else(|| Error::BadValue {
             path: path.to_path_buf(),
-            line: i as u64 + 2,
+            line: i as u64 + 3,
             column: "reconstruction_sigma_x_m".into(),
             message: "a reconstructed pose has no σ".into(),
         })?;
@@ -518,6 +629,115 @@ pub fn write_reconstructed_trajectory<P: AsRef<Path>>(
         .map_err(io)?;
     }
     f.commit()
+}
+
+/// The unit a header cell names in brackets or parentheses (`Time[s]`, `Height (m)`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum HeaderUnit {
+    /// No unit given: the layout's default (degrees, the CRS's unit, seconds).
+    Default,
+    Second,
+    Degree,
+    Radian,
+    /// A length in metres per unit (m, ft, US ft).
+    Length(f64),
+}
+
+impl HeaderUnit {
+    /// From the text between the brackets, case-insensitively; `None` when not known.
+    fn parse(u: &str) -> Option<HeaderUnit> {
+        let u = u.trim().to_ascii_lowercase().replace(['_', '.'], " ");
+        let u = u.split_whitespace().collect::<Vec<_>>().join(" ");
+        Some(match u.as_str() {
+            "s" | "sec" | "second" | "seconds" => HeaderUnit::Second,
+            "deg" | "degree" | "degrees" | "°" => HeaderUnit::Degree,
+            "rad" | "radian" | "radians" => HeaderUnit::Radian,
+            "m" | "metre" | "metres" | "meter" | "meters" => HeaderUnit::Length(1.0),
+            "ft" | "foot" | "feet" | "international foot" | "intl ft" => HeaderUnit::Length(0.3048),
+            "us ft" | "usft" | "us-ft" | "ftus" | "us survey foot" | "us survey feet"
+            | "survey ft" => HeaderUnit::Length(1200.0 / 3937.0),
+            _ => return None,
+        })
+    }
+
+    fn wrong(self, path: &Path, line: u64, column: &str, want: &str) -> Error {
+        Error::BadValue {
+            path: path.to_path_buf(),
+            line,
+            column: column.into(),
+            message: format!("the header gives it in {}, not {want}", self.name()),
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            HeaderUnit::Default => "no unit",
+            HeaderUnit::Second => "seconds",
+            HeaderUnit::Degree => "degrees",
+            HeaderUnit::Radian => "radians",
+            HeaderUnit::Length(_) => "a length",
+        }
+    }
+
+    /// Radians per unit of an angle column.
+    fn angle(self, path: &Path, line: u64, column: &str) -> Result<f64> {
+        match self {
+            HeaderUnit::Default | HeaderUnit::Degree => Ok(1f64.to_radians()),
+            HeaderUnit::Radian => Ok(1.0),
+            _ => Err(self.wrong(path, line, column, "an angle (deg or rad)")),
+        }
+    }
+
+    /// Metres per unit of a length column; `None` without a unit (the CRS's own).
+    fn length(self, path: &Path, line: u64, column: &str) -> Result<Option<f64>> {
+        match self {
+            HeaderUnit::Default => Ok(None),
+            HeaderUnit::Length(m) => Ok(Some(m)),
+            _ => Err(self.wrong(path, line, column, "a length (m, ft or US ft)")),
+        }
+    }
+
+    fn time(self, path: &Path, line: u64, column: &str) -> Result<()> {
+        match self {
+            HeaderUnit::Default | HeaderUnit::Second => Ok(()),
+            _ => Err(self.wrong(path, line, column, "seconds")),
+        }
+    }
+}
+
+/// What the header's units turn each value into: radians for roll, pitch, heading, and metres
+/// per unit of the three position columns when the header gives them.
+struct HeaderScale {
+    angle_rad: [f64; 3],
+    length_m: Option<[f64; 3]>,
+}
+
+/// The header's column names (lower case, quotes and units stripped) and their units: a unit
+/// in brackets or parentheses after the name (`Time[s]`, `Roll[deg]`, `Height (m)`,
+/// `Easting[US ft]`), one that is not known refused naming the column.
+fn header_units(path: &Path, line: u64, cells: &[&str]) -> Result<(Vec<String>, Vec<HeaderUnit>)> {
+    let mut names = Vec::with_capacity(cells.len());
+    let mut units = Vec::with_capacity(cells.len());
+    for c in cells {
+        let c = c.trim_matches('"').trim();
+        let (name, unit) = match c.find(['[', '(']) {
+            Some(i) if c.ends_with([']', ')']) => {
+                let u = &c[i + 1..c.len() - 1];
+                let name = c[..i].trim().to_ascii_lowercase();
+                let unit = HeaderUnit::parse(u).ok_or_else(|| Error::BadValue {
+                    path: path.to_path_buf(),
+                    line,
+                    column: name.clone(),
+                    message: format!("unknown unit `{u}` (known: s; deg, rad; m, ft, US ft)"),
+                })?;
+                (name, unit)
+            }
+            _ => (c.to_ascii_lowercase(), HeaderUnit::Default),
+        };
+        names.push(name);
+        units.push(unit);
+    }
+    Ok((names, units))
 }
 
 /// Cells of one row: comma-separated when the row has a comma, else whitespace-separated.
@@ -563,6 +783,7 @@ mod tests {
             panic!("not text")
         };
         assert!(t.sigma_added);
+        assert!(t.heights_as_points);
         assert_eq!(t.format, TrajectoryFormat::Csv);
         assert_eq!(t.position, TrajectoryPosition::Projected);
         assert_eq!(t.heading, HeadingReference::Grid);
@@ -635,6 +856,51 @@ mod tests {
         assert_eq!(t.heading, HeadingReference::True);
         assert!((t.poses[0].roll_rad - 1f64.to_radians()).abs() < 1e-15);
         assert!(t.warnings.is_empty());
+    }
+
+    #[test]
+    fn units_in_the_header_are_read_and_an_unknown_one_is_named() {
+        // The RIEGL ULS export's header as shipped.
+        let t = parse(
+            "Time[s],Roll[deg],Pitch[deg],Yaw[deg],Easting[m],Northing[m],Height[m]\n\
+             216089.127262,-1.216987240439,-13.651066817636,15.513150101748,682256.3644,5763609.5492,74.8281\n",
+        )
+        .unwrap();
+        assert_eq!(t.position, TrajectoryPosition::Projected);
+        assert_eq!(t.heading, HeadingReference::True);
+        let p = t.poses[0];
+        assert_eq!(p.position, [682256.3644, 5763609.5492, 74.8281]);
+        assert_eq!(t.position_units_m, Some([1.0; 3]));
+        assert!(!t.heights_as_points);
+        assert!((p.heading_rad - 15.513150101748f64.to_radians()).abs() < 1e-15);
+        // Radians and feet, with parentheses and spaces.
+        let t = parse(
+            "time (s), roll (rad), pitch (rad), heading (rad), easting (ft), northing (US ft), height (ft)\n\
+             1, 0.1, 0.2, 0.3, 1000, 3937, 100\n",
+        )
+        .unwrap();
+        let p = t.poses[0];
+        assert_eq!((p.roll_rad, p.pitch_rad, p.heading_rad), (0.1, 0.2, 0.3));
+        let u = t.position_units_m.unwrap();
+        assert!((p.position[0] * u[0] - 304.8).abs() < 1e-9);
+        assert!((p.position[1] * u[1] - 1200.0).abs() < 1e-9);
+        assert!((p.position[2] * u[2] - 30.48).abs() < 1e-9);
+        let e = parse("Time[s],Roll[grad],Pitch[deg],Yaw[deg],E[m],N[m],Z[m]\n1,2,3,4,5,6,7\n");
+        assert_eq!(
+            e.unwrap_err().to_string(),
+            "t.txt: line 1: column `roll`: unknown unit `grad` (known: s; deg, rad; m, ft, US ft)"
+        );
+        let e = parse("Time[s],Roll[m],Pitch[deg],Yaw[deg],x,y,z\n1,2,3,4,5,6,7\n").unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("column `roll`: the header gives it in a length"),
+            "{e}"
+        );
+        let e = parse("Time[ms],Roll,Pitch,Yaw,x,y,z\n1,2,3,4,5,6,7\n").unwrap_err();
+        assert!(
+            e.to_string().contains("column `time`: unknown unit `ms`"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -993,12 +993,15 @@ fn stream_strip(
             InverseKind::Exact,
             chunk.points.iter().map(|p| [p.x, p.y]),
         );
+        // A geoid's N at the chunk's first point (it changes by centimetres over kilometres).
+        let mut offset: Option<f64> = None;
         for p in &chunk.points {
             crate::error::check_finite(path, index, p.x, p.y, p.z)?;
             same_psid &= *psid.get_or_insert(p.point_source_id) == p.point_source_id;
             let k = index;
             index += 1;
-            let z = p.z + tile.height_offset_m;
+            let z =
+                p.z + *offset.get_or_insert_with(|| tile.heights.offset_at(projection, p.x, p.y));
             let sow = match p.gps_time_s.map(|t| tile.converter.to_seconds_of_week(t)) {
                 Some(Ok(s)) => s,
                 Some(Err(e)) => {

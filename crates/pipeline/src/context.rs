@@ -5,7 +5,7 @@ use crate::plausibility::{
     TrajectoryFacts, TrajectorySample, check_trajectory, check_trajectory_sigmas,
 };
 use lidarqa_io::{
-    Crs, Ellipsoid, Geodetic, HeadingReference, LasInfo, LasReader, LasTimeConverter,
+    Crs, Ellipsoid, Geodetic, GeoidModel, HeadingReference, LasInfo, LasReader, LasTimeConverter,
     LasWriteOptions, LasWriter, SbetPose, SensorExtras, SmrmsgSigma, TextTrajectory,
     TrajectoryFile, TrajectoryFormat, TrajectoryPosition, UtmDatum, UtmZone,
     read_sensor_with_extras, read_smrmsg, read_trajectory,
@@ -37,6 +37,10 @@ pub struct TpuOptions {
     /// Geoid separation N (ellipsoidal − orthometric height, m) added to LAS Z and to a projected
     /// text trajectory's Z: required when the file declares an orthometric vertical CRS.
     pub geoid_separation_m: Option<f64>,
+    /// A geoid grid (GTX or GeoTIFF, `--geoid`) for orthometric heights: N at each point.
+    pub geoid: Option<PathBuf>,
+    /// The classes of returns from below the water surface (the conic TPU's soundings).
+    pub water_classes: crate::water::WaterClasses,
     /// Also write the full 3 × 3 covariance in the projected axes (PDAL `filters.als_tpu`'s
     /// VarianceX/Y/Z, CovarianceXY/XZ/YZ, f64 m²).
     pub covariance: bool,
@@ -54,6 +58,8 @@ impl Default for TpuOptions {
             margin_points: 20_000,
             covariance: false,
             geoid_separation_m: None,
+            geoid: None,
+            water_classes: crate::water::WaterClasses::default(),
         }
     }
 }
@@ -84,7 +90,47 @@ pub struct TpuContext {
     pub(crate) sigma_span_s: Option<[f64; 2]>,
     /// The trajectory in ECEF for each CRS used so far: the points and the trajectory go to ECEF
     /// on the same ellipsoid, and a projected text trajectory through the points' projection.
-    trajectories: Mutex<Vec<(Crs, Arc<Trajectory>)>>,
+    trajectories: Mutex<Vec<(Crs, Heights, Arc<Trajectory>)>>,
+    /// The user's geoid grid (`--geoid`), read once.
+    geoid: Option<Arc<GeoidModel>>,
+}
+
+/// How a height the file stores becomes the ellipsoidal height the georeferencing needs.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Heights {
+    /// Plus a constant: 0 for ellipsoidal heights (or a trajectory in the points' own height
+    /// system), the geoid separation N of `--geoid-separation-m`.
+    Offset(f64),
+    /// Plus N of a geoid model at the position.
+    Geoid(Arc<GeoidModel>),
+}
+
+impl Heights {
+    /// What is added to a height at (lat, lon) in radians; NaN where the model has no value.
+    pub(crate) fn offset_m(&self, latitude_rad: f64, longitude_rad: f64) -> f64 {
+        match self {
+            Heights::Offset(n) => *n,
+            Heights::Geoid(g) => g
+                .undulation_m(latitude_rad, longitude_rad)
+                .unwrap_or(f64::NAN),
+        }
+    }
+
+    /// Nothing is added.
+    pub(crate) fn is_zero(&self) -> bool {
+        *self == Heights::Offset(0.0)
+    }
+
+    /// The offset at a projected position of `crs` (metres).
+    pub(crate) fn offset_at(&self, crs: &Crs, x_m: f64, y_m: f64) -> f64 {
+        match self {
+            Heights::Offset(n) => *n,
+            Heights::Geoid(_) => {
+                let u = crs.unproject(x_m, y_m);
+                self.offset_m(u.latitude_rad(), u.longitude_rad())
+            }
+        }
+    }
 }
 
 /// A trajectory rebuilt from the returns (`lidarqa trajectory`) is the scanner's own pose: its
@@ -325,7 +371,15 @@ impl TpuContext {
         if matches!(&poses, TrajectoryFile::Text(t) if t.sigma_added) {
             warnings.extend(scanner_pose_mounting(&mut sensor, &trajectory_path));
         }
+        let geoid = match &options.geoid {
+            Some(p) => Some(Arc::new(GeoidModel::from_file(p).map_err(Error::Io)?)),
+            None => None,
+        };
+        if let Some(p) = &options.geoid {
+            inputs.push(p.clone());
+        }
         let ctx = TpuContext {
+            geoid,
             recovery_mounting: sensor.mounting,
             sensor,
             beam_divergence_rad: extras.beam_divergence_rad,
@@ -464,19 +518,26 @@ impl TpuContext {
     /// # Errors
     /// As [`TpuContext::trajectory`].
     pub fn trajectory_in(&self, crs: &Crs) -> Result<Arc<Trajectory>> {
+        let heights = Heights::Offset(self.options.geoid_separation_m.unwrap_or(0.0));
+        self.trajectory_with(crs, &heights)
+    }
+
+    /// As [`TpuContext::trajectory_in`], a projected text trajectory's Z (in the points'
+    /// vertical system) made ellipsoidal by `heights`.
+    pub(crate) fn trajectory_with(&self, crs: &Crs, heights: &Heights) -> Result<Arc<Trajectory>> {
         let mut cache = self
             .trajectories
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
         // A geodetic trajectory: one per ellipsoid; a projected one: one per CRS.
-        let same = |c: &Crs| {
+        let same = |c: &Crs, h: &Heights| {
             if self.is_projected() {
-                c == crs
+                c == crs && h == heights
             } else {
                 c.ellipsoid() == crs.ellipsoid()
             }
         };
-        if let Some((_, t)) = cache.iter().find(|(c, _)| same(c)) {
+        if let Some((_, _, t)) = cache.iter().find(|(c, h, _)| same(c, h)) {
             return Ok(Arc::clone(t));
         }
         let e: Ellipsoid = crs.ellipsoid();
@@ -496,15 +557,13 @@ impl TpuContext {
                     )
                 })
                 .collect(),
-            TrajectoryFile::Text(t) => {
-                text_poses(t, &e, crs, self.options.geoid_separation_m.unwrap_or(0.0))
-            }
+            TrajectoryFile::Text(t) => text_poses(t, &e, crs, heights),
         };
         let t = Arc::new(Trajectory::new(&poses).map_err(|source| Error::Input {
             path: self.trajectory_path.clone(),
             source,
         })?);
-        cache.push((crs.clone(), Arc::clone(&t)));
+        cache.push((crs.clone(), heights.clone(), Arc::clone(&t)));
         Ok(t)
     }
 }
@@ -528,8 +587,15 @@ fn pose(e: &Ellipsoid, time_s: f64, llh: [f64; 3], attitude: Attitude) -> Pose {
 /// A projected trajectory's X/Y/Z are in the CRS's unit (feet become metres here) and its Z in
 /// the points' vertical CRS: `height_offset_m` (the geoid separation) makes it ellipsoidal like
 /// theirs.
-fn text_poses(t: &TextTrajectory, e: &Ellipsoid, crs: &Crs, height_offset_m: f64) -> Vec<Pose> {
-    let unit_m = crs.unit().metres();
+fn text_poses(t: &TextTrajectory, e: &Ellipsoid, crs: &Crs, heights: &Heights) -> Vec<Pose> {
+    // The header's units when it names them, else the CRS's.
+    let unit_m = t.position_units_m.unwrap_or([crs.unit().metres(); 3]);
+    // A trajectory rebuilt from the points is in their height system: nothing to add.
+    let heights = if t.heights_as_points {
+        &Heights::Offset(0.0)
+    } else {
+        heights
+    };
     t.poses
         .iter()
         .map(|p| {
@@ -539,12 +605,13 @@ fn text_poses(t: &TextTrajectory, e: &Ellipsoid, crs: &Crs, height_offset_m: f64
                     crs.grid_convergence(p.position[0], p.position[1]),
                 ),
                 TrajectoryPosition::Projected => {
-                    let u = crs.unproject(p.position[0] * unit_m, p.position[1] * unit_m);
+                    let u = crs.unproject(p.position[0] * unit_m[0], p.position[1] * unit_m[1]);
+                    let (lat, lon) = (u.latitude_rad(), u.longitude_rad());
                     (
                         [
-                            u.latitude_rad(),
-                            u.longitude_rad(),
-                            p.position[2] * unit_m + height_offset_m,
+                            lat,
+                            lon,
+                            p.position[2] * unit_m[2] + heights.offset_m(lat, lon),
                         ],
                         u.convergence_rad(),
                     )
@@ -576,8 +643,11 @@ pub(crate) struct OpenTile {
     pub(crate) crs: Crs,
     pub(crate) trajectory: Arc<Trajectory>,
     pub(crate) converter: LasTimeConverter,
-    /// Added to LAS Z to get ellipsoidal heights (the geoid separation, or 0).
-    pub(crate) height_offset_m: f64,
+    /// Added to LAS Z to get ellipsoidal heights.
+    pub(crate) heights: Heights,
+    /// The time key of each point (file order) when the trajectory is this file's own
+    /// per-point pose and its GPS time is coarse.
+    pub(crate) point_keys: Option<Arc<Vec<f64>>>,
 }
 
 impl TpuContext {
@@ -605,14 +675,9 @@ impl TpuContext {
                 format: info.point_format,
             });
         }
-        if let (Some(v), None) = (&info.crs.orthometric, self.options.geoid_separation_m) {
-            return Err(Error::OrthometricHeights {
-                path: input.to_path_buf(),
-                vertical: v.clone(),
-            });
-        }
+        let heights = self.heights_of(input, &info)?;
         let crs = self.crs_of(input, &info)?;
-        let trajectory = self.trajectory_in(&crs)?;
+        let trajectory = self.trajectory_with(&crs, &heights)?;
         let converter = LasTimeConverter::new(
             input,
             info.time_base,
@@ -624,8 +689,91 @@ impl TpuContext {
             crs,
             trajectory,
             converter,
-            height_offset_m: self.options.geoid_separation_m.unwrap_or(0.0),
+            heights,
+            point_keys: self.point_keys_for(input)?,
         })
+    }
+
+    /// The per-point keys of a per-point pose with coarse GPS time, for the tile that is that
+    /// file; `None` for any other trajectory.
+    ///
+    /// # Errors
+    /// [`Error::InvalidOption`] naming both files when the tile is another file: its points'
+    /// coarse times cannot be put on that file's poses.
+    fn point_keys_for(&self, input: &Path) -> Result<Option<Arc<Vec<f64>>>> {
+        let TrajectoryFile::Text(t) = &self.poses else {
+            return Ok(None);
+        };
+        let Some((file, keys)) = &t.point_keys else {
+            return Ok(None);
+        };
+        let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => a == b,
+        };
+        if !same(file, input) {
+            return Err(Error::InvalidOption(format!(
+                "{}: posed by the sensor pose stored with the points of {}, whose GPS time is \
+                 too coarse to tell the pose of another file's points: give each file as its \
+                 own trajectory",
+                input.display(),
+                file.display()
+            )));
+        }
+        Ok(Some(Arc::clone(keys)))
+    }
+
+    /// How the heights of `input` become ellipsoidal: as they are when the file declares no
+    /// orthometric vertical CRS; else `--geoid-separation-m`, the `--geoid` grid, nothing when
+    /// the trajectory was rebuilt from the points (it is in their height system), or EGM2008
+    /// built in for a vertical CRS defined on it, in that order.
+    ///
+    /// # Errors
+    /// [`Error::OrthometricHeights`] naming the vertical CRS and the flags when none applies.
+    pub(crate) fn heights_of(&self, input: &Path, info: &LasInfo) -> Result<Heights> {
+        let Some(v) = &info.crs.orthometric else {
+            return Ok(Heights::Offset(0.0));
+        };
+        if let Some(n) = self.options.geoid_separation_m {
+            return Ok(Heights::Offset(n));
+        }
+        if let Some(g) = &self.geoid {
+            return Ok(Heights::Geoid(Arc::clone(g)));
+        }
+        if matches!(&self.poses, TrajectoryFile::Text(t) if t.heights_as_points) {
+            return Ok(Heights::Offset(0.0));
+        }
+        match GeoidModel::for_vertical_crs(v) {
+            Some(m) => Ok(Heights::Geoid(Arc::new(m))),
+            None => Err(Error::OrthometricHeights {
+                path: input.to_path_buf(),
+                vertical: v.clone(),
+            }),
+        }
+    }
+
+    /// What the heights of a tile were taken as, for its summary: `None` when nothing was
+    /// added to ellipsoidal heights.
+    pub(crate) fn heights_note(&self, info: &LasInfo, heights: &Heights) -> Option<Warning> {
+        let v = info.crs.orthometric.as_ref()?;
+        let how = match heights {
+            Heights::Offset(n) if self.options.geoid_separation_m.is_some() => {
+                format!("the geoid separation {n} m given with --geoid-separation-m added")
+            }
+            Heights::Offset(_) => format!(
+                "the trajectory {} was rebuilt from the points and is in their height system: \
+                 no geoid applied",
+                self.trajectory_path.display()
+            ),
+            Heights::Geoid(g) => format!("{} added at each point", g.describe()),
+        };
+        Some(Warning::new(
+            "orthometric_heights",
+            format!(
+                "{}: heights in the orthometric vertical CRS \"{v}\": {how}",
+                info.path.display()
+            ),
+        ))
     }
 
     /// The atomic output of the tile `input`, refused when it is one of the inputs: the tile,

@@ -121,7 +121,7 @@ pub fn correct_tile_with_line(
     let input = job.input;
     let ctx = job.context;
     let tile = ctx.open_tile(input)?;
-    if tile.height_offset_m != 0.0 {
+    if !tile.heights.is_zero() {
         // Re-georeferencing would have to write orthometric heights back: not done yet.
         return Err(Error::InvalidOption(format!(
             "{}: correct does not apply a geoid separation; give it ellipsoidal heights",

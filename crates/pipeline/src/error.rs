@@ -38,9 +38,10 @@ pub enum Error {
     },
     /// The file's heights are orthometric and no geoid separation was given.
     #[error(
-        "{}: heights are in the orthometric vertical CRS \"{vertical}\"; the TPU needs \
-         ellipsoidal heights: give the geoid separation N (ellipsoidal - orthometric, m) with \
-         --geoid-separation-m",
+        "{}: heights are in the orthometric vertical CRS \"{vertical}\" and lidarqa has no \
+         geoid for it (EGM2008 is built in): give its geoid grid with --geoid FILE (GTX or \
+         GeoTIFF), one separation N (ellipsoidal - orthometric, m) with --geoid-separation-m, \
+         or a trajectory rebuilt from these points by `lidarqa trajectory`",
         path.display()
     )]
     OrthometricHeights {

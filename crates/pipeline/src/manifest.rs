@@ -94,6 +94,12 @@ pub struct ManifestOptions {
     /// Geoid separation, m.
     #[serde(default)]
     pub geoid_separation_m: Option<f64>,
+    /// Geoid grid file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub geoid: Option<PathBuf>,
+    /// Water classes given by the user (`None`: the default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub water_classes: Option<Vec<u8>>,
 }
 
 impl ManifestOptions {
@@ -118,6 +124,8 @@ impl ManifestOptions {
             margin_points: o.margin_points,
             covariance: o.covariance,
             geoid_separation_m: o.geoid_separation_m,
+            geoid: o.geoid.clone(),
+            water_classes: o.water_classes.given_list(),
         })
     }
 
@@ -136,6 +144,12 @@ impl ManifestOptions {
             margin_points: self.margin_points,
             covariance: self.covariance,
             geoid_separation_m: self.geoid_separation_m,
+            geoid: self.geoid.clone(),
+            water_classes: self
+                .water_classes
+                .clone()
+                .map(crate::water::WaterClasses::given)
+                .unwrap_or_default(),
         })
     }
 }

@@ -1,6 +1,6 @@
 //! One tile: read → recover → propagate → write, streaming in chunks.
 
-use crate::context::{OpenTile, TpuContext};
+use crate::context::{Heights, OpenTile, TpuContext};
 use crate::error::{Error, Result};
 use crate::plausibility::{
     DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, MOUNTING_ERROR_M, MountingTally, check_distance,
@@ -11,8 +11,8 @@ use crate::summary::{
     IncidenceTally, SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary,
 };
 use lidarqa_io::{
-    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, Crs, InverseKind, LasTimeConverter, LasWriteOptions,
-    LocalInverse, RawChunk, RawPoint, Unprojected,
+    CLASS_WATER_SURFACE, Crs, InverseKind, LasTimeConverter, LasWriteOptions, LocalInverse,
+    RawChunk, RawPoint, Unprojected,
 };
 use lidarqa_model::{
     ConicScanner, Ecef, Georeferencer, Grid, LinearScanner, Mounting, MountingPartials, Ned,
@@ -27,6 +27,7 @@ use lidarqa_tpu::{
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, Sender, SyncSender, channel};
 
@@ -138,7 +139,8 @@ pub fn tpu_tile_with_progress(
         crs,
         trajectory,
         converter,
-        height_offset_m,
+        heights,
+        point_keys,
     } = ctx.open_tile(input)?;
     let kernel = Kernel::new(ctx)?;
     let n_sigma = kernel.n_sigma();
@@ -172,7 +174,8 @@ pub fn tpu_tile_with_progress(
         crs: crs.clone(),
         unit_m: crs.unit().metres(),
         converter,
-        height_offset_m,
+        heights: heights.clone(),
+        point_keys,
         inverse: if crs.central_meridian_rad().is_some() && !kernel.has_incidence() {
             InverseKind::Series
         } else {
@@ -183,6 +186,7 @@ pub fn tpu_tile_with_progress(
     let step_deg = if info.point_format >= 6 { 0.006 } else { 1.0 };
     let mut summary = TpuSummary::new(kernel.kind(), kernel.source_names(), n_sigma);
     summary.warnings = ctx.warnings.clone();
+    summary.warnings.extend(ctx.heights_note(&info, &heights));
     summary.scan_angle.step_deg = step_deg;
     summary.plausibility.sigma_span_s = ctx.sigma_span_s;
     let tally0 = MountingTally::new(&ctx.sensor.mounting, kernel.kind() == "linear");
@@ -243,10 +247,59 @@ pub fn tpu_tile_with_progress(
             Ok(())
         },
     )?;
+    summary.warnings.extend(scan_angle_disagreement(
+        input,
+        &summary.scan_angle,
+        &ctx.sensor,
+        ctx.trajectory_format(),
+    ));
     Ok(TileReport {
         input: input.to_path_buf(),
         output: job.output.to_path_buf(),
         summary,
+    })
+}
+
+/// The warning when the scan angle recovered from the points and the trajectory disagrees with
+/// the file's scan-angle field beyond what the field's step and the angles' σ explain: RMS of
+/// the difference above the step plus 3 σ of √(σ_scan² + σ_roll² + σ_boresight_roll²).
+/// Likely causes: the trajectory is not the one the points were georeferenced with (or lacks
+/// roll), a mounting (boresight, lever arm) far from the one used, or a scanner whose field is
+/// not an angle in the scan plane.
+fn scan_angle_disagreement(
+    input: &Path,
+    check: &crate::summary::AngleCheck,
+    sensor: &lidarqa_model::Sensor,
+    format: lidarqa_io::TrajectoryFormat,
+) -> Option<lidarqa_model::Warning> {
+    if check.n == 0 {
+        return None;
+    }
+    let rms_deg = (check.sum_sq_deg2 / check.n as f64).sqrt();
+    let sigma_deg = [Source::ScanAngle, Source::Roll, Source::BoresightRoll]
+        .iter()
+        .map(|s| sensor.sigma.get(*s).powi(2))
+        .sum::<f64>()
+        .sqrt()
+        .to_degrees();
+    let bound_deg = check.step_deg + 3.0 * sigma_deg;
+    (rms_deg > bound_deg).then(|| {
+        lidarqa_model::Warning::new(
+            "scan_angle_disagrees",
+            format!(
+                "{}: the scan angle recovered from the points and the trajectory ({}) differs \
+                 from the file's scan-angle field by {rms_deg:.2}° RMS ({:.2}° at most) over {} \
+                 points, beyond the field's step {}° and 3 σ ({:.3}°) of the angles: likely the \
+                 trajectory is not the one the points were made with, the mounting (boresight, \
+                 lever arm) is not the one used, or the field is not the angle in the scan plane",
+                input.display(),
+                format.describe(),
+                check.max_deg,
+                check.n,
+                check.step_deg,
+                3.0 * sigma_deg
+            ),
+        )
     })
 }
 
@@ -322,8 +375,10 @@ struct Prepare {
     /// One unit of the CRS's X/Y/Z in metres (feet become metres here).
     unit_m: f64,
     converter: LasTimeConverter,
-    /// Added to LAS Z for the ellipsoidal height (geoid separation or 0).
-    height_offset_m: f64,
+    /// Added to LAS Z for the ellipsoidal height (a geoid's N at the point, a separation or 0).
+    heights: Heights,
+    /// Each point's time key (file order) when posed by its file's own per-point pose.
+    point_keys: Option<Arc<Vec<f64>>>,
     /// Transverse Mercator points without an incidence term: the series inverse is enough for
     /// the recovery, which is continuous in the point. The incidence term's neighbourhood
     /// judgement is not (planar or linear, which neighbours): nanometres could move a
@@ -377,7 +432,7 @@ struct Prepared {
 }
 
 impl Prepare {
-    fn point(&self, p: RawPoint<'_>, inverse: &LocalInverse<'_>) -> Prep {
+    fn point(&self, index: u64, p: RawPoint<'_>, inverse: &LocalInverse<'_>) -> Prep {
         let [x, y, z] = p.xyz();
         let mut out = Prep {
             ecef: Ecef::default(),
@@ -400,8 +455,6 @@ impl Prepare {
             return out;
         }
         let [x_m, y_m, z_m] = out.xyz_m;
-        // LAS Z plus the geoid separation (0 unless given) is the ellipsoidal height.
-        let height_m = z_m + self.height_offset_m;
         // ECEF from the inverse's sines and cosines.
         if self.convergence {
             let g = inverse.at(x_m, y_m);
@@ -420,10 +473,29 @@ impl Prepare {
                 scale: f64::NAN,
             };
         }
+        // LAS Z plus the geoid's N there (a separation, or 0) is the ellipsoidal height.
+        let offset_m = match &self.heights {
+            Heights::Offset(n) => *n,
+            h => {
+                let u = &out.unprojected;
+                h.offset_m(u.sin_latitude.atan2(u.cos_latitude), out.longitude_rad)
+            }
+        };
+        if !offset_m.is_finite() {
+            out.state = PrepState::BadTime("no geoid value at the point (outside the grid)".into());
+            return out;
+        }
         out.ecef = self
             .crs
             .ellipsoid()
-            .ecef_from_unprojected(&out.unprojected, height_m);
+            .ecef_from_unprojected(&out.unprojected, z_m + offset_m);
+        if let Some(keys) = &self.point_keys {
+            match keys.get(index as usize) {
+                Some(t) => out.time_sow_s = *t,
+                None => out.state = PrepState::BadTime("beyond the per-point pose".into()),
+            }
+            return out;
+        }
         match p.gps_time().map(|t| self.converter.to_seconds_of_week(t)) {
             Some(Ok(t)) => out.time_sow_s = t,
             Some(Err(e)) => out.state = PrepState::BadTime(e.to_string()),
@@ -470,7 +542,7 @@ impl Prepare {
         (0..chunk.len())
             .into_par_iter()
             .map(|i| {
-                let p = self.point(chunk.point(i), &inverse);
+                let p = self.point(chunk.first_index() + i as u64, chunk.point(i), &inverse);
                 if !matches!(p.state, PrepState::Ok) {
                     unusable.fetch_add(1, Ordering::Relaxed);
                 }
@@ -633,6 +705,7 @@ impl Run<'_> {
         // chunk's conversion less is held).
         let lookahead = conic || self.kernel.has_incidence();
         let mut current = recv(&mut spare_pts)?;
+        let mut water_points = 0u64;
         // One vector of slots serves every chunk.
         let mut slots = Vec::new();
         while let Some(cur) = current {
@@ -649,12 +722,13 @@ impl Run<'_> {
                 .map(|n| valid_ecef(&n.pts).take(margin).collect())
                 .unwrap_or_default();
             // Soundings look for their surface in the chunk and the same margins.
-            let water = (conic
-                && cur
-                    .chunk
-                    .points()
-                    .any(|p| p.classification() == CLASS_BATHYMETRY))
-            .then(|| {
+            let in_water = cur
+                .chunk
+                .points()
+                .filter(|p| self.ctx.options.water_classes.contains(p.classification()))
+                .count();
+            water_points += in_water as u64;
+            let water = (conic && in_water > 0).then(|| {
                 let mut w: Vec<WaterReturn> = water_tail.iter().map(|(_, r)| *r).collect();
                 w.extend(
                     water_returns(&cur, 0, cur.pts.len())
@@ -721,6 +795,14 @@ impl Run<'_> {
                 next => next,
             };
         }
+        let what = if conic {
+            "recovered as soundings below their pulse's water-surface return"
+        } else {
+            "propagated as topography (a linear scanner's model has no refraction)"
+        };
+        summary
+            .warnings
+            .extend(self.ctx.options.water_classes.note(water_points, what));
         Ok(())
     }
 
@@ -1082,7 +1164,9 @@ impl Run<'_> {
         };
         let sigma = self.ctx.sigmas.as_ref().map(|s| s.at(p.time_sow_s));
         let sounding = match (self.kernel, water) {
-            (Kernel::Conic(_, scanner), Some(w)) if lp.classification() == CLASS_BATHYMETRY => {
+            (Kernel::Conic(_, scanner), Some(w))
+                if self.ctx.options.water_classes.contains(lp.classification()) =>
+            {
                 Some(self.recover_sounding(scanner, pose, p, w, &mut acc.water_hint))
             }
             _ => None,

@@ -50,6 +50,7 @@
 //! eigenproblem (nalgebra) and a local polynomial; no crate does the line geometry.
 
 use crate::error::{Error, Result};
+use crate::water::WaterClasses;
 use lidarqa_io::{
     Crs, Ellipsoid, Geodetic, LasReader, LasTimeBase, LasTimeConverter, PointChunk, SbetPose,
     TextPose, TextSigma, sbet_raw, write_records_to_path,
@@ -292,7 +293,21 @@ pub struct TrajectoryReport {
 /// The reader's errors naming the file; [`Error::NoGpsTime`] for a point format without time;
 /// [`Error::Implausible`] when the files mix GPS week time and adjusted standard time.
 pub fn read_returns(paths: &[PathBuf]) -> Result<Vec<ReturnPoint>> {
+    Ok(read_returns_out_of(paths, &WaterClasses::given(Vec::new()))?.0)
+}
+
+/// As [`read_returns`], leaving out the returns in `water` classes (refracted beams: a first
+/// return on the water surface and a last on the bottom are not on one straight line); also
+/// returns how many were left out.
+///
+/// # Errors
+/// As [`read_returns`].
+pub fn read_returns_out_of(
+    paths: &[PathBuf],
+    water: &WaterClasses,
+) -> Result<(Vec<ReturnPoint>, u64)> {
     let mut out = Vec::new();
+    let mut left_out = 0u64;
     let mut base: Option<(LasTimeBase, &Path)> = None;
     for path in paths {
         let mut r = LasReader::from_path(path)?;
@@ -321,16 +336,24 @@ pub fn read_returns(paths: &[PathBuf]) -> Result<Vec<ReturnPoint>> {
         }
         let mut chunk = PointChunk::new();
         while r.fill(&mut chunk, 1 << 16)? > 0 {
-            out.extend(chunk.points.iter().map(|p| ReturnPoint {
-                time_s: p.gps_time_s.unwrap_or(f64::NAN),
-                position_m: [p.x, p.y, p.z],
-                return_number: p.return_number,
-                number_of_returns: p.number_of_returns,
-                strip: u32::from(p.point_source_id),
-            }));
+            let before = out.len() + chunk.points.len();
+            out.extend(
+                chunk
+                    .points
+                    .iter()
+                    .filter(|p| !water.contains(p.classification))
+                    .map(|p| ReturnPoint {
+                        time_s: p.gps_time_s.unwrap_or(f64::NAN),
+                        position_m: [p.x, p.y, p.z],
+                        return_number: p.return_number,
+                        number_of_returns: p.number_of_returns,
+                        strip: u32::from(p.point_source_id),
+                    }),
+            );
+            left_out += (before - out.len()) as u64;
         }
     }
-    Ok(out)
+    Ok((out, left_out))
 }
 
 /// One local east-north-up Cartesian frame, tangent to the ellipsoid at the centre of the
@@ -513,6 +536,21 @@ pub fn rebuild_trajectory(
     sbet: Option<&Path>,
     options: &ReconstructOptions,
 ) -> Result<TrajectoryReport> {
+    rebuild_trajectory_with(inputs, output, sbet, options, &WaterClasses::default())
+}
+
+/// As [`rebuild_trajectory`], the returns in `water` classes left out (their pulses are
+/// refracted) and named in the report's warnings.
+///
+/// # Errors
+/// As [`rebuild_trajectory`].
+pub fn rebuild_trajectory_with(
+    inputs: &[PathBuf],
+    output: &Path,
+    sbet: Option<&Path>,
+    options: &ReconstructOptions,
+    water: &WaterClasses,
+) -> Result<TrajectoryReport> {
     lidarqa_io::check_distinct_inputs(inputs)?;
     lidarqa_io::check_not_an_input(output, inputs)?;
     if let Some(sbet) = sbet {
@@ -524,7 +562,11 @@ pub fn rebuild_trajectory(
             )));
         }
     }
-    let points = read_returns(inputs)?;
+    let (points, left_out) = read_returns_out_of(inputs, water)?;
+    let water_note = water.note(
+        left_out,
+        "left out of the lines (a beam refracted at the surface is not straight)",
+    );
     let first = inputs.first().cloned().unwrap_or_default();
     let crs = LasReader::from_path(&first)?.info().projected_crs()?;
     let frame = LocalEnu::around(crs, &points);
@@ -532,8 +574,12 @@ pub fn rebuild_trajectory(
     drop(points);
     let mut r = reconstruct(&local, options).map_err(|e| Error::Implausible {
         path: first.clone(),
-        message: e.to_string(),
+        message: match &water_note {
+            Some(w) => format!("{e}; {}", w.message),
+            None => e.to_string(),
+        },
     })?;
+    r.warnings.extend(water_note);
     r.epochs = r.epochs.iter().map(|e| frame.to_projected(e)).collect();
     // Both outputs are built before either is written, so a refused SBET leaves no CSV behind.
     let sbet_records = match (sbet, inputs.first()) {

@@ -37,8 +37,10 @@ pub struct TpuArgs {
     /// LAS/LAZ strip, or a directory of .las/.laz tiles.
     #[arg(value_name = "INPUT")]
     input: PathBuf,
-    /// Trajectory: binary SBET, PDAL filters.sritrajectory text, cBLUE's PosPac ASCII export or
-    /// text with a header (told apart by content; GPS seconds of week).
+    /// Trajectory: binary SBET, PDAL filters.sritrajectory text, cBLUE's PosPac ASCII export,
+    /// text with a header (units in brackets read: `Time[s]`, `Roll[deg]`, `Height (m)`), or a
+    /// LAS/LAZ whose points carry the sensor pose (SensorX/Y/Z, SensorRoll/Pitch/YawRads; the
+    /// input itself, posed point by point). Told apart by content; GPS seconds of week.
     #[arg(long, value_name = "FILE")]
     trajectory: PathBuf,
     /// Sensor file (TOML; docs/reference/formats.md); `[scanner] beam_divergence_mrad` enables the incidence term.

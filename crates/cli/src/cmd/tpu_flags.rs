@@ -5,6 +5,7 @@
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lidarqa_io::{Crs, UtmZone};
+use lidarqa_pipeline::water::WaterClasses;
 use lidarqa_pipeline::{TpuContext, TpuOptions};
 use std::path::{Path, PathBuf};
 
@@ -69,8 +70,24 @@ pub struct TpuFlags {
     /// Geoid separation N in metres (ellipsoidal − orthometric height), added to LAS Z (and to a
     /// projected text trajectory's Z): required when the file's CRS has an orthometric vertical
     /// datum (e.g. NAVD88 height); the TPU needs ellipsoidal heights.
-    #[arg(long, value_name = "M", allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_name = "M",
+        allow_negative_numbers = true,
+        conflicts_with = "geoid"
+    )]
     geoid_separation_m: Option<f64>,
+    /// Geoid grid (GTX or GeoTIFF in degrees, e.g. GEOID18, CGG2013, EGG2015) for files whose
+    /// heights are orthometric: N at each point is added to LAS Z. Not needed for a vertical
+    /// CRS on EGM2008 (built in) nor with a trajectory rebuilt from the same points by
+    /// `lidarqa trajectory` (it is in their height system).
+    #[arg(long, value_name = "FILE")]
+    geoid: Option<PathBuf>,
+    /// LAS classes of returns from below the water surface, comma-separated (default 40, 43,
+    /// 44, 45 — LAS 1.4 topo-bathy — and 26, RIEGL / LP360 bathymetry): a conic scanner's
+    /// soundings; the summary names the classes it assumed.
+    #[arg(long, value_name = "LIST", value_delimiter = ',')]
+    water_classes: Option<Vec<u8>>,
     /// Also write the full covariance per point: VarianceX/Y/Z, CovarianceXY/XZ/YZ (f64 m²,
     /// projected axes easting, northing, up; PDAL filters.als_tpu's names).
     #[arg(long)]
@@ -107,6 +124,12 @@ impl TpuFlags {
             neighbours: self.neighbours,
             covariance: self.covariance,
             geoid_separation_m: self.geoid_separation_m,
+            geoid: self.geoid.clone(),
+            water_classes: self
+                .water_classes
+                .clone()
+                .map(WaterClasses::given)
+                .unwrap_or_default(),
             ..survey
         })
     }

@@ -5,8 +5,9 @@ use crate::format::{OutputFormat, print_json, print_text, print_warnings};
 use anyhow::Result;
 use clap::Args;
 use lidarqa_pipeline::trajectory_from_returns::{
-    ReconstructOptions, TrajectoryReport, rebuild_trajectory,
+    ReconstructOptions, TrajectoryReport, rebuild_trajectory_with,
 };
+use lidarqa_pipeline::water::WaterClasses;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -51,6 +52,11 @@ pub struct TrajectoryArgs {
     /// Fewest lines a block needs.
     #[arg(long, default_value_t = 30, value_name = "N")]
     min_lines: usize,
+    /// LAS classes of returns from below the water surface, comma-separated, left out of the
+    /// lines (a refracted beam is not straight). Default 40, 43, 44, 45 (LAS 1.4 topo-bathy)
+    /// and 26 (RIEGL / LP360 bathymetry); the report names what it assumed.
+    #[arg(long, value_name = "LIST", value_delimiter = ',')]
+    water_classes: Option<Vec<u8>>,
     /// Output format of the report on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
     format: OutputFormat,
@@ -64,7 +70,9 @@ pub fn run(a: TrajectoryArgs) -> Result<()> {
         min_separation_m: a.min_separation_m,
         min_lines: a.min_lines,
     };
-    let report = rebuild_trajectory(&a.inputs, &a.output, a.sbet.as_deref(), &options)?;
+    let water = a.water_classes.map(WaterClasses::given).unwrap_or_default();
+    let report =
+        rebuild_trajectory_with(&a.inputs, &a.output, a.sbet.as_deref(), &options, &water)?;
     print_warnings(&report.warnings);
     match a.format {
         OutputFormat::Json => print_json(&report),
