@@ -275,7 +275,9 @@ impl CsdRecord {
         v.extend(self.gps_time_s.to_le_bytes());
         v.push(self.return_count);
         self.range_m.iter().for_each(|r| v.extend(r.to_le_bytes()));
-        self.intensity.iter().for_each(|i| v.extend(i.to_le_bytes()));
+        self.intensity
+            .iter()
+            .for_each(|i| v.extend(i.to_le_bytes()));
         for a in [
             self.scan_angle_rad,
             self.roll_rad,
@@ -537,9 +539,7 @@ impl CsdReader {
     pub fn next_pulse(&mut self) -> Result<Option<CsdPulse>> {
         match self.next_record()? {
             None => Ok(None),
-            Some((index, r)) => r
-                .check(&self.path, index, self.offset_of(index))
-                .map(Some),
+            Some((index, r)) => r.check(&self.path, index, self.offset_of(index)).map(Some),
         }
     }
 }
@@ -590,9 +590,12 @@ mod tests {
     /// Optech's attitude matrix `R3(h) · R1(−p) · R2(−r)` (sensor right-forward-up to
     /// east-north-up), written from its elementary rotations.
     fn optech(r: f64, p: f64, h: f64) -> Matrix3<f64> {
-        let r1 = |a: f64| Matrix3::new(1.0, 0.0, 0.0, 0.0, a.cos(), a.sin(), 0.0, -a.sin(), a.cos());
-        let r2 = |a: f64| Matrix3::new(a.cos(), 0.0, -a.sin(), 0.0, 1.0, 0.0, a.sin(), 0.0, a.cos());
-        let r3 = |a: f64| Matrix3::new(a.cos(), a.sin(), 0.0, -a.sin(), a.cos(), 0.0, 0.0, 0.0, 1.0);
+        let r1 =
+            |a: f64| Matrix3::new(1.0, 0.0, 0.0, 0.0, a.cos(), a.sin(), 0.0, -a.sin(), a.cos());
+        let r2 =
+            |a: f64| Matrix3::new(a.cos(), 0.0, -a.sin(), 0.0, 1.0, 0.0, a.sin(), 0.0, a.cos());
+        let r3 =
+            |a: f64| Matrix3::new(a.cos(), a.sin(), 0.0, -a.sin(), a.cos(), 0.0, 0.0, 0.0, 1.0);
         r3(h) * r1(-p) * r2(-r)
     }
 
@@ -600,7 +603,11 @@ mod tests {
     fn optech_attitude_is_lidarqa_s_in_the_swapped_frames() {
         let q: Matrix3<f64> = Matrix3::new(0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, -1.0);
         assert!((q.determinant() - 1.0).abs() < 1e-15 && q * q == Matrix3::identity());
-        for (r, p, h) in [(0.1, 0.2, 0.7), (-0.3, 0.05, -2.5), (0.0087, 0.0164, -0.7388)] {
+        for (r, p, h) in [
+            (0.1, 0.2, 0.7),
+            (-0.3, 0.05, -2.5),
+            (0.0087, 0.0164, -0.7388),
+        ] {
             let d = q * optech(r, p, h) * q - rotation_zyx(r, p, h);
             assert!(d.abs().max() < 1e-15, "{d}");
         }
@@ -640,9 +647,15 @@ mod tests {
     #[test]
     fn out_of_range_values_name_the_record_and_value() {
         let cases: [(fn(&mut CsdRecord), &str); 6] = [
-            (|r| r.scan_angle_rad = 1.7, "scan angle 97.4028° is not within ±90°"),
+            (
+                |r| r.scan_angle_rad = 1.7,
+                "scan angle 97.4028° is not within ±90°",
+            ),
             (|r| r.roll_rad = f32::NAN, "roll NaN° is not within ±90°"),
-            (|r| r.latitude_rad = 2.0, "latitude 2 rad is not within ±π/2"),
+            (
+                |r| r.latitude_rad = 2.0,
+                "latitude 2 rad is not within ±π/2",
+            ),
             (|r| r.range_m[1] = -3.0, "range of return 2 is -3 m"),
             (|r| r.elevation_m = 2e5, "sensor height 200000 m"),
             (|r| r.return_count = 200, "return count 200"),
@@ -650,7 +663,10 @@ mod tests {
         for (edit, expected) in cases {
             let mut r = record();
             edit(&mut r);
-            let e = r.check(Path::new("a.csd"), 7, 2531).unwrap_err().to_string();
+            let e = r
+                .check(Path::new("a.csd"), 7, 2531)
+                .unwrap_err()
+                .to_string();
             assert!(
                 e.starts_with("a.csd: CSD record 7 (byte offset 2531): ") && e.contains(expected),
                 "{e}"

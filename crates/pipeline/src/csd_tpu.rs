@@ -18,7 +18,7 @@
 use crate::error::{Error, Result};
 use crate::summary::{Histogram, SIGMA_NAMES, Stats};
 use lidarqa_io::{
-    CsdHeader, CsdPulse, CsdReader, CsdReturn, Crs, Geodetic, LasPoint, LasTimeBase,
+    Crs, CsdHeader, CsdPulse, CsdReader, CsdReturn, Geodetic, LasPoint, LasTimeBase,
     LasWriteOptions, LasWriter, RawVlr, utm_wkt, week_to_adjusted_standard,
 };
 use lidarqa_model::{
@@ -312,7 +312,9 @@ pub fn tpu_csd(job: &CsdTpuJob<'_>) -> Result<CsdTpuReport> {
         None => {
             return Err(Error::Implausible {
                 path: job.input.to_path_buf(),
-                message: format!("none of its {pulses} pulse records has a return: nothing to write"),
+                message: format!(
+                    "none of its {pulses} pulse records has a return: nothing to write"
+                ),
             });
         }
     }

@@ -143,11 +143,7 @@ impl TryFrom<TpuArgs> for Plan {
             }]
         };
         for t in &tiles {
-            let mut inputs = vec![
-                t.input.as_path(),
-                trajectory.as_path(),
-                a.sensor.as_path(),
-            ];
+            let mut inputs = vec![t.input.as_path(), trajectory.as_path(), a.sensor.as_path()];
             inputs.extend(a.smrmsg.as_deref());
             inputs.extend(a.calibration.as_deref());
             lidarqa_io::check_not_an_input(&t.output, &inputs)?;
