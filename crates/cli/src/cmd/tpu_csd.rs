@@ -106,7 +106,10 @@ fn table(r: &CsdTpuReport) -> String {
         "{:<18} {:>9} {:>9} {:>9} {:>9}",
         "sigma (cm)", "min", "median", "p95", "max"
     );
-    for (name, st) in &r.sigma {
+    let ordered = lidarqa_pipeline::SIGMA_NAMES[..5]
+        .iter()
+        .filter_map(|n| r.sigma.get_key_value(n));
+    for (name, st) in ordered {
         let _ = writeln!(
             s,
             "{:<18} {:>9.2} {:>9.2} {:>9.2} {:>9.2}",
