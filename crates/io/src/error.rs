@@ -105,6 +105,28 @@ pub enum Error {
         record_len: usize,
     },
 
+    /// An Optech CSD header that is not one (signature, size, strip count, boresight angles).
+    #[error("{}: CSD header: {message}", path.display())]
+    CsdHeader {
+        /// The CSD file.
+        path: PathBuf,
+        /// What is wrong, lowercase.
+        message: String,
+    },
+
+    /// An Optech CSD record that is truncated or holds a value outside its physical range.
+    #[error("{}: CSD record {index} (byte offset {offset}): {message}", path.display())]
+    CsdRecord {
+        /// The CSD file.
+        path: PathBuf,
+        /// Zero-based index of the record.
+        index: u64,
+        /// Byte offset of the record in the file.
+        offset: u64,
+        /// What is wrong, lowercase.
+        message: String,
+    },
+
     /// A time-ordered record whose time goes backwards or is not finite.
     #[error(
         "{}: record {index}: time {time_s} s is {reason} (previous record: {previous_s} s)",

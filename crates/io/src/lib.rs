@@ -5,6 +5,7 @@
 //! - SBET and SMRMSG trajectories ([`read_sbet`], [`read_smrmsg`]), text trajectories (PDAL
 //!   sritrajectory, cBLUE's PosPac ASCII, CSV with a header) and the detection between them
 //!   ([`read_trajectory`]);
+//! - Optech CSD raw sensor records ([`CsdReader`]: header, pulses with their pose);
 //! - control points, targets and tie picks as CSV ([`ControlPoints`], [`Targets`], [`TiePicks`]);
 //! - the sensor file of SPEC §5 ([`read_sensor`]);
 //! - WGS84 geodetic ↔ ECEF ↔ NED, UTM ([`UtmZone`]) and any projected CRS in metres or feet
@@ -24,6 +25,7 @@ pub use sensor::{
 
 mod atomic;
 mod crs;
+mod csd;
 mod csv;
 mod error;
 mod geodesy;
@@ -35,9 +37,14 @@ mod pointcloud;
 mod pointpose;
 mod sbet;
 mod trajtext;
+mod wkt;
 
 pub use atomic::{AtomicFile, InputSet, check_distinct_inputs, check_not_an_input, outputs_in_dir};
 pub use crs::{Crs, LasCrs, LinearUnit, RawVlr, epsg_from_wkt, orthometric_from_wkt};
+pub use csd::{
+    CSD_HEADER_LEN, CSD_MAX_RANGE_M, CSD_MAX_RETURNS, CSD_RECORD_LEN, CsdHeader, CsdPulse,
+    CsdReader, CsdRecord, CsdReturn, is_csd,
+};
 pub use csv::{
     ControlPoint, ControlPoints, HasExtra, PointTable, Target, Targets, TiePick, TiePicks,
 };
@@ -69,3 +76,4 @@ pub use trajtext::{
     TrajectoryFormat, TrajectoryPosition, parse_text_trajectory, read_point_pose, read_trajectory,
     write_reconstructed_trajectory,
 };
+pub use wkt::utm_wkt;

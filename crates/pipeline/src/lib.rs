@@ -9,6 +9,9 @@
 //! tiles run independently (in parallel with rayon, or as a job array) and their
 //! [`TileReport`]s merged with [`TileReport::merge`].
 //!
+//! [`tpu_csd`] does the same for Optech CSD raw sensor records, whose pulses carry their own
+//! pose: every return georeferenced from its recorded observations, no trajectory, no recovery.
+//!
 //! Per point (SPEC §3, the computation in lidarqa-tpu):
 //! 1. LAS X/Y (UTM) → geodetic → ECEF on the CRS's ellipsoid; LAS Z is taken as the
 //!    **ellipsoidal** height (no geoid model: orthometric heights would show as a range error);
@@ -54,6 +57,7 @@
 mod calibrate_strips;
 mod context;
 mod correct_tile;
+mod csd_tpu;
 mod digest;
 mod error;
 mod evaluate_files;
@@ -81,6 +85,10 @@ pub use context::{TpuContext, TpuOptions, read_calibrated_mounting, read_line_co
 pub use correct_tile::{
     CorrectTileJob, CorrectTileReport, correct_tile, correct_tile_with_line,
     correct_tile_with_progress,
+};
+pub use csd_tpu::{
+    CsdHeaderView, CsdMounting, CsdPoint, CsdTpuJob, CsdTpuReport, MountingView, csd_propagator,
+    georeference_csd_return, tpu_csd,
 };
 pub use digest::{FileDigest, seed_for_tile};
 pub use error::{Error, Result};

@@ -10,8 +10,8 @@
 use crate::error::{Error, Result};
 use crate::{PointSink, PointTruth, Scenario, SimOptions, SimPoint, Survey, simulate_streaming};
 use lidarqa_io::{
-    AtomicFile, LasTimeBase, LasWriteOptions, LasWriter, RawVlr, SbetPose, SmrmsgSigma, UtmDatum,
-    UtmZone, sbet_raw, write_records_to_path,
+    AtomicFile, LasTimeBase, LasWriteOptions, LasWriter, RawVlr, SbetPose, SmrmsgSigma, sbet_raw,
+    utm_wkt, write_records_to_path,
 };
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -166,41 +166,6 @@ fn write_text(path: &Path, text: &str) -> Result<()> {
     })?;
     file.commit()?;
     Ok(())
-}
-
-/// WKT1 of the scenario's UTM CRS, so the LAS carries it (LAS 1.4 point format 6 requires WKT).
-pub(crate) fn utm_wkt(zone: &UtmZone, epsg: u32) -> String {
-    let (geogcs, datum, spheroid, a_inv_f, sph_code, datum_code, geog_code) = match zone.datum() {
-        UtmDatum::Nad83 => (
-            "NAD83",
-            "North_American_Datum_1983",
-            "GRS 1980",
-            "298.257222101",
-            7019,
-            6269,
-            4269,
-        ),
-        _ => (
-            "WGS 84",
-            "WGS_1984",
-            "WGS 84",
-            "298.257223563",
-            7030,
-            6326,
-            4326,
-        ),
-    };
-    let hemisphere = match zone.hemisphere() {
-        lidarqa_io::Hemisphere::North => ("N", 0),
-        lidarqa_io::Hemisphere::South => ("S", 10_000_000),
-    };
-    format!(
-        "PROJCS[\"{geogcs} / UTM zone {z}{h}\",GEOGCS[\"{geogcs}\",DATUM[\"{datum}\",SPHEROID[\"{spheroid}\",6378137,{a_inv_f},AUTHORITY[\"EPSG\",\"{sph_code}\"]],AUTHORITY[\"EPSG\",\"{datum_code}\"]],PRIMEM[\"Greenwich\",0,AUTHORITY[\"EPSG\",\"8901\"]],UNIT[\"degree\",0.0174532925199433,AUTHORITY[\"EPSG\",\"9122\"]],AUTHORITY[\"EPSG\",\"{geog_code}\"]],PROJECTION[\"Transverse_Mercator\"],PARAMETER[\"latitude_of_origin\",0],PARAMETER[\"central_meridian\",{cm}],PARAMETER[\"scale_factor\",0.9996],PARAMETER[\"false_easting\",500000],PARAMETER[\"false_northing\",{fn_}],UNIT[\"metre\",1,AUTHORITY[\"EPSG\",\"9001\"]],AXIS[\"Easting\",EAST],AXIS[\"Northing\",NORTH],AUTHORITY[\"EPSG\",\"{epsg}\"]]",
-        z = zone.zone(),
-        h = hemisphere.0,
-        cm = zone.central_meridian_rad().to_degrees().round(),
-        fn_ = hemisphere.1,
-    )
 }
 
 /// One strip's LAS/LAZ being written.
@@ -418,14 +383,6 @@ fn write_control(path: &Path, survey: &Survey) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn wkt_names_the_epsg_code() {
-        let zone = UtmZone::from_epsg(32649).unwrap();
-        let wkt = utm_wkt(&zone, 32649);
-        assert_eq!(lidarqa_io::epsg_from_wkt(&wkt), Some(32649));
-        assert!(wkt.contains("PARAMETER[\"central_meridian\",111]"));
-    }
 
     /// `record` against the writer's own `las::Point` path, byte for byte: coordinates and scan
     /// angles on and beside their rounding boundaries, both signs, every class the simulator

@@ -18,6 +18,7 @@ mod simulate;
 mod targets;
 mod tile;
 mod tpu;
+mod tpu_csd;
 mod tpu_flags;
 mod tpu_table;
 mod trajectory;

@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 pub const AFTER_HELP: &str = "\
 Examples:
   lidarqa tpu strip.laz --trajectory sbet.out --sensor sensor.toml -o strip_tpu.laz
+  lidarqa tpu sample.csd --sensor sensor.toml --epsg 32617 -o sample_tpu.laz   # Optech CSD
   lidarqa tpu strip.laz --trajectory sbet.out --smrmsg smrmsg.out --sensor sensor.toml \\
               -o strip_tpu.laz --summary summary.json --format json
   lidarqa tpu tiles/ --trajectory sbet.out --sensor sensor.toml -o tiles_tpu/ --skip-outside
@@ -34,15 +35,21 @@ that is an input is refused, and so is a tile given twice under two names.";
 /// Flags of `lidarqa tpu`, exactly as typed (checked by [`Plan::try_from`]).
 #[derive(Debug, Args)]
 pub struct TpuArgs {
-    /// LAS/LAZ strip, or a directory of .las/.laz tiles.
+    /// LAS/LAZ strip, a directory of .las/.laz tiles, or an Optech CSD file of raw sensor
+    /// records (told by its signature).
     #[arg(value_name = "INPUT")]
     input: PathBuf,
     /// Trajectory: binary SBET, PDAL filters.sritrajectory text, cBLUE's PosPac ASCII export,
     /// text with a header (units in brackets read: `Time[s]`, `Roll[deg]`, `Height (m)`), or a
     /// LAS/LAZ whose points carry the sensor pose (SensorX/Y/Z, SensorRoll/Pitch/YawRads; the
-    /// input itself, posed point by point). Told apart by content; GPS seconds of week.
+    /// input itself, posed point by point). Told apart by content; GPS seconds of week. Not with
+    /// an Optech CSD input, whose records carry the pose.
     #[arg(long, value_name = "FILE")]
-    trajectory: PathBuf,
+    trajectory: Option<PathBuf>,
+    /// Optech CSD input only: the boresight to georeference with, the CSD header's (default) or
+    /// the sensor file's [mounting].
+    #[arg(long, value_enum, value_name = "FROM")]
+    mounting: Option<super::tpu_csd::MountingFlag>,
     /// Sensor file (TOML; docs/reference/formats.md); `[scanner] beam_divergence_mrad` enables the incidence term.
     #[arg(long, value_name = "FILE")]
     sensor: PathBuf,
@@ -89,6 +96,16 @@ impl TryFrom<TpuArgs> for Plan {
 
     fn try_from(a: TpuArgs) -> Result<Plan> {
         let options = a.flags.options()?;
+        let Some(trajectory) = a.trajectory else {
+            bail!(
+                "{}: --trajectory is required for a LAS/LAZ input (only Optech CSD raw records \
+                 carry their own pose)",
+                a.input.display()
+            );
+        };
+        if a.mounting.is_some() {
+            bail!("--mounting applies to an Optech CSD input only");
+        }
         let tiles = if a.input.is_dir() {
             let inputs = point_clouds_in(&a.input)?;
             // Two links to one tile would count its points twice.
@@ -128,11 +145,7 @@ impl TryFrom<TpuArgs> for Plan {
             }]
         };
         for t in &tiles {
-            let mut inputs = vec![
-                t.input.as_path(),
-                a.trajectory.as_path(),
-                a.sensor.as_path(),
-            ];
+            let mut inputs = vec![t.input.as_path(), trajectory.as_path(), a.sensor.as_path()];
             inputs.extend(a.smrmsg.as_deref());
             inputs.extend(a.calibration.as_deref());
             lidarqa_io::check_not_an_input(&t.output, &inputs)?;
@@ -140,7 +153,7 @@ impl TryFrom<TpuArgs> for Plan {
         Ok(Plan {
             tiles,
             options,
-            trajectory: a.trajectory,
+            trajectory,
             smrmsg: a.smrmsg,
             sensor: a.sensor,
             calibration: a.calibration,
@@ -152,6 +165,9 @@ impl TryFrom<TpuArgs> for Plan {
 
 /// Run `lidarqa tpu`.
 pub fn run(args: TpuArgs) -> Result<()> {
+    if args.input.is_file() && lidarqa_io::is_csd(&args.input)? {
+        return run_csd(args);
+    }
     let plan = Plan::try_from(args)?;
     let ctx = TpuContext::from_files(
         &plan.sensor,
@@ -196,4 +212,31 @@ pub fn run(args: TpuArgs) -> Result<()> {
             tpu_table::table(&report)
         )),
     }
+}
+
+/// An Optech CSD input: the records carry the pose, so no trajectory (nor SMRMSG, calibration or
+/// the LAS-only flags).
+fn run_csd(a: TpuArgs) -> Result<()> {
+    for (given, flag) in [
+        (a.trajectory.is_some(), "--trajectory"),
+        (a.smrmsg.is_some(), "--smrmsg"),
+        (a.calibration.is_some(), "--calibration"),
+    ] {
+        if given {
+            bail!(
+                "{}: an Optech CSD file carries its pose and boresight in its records and header; \
+                 drop {flag} (use --mounting sensor-file to override the boresight)",
+                a.input.display()
+            );
+        }
+    }
+    super::tpu_csd::run(super::tpu_csd::CsdRun {
+        input: &a.input,
+        output: &a.output,
+        sensor: &a.sensor,
+        crs: a.flags.options()?.crs,
+        mounting: a.mounting.unwrap_or_default(),
+        summary: a.summary.as_ref(),
+        format: a.format,
+    })
 }
