@@ -25,10 +25,12 @@ mod crs;
 mod csv;
 mod error;
 mod geodesy;
+mod geotiff;
 mod gpstime;
 mod grid_to_ecef;
 mod local_inverse;
 mod pointcloud;
+mod qc_doc;
 mod sbet;
 mod trajtext;
 
@@ -47,11 +49,16 @@ pub use gpstime::{
     SECONDS_PER_WEEK_S, adjusted_standard_to_week, gps_week_of_date, gps_week_start,
     week_to_adjusted_standard,
 };
+pub use geotiff::{GEOTIFF_NODATA, GeoRaster};
 pub use grid_to_ecef::{CellCache, GridToEcef, MapAt};
 pub use local_inverse::{CELL_M, InverseKind, Inverted, LocalInverse, Located, TOLERANCE};
 pub use pointcloud::{
     CLASS_BATHYMETRY, CLASS_WATER_SURFACE, CoordinateBlock, ExtraDim, LasInfo, LasPoint, LasReader,
     LasWriteOptions, LasWriter, PointChunk, RawChunk, RawPoint, WRITE_BATCH_POINTS,
+};
+pub use qc_doc::{
+    QC_FORMAT, QcDensity, QcDocument, QcInterswath, QcIntraswath, QcLine, QcLines, QcNva,
+    QcPredicted, QcRaster, QcRequirement, QcSmoothCells, QcVerdict,
 };
 pub use sbet::{
     F64Record, RAD_PER_ARCMIN, RecordReader, RecordWriter, SbetPose, SbetReader, SbetWriter,

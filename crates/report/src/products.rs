@@ -34,6 +34,8 @@ pub const CALIBRATION_ITERATIONS_FILE: &str = "calibration_iterations.json";
 pub const TRUTH_FILE: &str = "truth.json";
 /// `lidarqa overlap` before correction ([`Overlap`]).
 pub const OVERLAP_BEFORE_FILE: &str = "overlap_before.json";
+/// `lidarqa qc`'s product.
+pub const QC_FILE: &str = "qc.json";
 /// `lidarqa overlap` after correction ([`Overlap`]).
 pub const OVERLAP_AFTER_FILE: &str = "overlap_after.json";
 /// IHO S-44 statement of a bathymetric survey ([`Iho`]).
@@ -1058,4 +1060,11 @@ impl TpuIho {
         }
         Ok(())
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// qc.json (lidarqa-io's type, the one `lidarqa qc` writes)
+
+impl Product for lidarqa_io::QcDocument {
+    const WHAT: &'static str = "delivery QC (lidarqa qc)";
 }
