@@ -7,10 +7,17 @@ use serde_json::Value;
 use std::path::Path;
 use std::process::Command;
 
-const SCRIPT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/independent/qc_forest.py");
+const SCRIPT: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/tests/independent/qc_forest.py"
+);
 
 fn python(python: &std::ffi::OsStr, args: &[&str]) -> String {
-    let out = Command::new(python).arg(SCRIPT).args(args).output().unwrap();
+    let out = Command::new(python)
+        .arg(SCRIPT)
+        .args(args)
+        .output()
+        .unwrap();
     assert!(
         out.status.success(),
         "{}",
@@ -66,7 +73,8 @@ fn failed(doc: &Value, standard: &str) -> Vec<String> {
 
 #[test]
 fn forest_lines_pair_as_the_independent_computation_and_the_rasters_open() {
-    let Some(py) = lidarqa_testkit::python("the forested tile set (numpy, laspy, pyproj, rasterio)")
+    let Some(py) =
+        lidarqa_testkit::python("the forested tile set (numpy, laspy, pyproj, rasterio)")
     else {
         return;
     };
@@ -93,12 +101,21 @@ fn forest_lines_pair_as_the_independent_computation_and_the_rasters_open() {
     assert_eq!(pairs.len(), want.len());
     assert_eq!(want.len(), 3);
     for (p, w) in pairs.iter().zip(want) {
-        let (a, b) = (w["lines"][0].as_u64().unwrap(), w["lines"][1].as_u64().unwrap());
+        let (a, b) = (
+            w["lines"][0].as_u64().unwrap(),
+            w["lines"][1].as_u64().unwrap(),
+        );
         assert_eq!(p["lines"][0], format!("0-{a}"));
         assert_eq!(p["lines"][1], format!("0-{b}"));
         let (cells, want_cells) = (p["cells"].as_f64().unwrap(), w["cells"].as_f64().unwrap());
-        assert!((cells - want_cells).abs() <= 0.01 * want_cells, "{p} vs {w}");
-        let (r, wr) = (p["rmsdz_m"].as_f64().unwrap(), w["rmsdz_m"].as_f64().unwrap());
+        assert!(
+            (cells - want_cells).abs() <= 0.01 * want_cells,
+            "{p} vs {w}"
+        );
+        let (r, wr) = (
+            p["rmsdz_m"].as_f64().unwrap(),
+            w["rmsdz_m"].as_f64().unwrap(),
+        );
         assert!((r - wr).abs() <= 0.2 * wr, "{p} vs {w}");
         assert_eq!(
             p.as_object().unwrap().keys().collect::<Vec<_>>(),
@@ -107,9 +124,18 @@ fn forest_lines_pair_as_the_independent_computation_and_the_rasters_open() {
     }
     // The 15 cm line fails both of its pairs; the other pair passes.
     let fails = failed(&doc, "usgs-lbs-2024:QL2");
-    assert!(fails.iter().any(|f| f == "interswath RMSDz, lines 0-1–0-3"), "{fails:?}");
-    assert!(fails.iter().any(|f| f == "interswath RMSDz, lines 0-2–0-3"), "{fails:?}");
-    assert!(!fails.iter().any(|f| f == "interswath RMSDz, lines 0-1–0-2"), "{fails:?}");
+    assert!(
+        fails.iter().any(|f| f == "interswath RMSDz, lines 0-1–0-3"),
+        "{fails:?}"
+    );
+    assert!(
+        fails.iter().any(|f| f == "interswath RMSDz, lines 0-2–0-3"),
+        "{fails:?}"
+    );
+    assert!(
+        !fails.iter().any(|f| f == "interswath RMSDz, lines 0-1–0-2"),
+        "{fails:?}"
+    );
     // The dz GeoTIFFs read back with rasterio in EPSG:3005, every cell where it belongs.
     for (a, b) in [(1, 2), (1, 3)] {
         let tif = dir.path().join(format!("out/dz_0-{a}_0-{b}.tif"));
@@ -141,7 +167,12 @@ fn planted_faults_are_caught_and_the_clean_delivery_passes() {
         let cp = dir.path().join("checkpoints.csv");
         let doc = qc(
             dir.path(),
-            &["--control", cp.to_str().unwrap(), "--standard", "usgs-lbs-2024:QL2,asprs-2023"],
+            &[
+                "--control",
+                cp.to_str().unwrap(),
+                "--standard",
+                "usgs-lbs-2024:QL2,asprs-2023",
+            ],
         );
         let usgs = failed(&doc, "usgs-lbs-2024:QL2");
         let asprs = failed(&doc, "asprs-2023");
@@ -156,7 +187,10 @@ fn planted_faults_are_caught_and_the_clean_delivery_passes() {
         let rms: Vec<&String> = usgs.iter().filter(|f| f.contains("RMSDz")).collect();
         assert_eq!(
             rms,
-            ["interswath RMSDz, lines 0-1–0-2", "interswath RMSDz, lines 0-2–0-3"],
+            [
+                "interswath RMSDz, lines 0-1–0-2",
+                "interswath RMSDz, lines 0-2–0-3"
+            ],
             "{usgs:?}"
         );
         for p in doc["interswath"].as_array().unwrap() {

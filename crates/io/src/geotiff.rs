@@ -157,6 +157,9 @@ mod tests {
             values: vec![None; 5],
         };
         let e = r.to_bytes(Path::new("dz.tif")).unwrap_err().to_string();
-        assert!(e.starts_with("dz.tif: raster of 3 × 2 cells holds 5 values"), "{e}");
+        assert!(
+            e.starts_with("dz.tif: raster of 3 × 2 cells holds 5 values"),
+            "{e}"
+        );
     }
 }

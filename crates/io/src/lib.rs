@@ -9,7 +9,9 @@
 //! - the sensor file of SPEC §5 ([`read_sensor`]);
 //! - WGS84 geodetic ↔ ECEF ↔ NED, UTM ([`UtmZone`]) and any projected CRS in metres or feet
 //!   ([`Crs`]); GPS time bases ([`LasTimeConverter`]);
-//! - atomic outputs: a temporary file beside the target, renamed when complete ([`AtomicFile`]).
+//! - atomic outputs: a temporary file beside the target, renamed when complete ([`AtomicFile`]);
+//! - single-band float GeoTIFF rasters with their GeoKeys ([`GeoRaster`]) and the `qc.json` type
+//!   that `lidarqa qc` writes and the report reads ([`QcDocument`]).
 //!
 //! Every error names the file and, where there is one, the line, record or key at fault.
 
@@ -44,12 +46,12 @@ pub use geodesy::{
     Ellipsoid, Geodetic, Hemisphere, Projected, TransverseMercator, Unprojected, UtmDatum, UtmZone,
     ecef_to_geodetic, geodetic_to_ecef,
 };
+pub use geotiff::{GEOTIFF_NODATA, GeoRaster};
 pub use gpstime::{
     ADJUSTED_GPS_OFFSET_S, CivilDate, GpsWeekTime, LasTimeBase, LasTimeConverter,
     SECONDS_PER_WEEK_S, adjusted_standard_to_week, gps_week_of_date, gps_week_start,
     week_to_adjusted_standard,
 };
-pub use geotiff::{GEOTIFF_NODATA, GeoRaster};
 pub use grid_to_ecef::{CellCache, GridToEcef, MapAt};
 pub use local_inverse::{CELL_M, InverseKind, Inverted, LocalInverse, Located, TOLERANCE};
 pub use pointcloud::{

@@ -81,6 +81,10 @@ pub struct Lines {
     pub has_ground: bool,
 }
 
+/// A group of points: (point source id, file index for the id-0 points of a file without GPS
+/// time).
+type GroupKey = (u16, Option<usize>);
+
 /// Where sorted `times` jump by more than `max_gap_s`: the index of each new run's first time.
 pub fn gap_starts(times: &[f64], max_gap_s: f64) -> Vec<usize> {
     (1..times.len())
@@ -101,8 +105,7 @@ pub fn read_lines<P: AsRef<Path>>(paths: &[P], options: &LineOptions) -> Result<
         )));
     }
     let inputs: Vec<PathBuf> = paths.iter().map(|p| p.as_ref().to_path_buf()).collect();
-    // Key: (point source id, file index for id-0 points of a file without GPS time).
-    let mut groups: BTreeMap<(u16, Option<usize>), Vec<(LinePoint, usize)>> = BTreeMap::new();
+    let mut groups: BTreeMap<GroupKey, Vec<(LinePoint, usize)>> = BTreeMap::new();
     let mut epsg = None;
     let mut has_ground = false;
     let mut warnings = Vec::new();

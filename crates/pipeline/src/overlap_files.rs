@@ -59,7 +59,11 @@ pub fn overlap_lines<P: AsRef<Path>>(
         .iter_mut()
         .map(|l| {
             let ground: Vec<[f64; 3]> = if found.has_ground {
-                l.points.iter().filter(|p| p.class == 2).map(|p| p.xyz).collect()
+                l.points
+                    .iter()
+                    .filter(|p| p.class == 2)
+                    .map(|p| p.xyz)
+                    .collect()
             } else {
                 Vec::new()
             };

@@ -271,7 +271,9 @@ fn fit(points: &[[f64; 3]], centre: [f64; 2], max_slope: f64) -> Option<CellFit>
     let rms = (r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64).sqrt();
     let (lo, hi) = r
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
     Some(CellFit {
         z: s[0],
         slope_ok: slope <= max_slope,
@@ -326,7 +328,12 @@ fn not_judged(mut r: QcRequirement, note: String) -> QcRequirement {
 }
 
 /// A raster of the cells in `values` (keys on the grid of `origin`, `cell`).
-fn raster(values: &BTreeMap<Cell, f64>, origin: [f64; 2], cell: f64, epsg: Option<u32>) -> Option<GeoRaster> {
+fn raster(
+    values: &BTreeMap<Cell, f64>,
+    origin: [f64; 2],
+    cell: f64,
+    epsg: Option<u32>,
+) -> Option<GeoRaster> {
     let (x0, x1) = values
         .keys()
         .fold((i64::MAX, i64::MIN), |(a, b), k| (a.min(k.0), b.max(k.0)));
@@ -473,9 +480,9 @@ pub fn qc_lines(lines: &Lines, dir: &Path, options: &QcOptions) -> Result<QcDocu
         .map(|(l, f)| {
             let cells: Vec<&CellFit> = f.values().filter(|x| x.slope_ok).collect();
             let mut ranges: Vec<f64> = cells.iter().map(|x| x.range).collect();
-            let (ss, nn) = cells
-                .iter()
-                .fold((0.0, 0usize), |(s, n), x| (s + x.rms * x.rms * x.n as f64, n + x.n));
+            let (ss, nn) = cells.iter().fold((0.0, 0usize), |(s, n), x| {
+                (s + x.rms * x.rms * x.n as f64, n + x.n)
+            });
             QcIntraswath {
                 line: l.id.clone(),
                 cells: cells.len(),
@@ -492,18 +499,19 @@ pub fn qc_lines(lines: &Lines, dir: &Path, options: &QcOptions) -> Result<QcDocu
         Some(cp) => Some(nva(lines, ground_class, cp, &mut warnings)?),
     };
     // Rasters.
-    let mut write_raster = |kind: &str, name: String, r: Option<GeoRaster>, pair: Option<[String; 2]>| -> Result<()> {
-        if let Some(r) = r {
-            r.write(&dir.join(&name), inputs)?;
-            rasters.push(QcRaster {
-                kind: kind.into(),
-                path: name,
-                lines: pair,
-                cell_m: r.cell,
-            });
-        }
-        Ok(())
-    };
+    let mut write_raster =
+        |kind: &str, name: String, r: Option<GeoRaster>, pair: Option<[String; 2]>| -> Result<()> {
+            if let Some(r) = r {
+                r.write(&dir.join(&name), inputs)?;
+                rasters.push(QcRaster {
+                    kind: kind.into(),
+                    path: name,
+                    lines: pair,
+                    cell_m: r.cell,
+                });
+            }
+            Ok(())
+        };
     for (ids, dz) in &pair_dz {
         write_raster(
             "dz",
@@ -558,7 +566,11 @@ pub fn qc_lines(lines: &Lines, dir: &Path, options: &QcOptions) -> Result<QcDocu
                     point_source_id: l.point_source_id,
                     points: l.points.len(),
                     gps_time_s: l.gps_time_s,
-                    files: l.files.iter().map(|&f| inputs[f].display().to_string()).collect(),
+                    files: l
+                        .files
+                        .iter()
+                        .map(|&f| inputs[f].display().to_string())
+                        .collect(),
                 })
                 .collect(),
         },
@@ -613,7 +625,13 @@ pub fn qc_prediction(sensor: &Path, trajectory: &Path, lines: &Lines) -> Result<
         .lines
         .iter()
         .flat_map(|l| l.points.iter())
-        .filter(|p| if lines.has_ground { p.class == 2 } else { p.last })
+        .filter(|p| {
+            if lines.has_ground {
+                p.class == 2
+            } else {
+                p.last
+            }
+        })
         .map(|p| p.xyz[2])
         .collect();
     let g = median(&mut ground).unwrap_or(0.0);
@@ -645,7 +663,9 @@ fn line_fits(
     for p in &l.points {
         let surface = if ground_class { p.class == 2 } else { p.last };
         if surface {
-            bins.entry(cell_of(&p.xyz, origin, c)).or_default().push(p.xyz);
+            bins.entry(cell_of(&p.xyz, origin, c))
+                .or_default()
+                .push(p.xyz);
         }
     }
     bins.into_iter()
@@ -666,8 +686,13 @@ fn density(lines: &Lines, limits: &QlLimits) -> (QcDensity, Option<GeoRaster>, O
     let k = (10.0 / fine).round().max(1.0) as i64;
     let coarse = fine * k as f64;
     let pts = || lines.lines.iter().flat_map(|l| l.points.iter());
-    let min = pts().fold([f64::INFINITY; 2], |m, p| [m[0].min(p.xyz[0]), m[1].min(p.xyz[1])]);
-    let origin = [(min[0] / coarse).floor() * coarse, (min[1] / coarse).floor() * coarse];
+    let min = pts().fold([f64::INFINITY; 2], |m, p| {
+        [m[0].min(p.xyz[0]), m[1].min(p.xyz[1])]
+    });
+    let origin = [
+        (min[0] / coarse).floor() * coarse,
+        (min[1] / coarse).floor() * coarse,
+    ];
     // Coarse cells: (points, last returns, σ_up sum, σ_up count).
     let mut cc: BTreeMap<Cell, (usize, usize, f64, usize)> = BTreeMap::new();
     let mut fine_last: std::collections::BTreeSet<Cell> = Default::default();
@@ -687,9 +712,7 @@ fn density(lines: &Lines, limits: &QlLimits) -> (QcDensity, Option<GeoRaster>, O
     // cells are partly empty by construction); all cells when that leaves none.
     let interior: Vec<Cell> = cc
         .keys()
-        .filter(|(x, y)| {
-            (-1..=1).all(|dx| (-1..=1).all(|dy| cc.contains_key(&(x + dx, y + dy))))
-        })
+        .filter(|(x, y)| (-1..=1).all(|dx| (-1..=1).all(|dy| cc.contains_key(&(x + dx, y + dy)))))
         .copied()
         .collect();
     let used: Vec<Cell> = if interior.is_empty() {
@@ -750,12 +773,13 @@ fn nva(lines: &Lines, ground_class: bool, cp: &Path, warnings: &mut Vec<Warning>
         .filter(|p| if ground_class { p.class == 2 } else { p.last })
         .map(|p| p.xyz)
         .collect();
-    let v = evaluate_vertical_tin(&ground, &cps, &EvaluateOptions::default()).map_err(|source| {
-        Error::Checkpoints {
-            path: cp.to_path_buf(),
-            source,
-        }
-    })?;
+    let v =
+        evaluate_vertical_tin(&ground, &cps, &EvaluateOptions::default()).map_err(|source| {
+            Error::Checkpoints {
+                path: cp.to_path_buf(),
+                source,
+            }
+        })?;
     if !v.outside_tin.is_empty() {
         warnings.push(Warning::new(
             "checkpoints_outside",
@@ -798,20 +822,43 @@ fn verdict(s: &Standard, v: &VerdictInput) -> QcVerdict {
             let l = q.limits();
             for i in v.intraswath {
                 let x = req(
-                    format!("intraswath smooth-surface repeatability, line {} (median per-cell range)", i.line),
+                    format!(
+                        "intraswath smooth-surface repeatability, line {} (median per-cell range)",
+                        i.line
+                    ),
                     i.median_range_m,
                     "<=",
                     l.intraswath_m,
                     "m",
                     i.cells,
                 );
-                r.push(if i.cells < v.min_cells { not_judged(x, few(i.cells)) } else { x });
+                r.push(if i.cells < v.min_cells {
+                    not_judged(x, few(i.cells))
+                } else {
+                    x
+                });
             }
             for p in v.interswath {
                 let name = format!("lines {}–{}", p.lines[0], p.lines[1]);
-                let mut a = req(format!("interswath RMSDz, {name}"), Some(p.rmsdz_m), "<=", l.rmsdz_m, "m", p.cells);
-                a.predicted = v.predicted.map(|pr| std::f64::consts::SQRT_2 * pr.sigma_up_m);
-                let b = req(format!("interswath max |dz|, {name}"), Some(p.max_abs_dz_m), "<=", l.max_dz_m, "m", p.cells);
+                let mut a = req(
+                    format!("interswath RMSDz, {name}"),
+                    Some(p.rmsdz_m),
+                    "<=",
+                    l.rmsdz_m,
+                    "m",
+                    p.cells,
+                );
+                a.predicted = v
+                    .predicted
+                    .map(|pr| std::f64::consts::SQRT_2 * pr.sigma_up_m);
+                let b = req(
+                    format!("interswath max |dz|, {name}"),
+                    Some(p.max_abs_dz_m),
+                    "<=",
+                    l.max_dz_m,
+                    "m",
+                    p.cells,
+                );
                 if p.cells < v.min_cells {
                     r.push(not_judged(a, few(p.cells)));
                     r.push(not_judged(b, few(p.cells)));
@@ -863,10 +910,20 @@ fn verdict(s: &Standard, v: &VerdictInput) -> QcVerdict {
             let class = class.or(v.ql_nva).unwrap_or(0.10);
             let n = v.nva.map_or(0, |n| n.checkpoints);
             let rows = [
-                req("checkpoints (at least 30)".into(), v.nva.map(|n| n.checkpoints as f64), ">=", 30.0, "checkpoints", n),
+                req(
+                    "checkpoints (at least 30)".into(),
+                    v.nva.map(|n| n.checkpoints as f64),
+                    ">=",
+                    30.0,
+                    "checkpoints",
+                    n,
+                ),
                 {
                     let mut x = req(
-                        format!("NVA RMSEz within the {:.1} cm vertical accuracy class (checkpoint accuracy included)", class * 100.0),
+                        format!(
+                            "NVA RMSEz within the {:.1} cm vertical accuracy class (checkpoint accuracy included)",
+                            class * 100.0
+                        ),
                         v.nva.map(|n| n.product_rmse_z_m),
                         "<=",
                         class,
@@ -876,8 +933,22 @@ fn verdict(s: &Standard, v: &VerdictInput) -> QcVerdict {
                     x.predicted = v.predicted.map(|p| p.sigma_up_m);
                     x
                 },
-                req("mean error within 25 % of the class".into(), v.nva.map(|n| n.mean_z_m.abs()), "<=", 0.25 * class, "m", n),
-                req("95 % statement: 1.96 × RMSEz (NSSDA)".into(), v.nva.map(|n| n.accuracy_95_m), "<=", 1.96 * class, "m", n),
+                req(
+                    "mean error within 25 % of the class".into(),
+                    v.nva.map(|n| n.mean_z_m.abs()),
+                    "<=",
+                    0.25 * class,
+                    "m",
+                    n,
+                ),
+                req(
+                    "95 % statement: 1.96 × RMSEz (NSSDA)".into(),
+                    v.nva.map(|n| n.accuracy_95_m),
+                    "<=",
+                    1.96 * class,
+                    "m",
+                    n,
+                ),
             ];
             for x in rows {
                 r.push(if v.nva.is_none() {
@@ -891,7 +962,12 @@ fn verdict(s: &Standard, v: &VerdictInput) -> QcVerdict {
         Standard::IhoS44(o) => {
             let lim = o.limits();
             let x = req(
-                format!("TVU at 95 % within a = {} m, b = {} (order {})", lim.tvu_a_m, lim.tvu_b, o.name()),
+                format!(
+                    "TVU at 95 % within a = {} m, b = {} (order {})",
+                    lim.tvu_a_m,
+                    lim.tvu_b,
+                    o.name()
+                ),
                 None,
                 "<=",
                 lim.tvu_a_m,
@@ -935,8 +1011,14 @@ mod tests {
             "asprs-2023:5".parse::<Standard>().unwrap(),
             Standard::Asprs2023(Some(0.05))
         );
-        let e = "usgs-lbs-2024:QL9".parse::<Standard>().unwrap_err().to_string();
-        assert!(e.contains("standard `usgs-lbs-2024:QL9`: unknown quality level"), "{e}");
+        let e = "usgs-lbs-2024:QL9"
+            .parse::<Standard>()
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("standard `usgs-lbs-2024:QL9`: unknown quality level"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -26,7 +26,11 @@ fn the_vq880g_snippet_is_one_pass_as_numpy_counts_it() {
             .args(["-c", COUNT, las.to_str().unwrap(), "5.0"])
             .output()
             .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         let s = String::from_utf8(out.stdout).unwrap();
         let mut it = s.split_whitespace();
         let n: usize = it.next().unwrap().parse().unwrap();
@@ -44,7 +48,12 @@ fn the_vq880g_snippet_is_one_pass_as_numpy_counts_it() {
     assert_eq!(l.id, "0");
     assert_eq!(l.points.len(), 56_382);
     assert!(lines.reasons[0].starts_with("point source id 0 on these points (no line id): 1 line"));
-    assert!(lines.warnings.iter().any(|w| w.code == "no_point_source_id"));
+    assert!(
+        lines
+            .warnings
+            .iter()
+            .any(|w| w.code == "no_point_source_id")
+    );
     // A gap threshold under its largest gap splits it, as numpy does.
     let split = read_lines(&[&las], &LineOptions { max_gap_s: 0.2 }).unwrap();
     assert_eq!(split.lines.len(), 2);

@@ -837,6 +837,17 @@ pub struct OverlapPair {
     pub max_abs_dz_m: f64,
     /// Cells / points compared.
     pub n: u64,
+    /// `false` for a pair of fewer cells than `lidarqa overlap --min-cells`: listed, but left out
+    /// of the overall RMS and the worst pair; absent in older files (taken as meaningful).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub meaningful: Option<bool>,
+}
+
+impl OverlapPair {
+    /// Whether the pair counts (module docs of `meaningful`).
+    pub fn counts(&self) -> bool {
+        self.meaningful != Some(false)
+    }
 }
 
 /// `grid` of [`Overlap`]: mean dz (strip minus strip, m) per cell; null outside the overlaps.

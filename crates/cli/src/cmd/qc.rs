@@ -48,7 +48,12 @@ pub struct QcArgs {
     sensor: Option<PathBuf>,
     /// Standards, comma-separated: usgs-lbs-2024:QL0…QL3, asprs-2023[:<class cm>],
     /// iho-s44:exclusive|special|1a|1b|2.
-    #[arg(long, value_name = "LIST", value_delimiter = ',', default_value = "usgs-lbs-2024:QL2,asprs-2023")]
+    #[arg(
+        long,
+        value_name = "LIST",
+        value_delimiter = ',',
+        default_value = "usgs-lbs-2024:QL2,asprs-2023"
+    )]
     standard: Vec<String>,
     /// Smooth-cell size, metres.
     #[arg(long, value_name = "M", default_value_t = 2.0)]
@@ -133,8 +138,14 @@ pub fn table(doc: &QcDocument) -> String {
     }
     s += &format!(
         "\ninterswath on {} cells of {} m (pairs under {} cells not judged)\n{:<10} {:<10} {:>10} {:>12} {:>8}\n",
-        doc.smooth_cells.points, doc.smooth_cells.cell_m, doc.interswath_min_cells,
-        "line a", "line b", "RMSDz m", "max |dz| m", "cells"
+        doc.smooth_cells.points,
+        doc.smooth_cells.cell_m,
+        doc.interswath_min_cells,
+        "line a",
+        "line b",
+        "RMSDz m",
+        "max |dz| m",
+        "cells"
     );
     for p in &doc.interswath {
         s += &format!(
@@ -144,7 +155,11 @@ pub fn table(doc: &QcDocument) -> String {
             p.rmsdz_m,
             p.max_abs_dz_m,
             p.cells,
-            if p.cells < doc.interswath_min_cells { "  (too few, not judged)" } else { "" }
+            if p.cells < doc.interswath_min_cells {
+                "  (too few, not judged)"
+            } else {
+                ""
+            }
         );
     }
     for v in &doc.verdicts {
@@ -172,7 +187,10 @@ pub fn table(doc: &QcDocument) -> String {
                 format!("{} {}", r.comparison, cell(Some(r.threshold), &r.unit)),
                 r.sample_size,
                 res,
-                r.note.as_ref().map(|n| format!(" ({n})")).unwrap_or_default()
+                r.note
+                    .as_ref()
+                    .map(|n| format!(" ({n})"))
+                    .unwrap_or_default()
             );
         }
     }

@@ -27,10 +27,15 @@ fn row(o: &mut String, r: &QcRequirement) {
         esc(&r.requirement),
         value(r.measured, &r.unit),
         value(r.predicted, &r.unit),
-        esc(&r.comparison).replace("&lt;=", "≤").replace("&gt;=", "≥"),
+        esc(&r.comparison)
+            .replace("&lt;=", "≤")
+            .replace("&gt;=", "≥"),
         value(Some(r.threshold), &r.unit),
         r.sample_size,
-        r.note.as_ref().map(|n| format!(" ({})", esc(n))).unwrap_or_default()
+        r.note
+            .as_ref()
+            .map(|n| format!(" ({})", esc(n)))
+            .unwrap_or_default()
     );
 }
 
@@ -64,7 +69,11 @@ pub(super) fn qc_section(q: &QcDocument) -> String {
             p.rmsdz_m,
             p.max_abs_dz_m,
             p.cells,
-            if p.cells < q.interswath_min_cells { " (too few)" } else { "" }
+            if p.cells < q.interswath_min_cells {
+                " (too few)"
+            } else {
+                ""
+            }
         );
     }
     o.push_str("</tbody></table>\n");
@@ -86,7 +95,11 @@ pub(super) fn qc_section(q: &QcDocument) -> String {
         o.push_str("</tbody></table>\n");
     }
     if !q.rasters.is_empty() {
-        let names: Vec<String> = q.rasters.iter().map(|r| format!("<code>{}</code>", esc(&r.path))).collect();
+        let names: Vec<String> = q
+            .rasters
+            .iter()
+            .map(|r| format!("<code>{}</code>", esc(&r.path)))
+            .collect();
         let _ = writeln!(
             o,
             "<p class=\"note\">GeoTIFF rasters beside qc.json (open in QGIS{}): {}.</p>",
