@@ -38,6 +38,9 @@ pub struct OverlapOptions {
     pub max_slope_deg: f64,
     /// Profile line `[[x0, y0], [x1, y1]]`, m; `None`: along x through the middle of the overlap.
     pub profile: Option<[[f64; 2]; 2]>,
+    /// Fewest smooth cells for a pair to mean something: pairs with fewer are listed with
+    /// `meaningful: false` and left out of the grid, the profile's extent and the overall RMSDz.
+    pub min_cells: usize,
 }
 
 impl Default for OverlapOptions {
@@ -48,6 +51,7 @@ impl Default for OverlapOptions {
             max_roughness_m: 0.05,
             max_slope_deg: 10.0,
             profile: None,
+            min_cells: 10,
         }
     }
 }
@@ -65,6 +69,8 @@ pub struct OverlapPair {
     pub mean_dz_m: f64,
     /// Number of smooth cells compared.
     pub n: usize,
+    /// Whether `n` reaches [`OverlapOptions::min_cells`].
+    pub meaningful: bool,
 }
 
 /// The dz grid: cell `(ix, iy)` covers `[origin_x + ix·cell, origin_x + (ix+1)·cell)` ×
@@ -91,7 +97,7 @@ pub struct OverlapGrid {
 pub struct ProfileStrip {
     /// The strip's id.
     pub id: String,
-    /// Height at each profile sample (cell plane at the sample's cell, any roughness), m.
+    /// Height at each profile sample (cell plane at the sample's cell where it is smooth), m.
     pub z_m: Vec<Option<f64>>,
 }
 
@@ -109,7 +115,7 @@ pub struct OverlapProfile {
 /// The overlap QC result; [`OverlapReport::to_json`] gives the schema the report reads.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OverlapReport {
-    /// Pairs with at least one smooth cell in common.
+    /// Pairs with at least one smooth cell in common (those under `min_cells` marked).
     pub pairs: Vec<OverlapPair>,
     /// The dz grid.
     pub grid: OverlapGrid,
@@ -133,6 +139,7 @@ impl OverlapReport {
                 "max_abs_dz_m": p.max_abs_dz_m,
                 "mean_dz_m": p.mean_dz_m,
                 "n": p.n,
+                "meaningful": p.meaningful,
             })).collect::<Vec<_>>(),
             "grid": {
                 "cell_m": self.grid.cell_m,
@@ -150,14 +157,11 @@ impl OverlapReport {
         })
     }
 
-    /// RMS over all pairs' smooth cells of dz (each cell of each pair counts once), m.
+    /// RMS over the meaningful pairs' smooth cells of dz (each cell of each pair counts once), m.
     pub fn overall_rmsdz_m(&self) -> f64 {
-        let n: usize = self.pairs.iter().map(|p| p.n).sum();
-        let s: f64 = self
-            .pairs
-            .iter()
-            .map(|p| p.rmsdz_m * p.rmsdz_m * p.n as f64)
-            .sum();
+        let pairs = || self.pairs.iter().filter(|p| p.meaningful);
+        let n: usize = pairs().map(|p| p.n).sum();
+        let s: f64 = pairs().map(|p| p.rmsdz_m * p.rmsdz_m * p.n as f64).sum();
         (s / n.max(1) as f64).sqrt()
     }
 }
@@ -285,6 +289,7 @@ pub fn overlap_qc(strips: &[OverlapStrip], opts: &OverlapOptions) -> Result<Over
     for a in 0..strips.len() {
         for b in a + 1..strips.len() {
             let (mut n, mut s2, mut s1, mut mx) = (0usize, 0.0, 0.0, 0.0f64);
+            let mut cells = Vec::new();
             for (cell, fa) in &fits[a] {
                 let Some(fb) = fits[b].get(cell) else {
                     continue;
@@ -297,9 +302,15 @@ pub fn overlap_qc(strips: &[OverlapStrip], opts: &OverlapOptions) -> Result<Over
                 s2 += dz * dz;
                 s1 += dz;
                 mx = mx.max(dz.abs());
-                let g = grid.entry(*cell).or_insert(dz);
-                if dz.abs() > g.abs() {
-                    *g = dz;
+                cells.push((*cell, dz));
+            }
+            let meaningful = n >= opts.min_cells.max(1);
+            if meaningful {
+                for (cell, dz) in cells {
+                    let g = grid.entry(cell).or_insert(dz);
+                    if dz.abs() > g.abs() {
+                        *g = dz;
+                    }
                 }
             }
             if n > 0 {
@@ -309,6 +320,7 @@ pub fn overlap_qc(strips: &[OverlapStrip], opts: &OverlapOptions) -> Result<Over
                     max_abs_dz_m: mx,
                     mean_dz_m: s1 / n as f64,
                     n,
+                    meaningful,
                 });
             }
         }
@@ -354,7 +366,8 @@ pub fn overlap_qc(strips: &[OverlapStrip], opts: &OverlapOptions) -> Result<Over
                     if ix >= nx || iy >= ny {
                         return None;
                     }
-                    f.get(&(iy * nx + ix)).map(|cf| cf.z)
+                    // Smooth cells only: a roof edge or a tree is no height of the terrain.
+                    f.get(&(iy * nx + ix)).filter(|cf| cf.smooth).map(|cf| cf.z)
                 })
                 .collect(),
         })

@@ -11,7 +11,9 @@
 //! - WGS84 geodetic ↔ ECEF ↔ NED, UTM ([`UtmZone`]) and any projected CRS in metres or feet
 //!   ([`Crs`]); GPS time bases ([`LasTimeConverter`]);
 //! - geoid models: EGM2008 built in and GTX / GeoTIFF grids ([`GeoidModel`]);
-//! - atomic outputs: a temporary file beside the target, renamed when complete ([`AtomicFile`]).
+//! - atomic outputs: a temporary file beside the target, renamed when complete ([`AtomicFile`]);
+//! - single-band float GeoTIFF rasters with their GeoKeys ([`GeoRaster`]) and the `qc.json` type
+//!   that `lidarqa qc` writes and the report reads ([`QcDocument`]).
 //!
 //! Every error names the file and, where there is one, the line, record or key at fault.
 
@@ -30,11 +32,13 @@ mod csv;
 mod error;
 mod geodesy;
 mod geoid;
+mod geotiff;
 mod gpstime;
 mod grid_to_ecef;
 mod local_inverse;
 mod pointcloud;
 mod pointpose;
+mod qc_doc;
 mod sbet;
 mod trajtext;
 mod wkt;
@@ -54,6 +58,7 @@ pub use geodesy::{
     ecef_to_geodetic, geodetic_to_ecef,
 };
 pub use geoid::{GeoidGrid, GeoidModel};
+pub use geotiff::{GEOTIFF_NODATA, GeoRaster};
 pub use gpstime::{
     ADJUSTED_GPS_OFFSET_S, CivilDate, GpsWeekTime, LasTimeBase, LasTimeConverter,
     SECONDS_PER_WEEK_S, adjusted_standard_to_week, gps_week_of_date, gps_week_start,
@@ -66,6 +71,10 @@ pub use pointcloud::{
     LasWriteOptions, LasWriter, PointChunk, RawChunk, RawPoint, WRITE_BATCH_POINTS,
 };
 pub use pointpose::{POSE_DIMS, has_point_pose};
+pub use qc_doc::{
+    QC_FORMAT, QcDensity, QcDocument, QcInterswath, QcIntraswath, QcLine, QcLines, QcNva,
+    QcPredicted, QcRaster, QcRequirement, QcSmoothCells, QcVerdict,
+};
 pub use sbet::{
     F64Record, RAD_PER_ARCMIN, RecordReader, RecordWriter, SbetPose, SbetReader, SbetWriter,
     SmrmsgReader, SmrmsgSigma, SmrmsgWriter, raw as sbet_raw, read_sbet, read_smrmsg,

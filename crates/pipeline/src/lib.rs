@@ -61,9 +61,11 @@ mod csd_tpu;
 mod digest;
 mod error;
 mod evaluate_files;
+mod lines;
 mod manifest;
 mod overlap_files;
 pub mod plausibility;
+mod qc;
 mod retile;
 mod stages;
 mod stored;
@@ -95,12 +97,14 @@ pub use error::{Error, Result};
 pub use evaluate_files::{
     evaluate_nva, evaluate_target_files, ground_points, predicted_from_sensor,
 };
+pub use lines::{FlightLine, LineOptions, LinePoint, Lines, gap_starts, read_lines};
 pub use manifest::{
     Entry, EntryOutcome, InputFile, MANIFEST_FORMAT, Manifest, ManifestOptions, REPORT_SUFFIX,
     TILE_REPORT_FORMAT, Task, TpuPlan, collect, entry_status, plan_tpu, resolve, run_entry,
     run_manifest_entry,
 };
-pub use overlap_files::{overlap_files, overlap_strip};
+pub use overlap_files::{overlap_files, overlap_lines, overlap_strip};
+pub use qc::{QcOptions, QlLimits, QualityLevel, Standard, qc_delivery, qc_lines, qc_prediction};
 pub use retile::{RetileReport, TileFile, TileGrid, retile};
 pub use stored::{StoredHistogram, StoredSummary};
 pub use summary::{

@@ -102,7 +102,12 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
         ("after", OVERLAP_AFTER_FILE),
     ] {
         if let Ok(o) = read_product::<Overlap>(dir.join(file)) {
-            let worst = o.pairs.iter().map(|p| p.rmsdz_m).fold(0.0, f64::max);
+            let worst = o
+                .pairs
+                .iter()
+                .filter(|p| p.counts())
+                .map(|p| p.rmsdz_m)
+                .fold(0.0, f64::max);
             let _ = writeln!(
                 t,
                 "strip-to-strip RMSDz {name:<7} (worst pair): {:.2} cm",

@@ -10,6 +10,7 @@ mod budget;
 mod calibration;
 mod iho;
 mod overlap;
+mod qc;
 mod sweep;
 mod tpu;
 
@@ -18,6 +19,7 @@ use budget::budget_section;
 use calibration::calibration_section;
 use iho::iho_section;
 use overlap::overlap_section;
+use qc::qc_section;
 use sweep::sweep_section;
 use tpu::tpu_section;
 
@@ -113,6 +115,9 @@ fn sections(p: &Products) -> Vec<(&'static str, &'static str, String)> {
             "Strip-to-strip consistency",
             overlap_section(p.overlap_before.as_ref(), p.overlap_after.as_ref()),
         ));
+    }
+    if let Some(q) = &p.qc {
+        sections.push(("qc", "Delivery QC against the standards", qc_section(q)));
     }
     if let Some(i) = &p.iho {
         sections.push(("iho", "IHO S-44 statement", iho_section(i)));

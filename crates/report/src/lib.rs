@@ -13,6 +13,7 @@
 //! | [`EVALUATE_BEFORE_FILE`], [`EVALUATE_AFTER_FILE`] | [`Evaluation`] (SPEC §6) | residual vectors, predicted vs measured, ASPRS / NSSDA |
 //! | [`CALIBRATION_FILE`] (+ [`CALIBRATION_ITERATIONS_FILE`], [`TRUTH_FILE`]) | [`Calibration`] (SPEC §8) | mounting ± σ (vs truth), correlations, convergence |
 //! | [`OVERLAP_BEFORE_FILE`], [`OVERLAP_AFTER_FILE`] | [`Overlap`] | dz maps and height profiles before / after |
+//! | [`QC_FILE`] | `lidarqa_io::QcDocument` | delivery QC: lines, interswath pairs, verdict tables per standard |
 //! | [`IHO_FILE`] `iho.json` | [`Iho`] | IHO S-44 table |
 //! | [`TPU_SUMMARY_FILE`] with soundings ([`TpuIho`]; + `budget_sweep_depth.json`, `budget_sweep_azimuth.json`) | bathymetry | IHO table per depth band, σ vs depth with the IHO allowances, budget around the scan, variance shares, order map |
 //!
@@ -57,7 +58,7 @@ pub use products::{
     Displacement, DroppedPick, DzGrid, EVALUATE_AFTER_FILE, EVALUATE_BEFORE_FILE, Evaluation,
     GridGeometry, Histogram, IHO_FILE, Id, Iho, IhoDepthBand, IhoOrder, Iteration, Neu, Nssda,
     OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE, OrderGrid, Ordered, Overlap, OverlapPair,
-    PartialComponents, Product, Profile, ProfileStrip, REPORT_FILE, ResidualPoint,
+    PartialComponents, Product, Profile, ProfileStrip, QC_FILE, REPORT_FILE, ResidualPoint,
     SWEEP_FILE_PREFIX, SigmaGrid, Stats, Sweep, SweepPoint, TPU_SUMMARY_FILE, TRUTH_FILE,
     TiePosition, TpuHistograms, TpuIho, TpuIhoBand, TpuIhoOrder, TpuSigmas, TpuSummary, Truth, Xyz,
     sweep_file_name,

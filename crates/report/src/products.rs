@@ -34,6 +34,8 @@ pub const CALIBRATION_ITERATIONS_FILE: &str = "calibration_iterations.json";
 pub const TRUTH_FILE: &str = "truth.json";
 /// `lidarqa overlap` before correction ([`Overlap`]).
 pub const OVERLAP_BEFORE_FILE: &str = "overlap_before.json";
+/// `lidarqa qc`'s product.
+pub const QC_FILE: &str = "qc.json";
 /// `lidarqa overlap` after correction ([`Overlap`]).
 pub const OVERLAP_AFTER_FILE: &str = "overlap_after.json";
 /// IHO S-44 statement of a bathymetric survey ([`Iho`]).
@@ -920,6 +922,17 @@ pub struct OverlapPair {
     pub max_abs_dz_m: f64,
     /// Cells / points compared.
     pub n: u64,
+    /// `false` for a pair of fewer cells than `lidarqa overlap --min-cells`: listed, but left out
+    /// of the overall RMS and the worst pair; absent in older files (taken as meaningful).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub meaningful: Option<bool>,
+}
+
+impl OverlapPair {
+    /// Whether the pair counts (module docs of `meaningful`).
+    pub fn counts(&self) -> bool {
+        self.meaningful != Some(false)
+    }
 }
 
 /// `grid` of [`Overlap`]: mean dz (strip minus strip, m) per cell; null outside the overlaps.
@@ -1143,4 +1156,11 @@ impl TpuIho {
         }
         Ok(())
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// qc.json (lidarqa-io's type, the one `lidarqa qc` writes)
+
+impl Product for lidarqa_io::QcDocument {
+    const WHAT: &'static str = "delivery QC (lidarqa qc)";
 }

@@ -32,6 +32,8 @@ pub struct Products {
     pub overlap_after: Option<Overlap>,
     /// `iho.json`.
     pub iho: Option<Iho>,
+    /// `qc.json` (`lidarqa qc`).
+    pub qc: Option<lidarqa_io::QcDocument>,
     /// The `warnings` of every product read (SPEC §7), with the file they came from.
     pub warnings: Vec<(String, lidarqa_model::Warning)>,
 }
@@ -66,6 +68,7 @@ impl Products {
         add(self.overlap_before.is_some(), OVERLAP_BEFORE_FILE);
         add(self.overlap_after.is_some(), OVERLAP_AFTER_FILE);
         add(self.iho.is_some(), IHO_FILE);
+        add(self.qc.is_some(), QC_FILE);
         v
     }
 
@@ -206,6 +209,7 @@ impl Report {
         p.overlap_before = load(dir, OVERLAP_BEFORE_FILE, &mut skipped, &mut read);
         p.overlap_after = load(dir, OVERLAP_AFTER_FILE, &mut skipped, &mut read);
         p.iho = load(dir, IHO_FILE, &mut skipped, &mut read);
+        p.qc = load(dir, QC_FILE, &mut skipped, &mut read);
         for name in p.present() {
             let w = product_warnings(&dir.join(&name));
             p.warnings.extend(w.into_iter().map(|w| (name.clone(), w)));

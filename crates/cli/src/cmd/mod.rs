@@ -11,6 +11,7 @@ mod demo;
 mod evaluate;
 mod overlap;
 mod plan;
+mod qc;
 mod report;
 mod run;
 mod sensor;
@@ -66,6 +67,10 @@ pub enum Command {
     /// Swath-to-swath consistency of overlapping strips (RMSDz, dz grid, profile).
     #[command(after_help = overlap::AFTER_HELP)]
     Overlap(overlap::OverlapArgs),
+    /// Delivery QC against the standards (USGS LBS 2024, ASPRS 2023, IHO S-44): verdict tables,
+    /// qc.json and GeoTIFF rasters.
+    #[command(after_help = qc::AFTER_HELP)]
+    Qc(qc::QcArgs),
     /// Cut strips into a grid of tiles (input of `lidarqa plan` and `lidarqa tpu DIR`).
     #[command(after_help = tile::AFTER_HELP)]
     Tile(tile::TileArgs),
@@ -88,6 +93,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Calibrate(args) => calibrate::run(args),
         Command::Correct(args) => correct::run(args),
         Command::Overlap(args) => overlap::run(args),
+        Command::Qc(args) => qc::run(args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Targets(args) => targets::run(args),
         Command::Evaluate(args) => evaluate::run(args),

@@ -15,9 +15,13 @@ pub(super) fn overlap_section(before: Option<&Overlap>, after: Option<&Overlap>)
     dz_maps(&mut o, &runs);
     profiles(&mut o, &runs);
     let rms = |r: &Overlap| {
-        let (s, n) = r.pairs.iter().fold((0.0, 0u64), |(s, n), p| {
-            (s + p.rmsdz_m.powi(2) * p.n as f64, n + p.n)
-        });
+        let (s, n) = r
+            .pairs
+            .iter()
+            .filter(|p| p.counts())
+            .fold((0.0, 0u64), |(s, n), p| {
+                (s + p.rmsdz_m.powi(2) * p.n as f64, n + p.n)
+            });
         (n > 0).then(|| (s / n as f64).sqrt())
     };
     let text = match (before.and_then(rms), after.and_then(rms)) {
