@@ -16,8 +16,8 @@
 mod sensor;
 pub use sensor::{
     CovarianceSection, MountingSection, MountingSigmaSection, ScannerSection, SensorExtras,
-    SensorFile, parse_sensor, parse_sensor_with_extras, read_sensor, read_sensor_with_extras,
-    sensor_to_toml,
+    SensorFile, mounting_implausible, parse_sensor, parse_sensor_with_extras, read_sensor,
+    read_sensor_with_extras, sensor_to_toml, sigma_limit,
 };
 
 mod atomic;
@@ -32,7 +32,10 @@ mod pointcloud;
 mod sbet;
 mod trajtext;
 
-pub use atomic::{AtomicFile, InputSet, check_distinct_inputs, check_not_an_input, outputs_in_dir};
+pub use atomic::{
+    AtomicFile, InputSet, check_distinct_inputs, check_not_an_input, check_outputs, outputs_in_dir,
+    resolved,
+};
 pub use crs::{Crs, LasCrs, LinearUnit, RawVlr, epsg_from_wkt, orthometric_from_wkt};
 pub use csv::{
     ControlPoint, ControlPoints, HasExtra, PointTable, Target, Targets, TiePick, TiePicks,
