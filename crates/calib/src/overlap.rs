@@ -208,7 +208,10 @@ fn fit_cells(
     let c = opts.cell_m;
     let mut bins: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for (k, p) in points.iter().enumerate() {
-        let (fx, fy) = (((p[0] - origin[0]) / c).floor(), ((p[1] - origin[1]) / c).floor());
+        let (fx, fy) = (
+            ((p[0] - origin[0]) / c).floor(),
+            ((p[1] - origin[1]) / c).floor(),
+        );
         // Outside the robust extent (corrupted records): not compared.
         if fx < 0.0 || fy < 0.0 || fx >= nx as f64 || fy >= ny as f64 {
             continue;

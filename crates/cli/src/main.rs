@@ -80,7 +80,9 @@ fn bound_threads() {
         .build_global()
         .is_err()
     {
-        let _ = rayon::ThreadPoolBuilder::new().num_threads(1).build_global();
+        let _ = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build_global();
     }
 }
 

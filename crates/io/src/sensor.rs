@@ -194,7 +194,9 @@ pub struct MountingSection {
 }
 
 /// `[x, y, z]` and nothing else: serde's array reader would drop a fourth number in silence.
-fn exactly_three<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<[f64; 3], D::Error> {
+fn exactly_three<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<[f64; 3], D::Error> {
     let v: Vec<f64> = serde::Deserialize::deserialize(d)?;
     <[f64; 3]>::try_from(v.as_slice()).map_err(|_| {
         serde::de::Error::custom(format!(
@@ -473,8 +475,11 @@ pub const MAX_LEVER_ARM_M: f64 = 30.0;
 pub const MAX_BORESIGHT_DEG: f64 = 15.0;
 /// Refractive indices lidarqa accepts, by key: water is 1.33–1.34, optical glass 1.4–2.0, air
 /// 1.0003; outside these it is a misplaced decimal point.
-pub const REFRACTIVE_INDEX_RANGES: [(&str, f64, f64); 3] =
-    [("n_water", 1.2, 1.5), ("n_prism", 1.3, 2.5), ("n_air", 1.0, 1.01)];
+pub const REFRACTIVE_INDEX_RANGES: [(&str, f64, f64); 3] = [
+    ("n_water", 1.2, 1.5),
+    ("n_prism", 1.3, 2.5),
+    ("n_air", 1.0, 1.01),
+];
 /// Widest plausible full beam divergence, mrad: airborne LiDAR beams diverge 0.1–3 mrad.
 pub const MAX_BEAM_DIVERGENCE_MRAD: f64 = 50.0;
 
@@ -486,7 +491,10 @@ pub fn sigma_limit(key: &str) -> Option<(f64, &'static str)> {
             100.0,
             "not a GNSS/INS solution: centimetres or millimetres read as metres?",
         ),
-        "range_m" => (10.0, "no rangefinder is this poor: millimetres read as metres?"),
+        "range_m" => (
+            10.0,
+            "no rangefinder is this poor: millimetres read as metres?",
+        ),
         "roll_deg" | "pitch_deg" | "heading_deg" => (
             5.0,
             "not an INS attitude: arc-minutes or arc-seconds read as degrees?",

@@ -302,8 +302,7 @@ fn baseline_pairs(times: &[f64], baseline_s: f64) -> Vec<(usize, usize)> {
         while j < n && times[j] - times[i] < baseline_s {
             j += 1;
         }
-        while k.map_or(0, |k| k + 1) < i && times[i] - times[k.map_or(0, |k| k + 1)] >= baseline_s
-        {
+        while k.map_or(0, |k| k + 1) < i && times[i] - times[k.map_or(0, |k| k + 1)] >= baseline_s {
             k = Some(k.map_or(0, |k| k + 1));
         }
         let mut paired = false;
@@ -889,7 +888,9 @@ mod tests {
             let mut s = samples(n, 1e-4);
             let mut state = 12345u64;
             let mut next = || {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
             };
             for r in &mut s {

@@ -386,8 +386,8 @@ fn earlier_tiles(out_dir: &Path, inputs: &[PathBuf], overwrite: bool) -> Result<
             Some(t) => earlier.push(t.clone()),
             None => {
                 return Err(Error::InvalidOption(format!(
-                    "{}: holds {name}, a point cloud that `lidarqa tile` did not write there \
-                     (or that changed since; its record is {MARKER}); --overwrite replaces only \
+                    "{}: holds {name}, not a tile `lidarqa tile` wrote there (its record \
+                     {MARKER} does not list it, or it changed since); --overwrite replaces only \
                      the tiles it wrote",
                     out_dir.display()
                 )));
