@@ -243,13 +243,14 @@ fn tile_overwrite_replaces_only_what_tile_wrote() {
 /// Bad case 3: a grid inside the flag's bound but of more tiles than one run writes.
 #[test]
 fn tile_refuses_a_grid_of_too_many_tiles_before_writing_any() {
-    let w = workspace(&["strip_001.las"]);
+    let w = workspace(&["strip_001.las", "strip_002.las"]);
     let out = p(&w, "g");
     refused_untouched(
         w.path(),
         &[
             "tile",
             s(&p(&w, "strip_001.las")),
+            s(&p(&w, "strip_002.las")),
             "--grid",
             "1000x1000",
             "-o",
