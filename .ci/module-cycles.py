@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""No import cycle between the files of one crate (issue #22).
+"""No import cycle between the files of one crate.
 
 For every crate under crates/*/src, builds the graph "file A names an item of file B" from
-`crate::` and `super::` paths in non-test, non-comment code and fails when the graph has a cycle
+`crate::` and `super::` paths (brace groups expanded) in non-test, non-comment code and fails when the graph has a cycle
 (a strongly connected component of more than one file). Parent/child modules (a file and the
 files of its own directory) are not edges: a module re-exporting its children is not a cycle.
 Written by hand because cargo-modules needs a nightly toolchain CI does not install.
@@ -25,14 +25,67 @@ def modules(src):
     return mods
 
 
+def expand(tree):
+    """The paths of a use-tree body (`a::{b, c::{d, e}}` → a::b, a::c::d, a::c::e)."""
+    tree = re.sub(r"\s+", "", tree)
+    out = []
+    m = re.match(r"((?:\w+::)*)\{(.*)\}$", tree)
+    if not m:
+        return [tree.rstrip(":")] if tree else []
+    prefix, body = m.group(1), m.group(2)
+    parts, depth, cur = [], 0, ""
+    for ch in body:
+        if ch == "," and depth == 0:
+            parts.append(cur)
+            cur = ""
+            continue
+        depth += ch == "{"
+        depth -= ch == "}"
+        cur += ch
+    parts.append(cur)
+    for p in parts:
+        if p in ("", "self"):
+            if prefix:
+                out.append(prefix.rstrip(":"))
+            continue
+        out.extend(prefix + q for q in expand(p))
+    return out
+
+
+def use_trees(text, anchor):
+    """Each `anchor::…` path in the text, with brace groups followed to their closing brace."""
+    trees = []
+    for m in re.finditer(r"\b" + anchor + r"::", text):
+        i, depth = m.end(), 0
+        while i < len(text):
+            ch = text[i]
+            if ch == "{":
+                depth += 1
+            elif ch == "}":
+                if depth == 0:
+                    break
+                depth -= 1
+            elif not (ch.isalnum() or ch in "_:" or (depth and ch in ", \n\t")):
+                break
+            i += 1
+        trees.append(text[m.end():i])
+    return trees
+
+
 def edges(name, text, mods):
+    """Files this module names. `super::` in module a::b means a; each further `super::` one more
+    level up; in a top-level module it means the crate root."""
     out = set()
-    parent = name.split("::")[:-1]
-    paths = ["::".join(p.split("::")) for p in re.findall(r"crate::((?:\w+::)*\w+)", text)]
-    for sup in re.findall(r"\bsuper::((?:\w+::)*\w+)", text):
-        paths.append("::".join(parent[:-1] + sup.split("::")) if parent else sup)
+    here = name.split("::")
+    paths = [p for t in use_trees(text, "crate") for p in expand(t)]
+    for t in use_trees(text, "super"):
+        ups = 1
+        while t.startswith("super::"):
+            t, ups = t[len("super::"):], ups + 1
+        base = here[:-ups] if ups <= len(here) else []
+        paths.extend("::".join(base + p.split("::")) for p in expand(t))
     for path in paths:
-        parts = path.split("::")
+        parts = [p for p in path.split("::") if p]
         for k in range(len(parts), 0, -1):
             target = "::".join(parts[:k])
             if target in mods:
@@ -74,6 +127,33 @@ def cycles(graph):
     return found
 
 
+def self_test():
+    """A planted cycle through `super::` and a brace group must be found; a tree without one not."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        src = os.path.join(d, "src")
+        os.makedirs(os.path.join(src, "io"))
+        files = {
+            "lib.rs": "mod io;\n",
+            "io/mod.rs": "mod reader;\nmod writer;\n",
+            "io/reader.rs": "use super::{writer::Writer, other};\npub struct Reader;\n",
+            "io/writer.rs": "use super::reader::Reader;\npub struct Writer;\n",
+        }
+        for rel, text in files.items():
+            with open(os.path.join(src, rel), "w") as f:
+                f.write(text)
+        mods = modules(src)
+        found = cycles({m: edges(m, t, mods) for m, t in mods.items()})
+        assert found == [["io::reader", "io::writer"]], found
+        with open(os.path.join(src, "io/writer.rs"), "w") as f:
+            f.write("pub struct Writer;\n")
+        mods = modules(src)
+        found = cycles({m: edges(m, t, mods) for m, t in mods.items()})
+        assert found == [], found
+    print("module cycles self-test: a planted cycle is caught, none reported without it")
+
+
 def main():
     root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "crates")
     bad = 0
@@ -89,4 +169,7 @@ def main():
 
 
 if __name__ == "__main__":
+    if sys.argv[1:] == ["--self-test"]:
+        self_test()
+        sys.exit(0)
     sys.exit(main())

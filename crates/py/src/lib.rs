@@ -13,8 +13,8 @@ use lidarqa_pipeline::{
     CorrectTileJob, Manifest, TargetsTileJob, TileReport, TpuContext, TpuOptions, TpuTileJob,
     collect as collect_manifest, control_for_targets, correct_tile as correct_one,
     evaluate_nva as evaluate_nva_files, evaluate_target_files, extract_targets_tile as targets_one,
-    find_targets as find_targets_in, overlap_files, predicted_from_sensor, targets_csv, read_calibrated_mounting, run_entry,
-    tpu_tile as tpu_one,
+    find_targets as find_targets_in, overlap_files, predicted_from_sensor,
+    read_calibrated_mounting, run_entry, targets_csv, tpu_tile as tpu_one,
 };
 use lidarqa_report::TpuSummary;
 use lidarqa_targets::{CentreMethod, ControlPoint, EvaluateOptions, TargetConfig};

@@ -12,9 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn scenes(seed: u64) -> Option<(tempfile::TempDir, PathBuf)> {
-    let Some(python) = lidarqa_testkit::python("independent target scenes (numpy, laspy)") else {
-        return None;
-    };
+    let python = lidarqa_testkit::python("independent target scenes (numpy, laspy)")?;
     let temp = tempfile::tempdir().unwrap();
     let dir = std::env::var_os("LIDARQA_SCENES_DIR")
         .map(PathBuf::from)

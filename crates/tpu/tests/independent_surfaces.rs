@@ -19,9 +19,7 @@ struct Point {
 }
 
 fn generated() -> Option<Vec<Point>> {
-    let Some(python) = lidarqa_testkit::python("the independent surfaces (numpy)") else {
-        return None;
-    };
+    let python = lidarqa_testkit::python("the independent surfaces (numpy)")?;
     let dir = std::env::temp_dir().join(format!("lidarqa-surfaces-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let csv = dir.join("surfaces.csv");

@@ -4,8 +4,7 @@
 //! [`LasPoint`](super::point::LasPoint) and encoded back. [`RawPoint`] is the one place that
 //! reads the fields these commands need straight from a record's bytes.
 
-use super::extra_bytes::ExtraDim;
-use super::writer::{encode_extra, is_prefix};
+use super::extra_bytes::{ExtraDim, encode_extra, is_prefix};
 use crate::error::{Error, Result};
 use std::path::Path;
 

@@ -2,6 +2,7 @@
 
 use super::extra_bytes::{
     EB_F32, EB_F64, EXTRA_BYTES_DESCRIPTOR_LEN, EXTRA_BYTES_RECORD, EXTRA_BYTES_USER, descriptor,
+    encode_extra, is_prefix,
 };
 use super::info::LasInfo;
 use super::point::LasPoint;
@@ -160,27 +161,6 @@ impl LasWriteOptions {
             });
         }
         b.into_header().map_err(|e| Error::las(path, e))
-    }
-}
-
-/// Whether the fields of `out` (its extra bytes aside) are the start of a record of `inp`: the
-/// same base, time and colour, `inp` may add NIR, a waveform packet and extra bytes.
-pub(super) fn is_prefix(out: &las::point::Format, inp: &las::point::Format) -> bool {
-    out.is_extended == inp.is_extended
-        && out.has_gps_time == inp.has_gps_time
-        && out.has_color == inp.has_color
-        && (inp.has_nir || !out.has_nir)
-        && !out.has_waveform
-}
-
-/// Puts the little-endian bytes of `extra` then `extra64` in `bytes` (4 and 8 bytes each).
-pub(super) fn encode_extra(bytes: &mut [u8], extra: &[f32], extra64: &[f64]) {
-    let (a, b) = bytes.split_at_mut(4 * extra.len());
-    for (t, v) in a.chunks_exact_mut(4).zip(extra) {
-        t.copy_from_slice(&v.to_le_bytes());
-    }
-    for (t, v) in b.chunks_exact_mut(8).zip(extra64) {
-        t.copy_from_slice(&v.to_le_bytes());
     }
 }
 
