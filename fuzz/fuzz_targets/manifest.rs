@@ -1,6 +1,8 @@
 //! The tile manifest of `lidarqa plan/run/collect` (crates/pipeline `Manifest::read`), then
 //! what a job-array task derives from it before touching any input: its options and entries.
 //! `Manifest::read` takes a path, so each input is written to one scratch file per process.
+//! `Manifest::read` also runs the path checks (`..`, outside the directory, through a symbolic
+//! link, over an input); every output is then resolved as `run` resolves it.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -23,7 +25,8 @@ fuzz_target!(|data: &[u8]| {
         let _ = resolve(path, &m.sensor.path);
         for i in 0..m.entries.len().min(8) + 1 {
             if let Ok(e) = m.entry(path, i) {
-                let _ = resolve(path, &e.output);
+                let _ = lidarqa_io::resolved(&resolve(path, &e.output));
+                let _ = lidarqa_io::resolved(&resolve(path, &e.report));
             }
         }
     }

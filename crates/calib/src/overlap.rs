@@ -172,18 +172,57 @@ struct CellFit {
     smooth: bool,
 }
 
+/// Most cells of the dz grid (8 bytes each plus the fits): 50 million, 400 MB.
+const MAX_GRID_CELLS: usize = 50_000_000;
+
+/// The extent the grid covers: the full `min`–`max` when the points fill it, else their
+/// 1–99 % quantiles widened by a quarter of their span and ten cells each side (a strip's
+/// corrupted records, kilometres off, then neither size the grid nor exhaust memory).
+fn robust_extent(
+    strips: &[OverlapStrip],
+    min: [f64; 2],
+    max: [f64; 2],
+    c: f64,
+) -> ([f64; 2], [f64; 2]) {
+    let n: usize = strips.iter().map(|s| s.points.len()).sum();
+    let step = (n / 200_000).max(1);
+    let mut out = (min, max);
+    for k in 0..2 {
+        let mut v: Vec<f64> = strips
+            .iter()
+            .flat_map(|s| s.points.iter().step_by(step).map(move |p| p[k]))
+            .collect();
+        v.sort_by(f64::total_cmp);
+        let q = |f: f64| v[((v.len() - 1) as f64 * f).round() as usize];
+        let (lo, hi) = (q(0.01), q(0.99));
+        let pad = 0.25 * (hi - lo) + 10.0 * c;
+        out.0[k] = min[k].max(lo - pad);
+        out.1[k] = max[k].min(hi + pad);
+    }
+    out
+}
+
 fn fit_cells(
     points: &[[f64; 3]],
     origin: [f64; 2],
     nx: usize,
+    ny: usize,
     opts: &OverlapOptions,
 ) -> BTreeMap<usize, CellFit> {
     let c = opts.cell_m;
     let mut bins: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for (k, p) in points.iter().enumerate() {
-        let ix = ((p[0] - origin[0]) / c).floor() as usize;
-        let iy = ((p[1] - origin[1]) / c).floor() as usize;
-        bins.entry(iy * nx + ix).or_default().push(k);
+        let (fx, fy) = (
+            ((p[0] - origin[0]) / c).floor(),
+            ((p[1] - origin[1]) / c).floor(),
+        );
+        // Outside the robust extent (corrupted records): not compared.
+        if fx < 0.0 || fy < 0.0 || fx >= nx as f64 || fy >= ny as f64 {
+            continue;
+        }
+        bins.entry(fy as usize * nx + fx as usize)
+            .or_default()
+            .push(k);
     }
     let max_slope = opts.max_slope_deg.to_radians().tan();
     bins.into_iter()
@@ -277,12 +316,23 @@ pub fn overlap_qc(strips: &[OverlapStrip], opts: &OverlapOptions) -> Result<Over
         }
     }
     let c = opts.cell_m;
+    // The grid covers the points' robust extent: a few corrupted records kilometres away do
+    // not size it (they fall outside and are not compared).
+    let (min, max) = robust_extent(strips, min, max, c);
     let origin = [(min[0] / c).floor() * c, (min[1] / c).floor() * c];
-    let nx = ((max[0] - origin[0]) / c).floor() as usize + 1;
-    let ny = ((max[1] - origin[1]) / c).floor() as usize + 1;
+    let cells = |k: usize| ((max[k] - origin[k]) / c).floor() + 1.0;
+    if cells(0) * cells(1) > MAX_GRID_CELLS as f64 {
+        return Err(Error::InvalidOption {
+            name: "cell_m",
+            expected: "a cell large enough for at most 50 million cells over the strips' extent",
+            value: c,
+        });
+    }
+    let nx = cells(0) as usize;
+    let ny = cells(1) as usize;
     let fits: Vec<BTreeMap<usize, CellFit>> = strips
         .iter()
-        .map(|s| fit_cells(&s.points, origin, nx, opts))
+        .map(|s| fit_cells(&s.points, origin, nx, ny, opts))
         .collect();
     let mut pairs = Vec::new();
     let mut grid: BTreeMap<usize, f64> = BTreeMap::new();

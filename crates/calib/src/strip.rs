@@ -386,6 +386,30 @@ impl GridIndex {
             min = [0.0; 2];
             max = [0.0; 2];
         }
+        // Bounded (a few corrupted records kilometres away must not size it): the cells grow
+        // until there are at most four per point (and 2^26 in all). Points far out land in the
+        // edge cells, which the caller's distance check sorts out; only the speed changes.
+        let cap = (4 * xy.len()).clamp(1 << 16, 1 << 26) as f64;
+        let cells = |min: &[f64; 2], max: &[f64; 2], cell_m: f64| {
+            (((max[0] - min[0]) / cell_m).floor() + 1.0)
+                * (((max[1] - min[1]) / cell_m).floor() + 1.0)
+        };
+        if cells(&min, &max, cell_m) > cap {
+            // The 1–99 % quantiles widened by a quarter of their span and ten cells.
+            let step = (xy.len() / 200_000).max(1);
+            for k in 0..2 {
+                let mut v: Vec<f64> = xy.iter().step_by(step).map(|p| p[k]).collect();
+                v.sort_by(f64::total_cmp);
+                let q = |f: f64| v[((v.len() - 1) as f64 * f).round() as usize];
+                let pad = 0.25 * (q(0.99) - q(0.01)) + 10.0 * cell_m;
+                min[k] = min[k].max(q(0.01) - pad);
+                max[k] = max[k].min(q(0.99) + pad);
+            }
+        }
+        let mut cell_m = cell_m;
+        while cells(&min, &max, cell_m) > cap {
+            cell_m *= 2.0;
+        }
         let nx = (((max[0] - min[0]) / cell_m).floor() as usize + 1).max(1);
         let ny = (((max[1] - min[1]) / cell_m).floor() as usize + 1).max(1);
         let cell_of = |p: &[f64; 2]| {

@@ -26,6 +26,7 @@ fn main() -> ExitCode {
         Err(e) => return usage_error(e),
     };
     progress::set_quiet(cli.quiet);
+    bound_threads();
     match cmd::run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -39,6 +40,49 @@ fn main() -> ExitCode {
             eprintln!("lidarqa: {}", message(&e));
             ExitCode::from(1)
         }
+    }
+}
+
+/// Most worker threads: four per core (RAYON_NUM_THREADS beyond it gains nothing and, in the
+/// thousands, fails to spawn: rayon's global pool would then panic on first use).
+fn max_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, usize::from) * 4
+}
+
+/// Builds the global thread pool from `RAYON_NUM_THREADS` bounded by [`max_threads`], with a
+/// warning when it was lowered or unreadable; a pool that cannot be built falls back to one
+/// thread rather than panicking later.
+fn bound_threads() {
+    let cap = max_threads();
+    let requested = std::env::var("RAYON_NUM_THREADS").ok();
+    let threads = match requested.as_deref().map(str::trim) {
+        None | Some("") => 0,
+        Some(text) => match text.parse::<usize>() {
+            Ok(n) if n <= cap => n,
+            Ok(n) => {
+                eprintln!(
+                    "lidarqa: warning: RAYON_NUM_THREADS={n} is more than {cap} (four per core); \
+                     using {cap} (threads_bounded)"
+                );
+                cap
+            }
+            Err(_) => {
+                eprintln!(
+                    "lidarqa: warning: RAYON_NUM_THREADS='{text}' is not a number; using one \
+                     thread per core (threads_bounded)"
+                );
+                0
+            }
+        },
+    };
+    if rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build_global()
+        .is_err()
+    {
+        let _ = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build_global();
     }
 }
 

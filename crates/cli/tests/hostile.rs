@@ -107,10 +107,12 @@ fn with_shared<'a>(args: &[&'a str], shared: &'a [String]) -> Vec<&'a str> {
     v
 }
 
+/// The visible files of `dir` (not `tile`'s hidden record of what it wrote).
 fn names(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.starts_with('.'))
         .collect();
     v.sort();
     v

@@ -188,17 +188,7 @@ fn set_output_permissions(_temp: &Path, _target: &Path) -> std::io::Result<()> {
 /// Resolves `path` as far as it exists: the canonical parent directory joined with the file name
 /// (the output usually does not exist yet, and `canonicalize` needs an existing path).
 fn resolve(path: &Path) -> PathBuf {
-    if let Ok(p) = path.canonicalize() {
-        return p;
-    }
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    match (parent.canonicalize(), path.file_name()) {
-        (Ok(dir), Some(name)) => dir.join(name),
-        _ => std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf()),
-    }
+    resolved(path)
 }
 
 /// Refuses an output path that is one of the inputs.
@@ -313,6 +303,63 @@ pub fn outputs_in_dir<P: AsRef<Path>, Q: AsRef<Path>>(
         outputs.push(out);
     }
     Ok(outputs)
+}
+
+/// The one output guard (SPEC §7), called by every command before any work: each of `outputs`
+/// (files, summaries, reports; a directory's files named one by one) is resolved through
+/// symbolic links and `..` and refused when it is one of `inputs` or another of `outputs`.
+///
+/// # Errors
+/// [`Error::OutputIsInput`] naming the output and the input; [`Error::OutputTwice`] naming both
+/// outputs.
+pub fn check_outputs<P: AsRef<Path>, Q: AsRef<Path>>(outputs: &[P], inputs: &[Q]) -> Result<()> {
+    let read = InputSet::new(inputs);
+    let mut written = InputSet::default();
+    for output in outputs {
+        let output = output.as_ref();
+        read.check(output)?;
+        if let Err(Error::OutputIsInput { input: other, .. }) = written.check(output) {
+            return Err(Error::OutputTwice {
+                path: output.to_path_buf(),
+                other,
+            });
+        }
+        written
+            .by_path
+            .insert(resolve(output), output.to_path_buf());
+        if let Some(id) = file_id(output) {
+            written.by_id.insert(id, output.to_path_buf());
+        }
+    }
+    Ok(())
+}
+
+/// `path` resolved through symbolic links and `..` as far as it exists (the canonical deepest
+/// existing ancestor joined with the rest): where a write to `path` would land.
+pub fn resolved(path: &Path) -> PathBuf {
+    let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut existing = abs.as_path();
+    let mut rest: Vec<&std::ffi::OsStr> = Vec::new();
+    loop {
+        if let Ok(c) = existing.canonicalize() {
+            let mut out = c;
+            for part in rest.iter().rev() {
+                if *part == ".." {
+                    out.pop();
+                } else if *part != "." {
+                    out.push(part);
+                }
+            }
+            return out;
+        }
+        match (existing.parent(), existing.file_name()) {
+            (Some(parent), Some(name)) => {
+                rest.push(name);
+                existing = parent;
+            }
+            _ => return abs,
+        }
+    }
 }
 
 /// Hard links are different paths to one file; compare device and inode where we can.

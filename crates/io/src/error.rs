@@ -249,6 +249,19 @@ pub enum Error {
         message: String,
     },
 
+    /// Two outputs of one run that resolve to one file (another spelling, a link): the second
+    /// would overwrite the first.
+    #[error(
+        "{}: also written as {} by this run; one output would overwrite the other",
+        path.display(), other.display()
+    )]
+    OutputTwice {
+        /// The output path as given.
+        path: PathBuf,
+        /// The other output it resolves to.
+        other: PathBuf,
+    },
+
     /// A LAS time that cannot be put on the trajectory's seconds-of-week time base.
     #[error("{}: {message}", path.display())]
     GpsTime {

@@ -21,8 +21,8 @@ pub mod presets;
 mod sensor;
 pub use sensor::{
     CovarianceSection, MountingSection, MountingSigmaSection, ScannerSection, SensorExtras,
-    SensorFile, parse_sensor, parse_sensor_with_extras, read_sensor, read_sensor_with_extras,
-    sensor_to_toml,
+    SensorFile, mounting_implausible, parse_sensor, parse_sensor_with_extras, read_sensor,
+    read_sensor_with_extras, sensor_to_toml, sigma_limit,
 };
 
 mod atomic;
@@ -43,7 +43,10 @@ mod sbet;
 mod trajtext;
 mod wkt;
 
-pub use atomic::{AtomicFile, InputSet, check_distinct_inputs, check_not_an_input, outputs_in_dir};
+pub use atomic::{
+    AtomicFile, InputSet, check_distinct_inputs, check_not_an_input, check_outputs, outputs_in_dir,
+    resolved,
+};
 pub use crs::{Crs, LasCrs, LinearUnit, RawVlr, epsg_from_wkt, orthometric_from_wkt};
 pub use csd::{
     CSD_HEADER_LEN, CSD_MAX_RANGE_M, CSD_MAX_RETURNS, CSD_RECORD_LEN, CsdHeader, CsdPulse,

@@ -211,9 +211,22 @@ pub struct MountingSection {
     /// Boresight yaw (about scanner Z), degrees.
     #[serde(default)]
     pub boresight_yaw_deg: f64,
-    /// Lever arm `[x, y, z]`, body frame, metres.
-    #[serde(default)]
+    /// Lever arm `[x, y, z]`, body frame, metres (exactly three numbers).
+    #[serde(default, deserialize_with = "exactly_three")]
     pub lever_arm_m: [f64; 3],
+}
+
+/// `[x, y, z]` and nothing else: serde's array reader would drop a fourth number in silence.
+fn exactly_three<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<[f64; 3], D::Error> {
+    let v: Vec<f64> = serde::Deserialize::deserialize(d)?;
+    <[f64; 3]>::try_from(v.as_slice()).map_err(|_| {
+        serde::de::Error::custom(format!(
+            "lever_arm_m must have exactly three numbers [x, y, z], got {}",
+            v.len()
+        ))
+    })
 }
 
 /// Correlations between sources; the σ stay in `[sigma]`, so the matrix is unitless.
@@ -288,6 +301,35 @@ impl SensorFile {
                 "scanner.beam_divergence_mrad",
                 format!("must be a finite number >= 0, got {v}"),
             ));
+        }
+        if let Some(v) = s.beam_divergence_mrad
+            && v > MAX_BEAM_DIVERGENCE_MRAD
+        {
+            return Err(err(
+                "scanner.beam_divergence_mrad",
+                format!(
+                    "{v} mrad is wider than any airborne LiDAR beam (0.1–3 mrad, at most \
+                     {MAX_BEAM_DIVERGENCE_MRAD}): microradians read as milliradians, or degrees?"
+                ),
+            ));
+        }
+        for (key, lo, hi) in REFRACTIVE_INDEX_RANGES {
+            let v = match key {
+                "n_water" => s.n_water,
+                "n_prism" => s.n_prism,
+                _ => s.n_air,
+            };
+            if let Some(v) = v
+                && !(lo..=hi).contains(&v)
+            {
+                return Err(err(
+                    &format!("scanner.{key}"),
+                    format!(
+                        "a refractive index of {v} is outside {lo}–{hi}: a misplaced decimal \
+                         point (water is 1.33, glass about 1.5, air 1.0003)?"
+                    ),
+                ));
+            }
         }
         let beam = beam::check_beam(s, path)?;
         if beam.is_none() {
@@ -383,9 +425,21 @@ impl SensorFile {
             lever_arm_m: Vector3::new(lever[0], lever[1], lever[2]),
         };
 
+        if let Some(message) = mounting_implausible(&mounting, "mounting.") {
+            return Err(config_error(path, None, message));
+        }
+
         let mut sigma = Sigmas::zero();
         for (key, value) in &file.sigma {
             let dotted = format!("sigma.{key}");
+            if let Some((limit, slip)) = sigma_limit(key)
+                && *value > limit
+            {
+                return Err(err(
+                    &dotted,
+                    format!("a σ of {value} is more than {limit}: {slip}"),
+                ));
+            }
             let source = source_for_key(key).map_err(|m| err(&dotted, m))?;
             let not_here = beam::sources_not_here(&scanner);
             if not_here.contains(&source) {
@@ -438,6 +492,86 @@ impl SensorFile {
             correlation,
         })
     }
+}
+
+/// Longest plausible lever arm, m: the IMU-to-scanner offset of any airframe is a few metres; a
+/// longer one is millimetres or centimetres read as metres.
+pub const MAX_LEVER_ARM_M: f64 = 30.0;
+/// Largest plausible boresight angle, degrees: the boresight is the small misalignment between
+/// scanner and IMU (hundredths of a degree to a degree); tens of degrees are a mounting rotation
+/// in another axis convention, not a boresight.
+pub const MAX_BORESIGHT_DEG: f64 = 15.0;
+/// Refractive indices lidarqa accepts, by key: water is 1.33–1.34, optical glass 1.4–2.0, air
+/// 1.0003; outside these it is a misplaced decimal point.
+pub const REFRACTIVE_INDEX_RANGES: [(&str, f64, f64); 3] = [
+    ("n_water", 1.2, 1.5),
+    ("n_prism", 1.3, 2.5),
+    ("n_air", 1.0, 1.01),
+];
+/// Widest plausible full beam divergence, mrad: airborne LiDAR beams diverge 0.1–3 mrad.
+pub const MAX_BEAM_DIVERGENCE_MRAD: f64 = 50.0;
+
+/// The largest plausible 1-σ of a `[sigma]` key (or a calibration's σ of the same name), in the
+/// key's own unit, with the likely slip beyond it; `None` for keys without a bound.
+pub fn sigma_limit(key: &str) -> Option<(f64, &'static str)> {
+    Some(match key {
+        "gnss_north_m" | "gnss_east_m" | "gnss_up_m" => (
+            100.0,
+            "not a GNSS/INS solution: centimetres or millimetres read as metres?",
+        ),
+        "range_m" => (
+            10.0,
+            "no rangefinder is this poor: millimetres read as metres?",
+        ),
+        "roll_deg" | "pitch_deg" | "heading_deg" => (
+            5.0,
+            "not an INS attitude: arc-minutes or arc-seconds read as degrees?",
+        ),
+        "lever_x_m" | "lever_y_m" | "lever_z_m" => (
+            10.0,
+            "a lever arm is measured to centimetres: millimetres read as metres?",
+        ),
+        "boresight_roll_deg" | "boresight_pitch_deg" | "boresight_yaw_deg" => (
+            10.0,
+            "a boresight is known to a fraction of a degree: arc-seconds read as degrees?",
+        ),
+        k if k.ends_with("_deg") => (
+            45.0,
+            "an angle σ beyond 45° is not a measurement: a wrong unit?",
+        ),
+        k if k.ends_with("_m") => (1_000.0, "a wrong unit?"),
+        k if k.ends_with("_ns") => (1_000.0, "a timing σ of a microsecond: a wrong unit?"),
+        _ => return None,
+    })
+}
+
+/// Why a mounting (sensor file or calibration) cannot be right, naming the key and the likely
+/// cause: a lever arm longer than [`MAX_LEVER_ARM_M`] or a boresight angle beyond
+/// [`MAX_BORESIGHT_DEG`]. `prefix` names the keys (`mounting.` in a sensor file, `parameters.`
+/// in a calibration).
+pub fn mounting_implausible(m: &Mounting, prefix: &str) -> Option<String> {
+    let length = m.lever_arm_m.norm();
+    if length > MAX_LEVER_ARM_M {
+        return Some(format!(
+            "key `{prefix}lever_arm_m`: a lever arm of {length:.3} m is longer than any \
+             airframe's (at most {MAX_LEVER_ARM_M} m): millimetres or centimetres read as metres?"
+        ));
+    }
+    for (name, v) in [
+        ("boresight_roll_deg", m.boresight_roll_rad),
+        ("boresight_pitch_deg", m.boresight_pitch_rad),
+        ("boresight_yaw_deg", m.boresight_yaw_rad),
+    ] {
+        let deg = v.to_degrees();
+        if deg.abs() > MAX_BORESIGHT_DEG {
+            return Some(format!(
+                "key `{prefix}{name}`: a boresight of {deg}° is not a misalignment (at most \
+                 ±{MAX_BORESIGHT_DEG}°): a mounting rotation in another axis convention, or a \
+                 wrong value?"
+            ));
+        }
+    }
+    None
 }
 
 /// The source of a `[sigma]` key, or why it is not one.

@@ -186,11 +186,11 @@ fn read_calibration_json(path: &Path) -> Result<serde_json::Value> {
 /// # Errors
 /// [`Error::Calib`] naming the file when it cannot be read, is not JSON or lacks a parameter.
 pub fn read_calibrated_mounting(path: &Path) -> Result<Mounting> {
-    lidarqa_calib::mounting_from_json(&read_calibration_json(path)?).map_err(|source| {
-        Error::Calib {
-            path: path.to_path_buf(),
-            source,
-        }
+    let doc = read_calibration_json(path)?;
+    check_calibration_values(path, &doc)?;
+    lidarqa_calib::mounting_from_json(&doc).map_err(|source| Error::Calib {
+        path: path.to_path_buf(),
+        source,
     })
 }
 
@@ -224,6 +224,33 @@ pub fn read_line_corrections(
             Ok((line, file))
         })
         .collect()
+}
+
+/// A calibration's values and σ against physical ranges (the sensor file's, lidarqa-io's
+/// [`lidarqa_io::mounting_implausible`] and [`lidarqa_io::sigma_limit`]): a lever arm of 500 m, a
+/// boresight of 180° or a σ of 1e6 m is refused, naming the key and the likely slip.
+fn check_calibration_values(path: &Path, doc: &serde_json::Value) -> Result<()> {
+    let fail = |m: String| Error::Calib {
+        path: path.to_path_buf(),
+        source: lidarqa_calib::Error::InvalidCalibration(m),
+    };
+    if let Ok(m) = lidarqa_calib::mounting_from_json(doc)
+        && let Some(message) = lidarqa_io::mounting_implausible(&m, "parameters.")
+    {
+        return Err(fail(message));
+    }
+    if let Some(sigma) = doc.get("sigma").and_then(serde_json::Value::as_object) {
+        for (key, v) in sigma {
+            if let (Some(v), Some((limit, slip))) = (v.as_f64(), lidarqa_io::sigma_limit(key))
+                && v > limit
+            {
+                return Err(fail(format!(
+                    "sigma.{key}: a σ of {v} is more than {limit}: {slip}"
+                )));
+            }
+        }
+    }
+    Ok(())
 }
 
 impl TpuContext {
@@ -453,6 +480,7 @@ impl TpuContext {
     /// calibration.
     pub fn with_calibration(mut self, path: &Path) -> Result<TpuContext> {
         let doc = read_calibration_json(path)?;
+        check_calibration_values(path, &doc)?;
         self.sensor = lidarqa_calib::calibrated_sensor(&self.sensor, &doc).map_err(|source| {
             Error::Calib {
                 path: path.to_path_buf(),

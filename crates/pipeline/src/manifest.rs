@@ -424,6 +424,24 @@ impl Manifest {
                 ));
             }
         }
+        // Resolved through symbolic links (`lnk -> ..`): where a write would land must lie under
+        // the manifest's directory too, not only the path as spelled.
+        let root_resolved = lidarqa_io::resolved(&root);
+        for (what, p) in &outputs {
+            let lands = lidarqa_io::resolved(&resolve(manifest, p));
+            if !lands.starts_with(&root_resolved) {
+                return Err(bad(
+                    what.clone(),
+                    format!(
+                        "{} resolves through a symbolic link to {}, outside the manifest's \
+                         directory {}; outputs must be written under it",
+                        p.display(),
+                        lands.display(),
+                        root_resolved.display()
+                    ),
+                ));
+            }
+        }
         let mut read: Vec<PathBuf> = inputs.iter().map(|(_, p)| resolve(manifest, p)).collect();
         read.push(manifest.to_path_buf());
         let read = lidarqa_io::InputSet::new(&read);

@@ -282,23 +282,46 @@ pub fn check_trajectory(path: &Path, samples: &[TrajectorySample]) -> Result<Tra
     Ok(facts)
 }
 
-/// Pairs of samples at least `baseline_s` apart (or the whole span when shorter), each sample
-/// once as a start and once as an end, so that one bad record is always in a pair.
+/// Pairs of samples at least `baseline_s` apart, so that a speed or a rate is judged over the
+/// intended time and sample-to-sample noise of a high-rate trajectory is not taken for motion.
+/// Each sample is paired with the first sample at least `baseline_s` after it and the last at
+/// least `baseline_s` before it, so that one bad record is always in a pair. A sample with
+/// neither (within `baseline_s` of both ends: a trajectory shorter than twice the baseline) is
+/// paired with the farther end, at least half the span away; never with its neighbour.
 fn baseline_pairs(times: &[f64], baseline_s: f64) -> Vec<(usize, usize)> {
     let n = times.len();
     let mut out = Vec::with_capacity(2 * n);
-    let (mut j, mut k) = (0, 0);
+    if n < 2 {
+        return out;
+    }
+    // j: first index with times[j] − times[i] ≥ baseline (n when none);
+    // k: last index with times[i] − times[k] ≥ baseline (None when none).
+    let (mut j, mut k): (usize, Option<usize>) = (0, None);
     for i in 0..n {
-        j = j.max(i);
-        while j + 1 < n && times[j] - times[i] < baseline_s {
+        j = j.max(i + 1);
+        while j < n && times[j] - times[i] < baseline_s {
             j += 1;
         }
-        while k + 1 < i && times[i] - times[k + 1] >= baseline_s {
-            k += 1;
+        while k.map_or(0, |k| k + 1) < i && times[i] - times[k.map_or(0, |k| k + 1)] >= baseline_s {
+            k = Some(k.map_or(0, |k| k + 1));
         }
-        for (a, b) in [(i, j), (k, i)] {
-            if b > a && times[b] > times[a] {
-                out.push((a, b));
+        let mut paired = false;
+        if j < n {
+            out.push((i, j));
+            paired = true;
+        }
+        if let Some(k) = k {
+            out.push((k, i));
+            paired = true;
+        }
+        if !paired {
+            let pair = if times[i] - times[0] >= times[n - 1] - times[i] {
+                (0, i)
+            } else {
+                (i, n - 1)
+            };
+            if pair.1 > pair.0 && times[pair.1] > times[pair.0] {
+                out.push(pair);
             }
         }
     }
@@ -846,7 +869,7 @@ mod tests {
         let mut s = samples(10, 0.005);
         s[5].attitude.roll_rad = 0.5; // 28.6° in 25 ms
         let m = message(check_trajectory(p, &s));
-        assert!(m.contains("records 5–9: roll changes at 1432 deg/s"), "{m}");
+        assert!(m.contains("records 0–5: roll changes at 1146 deg/s"), "{m}");
         let mut s = samples(10, 0.005);
         s[6] = s[5];
         let f = check_trajectory(p, &s).unwrap();
@@ -854,6 +877,46 @@ mod tests {
         s[6].latitude_rad += 1e-6;
         s[6].time_s = s[5].time_s;
         assert!(message(check_trajectory(p, &s)).contains("share time"));
+    }
+
+    #[test]
+    fn noisy_high_rate_trajectories_pass_and_a_bad_first_or_last_record_does_not() {
+        // 10 kHz, 3 s, ±0.2 m of independent noise per record on every axis (the simulator's
+        // white-noise trajectory): sample to sample that is 4000 m/s, over a second 0.4 m/s.
+        let p = Path::new("t.out");
+        let noisy = |n: usize| {
+            let mut s = samples(n, 1e-4);
+            let mut state = 12345u64;
+            let mut next = || {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+            };
+            for r in &mut s {
+                r.height_m += 0.2 * next();
+                r.latitude_rad += 0.2 * next() / 6_371_000.0;
+                r.longitude_rad += 0.2 * next() / 6_371_000.0;
+            }
+            s
+        };
+        assert!(check_trajectory(p, &noisy(30_000)).is_ok());
+        // Shorter than the baseline (0.05 s) and between one and two baselines (1.5 s).
+        assert!(check_trajectory(p, &noisy(500)).is_ok());
+        assert!(check_trajectory(p, &noisy(15_000)).is_ok());
+        // The pairs span at least the baseline (or half the span): never neighbours.
+        let times: Vec<f64> = (0..30_000).map(|i| i as f64 * 1e-4).collect();
+        for (a, b) in baseline_pairs(&times, 1.0) {
+            assert!(times[b] - times[a] >= 1.0 - 1e-9, "{a}–{b}");
+        }
+        // A record 500 m off at either end, or in the middle, is still found.
+        for bad in [0, 14_999, 29_999] {
+            let mut s = noisy(30_000);
+            s[bad].height_m += 500.0;
+            let m = message(check_trajectory(p, &s));
+            assert!(m.contains("m/s, more than 350 m/s"), "{bad}: {m}");
+            assert!(m.contains(&format!("{bad}")), "{bad}: {m}");
+        }
     }
 
     #[test]

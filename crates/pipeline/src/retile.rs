@@ -12,12 +12,74 @@
 //! A directory of tiles is read whole (`lidarqa tpu DIR`, `lidarqa plan`), so tiles of an
 //! earlier grid left beside new ones would be read as well: a non-empty output directory is
 //! refused unless `overwrite`, and then the tiles of the earlier run that the new grid did not
-//! write are removed once the new ones are complete. Point clouds there that are not tiles are
-//! refused either way, and so is a strip given twice.
+//! write are removed once the new ones are complete. What "the tiles of the earlier run" are is
+//! told by the run's own record, [`MARKER`] (each tile's name, size and BLAKE3), never by a
+//! name pattern: a point cloud there that the record does not list, or that changed since, is
+//! refused either way (a user's strip named `tile_9_9.laz` is not a tile), and so is a strip
+//! given twice.
+//!
+//! **Whole or nothing.** The tiles are written into a hidden temporary directory inside the
+//! output directory (`.lidarqa-tile.PID.XXXXXX`, same file system) and moved under their final
+//! names only when every one is complete; a failure (a full disk, a bad record) removes the
+//! temporary directory and leaves the output directory as it was. The record is first written
+//! with `"complete": false` listing the earlier and the new tiles, then the move, then the
+//! record with `"complete": true`: a run killed during the move leaves a record that says so,
+//! and the next `overwrite` cleans exactly those files.
+//!
+//! **Bounded.** The cells are counted first; a grid with more than [`MAX_TILES`] non-empty cells
+//! is refused (a tile per few points is not a tiling), and at most [`MAX_OPEN_TILES`] tiles are
+//! open at once (more non-empty cells are written in several passes over the strips), so a
+//! 1000 × 1000 grid neither runs out of file handles nor of memory.
 
+use crate::digest::FileDigest;
 use crate::error::{Error, Result};
 use lidarqa_io::{LasInfo, LasReader, LasWriteOptions, LasWriter, PointChunk};
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+
+/// The record of the tiles a run wrote, in the output directory (module docs).
+pub const MARKER: &str = ".lidarqa-tiles.json";
+/// `format` of the record.
+const MARKER_FORMAT: &str = "lidarqa-tiles/1";
+/// Most non-empty tiles one run writes: beyond it the grid is refused with the count.
+pub const MAX_TILES: usize = 20_000;
+/// Most tiles open for writing at once (file handles and each writer's buffers); more
+/// non-empty cells are written in several passes over the strips.
+pub const MAX_OPEN_TILES: usize = 256;
+
+/// One tile in the record.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+struct MarkedTile {
+    name: String,
+    #[serde(flatten)]
+    digest: FileDigest,
+}
+
+/// The record: which files in the directory this command wrote.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+struct Marker {
+    format: String,
+    complete: bool,
+    tiles: Vec<MarkedTile>,
+}
+
+fn io_err(path: &Path, source: std::io::Error) -> Error {
+    Error::Io(lidarqa_io::Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn write_marker(out_dir: &Path, marker: &Marker) -> Result<()> {
+    use std::io::Write as _;
+    let path = out_dir.join(MARKER);
+    let mut f = lidarqa_io::AtomicFile::create(&path, &[] as &[&Path])?;
+    serde_json::to_writer_pretty(&mut f, marker)
+        .map_err(|e| io_err(&path, std::io::Error::other(e)))?;
+    writeln!(f).map_err(|e| io_err(&path, e))?;
+    f.commit()?;
+    Ok(())
+}
 
 /// A grid of `nx` × `ny` tiles.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -115,13 +177,36 @@ pub fn retile(
         (f.max(0.0) as usize).min(n[k] - 1)
     };
     let width = (grid.nx.max(grid.ny) - 1).to_string().len();
-    let path_of = |c: usize, r: usize| out_dir.join(format!("tile_{c:0width$}_{r:0width$}.{ext}"));
-    std::fs::create_dir_all(out_dir).map_err(|source| {
-        Error::Io(lidarqa_io::Error::Io {
-            path: out_dir.to_path_buf(),
-            source,
-        })
-    })?;
+    let name_of = |c: usize, r: usize| format!("tile_{c:0width$}_{r:0width$}.{ext}");
+    // Count first: the non-empty cells bound the tiles and the passes.
+    let mut counts = vec![0u64; grid.nx * grid.ny];
+    let mut chunk = PointChunk::new();
+    for path in inputs {
+        let mut reader = LasReader::from_path(path)?;
+        while reader.fill(&mut chunk, 200_000)? > 0 {
+            for p in &chunk.points {
+                counts[cell(p.y, 1) * grid.nx + cell(p.x, 0)] += 1;
+            }
+        }
+    }
+    let non_empty: Vec<usize> = (0..counts.len()).filter(|&k| counts[k] > 0).collect();
+    if non_empty.len() > MAX_TILES {
+        let total: u64 = counts.iter().sum();
+        return Err(Error::InvalidOption(format!(
+            "grid {}x{}: {} non-empty tiles of {:.0} points on average, more than the {MAX_TILES} \
+             one run writes; choose a coarser grid",
+            grid.nx,
+            grid.ny,
+            non_empty.len(),
+            total as f64 / non_empty.len().max(1) as f64
+        )));
+    }
+    std::fs::create_dir_all(out_dir).map_err(|e| io_err(out_dir, e))?;
+    // Everything is written in a hidden temporary directory beside the final names (module docs).
+    let staging = tempfile::Builder::new()
+        .prefix(&format!(".lidarqa-tile.{}.", std::process::id()))
+        .tempdir_in(out_dir)
+        .map_err(|e| io_err(out_dir, e))?;
     let names: Vec<&str> = first.extra_dims.iter().map(|d| d.name.as_str()).collect();
     let dims: Vec<(&str, &str)> = first
         .extra_dims
@@ -129,62 +214,96 @@ pub fn retile(
         .map(|d| (d.name.as_str(), d.description.as_str()))
         .collect();
     let options = LasWriteOptions::for_input(first, &dims);
-    // Writers are opened on a cell's first point, so an empty cell leaves no file.
-    let mut writers: Vec<Option<(LasWriter, u64)>> = (0..grid.nx * grid.ny).map(|_| None).collect();
-    let mut chunk = PointChunk::new();
     let mut extra = vec![0f32; names.len()];
     let mut total = 0u64;
-    for path in inputs {
-        let mut reader = LasReader::from_path(path)?;
-        while reader.fill(&mut chunk, 200_000)? > 0 {
-            for (i, p) in chunk.points.iter().enumerate() {
-                let (c, r) = (cell(p.x, 0), cell(p.y, 1));
-                let slot = &mut writers[r * grid.nx + c];
-                if slot.is_none() {
-                    *slot = Some((LasWriter::create(path_of(c, r), &options, inputs)?, 0));
-                }
-                if let Some((w, count)) = slot.as_mut() {
-                    for (e, name) in extra.iter_mut().zip(&names) {
-                        *e = chunk.extra(i, name).unwrap_or(f64::NAN) as f32;
+    for batch in non_empty.chunks(MAX_OPEN_TILES) {
+        let (lo, hi) = (batch[0], batch[batch.len() - 1]);
+        let mut writers: std::collections::HashMap<usize, LasWriter> = Default::default();
+        for &k in batch {
+            let (c, r) = (k % grid.nx, k / grid.nx);
+            let w = LasWriter::create(staging.path().join(name_of(c, r)), &options, inputs)?;
+            writers.insert(k, w);
+        }
+        for path in inputs {
+            let mut reader = LasReader::from_path(path)?;
+            while reader.fill(&mut chunk, 200_000)? > 0 {
+                for (i, p) in chunk.points.iter().enumerate() {
+                    let k = cell(p.y, 1) * grid.nx + cell(p.x, 0);
+                    if k < lo || k > hi {
+                        continue;
                     }
-                    w.write_point(p, &extra)?;
-                    *count += 1;
+                    if let Some(w) = writers.get_mut(&k) {
+                        for (e, name) in extra.iter_mut().zip(&names) {
+                            *e = chunk.extra(i, name).unwrap_or(f64::NAN) as f32;
+                        }
+                        w.write_point(p, &extra)?;
+                        total += 1;
+                    }
                 }
-                total += 1;
+            }
+        }
+        for &k in batch {
+            if let Some(w) = writers.remove(&k) {
+                w.finish()?;
             }
         }
     }
     let mut tiles = Vec::new();
-    let mut empty_cells = 0;
+    let mut marked = Vec::new();
+    let empty_cells = counts.len() - non_empty.len();
     for c in 0..grid.nx {
         for r in 0..grid.ny {
-            match writers[r * grid.nx + c].take() {
-                None => empty_cells += 1,
-                Some((w, points)) => {
-                    w.finish()?;
-                    let edge = |k: usize, i: usize| min[k] + size[k] * i as f64 / n[k] as f64;
-                    tiles.push(TileFile {
-                        path: path_of(c, r),
-                        col: c,
-                        row: r,
-                        points,
-                        min_xy: [edge(0, c), edge(1, r)],
-                        max_xy: [edge(0, c + 1), edge(1, r + 1)],
-                    });
-                }
+            let points = counts[r * grid.nx + c];
+            if points == 0 {
+                continue;
             }
+            let name = name_of(c, r);
+            let edge = |k: usize, i: usize| min[k] + size[k] * i as f64 / n[k] as f64;
+            marked.push(MarkedTile {
+                digest: FileDigest::of_file(&staging.path().join(&name))?,
+                name: name.clone(),
+            });
+            tiles.push(TileFile {
+                path: out_dir.join(&name),
+                col: c,
+                row: r,
+                points,
+                min_xy: [edge(0, c), edge(1, r)],
+                max_xy: [edge(0, c + 1), edge(1, r + 1)],
+            });
         }
     }
-    for stale in earlier {
-        if !tiles.iter().any(|t| t.path == stale) {
-            std::fs::remove_file(&stale).map_err(|source| {
-                Error::Io(lidarqa_io::Error::Io {
-                    path: stale.clone(),
-                    source,
-                })
-            })?;
+    // The move: first a record that the directory is in transition (earlier and new tiles),
+    // then the stale tiles removed, the new ones renamed in, and the record completed.
+    let mut transition: Vec<MarkedTile> = earlier.clone();
+    transition.extend(marked.iter().cloned());
+    write_marker(
+        out_dir,
+        &Marker {
+            format: MARKER_FORMAT.into(),
+            complete: false,
+            tiles: transition,
+        },
+    )?;
+    for stale in &earlier {
+        if !marked.iter().any(|t| t.name == stale.name) {
+            let path = out_dir.join(&stale.name);
+            std::fs::remove_file(&path).map_err(|e| io_err(&path, e))?;
         }
     }
+    for t in &marked {
+        let to = out_dir.join(&t.name);
+        std::fs::rename(staging.path().join(&t.name), &to).map_err(|e| io_err(&to, e))?;
+    }
+    write_marker(
+        out_dir,
+        &Marker {
+            format: MARKER_FORMAT.into(),
+            complete: true,
+            tiles: marked,
+        },
+    )?;
+    drop(staging);
     Ok(RetileReport {
         tiles,
         empty_cells,
@@ -192,31 +311,12 @@ pub fn retile(
     })
 }
 
-/// `tile_<digits>_<digits>.las|laz`: a file [`retile`] writes.
-fn is_tile_name(name: &str) -> bool {
-    let Some(stem) = name
-        .strip_suffix(".laz")
-        .or_else(|| name.strip_suffix(".las"))
-    else {
-        return false;
-    };
-    let Some((c, r)) = stem.strip_prefix("tile_").and_then(|s| s.split_once('_')) else {
-        return false;
-    };
-    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
-    digits(c) && digits(r)
-}
-
-/// The tiles an earlier run left in `out_dir` (to be removed after the new ones are written),
-/// after refusing a non-empty directory without `overwrite`, an input inside it, or point
-/// clouds there that are not tiles. Hidden files (an interrupted run's temporaries) do not count.
-fn earlier_tiles(out_dir: &Path, inputs: &[PathBuf], overwrite: bool) -> Result<Vec<PathBuf>> {
-    let io = |source| {
-        Error::Io(lidarqa_io::Error::Io {
-            path: out_dir.to_path_buf(),
-            source,
-        })
-    };
+/// The tiles an earlier run recorded in `out_dir` (to be removed after the new ones are
+/// written), after refusing a non-empty directory without `overwrite`, an input inside it, or
+/// point clouds there that the record does not list or that changed since (module docs).
+/// Hidden files (the record, an interrupted run's temporaries) do not count.
+fn earlier_tiles(out_dir: &Path, inputs: &[PathBuf], overwrite: bool) -> Result<Vec<MarkedTile>> {
+    let io = |source| io_err(out_dir, source);
     let entries = match std::fs::read_dir(out_dir) {
         Ok(e) => e,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
@@ -242,32 +342,57 @@ fn earlier_tiles(out_dir: &Path, inputs: &[PathBuf], overwrite: bool) -> Result<
             names[0]
         )));
     }
-    let dir = out_dir.canonicalize().map_err(io)?;
-    if let Some(i) = inputs.iter().find(|i| {
-        i.canonicalize()
-            .ok()
-            .and_then(|c| c.parent().map(Path::to_path_buf))
-            == Some(dir.clone())
-    }) {
+    let dir = lidarqa_io::resolved(out_dir);
+    if let Some(i) = inputs
+        .iter()
+        .find(|i| lidarqa_io::resolved(i).parent() == Some(dir.as_path()))
+    {
         return Err(Error::InvalidOption(format!(
             "{}: the input {} is in the output directory; tiles and strips would mix",
             out_dir.display(),
             i.display()
         )));
     }
+    let marker_path = out_dir.join(MARKER);
+    let marker: Option<Marker> = match std::fs::read(&marker_path) {
+        Ok(bytes) => Some(
+            serde_json::from_slice::<Marker>(&bytes)
+                .ok()
+                .filter(|m| m.format == MARKER_FORMAT)
+                .ok_or_else(|| {
+                    Error::InvalidOption(format!(
+                        "{}: not a record of `lidarqa tile` ({MARKER_FORMAT}); remove the \
+                         directory's tiles by hand or give a new directory",
+                        marker_path.display()
+                    ))
+                })?,
+        ),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(io_err(&marker_path, e)),
+    };
+    let recorded = marker.map(|m| m.tiles).unwrap_or_default();
     let is_cloud = |n: &str| {
         let l = n.to_ascii_lowercase();
         l.ends_with(".las") || l.ends_with(".laz")
     };
-    if let Some(other) = names.iter().find(|n| is_cloud(n) && !is_tile_name(n)) {
-        return Err(Error::InvalidOption(format!(
-            "{}: holds {other}, a point cloud that is not a tile; --overwrite replaces tiles only",
-            out_dir.display()
-        )));
+    let mut earlier = Vec::new();
+    for name in names.iter().filter(|n| is_cloud(n)) {
+        let path = out_dir.join(name);
+        let digest = FileDigest::of_file(&path).ok();
+        let mine = recorded
+            .iter()
+            .find(|t| &t.name == name && digest.as_ref() == Some(&t.digest));
+        match mine {
+            Some(t) => earlier.push(t.clone()),
+            None => {
+                return Err(Error::InvalidOption(format!(
+                    "{}: holds {name}, not a tile `lidarqa tile` wrote there (its record \
+                     {MARKER} does not list it, or it changed since); --overwrite replaces only \
+                     the tiles it wrote",
+                    out_dir.display()
+                )));
+            }
+        }
     }
-    Ok(names
-        .iter()
-        .filter(|n| is_tile_name(n))
-        .map(|n| out_dir.join(n))
-        .collect())
+    Ok(earlier)
 }

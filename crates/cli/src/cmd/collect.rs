@@ -6,7 +6,7 @@ use crate::format::{OutputFormat, print_json, print_text, print_warnings, write_
 use anyhow::Result;
 use clap::Args;
 use lidarqa_pipeline::{Manifest, collect, resolve};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 pub const AFTER_HELP: &str = "\
 Example:
@@ -33,10 +33,17 @@ pub struct CollectArgs {
 /// Run `lidarqa collect`.
 pub fn run(a: CollectArgs) -> Result<()> {
     let manifest = Manifest::read(&a.manifest)?;
-    let (_, report) = collect(&a.manifest, &manifest)?;
-    print_warnings(&report.summary.warnings);
+    let mut inputs: Vec<PathBuf> = Vec::new();
     if let Some(path) = &a.summary {
-        let mut inputs: Vec<PathBuf> = vec![a.manifest.clone()];
+        // Before any work: the summary may be none of the files the manifest names (its shared
+        // inputs, the tiles, their outputs and reports) nor the manifest itself.
+        inputs.push(a.manifest.clone());
+        inputs.extend(
+            [&manifest.trajectory, &manifest.sensor]
+                .into_iter()
+                .chain(manifest.smrmsg.as_ref())
+                .map(|f| resolve(&a.manifest, &f.path)),
+        );
         inputs.extend(
             manifest
                 .entries
@@ -44,7 +51,11 @@ pub fn run(a: CollectArgs) -> Result<()> {
                 .flat_map(|e| [&e.input.path, &e.output, &e.report])
                 .map(|p| resolve(&a.manifest, p)),
         );
-        let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+        lidarqa_io::check_outputs(&[path], &inputs)?;
+    }
+    let (_, report) = collect(&a.manifest, &manifest)?;
+    print_warnings(&report.summary.warnings);
+    if let Some(path) = &a.summary {
         write_json_file(path, &report, &inputs)?;
     }
     match a.format {

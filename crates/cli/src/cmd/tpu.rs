@@ -123,8 +123,6 @@ impl TryFrom<TpuArgs> for Plan {
                     a.input.display()
                 );
             }
-            std::fs::create_dir_all(&a.output)
-                .with_context(|| format!("{}", a.output.display()))?;
             inputs
                 .into_iter()
                 .map(|input| Tile {
@@ -144,11 +142,18 @@ impl TryFrom<TpuArgs> for Plan {
                 output: a.output.clone(),
             }]
         };
-        for t in &tiles {
-            let mut inputs = vec![t.input.as_path(), trajectory.as_path(), a.sensor.as_path()];
-            inputs.extend(a.smrmsg.as_deref());
-            inputs.extend(a.calibration.as_deref());
-            lidarqa_io::check_not_an_input(&t.output, &inputs)?;
+        // The one output guard, before any work: every tile output and the summary against
+        // every input and every other output.
+        let mut inputs: Vec<&Path> = tiles.iter().map(|t| t.input.as_path()).collect();
+        inputs.extend([trajectory.as_path(), a.sensor.as_path()]);
+        inputs.extend(a.smrmsg.as_deref());
+        inputs.extend(a.calibration.as_deref());
+        let mut outputs: Vec<&Path> = tiles.iter().map(|t| t.output.as_path()).collect();
+        outputs.extend(a.summary.as_deref());
+        lidarqa_io::check_outputs(&outputs, &inputs)?;
+        if a.input.is_dir() {
+            std::fs::create_dir_all(&a.output)
+                .with_context(|| format!("{}", a.output.display()))?;
         }
         Ok(Plan {
             tiles,

@@ -412,8 +412,8 @@ fn check_layout<R: Read + Seek>(read: &mut R, path: &Path) -> Result<Option<u64>
 /// and an empty chunk table, 16 bytes as laz-rs writes them; margin for other writers).
 const EMPTY_LAZ_TAIL_BYTES: u64 = 64;
 
-/// A header that claims 0 points while the file holds point records: a writer that did not
-/// update the header. Read as empty, the file would give "0 points read, 0 written" in silence,
+/// A header that claims 0 points (or, uncompressed, fewer than it holds) while the file holds
+/// point records: a writer that did not update the header. Read as empty, the file would give "0 points read, 0 written" in silence,
 /// so it is refused with the count the data size implies (uncompressed) or its byte count (LAZ).
 fn check_zero_count(
     points: u64,
@@ -423,14 +423,23 @@ fn check_zero_count(
     first_evlr: Option<u64>,
     file_len: u64,
 ) -> std::result::Result<(), String> {
-    if points != 0 {
-        return Ok(());
-    }
     let end = first_evlr
         .filter(|s| *s >= offset)
         .unwrap_or(file_len)
         .min(file_len);
     let data = end.saturating_sub(offset);
+    // A short count (half the records): read as it says, the rest would be dropped in silence.
+    if points != 0 {
+        if !compressed && record_len > 0 && data / record_len > points {
+            return Err(format!(
+                "header says {points} points but the file holds {} point records of \
+                 {record_len} bytes: a header the writer did not update, or a truncated count? \
+                 rewrite the file with its point count",
+                data / record_len
+            ));
+        }
+        return Ok(());
+    }
     if compressed && data > EMPTY_LAZ_TAIL_BYTES {
         return Err(format!(
             "header says 0 points but the file holds {data} bytes of compressed point data: a \
