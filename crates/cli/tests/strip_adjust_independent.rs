@@ -205,7 +205,10 @@ fn strip_adjustment_recovers_lines_and_mounting_with_honest_sigma() {
     }
     let pooled = (z_mount.iter().sum::<f64>() / 60.0).sqrt();
     eprintln!("mounting: RMS(error/σ) over 60 errors {pooled:.2}");
-    assert!((0.7..=1.4).contains(&pooled), "pooled RMS(error/σ) {pooled}");
+    assert!(
+        (0.7..=1.4).contains(&pooled),
+        "pooled RMS(error/σ) {pooled}"
+    );
     let rms = (z_lines / lines as f64).sqrt();
     eprintln!("line offsets: RMS(error/σ) {rms:.2}, {within_2} of {lines} within 2σ");
     assert!(

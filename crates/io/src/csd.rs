@@ -646,7 +646,8 @@ mod tests {
 
     #[test]
     fn out_of_range_values_name_the_record_and_value() {
-        let cases: [(fn(&mut CsdRecord), &str); 6] = [
+        type Spoil = fn(&mut CsdRecord);
+        let cases: [(Spoil, &str); 6] = [
             (
                 |r| r.scan_angle_rad = 1.7,
                 "scan angle 97.4028° is not within ±90°",

@@ -1,6 +1,8 @@
 //! Optech CSD raw sensor records: the reader against PDAL's unit test (header values and the
 //! georeferenced return), the whole run against an independent numpy + pyproj computation, a
 //! Monte Carlo check of the σ, and the refusals (truncated file, value out of range).
+// PDAL's expected values are quoted digit for digit from its unit test.
+#![allow(clippy::excessive_precision)]
 
 use lidarqa_io::{Crs, CsdPulse, CsdReader, LasReader, PointChunk, read_sensor};
 use lidarqa_model::{Georeferencer, LINEAR_N, LinearScanner, Sensor, ecef_from_ned};

@@ -237,9 +237,9 @@ fn mounting_table(
 /// The strip adjustment: each line's correction, the tie residuals before and after, and the
 /// trajectory σ the data asked for.
 fn strip_adjustment_table(o: &mut String, sa: &StripAdjustment) {
-    let _ = write!(
+    let _ = writeln!(
         o,
-        "<table id=\"strip-adjustment\"><caption>Per-line trajectory corrections (model <code>{}</code>; cm, deg)</caption><thead><tr><th>strip</th><th>north</th><th>east</th><th>up</th><th>σ up</th><th>drift N/E/U</th><th>roll/pitch/heading</th></tr></thead><tbody>\n",
+        "<table id=\"strip-adjustment\"><caption>Per-line trajectory corrections (model <code>{}</code>; cm, deg)</caption><thead><tr><th>strip</th><th>north</th><th>east</th><th>up</th><th>σ up</th><th>drift N/E/U</th><th>roll/pitch/heading</th></tr></thead><tbody>",
         esc(&sa.model)
     );
     for l in &sa.lines {
