@@ -397,7 +397,7 @@ fn bad_input_is_refused_with_clear_errors() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
-        err.contains("n_water must be a finite number > 1, got 0.98"),
+        err.contains("scanner.n_water") && err.contains("a refractive index of 0.98 is outside"),
         "{err}"
     );
 }
