@@ -13,8 +13,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-const SUBCOMMANDS: [&str; 15] = [
+const SUBCOMMANDS: [&str; 17] = [
     "budget",
+    "sensor",
     "simulate",
     "tile",
     "targets",
@@ -24,6 +25,7 @@ const SUBCOMMANDS: [&str; 15] = [
     "calibrate",
     "correct",
     "overlap",
+    "qc",
     "plan",
     "run",
     "collect",
@@ -206,11 +208,18 @@ fn fixtures(w: &Path) {
     copy(&strips[3], "s4.laz");
     for (i, s) in strips.iter().enumerate() {
         copy(s, &format!("strips/strip_00{}.laz", i + 1));
+        copy(s, &format!("tiles/strip_00{}.laz", i + 1));
+    }
+    // The Optech CSD example reads PDAL's public sample (read in place, copied to the scratch
+    // directory under the example's name).
+    if let Some(csd) = lidarqa_testkit::realdata("optech_csd_pdal") {
+        copy(&csd.join("sample.csd"), "sample.csd");
     }
     for name in ["sbet.out", "smrmsg.out", "sensor.toml", "control.csv"] {
         copy(&sim.join(name), name);
     }
     copy(&sim.join("control.csv"), "nva.csv");
+    copy(&sim.join("control.csv"), "cp.csv");
     let forest = small_forest(w);
     lidarqa(w, &["simulate", "--scenario", s(&forest), "-o", "forest"]);
     copy(&w.join("forest/strip_001.laz"), "forest1.laz");
@@ -338,6 +347,10 @@ fn every_help_example_runs() {
     for sub in SUBCOMMANDS {
         for example in examples(sub) {
             let line = as_run(&example);
+            if line.contains("sample.csd") && !w.join("sample.csd").exists() {
+                eprintln!("skipped without the public CSD sample: {line}");
+                continue;
+            }
             // `lidarqa demo` and `lidarqa demo -o DIR --quick` are one run once both are quick.
             if !seen.insert(without_output(&line)) {
                 ran += 1;

@@ -322,27 +322,39 @@ fn corrupt_records(strip: &Path, n: usize) {
 #[test]
 fn overlap_with_corrupted_records_is_sized_by_the_robust_extent() {
     let w = workspace(&["strip_001.las", "strip_002.las"]);
-    let args = |a: &Path, b: &Path| {
-        binary::json_ok(&["overlap", s(a), s(b), "--cell-m", "5", "--format", "json"])
+    // The written product holds the dz grid (stdout's JSON only the pairs).
+    let product = |name: &str| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(p(&w, name)).unwrap()).unwrap()
     };
-    let clean = args(&p(&w, "strip_001.las"), &p(&w, "strip_002.las"));
+    let clean_json = p(&w, "clean_overlap.json");
+    binary::run_ok(&[
+        "overlap",
+        s(&p(&w, "strip_001.las")),
+        s(&p(&w, "strip_002.las")),
+        "--cell-m",
+        "5",
+        "-o",
+        s(&clean_json),
+    ]);
+    let clean = product("clean_overlap.json");
     for f in ["strip_001.las", "strip_002.las"] {
         let bad = p(&w, &format!("bad_{f}"));
         std::fs::copy(p(&w, f), &bad).unwrap();
         corrupt_records(&bad, 100);
     }
+    let bad_json = p(&w, "bad_overlap.json");
     let out = lidarqa(&[
         "overlap",
         s(&p(&w, "bad_strip_001.las")),
         s(&p(&w, "bad_strip_002.las")),
         "--cell-m",
         "5",
-        "--format",
-        "json",
+        "-o",
+        s(&bad_json),
     ]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
-    let bad: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let bad = product("bad_overlap.json");
     let rms = |v: &serde_json::Value| v["pairs"][0]["rmsdz_m"].as_f64().unwrap();
     // 100 of 18 181 points gone from the comparison: the RMS moves by millimetres at most.
     assert!(

@@ -123,9 +123,11 @@ impl Survey {
     }
 
     fn tiles(&self) -> Vec<String> {
+        // The point-cloud tiles only (`tile` keeps its own record, `.lidarqa-tiles.json`, beside them).
         let mut v: Vec<String> = std::fs::read_dir(self.dir.path().join("tiles"))
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.ends_with(".las") || n.ends_with(".laz"))
             .collect();
         v.sort();
         v

@@ -781,7 +781,7 @@ correlation = [[1.0, 0.3], [0.3, 1.0]]
             ),
             (
                 "[scanner]\ntype = \"conic\"\nn_water = 0.9\n",
-                "sensor.toml: key `scanner`: refraction index n_water must be a finite number > 1, got 0.9",
+                "sensor.toml: key `scanner.n_water`: a refractive index of 0.9 is outside 1.2–1.5",
             ),
             (
                 "[scanner]\ntype = \"helical\"\n",

@@ -62,7 +62,8 @@ fn bad_values_name_key_and_value() {
     let e = err(&demo_text().replace("type = \"linear\"", "type = \"helical\""));
     assert_eq!(
         e,
-        "sensor.scanner.type: 'helical' is not one of linear, conic"
+        "sensor.scanner.type: 'helical' is not one of linear, conic, rotating-mirror, \
+         spinning-multibeam, risley, elliptical"
     );
     let e = err(&demo_text().replace("scan_angle_scale_ppm = 0.0", "scan_angle_scale_ppm = nan"));
     assert!(e.starts_with("errors.scan_angle_scale_ppm = NaN"), "{e}");
