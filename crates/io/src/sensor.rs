@@ -546,8 +546,8 @@ pub fn sigma_limit(key: &str) -> Option<(f64, &'static str)> {
 }
 
 /// Why a mounting (sensor file or calibration) cannot be right, naming the key and the likely
-/// cause: a lever arm longer than [`MAX_LEVER_ARM_M`] or a boresight angle beyond
-/// [`MAX_BORESIGHT_DEG`]. `prefix` names the keys (`mounting.` in a sensor file, `parameters.`
+/// cause: a lever arm longer than `MAX_LEVER_ARM_M` or a boresight angle beyond
+/// `MAX_BORESIGHT_DEG`. `prefix` names the keys (`mounting.` in a sensor file, `parameters.`
 /// in a calibration).
 pub fn mounting_implausible(m: &Mounting, prefix: &str) -> Option<String> {
     let length = m.lever_arm_m.norm();
