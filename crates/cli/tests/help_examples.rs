@@ -208,7 +208,6 @@ fn fixtures(w: &Path) {
     copy(&strips[3], "s4.laz");
     for (i, s) in strips.iter().enumerate() {
         copy(s, &format!("strips/strip_00{}.laz", i + 1));
-        copy(s, &format!("tiles/strip_00{}.laz", i + 1));
     }
     // The Optech CSD example reads PDAL's public sample (read in place, copied to the scratch
     // directory under the example's name).
