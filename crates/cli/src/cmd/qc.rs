@@ -12,9 +12,9 @@ use std::path::PathBuf;
 
 pub const AFTER_HELP: &str = "\
 Examples:
-  lidarqa qc tiles/*.laz -o qc/                                   USGS QL2 and ASPRS 2023
-  lidarqa qc tiles/*.laz --control cp.csv --standard usgs-lbs-2024:QL1,asprs-2023:10 -o qc/
-  lidarqa qc tiles/*.laz --trajectory sbet.out --sensor sensor.toml -o qc/   predicted beside measured
+  lidarqa qc tiles/*.laz -o qc/                           # USGS QL2 and ASPRS 2023
+  lidarqa qc tiles/*.laz --control cp.csv --standard usgs-lbs-2024:QL1 -o qc/
+  lidarqa qc tiles/*.laz --trajectory sbet.out --sensor sensor.toml -o qc/   # and predicted
 
 The files are read as flight lines across all of them: by point source id, split where the GPS
 time jumps by more than --line-gap-s (ids 0 or reused for several passes); the lines found and why
