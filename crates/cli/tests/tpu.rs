@@ -11,7 +11,6 @@ mod common;
 
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 /// `tpu INPUT --trajectory … --sensor … -o OUTPUT` plus `extra`.
 fn tpu_args<'a>(sv: &'a common::Survey, input: &'a Path, output: &'a Path) -> Vec<&'a str> {
@@ -316,17 +315,6 @@ fn tpu_output_for_laspy() {
     std::fs::write(&json_path, serde_json::to_string_pretty(&spec).unwrap()).unwrap();
     if let Some(python) = lidarqa_testkit::python("the laspy cross-check") {
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../io/tests/laspy_check.py");
-        let out = Command::new(python)
-            .arg(script)
-            .arg(&json_path)
-            .output()
-            .unwrap();
-        let stdout = String::from_utf8_lossy(&out.stdout);
-        assert!(
-            out.status.success(),
-            "laspy_check.py failed:\n{stdout}\n{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        assert!(stdout.contains(" passed, 0 failed"), "{stdout}");
+        lidarqa_testkit::run_python_check(&python, &script, &json_path);
     }
 }

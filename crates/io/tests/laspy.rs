@@ -110,17 +110,6 @@ fn las_and_laz_for_laspy() {
 
     if let Some(python) = lidarqa_testkit::python("the laspy cross-check") {
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/laspy_check.py");
-        let out = std::process::Command::new(python)
-            .arg(script)
-            .arg(&json_path)
-            .output()
-            .unwrap();
-        let stdout = String::from_utf8_lossy(&out.stdout);
-        assert!(
-            out.status.success(),
-            "laspy_check.py failed:\n{stdout}\n{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        assert!(stdout.contains(" passed, 0 failed"), "{stdout}");
+        lidarqa_testkit::run_python_check(&python, &script, &json_path);
     }
 }

@@ -10,8 +10,8 @@
 //! - [`python`]: the interpreter that runs the independent generators and readers
 //!   (numpy, laspy, lazrs, pyproj), named by `LIDARQA_PYTHON`.
 
-use std::ffi::OsString;
-use std::path::PathBuf;
+use std::ffi::{OsStr, OsString};
+use std::path::{Path, PathBuf};
 
 /// Whether this run is CI's (`CI=true`), where a missing prerequisite is a failure.
 pub fn under_ci() -> bool {
@@ -63,6 +63,27 @@ pub fn python(what: &str) -> Option<OsString> {
     assert!(!under_ci(), "{msg}; CI=true requires it");
     eprintln!("{msg}");
     None
+}
+
+/// Runs an independent check script (`python SCRIPT ARG`) and asserts that it succeeded and
+/// printed its closing line with no failure (` passed, 0 failed`).
+///
+/// # Panics
+/// When the script fails or reports a failed check; the message holds its output.
+pub fn run_python_check(python: &OsStr, script: &Path, arg: &Path) {
+    let out = std::process::Command::new(python)
+        .arg(script)
+        .arg(arg)
+        .output()
+        .expect("the Python interpreter runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let name = script.file_name().unwrap_or_default().to_string_lossy();
+    assert!(
+        out.status.success(),
+        "{name} failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains(" passed, 0 failed"), "{stdout}");
 }
 
 #[cfg(test)]
