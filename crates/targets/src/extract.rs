@@ -2,6 +2,7 @@
 //! centre estimation.
 
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::centre::{
@@ -324,35 +325,43 @@ pub fn extract_targets(
     // around them. Without a radius: the nearest intensity cluster wins the control point.
     let all_xy: Vec<[f64; 2]> = points.iter().map(|p| [p.x, p.y]).collect();
     let all_tree: ImmutableKdTree<f64, 2> = ImmutableKdTree::new_from_slice(&all_xy);
-    let mut found: Vec<Option<TargetResult>> = vec![None; control.len()];
+    // Each control point's plate fit is independent of the others and dominates the run time (a
+    // grid posterior per plate): they run in parallel, and the first error in control order is
+    // the one returned, as a sequential loop would.
+    let fits: Vec<Option<Result<TargetResult>>> = control
+        .par_iter()
+        .map(|c| {
+            let radius = c.radius_m.or(config.centre.radius_m)?;
+            let reach = config.search_radius_m + radius + RING_OUT_M + 0.5;
+            let local: Vec<LidarPoint> = all_tree
+                .within_unsorted::<SquaredEuclidean>(&[c.x, c.y], reach * reach)
+                .into_iter()
+                .map(|nb| points[nb.item as usize])
+                .collect();
+            let fit = fit_plate(
+                &local,
+                [c.x, c.y],
+                radius,
+                config.search_radius_m,
+                config.centre.edge_width_m,
+            )?;
+            let mut opts = config.centre.clone();
+            opts.radius_m = Some(radius);
+            let match_distance_m = (fit.centre[0] - c.x).hypot(fit.centre[1] - c.y);
+            Some(
+                plate_estimate(&local, fit, radius, &opts).map(|centre| TargetResult {
+                    id: c.id.clone(),
+                    match_distance_m,
+                    centre,
+                }),
+            )
+        })
+        .collect();
+    let mut found: Vec<Option<TargetResult>> = fits
+        .into_iter()
+        .map(Option::transpose)
+        .collect::<Result<_>>()?;
     let mut owner: Vec<Option<(usize, f64)>> = vec![None; control.len()];
-    for (ctrl_idx, c) in control.iter().enumerate() {
-        let Some(radius) = c.radius_m.or(config.centre.radius_m) else {
-            continue;
-        };
-        let reach = config.search_radius_m + radius + RING_OUT_M + 0.5;
-        let local: Vec<LidarPoint> = all_tree
-            .within_unsorted::<SquaredEuclidean>(&[c.x, c.y], reach * reach)
-            .into_iter()
-            .map(|nb| points[nb.item as usize])
-            .collect();
-        let Some(fit) = fit_plate(
-            &local,
-            [c.x, c.y],
-            radius,
-            config.search_radius_m,
-            config.centre.edge_width_m,
-        ) else {
-            continue;
-        };
-        let mut opts = config.centre.clone();
-        opts.radius_m = Some(radius);
-        found[ctrl_idx] = Some(TargetResult {
-            id: c.id.clone(),
-            match_distance_m: (fit.centre[0] - c.x).hypot(fit.centre[1] - c.y),
-            centre: plate_estimate(&local, fit, radius, &opts)?,
-        });
-    }
     for (ci, cand) in candidates.iter().enumerate() {
         let ctrl = &control[cand.2];
         if ctrl.radius_m.or(config.centre.radius_m).is_some() {
