@@ -394,6 +394,8 @@ fn open_all(paths: &[PathBuf], ctx: &TpuContext) -> Result<(LocalFrame, Crs)> {
                 z0.epsg()
             )));
         }
+        // `tpu`'s plausibility checks up front: a calibration would absorb their fault.
+        crate::recovery_check::check_strip_sample(ctx, p, &tile)?;
         zone = Some(tile.crs);
         infos.push(tile.info);
     }

@@ -218,6 +218,13 @@ impl TryFrom<CalibrateArgs> for Plan {
                 "the output must not be named calibration_iterations.json (that file is written beside it)"
             );
         }
+        // The one output guard, before any work: both outputs against every input and each
+        // other (through symbolic links and `..`).
+        let mut inputs: Vec<&std::path::Path> = args.strips.iter().map(PathBuf::as_path).collect();
+        inputs.extend([args.trajectory.as_path(), args.sensor.as_path()]);
+        inputs.extend(args.ties.as_deref());
+        inputs.extend(args.control.as_deref());
+        lidarqa_io::check_outputs(&[args.output.as_path(), iterations_path.as_path()], &inputs)?;
         Ok(Plan {
             args,
             options,
