@@ -212,9 +212,10 @@ pub fn check_held_parameters(path: &Path, prior: &Mounting) -> Result<()> {
     let prior = lidarqa_calib::mounting_to_vector(prior);
     for p in lidarqa_calib::Param::ALL {
         let key = p.key();
-        let (Some(v), Some(serde_json::Value::Null)) =
-            (params.get(key).and_then(serde_json::Value::as_f64), sigma.get(key))
-        else {
+        let (Some(v), Some(serde_json::Value::Null)) = (
+            params.get(key).and_then(serde_json::Value::as_f64),
+            sigma.get(key),
+        ) else {
             continue;
         };
         let was = p.to_display(prior[p.index()]);

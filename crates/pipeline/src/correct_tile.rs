@@ -34,8 +34,8 @@
 //! from one generic function ([`displacement`]).
 
 use crate::context::TpuContext;
-use crate::recovery_check::{RecoveryCheck, RecoveryTally};
 use crate::error::{Error, Result};
+use crate::recovery_check::{RecoveryCheck, RecoveryTally};
 use crate::stages::{read_chunks, run_stages, write_chunks};
 use lidarqa_io::{
     CellCache, CoordinateBlock, Crs, GridToEcef, LasTimeConverter, LasWriteOptions, RawChunk,
@@ -256,7 +256,11 @@ impl Run<'_> {
     /// Points hundreds of kilometres from the trajectory (a wrong zone) are refused before any
     /// is moved (see [`crate::plausibility::check_distance`]).
     /// The same sampled points feed the mounting, scan-angle and range checks (`tally`).
-    fn check_distance(&self, chunk: &RawChunk, mut tally: Option<&mut RecoveryTally>) -> Result<()> {
+    fn check_distance(
+        &self,
+        chunk: &RawChunk,
+        mut tally: Option<&mut RecoveryTally>,
+    ) -> Result<()> {
         let (ellipsoid, unit_m) = (self.crs.ellipsoid(), self.crs.unit().metres());
         let step = chunk
             .len()

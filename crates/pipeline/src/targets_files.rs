@@ -100,8 +100,7 @@ pub fn find_targets(
                 source @ (lidarqa_targets::Error::NoHighIntensityPoints { .. }
                 | lidarqa_targets::Error::NoTargetNearControl { .. }
                 | lidarqa_targets::Error::NoPlateAtControl { .. }),
-            ) if inputs.len() > 1 =>
-            {
+            ) if inputs.len() > 1 => {
                 unresolved.push(Error::Targets {
                     path: path.clone(),
                     source,

@@ -167,7 +167,11 @@ pub fn check_options(options: &ReconstructOptions) -> std::result::Result<(), Re
         )))
     };
     if !(options.block_s.is_finite() && options.block_s > 0.0) {
-        return bad("--block-s", options.block_s.to_string(), "a number of seconds > 0");
+        return bad(
+            "--block-s",
+            options.block_s.to_string(),
+            "a number of seconds > 0",
+        );
     }
     if !(options.smoothing_window_s.is_finite() && options.smoothing_window_s >= 0.0) {
         return bad(

@@ -236,8 +236,6 @@ impl TryFrom<CalibrateArgs> for Plan {
 
 pub fn run(args: CalibrateArgs) -> Result<()> {
     let plan = Plan::try_from(args)?;
-    std::fs::create_dir_all(&plan.output_dir)
-        .with_context(|| format!("{}: cannot create", plan.output_dir.display()))?;
     let a = &plan.args;
     let ctx = a.survey.context(&a.sensor, &a.trajectory)?;
     // The first pass reads every point once.
@@ -274,6 +272,9 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
     let run = calibrate_strips_with_progress(&job, &progress);
     bar.finish_and_clear();
     let run = run?;
+    // Created only now: a refused calibration leaves no directory behind.
+    std::fs::create_dir_all(&plan.output_dir)
+        .with_context(|| format!("{}: cannot create", plan.output_dir.display()))?;
     let mut inputs: Vec<PathBuf> = a.strips.clone();
     inputs.extend([a.trajectory.clone(), a.sensor.clone()]);
     inputs.extend(a.ties.clone());

@@ -48,6 +48,17 @@ pub struct CorrectArgs {
 }
 
 pub fn run(a: CorrectArgs) -> Result<()> {
+    // A refused run leaves no output directory it created (an existing one is kept as it was:
+    // each output is atomic).
+    let created = !a.output.exists();
+    let result = correct(&a);
+    if result.is_err() && created {
+        let _ = std::fs::remove_dir(&a.output);
+    }
+    result
+}
+
+fn correct(a: &CorrectArgs) -> Result<()> {
     // Before any work: each strip once, one output per strip, none over an input.
     lidarqa_io::check_distinct_inputs(&a.strips)?;
     let shared = [&a.calibration, &a.sensor, &a.trajectory];
