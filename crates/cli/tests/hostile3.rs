@@ -282,6 +282,9 @@ fn every_command_refuses_an_output_onto_an_input_before_any_work() {
     );
 }
 
+/// A new X, Y, Z for record k at X, Y, Z.
+type Edit = dyn Fn(usize, [f64; 3]) -> [f64; 3];
+
 /// Edits every record's X, Y, Z of a LAS file in place (the header's scale; format 6 records).
 fn edit_xyz(strip: &Path, f: impl Fn(usize, [f64; 3]) -> [f64; 3]) {
     let mut bytes = std::fs::read(strip).unwrap();
@@ -359,7 +362,7 @@ fn correct_refuses_points_that_do_not_fit_their_mounting() {
     let err = String::from_utf8_lossy(&good.stderr);
     assert!(!err.contains("warning"), "{err}");
     assert!(d.join("good/strip_001.las").exists());
-    let bad: [(&str, Box<dyn Fn(usize, [f64; 3]) -> [f64; 3]>); 3] = [
+    let bad: [(&str, Box<Edit>); 3] = [
         ("east300", Box::new(|_, [x, y, z]| [x + 300.0, y, z])),
         ("onexyz", Box::new(|_, _| [640_010.0, 2_800_010.0, 5.0])),
         ("high1000", Box::new(|_, [x, y, z]| [x, y, z + 1000.0])),
@@ -721,4 +724,120 @@ fn collect_refuses_inputs_changed_since_the_plan() {
         ],
         &["t1.las", "changed since the manifest", "not complete"],
     );
+}
+
+/// A weak case: `targets` over several files ended the whole run when one file's bright points
+/// were no target, and said "none within 2 m (nearest is 0.456 m)". Now that file is skipped
+/// with a warning when another resolves the targets, and alone it is told as it is: a cluster
+/// near a control point whose plate of the given radius does not fit.
+#[test]
+fn targets_skips_a_file_that_sees_no_target_and_says_why() {
+    let w = workspace(&["strip_001.las", "control.csv"]);
+    let d = w.path();
+    let sparse = d.join("strip_001.las");
+    let control = d.join("control.csv");
+    // Alone (2 kHz: too few points on a 0.8 m target for its plate).
+    let err = refused_untouched(
+        d,
+        &[
+            "targets",
+            s(&sparse),
+            "--control",
+            s(&control),
+            "-o",
+            s(&d.join("t.csv")),
+        ],
+        &[
+            "strip_001.las",
+            "a high-intensity cluster lies",
+            "no plate of its radius 0.8 m",
+        ],
+    );
+    assert!(!err.contains("none of the"), "{err}");
+    // With a dense strip of the same line (10 kHz), which resolves the targets.
+    let text = binary::stdout_ok(&["simulate", "--scenario", "demo", "--print"]);
+    let mut demo: toml::Table = toml::from_str(&text).unwrap();
+    demo["scanner"]
+        .as_table_mut()
+        .unwrap()
+        .insert("pulse_rate_hz".into(), toml::Value::Float(10_000.0));
+    demo["lines"]
+        .as_array_mut()
+        .unwrap()
+        .retain(|l| l["id"].as_integer().unwrap() == 1);
+    let sub = d.join("dense");
+    std::fs::create_dir(&sub).unwrap();
+    let sim = binary::simulate_scenario(&sub, &toml::to_string(&demo).unwrap());
+    let dense = sim.join("strip_001.laz");
+    let out = lidarqa(&[
+        "targets",
+        s(&sparse),
+        s(&dense),
+        "--control",
+        s(&control),
+        "-o",
+        s(&d.join("t.csv")),
+        "--format",
+        "json",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(!v["targets"].as_array().unwrap().is_empty(), "{v}");
+    let skipped: Vec<&str> = v["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|w| w["code"] == "targets_file_skipped")
+        .map(|w| w["message"].as_str().unwrap())
+        .collect();
+    assert!(
+        skipped
+            .iter()
+            .any(|m| m.contains(s(&sparse)) && m.contains("no plate")),
+        "{skipped:?}"
+    );
+    assert!(err.contains("(targets_file_skipped)"), "{err}");
+}
+
+/// A weak case: a `simulate` re-run that failed (or was killed) while it renamed its files into
+/// place left old and new files mixed under their final names, with nothing to tell. Now the
+/// directory holds `lidarqa-incomplete.txt` from the first rename to the last.
+#[test]
+fn a_simulate_rerun_that_fails_while_renaming_marks_the_directory_incomplete() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sim");
+    let scenario = survey().join("small.toml");
+    let sim = |seed: &str| {
+        lidarqa(&[
+            "simulate",
+            "--scenario",
+            s(&scenario),
+            "--seed",
+            seed,
+            "--format",
+            "las",
+            "-o",
+            s(&out),
+        ])
+    };
+    assert!(sim("1").status.success());
+    let marker = out.join("lidarqa-incomplete.txt");
+    assert!(!marker.exists());
+    // truth.json replaced by a directory: the re-run fails after the strips are renamed.
+    std::fs::remove_file(out.join("truth.json")).unwrap();
+    std::fs::create_dir(out.join("truth.json")).unwrap();
+    let old_strip = std::fs::read(out.join("strip_001.las")).unwrap();
+    let failed = sim("2");
+    assert_eq!(failed.status.code(), Some(1));
+    assert_ne!(std::fs::read(out.join("strip_001.las")).unwrap(), old_strip);
+    let text = std::fs::read_to_string(&marker).unwrap();
+    assert!(
+        text.contains("did not finish") && text.contains("earlier run's"),
+        "{text}"
+    );
+    // A complete run removes it.
+    std::fs::remove_dir(out.join("truth.json")).unwrap();
+    assert!(sim("2").status.success());
+    assert!(!marker.exists());
 }

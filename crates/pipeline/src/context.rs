@@ -770,7 +770,11 @@ impl TpuContext {
             info.time_base,
             self.options.gps_week,
             info.creation_date,
-        )?;
+        )?
+        .with_trajectory_week(match &self.poses {
+            TrajectoryFile::Text(t) => t.gps_week,
+            TrajectoryFile::Sbet(_) => None,
+        });
         Ok(OpenTile {
             info,
             crs,
