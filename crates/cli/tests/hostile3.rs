@@ -286,7 +286,7 @@ fn every_command_refuses_an_output_onto_an_input_before_any_work() {
 type Edit = dyn Fn(usize, [f64; 3]) -> [f64; 3];
 
 /// Edits every record's X, Y, Z of a LAS file in place (the header's scale; format 6 records).
-fn edit_xyz(strip: &Path, f: impl Fn(usize, [f64; 3]) -> [f64; 3]) {
+fn edit_xyz(strip: &Path, mut f: impl FnMut(usize, [f64; 3]) -> [f64; 3]) {
     let mut bytes = std::fs::read(strip).unwrap();
     let offset = u32::from_le_bytes(bytes[96..100].try_into().unwrap()) as usize;
     let len = u16::from_le_bytes(bytes[105..107].try_into().unwrap()) as usize;
@@ -509,6 +509,19 @@ fn a_text_trajectory_of_another_gps_week_is_refused() {
             "trajectory.csv",
             "GPS week 2199",
             "--gps-week gives week 2200",
+        ],
+    );
+    // Without --gps-week: the points' adjusted standard GPS times carry their week too.
+    let mut args = args.to_vec();
+    args.drain(6..8);
+    refused_untouched(
+        d,
+        &args,
+        &[
+            "strip_001.las",
+            "GPS week 2200",
+            "not in week 2199",
+            "the trajectory's",
         ],
     );
 }
@@ -840,4 +853,60 @@ fn a_simulate_rerun_that_fails_while_renaming_marks_the_directory_incomplete() {
     std::fs::remove_dir(out.join("truth.json")).unwrap();
     assert!(sim("2").status.success());
     assert!(!marker.exists());
+}
+
+/// Writes `strip` with `n` records' X, Y, Z replaced by far-off values (corrupted records).
+fn corrupt_records(strip: &Path, n: usize) {
+    let mut k = 0;
+    let count = {
+        let bytes = std::fs::read(strip).unwrap();
+        let offset = u32::from_le_bytes(bytes[96..100].try_into().unwrap()) as usize;
+        let len = u16::from_le_bytes(bytes[105..107].try_into().unwrap()) as usize;
+        (bytes.len() - offset) / len
+    };
+    edit_xyz(strip, |i, xyz| {
+        if i == k * count / n && k < n {
+            k += 1;
+            [2e6 + k as f64, -2e6, 1.9e6]
+        } else {
+            xyz
+        }
+    });
+}
+
+/// Bad case 3: `calibrate --auto-ties` on strips with 100 corrupted XYZ records each tried to
+/// allocate 11 TB (a grid sized by the outliers' extent) and aborted. Now its grids are sized
+/// from the robust extent: it ends with exit 0 or one line and exit 1, never an abort.
+#[test]
+fn calibrate_auto_ties_on_corrupted_records_does_not_abort() {
+    let w = workspace(&["strip_001.las", "strip_002.las", "sbet.out", "sensor.toml"]);
+    let d = w.path();
+    for f in ["strip_001.las", "strip_002.las"] {
+        corrupt_records(&d.join(f), 100);
+    }
+    let out = lidarqa(&[
+        "calibrate",
+        s(&d.join("strip_001.las")),
+        s(&d.join("strip_002.las")),
+        "--trajectory",
+        s(&d.join("sbet.out")),
+        "--sensor",
+        s(&d.join("sensor.toml")),
+        "--auto-ties",
+        "-o",
+        s(&d.join("cal/calibration.json")),
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        matches!(out.status.code(), Some(0 | 1)),
+        "{:?}: {err}",
+        out.status
+    );
+    assert!(
+        !err.contains("panicked") && !err.contains("memory allocation"),
+        "{err}"
+    );
+    if out.status.code() == Some(1) {
+        fails_with(&out, &[]);
+    }
 }

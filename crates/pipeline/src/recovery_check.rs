@@ -248,7 +248,8 @@ pub(crate) fn pose_and_ecef(
 /// them checked) recovered with the sensor file's mounting. A calibration from points that do
 /// not fit the mounting they were made with, or whose scan angles say the trajectory is
 /// elsewhere, would estimate the lever arm and boresight that absorb the fault and call them
-/// determined; so either is refused, naming the likely cause.
+/// determined; so either is refused, naming the likely cause. Points beyond the range
+/// envelope (corrupted records) are left out, not refused.
 ///
 /// # Errors
 /// [`Error::Implausible`] naming the strip; I/O errors naming it.
@@ -289,8 +290,7 @@ pub(crate) fn check_strip_sample(ctx: &TpuContext, path: &Path, tile: &OpenTile)
     if let Some(w) = scan.into_iter().next() {
         return Err(refuse(own(w)));
     }
-    if let Some(w) = tally.range_warning(path) {
-        return Err(refuse(own(w)));
-    }
+    // Points beyond the range envelope are not refused here: a few corrupted records are
+    // left out of the checks above and of the calibration's own grids (robust extents).
     Ok(())
 }
