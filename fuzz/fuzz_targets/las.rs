@@ -36,7 +36,7 @@ fuzz_target!(|data: &[u8]| {
     let Ok(mut reader) = LasReader::new(Cursor::new(data.to_vec())) else {
         return;
     };
-    let _ = reader.info().utm_zone();
+    let _ = reader.info().projected_crs();
     let mut chunk = PointChunk::new();
     // The first chunk, and a second one so a chunk boundary is crossed on small files.
     for _ in 0..2 {

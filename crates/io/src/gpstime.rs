@@ -230,6 +230,8 @@ pub struct LasTimeConverter {
     path: PathBuf,
     base: LasTimeBase,
     week_flag: Option<i64>,
+    /// The week came from the trajectory's own adjusted standard times, not `--gps-week`.
+    week_from_trajectory: bool,
     creation: Option<(CivilDate, i64)>,
 }
 
@@ -261,8 +263,22 @@ impl LasTimeConverter {
             path,
             base,
             week_flag: gps_week,
+            week_from_trajectory: false,
             creation,
         })
+    }
+
+    /// Without `--gps-week`, the week of a trajectory whose adjusted standard GPS times carry
+    /// one: points in adjusted standard time of another week are then refused naming both
+    /// weeks (their seconds of week would match another day's aircraft).
+    pub fn with_trajectory_week(mut self, week: Option<i64>) -> Self {
+        if self.week_flag.is_none()
+            && let Some(w) = week
+        {
+            self.week_flag = Some(w);
+            self.week_from_trajectory = true;
+        }
+        self
     }
 
     /// The LAS time base this converter reads.
@@ -319,6 +335,16 @@ impl LasTimeConverter {
     #[cold]
     fn not_in_given_week(&self, t_las_s: f64, w: i64, sow: f64) -> Error {
         let own = adjusted_standard_to_week(t_las_s);
+        if self.week_from_trajectory {
+            return self.err(format!(
+                "adjusted standard GPS time {t_las_s} s lies in GPS week {} (starting {}), not \
+                 in week {w} (starting {}) of the trajectory's adjusted standard GPS times: a \
+                 trajectory of another day's flight?",
+                own.week,
+                gps_week_start(own.week),
+                gps_week_start(w)
+            ));
+        }
         self.err(format!(
             "adjusted standard GPS time {t_las_s} s lies in GPS week {} (starting {}), \
              not in week {w} given by --gps-week: {sow} s is outside [0, 604800)",

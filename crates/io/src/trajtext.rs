@@ -147,6 +147,9 @@ pub struct TextTrajectory {
     /// For a per-point pose whose file has coarse GPS time: that file and the key each of its
     /// points (in file order) is posed at, instead of its GPS time.
     pub point_keys: Option<(std::path::PathBuf, std::sync::Arc<Vec<f64>>)>,
+    /// The GPS week of the records when their times are adjusted standard GPS time (which
+    /// carries the week); `None` for seconds of week. Compared with `--gps-week` and the points'.
+    pub gps_week: Option<i64>,
 }
 
 /// A trajectory file of any supported layout.
@@ -212,6 +215,7 @@ pub fn read_trajectory(path: impl AsRef<Path>) -> Result<TrajectoryFile> {
 pub fn read_point_pose(path: &Path) -> Result<TextTrajectory> {
     let p = crate::pointpose::read_point_poses(path)?;
     Ok(TextTrajectory {
+        gps_week: None,
         format: TrajectoryFormat::PointPose,
         position: TrajectoryPosition::Projected,
         heading: HeadingReference::Grid,
@@ -562,6 +566,7 @@ pub fn parse_text_trajectory(path: &Path, text: &str) -> Result<TextTrajectory> 
     Ok(TextTrajectory {
         // The mark `lidarqa trajectory` writes; its σ columns alone say the same of older files.
         heights_as_points: sigma_added || text.lines().any(|l| l.trim() == HEIGHTS_AS_POINTS),
+        gps_week: week.map(|(w, _)| w),
         position_units_m: header_scale.length_m,
         point_keys: None,
         sigma_added,

@@ -394,6 +394,8 @@ fn open_all(paths: &[PathBuf], ctx: &TpuContext) -> Result<(LocalFrame, Crs)> {
                 z0.epsg()
             )));
         }
+        // `tpu`'s plausibility checks up front: a calibration would absorb their fault.
+        crate::recovery_check::check_strip_sample(ctx, p, &tile)?;
         zone = Some(tile.crs);
         infos.push(tile.info);
     }
@@ -600,6 +602,14 @@ struct Region {
 
 /// Bucket size of [`Region`], m.
 const REGION_CELL_M: f64 = 50.0;
+/// Most lookup cells of one tile's region (a square of 50 km at 50 m cells): a tile beyond it is
+/// split, so no allocation is sized by the strips' raw extent.
+const MAX_REGION_CELLS: f64 = 1.0e6;
+/// Most candidate nodes of one tile (each is visited): a tile with more is split.
+const MAX_TILE_NODES: usize = 250_000;
+/// Fewest points a tile cut from an outlier-stretched extent needs to be searched for ties: a
+/// tie needs planar patches of many points in two strips; fewer are corrupted records.
+const MIN_STRETCHED_TILE_POINTS: u64 = 1_000;
 
 fn buckets(r: &[f64; 4]) -> impl Iterator<Item = (i64, i64)> {
     let c = |v: f64| (v / REGION_CELL_M).floor() as i64;
@@ -826,23 +836,36 @@ fn auto_ties_tiled(
     let reach = opts.node_reach_m() + REACH_SLACK_M;
     let mut candidates = Vec::new();
     // Tiles split in two along their longer side while they would hold too many points.
-    let mut todo = vec![(0..grid.nx, 0..grid.ny)];
-    while let Some((rows, columns)) = todo.pop() {
+    // The third member: the tile comes from splitting one too large for any survey (an extent
+    // stretched by corrupted records), where a handful of points is such records, not a tie.
+    let mut todo = vec![(0..grid.nx, 0..grid.ny, false)];
+    while let Some((rows, columns, stretched)) = todo.pop() {
         if rows.is_empty() || columns.is_empty() {
             continue;
         }
         let lo = grid.node_m(rows.start, columns.start);
         let hi = grid.node_m(rows.end - 1, columns.end - 1);
         let rect = [lo[0] - reach, lo[1] - reach, hi[0] + reach, hi[1] + reach];
-        if points_in(&rect) > tile_points && rows.len().max(columns.len()) > 1 {
+        let n = points_in(&rect);
+        if n == 0 || (stretched && n < MIN_STRETCHED_TILE_POINTS) {
+            // Nothing to tie here.
+            continue;
+        }
+        // A region's lookup cells are bounded too: a tile far larger than any survey's is
+        // split until it is not.
+        let too_large = (rect[2] - rect[0]) / REGION_CELL_M * ((rect[3] - rect[1]) / REGION_CELL_M)
+            > MAX_REGION_CELLS
+            || rows.len() * columns.len() > MAX_TILE_NODES;
+        if (n > tile_points || too_large) && rows.len().max(columns.len()) > 1 {
+            let stretched = stretched || too_large;
             if rows.len() >= columns.len() {
                 let mid = rows.start + rows.len() / 2;
-                todo.push((mid..rows.end, columns.clone()));
-                todo.push((rows.start..mid, columns));
+                todo.push((mid..rows.end, columns.clone(), stretched));
+                todo.push((rows.start..mid, columns, stretched));
             } else {
                 let mid = columns.start + columns.len() / 2;
-                todo.push((rows.clone(), mid..columns.end));
-                todo.push((rows, columns.start..mid));
+                todo.push((rows.clone(), mid..columns.end, stretched));
+                todo.push((rows, columns.start..mid, stretched));
             }
             continue;
         }

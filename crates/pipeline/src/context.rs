@@ -194,6 +194,47 @@ pub fn read_calibrated_mounting(path: &Path) -> Result<Mounting> {
     })
 }
 
+/// Refuses a `calibration.json` whose held parameters (σ `null`: not estimated, so kept at the
+/// prior) differ from `prior`, the sensor file's mounting the strips were made with: a value
+/// edited by hand that no adjustment stands behind (a boresight of 5° with σ `null` would move
+/// the points by metres, unchecked against any σ).
+///
+/// # Errors
+/// [`Error::Calib`] naming the key, both values and the likely cause.
+pub fn check_held_parameters(path: &Path, prior: &Mounting) -> Result<()> {
+    let doc = read_calibration_json(path)?;
+    let (Some(params), Some(sigma)) = (
+        doc.get("parameters").and_then(serde_json::Value::as_object),
+        doc.get("sigma").and_then(serde_json::Value::as_object),
+    ) else {
+        return Ok(());
+    };
+    let prior = lidarqa_calib::mounting_to_vector(prior);
+    for p in lidarqa_calib::Param::ALL {
+        let key = p.key();
+        let (Some(v), Some(serde_json::Value::Null)) = (
+            params.get(key).and_then(serde_json::Value::as_f64),
+            sigma.get(key),
+        ) else {
+            continue;
+        };
+        let was = p.to_display(prior[p.index()]);
+        // The file stores the prior as printed: a rounding's worth of difference is the same.
+        let tolerance = 1e-6 * (1.0 + was.abs());
+        if (v - was).abs() > tolerance {
+            return Err(Error::Calib {
+                path: path.to_path_buf(),
+                source: lidarqa_calib::Error::InvalidCalibration(format!(
+                    "parameters.{key} is {v} but sigma.{key} is null (held: not estimated), so it \
+                     must be the sensor file's value {was}: a value edited by hand? give it the σ \
+                     it was determined with, or calibrate again"
+                )),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// The strip adjustment's per-line corrections of the `calibration.json` at `path`
 /// (`strip_adjustment.lines`), each with the file stem it was computed from; empty when the
 /// calibration has none.
@@ -301,6 +342,23 @@ impl TpuContext {
                 lidarqa_tpu::MIN_NEIGHBOURS,
                 lidarqa_tpu::MAX_NEIGHBOURS
             )));
+        }
+        // Both sides carry a GPS week: a trajectory of another week has the same seconds of
+        // week and would pose every point at the wrong day's aircraft.
+        if let (TrajectoryFile::Text(t), Some(flag)) = (&poses, options.gps_week)
+            && let Some(week) = t.gps_week
+            && week != flag
+        {
+            return Err(Error::Implausible {
+                path: trajectory_path,
+                message: format!(
+                    "its adjusted standard GPS times lie in GPS week {week} (starting {}), but \
+                     --gps-week gives week {flag} (starting {}) for the points: a trajectory of \
+                     another day's flight, or a wrong --gps-week?",
+                    lidarqa_io::gps_week_start(week),
+                    lidarqa_io::gps_week_start(flag)
+                ),
+            });
         }
         let mut inputs = vec![trajectory_path.clone()];
         // The plausibility checks need geodetic positions: an SBET's, or a geodetic text
@@ -481,6 +539,7 @@ impl TpuContext {
     pub fn with_calibration(mut self, path: &Path) -> Result<TpuContext> {
         let doc = read_calibration_json(path)?;
         check_calibration_values(path, &doc)?;
+        check_held_parameters(path, &self.recovery_mounting)?;
         self.sensor = lidarqa_calib::calibrated_sensor(&self.sensor, &doc).map_err(|source| {
             Error::Calib {
                 path: path.to_path_buf(),
@@ -711,7 +770,11 @@ impl TpuContext {
             info.time_base,
             self.options.gps_week,
             info.creation_date,
-        )?;
+        )?
+        .with_trajectory_week(match &self.poses {
+            TrajectoryFile::Text(t) => t.gps_week,
+            TrajectoryFile::Sbet(_) => None,
+        });
         Ok(OpenTile {
             info,
             crs,

@@ -35,6 +35,7 @@
 
 use crate::context::TpuContext;
 use crate::error::{Error, Result};
+use crate::recovery_check::{RecoveryCheck, RecoveryTally};
 use crate::stages::{read_chunks, run_stages, write_chunks};
 use lidarqa_io::{
     CellCache, CoordinateBlock, Crs, GridToEcef, LasTimeConverter, LasWriteOptions, RawChunk,
@@ -72,6 +73,10 @@ pub struct CorrectTileReport {
     pub output: PathBuf,
     /// Points corrected (every point of the tile).
     pub points: u64,
+    /// Doubtful findings of the plausibility checks (the scan angle recovered with the sensor
+    /// file's mounting against the file's scan-angle field, points beyond the range envelope),
+    /// the same as `tpu`'s.
+    pub warnings: Vec<lidarqa_model::Warning>,
 }
 
 /// Points per chunk read and written.
@@ -134,6 +139,7 @@ pub fn correct_tile_with_line(
     let line = line
         .map(|l| LineFix::new(l, &tile.trajectory, input))
         .transpose()?;
+    let checks = RecoveryCheck::new(ctx);
     let run = Run {
         path: input,
         output: job.output,
@@ -142,7 +148,9 @@ pub fn correct_tile_with_line(
         trajectory: &tile.trajectory,
         converter: &tile.converter,
         crs: tile.crs,
+        checks: checks.as_ref(),
     };
+    let mut tally = checks.as_ref().map(|c| c.tally(tile.info.point_format));
     let (tx_spent, rx_spent) = sync_channel::<RawChunk>(SPARES);
     let points = run_stages(
         input,
@@ -155,12 +163,35 @@ pub fn correct_tile_with_line(
                 Ok(())
             })
         },
-        |rx_read, tx_write| run.correct_all(rx_read, tx_write, progress),
+        |rx_read, tx_write| {
+            run.correct_all(rx_read, tx_write, progress, tally.as_mut())?;
+            // Before the output is committed: points that do not fit the mounting they were
+            // made with give wrong raw observations, and so a wrong displacement for every
+            // point (`tpu` warns, its σ staying meaningful; `correct` would move the points).
+            match &tally {
+                Some(t) if t.mounting_does_not_fit() => Err(Error::Implausible {
+                    path: input.to_path_buf(),
+                    message: format!(
+                        "{}; correcting would move every point by a displacement computed from \
+                         wrong raw observations: check that the points, the trajectory and the \
+                         sensor file belong together",
+                        t.mounting_message()
+                    ),
+                }),
+                _ => Ok(()),
+            }
+        },
     )?;
+    let mut warnings = Vec::new();
+    if let Some(t) = &tally {
+        warnings.extend(t.scan_warnings(input, &ctx.sensor, ctx.trajectory_format()));
+        warnings.extend(t.range_warning(input));
+    }
     Ok(CorrectTileReport {
         input: input.to_path_buf(),
         output: job.output.to_path_buf(),
         points,
+        warnings,
     })
 }
 
@@ -183,6 +214,8 @@ struct Run<'a> {
     trajectory: &'a Trajectory,
     converter: &'a LasTimeConverter,
     crs: Crs,
+    /// The plausibility checks (linear scanner; `None` for the others).
+    checks: Option<&'a RecoveryCheck<'a>>,
 }
 
 impl Run<'_> {
@@ -192,10 +225,11 @@ impl Run<'_> {
         rx: &Receiver<Result<RawChunk>>,
         tx: &SyncSender<WriteMsg>,
         progress: &(dyn Fn(u64) + Sync),
+        mut tally: Option<&mut RecoveryTally>,
     ) -> Result<()> {
         for msg in rx {
             let mut chunk = msg?;
-            self.check_distance(&chunk)?;
+            self.check_distance(&chunk, tally.as_deref_mut())?;
             // Each task moves its run's points in place; each work item keeps the trajectory
             // segment of its last point, its cells and its batch (boxed: rayon moves the work
             // item with every run). The first bad point in file order, whatever the thread
@@ -221,17 +255,23 @@ impl Run<'_> {
 
     /// Points hundreds of kilometres from the trajectory (a wrong zone) are refused before any
     /// is moved (see [`crate::plausibility::check_distance`]).
-    fn check_distance(&self, chunk: &RawChunk) -> Result<()> {
+    /// The same sampled points feed the mounting, scan-angle and range checks (`tally`).
+    fn check_distance(
+        &self,
+        chunk: &RawChunk,
+        mut tally: Option<&mut RecoveryTally>,
+    ) -> Result<()> {
         let (ellipsoid, unit_m) = (self.crs.ellipsoid(), self.crs.unit().metres());
         let step = chunk
             .len()
             .div_ceil(crate::plausibility::DISTANCE_SAMPLES)
             .max(1);
         let samples: Vec<_> = chunk
-            .coordinates()
+            .points()
             .step_by(step)
-            .filter(|(p, _)| p.iter().all(|c| c.is_finite()))
-            .filter_map(|([x, y, z], time)| {
+            .map(|p| (p.xyz(), p.gps_time(), p.scan_angle_deg()))
+            .filter(|(p, _, _)| p.iter().all(|c| c.is_finite()))
+            .filter_map(|([x, y, z], time, scan_deg)| {
                 let sow = self.converter.to_seconds_of_week(time?).ok()?;
                 let pose = self.trajectory.at(sow).ok()?;
                 let (lat, lon) = self.crs.inverse(x * unit_m, y * unit_m);
@@ -240,6 +280,9 @@ impl Run<'_> {
                     longitude_rad: lon,
                     height_m: z * unit_m,
                 });
+                if let (Some(c), Some(t)) = (self.checks, tally.as_deref_mut()) {
+                    c.add(t, &pose, &ecef, f64::from(scan_deg));
+                }
                 Some((
                     ecef,
                     pose.position_ecef_m,

@@ -66,6 +66,7 @@ mod manifest;
 mod overlap_files;
 pub mod plausibility;
 mod qc;
+mod recovery_check;
 mod retile;
 mod stages;
 mod stored;
@@ -83,7 +84,9 @@ pub use calibrate_strips::{
     TrajectoryWeighting, VTPM_NEIGHBOURS, calibrate_strips, calibrate_strips_with_progress,
     frame_for, load_all, local_to_projected, projected_to_local,
 };
-pub use context::{TpuContext, TpuOptions, read_calibrated_mounting, read_line_corrections};
+pub use context::{
+    TpuContext, TpuOptions, check_held_parameters, read_calibrated_mounting, read_line_corrections,
+};
 pub use correct_tile::{
     CorrectTileJob, CorrectTileReport, correct_tile, correct_tile_with_line,
     correct_tile_with_progress,

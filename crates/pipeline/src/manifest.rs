@@ -713,11 +713,29 @@ pub fn run_manifest_entry(manifest_path: &Path, index: usize, force: bool) -> Re
 /// writes over the same tiles.
 ///
 /// # Errors
-/// [`Error::Manifest`] listing the incomplete entries (index and reason, the first few).
+/// [`Error::Manifest`] naming a shared input (trajectory, SMRMSG, sensor file) changed since
+/// the plan, or listing the incomplete entries (index and reason, the first few: a tile changed
+/// since the plan is one).
 pub fn collect(manifest_path: &Path, manifest: &Manifest) -> Result<(TpuSummary, SurveyReport)> {
+    // Reports computed from inputs that changed since the plan describe files no longer there:
+    // the shared inputs and every tile are compared with the digests the plan recorded.
+    for f in [
+        Some(&manifest.trajectory),
+        Some(&manifest.sensor),
+        manifest.smrmsg.as_ref(),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        check_unchanged(manifest_path, f)?;
+    }
     let mut reports = Vec::with_capacity(manifest.entries.len());
     let mut missing = Vec::new();
-    for i in 0..manifest.entries.len() {
+    for (i, entry) in manifest.entries.iter().enumerate() {
+        if let Err(e) = check_unchanged(manifest_path, &entry.input) {
+            missing.push(format!("{i} ({e})"));
+            continue;
+        }
         match entry_status(manifest_path, manifest, i)? {
             Ok(r) => reports.push(r),
             Err(reason) => missing.push(format!("{i} ({reason})")),

@@ -956,6 +956,8 @@ pub struct AngleCheck {
 impl AngleCheck {
     /// Adds one difference `d` (recovered − LAS, degrees).
     pub fn add(&mut self, d_deg: f64) {
+        // An angle difference, wrapped to [−180°, 180°).
+        let d_deg = (d_deg + 180.0).rem_euclid(360.0) - 180.0;
         self.n += 1;
         self.sum_sq_deg2 += d_deg * d_deg;
         self.max_deg = self.max_deg.max(d_deg.abs());

@@ -95,9 +95,12 @@ pub fn find_targets(
             Ok(r) => reports.push(r),
             // A file that sees none of the targets well enough is not an error of the survey.
             Err(lidarqa_targets::Error::NoPoints) => {}
-            Err(source @ lidarqa_targets::Error::NoHighIntensityPoints { .. })
-                if inputs.len() > 1 =>
-            {
+            // Nor is one whose bright points are no target: another file may see them.
+            Err(
+                source @ (lidarqa_targets::Error::NoHighIntensityPoints { .. }
+                | lidarqa_targets::Error::NoTargetNearControl { .. }
+                | lidarqa_targets::Error::NoPlateAtControl { .. }),
+            ) if inputs.len() > 1 => {
                 unresolved.push(Error::Targets {
                     path: path.clone(),
                     source,

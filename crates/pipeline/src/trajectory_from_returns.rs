@@ -136,6 +136,67 @@ pub struct PulseChecks {
     pub rejected: u64,
 }
 
+impl std::fmt::Display for PulseChecks {
+    /// The counts in words (for messages; the JSON has the fields).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} returns, {} pulses, {} multi-return; ambiguous GPS times {}, out of order {}, \
+             split across strips {}, incomplete {}, first-last too close {}",
+            self.returns,
+            self.pulses,
+            self.multi_return_pulses,
+            self.ambiguous_times,
+            self.out_of_order,
+            self.split_across_strips,
+            self.incomplete,
+            self.too_short
+        )
+    }
+}
+
+/// Checks the options of [`reconstruct`] (before any file is read).
+///
+/// # Errors
+/// [`ReconstructError::Option`] naming the flag for a non-positive block, a negative window or
+/// fewer than 8 lines per block.
+pub fn check_options(options: &ReconstructOptions) -> std::result::Result<(), ReconstructError> {
+    let bad = |flag: &str, v: String, need: &str| {
+        Err(ReconstructError::Option(format!(
+            "{flag} {v} must be {need}"
+        )))
+    };
+    if !(options.block_s.is_finite() && options.block_s > 0.0) {
+        return bad(
+            "--block-s",
+            options.block_s.to_string(),
+            "a number of seconds > 0",
+        );
+    }
+    if !(options.smoothing_window_s.is_finite() && options.smoothing_window_s >= 0.0) {
+        return bad(
+            "--window-s",
+            options.smoothing_window_s.to_string(),
+            "a number of seconds >= 0",
+        );
+    }
+    if options.min_lines < 8 {
+        return bad(
+            "--min-lines",
+            options.min_lines.to_string(),
+            "at least 8 (a block's fit needs them)",
+        );
+    }
+    if !(options.min_separation_m.is_finite() && options.min_separation_m >= 0.0) {
+        return bad(
+            "--min-separation-m",
+            options.min_separation_m.to_string(),
+            "a number of metres >= 0",
+        );
+    }
+    Ok(())
+}
+
 /// One epoch of the reconstructed trajectory.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Epoch {
@@ -177,7 +238,7 @@ pub enum ReconstructError {
     #[error(
         "{lines} usable multi-return pulses (first and last return at least {min_separation_m} m \
          apart) where one block needs {min_lines}: the data need vegetation or other \
-         multi-return targets, and their GPS times and return numbers (checks: {checks:?})"
+         multi-return targets, and their GPS times and return numbers ({checks})"
     )]
     TooFewPulses {
         /// Lines found.
@@ -562,6 +623,8 @@ pub fn rebuild_trajectory_with(
             )));
         }
     }
+    // The flags before any file is read: an error of theirs is not the points'.
+    check_options(options).map_err(|e| Error::InvalidOption(e.to_string()))?;
     let (points, left_out) = read_returns_out_of(inputs, water)?;
     let water_note = water.note(
         left_out,

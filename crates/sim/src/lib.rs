@@ -72,4 +72,4 @@ pub use scene::{
 };
 pub use simulate::{PointSink, SimOptions, simulate, simulate_streaming, simulate_with_progress};
 pub use vegetation::{CLASS_HIGH_VEGETATION, REFLECTIVITY_CANOPY, Vegetation, VegetationFile};
-pub use write::{simulate_to_dir, survey_file_names, write_survey};
+pub use write::{INCOMPLETE_MARKER, simulate_to_dir, survey_file_names, write_survey};

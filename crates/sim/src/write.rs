@@ -51,12 +51,14 @@ pub fn write_survey(
     inputs: &[&Path],
 ) -> Result<Vec<PathBuf>> {
     let paths = checked_paths(dir, survey_file_names(survey, laz), inputs)?;
+    let marker = mark_incomplete(dir)?;
     for (strip, path) in survey.strips.iter().zip(&paths) {
         let mut file = StripFile::create(path, scenario, strip.id, !strip.truth.is_empty())?;
         file.write(&strip.points, &strip.truth)?;
         file.finish_uncommitted()?.commit()?;
     }
     write_rest(dir, scenario, survey)?;
+    unmark(&marker)?;
     Ok(paths)
 }
 
@@ -86,11 +88,47 @@ pub fn simulate_to_dir(
         done: Vec::new(),
     };
     let survey = simulate_streaming(scenario, options, progress, &mut sink)?;
+    // From the first rename to the last the directory mixes this run's files and an earlier
+    // run's: the marker says so until the last file is in place.
+    let marker = mark_incomplete(dir)?;
     for file in sink.done {
         file.commit()?;
     }
     write_rest(dir, scenario, &survey)?;
+    unmark(&marker)?;
     Ok((survey, paths))
+}
+
+/// The file that says a survey directory is being written (or was, by a run that was killed or
+/// failed): from the first output renamed into place to the last, the directory holds some files
+/// of this run and some of an earlier one, and only this file tells. Removed when every file is
+/// in place.
+pub const INCOMPLETE_MARKER: &str = "lidarqa-incomplete.txt";
+
+/// Writes [`INCOMPLETE_MARKER`] into `dir` before the first output is renamed into place.
+fn mark_incomplete(dir: &Path) -> Result<PathBuf> {
+    let marker = dir.join(INCOMPLETE_MARKER);
+    write_text(
+        &marker,
+        &format!(
+            "lidarqa simulate (process {}) was writing this directory and did not finish: its \
+             strips, trajectory, control, truth and sensor file may mix this run's and an \
+             earlier run's. Run the simulation again; this file is removed when every file is \
+             in place.\n",
+            std::process::id()
+        ),
+    )?;
+    Ok(marker)
+}
+
+/// Removes the marker of [`mark_incomplete`] once every file is in place.
+fn unmark(marker: &Path) -> Result<()> {
+    std::fs::remove_file(marker).map_err(|source| {
+        Error::Io(lidarqa_io::Error::Io {
+            path: marker.to_path_buf(),
+            source,
+        })
+    })
 }
 
 /// The paths of `names` in `dir`, none of them one of `inputs` (SPEC §7: checked for every

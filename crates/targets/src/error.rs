@@ -105,6 +105,19 @@ pub enum Error {
         /// Horizontal distance from the closest cluster centroid to its nearest control point (m).
         nearest_m: f64,
     },
+    /// High-intensity clusters lie near control points, but only near those with a known
+    /// target radius, where the plate model found no plate of that radius.
+    #[error(
+        "a high-intensity cluster lies {nearest_m:.3} m from control point {id}, but no plate of its radius {radius_m} m fits there (the plate model found no target): a wrong radius_m (a diameter?) or a target that is not a flat disc?"
+    )]
+    NoPlateAtControl {
+        /// The control point nearest a cluster.
+        id: String,
+        /// Its target radius (m).
+        radius_m: f64,
+        /// Horizontal distance from that cluster's centroid to the control point (m).
+        nearest_m: f64,
+    },
     /// No target id matches a control id.
     #[error("no target id matches a control id ({targets} targets, {control} control points)")]
     NoCommonIds {

@@ -383,6 +383,21 @@ pub fn extract_targets(
                 ),
             });
         }
+        // A cluster within the search radius of a control point with a known radius was
+        // left to the plate model, which found no plate: say that, not "none within".
+        if let Some(c) = candidates
+            .iter()
+            .filter(|c| c.3 <= config.search_radius_m)
+            .filter(|c| control[c.2].radius_m.or(config.centre.radius_m).is_some())
+            .min_by(|a, b| a.3.total_cmp(&b.3))
+        {
+            let ctrl = &control[c.2];
+            return Err(Error::NoPlateAtControl {
+                id: ctrl.id.clone(),
+                radius_m: ctrl.radius_m.or(config.centre.radius_m).unwrap_or(f64::NAN),
+                nearest_m: c.3,
+            });
+        }
         let nearest = candidates.iter().map(|c| c.3).fold(f64::INFINITY, f64::min);
         return Err(Error::NoTargetNearControl {
             clusters: candidates.len(),

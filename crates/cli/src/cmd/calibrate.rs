@@ -218,6 +218,13 @@ impl TryFrom<CalibrateArgs> for Plan {
                 "the output must not be named calibration_iterations.json (that file is written beside it)"
             );
         }
+        // The one output guard, before any work: both outputs against every input and each
+        // other (through symbolic links and `..`).
+        let mut inputs: Vec<&std::path::Path> = args.strips.iter().map(PathBuf::as_path).collect();
+        inputs.extend([args.trajectory.as_path(), args.sensor.as_path()]);
+        inputs.extend(args.ties.as_deref());
+        inputs.extend(args.control.as_deref());
+        lidarqa_io::check_outputs(&[args.output.as_path(), iterations_path.as_path()], &inputs)?;
         Ok(Plan {
             args,
             options,
@@ -229,8 +236,6 @@ impl TryFrom<CalibrateArgs> for Plan {
 
 pub fn run(args: CalibrateArgs) -> Result<()> {
     let plan = Plan::try_from(args)?;
-    std::fs::create_dir_all(&plan.output_dir)
-        .with_context(|| format!("{}: cannot create", plan.output_dir.display()))?;
     let a = &plan.args;
     let ctx = a.survey.context(&a.sensor, &a.trajectory)?;
     // The first pass reads every point once.
@@ -267,6 +272,9 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
     let run = calibrate_strips_with_progress(&job, &progress);
     bar.finish_and_clear();
     let run = run?;
+    // Created only now: a refused calibration leaves no directory behind.
+    std::fs::create_dir_all(&plan.output_dir)
+        .with_context(|| format!("{}: cannot create", plan.output_dir.display()))?;
     let mut inputs: Vec<PathBuf> = a.strips.clone();
     inputs.extend([a.trajectory.clone(), a.sensor.clone()]);
     inputs.extend(a.ties.clone());

@@ -48,6 +48,17 @@ pub struct CorrectArgs {
 }
 
 pub fn run(a: CorrectArgs) -> Result<()> {
+    // A refused run leaves no output directory it created (an existing one is kept as it was:
+    // each output is atomic).
+    let created = !a.output.exists();
+    let result = correct(&a);
+    if result.is_err() && created {
+        let _ = std::fs::remove_dir(&a.output);
+    }
+    result
+}
+
+fn correct(a: &CorrectArgs) -> Result<()> {
     // Before any work: each strip once, one output per strip, none over an input.
     lidarqa_io::check_distinct_inputs(&a.strips)?;
     let shared = [&a.calibration, &a.sensor, &a.trajectory];
@@ -71,9 +82,11 @@ pub fn run(a: CorrectArgs) -> Result<()> {
     if a.output.is_file() {
         bail!("{}: the output must be a directory", a.output.display());
     }
-    std::fs::create_dir_all(&a.output).with_context(|| format!("{}", a.output.display()))?;
     let ctx = a.survey.context(&a.sensor, &a.trajectory)?;
+    // A held parameter (σ null) must be the sensor file's: a hand-edited value is refused.
+    lidarqa_pipeline::check_held_parameters(&a.calibration, &ctx.sensor().mounting)?;
     crate::format::print_warnings(ctx.warnings());
+    std::fs::create_dir_all(&a.output).with_context(|| format!("{}", a.output.display()))?;
     // No output may overwrite any strip (not only its own input) or the calibration.
     let mut others: Vec<&Path> = a.strips.iter().map(PathBuf::as_path).collect();
     others.push(&a.calibration);
@@ -89,6 +102,7 @@ pub fn run(a: CorrectArgs) -> Result<()> {
         };
         let r = correct_tile_with_line(&job, line.as_ref(), &|n| bar.inc(n))?;
         bar.suspend(|| {
+            crate::format::print_warnings(&r.warnings);
             eprintln!(
                 "lidarqa: {} -> {} ({} points)",
                 path.display(),

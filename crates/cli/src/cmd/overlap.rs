@@ -55,6 +55,11 @@ pub struct OverlapArgs {
 }
 
 pub fn run(a: OverlapArgs) -> Result<()> {
+    // The one output guard, before any work.
+    if let Some(out) = &a.output {
+        lidarqa_io::check_distinct_inputs(&a.strips)?;
+        lidarqa_io::check_outputs(&[out], &a.strips)?;
+    }
     if !(a.cell_m.is_finite() && a.cell_m > 0.0) {
         bail!("--cell-m must be a number > 0, got {}", a.cell_m);
     }

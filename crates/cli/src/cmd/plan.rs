@@ -79,6 +79,11 @@ fn plan_tpu_cmd(a: PlanTpuArgs) -> Result<()> {
         );
     }
     let tiles = point_clouds_in(&a.tiles)?;
+    // The one output guard, before any work: the manifest against every tile and shared input.
+    let mut read: Vec<&std::path::Path> = tiles.iter().map(PathBuf::as_path).collect();
+    read.extend([a.trajectory.as_path(), a.sensor.as_path()]);
+    read.extend(a.smrmsg.as_deref());
+    lidarqa_io::check_outputs(&[a.output.as_path()], &read)?;
     let output_dir = a.output_dir.clone().unwrap_or_else(|| {
         a.output
             .parent()

@@ -84,6 +84,17 @@ pub fn run(a: QcArgs) -> Result<()> {
     if standards.is_empty() {
         bail!("--standard names no standard");
     }
+    // The one output guard, before any work: the files of DIR known before the lines are read
+    // (the line pairs' rasters are checked when written) against every input.
+    let mut read: Vec<&std::path::Path> = a.delivery.iter().map(PathBuf::as_path).collect();
+    read.extend(a.control.as_deref());
+    read.extend(a.trajectory.as_deref());
+    read.extend(a.sensor.as_deref());
+    lidarqa_io::check_distinct_inputs(&a.delivery)?;
+    let known = ["qc.json", "density.tif", "sigma_up.tif"].map(|f| a.output.join(f));
+    let mut outputs: Vec<&std::path::Path> = vec![a.output.as_path()];
+    outputs.extend(known.iter().map(PathBuf::as_path));
+    lidarqa_io::check_outputs(&outputs, &read)?;
     let lines = read_lines(
         &a.delivery,
         &LineOptions {

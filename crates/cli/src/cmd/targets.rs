@@ -63,6 +63,10 @@ pub fn run(args: TargetsArgs) -> Result<()> {
         bail!("--radius-m must be > 0, got {r}");
     }
     lidarqa_io::check_distinct_inputs(&args.inputs)?;
+    // The one output guard, before any work (the control CSV is read first below).
+    let mut read: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
+    read.push(&args.control);
+    lidarqa_io::check_outputs(&[&args.output], &read)?;
     let table = ControlPoints::from_path(&args.control)?;
     let control = control_for_targets(&table, args.radius_m)?;
     let mut config = TargetConfig::default();

@@ -46,7 +46,11 @@ pub fn run(r: CsdRun<'_>) -> Result<()> {
             r.output.display()
         );
     }
-    lidarqa_io::check_not_an_input(r.output, &[r.input, r.sensor])?;
+    // The one output guard, before any work: the LAS and the summary against both inputs and
+    // each other.
+    let mut outputs = vec![r.output];
+    outputs.extend(r.summary.map(PathBuf::as_path));
+    lidarqa_io::check_outputs(&outputs, &[r.input, r.sensor])?;
     let sensor = lidarqa_io::read_sensor(r.sensor)?;
     let report = tpu_csd(&CsdTpuJob {
         input: r.input,

@@ -70,6 +70,11 @@ pub fn run(a: TrajectoryArgs) -> Result<()> {
         min_separation_m: a.min_separation_m,
         min_lines: a.min_lines,
     };
+    // The one output guard, before any work: the text trajectory and the SBET against every
+    // strip and each other.
+    let mut outputs = vec![a.output.as_path()];
+    outputs.extend(a.sbet.as_deref());
+    lidarqa_io::check_outputs(&outputs, &a.inputs)?;
     let water = a.water_classes.map(WaterClasses::given).unwrap_or_default();
     let report =
         rebuild_trajectory_with(&a.inputs, &a.output, a.sbet.as_deref(), &options, &water)?;
