@@ -7,15 +7,23 @@
 //!   the delivery has no ground class) are binned into square cells of [`QcOptions::cell_m`]; in a
 //!   cell with at least [`QcOptions::min_points`] of one line a plane `z = a + b·dx + c·dy` is
 //!   fitted. The cell is smooth for that line when its slope is at most
-//!   [`QcOptions::max_slope_deg`] and the RMS of the residuals at most
-//!   [`QcOptions::max_roughness_m`]: the "open, smooth, non-vegetated" ground on which the USGS
-//!   Lidar Base Specification measures relative accuracy. Trees, roofs and walls drop out because
-//!   their returns are not ground, not because of a threshold on the spikes they make.
-//! - **Interswath** (USGS: swath overlap difference): per pair of lines, `dz = a_A − a_B` on the
-//!   cells smooth in both; RMSDz and max |dz|. Pairs with fewer than [`QcOptions::min_cells`]
-//!   cells are listed but not judged.
-//! - **Intraswath** (USGS: smooth-surface repeatability): per line, the range (max − min) of the
-//!   plane residuals in each of its cells within the slope limit; the median range is judged.
+//!   [`QcOptions::max_slope_deg`], the RMS of the residuals at most
+//!   [`QcOptions::max_roughness_m`] and the points spread across the cell (their smallest
+//!   standard deviation in any direction at least a tenth of the cell: a band of points, as
+//!   along a wall's shadow, leaves the slope across it to the noise): the "open, smooth,
+//!   non-vegetated" ground on which the USGS Lidar Base Specification measures relative
+//!   accuracy. Trees, roofs and walls drop out because their returns are not ground, not because
+//!   of a threshold on the spikes they make.
+//! - **Interswath** (USGS: swath overlap difference): per pair of lines, on the cells smooth in
+//!   both, `dz = z_A − z_B` of the two planes at the middle of the two lines' point centroids
+//!   (the least extrapolation of either); RMSDz and max |dz|. Pairs with fewer than
+//!   [`QcOptions::min_cells`] cells are listed but not judged.
+//! - **Intraswath** (USGS: smooth-surface repeatability, or precision): per line, its single
+//!   ground returns in its smooth cells as residuals from their cell's plane (slope compensated),
+//!   binned in cells of 2 × the delivery's aggregate nominal pulse spacing rounded up to a whole
+//!   metre; the range (max − min) of each cell of at least two returns; the median is judged. A
+//!   range of n normal residuals is about d(n)·σ, so the cell size, the median returns per cell
+//!   and the residual RMS are reported beside it.
 //! - **Density**: all points and last returns (one per pulse) per m² over the footprint (10 m
 //!   cells holding points, the outer ring left out); the spatial distribution as the share of
 //!   cells of 2 × the nominal pulse spacing holding a last return (USGS: 90 %).
@@ -23,9 +31,14 @@
 //!   `evaluate_vertical_tin`), judged by the ASPRS Positional Accuracy Standards, Edition 2
 //!   (2023): at least 30 checkpoints, RMSEz within the accuracy class, mean error within 25 % of
 //!   it, and the 95 % figure 1.96 × RMSEz.
+//! - **IHO S-44** (`qc/iho.rs`): each sounding's predicted 95 % uncertainties (from lidarqa tpu's σ)
+//!   against its order's allowances at its depth; `iho.json` beside `qc.json` for the report.
+//! - **Predicted beside measured**: with the TPU's prediction, a measured RMS above it by more
+//!   than the 95 % sampling interval of an RMS of its n samples (1.96 / √(2n)) is noted and
+//!   warned (`measured_exceeds_predicted`).
 //!
-//! Thresholds (USGS Lidar Base Specification, 2024 revision, relative and absolute vertical
-//! accuracy and density tables, as we read them):
+//! Thresholds (USGS Lidar Base Specification, relative vertical accuracy, absolute vertical
+//! accuracy and nominal pulse density tables, per quality level):
 //!
 //! | QL | intraswath max diff | RMSDz | max \|dz\| | NVA RMSEz | ANPD (pts/m²) | ANPS (m) |
 //! |---|---|---|---|---|---|---|
