@@ -678,7 +678,7 @@ fn rms_sampling_tolerance(n: usize) -> f64 {
 /// sentence that says so.
 fn beyond_prediction(r: &QcRequirement) -> Option<String> {
     let (m, p) = (r.measured?, r.predicted?);
-    if r.unit != "m" || r.sample_size == 0 || !(p > 0.0) {
+    if r.unit != "m" || r.sample_size == 0 || p.is_nan() || p <= 0.0 {
         return None;
     }
     let t = rms_sampling_tolerance(r.sample_size);
@@ -1345,5 +1345,26 @@ mod tests {
             .find(|r| r.requirement.starts_with("intraswath"))
             .unwrap();
         assert_eq!(r.pass, Some(true), "{r:?}");
+    }
+
+    /// The flag of a measured RMS above the predicted one: 20 % over is beyond the sampling of
+    /// 1000 samples (±4.4 %) but not of 10 (±43.8 %); the sentence names both numbers.
+    #[test]
+    fn measured_beyond_the_prediction_is_flagged_by_its_sample_size() {
+        let mut r = req("NVA".into(), Some(0.12), "<=", 0.10, "m", 1000);
+        r.predicted = Some(0.10);
+        let w = beyond_prediction(&r).unwrap();
+        assert!(
+            w.contains("measured 0.120 m exceeds the TPU's predicted 0.100 m by 20 %"),
+            "{w}"
+        );
+        assert!(w.contains("the 4 % an RMS of 1000 samples"), "{w}");
+        r.sample_size = 10;
+        assert_eq!(beyond_prediction(&r), None);
+        assert!((rms_sampling_tolerance(10) - 0.438_269).abs() < 1e-6);
+        // Below the prediction: no flag.
+        r.sample_size = 1000;
+        r.measured = Some(0.05);
+        assert_eq!(beyond_prediction(&r), None);
     }
 }
