@@ -24,12 +24,12 @@ both lines (slope ≤ --max-slope-deg, plane-fit RMS ≤ --max-roughness-m); pai
 than --min-cells cells are listed, not judged. Checkpoints (--control, id,x,y,z CSV) are compared
 with a TIN of the ground points.
 
-With iho-s44, every sounding (classes of --water-classes but 45) carrying lidarqa tpu's σ is judged
-against its order's THU and TVU at its depth; S-44 asks 95 % of them within. Writes DIR/qc.json
-(the verdicts, `interswath`, `intraswath`, `density`, `nva`, `iho`), DIR/iho.json with
-iho-s44, DIR/dz_A_B.tif per line pair, DIR/density.tif (last returns per m²) and
-DIR/sigma_up.tif when the points carry σ_up: GeoTIFFs in the delivery's CRS. Exit status 0 whether or not the delivery passes; `pass` in
-qc.json and the tables say which.";
+With iho-s44, every sounding (classes of --water-classes but 45) carrying lidarqa tpu's σ is
+judged against its order's THU and TVU at its depth; S-44 asks 95 % of them within. Writes
+DIR/qc.json (the verdicts, `interswath`, `intraswath`, `density`, `nva`, `iho`), DIR/iho.json
+with iho-s44, DIR/dz_A_B.tif per line pair, DIR/density.tif (last returns per m²) and
+DIR/sigma_up.tif when the points carry σ_up: GeoTIFFs in the delivery's CRS. Exit status 0
+whether or not the delivery passes; `pass` in qc.json and the tables say which.";
 
 /// Flags of `lidarqa qc`.
 #[derive(Debug, Args)]
