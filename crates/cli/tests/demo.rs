@@ -120,6 +120,45 @@ fn demo_recovers_the_injected_mounting_and_improves_accuracy() {
     let html = std::fs::read_to_string(d.join("report.html")).unwrap();
     assert!(!html.contains("http://") && !html.contains("https://"));
     assert!(html.matches("<svg").count() >= 8, "plots in the report");
+    assert_corrected_strips_pass_qc(d);
+}
+
+/// The clean demo passes delivery QC: its corrected strips meet every USGS LBS QL2 requirement
+/// that can be judged without checkpoints (its control points are the tops of targets 0.5 m above
+/// the ground, not ground checkpoints, so NVA is left unjudged and says why).
+fn assert_corrected_strips_pass_qc(d: &Path) {
+    let out = d.join("qc");
+    let mut args = vec!["qc".to_string()];
+    args.extend(laz_files(&d.join("corrected")));
+    args.extend(["-o".to_string(), out.display().to_string()]);
+    lidarqa(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let qc = json(&out.join("qc.json"));
+    assert_eq!(qc["lines"]["count"], 14, "{}", qc["lines"]);
+    // Every strip overlaps several others on smooth ground: 91 pairs of the 14 strips.
+    let pairs = qc["interswath"].as_array().unwrap();
+    assert!(pairs.len() >= 80, "{} pairs", pairs.len());
+    let usgs = &qc["verdicts"][0];
+    assert_eq!(usgs["standard"], "usgs-lbs-2024:QL2");
+    assert_eq!(usgs["pass"], true, "{usgs}");
+    for r in usgs["requirements"].as_array().unwrap() {
+        let what = r["requirement"].as_str().unwrap();
+        if what.starts_with("absolute accuracy") {
+            assert_eq!(r["pass"], Value::Null, "{r}");
+            assert!(
+                r["note"].as_str().unwrap().contains("no checkpoints"),
+                "{r}"
+            );
+        } else {
+            assert_eq!(r["pass"], true, "{r}");
+        }
+    }
+    // The intraswath precision reads the simulated ranging noise (5 mm range σ): the residual
+    // RMS of each strip within 2 to 8 mm, its median range under 2 cm.
+    for i in qc["intraswath"].as_array().unwrap() {
+        let rms = i["rms_m"].as_f64().unwrap();
+        assert!((0.002..0.008).contains(&rms), "{i}");
+        assert!(i["median_range_m"].as_f64().unwrap() < 0.02, "{i}");
+    }
 }
 
 #[test]
@@ -212,6 +251,67 @@ fn bathymetric_demo_reports_the_iho_orders_per_depth_band() {
         iho["soundings"].as_u64().unwrap()
     )));
     assert!(html.contains("Overall the survey meets Special Order."));
+    assert_soundings_judged_by_qc(d, iho);
+}
+
+/// `lidarqa qc --standard iho-s44:…` on the demo's TPU output judges every sounding as the TPU
+/// summary did (same depth, same σ, same Table 1), writes iho.json for the report, and on the
+/// raw strips (no σ) says why it cannot judge.
+fn assert_soundings_judged_by_qc(d: &Path, iho: &Value) {
+    let out = d.join("qc");
+    let mut args = vec!["qc".to_string()];
+    args.extend(laz_files(&d.join("tpu")));
+    args.extend(["--standard", "iho-s44:special,iho-s44:exclusive", "-o"].map(String::from));
+    args.push(out.display().to_string());
+    let text = lidarqa(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(text.contains("IHO S-44 on"), "{text}");
+    let qc = json(&out.join("qc.json"));
+    let q = &qc["iho"];
+    let n = iho["soundings"].as_u64().unwrap();
+    assert_eq!(q["soundings"].as_u64().unwrap(), n, "{q}");
+    assert_eq!(q["depth_from_tpu"].as_u64().unwrap(), n, "{q}");
+    assert_eq!(
+        (q["no_depth"].as_u64(), q["no_tpu"].as_u64()),
+        (Some(0), Some(0))
+    );
+    for o in q["orders"].as_array().unwrap() {
+        let name = o["order"].as_str().unwrap();
+        // THU: qc's circular 1.7308 σ_H is at most the TPU's exact ellipse radius, so it meets
+        // at least as often; TVU is 1.96 σ_up in both. Here THU never binds: equal shares.
+        let tpu_pct = iho["orders"][name]["percent_meeting"].as_f64().unwrap();
+        let qc_pct = 100.0 * o["share_both"].as_f64().unwrap();
+        assert!(
+            (qc_pct - tpu_pct).abs() < 0.05,
+            "{name}: qc {qc_pct} %, tpu {tpu_pct} %"
+        );
+    }
+    // Special Order met by every sounding; Exclusive (TVU a = 0.15 m) by fewer than 95 %.
+    let verdict = |k: usize| &qc["verdicts"][k];
+    assert_eq!(verdict(0)["standard"], "iho-s44:special");
+    assert_eq!(verdict(0)["pass"], true, "{}", verdict(0));
+    assert_eq!(verdict(1)["pass"], false, "{}", verdict(1));
+    let doc = json(&out.join("iho.json"));
+    assert_eq!(doc["orders"].as_array().unwrap().len(), 5);
+    // The raw strips carry no σ: counted, not judged, and the reason given.
+    let raw = d.join("qc_raw");
+    let mut args = vec!["qc".to_string()];
+    args.extend(laz_files(&d.join("strips")));
+    args.extend(["--standard", "iho-s44:1a", "-o"].map(String::from));
+    args.push(raw.display().to_string());
+    lidarqa(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let qc = json(&raw.join("qc.json"));
+    assert_eq!(qc["iho"]["soundings"], 0);
+    assert_eq!(qc["iho"]["no_tpu"].as_u64().unwrap(), n);
+    let r = &qc["verdicts"][0]["requirements"][0];
+    assert_eq!(
+        (r["pass"].clone(), r["measured"].clone()),
+        (Value::Null, Value::Null)
+    );
+    assert!(
+        r["note"].as_str().unwrap().contains("run `lidarqa tpu`"),
+        "{r}"
+    );
+    assert!(!raw.join("iho.json").exists());
 }
 
 /// Issue #19: with every random error off, the demo's own strips give back the injected mounting

@@ -13,7 +13,8 @@
 //! - geoid models: EGM2008 built in and GTX / GeoTIFF grids ([`GeoidModel`]);
 //! - atomic outputs: a temporary file beside the target, renamed when complete ([`AtomicFile`]);
 //! - single-band float GeoTIFF rasters with their GeoKeys ([`GeoRaster`]) and the `qc.json` type
-//!   that `lidarqa qc` writes and the report reads ([`QcDocument`]).
+//!   that `lidarqa qc` writes and the report reads ([`QcDocument`], and `iho.json`:
+//!   [`IhoDocument`]).
 //!
 //! Every error names the file and, where there is one, the line, record or key at fault.
 
@@ -75,8 +76,9 @@ pub use pointcloud::{
 };
 pub use pointpose::{POSE_DIMS, has_point_pose};
 pub use qc_doc::{
-    QC_FORMAT, QcDensity, QcDocument, QcInterswath, QcIntraswath, QcLine, QcLines, QcNva,
-    QcPredicted, QcRaster, QcRequirement, QcSmoothCells, QcVerdict,
+    IhoDepthBand, IhoDocument, IhoDocumentOrder, QC_FORMAT, QcDensity, QcDocument, QcIho,
+    QcIhoOrder, QcInterswath, QcIntraswath, QcLine, QcLines, QcNva, QcPredicted, QcRaster,
+    QcRequirement, QcSmoothCells, QcVerdict,
 };
 pub use sbet::{
     F64Record, RAD_PER_ARCMIN, RecordReader, RecordWriter, SbetPose, SbetReader, SbetWriter,

@@ -45,6 +45,9 @@ pub struct QcDocument {
     pub nva: Option<QcNva>,
     /// The TPU's prediction, when a trajectory and a sensor file were given.
     pub predicted: Option<QcPredicted>,
+    /// The soundings judged by IHO S-44, when an `iho-s44` standard was asked for.
+    #[serde(default)]
+    pub iho: Option<QcIho>,
     /// One verdict table per standard.
     pub verdicts: Vec<QcVerdict>,
     /// GeoTIFF rasters written beside `qc.json`.
@@ -107,17 +110,27 @@ pub struct QcSmoothCells {
     pub points: String,
 }
 
-/// One line's smooth-surface repeatability.
+/// One line's smooth-surface precision (USGS Lidar Base Specification: intraswath, smooth
+/// surface repeatability).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct QcIntraswath {
     /// The line.
     pub line: String,
-    /// Cells assessed (ground, slope within the limit, enough points).
+    /// Cells of `cell_m` with at least two of the line's single returns on smooth ground.
     pub cells: usize,
-    /// Median over the cells of the range (max − min) of the plane-fit residuals, m.
+    /// Median over those cells of the range (max − min) of the returns' residuals from the
+    /// plane of their smooth cell (slope-compensated range), m.
     pub median_range_m: Option<f64>,
-    /// RMS of the plane-fit residuals over all those cells' points, m.
+    /// RMS of those residuals over all the cells' returns (the line's noise σ), m.
     pub rms_m: Option<f64>,
+    /// Cell size: 2 × the delivery's aggregate nominal pulse spacing, rounded up to a whole
+    /// metre, m.
+    #[serde(default)]
+    pub cell_m: f64,
+    /// Median number of returns per cell (the range of n normal residuals is about
+    /// d(n)·σ: 1.13 σ for 2, 2.06 σ for 4, 2.85 σ for 8).
+    #[serde(default)]
+    pub median_points: Option<f64>,
 }
 
 /// Density over the delivery.
@@ -220,4 +233,91 @@ pub struct QcRaster {
     pub lines: Option<[String; 2]>,
     /// Cell size, m.
     pub cell_m: f64,
+}
+
+/// The soundings of a bathymetric delivery judged by IHO S-44 Edition 6.0.0 (2020), Table 1:
+/// each sounding's predicted 95 % uncertainties (from the σ lidarqa tpu stores with every point)
+/// against its depth's allowances.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct QcIho {
+    /// Classes read as returns from the bottom (soundings).
+    pub bottom_classes: Vec<u8>,
+    /// Classes read as the water surface.
+    pub surface_classes: Vec<u8>,
+    /// Points in the bottom classes.
+    pub bottom_points: usize,
+    /// Of those, judged: with a depth and a TPU.
+    pub soundings: usize,
+    /// Not judged: no depth (no `depth` extra byte and no water-surface point near).
+    pub no_depth: usize,
+    /// Not judged: no TPU (`sigma_up` and `sigma_horizontal` extra bytes of lidarqa tpu).
+    pub no_tpu: usize,
+    /// Judged soundings whose depth is lidarqa tpu's `depth` extra byte.
+    pub depth_from_tpu: usize,
+    /// Judged soundings whose depth is the median height of the water-surface points of their
+    /// cell (or its neighbours) minus their own height.
+    pub depth_from_surface: usize,
+    /// How the 95 % vertical uncertainty is formed from σ.
+    pub tvu_95: String,
+    /// How the 95 % horizontal uncertainty is formed from σ.
+    pub thu_95: String,
+    /// Every order of Table 1, most stringent first.
+    pub orders: Vec<QcIhoOrder>,
+}
+
+/// One IHO S-44 order and the share of the soundings within its allowances.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct QcIhoOrder {
+    /// `exclusive`, `special`, `1a`, `1b`, `2`.
+    pub order: String,
+    /// THU constant, m.
+    pub thu_m: f64,
+    /// THU depth-proportional part (0.05 = 5 % of depth).
+    pub thu_depth_fraction: f64,
+    /// TVU `a`, m.
+    pub tvu_a_m: f64,
+    /// TVU `b`.
+    pub tvu_b: f64,
+    /// Share of the judged soundings with THU (95 %) within `thu_m + thu_depth_fraction·d`.
+    pub share_thu: f64,
+    /// Share with TVU (95 %) within `√(a² + (b·d)²)`.
+    pub share_tvu: f64,
+    /// Share within both.
+    pub share_both: f64,
+}
+
+/// `iho.json`, written by `lidarqa qc` with an `iho-s44` standard beside `qc.json` and read by
+/// the report's IHO S-44 statement: `{"orders": [{"order", "percent_meeting", "by_depth":
+/// [{"depth_min_m", "depth_max_m", "n", "percent_meeting"}]}]}`. S-44 requires the allowances
+/// to be met at 95 % confidence, so an order is met when `percent_meeting ≥ 95`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct IhoDocument {
+    /// One entry per order.
+    pub orders: Vec<IhoDocumentOrder>,
+}
+
+/// One IHO S-44 order (`exclusive`, `special`, `1a`, `1b`, `2`) of [`IhoDocument`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct IhoDocumentOrder {
+    /// The order's name.
+    pub order: String,
+    /// Percentage of soundings within the order's THU and TVU (95 %), %.
+    pub percent_meeting: f64,
+    /// The same per depth band.
+    #[serde(default)]
+    pub by_depth: Vec<IhoDepthBand>,
+}
+
+/// One depth band of an [`IhoDocumentOrder`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct IhoDepthBand {
+    /// Shallowest depth of the band, m.
+    pub depth_min_m: f64,
+    /// Deepest depth, m.
+    pub depth_max_m: f64,
+    /// Soundings in the band.
+    #[serde(default)]
+    pub n: Option<u64>,
+    /// Percentage of them within the order's THU and TVU, %.
+    pub percent_meeting: f64,
 }

@@ -44,8 +44,15 @@ pub struct LinePoint {
     pub class: u8,
     /// Whether it is the pulse's last return.
     pub last: bool,
+    /// Whether it is the pulse's only return.
+    pub single: bool,
     /// The `sigma_up` extra byte (lidarqa tpu's output), m; NaN without.
     pub sigma_up_m: f32,
+    /// The `sigma_horizontal` extra byte (lidarqa tpu's output: √(σ_N² + σ_E²)), m; NaN without.
+    pub sigma_h_m: f32,
+    /// The `depth` extra byte (lidarqa tpu's depth of a sounding below its water surface), m;
+    /// NaN without.
+    pub depth_m: f32,
 }
 
 /// One flight line.
@@ -129,6 +136,9 @@ pub fn read_lines<P: AsRef<Path>>(paths: &[P], options: &LineOptions) -> Result<
         }
         while r.fill(&mut chunk, CHUNK_POINTS)? > 0 {
             let sigma = chunk.extra_column("sigma_up");
+            let sigma_h = chunk.extra_column("sigma_horizontal");
+            let depth = chunk.extra_column("depth");
+            let at = |c: &Option<Vec<f64>>, k: usize| c.as_ref().map_or(f32::NAN, |s| s[k] as f32);
             for (k, p) in chunk.points.iter().enumerate() {
                 has_ground |= p.classification == 2;
                 let key = (
@@ -140,7 +150,10 @@ pub fn read_lines<P: AsRef<Path>>(paths: &[P], options: &LineOptions) -> Result<
                     gps_time_s: p.gps_time_s.unwrap_or(f64::NAN),
                     class: p.classification,
                     last: p.return_number >= p.number_of_returns,
-                    sigma_up_m: sigma.as_ref().map_or(f32::NAN, |s| s[k] as f32),
+                    single: p.number_of_returns <= 1,
+                    sigma_up_m: at(&sigma, k),
+                    sigma_h_m: at(&sigma_h, k),
+                    depth_m: at(&depth, k),
                 };
                 groups.entry(key).or_default().push((lp, f));
             }

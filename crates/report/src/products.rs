@@ -1012,42 +1012,9 @@ impl Product for Overlap {
 }
 
 // ---------------------------------------------------------------------------------------------
-// iho.json (defined here)
+// iho.json (lidarqa-io's type, the one `lidarqa qc` writes beside qc.json)
 
-/// One depth band of an IHO order.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct IhoDepthBand {
-    /// Shallowest depth of the band, m.
-    pub depth_min_m: f64,
-    /// Deepest depth, m.
-    pub depth_max_m: f64,
-    /// Soundings in the band.
-    #[serde(default)]
-    pub n: Option<u64>,
-    /// Percentage of them within the order's TVU, %.
-    pub percent_meeting: f64,
-}
-
-/// One IHO S-44 order (`exclusive`, `special`, `1a`, `1b`, `2`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct IhoOrder {
-    /// The order's name.
-    pub order: String,
-    /// Percentage of soundings whose TVU (95 %) is within the order's allowance, %.
-    pub percent_meeting: f64,
-    /// The same per depth band.
-    #[serde(default)]
-    pub by_depth: Vec<IhoDepthBand>,
-}
-
-/// `iho.json`: `{"orders": [{"order", "percent_meeting", "by_depth": [{"depth_min_m",
-/// "depth_max_m", "n", "percent_meeting"}]}]}`. S-44 requires the allowance to be met at 95 %
-/// confidence, so an order is met when `percent_meeting ≥ 95`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Iho {
-    /// One entry per order.
-    pub orders: Vec<IhoOrder>,
-}
+pub use lidarqa_io::{IhoDepthBand, IhoDocument as Iho, IhoDocumentOrder as IhoOrder};
 
 impl Product for Iho {
     const WHAT: &'static str = "IHO S-44 statement";

@@ -2,7 +2,7 @@
 //!
 //! | order | THU (95 %) | TVU (95 %): a, b |
 //! |---|---|---|
-//! | Exclusive | 0.5 m | 0.15 m, 0.0075 |
+//! | Exclusive | 1 m | 0.15 m, 0.0075 |
 //! | Special | 2 m | 0.25 m, 0.0075 |
 //! | 1a | 5 m + 5 % of depth | 0.5 m, 0.013 |
 //! | 1b | 5 m + 5 % of depth | 0.5 m, 0.013 |
@@ -90,7 +90,7 @@ impl IhoOrder {
     /// The order's limits.
     pub fn limits(self) -> IhoLimits {
         let (thu_m, thu_depth_fraction, tvu_a_m, tvu_b) = match self {
-            IhoOrder::Exclusive => (0.5, 0.0, 0.15, 0.0075),
+            IhoOrder::Exclusive => (1.0, 0.0, 0.15, 0.0075),
             IhoOrder::Special => (2.0, 0.0, 0.25, 0.0075),
             IhoOrder::Order1a | IhoOrder::Order1b => (5.0, 0.05, 0.5, 0.013),
             IhoOrder::Order2 => (20.0, 0.10, 1.0, 0.023),
@@ -313,9 +313,9 @@ mod tests {
     fn hand_computed_limits() {
         // Special order at 20 m: √(0.25² + (0.0075·20)²) = √(0.0625 + 0.0225) = 0.29155 m.
         assert!((IhoOrder::Special.max_tvu_m(20.0) - 0.291_547_6).abs() < 1e-6);
-        // Exclusive at 10 m: √(0.15² + 0.075²) = 0.16771 m; THU 0.5 m at any depth.
+        // Exclusive at 10 m: √(0.15² + 0.075²) = 0.16771 m; THU 1 m at any depth.
         assert!((IhoOrder::Exclusive.max_tvu_m(10.0) - 0.167_705_1).abs() < 1e-6);
-        assert_eq!(IhoOrder::Exclusive.max_thu_m(40.0), 0.5);
+        assert_eq!(IhoOrder::Exclusive.max_thu_m(40.0), 1.0);
         // Order 1a / 1b at 30 m: TVU √(0.5² + 0.39²) = 0.63411 m, THU 5 + 1.5 = 6.5 m.
         assert!((IhoOrder::Order1a.max_tvu_m(30.0) - 0.634_113_5).abs() < 1e-6);
         assert_eq!(IhoOrder::Order1b.max_thu_m(30.0), 6.5);
@@ -328,7 +328,7 @@ mod tests {
 
     #[test]
     fn best_order() {
-        // 20 m: TVU 0.29 m just within Special, THU 0.3 m within Exclusive's 0.5 m but the TVU
+        // 20 m: TVU 0.29 m just within Special, THU 0.3 m within Exclusive's 1 m but the TVU
         // misses Exclusive's 0.2121 m.
         assert_eq!(IhoOrder::best(20.0, 0.3, 0.29), Some(IhoOrder::Special));
         assert_eq!(IhoOrder::best(20.0, 0.3, 0.20), Some(IhoOrder::Exclusive));

@@ -6,6 +6,7 @@ use crate::format::{OutputFormat, print_text, print_warnings};
 use anyhow::{Result, bail};
 use clap::Args;
 use lidarqa_io::QcDocument;
+use lidarqa_pipeline::water::WaterClasses;
 use lidarqa_pipeline::{LineOptions, QcOptions, Standard, qc_lines, qc_prediction, read_lines};
 use std::io::Write as _;
 use std::path::PathBuf;
@@ -23,10 +24,12 @@ both lines (slope ≤ --max-slope-deg, plane-fit RMS ≤ --max-roughness-m); pai
 than --min-cells cells are listed, not judged. Checkpoints (--control, id,x,y,z CSV) are compared
 with a TIN of the ground points.
 
-Writes DIR/qc.json (the verdicts, `interswath`, `intraswath`, `density`, `nva`), DIR/dz_A_B.tif per
-line pair, DIR/density.tif (last returns per m²) and DIR/sigma_up.tif when the points carry σ_up:
-GeoTIFFs in the delivery's CRS. Exit status 0 whether or not the delivery passes; `pass` in
-qc.json and the tables say which.";
+With iho-s44, every sounding (classes of --water-classes but 45) carrying lidarqa tpu's σ is
+judged against its order's THU and TVU at its depth; S-44 asks 95 % of them within. Writes
+DIR/qc.json (the verdicts, `interswath`, `intraswath`, `density`, `nva`, `iho`), DIR/iho.json
+with iho-s44, DIR/dz_A_B.tif per line pair, DIR/density.tif (last returns per m²) and
+DIR/sigma_up.tif when the points carry σ_up: GeoTIFFs in the delivery's CRS. Exit status 0
+whether or not the delivery passes; `pass` in qc.json and the tables say which.";
 
 /// Flags of `lidarqa qc`.
 #[derive(Debug, Args)]
@@ -70,6 +73,12 @@ pub struct QcArgs {
     /// A gap in GPS time longer than this within one point source id starts a new line, seconds.
     #[arg(long, value_name = "S", default_value_t = 5.0)]
     line_gap_s: f64,
+    /// LAS classes of returns from below the water surface, comma-separated (default 40, 43,
+    /// 44, 45, 26): with iho-s44, the soundings judged are these classes but 45 (water column);
+    /// their depth is lidarqa tpu's `depth` extra byte, else the height of the water surface
+    /// (classes 41, 42) above them.
+    #[arg(long, value_name = "LIST", value_delimiter = ',')]
+    water_classes: Option<Vec<u8>>,
     /// Output format on stdout.
     #[arg(long, value_enum, default_value_t = OutputFormat::Table)]
     format: OutputFormat,
@@ -116,6 +125,11 @@ pub fn run(a: QcArgs) -> Result<()> {
         },
         control: a.control.clone(),
         predicted,
+        water: a
+            .water_classes
+            .clone()
+            .map(WaterClasses::given)
+            .unwrap_or_default(),
         ..QcOptions::default()
     };
     let doc = qc_lines(&lines, &a.output, &opts)?;
@@ -172,6 +186,31 @@ pub fn table(doc: &QcDocument) -> String {
                 ""
             }
         );
+    }
+    if let Some(i) = &doc.iho {
+        s += &format!(
+            "\nIHO S-44 on {} of {} soundings (TVU = {}; THU = {}; {} without a depth, {} \
+             without a TPU)\n{:<10} {:>10} {:>10} {:>10}\n",
+            i.soundings,
+            i.bottom_points,
+            i.tvu_95,
+            i.thu_95,
+            i.no_depth,
+            i.no_tpu,
+            "order",
+            "THU %",
+            "TVU %",
+            "both %"
+        );
+        for o in &i.orders {
+            s += &format!(
+                "{:<10} {:>10.1} {:>10.1} {:>10.1}\n",
+                o.order,
+                100.0 * o.share_thu,
+                100.0 * o.share_tvu,
+                100.0 * o.share_both
+            );
+        }
     }
     for v in &doc.verdicts {
         let verdict = match v.pass {

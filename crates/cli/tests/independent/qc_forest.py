@@ -10,7 +10,9 @@
         overlapping line pair, the RMSDz and cell count computed here on the generated points by
         the rule the USGS Lidar Base Specification describes (ground class only, 2 m cells, a
         least-squares plane per line and cell with at least 4 points, slope <= 10 deg, plane-fit
-        RMS <= 0.05 m, dz = plane height of line a - line b at the cell centre), and each cell's dz.
+        RMS <= 0.05 m, the points spread across the cell (the smallest standard deviation of
+        their positions in any direction >= 0.1 cell), dz = plane height of line a - line b at the
+        middle of the two lines' centroids), and each cell's dz.
 
     python3 qc_forest.py delivery OUT_DIR clean|faults
         The same survey with 1 cm ground noise and checkpoints (checkpoints.csv). `faults` plants
@@ -106,8 +108,9 @@ def generate(out, dz_m, noise_m=0.02, shifted_line=2, thin=False, checkpoints=0)
             res = q[:, 2] - a @ sol
             rms = np.sqrt(np.mean(res**2))
             slope = np.degrees(np.arctan(np.hypot(sol[1], sol[2])))
-            if slope <= 10.0 and rms <= 0.05:
-                cells[(int(key[0]), int(key[1]))] = sol[0]
+            spread = np.sqrt(max(np.linalg.eigvalsh(np.cov(a[:, 1:].T, bias=True)).min(), 0.0))
+            if slope <= 10.0 and rms <= 0.05 and spread >= 0.1 * CELL:
+                cells[(int(key[0]), int(key[1]))] = (sol, a[:, 1:].mean(axis=0))
         fits.append(cells)
     pairs = []
     for a in range(3):
@@ -115,7 +118,12 @@ def generate(out, dz_m, noise_m=0.02, shifted_line=2, thin=False, checkpoints=0)
             common = sorted(set(fits[a]) & set(fits[b]))
             if not common:
                 continue
-            dz = np.array([fits[a][k] - fits[b][k] for k in common])
+            def at(fit, e):
+                sol, _ = fit
+                return sol[0] + sol[1] * e[0] + sol[2] * e[1]
+
+            mid = [0.5 * (fits[a][k][1] + fits[b][k][1]) for k in common]
+            dz = np.array([at(fits[a][k], e) - at(fits[b][k], e) for k, e in zip(common, mid)])
             pairs.append({
                 "lines": [a + 1, b + 1],
                 "rmsdz_m": float(np.sqrt(np.mean(dz**2))),

@@ -1,4 +1,4 @@
-//! The IHO S-44 statement of `iho.json`.
+//! The IHO S-44 statement of `iho.json` (written by `lidarqa qc` with an `iho-s44` standard).
 
 use crate::products::*;
 use crate::text::{esc, meaning};
@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 pub(super) fn iho_section(i: &Iho) -> String {
     let mut o = String::new();
-    o.push_str("<table id=\"iho\"><caption>IHO S-44 orders: share of soundings within the allowed total vertical uncertainty (95 %)</caption><thead><tr><th>order</th><th>soundings meeting (%)</th><th class=\"text\">verdict</th></tr></thead><tbody>\n");
+    o.push_str("<table id=\"iho\"><caption>IHO S-44 orders: share of soundings within the allowed total horizontal and vertical uncertainty (THU and TVU, 95 %)</caption><thead><tr><th>order</th><th>soundings meeting (%)</th><th class=\"text\">verdict</th></tr></thead><tbody>\n");
     for ord in &i.orders {
         let ok = ord.percent_meeting >= 95.0;
         let _ = writeln!(
@@ -44,8 +44,8 @@ pub(super) fn iho_section(i: &Iho) -> String {
         .map(|o| o.order.as_str())
         .next();
     let text = match best {
-        Some(b) => format!("The survey meets IHO S-44 Order {} for vertical uncertainty: at least 95 % of the soundings are within that order's allowance.", esc(b)),
-        None => "The survey meets none of the IHO S-44 orders listed for vertical uncertainty: fewer than 95 % of soundings are within each allowance.".into(),
+        Some(b) => format!("The survey meets IHO S-44 Order {} for the uncertainty of its soundings: at least 95 % of them are within that order's THU and TVU.", esc(b)),
+        None => "The survey meets none of the IHO S-44 orders listed for the uncertainty of its soundings: fewer than 95 % of them are within each order's THU and TVU.".into(),
     };
     meaning(&mut o, &text);
     o
