@@ -348,11 +348,7 @@ fn default_demo_meets_the_calibration_bar() {
     let mut floor: toml::Table =
         toml::from_str(&std::fs::read_to_string(demo.join("scenario.toml")).unwrap()).unwrap();
     let errors = floor["errors"].as_table_mut().unwrap();
-    for key in [
-        "line_gnss_offset_m",
-        "line_gnss_drift_m",
-        "line_attitude_offset_deg",
-    ] {
+    for key in ["line_gnss_offset_m", "line_gnss_drift_m"] {
         assert!(errors.remove(key).is_some(), "{key}");
     }
     for key in [
