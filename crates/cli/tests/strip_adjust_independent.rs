@@ -97,7 +97,11 @@ fn strip_adjustment_recovers_lines_and_mounting_with_honest_sigma() {
         return;
     };
     let temp = tempfile::tempdir().unwrap();
+    // Every seed runs to its end and prints its row; what fails is collected and asserted last,
+    // so that one run gives the whole table.
+    let mut failed: Vec<String> = Vec::new();
     let mut z_mount = [0.0; 6];
+    let mut max_z = [0.0f64; 6];
     let (mut z_lines, mut lines, mut within_2) = (0.0, 0usize, 0usize);
     for seed in 1..=10u64 {
         let dir = temp.path().join(format!("seed_{seed}"));
@@ -130,23 +134,26 @@ fn strip_adjustment_recovers_lines_and_mounting_with_honest_sigma() {
         let out = lidarqa(&args);
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(out.status.success(), "calibrate failed: {stderr}");
-        assert!(
-            stderr.contains("(trajectory_sigma_understated)"),
-            "seed {seed}: no warning: {stderr}"
-        );
+        let warned = stderr.contains("(trajectory_sigma_understated)");
+        if !warned {
+            failed.push(format!(
+                "seed {seed}: no trajectory_sigma_understated warning"
+            ));
+        }
         let cal = read(&cal_path);
         let truth = read(&dir.join("truth.json"));
         for (i, k) in KEYS.iter().enumerate() {
             let e = cal["parameters"][k].as_f64().unwrap() - truth["mounting"][k].as_f64().unwrap();
             let sigma = cal["sigma"][k].as_f64().unwrap();
             eprintln!("seed {seed} {k}: error/σ {:+.2}", e / sigma);
-            assert!(
-                e.abs() <= 3.0 * sigma,
-                "seed {seed} {k}: error {e} σ {sigma}"
-            );
+            if e.abs() > 3.0 * sigma {
+                failed.push(format!("seed {seed} {k}: error {e} σ {sigma}"));
+            }
             z_mount[i] += (e / sigma).powi(2);
+            max_z[i] = max_z[i].max((e / sigma).abs());
         }
         // Each line's offset at the middle of its points' time span, against the truth there.
+        let (mut seed_within, mut seed_lines) = (0usize, 0usize);
         for (got, want) in cal["strip_adjustment"]["lines"]
             .as_array()
             .unwrap()
@@ -168,8 +175,26 @@ fn strip_adjustment_recovers_lines_and_mounting_with_honest_sigma() {
                 z_lines += (e / sigma).powi(2);
                 lines += 1;
                 within_2 += usize::from(e.abs() <= 2.0 * sigma);
+                seed_within += usize::from(e.abs() <= 2.0 * sigma);
+                seed_lines += 1;
             }
         }
+        let factors: Vec<String> = cal["strip_adjustment"]["sigma_tests"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|t| {
+                format!(
+                    "{} ×{:.2}",
+                    t["group"].as_str().unwrap_or("?"),
+                    t["sigma_factor"].as_f64().unwrap_or(f64::NAN)
+                )
+            })
+            .collect();
+        eprintln!(
+            "seed {seed}: line offsets within 2σ {seed_within} of {seed_lines}; warning {warned}; σ factors {}",
+            factors.join(", ")
+        );
         let out_dir = dir.join("adj/corrected");
         let mut args: Vec<&str> = vec!["correct"];
         args.extend(strips.iter().map(|p| s(p)));
@@ -192,32 +217,41 @@ fn strip_adjustment_recovers_lines_and_mounting_with_honest_sigma() {
             String::from_utf8_lossy(&out.stderr)
         );
         let (after, floor) = (overlap(&out_dir), overlap(&dir.join("floor")));
-        eprintln!("seed {seed}: overlap RMSDz after {after:.4} m, floor {floor:.4} m");
-        assert!(
-            after <= 1.1 * floor,
-            "seed {seed}: RMSDz {after} vs floor {floor}"
+        eprintln!(
+            "seed {seed}: overlap RMSDz after {after:.4} m, floor {floor:.4} m ({:+.1} %)",
+            100.0 * (after / floor - 1.0)
         );
+        if after > 1.1 * floor {
+            failed.push(format!("seed {seed}: RMSDz {after} vs floor {floor}"));
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
-    for (k, z) in KEYS.iter().zip(z_mount) {
+    for ((k, z), m) in KEYS.iter().zip(z_mount).zip(max_z) {
         let rms = (z / 10.0).sqrt();
-        eprintln!("{k}: RMS(error/σ) over 10 seeds {rms:.2}");
-        assert!((0.5..=1.6).contains(&rms), "{k}: RMS(error/σ) {rms}");
+        eprintln!(
+            "{k}: RMS(error/σ) over 10 seeds {rms:.2} (the issue's 0.7–1.4: {}), max |error|/σ {m:.2}",
+            if (0.7..=1.4).contains(&rms) {
+                "met"
+            } else {
+                "not met"
+            }
+        );
+        if !(0.5..=1.6).contains(&rms) {
+            failed.push(format!("{k}: RMS(error/σ) {rms}"));
+        }
     }
     let pooled = (z_mount.iter().sum::<f64>() / 60.0).sqrt();
     eprintln!("mounting: RMS(error/σ) over 60 errors {pooled:.2}");
-    assert!(
-        (0.7..=1.4).contains(&pooled),
-        "pooled RMS(error/σ) {pooled}"
-    );
+    if !(0.7..=1.4).contains(&pooled) {
+        failed.push(format!("pooled RMS(error/σ) {pooled}"));
+    }
     let rms = (z_lines / lines as f64).sqrt();
     eprintln!("line offsets: RMS(error/σ) {rms:.2}, {within_2} of {lines} within 2σ");
-    assert!(
-        (0.7..=1.4).contains(&rms),
-        "line offsets: RMS(error/σ) {rms}"
-    );
-    assert!(
-        within_2 * 10 >= lines * 9,
-        "{within_2} of {lines} within 2σ"
-    );
+    if !(0.7..=1.4).contains(&rms) {
+        failed.push(format!("line offsets: RMS(error/σ) {rms}"));
+    }
+    if within_2 * 10 < lines * 9 {
+        failed.push(format!("{within_2} of {lines} line offsets within 2σ"));
+    }
+    assert!(failed.is_empty(), "{}", failed.join("\n"));
 }

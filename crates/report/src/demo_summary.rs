@@ -1,13 +1,16 @@
-//! The closing text of `lidarqa demo`: injected against recovered mounting, accuracy at the
-//! targets before and after calibration beside its prediction, strip-to-strip consistency; and
+//! The closing text of `lidarqa demo`: injected against recovered mounting (strip-adjusted, and
+//! the mounting-only calibration's error beside it when present), accuracy at the targets before
+//! and after calibration beside its prediction, strip-to-strip consistency before, after a
+//! mounting-only and after a strip-adjusted correction; and
 //! of `lidarqa demo --bathymetry`: the IHO S-44 orders met by depth band and σ against depth —
 //! read from the products through their typed readers.
 
 use crate::error::{Error, Result};
 use crate::products::{
-    CALIBRATION_FILE, Calibration, EVALUATE_AFTER_FILE, EVALUATE_BEFORE_FILE, Evaluation,
-    OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE, Overlap, REPORT_FILE, Sweep, TPU_SUMMARY_FILE,
-    TRUTH_FILE, TpuSummary, Truth, sweep_file_name,
+    CALIBRATION_FILE, CALIBRATION_MOUNTING_ONLY_FILE, Calibration, EVALUATE_AFTER_FILE,
+    EVALUATE_BEFORE_FILE, Evaluation, OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE,
+    OVERLAP_MOUNTING_ONLY_FILE, Overlap, REPORT_FILE, Sweep, TPU_SUMMARY_FILE, TRUTH_FILE,
+    TpuSummary, Truth, sweep_file_name,
 };
 use crate::report::read_product;
 use lidarqa_tpu::IhoOrder;
@@ -34,13 +37,35 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
     let cal: Calibration = read_product(dir.join(CALIBRATION_FILE))?;
     let before: Evaluation = read_product(dir.join(EVALUATE_BEFORE_FILE))?;
     let after: Evaluation = read_product(dir.join(EVALUATE_AFTER_FILE))?;
+    // The mounting-only calibration beside a strip-adjusted one (the demo writes both).
+    let plain: Option<Calibration> = if cal.strip_adjustment.is_some() {
+        read_product(dir.join(CALIBRATION_MOUNTING_ONLY_FILE)).ok()
+    } else {
+        None
+    };
     let mut t = String::new();
     let _ = writeln!(t, "lidarqa demo: products and report in {}", dir.display());
     let _ = writeln!(t);
+    if let Some(sa) = &cal.strip_adjustment {
+        let _ = writeln!(
+            t,
+            "mounting and per-line trajectory corrections estimated together (strip adjustment, {}):",
+            sa.model
+        );
+    }
     let _ = writeln!(
         t,
-        "{:<22}{:>12}{:>12}{:>12}{:>10}",
-        "mounting", "injected", "recovered", "error", "σ"
+        "{:<22}{:>12}{:>12}{:>12}{:>10}{}",
+        "mounting",
+        "injected",
+        "recovered",
+        "error",
+        "σ",
+        if plain.is_some() {
+            format!("{:>16}{:>10}", "mounting-only", "σ")
+        } else {
+            String::new()
+        }
     );
     for key in MOUNTING_KEYS {
         let inj = truth.mounting.get(key).copied().unwrap_or(f64::NAN);
@@ -52,14 +77,20 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
         } else {
             "-".into()
         };
+        let beside = plain.as_ref().map_or(String::new(), |p| {
+            let rec = p.parameters.get(key).copied().unwrap_or(f64::NAN);
+            let sig = p.sigma.get(key).copied().flatten().unwrap_or(f64::NAN);
+            format!("{:>16.4}{:>10.4}", rec - inj, sig)
+        });
         let _ = writeln!(
             t,
-            "{:<22}{:>12.4}{:>12.4}{:>12.4}{:>10}{}",
+            "{:<22}{:>12.4}{:>12.4}{:>12.4}{:>10}{}{}",
             key,
             inj,
             rec,
             rec - inj,
             sig,
+            beside,
             if observable { "" } else { "  (not observable)" }
         );
     }
@@ -97,21 +128,40 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
             cm(Some(rmse(&after)))
         );
     }
-    for (name, file) in [
-        ("before", OVERLAP_BEFORE_FILE),
-        ("after", OVERLAP_AFTER_FILE),
-    ] {
-        if let Ok(o) = read_product::<Overlap>(dir.join(file)) {
-            let worst = o
-                .pairs
-                .iter()
-                .filter(|p| p.counts())
-                .map(|p| p.rmsdz_m)
-                .fold(0.0, f64::max);
+    let mounting_only = dir.join(OVERLAP_MOUNTING_ONLY_FILE);
+    let runs: Vec<(&str, std::path::PathBuf)> = if mounting_only.exists() {
+        vec![
+            ("before correction", dir.join(OVERLAP_BEFORE_FILE)),
+            ("after mounting-only correction", mounting_only),
+            (
+                "after strip-adjusted correction",
+                dir.join(OVERLAP_AFTER_FILE),
+            ),
+        ]
+    } else {
+        vec![
+            ("before", dir.join(OVERLAP_BEFORE_FILE)),
+            ("after", dir.join(OVERLAP_AFTER_FILE)),
+        ]
+    };
+    let width = runs.iter().map(|(n, _)| n.len()).max().unwrap_or(0);
+    for (name, file) in runs {
+        if let Ok(o) = read_product::<Overlap>(file) {
+            let counted = || o.pairs.iter().filter(|p| p.counts());
+            let worst = counted().map(|p| p.rmsdz_m).fold(0.0, f64::max);
+            let (s, n) = counted().fold((0.0, 0u64), |(s, n), p| {
+                (s + p.rmsdz_m.powi(2) * p.n as f64, n + p.n)
+            });
+            let pooled = if n > 0 {
+                (s / n as f64).sqrt()
+            } else {
+                f64::NAN
+            };
             let _ = writeln!(
                 t,
-                "strip-to-strip RMSDz {name:<7} (worst pair): {:.2} cm",
-                worst * 100.0
+                "strip-to-strip RMSDz {name:<width$}  worst pair {:>6.2} cm, all pairs {:>6.2} cm",
+                worst * 100.0,
+                pooled * 100.0
             );
         }
     }

@@ -113,7 +113,11 @@ fn sections(p: &Products) -> Vec<(&'static str, &'static str, String)> {
         sections.push((
             "overlap",
             "Strip-to-strip consistency",
-            overlap_section(p.overlap_before.as_ref(), p.overlap_after.as_ref()),
+            overlap_section(
+                p.overlap_before.as_ref(),
+                p.overlap_mounting_only.as_ref(),
+                p.overlap_after.as_ref(),
+            ),
         ));
     }
     if let Some(q) = &p.qc {
@@ -256,6 +260,9 @@ fn what(name: &str) -> &'static str {
         TRUTH_FILE => Truth::WHAT,
         OVERLAP_BEFORE_FILE => "strip-to-strip height differences, before correction",
         OVERLAP_AFTER_FILE => "strip-to-strip height differences, after correction",
+        OVERLAP_MOUNTING_ONLY_FILE => {
+            "strip-to-strip height differences, after a mounting-only correction"
+        }
         IHO_FILE => Iho::WHAT,
         n if n.starts_with(SWEEP_FILE_PREFIX) => Sweep::WHAT,
         _ => "",

@@ -28,12 +28,18 @@ pub const EVALUATE_BEFORE_FILE: &str = "evaluate_before.json";
 pub const EVALUATE_AFTER_FILE: &str = "evaluate_after.json";
 /// `lidarqa calibrate` output (SPEC §8).
 pub const CALIBRATION_FILE: &str = "calibration.json";
+/// The calibration of the mounting alone, beside a strip-adjusted `calibration.json` (the demo's;
+/// [`Calibration`]).
+pub const CALIBRATION_MOUNTING_ONLY_FILE: &str = "calibration_mounting_only.json";
 /// Per-iteration history of the calibration ([`CalibrationIterations`]).
 pub const CALIBRATION_ITERATIONS_FILE: &str = "calibration_iterations.json";
 /// The simulator's truth (`"mounting"` with SPEC §8 keys).
 pub const TRUTH_FILE: &str = "truth.json";
 /// `lidarqa overlap` before correction ([`Overlap`]).
 pub const OVERLAP_BEFORE_FILE: &str = "overlap_before.json";
+/// `lidarqa overlap` after a correction with the mounting alone, beside a strip-adjusted one
+/// (`overlap_after.json`) ([`Overlap`]).
+pub const OVERLAP_MOUNTING_ONLY_FILE: &str = "overlap_mounting_only.json";
 /// `lidarqa qc`'s product.
 pub const QC_FILE: &str = "qc.json";
 /// `lidarqa overlap` after correction ([`Overlap`]).

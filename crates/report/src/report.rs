@@ -30,6 +30,9 @@ pub struct Products {
     pub overlap_before: Option<Overlap>,
     /// `overlap_after.json`.
     pub overlap_after: Option<Overlap>,
+    /// `overlap_mounting_only.json`: after a mounting-only correction, when `overlap_after.json`
+    /// is of a strip-adjusted one.
+    pub overlap_mounting_only: Option<Overlap>,
     /// `iho.json`.
     pub iho: Option<Iho>,
     /// `qc.json` (`lidarqa qc`).
@@ -66,6 +69,10 @@ impl Products {
         );
         add(self.truth.is_some(), TRUTH_FILE);
         add(self.overlap_before.is_some(), OVERLAP_BEFORE_FILE);
+        add(
+            self.overlap_mounting_only.is_some(),
+            OVERLAP_MOUNTING_ONLY_FILE,
+        );
         add(self.overlap_after.is_some(), OVERLAP_AFTER_FILE);
         add(self.iho.is_some(), IHO_FILE);
         add(self.qc.is_some(), QC_FILE);
@@ -207,6 +214,7 @@ impl Report {
         p.calibration_iterations = load(dir, CALIBRATION_ITERATIONS_FILE, &mut skipped, &mut read);
         p.truth = load(dir, TRUTH_FILE, &mut skipped, &mut read);
         p.overlap_before = load(dir, OVERLAP_BEFORE_FILE, &mut skipped, &mut read);
+        p.overlap_mounting_only = load(dir, OVERLAP_MOUNTING_ONLY_FILE, &mut skipped, &mut read);
         p.overlap_after = load(dir, OVERLAP_AFTER_FILE, &mut skipped, &mut read);
         p.iho = load(dir, IHO_FILE, &mut skipped, &mut read);
         p.qc = load(dir, QC_FILE, &mut skipped, &mut read);

@@ -705,3 +705,53 @@ fn tpu_summary_predicts_its_median_sigma_and_names_a_missing_one() {
     );
     assert!(e.to_string().contains(TPU_SUMMARY_FILE), "{e}");
 }
+
+/// A mounting-only correction beside a strip-adjusted one (the demo's three overlap products):
+/// the pairs table, the maps and the profiles show all three runs, and the text gives the three
+/// pooled RMSDz (here 1.0, 0.5 and 0.2 times the same differences).
+#[test]
+fn mounting_only_overlap_stands_between_before_and_strip_adjusted() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(d, OVERLAP_BEFORE_FILE, &overlap_json(1.0));
+    write(d, OVERLAP_MOUNTING_ONLY_FILE, &overlap_json(0.5));
+    write(d, OVERLAP_AFTER_FILE, &overlap_json(0.2));
+    let report = report_from(d);
+    assert!(report.products().overlap_mounting_only.is_some());
+    let html = report.to_html();
+    for needle in [
+        "<th>RMS dz before</th>",
+        "<th>RMS dz after mounting-only</th>",
+        "<th>RMS dz after strip-adjusted</th>",
+        "All maps use the same colour scale",
+        "after a correction of the mounting alone",
+    ] {
+        assert!(html.contains(needle), "{needle} not in the report");
+    }
+    for id in [
+        "plot-profile-before",
+        "plot-profile-mounting-only",
+        "plot-profile-after",
+    ] {
+        assert!(svg_ids(&html).iter().any(|s| s == id), "{id}");
+    }
+    // The pooled RMSDz of each run, in the order before, mounting-only, strip-adjusted.
+    let pooled = |v: &Value| {
+        let (s, n) = v["pairs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .fold((0.0, 0.0), |(s, n), p| {
+                let k = p["n"].as_f64().unwrap();
+                (s + p["rmsdz_m"].as_f64().unwrap().powi(2) * k, n + k)
+            });
+        100.0 * (s / n).sqrt()
+    };
+    let text = format!(
+        "is {:.2} cm before correction, {:.2} cm after a correction of the mounting alone, and {:.2} cm after the strip adjustment",
+        pooled(&overlap_json(1.0)),
+        pooled(&overlap_json(0.5)),
+        pooled(&overlap_json(0.2))
+    );
+    assert!(html.contains(&text), "{text} not in the report");
+}

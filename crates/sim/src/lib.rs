@@ -56,15 +56,16 @@ mod write;
 
 pub use error::{Error, Result};
 pub use output::{
-    ControlPoint, InjectedErrors, MountingParameters, Observation, PointTruth, RandomErrors,
-    SimPoint, Strip, StripTruth, Survey, TargetTruth, TrajectoryRecord, TrajectorySigma, Truth,
+    ControlPoint, InjectedErrors, LineErrorTruth, MountingParameters, Neu, Observation, PointTruth,
+    RandomErrors, RollPitchHeading, SimPoint, Strip, StripTruth, Survey, TargetTruth,
+    TrajectoryRecord, TrajectorySigma, Truth,
 };
 pub use ray::{Curve, Hit};
 pub use scenario::{
-    BUILTIN_NAMES, BuildingFile, ErrorModel, ErrorsFile, Line, LineFile, MAX_HEIGHT_M, MAX_LINES,
-    MAX_PULSE_RATE_HZ, MAX_PULSES, MAX_TRAJECTORY_RATE_HZ, Motion, MotionFile, PavedFile,
-    ScanPattern, ScanWave, ScannerSettingsFile, Scenario, ScenarioFile, SceneFile, SensorFile,
-    TargetFile, WaterFile, WaveFile, builtin_toml,
+    BUILTIN_NAMES, BuildingFile, ErrorModel, ErrorsFile, Line, LineErrorSigma, LineFile,
+    MAX_HEIGHT_M, MAX_LINES, MAX_PULSE_RATE_HZ, MAX_PULSES, MAX_TRAJECTORY_RATE_HZ, Motion,
+    MotionFile, PavedFile, ScanPattern, ScanWave, ScannerSettingsFile, Scenario, ScenarioFile,
+    SceneFile, SensorFile, TargetFile, WaterFile, WaveFile, builtin_toml,
 };
 pub use scene::{
     Building, CLASS_BATHYMETRY, CLASS_BUILDING, CLASS_GROUND, CLASS_TARGET, CLASS_WATER_SURFACE,

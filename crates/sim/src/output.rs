@@ -237,6 +237,63 @@ pub struct StripTruth {
     pub time_span_s: [f64; 2],
     /// Ellipsoidal flying height, m.
     pub height_m: f64,
+    /// The line's own trajectory error (`[errors] line_*`), when the scenario draws one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub trajectory_error: Option<LineErrorTruth>,
+}
+
+/// One line's own trajectory error as drawn (`truth.json` `strips[].trajectory_error`): the
+/// measured trajectory is the true one plus this (and the Gauss–Markov errors).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct LineErrorTruth {
+    /// The line's nominal first time, GPS seconds of week.
+    pub start_time_s: f64,
+    /// The line's nominal last time; the drift is linear in time, zero at the middle.
+    pub end_time_s: f64,
+    /// GNSS position error at the line's middle, m.
+    pub offset_m: Neu,
+    /// Change of the GNSS position error from the middle to the end, m.
+    pub drift_m: Neu,
+    /// Attitude error, degrees.
+    pub attitude_deg: RollPitchHeading,
+}
+
+/// North, east, up.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Neu {
+    /// North.
+    pub north: f64,
+    /// East.
+    pub east: f64,
+    /// Up.
+    pub up: f64,
+}
+
+impl From<[f64; 3]> for Neu {
+    fn from([north, east, up]: [f64; 3]) -> Self {
+        Neu { north, east, up }
+    }
+}
+
+/// Roll, pitch, heading.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RollPitchHeading {
+    /// Roll.
+    pub roll: f64,
+    /// Pitch.
+    pub pitch: f64,
+    /// Heading.
+    pub heading: f64,
+}
+
+impl From<[f64; 3]> for RollPitchHeading {
+    fn from([roll, pitch, heading]: [f64; 3]) -> Self {
+        RollPitchHeading {
+            roll,
+            pitch,
+            heading,
+        }
+    }
 }
 
 /// Everything a test or a calibration score needs to know (`truth.json`).

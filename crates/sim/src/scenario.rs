@@ -135,6 +135,23 @@ pub struct ErrorsFile {
     /// return's range and incidence (real intensity is far noisier than a few percent of the
     /// return; issue #18).
     pub intensity_contrast_noise_percent: f64,
+    /// σ of each line's own GNSS position offset `[north, east, up]`, m: one constant drawn per
+    /// line (a float segment, a base station's error), added to the Gauss–Markov errors, and
+    /// written to the truth. The sensor file's σ are not changed by it.
+    #[serde(skip_serializing_if = "is_zero3")]
+    pub line_gnss_offset_m: [f64; 3],
+    /// σ of each line's linear GNSS drift `[north, east, up]`, m: the change of the position
+    /// error from the line's middle to its end (minus it at its start), drawn per line.
+    #[serde(skip_serializing_if = "is_zero3")]
+    pub line_gnss_drift_m: [f64; 3],
+    /// σ of each line's constant attitude offset `[roll, pitch, heading]`, degrees, drawn per
+    /// line.
+    #[serde(skip_serializing_if = "is_zero3")]
+    pub line_attitude_offset_deg: [f64; 3],
+}
+
+fn is_zero3(v: &[f64; 3]) -> bool {
+    v.iter().all(|x| *x == 0.0)
 }
 
 impl Default for ErrorsFile {
@@ -152,6 +169,9 @@ impl Default for ErrorsFile {
             scan_angle_scale_ppm: 0.0,
             intensity_noise_percent: 3.0,
             intensity_contrast_noise_percent: 15.0,
+            line_gnss_offset_m: [0.0; 3],
+            line_gnss_drift_m: [0.0; 3],
+            line_attitude_offset_deg: [0.0; 3],
         }
     }
 }
@@ -295,6 +315,31 @@ pub struct ErrorModel {
     pub intensity_noise: f64,
     /// Additive intensity noise, a fraction of the target–ground contrast.
     pub intensity_contrast_noise: f64,
+    /// Per-line trajectory errors' σ: GNSS offset and drift (north, east, up; m), attitude
+    /// offset (roll, pitch, heading; rad).
+    pub line_errors: LineErrorSigma,
+}
+
+/// σ of the per-line trajectory errors (`[errors] line_*`), SI: each line draws one of each.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct LineErrorSigma {
+    /// GNSS position offset (north, east, up), m.
+    pub gnss_offset_m: [f64; 3],
+    /// GNSS drift from the line's middle to its end (north, east, up), m.
+    pub gnss_drift_m: [f64; 3],
+    /// Attitude offset (roll, pitch, heading), rad.
+    pub attitude_rad: [f64; 3],
+}
+
+impl LineErrorSigma {
+    /// Whether any per-line error is drawn.
+    pub fn any(&self) -> bool {
+        self.gnss_offset_m
+            .iter()
+            .chain(&self.gnss_drift_m)
+            .chain(&self.attitude_rad)
+            .any(|v| *v > 0.0)
+    }
 }
 
 /// Checked platform motion, SI.
@@ -644,6 +689,19 @@ fn check_errors(f: &ErrorsFile, sensor: &Sensor) -> Result<ErrorModel> {
         "errors.intensity_contrast_noise_percent",
         f.intensity_contrast_noise_percent,
     )?;
+    let three = |key: &str, v: [f64; 3]| -> Result<[f64; 3]> {
+        Ok([
+            non_negative(&format!("errors.{key}[0]"), v[0])?,
+            non_negative(&format!("errors.{key}[1]"), v[1])?,
+            non_negative(&format!("errors.{key}[2]"), v[2])?,
+        ])
+    };
+    let line_errors = LineErrorSigma {
+        gnss_offset_m: three("line_gnss_offset_m", f.line_gnss_offset_m)?,
+        gnss_drift_m: three("line_gnss_drift_m", f.line_gnss_drift_m)?,
+        attitude_rad: three("line_attitude_offset_deg", f.line_attitude_offset_deg)?
+            .map(f64::to_radians),
+    };
     let injected = mounting_si(
         f.boresight_roll_deg,
         f.boresight_pitch_deg,
@@ -660,6 +718,7 @@ fn check_errors(f: &ErrorsFile, sensor: &Sensor) -> Result<ErrorModel> {
         scan_angle_scale: f.scan_angle_scale_ppm * 1e-6,
         intensity_noise: noise / 100.0,
         intensity_contrast_noise: contrast_noise / 100.0,
+        line_errors,
     })
 }
 

@@ -18,8 +18,8 @@
 
 use crate::error::{Error, Result};
 use crate::output::{
-    ControlPoint, InjectedErrors, MountingParameters, Observation, PointTruth, RandomErrors,
-    SimPoint, Strip, StripTruth, Survey, TargetTruth, TrajectoryRecord, Truth,
+    ControlPoint, InjectedErrors, LineErrorTruth, MountingParameters, Observation, PointTruth,
+    RandomErrors, SimPoint, Strip, StripTruth, Survey, TargetTruth, TrajectoryRecord, Truth,
 };
 use crate::scenario::{Line, ScanPattern, ScanWave, Scenario};
 use crate::scene::{
@@ -27,7 +27,7 @@ use crate::scene::{
     REFLECTIVITY_TARGET, REFLECTIVITY_TERRAIN, Sweep, WATER_ATTENUATION_PER_M, add_angles,
     small_sin_cos,
 };
-use crate::trajectory::{self, Pose, StripTrajectory, trajectory_sigmas};
+use crate::trajectory::{self, LineError, Pose, StripTrajectory, trajectory_sigmas};
 use lidarqa_model::{
     Attitude, ConicObservation, ConicScanner, Georeferencer, LinearObservation, LinearScanner,
     Mounting, SPEED_OF_LIGHT_AIR_M_PER_S, Scanner, Source, refract, rotation_zyx, scanner_vector,
@@ -68,6 +68,19 @@ const PURPOSE_PULSES: u64 = 0;
 const PURPOSE_TRAJECTORY: u64 = 1;
 const PURPOSE_MOUNTING: u64 = 2;
 const PURPOSE_CONTROL: u64 = 3;
+const PURPOSE_LINE_ERRORS: u64 = 4;
+
+/// The own trajectory error of line `index` (`[errors] line_*`; none with `random = false`).
+fn line_error(scenario: &Scenario, index: usize) -> LineError {
+    let errors = scenario.errors();
+    if !errors.random || !errors.line_errors.any() {
+        return LineError::default();
+    }
+    LineError::draw(
+        &errors.line_errors,
+        &mut stream(scenario.seed(), PURPOSE_LINE_ERRORS, index, 0),
+    )
+}
 
 /// The RNG of one purpose / strip / chunk: ChaCha8 (portable, seekable), keyed by the seed.
 fn stream(seed: u64, purpose: u64, strip: usize, chunk: usize) -> ChaCha8Rng {
@@ -309,6 +322,16 @@ pub fn simulate_streaming(
                     s.trajectory.last().map_or(0.0, |r| r.time_s),
                 ],
                 height_m: l.height_m,
+                trajectory_error: (errors.random && errors.line_errors.any()).then(|| {
+                    let e = line_error(scenario, k);
+                    LineErrorTruth {
+                        start_time_s: l.start_time_s,
+                        end_time_s: l.start_time_s + l.duration_s(),
+                        offset_m: e.gnss_offset_m.into(),
+                        drift_m: e.gnss_drift_m.into(),
+                        attitude_deg: e.attitude_rad.map(f64::to_degrees).into(),
+                    }
+                }),
             })
             .collect(),
         scene: scenario.file().scene.clone(),
@@ -378,6 +401,7 @@ fn simulate_strip(
         scenario.motion(),
         scenario.errors(),
         &sensor.sigma,
+        &line_error(scenario, index),
         &mut rng,
     );
     let random = scenario.errors().random;

@@ -7,11 +7,15 @@
 //! stationary distribution, so every sample has marginal σ and neighbouring samples are
 //! correlated over τ (not white noise per pulse).
 //!
+//! With `[errors] line_*`, each line also carries its own constant GNSS offset, linear GNSS drift
+//! (zero at the line's middle) and constant attitude offset, drawn once per line
+//! ([`LineError::draw`]): the per-line trajectory errors a strip adjustment estimates.
+//!
 //! Both are sampled at the trajectory rate and linearly interpolated at pulse times (latitude,
 //! longitude, height and unwrapped angles), exactly as a user interpolates an SBET.
 
 use crate::geo::{LocalMap, geodetic_of_local};
-use crate::scenario::{ErrorModel, Line, Motion};
+use crate::scenario::{ErrorModel, Line, LineErrorSigma, Motion};
 use lidarqa_io::{Geodetic, UtmZone};
 use lidarqa_model::{Sigmas, Source, ecef_from_ned};
 use nalgebra::{Matrix3, Vector3};
@@ -63,6 +67,43 @@ pub(crate) struct StripTrajectory {
     pub maps: Vec<LocalMap>,
 }
 
+/// One line's own trajectory error, SI, drawn once per line: added to the measured trajectory.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct LineError {
+    /// GNSS position offset (north, east, up) at the line's middle, m.
+    pub gnss_offset_m: [f64; 3],
+    /// GNSS drift (north, east, up): the change from the line's middle to its end, m.
+    pub gnss_drift_m: [f64; 3],
+    /// Attitude offset (roll, pitch, heading), rad.
+    pub attitude_rad: [f64; 3],
+}
+
+impl LineError {
+    /// Each component `σ · N(0, 1)`, in the order offset, drift, attitude.
+    pub fn draw(sigma: &LineErrorSigma, rng: &mut impl Rng) -> Self {
+        let mut three = |s: &[f64; 3]| s.map(|s| s * rng.sample::<f64, _>(StandardNormal));
+        LineError {
+            gnss_offset_m: three(&sigma.gnss_offset_m),
+            gnss_drift_m: three(&sigma.gnss_drift_m),
+            attitude_rad: three(&sigma.attitude_rad),
+        }
+    }
+
+    /// The error added at `t` seconds after the line's start of a line of `duration_s`: GNSS
+    /// north, east, up (m), roll, pitch, heading (rad).
+    fn at(&self, t: f64, duration_s: f64) -> [f64; 6] {
+        let half = 0.5 * duration_s;
+        let tau = (t - half) / half;
+        std::array::from_fn(|i| {
+            if i < 3 {
+                self.gnss_offset_m[i] + tau * self.gnss_drift_m[i]
+            } else {
+                self.attitude_rad[i - 3]
+            }
+        })
+    }
+}
+
 /// Samples between two local-map origins (the map is accurate far beyond the ~1 s of flight).
 const SAMPLES_PER_MAP: usize = 200;
 
@@ -87,6 +128,7 @@ pub(crate) fn build(
     motion: &Motion,
     errors: &ErrorModel,
     sigma: &Sigmas,
+    line_error: &LineError,
     rng: &mut impl Rng,
 ) -> StripTrajectory {
     let rate = motion.trajectory_rate_hz;
@@ -141,18 +183,20 @@ pub(crate) fn build(
                 0.0,
             ],
         };
+        let own = line_error.at(t, line.duration_s());
+        let e: [f64; 6] = std::array::from_fn(|i| err[i] + own[i]);
         let lat = pos.latitude_rad;
         let m_radius = ell.meridian_radius_m(lat) + pos.height_m;
         let n_radius = (ell.prime_vertical_radius_m(lat) + pos.height_m) * lat.cos();
         measured.push(Pose {
             position: Geodetic {
-                latitude_rad: lat + err[0] / m_radius,
-                longitude_rad: pos.longitude_rad + err[1] / n_radius,
-                height_m: pos.height_m + err[2],
+                latitude_rad: lat + e[0] / m_radius,
+                longitude_rad: pos.longitude_rad + e[1] / n_radius,
+                height_m: pos.height_m + e[2],
             },
-            roll_rad: pose.roll_rad + err[3],
-            pitch_rad: pose.pitch_rad + err[4],
-            heading_rad: pose.heading_rad + err[5],
+            roll_rad: pose.roll_rad + e[3],
+            pitch_rad: pose.pitch_rad + e[4],
+            heading_rad: pose.heading_rad + e[5],
             ..pose
         });
         truth.push(pose);

@@ -21,8 +21,10 @@ Example:
   lidarqa demo -o /tmp/demo --quick
   lidarqa demo --bathymetry    the conic bathymetric survey, to lidarqa-demo-bathymetry/
 
-Steps: simulate (a survey with injected boresight and lever-arm errors and twelve surveyed targets) →
-budget → tpu → targets → evaluate → calibrate → correct → targets → evaluate → overlap → report.";
+Steps: simulate (a survey with injected boresight and lever-arm errors, each line's own GNSS and
+attitude error, and twelve surveyed targets) → budget → tpu → targets → evaluate → overlap →
+calibrate the mounting alone → correct → overlap → calibrate with --adjust-strips → correct → tpu →
+targets → evaluate → overlap → report.";
 
 /// Flags of `lidarqa demo`.
 #[derive(Debug, Args)]
@@ -59,6 +61,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
         scenario::topographic(dir, args.quick, args.seed)?;
     let strips = dir.join("strips");
     let corrected = dir.join("corrected");
+    let plain_dir = dir.join("corrected_mounting_only").display().to_string();
     let tpu_dir = dir.join("tpu");
     let scen = scenario.display().to_string();
     let (s_dir, c_dir, t_dir) = (
@@ -164,7 +167,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
             None,
         ),
         step(
-            "calibrate: boresight and lever arm from the overlapping strips (VTPM) and the targets",
+            "calibrate the mounting alone: boresight and lever arm from the overlapping strips (VTPM) and the targets",
             &with(
                 &["calibrate"],
                 &raw,
@@ -183,13 +186,62 @@ pub fn run(args: DemoArgs) -> Result<()> {
                     "--attitude-correlation-s",
                     &attitude_tau_s,
                     "-o",
+                    &d(CALIBRATION_MOUNTING_ONLY),
+                ],
+            ),
+            None,
+        ),
+        step(
+            "correct with the mounting alone",
+            &with(
+                &["correct"],
+                &raw,
+                &[
+                    "--trajectory",
+                    &sbet,
+                    "--sensor",
+                    &sensor,
+                    "--calibration",
+                    &d(CALIBRATION_MOUNTING_ONLY),
+                    "-o",
+                    &plain_dir,
+                ],
+            ),
+            None,
+        ),
+        step(
+            "measure: strip-to-strip consistency after the mounting-only correction",
+            &with(
+                &["overlap"],
+                &strip_files(&plain_dir),
+                &["-o", &d(lidarqa_report::OVERLAP_MOUNTING_ONLY_FILE)],
+            ),
+            None,
+        ),
+        step(
+            "calibrate with the strip adjustment: the mounting and each line's trajectory error together",
+            &with(
+                &["calibrate"],
+                &raw,
+                &[
+                    "--trajectory",
+                    &sbet,
+                    "--sensor",
+                    &sensor,
+                    "--auto-ties",
+                    "--radius-m",
+                    "1.5",
+                    "--control",
+                    &control,
+                    "--adjust-strips=offset+drift+attitude",
+                    "-o",
                     &d("calibration.json"),
                 ],
             ),
             None,
         ),
         step(
-            "correct: re-georeference the strips with the calibrated mounting",
+            "correct: re-georeference the strips with the calibrated mounting and each line's correction",
             &with(
                 &["correct"],
                 &raw,
@@ -255,6 +307,9 @@ pub fn run(args: DemoArgs) -> Result<()> {
     })?;
     print_text(&lidarqa_report::demo_summary(dir)?)
 }
+
+/// The calibration of the mounting alone, beside the strip-adjusted `calibration.json`.
+const CALIBRATION_MOUNTING_ONLY: &str = lidarqa_report::CALIBRATION_MOUNTING_ONLY_FILE;
 
 /// The TPU summary of the raw strips with `--calibration`: the prediction after calibration.
 const CALIBRATED_TPU_SUMMARY: &str = "tpu_calibrated_summary.json";

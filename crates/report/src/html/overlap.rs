@@ -1,16 +1,31 @@
-//! Strip-to-strip consistency before and after correction.
+//! Strip-to-strip consistency before and after correction; with a mounting-only correction beside
+//! a strip-adjusted one, all three.
 
 use crate::plot::{self, Line, Raster, Scale};
 use crate::products::*;
 use crate::text::{cm, esc, meaning};
 use std::fmt::Write as _;
 
-pub(super) fn overlap_section(before: Option<&Overlap>, after: Option<&Overlap>) -> String {
+pub(super) fn overlap_section(
+    before: Option<&Overlap>,
+    mounting_only: Option<&Overlap>,
+    after: Option<&Overlap>,
+) -> String {
     let mut o = String::new();
-    let runs: Vec<(&str, &Overlap)> = [("before correction", before), ("after correction", after)]
-        .into_iter()
-        .filter_map(|(n, e)| e.map(|e| (n, e)))
-        .collect();
+    // Beside a mounting-only correction, "after" is the strip-adjusted one.
+    let after_name = if mounting_only.is_some() {
+        "after strip-adjusted correction"
+    } else {
+        "after correction"
+    };
+    let runs: Vec<(&str, &Overlap)> = [
+        ("before correction", before),
+        ("after mounting-only correction", mounting_only),
+        (after_name, after),
+    ]
+    .into_iter()
+    .filter_map(|(n, e)| e.map(|e| (n, e)))
+    .collect();
     pairs_table(&mut o, &runs);
     dz_maps(&mut o, &runs);
     profiles(&mut o, &runs);
@@ -25,6 +40,7 @@ pub(super) fn overlap_section(before: Option<&Overlap>, after: Option<&Overlap>)
         (n > 0).then(|| (s / n as f64).sqrt())
     };
     let text = match (before.and_then(rms), after.and_then(rms)) {
+        (Some(b), Some(a)) if mounting_only.and_then(rms).is_some() => format!("Where strips overlap they should show the same ground. The RMS height difference between them is {} cm before correction, {} cm after a correction of the mounting alone, and {} cm after the strip adjustment, which also corrects each line's own trajectory error; in the profile the strips should lie on top of each other after correction.", cm(b), cm(mounting_only.and_then(rms).unwrap_or(f64::NAN)), cm(a)),
         (Some(b), Some(a)) => format!("Where strips overlap they should show the same ground. The RMS height difference between them falls from {} cm before correction to {} cm after it; in the profile the strips should lie on top of each other after correction.", cm(b), cm(a)),
         (Some(v), None) | (None, Some(v)) => format!("Where strips overlap they should show the same ground; the RMS height difference between them is {} cm.", cm(v)),
         _ => "Where strips overlap they should show the same ground; the maps show where they do not.".into(),
@@ -118,9 +134,10 @@ fn dz_maps(o: &mut String, runs: &[(&str, &Overlap)]) {
             Scale::Diverging { limit },
             "dz (cm)",
         ));
+        let all = if panels.len() > 2 { "All" } else { "Both" };
         let _ = writeln!(
             o,
-            "<p class=\"note\">Both maps use the same colour scale, ±{limit:.1} cm (saturating beyond); white is no difference, empty cells are outside the overlaps.</p>"
+            "<p class=\"note\">{all} maps use the same colour scale, ±{limit:.1} cm (saturating beyond); white is no difference, empty cells are outside the overlaps.</p>"
         );
     }
 }
@@ -170,6 +187,8 @@ fn profiles(o: &mut String, runs: &[(&str, &Overlap)]) {
                 .collect();
             let slug = if n.starts_with("before") {
                 "before"
+            } else if n.contains("mounting-only") {
+                "mounting-only"
             } else {
                 "after"
             };

@@ -34,6 +34,7 @@ pub(super) fn topographic(
         bail!("the built-in demo scenario has no [[lines]]");
     }
     table.insert("seed".into(), toml::Value::Integer(seed as i64));
+    line_errors(&mut table)?;
     if quick {
         // Not half: at half the pulses the automatic ties no longer determine boresight yaw
         // (held at its prior, not observable).
@@ -43,6 +44,32 @@ pub(super) fn topographic(
     std::fs::write(&path, toml::to_string(&table)?)
         .with_context(|| format!("{}", path.display()))?;
     Ok((path, taus, lines))
+}
+
+/// σ of each line's own GNSS error in the demo (`[errors] line_*`): offset and drift (north,
+/// east, up; m). Several times the sensor file's GNSS σ (1 / 1 / 2 cm), as real surveys carry
+/// them: what the strip adjustment estimates and a calibration of the mounting alone cannot
+/// correct. No attitude offset beyond the scenario's own (its 20 s correlation time already
+/// makes each 9 s line's attitude error nearly constant): a line's pitch offset is its own
+/// boresight pitch, and 0.003° more per line moved boresight pitch 0.006° off in both runs.
+const LINE_ERRORS: [(&str, [f64; 3]); 2] = [
+    ("line_gnss_offset_m", [0.03, 0.03, 0.03]),
+    ("line_gnss_drift_m", [0.02, 0.02, 0.02]),
+];
+
+/// Sets [`LINE_ERRORS`] in the scenario's `[errors]`.
+fn line_errors(table: &mut toml::Table) -> Result<()> {
+    let errors = table
+        .get_mut("errors")
+        .and_then(toml::Value::as_table_mut)
+        .context("the built-in demo scenario: no [errors]")?;
+    for (key, v) in LINE_ERRORS {
+        errors.insert(
+            key.into(),
+            toml::Value::Array(v.iter().map(|x| toml::Value::Float(*x)).collect()),
+        );
+    }
+    Ok(())
 }
 
 /// The built-in bathymetry scenario with the demo's seed, half the pulses with `--quick`.
