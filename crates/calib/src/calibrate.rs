@@ -1311,7 +1311,7 @@ fn screen_outlier_ties(
             .collect();
         let mut sorted = norms.clone();
         sorted.sort_by(f64::total_cmp);
-        let robust = (1.4826 * sorted[sorted.len() / 2]).max(0.0125);
+        let robust = (lidarqa_model::MAD_TO_SIGMA * sorted[sorted.len() / 2]).max(0.0125);
         let (worst, value) = norms
             .iter()
             .enumerate()

@@ -84,7 +84,8 @@ pub(crate) fn trim_to_plane(
             .map(|&k| plane.distance(&points[k]).abs())
             .collect();
         abs.sort_by(f64::total_cmp);
-        let cut = (TRIM_SIGMAS * 1.4826 * abs[abs.len() / 2]).max(TRIM_FLOOR_M);
+        let cut =
+            (TRIM_SIGMAS * lidarqa_model::MAD_TO_SIGMA * abs[abs.len() / 2]).max(TRIM_FLOOR_M);
         let kept: Vec<usize> = inliers
             .iter()
             .copied()

@@ -49,7 +49,7 @@ mod warning;
 
 pub use axes::Axes;
 pub use beam::{BEAM_N, BeamKind, BeamObservation, BeamScanner, beam_jacobian};
-pub use confidence::{CIRCULAR_95_FACTOR, NORMAL_95_FACTOR};
+pub use confidence::{CIRCULAR_95_FACTOR, MAD_TO_SIGMA, NORMAL_95_FACTOR};
 pub use conic::{
     CONIC_N, ConicObservation, ConicScanner, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER,
     Refraction, SPEED_OF_LIGHT_AIR_M_PER_S, refract,

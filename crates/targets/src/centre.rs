@@ -446,7 +446,7 @@ fn fit_circle(q: &[[f64; 2]], radius: Option<f64>) -> Option<Fit2> {
             .take(new_edges.len())
             .map(|v| v.abs())
             .collect();
-        sigma = 1.4826 * median(&mut abs);
+        sigma = lidarqa_model::MAD_TO_SIGMA * median(&mut abs);
         // Outlier gate on the outside: nothing on the target lies beyond its edge.
         let limit = radius.unwrap_or(rho + inset) + (3.0 * sigma).max(spacing);
         let mut changed = false;

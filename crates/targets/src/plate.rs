@@ -242,7 +242,7 @@ fn mad_sigma(v: &[f64]) -> f64 {
     let med = s[s.len() / 2];
     let mut d: Vec<f64> = s.iter().map(|x| (x - med).abs()).collect();
     d.sort_by(f64::total_cmp);
-    1.4826 * d[d.len() / 2]
+    lidarqa_model::MAD_TO_SIGMA * d[d.len() / 2]
 }
 
 /// Least squares `y ≈ X β`, with one pass of rejecting residuals beyond 3.5 robust σ.
