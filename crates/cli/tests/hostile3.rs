@@ -9,8 +9,7 @@
 
 mod binary;
 
-use binary::{fails_with, lidarqa, s};
-use std::collections::BTreeMap;
+use binary::{fails_with, lidarqa, s, snapshot};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -54,25 +53,6 @@ fn workspace(files: &[&str]) -> tempfile::TempDir {
         std::fs::copy(survey().join("sim").join(f), dir.path().join(f)).unwrap();
     }
     dir
-}
-
-/// BLAKE3 of every file under `dir` (following no links), by path.
-fn snapshot(dir: &Path) -> BTreeMap<PathBuf, String> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).unwrap() {
-            let e = e.unwrap();
-            let t = e.file_type().unwrap();
-            if t.is_dir() {
-                stack.push(e.path());
-            } else if t.is_file() {
-                let bytes = std::fs::read(e.path()).unwrap();
-                out.insert(e.path(), blake3::hash(&bytes).to_hex().to_string());
-            }
-        }
-    }
-    out
 }
 
 /// Every entry (files and directories) under `dir`, to see that nothing was created.

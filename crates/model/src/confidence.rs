@@ -1,7 +1,5 @@
-//! The factors of normally distributed errors: the 95 % factors, one home for the IHO S-44
-//! TVU/THU of lidarqa-tpu and the NSSDA statements of lidarqa-targets, and the robust σ of a
-//! median absolute deviation that targets' and calib's outlier cuts share, so that they cannot
-//! drift apart.
+//! The 95 % factors of normally distributed errors: one home for the IHO S-44 TVU/THU of
+//! lidarqa-tpu and the NSSDA statements of lidarqa-targets, so that they cannot drift apart.
 
 /// 95 % of a one-dimensional normal error, in units of its σ: 1.96 (FGDC NSSDA's vertical factor,
 /// IHO S-44 TVU).
@@ -11,10 +9,6 @@ pub const NORMAL_95_FACTOR: f64 = 1.96;
 /// `√(−2 ln 0.05) / √2 = 2.4477 / √2`, rounded to 1.7308 as NSSDA (FGDC-STD-007.3-1998) and
 /// cBLUE's `total_thu` give it.
 pub const CIRCULAR_95_FACTOR: f64 = 1.7308;
-
-/// σ of a normal error from the median of its absolute deviations: `1 / Φ⁻¹(0.75)` = 1.4826,
-/// the usual rounding (the robust σ of an outlier cut).
-pub const MAD_TO_SIGMA: f64 = 1.4826;
 
 #[cfg(test)]
 mod tests {
@@ -26,7 +20,5 @@ mod tests {
         assert!((NORMAL_95_FACTOR - 1.959_964).abs() < 5e-5);
         let circular = (-2.0 * 0.05f64.ln()).sqrt() / 2f64.sqrt();
         assert!((CIRCULAR_95_FACTOR - circular).abs() < 5e-5);
-        // Φ⁻¹(0.75) = 0.6744898.
-        assert!((MAD_TO_SIGMA - 1.0 / 0.674_489_8).abs() < 5e-5);
     }
 }

@@ -45,11 +45,12 @@ mod rotation;
 mod scalar;
 mod sensor;
 mod source;
+mod stats;
 mod warning;
 
 pub use axes::Axes;
 pub use beam::{BEAM_N, BeamKind, BeamObservation, BeamScanner, beam_jacobian};
-pub use confidence::{CIRCULAR_95_FACTOR, MAD_TO_SIGMA, NORMAL_95_FACTOR};
+pub use confidence::{CIRCULAR_95_FACTOR, NORMAL_95_FACTOR};
 pub use conic::{
     CONIC_N, ConicObservation, ConicScanner, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER,
     Refraction, SPEED_OF_LIGHT_AIR_M_PER_S, refract,
@@ -71,4 +72,5 @@ pub use rotation::{
 pub use scalar::Scalar;
 pub use sensor::{Correlation, Scanner, Sensor, Sigmas};
 pub use source::{Source, Unit};
+pub use stats::{MAD_TO_SIGMA, median};
 pub use warning::Warning;

@@ -58,7 +58,7 @@ use lidarqa_io::{
     QcIntraswath, QcLine, QcLines, QcNva, QcPredicted, QcRaster, QcRequirement, QcSmoothCells,
     QcVerdict,
 };
-use lidarqa_model::Warning;
+use lidarqa_model::{Warning, median};
 use lidarqa_targets::{EvaluateOptions, evaluate_vertical_tin};
 use std::collections::BTreeMap;
 use std::io::Write as _;
@@ -312,19 +312,6 @@ fn fit(points: &[[f64; 3]], centre: [f64; 2], size: f64, max_slope: f64) -> Opti
         centroid: m,
         slope_ok: slope <= max_slope && lambda_min >= (MIN_SPREAD * size).powi(2),
         rms,
-    })
-}
-
-fn median(v: &mut [f64]) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
     })
 }
 

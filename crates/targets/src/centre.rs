@@ -281,19 +281,6 @@ fn sector_edges(q: &[[f64; 2]], active: &[bool], c: [f64; 2], sectors: usize) ->
     best.into_iter().flatten().map(|(i, _)| i).collect()
 }
 
-fn median(v: &mut [f64]) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 /// Residuals and Jacobian of the circle fit. `radius`: `Some(R)` for the known-radius model
 /// (parameters cx, cy) with the interior term, `None` for (cx, cy, ρ).
 fn circle_residuals(
@@ -446,7 +433,7 @@ fn fit_circle(q: &[[f64; 2]], radius: Option<f64>) -> Option<Fit2> {
             .take(new_edges.len())
             .map(|v| v.abs())
             .collect();
-        sigma = lidarqa_model::MAD_TO_SIGMA * median(&mut abs);
+        sigma = lidarqa_model::MAD_TO_SIGMA * lidarqa_model::median(&mut abs).unwrap_or(0.0);
         // Outlier gate on the outside: nothing on the target lies beyond its edge.
         let limit = radius.unwrap_or(rho + inset) + (3.0 * sigma).max(spacing);
         let mut changed = false;

@@ -1,7 +1,8 @@
 //! Running the built `lidarqa` binary from the integration tests (each test file uses part).
 #![allow(dead_code)]
 
-use std::path::Path;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// `lidarqa ARGS…`, its exit status and captured output.
@@ -127,4 +128,23 @@ pub fn small_demo_scenario() -> String {
     });
     assert!(targets.len() >= 4, "{targets:?}");
     toml::to_string(&demo).unwrap()
+}
+
+/// BLAKE3 of every file under `dir` (following no links), by path.
+pub fn snapshot(dir: &Path) -> BTreeMap<PathBuf, String> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let e = e.unwrap();
+            let t = e.file_type().unwrap();
+            if t.is_dir() {
+                stack.push(e.path());
+            } else if t.is_file() {
+                let bytes = std::fs::read(e.path()).unwrap();
+                out.insert(e.path(), blake3::hash(&bytes).to_hex().to_string());
+            }
+        }
+    }
+    out
 }

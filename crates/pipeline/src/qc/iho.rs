@@ -17,6 +17,7 @@
 use crate::lines::Lines;
 use crate::water::WaterClasses;
 use lidarqa_io::{IhoDepthBand, IhoDocument, IhoDocumentOrder, QcIho, QcIhoOrder};
+use lidarqa_model::median;
 use lidarqa_tpu::{IhoOrder, THU_95_CBLUE, TVU_95_FACTOR};
 use std::collections::BTreeMap;
 
@@ -47,16 +48,6 @@ fn cell(x: f64, y: f64) -> (i64, i64) {
     )
 }
 
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 /// Judges the soundings of `lines` (module docs).
 pub fn judge(lines: &Lines, water: &WaterClasses) -> IhoJudgement {
     let pts = || lines.lines.iter().flat_map(|l| l.points.iter());
@@ -71,7 +62,7 @@ pub fn judge(lines: &Lines, water: &WaterClasses) -> IhoJudgement {
     }
     let surface: BTreeMap<(i64, i64), f64> = surface
         .into_iter()
-        .map(|(k, mut v)| (k, median(&mut v)))
+        .map(|(k, mut v)| (k, median(&mut v).unwrap_or(f64::NAN)))
         .collect();
     let surface_at = |x: f64, y: f64| -> Option<f64> {
         let (i, j) = cell(x, y);
