@@ -646,7 +646,12 @@ pub(crate) fn heatmaps(
             let fmt = |v: &f64| format!("{v:.0}");
             mesh!(chart)
                 .disable_mesh()
-                .x_labels(if k > 1 { 4 } else { 7 })
+                .x_labels(match k {
+                    1 => 7,
+                    2 => 4,
+                    // Three panels leave room for two six-digit eastings.
+                    _ => 2,
+                })
                 .y_labels(6)
                 .x_label_formatter(&fmt)
                 .y_label_formatter(&fmt)

@@ -194,7 +194,7 @@ fn profiles(o: &mut String, runs: &[(&str, &Overlap)]) {
             };
             o.push_str(&plot::lines(
                 &format!("plot-profile-{slug}"),
-                &format!("Height differences between the overlapping strips along a profile, {n}"),
+                &format!("Strip height differences along the profile, {n}"),
                 "distance along the profile (m)",
                 "height − mean of the strips there (cm)",
                 &lines,
