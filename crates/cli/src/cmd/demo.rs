@@ -104,6 +104,22 @@ pub fn run(args: DemoArgs) -> Result<()> {
     };
     let raw = strip_files(&s_dir);
     let fixed = strip_files(&c_dir);
+    // Both calibrations (mounting alone, strip-adjusted): automatic ties and the targets on the
+    // raw strips, then each run's own flags.
+    let calibrate = |tail: &[&str]| -> Vec<String> {
+        let common = [
+            "--trajectory",
+            &sbet,
+            "--sensor",
+            &sensor,
+            "--auto-ties",
+            "--radius-m",
+            "1.5",
+            "--control",
+            &control,
+        ];
+        with(&["calibrate"], &raw, &[&common[..], tail].concat())
+    };
     let steps = vec![
         step(
             "simulate the survey (injected boresight and lever-arm errors, twelve targets)",
@@ -168,27 +184,14 @@ pub fn run(args: DemoArgs) -> Result<()> {
         ),
         step(
             "calibrate the mounting alone: boresight and lever arm from the overlapping strips (VTPM) and the targets",
-            &with(
-                &["calibrate"],
-                &raw,
-                &[
-                    "--trajectory",
-                    &sbet,
-                    "--sensor",
-                    &sensor,
-                    "--auto-ties",
-                    "--radius-m",
-                    "1.5",
-                    "--control",
-                    &control,
-                    "--gnss-correlation-s",
-                    &gnss_tau_s,
-                    "--attitude-correlation-s",
-                    &attitude_tau_s,
-                    "-o",
-                    &d(CALIBRATION_MOUNTING_ONLY),
-                ],
-            ),
+            &calibrate(&[
+                "--gnss-correlation-s",
+                &gnss_tau_s,
+                "--attitude-correlation-s",
+                &attitude_tau_s,
+                "-o",
+                &d(CALIBRATION_MOUNTING_ONLY),
+            ]),
             None,
         ),
         step(
@@ -220,24 +223,11 @@ pub fn run(args: DemoArgs) -> Result<()> {
         ),
         step(
             "calibrate with the strip adjustment: the mounting and each line's trajectory error together",
-            &with(
-                &["calibrate"],
-                &raw,
-                &[
-                    "--trajectory",
-                    &sbet,
-                    "--sensor",
-                    &sensor,
-                    "--auto-ties",
-                    "--radius-m",
-                    "1.5",
-                    "--control",
-                    &control,
-                    "--adjust-strips=offset+drift+attitude",
-                    "-o",
-                    &d("calibration.json"),
-                ],
-            ),
+            &calibrate(&[
+                "--adjust-strips=offset+drift+attitude",
+                "-o",
+                &d("calibration.json"),
+            ]),
             None,
         ),
         step(
