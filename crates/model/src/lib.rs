@@ -30,6 +30,7 @@
 
 mod axes;
 mod beam;
+mod beam_invert;
 mod beam_sigma;
 mod confidence;
 mod conic;
@@ -50,6 +51,7 @@ mod warning;
 
 pub use axes::Axes;
 pub use beam::{BEAM_N, BeamKind, BeamObservation, BeamScanner, beam_jacobian};
+pub use beam_invert::BeamInversion;
 pub use confidence::{CIRCULAR_95_FACTOR, NORMAL_95_FACTOR};
 pub use conic::{
     CONIC_N, ConicObservation, ConicScanner, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER,

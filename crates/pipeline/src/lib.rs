@@ -75,6 +75,7 @@ mod targets_csv;
 mod targets_files;
 mod targets_tile;
 mod tile;
+mod tile_beam;
 mod tpu_tiles;
 pub mod trajectory_from_returns;
 pub mod water;

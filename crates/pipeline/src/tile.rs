@@ -19,7 +19,7 @@ use lidarqa_model::{
     Scanner, Source, ecef_from_ned_sin_cos, linear_jacobian_at_beam,
 };
 use lidarqa_tpu::{
-    IhoOrder, Incidence, IncidenceClass, PointPropagator, PoseAt, PoseSigma, Recoverer,
+    BeamPropagator, IhoOrder, Incidence, IncidenceClass, PointPropagator, PoseAt, PoseSigma, Recoverer,
     SegmentRotation, SoundingRecovery, Surface, SurfaceSource, THU_95_CBLUE, TVU_95_FACTOR,
     Trajectory, WaterReturn, WaterSurfaceIndex, cos_incidence, judge_surfaces, judged_incidence,
     thu_95_m,
@@ -345,6 +345,8 @@ pub(crate) const SCAN_ANGLE_MAX_BOUND_DEG: f64 = 5.0;
 enum Kernel {
     Linear(PointPropagator<LinearScanner, 14>),
     Conic(PointPropagator<ConicScanner, 25>, ConicScanner),
+    /// A beam scanner (`tile_beam.rs`).
+    Beam(BeamPropagator),
 }
 
 impl Kernel {
@@ -362,30 +364,29 @@ impl Kernel {
                 PointPropagator::new(*c, &ctx.sensor, ctx.beam_divergence_rad).map_err(bad)?,
                 *c,
             ),
-            Scanner::Beam(b) => {
-                return Err(bad(lidarqa_tpu::Error::Geometry(format!(
-                    "the per-point TPU of delivered points from a {} scanner is not available yet (its raw observations are not recovered from points); the sensor file's type must be linear or conic",
-                    b.kind.name()
-                ))));
-            }
+            Scanner::Beam(b) => Kernel::Beam(
+                BeamPropagator::new(b.clone(), &ctx.sensor, ctx.beam_divergence_rad)
+                    .map_err(bad)?,
+            ),
         })
     }
     fn kind(&self) -> &'static str {
         match self {
             Kernel::Linear(_) => "linear",
             Kernel::Conic(..) => "conic",
+            Kernel::Beam(b) => b.scanner().kind.name(),
         }
     }
     fn n_sigma(&self) -> usize {
         match self {
-            Kernel::Linear(_) => 5,
+            Kernel::Linear(_) | Kernel::Beam(_) => 5,
             Kernel::Conic(..) => 7,
         }
     }
     /// σ columns plus, for conic sensors, `depth` and `iho_order`.
     fn n_dims(&self) -> usize {
         match self {
-            Kernel::Linear(_) => 5,
+            Kernel::Linear(_) | Kernel::Beam(_) => 5,
             Kernel::Conic(..) => 9,
         }
     }
@@ -393,12 +394,14 @@ impl Kernel {
         match self {
             Kernel::Linear(p) => p.has_incidence(),
             Kernel::Conic(p, _) => p.has_incidence(),
+            Kernel::Beam(b) => b.has_incidence(),
         }
     }
     fn source_names(&self) -> Vec<&'static str> {
         let mut v: Vec<&'static str> = match self {
             Kernel::Linear(_) => LinearScanner::SOURCES.iter().map(|s| s.name()).collect(),
             Kernel::Conic(..) => ConicScanner::SOURCES.iter().map(|s| s.name()).collect(),
+            Kernel::Beam(_) => crate::tile_beam::source_names(),
         };
         v.push("incidence");
         v
@@ -1423,6 +1426,27 @@ impl Run<'_> {
                         residual_m: r.out_of_plane_m,
                         // S in the body frame: R_M S.
                         body_m: Some(self.r_m * r.scanner_m),
+                    },
+                )
+            }
+            Kernel::Beam(bp) => {
+                let r = self.recoverer.beam(bp.scanner(), pose, &p.ecef)?;
+                let inc = incidence(r.range_m, r.beam_ned);
+                let (cov, shares) = crate::tile_beam::propagate(
+                    bp,
+                    pose,
+                    &self.ctx.sensor.mounting,
+                    &r,
+                    sigma,
+                    inc.as_ref(),
+                )?;
+                add_shares(&mut acc.shares, &shares, 0.0);
+                (
+                    cov,
+                    Recovered {
+                        range_m: r.range_m,
+                        residual_m: r.inversion.residual_m,
+                        body_m: None,
                     },
                 )
             }

@@ -1,7 +1,7 @@
 //! What a simulation returns: plain structs, written to files by the CLI with lidarqa-io.
 
 use crate::scenario::SceneFile;
-use lidarqa_model::{ConicObservation, LinearObservation, Mounting};
+use lidarqa_model::{BeamObservation, ConicObservation, LinearObservation, Mounting};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -62,6 +62,8 @@ pub enum Observation {
     Linear(LinearObservation),
     /// Conic scanner: scan azimuth and travel times.
     Conic(ConicObservation),
+    /// Beam scanner: range, encoder angles, channel elevation.
+    Beam(BeamObservation),
 }
 
 /// What really happened for one point (kept when `SimOptions::keep_truth` is set).

@@ -95,6 +95,10 @@ pub struct ScannerSettingsFile {
     /// `"sawtooth"` (one direction only, parallel scan lines: a rotating polygon mirror).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scan_wave: Option<String>,
+    /// Risley pair: the second prism's rotations per second, Hz (signed: negative turns the other
+    /// way; the first prism turns at `scan_frequency_hz`). Refused for the other types.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scan_frequency_2_hz: Option<f64>,
     /// Full-angle beam divergence, milliradians (footprint diameter = range × divergence); gives
     /// mixed pixels at target edges. Default 0.5.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -263,6 +267,17 @@ pub enum ScanPattern {
     Conic {
         /// Rotations per second, Hz.
         rotation_hz: f64,
+    },
+    /// A beam scanner's encoders turning at constant rates: `a(t) = 2π f t`, `b(t) = 2π f₂ t`
+    /// (Risley), a multi-beam head's channels fired in turn.
+    Beam {
+        /// The first encoder's turns per second (mirror, head, first prism, nutation), Hz.
+        rotation_hz: f64,
+        /// The second prism's turns per second (signed), Hz; 0 for other heads.
+        rotation_2_hz: f64,
+        /// Rotating mirror: pulses are fired only within ±this of the head's z axis, rad
+        /// (`field_of_view_deg`; none: all round).
+        half_field_of_view_rad: Option<f64>,
     },
 }
 
@@ -472,6 +487,13 @@ impl Scenario {
         };
         let beam_divergence_rad =
             non_negative("scanner.beam_divergence_mrad", beam_divergence_mrad)? * 1e-3;
+        if let (Some(f), Scanner::Linear | Scanner::Conic(_)) = (s.scan_frequency_2_hz, &sensor.scanner) {
+            return Err(invalid(
+                "scanner.scan_frequency_2_hz",
+                f,
+                "applies to a Risley pair only",
+            ));
+        }
         let pattern = match sensor.scanner {
             Scanner::Linear => {
                 let fov = s.field_of_view_deg.ok_or_else(|| {
@@ -508,11 +530,67 @@ impl Scenario {
             }
             Scanner::Conic(_) => ScanPattern::Conic { rotation_hz: freq },
             Scanner::Beam(ref b) => {
-                return Err(invalid(
-                    "sensor.scanner.type",
-                    format!("{:?}", b.kind.name()),
-                    "the simulator flies linear and conic scanners; a beam scanner is not simulated yet",
-                ));
+                let risley = matches!(b.kind, lidarqa_model::BeamKind::Risley { .. });
+                let rotation_2_hz = match (s.scan_frequency_2_hz, risley) {
+                    (Some(f), true) if f.is_finite() && f != 0.0 && f != freq => f,
+                    (Some(f), true) => {
+                        return Err(invalid(
+                            "scanner.scan_frequency_2_hz",
+                            f,
+                            "must be a finite non-zero rate other than scan_frequency_hz (equal rates fire one beam)",
+                        ));
+                    }
+                    (None, true) => {
+                        return Err(invalid(
+                            "scanner.scan_frequency_2_hz",
+                            "(missing)",
+                            "a Risley pair needs its second prism's rate",
+                        ));
+                    }
+                    (Some(f), false) => {
+                        return Err(invalid(
+                            "scanner.scan_frequency_2_hz",
+                            f,
+                            "applies to a Risley pair only",
+                        ));
+                    }
+                    (None, false) => 0.0,
+                };
+                let half_field_of_view_rad = match s.field_of_view_deg {
+                    None => None,
+                    Some(v) if b.kind == lidarqa_model::BeamKind::RotatingMirror => {
+                        if !(v.is_finite() && v > 0.0 && v <= 180.0) {
+                            return Err(invalid(
+                                "scanner.field_of_view_deg",
+                                v,
+                                "must be in (0, 180] degrees",
+                            ));
+                        }
+                        Some(v.to_radians())
+                    }
+                    Some(v) => {
+                        return Err(invalid(
+                            "scanner.field_of_view_deg",
+                            v,
+                            &format!(
+                                "applies to the linear and rotating-mirror scanners, not to a {} head",
+                                b.kind.name()
+                            ),
+                        ));
+                    }
+                };
+                if let Some(w) = &s.scan_wave {
+                    return Err(invalid(
+                        "scanner.scan_wave",
+                        format!("{w:?}"),
+                        "applies to the linear scanner only",
+                    ));
+                }
+                ScanPattern::Beam {
+                    rotation_hz: freq,
+                    rotation_2_hz,
+                    half_field_of_view_rad,
+                }
             }
         };
         let errors = check_errors(&file.errors, &sensor)?;

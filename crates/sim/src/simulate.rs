@@ -29,7 +29,7 @@ use crate::scene::{
 };
 use crate::trajectory::{self, LineError, Pose, StripTrajectory, trajectory_sigmas};
 use lidarqa_model::{
-    Attitude, ConicObservation, ConicScanner, Georeferencer, LinearObservation, LinearScanner,
+    Attitude, BeamObservation, BeamScanner, ConicObservation, ConicScanner, Georeferencer, LinearObservation, LinearScanner,
     Mounting, SPEED_OF_LIGHT_AIR_M_PER_S, Scanner, Source, refract, rotation_zyx, scanner_vector,
 };
 use nalgebra::{Matrix3, Vector3};
@@ -63,6 +63,10 @@ impl Default for SimOptions {
         }
     }
 }
+
+/// The least downward component of a beam scanner's beam that is traced (cos 75°): a head that
+/// fires all round sends the rest above the horizon or to ranges of kilometres.
+const MIN_BEAM_DOWN: f64 = 0.258_819_045_102_521;
 
 const PURPOSE_PULSES: u64 = 0;
 const PURPOSE_TRAJECTORY: u64 = 1;
@@ -375,6 +379,11 @@ struct Kernel<'a> {
     r_m_true: Matrix3<f64>,
     nominal: Mounting,
     conic: Option<ConicScanner>,
+    /// The beam scanner (rotating mirror, spinning multi-beam, Risley, elliptical).
+    beam: Option<&'a BeamScanner>,
+    /// A beam scanner's white per-pulse σ: first encoder, second encoder, channel elevation
+    /// (rad); the range's is `sigma[0]` grown by the ppm part.
+    beam_sigma: [f64; 3],
     /// White per-pulse σ: range (m) or time air (s), scan angle or azimuth (rad), time water (s).
     sigma: [f64; 3],
     keep_truth: bool,
@@ -406,9 +415,17 @@ fn simulate_strip(
     );
     let random = scenario.errors().random;
     let sig = |s: Source| if random { sensor.sigma.get(s) } else { 0.0 };
+    let beam = match &sensor.scanner {
+        Scanner::Beam(b) => Some(b),
+        _ => None,
+    };
+    let beam_sigma = [
+        sig(Source::ScanAngle),
+        sig(Source::ScanAngle2),
+        sig(Source::ChannelElevation),
+    ];
     let (conic, sigma) = match &sensor.scanner {
-        // A beam scanner is refused by `Scenario::from_file`; its range and first encoder are the
-        // linear scanner's sources.
+        // A beam scanner's range and first encoder are the linear scanner's sources.
         Scanner::Linear | Scanner::Beam(_) => {
             (None, [sig(Source::Range), sig(Source::ScanAngle), 0.0])
         }
@@ -434,6 +451,8 @@ fn simulate_strip(
         ),
         nominal: sensor.mounting,
         conic,
+        beam,
+        beam_sigma,
         sigma,
         keep_truth: options.keep_truth,
     };
@@ -573,6 +592,7 @@ impl Kernel<'_> {
             * match sc.pattern() {
                 ScanPattern::Linear { frequency_hz, .. } => frequency_hz,
                 ScanPattern::Conic { rotation_hz } => rotation_hz,
+                ScanPattern::Beam { rotation_hz, .. } => rotation_hz,
             };
         let fail = |reason: &str| Error::Trace {
             strip: self.strip_id,
@@ -784,6 +804,91 @@ impl Kernel<'_> {
                         Observation::Conic(o),
                     );
                 }
+            }
+            (
+                None,
+                ScanPattern::Beam {
+                    rotation_2_hz,
+                    half_field_of_view_rad,
+                    ..
+                },
+            ) => {
+                let Some(b) = self.beam else {
+                    return Err(fail("scanner type and scan pattern disagree"));
+                };
+                // The encoders' true angles at this pulse.
+                let a = 2.0 * PI * (phase.fract() - 0.5);
+                if half_field_of_view_rad.is_some_and(|h| a.abs() > h) {
+                    return Ok(());
+                }
+                let a2 = 2.0 * PI * (tau * rotation_2_hz).fract();
+                let elevation = if b.channel_elevations_rad.is_empty() {
+                    0.0
+                } else {
+                    b.channel_elevations_rad[(i % b.channel_elevations_rad.len() as u64) as usize]
+                };
+                let nominal = b.scanner_direction::<f64>(a, a2, elevation);
+                // The return comes from a random place in the footprint: σ = γ/4 across the
+                // beam in each direction (the beam model's footprint term).
+                let spread = if errors.random {
+                    b.beam_divergence_rad / 4.0
+                } else {
+                    0.0
+                };
+                let actual = if spread > 0.0 {
+                    let u1 = nominal.cross(&Vector3::z());
+                    let u1 = if u1.norm() > 1e-6 {
+                        u1.normalize()
+                    } else {
+                        Vector3::x()
+                    };
+                    let u2 = nominal.cross(&u1);
+                    (nominal + u1 * draw(rng, spread) + u2 * draw(rng, spread)).normalize()
+                } else {
+                    nominal
+                };
+                let dir = m_true * (self.r_m_true * actual);
+                let curve = map.curve(&origin, &dir);
+                // A head fires all round: beams above the horizon, or within 15° of it (ranges
+                // of kilometres), return nothing.
+                if curve.direction(0.0)[2] > -MIN_BEAM_DOWN {
+                    return Ok(());
+                }
+                let Some(hit) = sc.scene().trace_in(&curve, divergence, &mut sweeps[0]) else {
+                    return Ok(());
+                };
+                let true_obs = BeamObservation {
+                    range_m: hit.range_m,
+                    angle_rad: a,
+                    angle_2_rad: a2,
+                    channel_elevation_rad: elevation,
+                };
+                let [sa, sa2, se] = self.beam_sigma;
+                let range_sigma = if s0 > 0.0 {
+                    b.range_sigma(s0, hit.range_m)
+                } else {
+                    0.0
+                };
+                let obs = BeamObservation {
+                    range_m: hit.range_m + errors.range_offset_m + draw(rng, range_sigma),
+                    angle_rad: a * (1.0 + errors.scan_angle_scale) + draw(rng, sa),
+                    angle_2_rad: a2 + draw(rng, sa2),
+                    channel_elevation_rad: elevation + draw(rng, se),
+                };
+                let p = b.parameters(&att_meas, &self.nominal, &obs);
+                let v = p_meas + c_meas * b.footprint_ned(&p);
+                let cos_inc = cos_incidence(&curve.direction(hit.range_m), &hit.normal);
+                let intensity = self.intensity(hit.reflectivity, cos_inc, hit.range_m, rng);
+                emit(
+                    to_point(&v),
+                    hit.position,
+                    intensity,
+                    a.to_degrees(),
+                    (1, 1),
+                    hit.class,
+                    Observation::Beam(true_obs),
+                    Observation::Beam(obs),
+                );
             }
             _ => return Err(fail("scanner type and scan pattern disagree")),
         }

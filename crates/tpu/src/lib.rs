@@ -31,6 +31,7 @@
 //! figures cannot come from Table 1 (SPEC §3). lidarqa reports the correct values.
 
 mod axes;
+mod beam_point;
 mod bias;
 mod budget;
 mod error;
@@ -65,7 +66,8 @@ pub use normals::{
 };
 pub use point::{Incidence, MAX_INCIDENCE_RAD, PointPropagator, PointUncertainty};
 pub use presets::Preset;
-pub use recover::{ConicRecovery, LinearRecovery, Recoverer, nominal_l3};
+pub use beam_point::{BEAM_FOOTPRINT_SOURCE, BeamPropagator, BeamUncertainty};
+pub use recover::{BeamRecovery, ConicRecovery, LinearRecovery, Recoverer, nominal_l3};
 pub use request::{GeometryRequest, SweepEvaluation, SweepPoint, evaluate_sweep};
 pub use sounding::{
     SAME_PULSE_S, SURFACE_NEIGHBOURS, SURFACE_RADIUS_M, SoundingRecovery, SurfacePlane,

@@ -18,12 +18,17 @@
 //! and the distance of `S` from the nominal cone is the quality figure. Bathymetric soundings
 //! (the in-water leg after the water-surface intersection) are recovered in
 //! [`crate::sounding`] from the seabed point and its water surface.
+//!
+//! For a beam scanner (rotating mirror, spinning multi-beam, Risley pair, elliptical) `S` is
+//! handed to the beam model's own inversion ([`lidarqa_model::BeamScanner::invert`]): the range,
+//! the head's encoder angles and, for a multi-beam head, the channel; a Risley pair's prism
+//! angles only up to the mirror pair that fires the same beam (both are returned).
 
 use crate::error::{Error, Result};
 use crate::trajectory::PoseAt;
 use lidarqa_model::{
-    Attitude, ConicObservation, ConicScanner, Ecef, Georeferencer, LinearObservation, Mounting,
-    Ned, OffPlaneLinearScanner,
+    Attitude, BeamInversion, BeamScanner, ConicObservation, ConicScanner, Ecef, Georeferencer,
+    LinearObservation, Mounting, Ned, OffPlaneLinearScanner,
 };
 use nalgebra::{Matrix3, Vector3};
 
@@ -88,6 +93,20 @@ pub struct ConicRecovery {
     pub range_air_m: f64,
     /// Distance of `S` from the nominal cone at the recovered azimuth, m (0 for a perfect model).
     pub off_cone_m: f64,
+    /// Unit beam direction (scanner origin → point) in N at P0.
+    pub beam_ned: Ned,
+    /// `S` itself, scanner frame, m.
+    pub scanner_m: Vector3<f64>,
+}
+
+/// A beam-scanner observation recovered from a point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BeamRecovery {
+    /// The range, encoder angles and channel, with the distance from the nearest beam the head
+    /// fires as the quality figure.
+    pub inversion: BeamInversion,
+    /// Range ρ = |S|, m.
+    pub range_m: f64,
     /// Unit beam direction (scanner origin → point) in N at P0.
     pub beam_ned: Ned,
     /// `S` itself, scanner frame, m.
@@ -210,6 +229,31 @@ impl Recoverer {
             range_air_m,
             off_cone_m,
             beam_ned: Ned::from_vector(beam / range_air_m),
+            scanner_m: s,
+        })
+    }
+}
+
+impl Recoverer {
+    /// Range, encoder angles and channel of a beam scanner's point given in ECEF.
+    ///
+    /// # Errors
+    /// [`Error::Recovery`] when the point is at the scanner origin or not finite.
+    pub fn beam(
+        &self,
+        scanner: &BeamScanner,
+        pose: &PoseAt,
+        point: &Ecef,
+    ) -> Result<BeamRecovery> {
+        let (s, beam) = self.scanner_vector(pose, point);
+        let range_m = s.norm();
+        let inversion = scanner
+            .invert(&s)
+            .ok_or_else(|| Error::Recovery(format!("range {range_m} m")))?;
+        Ok(BeamRecovery {
+            inversion,
+            range_m,
+            beam_ned: Ned::from_vector(beam / range_m),
             scanner_m: s,
         })
     }
