@@ -6,6 +6,8 @@
 //! As `bathymetry.rs` does, pulses sit at the trajectory samples with Gauss–Markov correlation
 //! times of one sample, so every point draws the GNSS and attitude errors at their full σ nearly
 //! independently; the mounting σ are removed (the simulator draws no mounting error unless told).
+//! Beside the simulator, `independent/beam_sigma.py` recovers the observations of a sample of
+//! points with its own code and compares the σ with its own Monte Carlo (numpy, pyproj, scipy).
 //! No beam divergence: the footprint term is the beam model's own Monte Carlo's
 //! (`crates/model/tests/beam_montecarlo.rs`), and the incidence term is not drawn by the
 //! simulator on a flat ground.
@@ -114,6 +116,25 @@ fn run(f: &ScenarioFile, dir: &Path) -> ([f64; 3], usize, [f64; 3]) {
         "-o",
         out.to_str().unwrap(),
     ]);
+    // The independent witness beside the simulator: numpy's own recovery and Monte Carlo.
+    if f.seed == 1
+        && let Some(python) =
+            lidarqa_testkit::python("the beam σ against numpy's own Monte Carlo")
+    {
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/independent/beam_sigma.py");
+        let o = std::process::Command::new(&python)
+            .arg(&script)
+            .arg(dir)
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&o.stdout);
+        eprint!("{text}");
+        assert!(
+            o.status.success() && text.contains(" passed, 0 failed"),
+            "{text}{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
     let c = read_all(&out);
     assert_eq!(c.len(), strip.points.len(), "every point has a TPU");
     let cols: Vec<Vec<f64>> = ["sigma_north", "sigma_east", "sigma_up"]

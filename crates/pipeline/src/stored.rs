@@ -8,7 +8,7 @@ use crate::summary::{
     AngleCheck, Histogram, IhoTally, IncidenceTally, ResidualCheck, SigmaMap, SkipReason,
     TpuSummary,
 };
-use lidarqa_model::Source;
+use lidarqa_model::{BeamKind, Source};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -36,7 +36,7 @@ pub struct StoredHistogram {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StoredSummary {
-    /// `"linear"` or `"conic"`.
+    /// `"linear"`, `"conic"` or a beam scanner's type (`"rotating-mirror"`, ...).
     pub scanner: String,
     /// Points read.
     pub points_read: u64,
@@ -173,7 +173,10 @@ fn static_name(name: &str, known: impl IntoIterator<Item = &'static str>) -> Opt
 impl StoredSummary {
     /// Back to the in-memory summary; a message naming the key at fault otherwise.
     pub fn restore(&self) -> Result<TpuSummary, String> {
-        let scanner = static_name(&self.scanner, ["linear", "conic"])
+        let scanner = static_name(
+            &self.scanner,
+            ["linear", "conic"].into_iter().chain(BeamKind::NAMES),
+        )
             .ok_or_else(|| format!("\"scanner\": unknown value \"{}\"", self.scanner))?;
         let mut skipped = BTreeMap::new();
         for (name, n) in &self.skipped {
@@ -192,7 +195,7 @@ impl StoredSummary {
         let names = Source::ALL
             .iter()
             .map(|s| s.name())
-            .chain(["incidence"])
+            .chain([lidarqa_tpu::BEAM_FOOTPRINT_SOURCE, "incidence"])
             .collect::<Vec<_>>();
         let share_sums = self
             .share_sums

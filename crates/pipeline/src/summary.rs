@@ -787,7 +787,7 @@ pub const SIGMA_NAMES: [&str; 7] = [
 /// Mergeable statistics of one tile or of many.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TpuSummary {
-    /// `"linear"` or `"conic"`.
+    /// `"linear"`, `"conic"` or a beam scanner's type (`"rotating-mirror"`, ...).
     pub scanner: &'static str,
     /// Points read.
     pub points_read: u64,
@@ -1116,10 +1116,11 @@ impl TpuSummary {
                 max_beyond_las_step_deg: self.scan_angle.max_beyond_step_deg,
             }),
             recovery_residual_m: (self.recovery_residual.n > 0).then(|| ResidualView {
-                kind: if self.scanner == "linear" {
-                    "out_of_plane"
-                } else {
-                    "off_cone"
+                kind: match self.scanner {
+                    "linear" => "out_of_plane",
+                    "conic" => "off_cone",
+                    // A beam scanner: the distance from the nearest beam the head fires.
+                    _ => "off_beam",
                 },
                 rms: (self.recovery_residual.sum_sq_m2 / self.recovery_residual.n as f64).sqrt(),
                 max_abs: self.recovery_residual.max_abs_m,
@@ -1134,7 +1135,7 @@ impl TpuSummary {
 /// JSON view of a [`TpuSummary`].
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SummaryView {
-    /// `"linear"` or `"conic"`.
+    /// `"linear"`, `"conic"` or a beam scanner's type (`"rotating-mirror"`, ...).
     pub scanner: &'static str,
     /// Points read.
     pub points_read: u64,

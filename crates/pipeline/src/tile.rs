@@ -836,6 +836,8 @@ impl Run<'_> {
         }
         let what = if conic {
             "recovered as soundings below their pulse's water-surface return"
+        } else if matches!(self.kernel, Kernel::Beam(_)) {
+            "propagated as topography (a beam scanner's model has no refraction)"
         } else {
             "propagated as topography (a linear scanner's model has no refraction)"
         };
