@@ -118,8 +118,7 @@ fn run(f: &ScenarioFile, dir: &Path) -> ([f64; 3], usize, [f64; 3]) {
     ]);
     // The independent witness beside the simulator: numpy's own recovery and Monte Carlo.
     if f.seed == 1
-        && let Some(python) =
-            lidarqa_testkit::python("the beam σ against numpy's own Monte Carlo")
+        && let Some(python) = lidarqa_testkit::python("the beam σ against numpy's own Monte Carlo")
     {
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/independent/beam_sigma.py");
         let o = std::process::Command::new(&python)
@@ -201,9 +200,7 @@ fn spinning_multibeam_with_its_axis_along_track() {
         f.sensor.scanner.head_pitch_deg = Some(90.0);
         f.sensor.scanner.channel_elevations_deg =
             Some((0..16).map(|i| -15.0 + 2.0 * i as f64).collect());
-        f.sensor
-            .sigma
-            .insert("channel_elevation_deg".into(), 0.02);
+        f.sensor.sigma.insert("channel_elevation_deg".into(), 0.02);
         f.scanner.scan_frequency_hz = 10.0;
     });
 }

@@ -171,7 +171,11 @@ mod tests {
                         o.angle_2_rad,
                         o.channel_elevation_rad,
                     );
-                    assert!((back - d).norm() < 1e-12, "{:?} {a} {b}: {back} vs {d}", s.kind);
+                    assert!(
+                        (back - d).norm() < 1e-12,
+                        "{:?} {a} {b}: {back} vs {d}",
+                        s.kind
+                    );
                 }
                 assert_eq!(inv.count, if s.kind.name() == "risley" { 2 } else { 1 });
                 if s.kind == BeamKind::SpinningMultibeam {

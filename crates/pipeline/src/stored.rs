@@ -177,7 +177,7 @@ impl StoredSummary {
             &self.scanner,
             ["linear", "conic"].into_iter().chain(BeamKind::NAMES),
         )
-            .ok_or_else(|| format!("\"scanner\": unknown value \"{}\"", self.scanner))?;
+        .ok_or_else(|| format!("\"scanner\": unknown value \"{}\"", self.scanner))?;
         let mut skipped = BTreeMap::new();
         for (name, n) in &self.skipped {
             let r = SkipReason::ALL

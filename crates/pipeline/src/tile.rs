@@ -19,10 +19,10 @@ use lidarqa_model::{
     Scanner, Source, ecef_from_ned_sin_cos, linear_jacobian_at_beam,
 };
 use lidarqa_tpu::{
-    BeamPropagator, IhoOrder, Incidence, IncidenceClass, PointPropagator, PoseAt, PoseSigma, Recoverer,
-    SegmentRotation, SoundingRecovery, Surface, SurfaceSource, THU_95_CBLUE, TVU_95_FACTOR,
-    Trajectory, WaterReturn, WaterSurfaceIndex, cos_incidence, judge_surfaces, judged_incidence,
-    thu_95_m,
+    BeamPropagator, IhoOrder, Incidence, IncidenceClass, PointPropagator, PoseAt, PoseSigma,
+    Recoverer, SegmentRotation, SoundingRecovery, Surface, SurfaceSource, THU_95_CBLUE,
+    TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex, cos_incidence, judge_surfaces,
+    judged_incidence, thu_95_m,
 };
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;

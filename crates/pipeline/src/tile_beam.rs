@@ -4,7 +4,9 @@
 //! and the incidence term as for the linear scanner.
 
 use lidarqa_model::{BEAM_N, BeamScanner, Georeferencer, Mounting};
-use lidarqa_tpu::{BEAM_FOOTPRINT_SOURCE, BeamPropagator, BeamRecovery, Incidence, PoseAt, PoseSigma};
+use lidarqa_tpu::{
+    BEAM_FOOTPRINT_SOURCE, BeamPropagator, BeamRecovery, Incidence, PoseAt, PoseSigma,
+};
 use nalgebra::Matrix3;
 
 /// The per-source share names: the beam model's sixteen, the footprint, the incidence term.

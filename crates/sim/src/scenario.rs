@@ -487,7 +487,9 @@ impl Scenario {
         };
         let beam_divergence_rad =
             non_negative("scanner.beam_divergence_mrad", beam_divergence_mrad)? * 1e-3;
-        if let (Some(f), Scanner::Linear | Scanner::Conic(_)) = (s.scan_frequency_2_hz, &sensor.scanner) {
+        if let (Some(f), Scanner::Linear | Scanner::Conic(_)) =
+            (s.scan_frequency_2_hz, &sensor.scanner)
+        {
             return Err(invalid(
                 "scanner.scan_frequency_2_hz",
                 f,

@@ -29,8 +29,9 @@ use crate::scene::{
 };
 use crate::trajectory::{self, LineError, Pose, StripTrajectory, trajectory_sigmas};
 use lidarqa_model::{
-    Attitude, BeamObservation, BeamScanner, ConicObservation, ConicScanner, Georeferencer, LinearObservation, LinearScanner,
-    Mounting, SPEED_OF_LIGHT_AIR_M_PER_S, Scanner, Source, refract, rotation_zyx, scanner_vector,
+    Attitude, BeamObservation, BeamScanner, ConicObservation, ConicScanner, Georeferencer,
+    LinearObservation, LinearScanner, Mounting, SPEED_OF_LIGHT_AIR_M_PER_S, Scanner, Source,
+    refract, rotation_zyx, scanner_vector,
 };
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};

@@ -104,9 +104,9 @@ impl BeamPropagator {
                 Source::Range,
                 scanner.range_sigma(self.range_sigma_0_m, o.range_m),
             )];
-            let u = self
-                .propagator
-                .propagate_jacobian(f, &j, trajectory, incidence, &range_sigma)?;
+            let u =
+                self.propagator
+                    .propagate_jacobian(f, &j, trajectory, incidence, &range_sigma)?;
             let mut c = u.covariance_ned;
             let across = o.range_m * scanner.beam_divergence_rad / 4.0;
             let mut footprint = 0.0;

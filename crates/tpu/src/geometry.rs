@@ -303,7 +303,7 @@ fn resolve<'a>(sensor: &'a Sensor, geometry: &Geometry) -> Result<Resolved<'a>> 
                 Scanner::Linear => "--scan-angle with --range or --height",
                 Scanner::Conic(_) => "--azimuth with --range-air/--range-water or --height/--depth",
                 Scanner::Beam(_) =>
-                    "a linear or conic sensor: the budget of a beam scanner is not available yet",
+                    "a linear or conic sensor: budget and sweep do not take a beam scanner (run `lidarqa tpu` on its points)",
             }
         ))),
     }

@@ -48,6 +48,7 @@ mod sweep;
 mod trajectory;
 
 pub use axes::{Axes, Displacement};
+pub use beam_point::{BEAM_FOOTPRINT_SOURCE, BeamPropagator, BeamUncertainty};
 pub use bias::{BiasEffect, Biases, bias_effect};
 pub use budget::{Budget, SourceTerm, budget, footprint_jacobian, propagate_covariance};
 pub use error::{Error, Result};
@@ -66,7 +67,6 @@ pub use normals::{
 };
 pub use point::{Incidence, MAX_INCIDENCE_RAD, PointPropagator, PointUncertainty};
 pub use presets::Preset;
-pub use beam_point::{BEAM_FOOTPRINT_SOURCE, BeamPropagator, BeamUncertainty};
 pub use recover::{BeamRecovery, ConicRecovery, LinearRecovery, Recoverer, nominal_l3};
 pub use request::{GeometryRequest, SweepEvaluation, SweepPoint, evaluate_sweep};
 pub use sounding::{

@@ -239,12 +239,7 @@ impl Recoverer {
     ///
     /// # Errors
     /// [`Error::Recovery`] when the point is at the scanner origin or not finite.
-    pub fn beam(
-        &self,
-        scanner: &BeamScanner,
-        pose: &PoseAt,
-        point: &Ecef,
-    ) -> Result<BeamRecovery> {
+    pub fn beam(&self, scanner: &BeamScanner, pose: &PoseAt, point: &Ecef) -> Result<BeamRecovery> {
         let (s, beam) = self.scanner_vector(pose, point);
         let range_m = s.norm();
         let inversion = scanner

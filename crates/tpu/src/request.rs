@@ -66,7 +66,7 @@ impl GeometryRequest {
         let geometry = match &sensor.scanner {
             Scanner::Beam(b) => {
                 return Err(Error::Geometry(format!(
-                    "the budget of a {} scanner is not available yet: its σ come from the beam model (lidarqa_model::BeamScanner::covariance_ned); budget and sweep handle linear and conic scanners",
+                    "budget and sweep take a linear or conic scanner, not a {} scanner: for its σ run `lidarqa tpu` on its points, or `lidarqa simulate` a scenario with this sensor and `lidarqa tpu` on the strip",
                     b.kind.name()
                 )));
             }
