@@ -275,6 +275,20 @@ mod tests {
         let text = serde_json::to_string(&StoredSummary::from(&e)).unwrap();
         let back: StoredSummary = serde_json::from_str(&text).unwrap();
         assert_eq!(back.restore().unwrap(), e);
+        // A beam scanner's type and its footprint share come back too.
+        let mut b = TpuSummary::new(
+            "spinning-multibeam",
+            vec![
+                "channel_elevation",
+                lidarqa_tpu::BEAM_FOOTPRINT_SOURCE,
+                "incidence",
+            ],
+            5,
+        );
+        b.share_sums[1].1 = 0.25;
+        let text = serde_json::to_string(&StoredSummary::from(&b)).unwrap();
+        let back: StoredSummary = serde_json::from_str(&text).unwrap();
+        assert_eq!(back.restore().unwrap(), b);
     }
 
     #[test]
