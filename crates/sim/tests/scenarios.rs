@@ -127,3 +127,40 @@ fn scenario_sensor_refuses_what_io_refuses_and_takes_a_covariance() {
     assert_eq!(c.matrix()[(0, 1)], 0.4);
     assert!(s.sensor_toml_string().contains("[covariance]"));
 }
+
+/// A beam scanner's drive keys: a Risley pair needs its second prism's rate, which no other type
+/// takes; the mirror window is the linear and rotating-mirror scanners' alone.
+#[test]
+fn beam_drive_keys_name_the_type() {
+    let risley = demo_text()
+        .replace(
+            "type = \"linear\"",
+            "type = \"risley\"\nprism_deviations_deg = [9.0, 9.0]",
+        )
+        .replace("field_of_view_deg = 30.0", "")
+        .replace("scan_wave = \"triangle\"", "");
+    let e = err(&risley);
+    assert!(
+        e.starts_with("scanner.scan_frequency_2_hz = (missing)"),
+        "{e}"
+    );
+    Scenario::from_toml_str(&risley.replace(
+        "scan_frequency_hz = 50.0",
+        "scan_frequency_hz = 50.0\nscan_frequency_2_hz = -37.0",
+    ))
+    .unwrap();
+    let e = err(&demo_text().replace(
+        "scan_frequency_hz = 50.0",
+        "scan_frequency_hz = 50.0\nscan_frequency_2_hz = -37.0",
+    ));
+    assert!(e.contains("applies to a Risley pair only"), "{e}");
+    let multibeam = demo_text().replace(
+        "type = \"linear\"",
+        "type = \"spinning-multibeam\"\nchannel_elevations_deg = [-10.0, 0.0]",
+    );
+    let e = err(&multibeam.replace("scan_wave = \"triangle\"", ""));
+    assert!(
+        e.contains("field_of_view_deg") && e.contains("spinning-multibeam"),
+        "{e}"
+    );
+}
