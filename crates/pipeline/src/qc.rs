@@ -52,7 +52,7 @@ mod iho;
 use crate::error::{Error, Result};
 use crate::lines::{FlightLine, LineOptions, Lines, read_lines};
 use crate::targets_files::control_for_targets;
-use crate::water::WaterClasses;
+use lidarqa_io::WaterClasses;
 use lidarqa_io::{
     AtomicFile, ControlPoints, GeoRaster, QC_FORMAT, QcDensity, QcDocument, QcIho, QcInterswath,
     QcIntraswath, QcLine, QcLines, QcNva, QcPredicted, QcRaster, QcRequirement, QcSmoothCells,
