@@ -8,8 +8,9 @@
 //! (count, min, max, percentiles exactly; mean and shares up to floating-point summation order).
 //! Storing every value would give exact percentiles but memory proportional to the survey.
 
-use crate::plausibility::{MountingView, PlausibilityTally};
+use crate::plausibility::PlausibilityTally;
 use lidarqa_model::{NORMAL_95_FACTOR, Warning, floor_i64};
+use lidarqa_tpu::MountingView;
 use lidarqa_tpu::{IhoLimits, IhoOrder, IncidenceClass, THU_95_CBLUE, TVU_95_FACTOR};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
