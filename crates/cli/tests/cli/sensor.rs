@@ -2,7 +2,7 @@
 //! `lidarqa budget` with the σ of the spec sheet and of the navigation grade asked for, and
 //! one-line refusals.
 
-mod binary;
+use crate::binary;
 use binary::lidarqa;
 
 use serde_json::Value;

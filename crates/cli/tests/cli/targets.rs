@@ -1,7 +1,7 @@
 //! `lidarqa targets` and `lidarqa evaluate` run as the real binary: seed 000 Table 2, a target found
 //! in a small point cloud, and one-line errors for bad input.
 
-mod binary;
+use crate::binary;
 use binary::{json_ok, lidarqa, run_ok, s};
 
 use lidarqa_io::{LasPoint, LasTimeBase, LasWriteOptions, LasWriter};

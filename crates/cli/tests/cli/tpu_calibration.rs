@@ -5,11 +5,10 @@
 //! with a sensor file holding the calibrated mounting: the calibration moves the points the
 //! TPU is computed at exactly as `correct` moves them.
 
-mod binary;
+use crate::binary;
 use binary::{lidarqa, s, with_calibration};
 
-#[path = "../../pipeline/tests/common/mod.rs"]
-mod common;
+use lidarqa_fixtures as common;
 
 use lidarqa_io::{LasReader, PointChunk, sensor_to_toml};
 use serde_json::Value;

@@ -6,7 +6,7 @@
 //! One small survey (the demo scenario at 2 kHz: 14 strips of ~18 000 points) is simulated once
 //! and copied into each test's own directory.
 
-mod binary;
+use crate::binary;
 
 use binary::{fails_with, lidarqa, s, snapshot};
 use std::path::{Path, PathBuf};

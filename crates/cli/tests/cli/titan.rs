@@ -3,7 +3,7 @@
 //! `112-trajectory.txt`, from NCALM-UH/pdal-als-tpu @ 0305671, test/data). With `LIDARQA_PYTHON` too, docs/real-data/titan_check.py compares the σ
 //! of range, attitude and GNSS with its independent physical-beam computation, point by point.
 
-mod binary;
+use crate::binary;
 use binary::{lidarqa, s};
 
 use serde_json::Value;

@@ -2,7 +2,7 @@
 //! the rebuilt trajectory against the simulator's TRUE trajectory, and the TPU from it against
 //! the TPU from the SBET (issue #24 acceptance).
 
-mod binary;
+use crate::binary;
 use binary::{lidarqa, s};
 
 use lidarqa_io::{LasReader, PointChunk, UtmZone};

@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-mod binary;
+use crate::binary;
 use binary::{fails_with, lidarqa, s};
 
 const BIN: &str = env!("CARGO_BIN_EXE_lidarqa");

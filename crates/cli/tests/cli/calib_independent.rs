@@ -5,7 +5,7 @@
 //! Runs when `LIDARQA_PYTHON` names a Python with numpy, laspy and pyproj:
 //!
 //! ```text
-//! LIDARQA_PYTHON=python3 cargo test --release -p lidarqa --test calib_independent
+//! LIDARQA_PYTHON=python3 cargo test --release -p lidarqa --test cli calib_independent::
 //! ```
 //!
 //! - noise-free picks: `calibrate --ties --control` gives the injected mounting back to the
@@ -18,7 +18,7 @@
 //!   σ are honest both ways: RMS(error/σ) over the seeds within the 99 % χ² interval of an
 //!   honest σ, per parameter and over all six.
 
-mod binary;
+use crate::binary;
 use binary::{lidarqa, s};
 
 use serde_json::Value;

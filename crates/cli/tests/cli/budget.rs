@@ -1,7 +1,7 @@
 //! `lidarqa budget` run as a real binary: the JSON contract with values, and one-line errors with
 //! exit code 1 for bad input.
 
-mod binary;
+use crate::binary;
 use binary::lidarqa;
 
 use serde_json::Value;

@@ -6,7 +6,7 @@
 //! laspy and pyproj:
 //!
 //! ```text
-//! LIDARQA_PYTHON=python3 cargo test --release -p lidarqa --test strip_adjust_independent -- --ignored --nocapture
+//! LIDARQA_PYTHON=python3 cargo test --release -p lidarqa --test cli strip_adjust_independent:: -- --ignored --nocapture
 //! ```
 //!
 //! Over seeds 1–10, `calibrate --adjust-strips=offset+drift+attitude` then `correct`:
@@ -25,7 +25,7 @@
 //!   within 15 % on every one: the floor is the same points georeferenced without any error
 //!   (`floor/`, the generator's), 2 m cells.
 
-mod binary;
+use crate::binary;
 use binary::{lidarqa, s};
 
 use serde_json::Value;

@@ -356,9 +356,9 @@ fn assert_soundings_judged_by_qc(d: &Path, iho: &Value) {
 
 /// Issue #19: with every random error off, the demo's own strips give back the injected mounting
 /// through the automatic ties to the numerical floor (≤ 0.0005°, ≤ 2 mm). Release-sized
-/// (fourteen strips, 6.4 M pulses): `cargo test --release -p lidarqa --test demo -- --ignored`.
+/// (fourteen strips, 6.4 M pulses): `cargo test --release -p lidarqa --test cli demo:: -- --ignored`.
 #[test]
-#[ignore = "release-sized: cargo test --release -p lidarqa --test demo -- --ignored"]
+#[ignore = "release-sized: cargo test --release -p lidarqa --test cli demo:: -- --ignored"]
 fn noise_free_demo_auto_ties_recover_the_mounting() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
@@ -424,16 +424,16 @@ fn noise_free_sawtooth_cross_auto_ties_recover_the_mounting() {
 /// The scenario of [`noise_free_sawtooth_cross_auto_ties_recover_the_mounting`]: 60 m/s at
 /// 44.1176 Hz is 1.36 m between lines; 94.77 kHz over ±20° is 2148 points a line, 0.13 m apart
 /// at 400 m.
-const SAWTOOTH_CROSS: &str = include_str!("data/sawtooth_cross.toml");
+const SAWTOOTH_CROSS: &str = include_str!("../data/sawtooth_cross.toml");
 
 /// Issue #19: the demo as a user runs it (default seed, full size) tells a true calibration story:
 /// every parameter determined and within 2σ of the injection, the boresight within 0.005°, the
 /// lever arm within 2 cm, and the strips' RMSDz after the strip-adjusted correction at the noise
 /// floor (the same flight simulated with the true mounting and without the lines' own trajectory
 /// errors: within 10 % of its worst pair). Release-sized:
-/// `cargo test --release -p lidarqa --test demo -- --ignored`.
+/// `cargo test --release -p lidarqa --test cli demo:: -- --ignored`.
 #[test]
-#[ignore = "release-sized: cargo test --release -p lidarqa --test demo -- --ignored"]
+#[ignore = "release-sized: cargo test --release -p lidarqa --test cli demo:: -- --ignored"]
 fn default_demo_meets_the_calibration_bar() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

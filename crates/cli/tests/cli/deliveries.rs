@@ -3,7 +3,7 @@
 //! expectation or an independent computation; and the independent generator
 //! (`tests/deliveries_generator.py`: tiles of several lines with orthometric heights).
 
-mod binary;
+use crate::binary;
 use binary::{lidarqa, s};
 
 use serde_json::Value;

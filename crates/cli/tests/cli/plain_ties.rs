@@ -5,7 +5,7 @@
 //! ground cannot determine is reported as not observable: every returned parameter is within
 //! 3 σ of the simulation's truth.
 
-mod binary;
+use crate::binary;
 use binary::{lidarqa, s, simulate_scenario, small_demo_scenario};
 
 use lidarqa_io::{LasReader, PointChunk};

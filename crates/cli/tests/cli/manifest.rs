@@ -3,7 +3,7 @@
 //! entries skipped; changed inputs refused until planned again, then redone; partial or corrupt
 //! outputs and reports redone; one-line errors (SPEC §9).
 
-mod binary;
+use crate::binary;
 use binary::{lidarqa, s};
 
 use serde_json::Value;
@@ -18,14 +18,7 @@ fn ok(args: &[&str]) -> String {
 
 /// Exit 1 with one line `lidarqa: …` containing every needle.
 fn fails_with(args: &[&str], needles: &[&str]) {
-    let out = lidarqa(args);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
-    assert_eq!(err.lines().count(), 1, "{args:?}: one line, got: {err}");
-    assert!(err.starts_with("lidarqa: "), "{err}");
-    for n in needles {
-        assert!(err.contains(n), "{args:?}: `{err}` lacks `{n}`");
-    }
+    binary::fails_with(&lidarqa(args), needles);
 }
 
 /// A simulated survey (the demo scenario at 1 kHz: ~36 000 points in four strips) cut into

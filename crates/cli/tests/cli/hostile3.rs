@@ -7,7 +7,7 @@
 //! One small survey (the demo scenario's first two lines at 2 kHz: two strips of ~18 000
 //! points, 100 m above ground) is simulated once and copied into each test's own directory.
 
-mod binary;
+use crate::binary;
 
 use binary::{fails_with, lidarqa, s, snapshot};
 use std::path::{Path, PathBuf};

@@ -3,11 +3,10 @@
 //! cross-check of the written file (when `LIDARQA_PYTHON` is set, as in tests/laspy.rs of
 //! lidarqa-io).
 
-mod binary;
+use crate::binary;
 use binary::{lidarqa, s};
 
-#[path = "../../pipeline/tests/common/mod.rs"]
-mod common;
+use lidarqa_fixtures as common;
 
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -41,14 +40,7 @@ fn json_ok(args: &[&str]) -> Value {
 fn fails_with(args: &[&str], needles: &[&str], dir: &Path) {
     let before = listing(dir);
     let out = lidarqa(args);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
-    assert_eq!(err.lines().count(), 1, "{args:?}: one line, got: {err}");
-    assert!(err.starts_with("lidarqa: "), "{err}");
-    for n in needles {
-        assert!(err.contains(n), "{args:?}: `{err}` lacks `{n}`");
-    }
-    assert!(!err.contains("panicked"), "{err}");
+    binary::fails_with(&out, needles);
     assert!(out.stdout.is_empty());
     assert_eq!(listing(dir), before, "a failed run leaves no file behind");
 }

@@ -2,11 +2,10 @@
 //! command runs that function for each strip), and a strip without a CRS is corrected with
 //! `--utm-zone` / `--epsg`, refused with a one-line error naming the file without them.
 
-mod binary;
+use crate::binary;
 use binary::{lidarqa, with_calibration};
 
-#[path = "../../pipeline/tests/common/mod.rs"]
-mod common;
+use lidarqa_fixtures as common;
 
 use lidarqa_model::Mounting;
 use lidarqa_pipeline::{CorrectTileJob, TpuContext, TpuOptions, correct_tile};

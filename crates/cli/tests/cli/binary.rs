@@ -1,4 +1,4 @@
-//! Running the built `lidarqa` binary from the integration tests (each test file uses part).
+//! Running the built `lidarqa` binary from the integration tests (each module uses part).
 #![allow(dead_code)]
 
 use std::collections::BTreeMap;

@@ -10,7 +10,7 @@
 //! One small survey (the demo scenario at 2 kHz: four strips of ~18 000 points) is simulated
 //! once and shared read-only by the tests; each test writes into its own directory.
 
-mod binary;
+use crate::binary;
 
 use binary::{lidarqa, s};
 use std::path::{Path, PathBuf};

@@ -3,7 +3,7 @@
 //! (simulated point − truth), per axis, in both refraction modes; the IHO S-44 block of the
 //! summary; bad input.
 
-mod binary;
+use crate::binary;
 use binary::{lidarqa, stdout_ok as ok};
 
 use lidarqa_io::{Geodetic, LasReader, PointChunk, UtmZone};

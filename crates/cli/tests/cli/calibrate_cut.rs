@@ -4,7 +4,7 @@
 //! those `auto_ties` finds on the whole strips, and tiles of 40 000 points (dozens of them) give
 //! the same calibration as one tile.
 
-mod binary;
+use crate::binary;
 use binary::{simulate_scenario, small_demo_scenario};
 
 use lidarqa_calib::{AutoTieOptions, VtpmOptions, auto_ties};

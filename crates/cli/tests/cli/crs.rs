@@ -6,7 +6,7 @@
 //! 0.5 %. Runs when `LIDARQA_PYTHON` names a Python with numpy, pyproj and laspy; 10 000 points
 //! here, the 200 000-point run's command and result are in docs/reference/crs.md.
 
-mod binary;
+use crate::binary;
 use binary::{lidarqa, s};
 
 use lidarqa_io::{LasReader, PointChunk};

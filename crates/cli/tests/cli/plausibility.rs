@@ -5,11 +5,10 @@
 //! with leeward's `points.las` and `sbet.out` (see the README's "Real data" section); it says it
 //! skipped otherwise.
 
-mod binary;
+use crate::binary;
 use binary::{lidarqa, s, with_calibration};
 
-#[path = "../../pipeline/tests/common/mod.rs"]
-mod common;
+use lidarqa_fixtures as common;
 
 use lidarqa_io::{sbet_raw, write_records_to_path};
 use serde_json::Value;
