@@ -55,7 +55,7 @@ pub use csd::{
     CsdReader, CsdRecord, CsdReturn, is_csd,
 };
 pub use csv::{
-    ControlPoint, ControlPoints, HasExtra, PointTable, Target, Targets, TiePick, TiePicks,
+    ControlPoints, ControlRow, HasExtra, PointTable, Target, Targets, TiePick, TiePicks,
 };
 pub use error::{Error, Result};
 pub use geodesy::{
