@@ -3,8 +3,8 @@
 use crate::context::{Heights, OpenTile, TpuContext};
 use crate::error::{Error, Result};
 use crate::plausibility::{
-    DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, MOUNTING_ERROR_M, MountingTally, check_distance,
-    check_gaps, crs_name, outside_zone, point_implausible,
+    DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, check_distance, check_gaps, crs_name, outside_zone,
+    point_implausible,
 };
 use crate::stages::{read_chunks, run_stages, write_chunks};
 use crate::summary::{
@@ -24,6 +24,7 @@ use lidarqa_tpu::{
     Trajectory, WaterReturn, WaterSurfaceIndex, cos_incidence, judge_surfaces, judged_incidence,
     thu_95_m,
 };
+use lidarqa_tpu::{MOUNTING_ERROR_M, MountingTally};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
