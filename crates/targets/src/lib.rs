@@ -10,7 +10,7 @@
 //! 2. [`segment_clusters`]: connected components in XY (k-d tree); with an unknown radius each
 //!    cluster is matched to the nearest control point within a search radius; unmatched
 //!    clusters and control points without a target are reported ([`TargetReport`]).
-//! 3. With a known radius, the plate model at every control point (module `plate`, issue #18):
+//! 3. With a known radius, the plate model at every control point (module `plate`):
 //!    a matched filter finds the disc, the centre is the posterior mean of an intensity
 //!    (footprint mixing) and height-step likelihood over every return around it, the elevation
 //!    the mean Z inside the circle minus the rim ([`PlateModel`]), with shape and neighbour
