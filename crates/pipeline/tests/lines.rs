@@ -55,7 +55,10 @@ fn the_vq880g_snippet_is_one_pass_as_numpy_counts_it() {
             .any(|w| w.code == "no_point_source_id")
     );
     // A gap threshold under its largest gap splits it, as numpy does.
-    let split = read_lines(&[&las], &LineOptions { max_gap_s: 0.2 }).unwrap();
+    let split = read_lines(&[&las], &LineOptions {
+            max_gap_s: 0.2,
+            ..LineOptions::default()
+        }).unwrap();
     assert_eq!(split.lines.len(), 2);
     assert_eq!(split.lines[1].points.len(), 1);
     assert!(split.warnings.iter().any(|w| w.code == "line_split"));

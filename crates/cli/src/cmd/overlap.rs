@@ -75,6 +75,7 @@ pub fn run(a: OverlapArgs) -> Result<()> {
         &opts,
         &LineOptions {
             max_gap_s: a.line_gap_s,
+            ..LineOptions::default()
         },
     )?;
     print_warnings(&lines.warnings);

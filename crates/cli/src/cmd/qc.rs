@@ -108,6 +108,7 @@ pub fn run(a: QcArgs) -> Result<()> {
         &a.delivery,
         &LineOptions {
             max_gap_s: a.line_gap_s,
+            ..LineOptions::default()
         },
     )?;
     let predicted = match (&a.sensor, &a.trajectory) {
@@ -122,6 +123,7 @@ pub fn run(a: QcArgs) -> Result<()> {
         min_cells: a.min_cells,
         lines: LineOptions {
             max_gap_s: a.line_gap_s,
+            ..LineOptions::default()
         },
         control: a.control.clone(),
         predicted,
