@@ -664,7 +664,12 @@ struct Piece {
 }
 
 impl Piece {
-    fn take(&mut self, kept: &Kept, observed: &Observed, frame: &LocalFrame) -> std::io::Result<()> {
+    fn take(
+        &mut self,
+        kept: &Kept,
+        observed: &Observed,
+        frame: &LocalFrame,
+    ) -> std::io::Result<()> {
         // Only the local position and the time are needed for every point; the whole point
         // only for the extreme ones, built at the end (the latest point changes at every point).
         let k = self.count;
@@ -1285,7 +1290,10 @@ fn stream_file(
                 .point_keys
                 .as_ref()
                 .map(|keys| usize::try_from(k).ok().and_then(|i| keys.get(i)).copied());
-            let sow = match (keyed, p.gps_time_s.map(|t| tile.converter.to_seconds_of_week(t))) {
+            let sow = match (
+                keyed,
+                p.gps_time_s.map(|t| tile.converter.to_seconds_of_week(t)),
+            ) {
                 (Some(Some(key)), _) => key,
                 (Some(None), _) => {
                     return Err(Error::BadTime {

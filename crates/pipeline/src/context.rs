@@ -264,16 +264,14 @@ pub fn read_line_corrections(path: &Path) -> Result<Vec<(crate::LineMatch, Optio
             let file = v.get("file").and_then(|f| f.as_str()).map(str::to_string);
             let point_source_id = match v.get("point_source_id") {
                 None | Some(serde_json::Value::Null) => None,
-                Some(id) => Some(
-                    id.as_u64()
-                        .and_then(|i| u16::try_from(i).ok())
-                        .ok_or_else(|| {
-                            bad(format!(
-                                "strip_adjustment.lines[{k}].point_source_id: {id} is not a \
+                Some(id) => Some(id.as_u64().and_then(|i| u16::try_from(i).ok()).ok_or_else(
+                    || {
+                        bad(format!(
+                            "strip_adjustment.lines[{k}].point_source_id: {id} is not a \
                                  point source id (0–65535)"
-                            ))
-                        })?,
-                ),
+                        ))
+                    },
+                )?),
             };
             Ok((
                 crate::LineMatch {

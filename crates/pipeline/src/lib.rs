@@ -80,17 +80,16 @@ pub mod trajectory_from_returns;
 pub mod water;
 
 pub use calibrate_strips::{
-    CalibrateJob, CalibrateStep, LineName, LoadedStrip, POINTS_PER_TILE, StripCalibration, TieSource,
-    TrajectoryWeighting, VTPM_NEIGHBOURS, calibrate_strips, calibrate_strips_with_progress,
-    frame_for, load_all, local_to_projected, projected_to_local,
+    CalibrateJob, CalibrateStep, LineName, LoadedStrip, POINTS_PER_TILE, StripCalibration,
+    TieSource, TrajectoryWeighting, VTPM_NEIGHBOURS, calibrate_strips,
+    calibrate_strips_with_progress, frame_for, load_all, local_to_projected, projected_to_local,
 };
 pub use context::{
     TpuContext, TpuOptions, check_held_parameters, read_calibrated_mounting, read_line_corrections,
 };
 pub use correct_tile::{
     CorrectTileJob, CorrectTileReport, LineMatch, correct_tile, correct_tile_with_line,
-    correct_tile_with_lines,
-    correct_tile_with_progress,
+    correct_tile_with_lines, correct_tile_with_progress,
 };
 pub use csd_tpu::{
     CsdHeaderView, CsdMounting, CsdPoint, CsdTpuJob, CsdTpuReport, MountingView, csd_propagator,

@@ -158,9 +158,9 @@ impl Cut {
     fn describe(&self) -> String {
         match *self {
             Cut::Gap { dt_s, at_s } => format!("a GPS-time gap of {dt_s:.1} s at {at_s:.1} s"),
-            Cut::Jump { d_m, dt_s, at_s } => format!(
-                "a sensor position jump of {d_m:.1} m in {dt_s:.3} s at {at_s:.1} s"
-            ),
+            Cut::Jump { d_m, dt_s, at_s } => {
+                format!("a sensor position jump of {d_m:.1} m in {dt_s:.3} s at {at_s:.1} s")
+            }
         }
     }
 }
@@ -189,7 +189,14 @@ fn cuts(sorted: &[Order], options: &LineOptions) -> Vec<(usize, Cut)> {
             .sqrt();
         // NaN (no sensor position) never compares greater.
         if d_m > options.max_speed_m_s * (dt_s + step_s) + JUMP_FLOOR_M {
-            out.push((k, Cut::Jump { d_m, dt_s, at_s: a.time }));
+            out.push((
+                k,
+                Cut::Jump {
+                    d_m,
+                    dt_s,
+                    at_s: a.time,
+                },
+            ));
         }
     }
     out
@@ -248,7 +255,8 @@ fn split_groups<T>(
         } else {
             format!("point source id {psid}")
         };
-        let files: std::collections::BTreeSet<usize> = pts.iter().map(|(_, t)| file_of(t)).collect();
+        let files: std::collections::BTreeSet<usize> =
+            pts.iter().map(|(_, t)| file_of(t)).collect();
         let across = if files.len() > 1 {
             format!(" across {} files", files.len())
         } else {
@@ -615,5 +623,60 @@ mod tests {
         assert_eq!(gap_starts(&t, 5.0), vec![3, 5]);
         assert_eq!(gap_starts(&t, 200.0), Vec::<usize>::new());
         assert_eq!(gap_starts(&[], 1.0), Vec::<usize>::new());
+    }
+
+    fn at(time: f64, north: f64) -> Order {
+        Order {
+            time,
+            frame: f64::NAN,
+            sensor: [north, 0.0, -300.0],
+        }
+    }
+
+    /// A jump farther than the platform can move in the time between two points starts a line;
+    /// the same distance over the time it takes at 60 m/s does not, nor does a step within the
+    /// time's own resolution (whole seconds: 60 m between points of one second).
+    #[test]
+    fn sensor_jumps_split_where_the_platform_cannot_have_moved() {
+        let o = LineOptions::default();
+        // 60 m/s sampled every 10 ms, then 200 m in 10 ms (a pieced trajectory).
+        let mut pts: Vec<Order> = (0..100)
+            .map(|k| at(k as f64 * 0.01, k as f64 * 0.6))
+            .collect();
+        pts.push(at(1.0, 59.4 + 200.0));
+        let c = cuts(&pts, &o);
+        assert_eq!(c.len(), 1);
+        assert_eq!(c[0].0, 100);
+        assert!(matches!(c[0].1, Cut::Jump { d_m, .. } if (d_m - 200.0).abs() < 1e-9));
+        // 100.5 m in 1 s at most 100 m/s plus the 1 m floor (and a 0.01 s time step): one line;
+        // 102 m: two.
+        let ok = [at(0.0, 0.0), at(0.01, 0.0), at(1.01, 100.5)];
+        assert!(cuts(&ok, &o).is_empty());
+        let jump = [at(0.0, 0.0), at(0.01, 0.0), at(1.01, 102.5)];
+        assert_eq!(cuts(&jump, &o).len(), 1);
+        // Whole seconds: 60 m between two points of one time is motion within the second.
+        let coarse = [at(0.0, 0.0), at(0.0, 60.0), at(1.0, 120.0)];
+        assert!(cuts(&coarse, &o).is_empty());
+        // No sensor position: only gaps split.
+        let blind = [
+            Order {
+                time: 0.0,
+                frame: f64::NAN,
+                sensor: [f64::NAN; 3],
+            },
+            Order {
+                time: 0.01,
+                frame: f64::NAN,
+                sensor: [f64::NAN; 3],
+            },
+            Order {
+                time: 6.0,
+                frame: f64::NAN,
+                sensor: [f64::NAN; 3],
+            },
+        ];
+        let c = cuts(&blind, &o);
+        assert_eq!(c.len(), 1);
+        assert!(matches!(c[0].1, Cut::Gap { dt_s, .. } if (dt_s - 5.99).abs() < 1e-9));
     }
 }
