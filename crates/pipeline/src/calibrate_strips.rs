@@ -25,7 +25,7 @@
 //! and the order in which a neighbourhood's points come are the whole strip's: the ties and the
 //! calibration are the same as from whole strips.
 //!
-//! **A strip is a flight line, not a file** ([`crate::lines`]): before the first pass the files
+//! **A strip is a flight line, not a file** ([`crate::read_lines`]): before the first pass the files
 //! are read once for each point's line (by point source id across all files, split at GPS-time
 //! gaps and at jumps of the sensor position, the position stored with each point or the
 //! trajectory's at its time). The first pass then streams each file once and hands each point to
@@ -105,7 +105,7 @@ pub struct CalibrateJob<'a> {
     /// Most points one tile of the automatic tie search holds ([`POINTS_PER_TILE`]; the
     /// result does not depend on it, the peak memory does).
     pub tile_points: u64,
-    /// How the files' points are split into flight lines ([`crate::lines`]).
+    /// How the files' points are split into flight lines ([`crate::read_lines`]).
     pub lines: LineOptions,
 }
 
@@ -469,12 +469,12 @@ pub fn load_all(
     let names = LineName::of_index(&index);
     // The files load in parallel (each point as alone, so the points are the same); the first
     // failing file in the given order is the one reported.
-    let loaded: Vec<Result<Vec<(usize, Vec<RawPoint>)>>> = paths
+    let loaded: Vec<Result<PerLine>> = paths
         .par_iter()
         .enumerate()
         .map(|(f, p)| {
             let of_point = &index.of_point[f];
-            let mut per_line: Vec<(usize, Vec<RawPoint>)> = Vec::new();
+            let mut per_line: PerLine = Vec::new();
             stream_file(p, ctx, |kept, observed| {
                 let l = line_of(of_point, kept, p)?;
                 let at = match per_line.iter().position(|(k, _)| *k == l) {
@@ -512,7 +512,10 @@ pub fn load_all(
     Ok((frame, zone, strips))
 }
 
-/// The flight lines of the files ([`crate::lines`]): where a file stores no sensor position
+/// One file's points per line: (line, its points in file order).
+type PerLine = Vec<(usize, Vec<RawPoint>)>;
+
+/// The flight lines of the files ([`crate::read_lines`]): where a file stores no sensor position
 /// with its points, the trajectory's position at each point's time tells the jumps.
 fn index_lines(paths: &[PathBuf], ctx: &TpuContext, options: &LineOptions) -> Result<LineIndex> {
     let tiles = paths

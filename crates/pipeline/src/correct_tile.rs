@@ -35,7 +35,7 @@
 //!
 //! # Strip adjustment: per flight line
 //! `calibrate --adjust-strips` estimates one trajectory correction per flight line, a line being
-//! what [`crate::lines`] finds (a point source id, split at GPS-time gaps and sensor position
+//! what [`crate::read_lines`] finds (a point source id, split at GPS-time gaps and sensor position
 //! jumps), not a file. Each line of `calibration.json`'s `strip_adjustment.lines` names its
 //! point source id and its first and last time (seconds of the GPS week, the time the points
 //! were posed at): a point takes the line of its point source id whose span holds its time.

@@ -202,17 +202,23 @@ fn cuts(sorted: &[Order], options: &LineOptions) -> Vec<(usize, Cut)> {
     out
 }
 
+/// Points of one group or line, each with what orders it.
+type Ordered<T> = Vec<(Order, T)>;
+
+/// The groups of points, by point source id (and file, for id 0 without GPS time).
+type Groups<T> = BTreeMap<GroupKey, Ordered<T>>;
+
 /// One id's points split into lines: (name, point source id, points), and the id's reason and
 /// warnings.
 struct Split<T> {
-    lines: Vec<(String, u16, Vec<(Order, T)>)>,
+    lines: Vec<(String, u16, Ordered<T>)>,
     reasons: Vec<String>,
     warnings: Vec<Warning>,
 }
 
 /// Splits each group into its lines (module docs); `file_of` gives a point's file index.
 fn split_groups<T>(
-    groups: BTreeMap<GroupKey, Vec<(Order, T)>>,
+    groups: Groups<T>,
     inputs: &[PathBuf],
     options: &LineOptions,
     file_of: impl Fn(&T) -> usize,
@@ -417,7 +423,7 @@ pub fn read_lines<P: AsRef<Path>>(paths: &[P], options: &LineOptions) -> Result<
     lidarqa_io::check_distinct_inputs(paths)?;
     check_options(options)?;
     let inputs: Vec<PathBuf> = paths.iter().map(|p| p.as_ref().to_path_buf()).collect();
-    let mut groups: BTreeMap<GroupKey, Vec<(Order, (LinePoint, usize))>> = BTreeMap::new();
+    let mut groups: Groups<(LinePoint, usize)> = BTreeMap::new();
     let mut epsg = None;
     let mut has_ground = false;
     let mut warnings = Vec::new();
@@ -551,7 +557,7 @@ pub fn line_index<P: AsRef<Path>>(
     lidarqa_io::check_distinct_inputs(paths)?;
     check_options(options)?;
     let inputs: Vec<PathBuf> = paths.iter().map(|p| p.as_ref().to_path_buf()).collect();
-    let mut groups: BTreeMap<GroupKey, Vec<(Order, (u32, u64))>> = BTreeMap::new();
+    let mut groups: Groups<(u32, u64)> = BTreeMap::new();
     let mut warnings = Vec::new();
     let mut counts = Vec::with_capacity(inputs.len());
     let mut chunk = PointChunk::new();
