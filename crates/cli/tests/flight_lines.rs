@@ -1,7 +1,8 @@
-//! Lines, not files, in `calibrate` and `correct`: two files holding four flight lines, made by
+//! Lines, not files, in `calibrate` and `correct`: three files holding four flight lines, made by
 //! `tests/lines_generator.py` (numpy + laspy on the independent calibration cross, none of
-//! lidarqa's code). `ab.las` holds two passes of point source id 1 ~95 s apart; `cd.las` two
-//! passes of id 3 one second apart (no GPS-time gap) whose sensor position jumps 200 m. Each
+//! lidarqa's code). Two tiles `ab_w.las` and `ab_e.las` each hold part of two passes of point
+//! source id 1 ~95 s apart; `cd.las` two passes of id 3 one second apart (no GPS-time gap) whose
+//! sensor position jumps 200 m. Each
 //! line's navigation is off by its own offset, drift and attitude error, the mounting by an
 //! injected boresight and lever arm. Runs when `LIDARQA_PYTHON` names a Python with numpy,
 //! laspy and pyproj:
@@ -45,7 +46,7 @@ fn python_json(python: &std::ffi::OsStr, args: &[&str]) -> Option<Value> {
 }
 
 #[test]
-fn lines_in_one_file_calibrate_and_correct_as_lines() {
+fn lines_across_tiles_and_within_one_file_calibrate_and_correct_as_lines() {
     let Some(python) = lidarqa_testkit::python("the flight lines of calibrate and correct") else {
         return;
     };
@@ -56,7 +57,7 @@ fn lines_in_one_file_calibrate_and_correct_as_lines() {
     let out = d.join("out");
     let common = |cmd: &str| -> Vec<String> {
         let mut v: Vec<String> = vec![cmd.into()];
-        v.extend([s(&d.join("ab.las")), s(&d.join("cd.las"))].map(String::from));
+        v.extend(["ab_w.las", "ab_e.las", "cd.las"].map(|f| s(&d.join(f)).to_string()));
         for (flag, file) in [("--trajectory", "sbet.out"), ("--sensor", "sensor.toml")] {
             v.push(flag.into());
             v.push(s(&d.join(file)).into());
@@ -82,7 +83,7 @@ fn lines_in_one_file_calibrate_and_correct_as_lines() {
     let c: Value = serde_json::from_str(&std::fs::read_to_string(&cal).unwrap()).unwrap();
 
     // The lines found, and why.
-    let found: Vec<(String, u64, String)> = c["lines"]["found"]
+    let found: Vec<(String, u64, Value)> = c["lines"]["found"]
         .as_array()
         .unwrap()
         .iter()
@@ -90,22 +91,25 @@ fn lines_in_one_file_calibrate_and_correct_as_lines() {
             (
                 l["strip"].as_str().unwrap().to_string(),
                 l["point_source_id"].as_u64().unwrap(),
-                l["files"][0].as_str().unwrap().to_string(),
+                l["files"].clone(),
             )
         })
         .collect();
-    let want: Vec<(String, u64, String)> = [
-        ("1-1", 1, "ab"),
-        ("1-2", 1, "ab"),
-        ("3-1", 3, "cd"),
-        ("3-2", 3, "cd"),
+    let tiles = serde_json::json!(["ab_w", "ab_e"]);
+    let want: Vec<(String, u64, Value)> = [
+        ("1-1", 1, tiles.clone()),
+        ("1-2", 1, tiles),
+        ("3-1", 3, serde_json::json!(["cd"])),
+        ("3-2", 3, serde_json::json!(["cd"])),
     ]
-    .map(|(a, b, f)| (a.to_string(), b, f.to_string()))
+    .map(|(a, b, f)| (a.to_string(), b, f))
     .to_vec();
     assert_eq!(found, want);
     let reasons = c["lines"]["reasons"].to_string();
     assert!(
-        reasons.contains("point source id 1: 2 lines, split at a GPS-time gap of 95.5 s"),
+        reasons.contains(
+            "point source id 1: 2 lines across 2 files, split at a GPS-time gap of 95.5 s"
+        ),
         "{reasons}"
     );
     assert!(
@@ -119,10 +123,10 @@ fn lines_in_one_file_calibrate_and_correct_as_lines() {
     // Each strip adjustment line names what correct matches points by.
     let lines = c["strip_adjustment"]["lines"].as_array().unwrap();
     assert_eq!(lines.len(), 4);
-    for (l, (id, psid, file)) in lines.iter().zip(&want) {
+    for (l, (id, psid, files)) in lines.iter().zip(&want) {
         assert_eq!(l["strip"], id.as_str());
         assert_eq!(l["point_source_id"], *psid);
-        assert_eq!(l["file"], file.as_str());
+        assert_eq!(&l["files"], files);
     }
 
     // correct, per line.

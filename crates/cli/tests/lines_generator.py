@@ -10,14 +10,16 @@ crates/calib/tests/independent/cross.py (none of lidarqa's code).
 attitude offset, an injected mounting, 2 cm range noise; floor/ holds the same points without any
 error) and re-delivers its four strips as two files (every K-th point kept):
 
-- `ab.las`: strips 1 and 2 with one point source id, 1: two passes ~95 s apart (a GPS-time gap);
+- `ab_w.las`, `ab_e.las`: strips 1 and 2 with one point source id, 1: two passes ~95 s apart (a
+  GPS-time gap), cut into two tiles west and east of the centre, each holding part of both;
 - `cd.las`: strips 3 and 4 with one point source id, 3, strip 4 moved ~94.5 s earlier in time
   (its points and its trajectory records alike), so it starts 1.0 s after strip 3 ends: no time
   gap beyond 5 s, but the sensor jumps 200 m (from 300 m to 500 m above the ground) in that
   second, twice what a platform at 100 m/s could move;
 - `sbet.out`: the trajectory with strip 4's records moved alike (strip 3's records end 0.05 s
   after its last point, strip 4's begin 0.05 s before its first: a trajectory pieced together
-  from two flights); `floor_ab.las`, `floor_cd.las` the same points without any error;
+  from two flights); `floor_ab_w.las`, `floor_ab_e.las`, `floor_cd.las` the same points without
+  any error;
 - `ties.csv` with the lines named as lidarqa names them (1-1, 1-2, 3-1, 3-2), `control.csv`,
   `sensor.toml`, `truth.json` (each line's true error, under its new name).
 
@@ -43,7 +45,7 @@ def read(path, thin):
     return las, keep
 
 
-def merge(paths, shifts, psid, thin, out):
+def merge(paths, shifts, psid, thin, out, tiles=None):
     xs, ys, zs, ts, inten, ang, strip = [], [], [], [], [], [], []
     for k, (p, sh) in enumerate(zip(paths, shifts)):
         las, keep = read(p, thin)
@@ -55,16 +57,28 @@ def merge(paths, shifts, psid, thin, out):
         ang.append(np.asarray(las.scan_angle_rank)[keep])
         strip.append(np.full(keep.sum(), k))
     x, y = np.concatenate(xs), np.concatenate(ys)
-    hdr = laspy.LasHeader(point_format=1, version="1.2")
-    hdr.scales = np.array([0.001, 0.001, 0.001])
-    hdr.offsets = np.array([np.floor(x.min()), np.floor(y.min()), 0.0])
-    las = laspy.LasData(hdr)
-    las.x, las.y, las.z = x, y, np.concatenate(zs)
-    las.gps_time = np.concatenate(ts)
-    las.intensity = np.concatenate(inten)
-    las.scan_angle_rank = np.concatenate(ang)
-    las.point_source_id = np.full(len(x), psid, np.uint16)
-    las.write(out)
+    z, t = np.concatenate(zs), np.concatenate(ts)
+    inten, ang = np.concatenate(inten), np.concatenate(ang)
+    # Tiles: (path, which points), cut at an easting (`west`: the delivered points' side, which
+    # the floor's points keep, so that both hold the same points in the same order).
+    parts = [(out, np.ones(len(x), bool))]
+    if tiles is not None:
+        cut, (west_path, east_path), west = tiles
+        if west is None:
+            west = x < cut
+        parts = [(west_path, west), (east_path, ~west)]
+    for path, m in parts:
+        hdr = laspy.LasHeader(point_format=1, version="1.2")
+        hdr.scales = np.array([0.001, 0.001, 0.001])
+        hdr.offsets = np.array([np.floor(x.min()), np.floor(y.min()), 0.0])
+        las = laspy.LasData(hdr)
+        las.x, las.y, las.z = x[m], y[m], z[m]
+        las.gps_time = t[m]
+        las.intensity = inten[m]
+        las.scan_angle_rank = ang[m]
+        las.point_source_id = np.full(int(m.sum()), psid, np.uint16)
+        las.write(path)
+    return parts[0][1]
 
 
 def make(out, seed, thin):
@@ -78,9 +92,13 @@ def make(out, seed, thin):
     end3 = float(np.max(t3))
     shift = float(np.min(t4)) - end3 - GAP_S
     start4 = end3 + GAP_S
+    # The tiles' cut: the centre easting of the delivered strips 1 and 2.
+    cut = float(np.median(laspy.read(os.path.join(gen, "strip_1.las")).x))
+    west = None
     for folder, prefix in [(gen, ""), (os.path.join(gen, "floor"), "floor_")]:
         s = lambda k: os.path.join(folder, f"strip_{k}.las")
-        merge([s(1), s(2)], [0.0, 0.0], 1, thin, os.path.join(out, f"{prefix}ab.las"))
+        tiles = (cut, [os.path.join(out, f"{prefix}ab_{side}.las") for side in "we"], west)
+        west = merge([s(1), s(2)], [0.0, 0.0], 1, thin, None, tiles)
         merge([s(3), s(4)], [0.0, shift], 3, thin, os.path.join(out, f"{prefix}cd.las"))
     # The trajectory: strip 4's records moved alike, strip 3's ending 0.05 s after its last
     # point and strip 4's beginning 0.05 s before its first.
@@ -109,16 +127,19 @@ def make(out, seed, thin):
 
 def check(out, corrected):
     result = {}
-    for name, first in [("ab", 1), ("cd", 3)]:
-        floor = laspy.read(os.path.join(out, f"floor_{name}.las"))
-        before = laspy.read(os.path.join(out, f"{name}.las"))
-        after = laspy.read(os.path.join(corrected, f"{name}.las"))
+    for names, first in [(["ab_w", "ab_e"], 1), (["cd"], 3)]:
         xyz = lambda l: np.column_stack([l.x, l.y, l.z])
-        f, b, a = xyz(floor), xyz(before), xyz(after)
-        t = np.asarray(before.gps_time)
-        # The two lines of the file: split where the time or the position jumps (as generated).
-        split = int(np.argmax(np.diff(t) > 0.5)) + 1
-        for k, part in enumerate([slice(0, split), slice(split, None)]):
+        read = lambda d, p: [laspy.read(os.path.join(d, f"{p}{n}.las")) for n in names]
+        f = np.concatenate([xyz(l) for l in read(out, "floor_")])
+        before = read(out, "")
+        b = np.concatenate([xyz(l) for l in before])
+        a = np.concatenate([xyz(l) for l in read(corrected, "")])
+        t = np.concatenate([np.asarray(l.gps_time) for l in before])
+        # The two lines of the files: split where the time jumps by over 0.5 s (as generated).
+        ts = np.sort(t)
+        k = int(np.argmax(np.diff(ts) > 0.5))
+        second = t > 0.5 * (ts[k] + ts[k + 1])
+        for k, part in enumerate([~second, second]):
             d_b, d_a = b[part] - f[part], a[part] - f[part]
             result[NAMES[first + k]] = {
                 "points": int(len(d_b)),
