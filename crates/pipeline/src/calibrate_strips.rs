@@ -34,6 +34,9 @@
 //! [`crate::FlightLine::id`] names it (its point source id, or `<id>-<k>` for the k-th pass of
 //! an id holding several); a tie CSV may also name it by the stem of a file that holds no
 //! other line.
+//! Finding the lines holds, for a moment, about 56 bytes per point (each point's time, frame,
+//! sensor position, file and index, to sort them within their id); afterwards 4 bytes per point
+//! (its line) stay until the first pass ends, beside the first pass's own 24 per point.
 
 use crate::context::TpuContext;
 use crate::error::{Error, Result};

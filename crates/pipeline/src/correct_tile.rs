@@ -392,24 +392,31 @@ impl Run<'_> {
                 .prepare(&mut worker.cells, xyz, &p0, &r_be, slot);
             slot.time_s = sow;
             if !self.lines.is_empty() {
-                slot.line = self.line_of(block.index(k), block.point_source_id(k), sow)?;
+                let psid = block.point_source_id(k);
+                slot.line = self.line_of(block.index(k), psid, sow, worker.line)?;
+                worker.line = slot.line;
             }
         }
         Ok(())
     }
 
     /// The line (index into `lines`) holding the point `index` of point source id `psid` at
-    /// `sow` (module docs).
-    fn line_of(&self, index: u64, psid: u16, sow: f64) -> Result<usize> {
+    /// `sow` (module docs); `last`, the previous point's, is tried first (consecutive points
+    /// are mostly of one line).
+    fn line_of(&self, index: u64, psid: u16, sow: f64, last: usize) -> Result<usize> {
+        let holds = |(id, fix): &(Option<u16>, LineFix)| match id {
+            None => true,
+            Some(id) => {
+                let [a, b] = fix.line.time_span_s;
+                *id == psid && a <= sow && sow <= b
+            }
+        };
+        if self.lines.get(last).is_some_and(holds) {
+            return Ok(last);
+        }
         self.lines
             .iter()
-            .position(|(id, fix)| match id {
-                None => true,
-                Some(id) => {
-                    let [a, b] = fix.line.time_span_s;
-                    *id == psid && a <= sow && sow <= b
-                }
-            })
+            .position(holds)
             .ok_or_else(|| Error::NotInAnyLine {
                 path: self.path.to_path_buf(),
                 index,
@@ -539,6 +546,8 @@ const BATCH: usize = 64;
 #[derive(Debug)]
 pub(crate) struct Worker {
     segment: SegmentRotation,
+    /// The line of its last point (when lines are corrected).
+    line: usize,
     cells: Box<CellCache>,
     batch: Box<[Slot; BATCH]>,
 }
@@ -547,6 +556,7 @@ impl Default for Worker {
     fn default() -> Worker {
         Worker {
             segment: SegmentRotation::default(),
+            line: 0,
             cells: Box::default(),
             batch: Box::new([Slot::default(); BATCH]),
         }
