@@ -43,9 +43,9 @@ use crate::error::{Error, Result};
 use crate::lines::{LineIndex, LineOptions, line_index};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use lidarqa_calib::{
-    AutoTieGrid, AutoTieOptions, Calibration, CalibrationOptions, ControlPoint, LocalFrame, Method,
-    PlaneOptions, RawPoint, Strip, Tie, TieKind, TiePick, TrajectorySigma, auto_tie_candidates,
-    auto_ties, calibrate_plane, calibrate_vtpm, select_auto_ties, tie_reach_m,
+    AutoTieGrid, AutoTieOptions, Calibration, CalibrationOptions, LocalFrame, Method,
+    NedControlPoint, PlaneOptions, RawPoint, Strip, Tie, TieKind, TiePick, TrajectorySigma,
+    auto_tie_candidates, auto_ties, calibrate_plane, calibrate_vtpm, select_auto_ties, tie_reach_m,
 };
 use lidarqa_io::{
     ControlPoints, Crs, Geodetic, InverseKind, LasInfo, LasReader, LocalInverse, PointChunk,
@@ -365,7 +365,7 @@ pub fn calibrate_strips_with_progress(
     let mut control = Vec::new();
     if let Some(table) = &control_table {
         for (i, c) in table.records.iter().enumerate() {
-            control.push(ControlPoint {
+            control.push(NedControlPoint {
                 id: c.id.clone(),
                 position_m: projected_to_local(&frame, &zone, c.x, c.y, c.z),
                 target_radius_m: table.extra_f64(i, "radius_m")?,

@@ -40,7 +40,7 @@ pub struct TpuOptions {
     /// A geoid grid (GTX or GeoTIFF, `--geoid`) for orthometric heights: N at each point.
     pub geoid: Option<PathBuf>,
     /// The classes of returns from below the water surface (the conic TPU's soundings).
-    pub water_classes: crate::water::WaterClasses,
+    pub water_classes: lidarqa_io::WaterClasses,
     /// Also write the full 3 × 3 covariance in the projected axes (PDAL `filters.als_tpu`'s
     /// VarianceX/Y/Z, CovarianceXY/XZ/YZ, f64 m²).
     pub covariance: bool,
@@ -59,7 +59,7 @@ impl Default for TpuOptions {
             covariance: false,
             geoid_separation_m: None,
             geoid: None,
-            water_classes: crate::water::WaterClasses::default(),
+            water_classes: lidarqa_io::WaterClasses::default(),
         }
     }
 }

@@ -76,8 +76,6 @@ mod targets_files;
 mod targets_tile;
 mod tile;
 mod tpu_tiles;
-pub mod trajectory_from_returns;
-pub mod water;
 
 pub use calibrate_strips::{
     CalibrateJob, CalibrateStep, LineName, LoadedStrip, POINTS_PER_TILE, StripCalibration,

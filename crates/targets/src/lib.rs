@@ -67,13 +67,15 @@ pub use evaluate::{
     asprs_combined_rmse, evaluate, evaluate_vertical_tin, nssda_horizontal, nssda_vertical,
 };
 pub use extract::{
-    ControlPoint, TargetConfig, TargetReport, TargetResult, UnmatchedCluster, UnmatchedReason,
-    extract_targets, segment_clusters, validate_control,
+    TargetConfig, TargetReport, TargetResult, UnmatchedCluster, UnmatchedReason, extract_targets,
+    segment_clusters, validate_control,
 };
 pub use fcm::{
     ExtractionReport, FcmConfig, FcmReport, FcmResult, ThresholdRule, fuzzy_c_means,
     select_high_intensity,
 };
+/// The control points the extraction and the evaluation take (model's one grid control point).
+pub use lidarqa_model::ControlPoint;
 pub use mec::{Circle, min_enclosing_circle};
 pub use merge::merge_reports;
 pub use plate::PlateModel;

@@ -6,7 +6,7 @@ use crate::format::{OutputFormat, print_text, print_warnings};
 use anyhow::{Result, bail};
 use clap::Args;
 use lidarqa_io::QcDocument;
-use lidarqa_pipeline::water::WaterClasses;
+use lidarqa_io::WaterClasses;
 use lidarqa_pipeline::{LineOptions, QcOptions, Standard, qc_lines, qc_prediction, read_lines};
 use std::io::Write as _;
 use std::path::PathBuf;
