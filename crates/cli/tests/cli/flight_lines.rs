@@ -8,7 +8,7 @@
 //! laspy and pyproj:
 //!
 //! ```text
-//! LIDARQA_PYTHON=python3 cargo test -p lidarqa --test flight_lines
+//! LIDARQA_PYTHON=python3 cargo test -p lidarqa --test cli flight_lines::
 //! ```
 //!
 //! - `calibrate --adjust-strips=offset+drift+attitude` finds the four lines, says why (a
@@ -20,7 +20,7 @@
 //!   difference of their ~5 cm errors). The common horizontal remainder (~3 and ~4 cm) is what
 //!   ties between lines and height-only control cannot see: a shift of every line alike.
 
-mod binary;
+use crate::binary;
 use binary::{run_ok, s};
 
 use serde_json::Value;
