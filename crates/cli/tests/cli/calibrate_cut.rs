@@ -44,6 +44,7 @@ fn cut_strips_give_the_whole_strips_ties_and_calibration() {
                 radius_given: false,
                 weighting: None,
                 tile_points,
+                lines: lidarqa_pipeline::LineOptions::default(),
             },
             &|step| steps.lock().unwrap().push(step),
         )

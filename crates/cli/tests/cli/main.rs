@@ -15,6 +15,7 @@ mod crs;
 mod csd;
 mod deliveries;
 mod demo;
+mod flight_lines;
 mod hardening;
 mod help_examples;
 mod hostile;
