@@ -8,7 +8,8 @@ use crate::strip_adjust::{
     self, GROUP_NAMES, SigmaTest, StripAdjustment, StripModel, chi2_quantile_99, group_of,
 };
 use crate::vtpm::{
-    ControlPoint, DroppedPick, Indexed, NOISE_GROUPS, Tie, TieModel, VtpmOptions, build_tie_model,
+    DroppedPick, Indexed, NOISE_GROUPS, NedControlPoint, Tie, TieModel, VtpmOptions,
+    build_tie_model,
 };
 use crate::weighting::{
     Column, TrajectorySensitivity, TrajectorySigma, Whitening, group_noise_factors,
@@ -884,7 +885,7 @@ fn tie_means(model: &TieModel) -> Vec<(String, Vector3<f64>)> {
 pub fn calibrate_vtpm(
     strips: &[Strip],
     ties: &[Tie],
-    control: &[ControlPoint],
+    control: &[NedControlPoint],
     prior: &Mounting,
     options: &CalibrationOptions,
 ) -> Result<Calibration> {
@@ -1333,7 +1334,7 @@ fn screen_outlier_ties(
 pub fn tie_residuals(
     strips: &[Strip],
     ties: &[Tie],
-    control: &[ControlPoint],
+    control: &[NedControlPoint],
     prior: &Mounting,
     mounting: &Mounting,
     options: &VtpmOptions,

@@ -10,7 +10,7 @@
 //!   local North-East-Down frame ([`LocalFrame`]) built through ECEF, so that re-georeferencing
 //!   with any mounting ([`georeference`], [`Georeferencing`]) is seed 000 eq. (2), rigorously.
 //! - Ties come from hand picks ([`Tie`], SPEC §7) or from the automatic search ([`auto_ties`]);
-//!   control points ([`ControlPoint`]) add absolute observations, which make the vertical lever
+//!   control points ([`NedControlPoint`]) add absolute observations, which make the vertical lever
 //!   arm observable.
 //! - [`calibrate_vtpm`] solves by Levenberg–Marquardt with a central-difference Jacobian
 //!   (seed 001 §2.4), checks observability at the solution and holds at the prior what the data do
@@ -78,7 +78,7 @@ pub use strip::{
 };
 pub use strip_adjust::{Confounded, LineCorrection, SigmaTest, StripAdjustment, StripModel};
 pub use vtpm::{
-    ControlPoint, DroppedPick, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Tie, TieKind, TiePick,
+    DroppedPick, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, NedControlPoint, Tie, TieKind, TiePick,
     VtpmOptions, tie_reach_m,
 };
 pub use weighting::TrajectorySigma;

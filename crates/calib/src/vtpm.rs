@@ -138,7 +138,7 @@ pub struct Tie {
 /// covers it and only its height observes the control (a checkpoint on open flat ground: its plan
 /// position in a strip is unknown, its height is not).
 #[derive(Debug, Clone, PartialEq)]
-pub struct ControlPoint {
+pub struct NedControlPoint {
     /// Identifier.
     pub id: String,
     /// Surveyed position, local NED, m.
@@ -736,7 +736,7 @@ pub(crate) fn mix_seed(seed: u64, a: usize, b: usize) -> u64 {
 pub(crate) fn build_tie_model(
     idx: &Indexed<'_>,
     ties: &[Tie],
-    control: &[ControlPoint],
+    control: &[NedControlPoint],
     prior: &[f64; 6],
     opts: &VtpmOptions,
 ) -> Result<TieModel> {

@@ -41,7 +41,7 @@ fn survey() -> &'static (Survey, Vec<Tie>) {
 }
 
 /// The VTPM of `s` with `ties` and `control`, default options, from a zero mounting.
-fn vtpm(s: &Survey, ties: &[Tie], control: &[ControlPoint]) -> Calibration {
+fn vtpm(s: &Survey, ties: &[Tie], control: &[NedControlPoint]) -> Calibration {
     calibrate_vtpm(
         &s.strips,
         ties,

@@ -18,7 +18,7 @@ fn small() -> Survey {
     )
 }
 
-fn run(s: &[Strip], ties: &[Tie], control: &[ControlPoint]) -> Error {
+fn run(s: &[Strip], ties: &[Tie], control: &[NedControlPoint]) -> Error {
     calibrate_vtpm(
         s,
         ties,
@@ -112,7 +112,7 @@ fn tie_outside_its_strip_is_dropped_and_listed_and_unknown_strip_is_an_error() {
 fn control_point_outside_every_strip() {
     let s = small();
     let ties = s.hand_ties(0.0, 1);
-    let c = ControlPoint {
+    let c = NedControlPoint {
         id: "gcp9".into(),
         position_m: Vector3::new(900.0, 900.0, 0.0),
         target_radius_m: None,

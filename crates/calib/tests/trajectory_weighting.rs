@@ -31,7 +31,7 @@ fn trajectory_sigma() -> TrajectorySigma {
 /// Correlation time of the drifting survey's errors, s (its strips last 7.7 and 16 s).
 const DRIFT_TAU_S: f64 = 8.0;
 
-type Perturbed = (Survey, Vec<Tie>, Vec<ControlPoint>);
+type Perturbed = (Survey, Vec<Tie>, Vec<NedControlPoint>);
 
 /// The survey, its ties and control with every strip's trajectory off by a seeded constant.
 fn survey() -> &'static Perturbed {

@@ -45,7 +45,7 @@ macro_rules! reader_pair {
 
 /// One control point.
 #[derive(Clone, Debug, PartialEq)]
-pub struct ControlPoint {
+pub struct ControlRow {
     /// Identifier, unique in the file.
     pub id: String,
     /// Easting, m.
@@ -93,7 +93,7 @@ pub struct PointTable<T> {
 }
 
 /// A control-points CSV.
-pub type ControlPoints = PointTable<ControlPoint>;
+pub type ControlPoints = PointTable<ControlRow>;
 /// A targets CSV.
 pub type Targets = PointTable<Target>;
 
@@ -105,7 +105,7 @@ pub trait HasExtra {
     fn line(&self) -> u64;
 }
 
-impl HasExtra for ControlPoint {
+impl HasExtra for ControlRow {
     fn extra(&self) -> &[String] {
         &self.extra
     }
@@ -162,7 +162,7 @@ impl ControlPoints {
                 }
                 Ok(v)
             };
-            Ok(ControlPoint {
+            Ok(ControlRow {
                 id: row.id.clone(),
                 x: row.xyz[0],
                 y: row.xyz[1],

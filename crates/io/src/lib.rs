@@ -42,6 +42,7 @@ mod pointpose;
 mod qc_doc;
 mod sbet;
 mod trajtext;
+mod water;
 mod wkt;
 
 pub use atomic::{
@@ -54,7 +55,7 @@ pub use csd::{
     CsdReader, CsdRecord, CsdReturn, is_csd,
 };
 pub use csv::{
-    ControlPoint, ControlPoints, HasExtra, PointTable, Target, Targets, TiePick, TiePicks,
+    ControlPoints, ControlRow, HasExtra, PointTable, Target, Targets, TiePick, TiePicks,
 };
 pub use error::{Error, Result};
 pub use geodesy::{
@@ -90,4 +91,5 @@ pub use trajtext::{
     TrajectoryFormat, TrajectoryPosition, parse_text_trajectory, read_point_pose, read_trajectory,
     write_reconstructed_trajectory,
 };
+pub use water::{DEFAULT_WATER_CLASSES, WaterClasses};
 pub use wkt::utm_wkt;

@@ -34,6 +34,7 @@ mod beam_invert;
 mod beam_sigma;
 mod confidence;
 mod conic;
+mod control;
 mod eigen3;
 mod error;
 mod frames;
@@ -57,6 +58,7 @@ pub use conic::{
     CONIC_N, ConicObservation, ConicScanner, DEFAULT_N_AIR, DEFAULT_N_PRISM, DEFAULT_N_WATER,
     Refraction, SPEED_OF_LIGHT_AIR_M_PER_S, refract,
 };
+pub use control::ControlPoint;
 pub use eigen3::{symmetric_eigen3, symmetric_eigenvalues3, symmetric_eigenvector3};
 pub use error::{Error, Result};
 pub use frames::{Attitude, Ecef, Grid, Mounting, MountingPartials, Ned};

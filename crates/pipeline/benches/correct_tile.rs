@@ -12,8 +12,7 @@
 //! ```
 //! `LIDARQA_BENCH_POINTS` defaults to 2 000 000; `LIDARQA_BENCH_DIR` keeps the files.
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use lidarqa_fixtures as common;
 mod shared;
 
 use lidarqa_model::Mounting;

@@ -14,8 +14,7 @@
 //! `LIDARQA_BENCH_POINTS` defaults to 2 000 000; `LIDARQA_BENCH_DIR` keeps the files;
 //! `LIDARQA_BENCH_NO_INCIDENCE=1` leaves the beam divergence out (no plane fits).
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use lidarqa_fixtures as common;
 mod shared;
 
 use lidarqa_pipeline::{TpuContext, TpuOptions, TpuTileJob, tpu_tile};

@@ -24,14 +24,28 @@
 //! Every cut strip keeps its extreme points and its file order, so its extent, its grid cells
 //! and the order in which a neighbourhood's points come are the whole strip's: the ties and the
 //! calibration are the same as from whole strips.
+//!
+//! **A strip is a flight line, not a file** ([`crate::read_lines`]): before the first pass the files
+//! are read once for each point's line (by point source id across all files, split at GPS-time
+//! gaps and at jumps of the sensor position, the position stored with each point or the
+//! trajectory's at its time). The first pass then streams each file once and hands each point to
+//! its line: a line cut into tiles is one strip, and a file holding two passes of one id is two.
+//! A line's points come in the files' order, then each file's own. A line is named as
+//! [`crate::FlightLine::id`] names it (its point source id, or `<id>-<k>` for the k-th pass of
+//! an id holding several); a tie CSV may also name it by the stem of a file that holds no
+//! other line.
+//! Finding the lines holds, for a moment, about 56 bytes per point (each point's time, frame,
+//! sensor position, file and index, to sort them within their id); afterwards 4 bytes per point
+//! (its line) stay until the first pass ends, beside the first pass's own 24 per point.
 
 use crate::context::TpuContext;
 use crate::error::{Error, Result};
+use crate::lines::{LineIndex, LineOptions, line_index};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use lidarqa_calib::{
-    AutoTieGrid, AutoTieOptions, Calibration, CalibrationOptions, ControlPoint, LocalFrame, Method,
-    PlaneOptions, RawPoint, Strip, Tie, TieKind, TiePick, TrajectorySigma, auto_tie_candidates,
-    auto_ties, calibrate_plane, calibrate_vtpm, select_auto_ties, tie_reach_m,
+    AutoTieGrid, AutoTieOptions, Calibration, CalibrationOptions, LocalFrame, Method,
+    NedControlPoint, PlaneOptions, RawPoint, Strip, Tie, TieKind, TiePick, TrajectorySigma,
+    auto_tie_candidates, auto_ties, calibrate_plane, calibrate_vtpm, select_auto_ties, tie_reach_m,
 };
 use lidarqa_io::{
     ControlPoints, Crs, Geodetic, InverseKind, LasInfo, LasReader, LocalInverse, PointChunk,
@@ -94,6 +108,62 @@ pub struct CalibrateJob<'a> {
     /// Most points one tile of the automatic tie search holds ([`POINTS_PER_TILE`]; the
     /// result does not depend on it, the peak memory does).
     pub tile_points: u64,
+    /// How the files' points are split into flight lines ([`crate::read_lines`]).
+    pub lines: LineOptions,
+}
+
+/// One strip's names: its line id, point source id, the files holding it and the names a tie
+/// CSV may use for it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LineName {
+    /// The line's id ([`crate::FlightLine::id`]), the strip's id in the calibration.
+    pub id: String,
+    /// Its point source id.
+    pub point_source_id: u16,
+    /// The stems of the files holding it, in the inputs' order.
+    pub files: Vec<String>,
+    /// Its points.
+    pub points: u64,
+    /// Its id and the stems of the files that hold no other line.
+    pub aliases: Vec<String>,
+}
+
+impl LineName {
+    /// The names of `index`'s lines.
+    pub fn of_index(index: &LineIndex) -> Vec<LineName> {
+        let stem = |f: usize| {
+            index.inputs[f]
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        };
+        let mut per_file = vec![0usize; index.inputs.len()];
+        for l in &index.lines {
+            for f in &l.files {
+                per_file[*f] += 1;
+            }
+        }
+        index
+            .lines
+            .iter()
+            .map(|l| {
+                let mut aliases = vec![l.id.clone()];
+                aliases.extend(
+                    l.files
+                        .iter()
+                        .filter(|f| per_file[**f] == 1)
+                        .map(|f| stem(*f)),
+                );
+                LineName {
+                    id: l.id.clone(),
+                    point_source_id: l.point_source_id,
+                    files: l.files.iter().map(|f| stem(*f)).collect(),
+                    points: l.points,
+                    aliases,
+                }
+            })
+            .collect()
+    }
 }
 
 /// The result of [`calibrate_strips`]: the calibration and the frame it was computed in.
@@ -105,19 +175,40 @@ pub struct StripCalibration {
     pub frame: LocalFrame,
     /// The points' CRS.
     pub zone: Crs,
-    /// The trajectory's warnings followed by the calibration's own (dropped picks), SPEC §7.
+    /// The trajectory's warnings, the lines' (ids holding several passes, id 0) and the
+    /// calibration's own (dropped picks), SPEC §7.
     pub warnings: Vec<Warning>,
-    /// Each strip's id and file stem (the strip adjustment's lines name both).
-    pub files: Vec<(String, String)>,
+    /// Each strip's names: the flight lines found in the files.
+    pub lines: Vec<LineName>,
+    /// How the lines were found: one sentence per point source id ([`crate::Lines::reasons`]).
+    pub line_reasons: Vec<String>,
 }
 
 impl StripCalibration {
-    /// `calibration.json` (SPEC §8) with every warning.
+    /// `calibration.json` (SPEC §8) with every warning and the flight lines found (`lines`:
+    /// each strip's id, point source id, files and points, and why); each strip adjustment
+    /// line also names its point source id and files (what `correct` matches points by).
     pub fn to_json(&self) -> Value {
         let mut doc = self.calibration.to_json();
         if let Some(m) = doc.as_object_mut() {
             let w = serde_json::to_value(&self.warnings).unwrap_or(Value::Null);
             m.insert("warnings".into(), w);
+            let found: Vec<Value> = self
+                .lines
+                .iter()
+                .map(|l| {
+                    serde_json::json!({
+                        "strip": l.id,
+                        "point_source_id": l.point_source_id,
+                        "files": l.files,
+                        "points": l.points,
+                    })
+                })
+                .collect();
+            m.insert(
+                "lines".into(),
+                serde_json::json!({"found": found, "reasons": self.line_reasons}),
+            );
         }
         if let Some(lines) = doc
             .pointer_mut("/strip_adjustment/lines")
@@ -128,8 +219,12 @@ impl StripCalibration {
                     Value::String(s) => s.clone(),
                     v => v.to_string(),
                 };
-                if let Some((_, stem)) = self.files.iter().find(|(i, _)| *i == id) {
-                    line["file"] = Value::String(stem.clone());
+                if let Some(l) = self.lines.iter().find(|l| l.id == id) {
+                    line["point_source_id"] = l.point_source_id.into();
+                    line["files"] = l.files.clone().into();
+                    if let [one] = l.files.as_slice() {
+                        line["file"] = Value::String(one.clone());
+                    }
                 }
             }
         }
@@ -146,10 +241,12 @@ impl StripCalibration {
     }
 }
 
-/// A loaded strip: the calib strip and the file's stem (a tie CSV may name either).
+/// A loaded strip (one flight line): the calib strip and its names.
 pub struct LoadedStrip {
-    /// The file's stem.
+    /// The stem of its (first) file.
     pub stem: String,
+    /// Its names.
+    pub name: LineName,
     /// The points in the local frame with their raw observations.
     pub strip: Strip,
 }
@@ -201,6 +298,8 @@ pub fn calibrate_strips_with_progress(
     });
     let prior = ctx.recovery_mounting;
     let (frame, zone) = open_all(job.strips, ctx)?;
+    let index = index_lines(job.strips, ctx, &job.lines)?;
+    let names = LineName::of_index(&index);
     let tie_picks = match job.ties {
         TieSource::Picks(p) => Some(TiePicks::from_path(p)?),
         TieSource::Automatic => None,
@@ -216,20 +315,28 @@ pub fn calibrate_strips_with_progress(
             })
             .collect()
     });
-    let scans: Vec<Result<StripScan>> = job
+    let pieces: Vec<Result<Vec<Piece>>> = job
         .strips
         .par_iter()
-        .map(|p| {
-            let picks = tie_picks.as_ref().map(|t| (t, guesses.as_slice()));
-            scan_strip(p, ctx, &frame, picks, !job.radius_given, progress)
-        })
+        .enumerate()
+        .map(|(f, p)| scan_file(p, ctx, &frame, &index.of_point[f], progress))
         .collect();
-    let scans = scans.into_iter().collect::<Result<Vec<_>>>()?;
+    let pieces = pieces.into_iter().collect::<Result<Vec<_>>>()?;
+    let picks = tie_picks.as_ref().map(|t| (t, guesses.as_slice()));
+    let scans = finish_lines(
+        pieces,
+        &names,
+        job.strips,
+        ctx,
+        &frame,
+        picks,
+        !job.radius_given,
+    )?;
     progress(CalibrateStep::Ties);
-    // Strip id → the names a CSV may use for it (id and file stem).
-    let loaded_ids: Vec<(String, String)> = scans
+    // Strip id → the names a CSV may use for it (id and file stems).
+    let loaded_ids: Vec<(String, Vec<String>)> = names
         .iter()
-        .map(|l| (l.id.clone(), l.stem.clone()))
+        .map(|l| (l.id.clone(), l.aliases.clone()))
         .collect();
     if !job.radius_given {
         let sparsest = scans
@@ -240,7 +347,7 @@ pub fn calibrate_strips_with_progress(
     }
     let failed = |e: lidarqa_calib::Error| Error::Calibration(e.to_string());
     let ties = match &tie_picks {
-        Some(p) => ties_from_scans(p, &scans, &frame, &zone, h0)?,
+        Some(p) => ties_from_scans(p, &scans, &names, &frame, &zone, h0)?,
         None => auto_ties_tiled(
             &scans,
             job.tile_points,
@@ -258,7 +365,7 @@ pub fn calibrate_strips_with_progress(
     let mut control = Vec::new();
     if let Some(table) = &control_table {
         for (i, c) in table.records.iter().enumerate() {
-            control.push(ControlPoint {
+            control.push(NedControlPoint {
                 id: c.id.clone(),
                 position_m: projected_to_local(&frame, &zone, c.x, c.y, c.z),
                 target_radius_m: table.extra_f64(i, "radius_m")?,
@@ -310,13 +417,15 @@ pub fn calibrate_strips_with_progress(
         }
     };
     let mut warnings = ctx.warnings().to_vec();
+    warnings.extend(index.warnings.iter().cloned());
     warnings.extend(calibration.warnings.iter().cloned());
     Ok(StripCalibration {
         calibration,
         frame,
         zone,
         warnings,
-        files: loaded_ids,
+        lines: names,
+        line_reasons: index.reasons,
     })
 }
 
@@ -349,7 +458,8 @@ pub fn frame_for(infos: &[LasInfo], zone: &Crs) -> LocalFrame {
     LocalFrame::new(ecef.vector(), lat, lon)
 }
 
-/// Loads every strip into one frame (the files must be distinct and share a CRS).
+/// Loads every flight line of the files into one frame (the files must be distinct and share a
+/// CRS), split into lines as [`calibrate_strips`] does with the default [`LineOptions`].
 ///
 /// # Errors
 /// As [`calibrate_strips`] for the strips.
@@ -358,14 +468,90 @@ pub fn load_all(
     ctx: &TpuContext,
 ) -> Result<(LocalFrame, Crs, Vec<LoadedStrip>)> {
     let (frame, zone) = open_all(paths, ctx)?;
-    // The strips load in parallel (each one as alone, so the points are the same); the first
-    // failing strip in the given order is the one reported.
-    let loaded: Vec<Result<LoadedStrip>> = paths
+    let index = index_lines(paths, ctx, &LineOptions::default())?;
+    let names = LineName::of_index(&index);
+    // The files load in parallel (each point as alone, so the points are the same); the first
+    // failing file in the given order is the one reported.
+    let loaded: Vec<Result<PerLine>> = paths
         .par_iter()
-        .map(|p| load_strip(p, ctx, &frame))
+        .enumerate()
+        .map(|(f, p)| {
+            let of_point = &index.of_point[f];
+            let mut per_line: PerLine = Vec::new();
+            stream_file(p, ctx, |kept, observed| {
+                let l = line_of(of_point, kept, p)?;
+                let at = match per_line.iter().position(|(k, _)| *k == l) {
+                    Some(i) => i,
+                    None => {
+                        per_line.push((l, Vec::new()));
+                        per_line.len() - 1
+                    }
+                };
+                per_line[at].1.push(kept.raw_point(&frame, observed));
+                Ok(())
+            })?;
+            Ok(per_line)
+        })
         .collect();
     let loaded = loaded.into_iter().collect::<Result<Vec<_>>>()?;
-    Ok((frame, zone, loaded))
+    let mut points: Vec<Vec<RawPoint>> = vec![Vec::new(); names.len()];
+    for per_line in loaded {
+        for (l, mut v) in per_line {
+            points[l].append(&mut v);
+        }
+    }
+    let strips = names
+        .into_iter()
+        .zip(points)
+        .map(|(name, points)| LoadedStrip {
+            stem: name.files.first().cloned().unwrap_or_default(),
+            strip: Strip {
+                id: name.id.clone(),
+                points,
+            },
+            name,
+        })
+        .collect();
+    Ok((frame, zone, strips))
+}
+
+/// One file's points per line: (line, its points in file order).
+type PerLine = Vec<(usize, Vec<RawPoint>)>;
+
+/// The flight lines of the files ([`crate::read_lines`]): where a file stores no sensor position
+/// with its points, the trajectory's position at each point's time tells the jumps.
+fn index_lines(paths: &[PathBuf], ctx: &TpuContext, options: &LineOptions) -> Result<LineIndex> {
+    let tiles = paths
+        .iter()
+        .map(|p| ctx.open_tile(p))
+        .collect::<Result<Vec<_>>>()?;
+    let at = |f: usize, t: f64| -> Option<[f64; 3]> {
+        let tile = &tiles[f];
+        // Keyed by a per-point pose in coarse time: its GPS time does not pose the points
+        // (and such a file stores its sensor positions, which are read instead).
+        if tile.point_keys.is_some() {
+            return None;
+        }
+        let sow = tile.converter.to_seconds_of_week(t).ok()?;
+        let pose = tile.trajectory.at(sow).ok()?;
+        Some(pose.position_ecef_m.vector().into())
+    };
+    line_index(paths, options, Some(&at))
+}
+
+/// The line of the point `kept` ([`LineIndex::of_point`] of its file).
+fn line_of(of_point: &[u32], kept: &Kept, path: &Path) -> Result<usize> {
+    usize::try_from(kept.index)
+        .ok()
+        .and_then(|k| of_point.get(k))
+        .map(|l| *l as usize)
+        .ok_or_else(|| {
+            Error::InvalidOption(format!(
+                "{}: point {} was not there when the lines were found (the file changed?)",
+                path.display(),
+                kept.index
+            ))
+        })
 }
 
 /// Checks the strips' headers (distinct files, one metre CRS) and puts the local frame at their
@@ -423,30 +609,37 @@ pub const POINTS_PER_TILE: u64 = 5_000_000;
 /// region's points (a block of a linear scanner spans the swath across a few scan lines).
 const BLOCK_POINTS: u64 = 10_000;
 
-/// What the first pass keeps of a strip: enough to place the neighbourhoods the second one keeps.
-struct StripScan {
+/// One file's share of a strip: its records in a scratch file and the boxes of their blocks.
+struct Part {
     path: PathBuf,
-    stem: String,
+    /// The line's points of this file as [`Kept`] records, in file order: the later passes read
+    /// these instead of decoding the LAZ and inverting the projection again.
+    scratch: Mutex<File>,
+    /// Projected bounding box of each run of [`BLOCK_POINTS`] records.
+    blocks: Vec<[f64; 4]>,
+    /// Records in `scratch`.
+    count: u64,
+}
+
+/// What the first pass keeps of a strip (one flight line): enough to place the neighbourhoods
+/// the second one keeps.
+struct StripScan {
     id: String,
+    /// Its files' shares, in the inputs' order.
+    parts: Vec<Part>,
     /// Horizontal extent `[min north, min east, max north, max east]`, local, m.
     extent_m: Option<[f64; 4]>,
-    /// The points holding the extent and the time span, in file order: every cut of the strip
-    /// keeps them, so a cut's extent, grid geometry and time span are the whole strip's.
-    extremes: Vec<(u64, RawPoint)>,
+    /// The points holding the extent and the time span, in (part, record) order: every cut of
+    /// the strip keeps them, so a cut's extent, grid geometry and time span are the whole
+    /// strip's.
+    extremes: Vec<(usize, u64, RawPoint)>,
     /// [`lidarqa_calib::radius_for_neighbours_m`] with [`VTPM_NEIGHBOURS`], when asked for.
     radius_m: Option<f64>,
-    /// For each tie pick naming this strip (by id or stem): its index among the picks and the
-    /// height (up, local) of the strip's point nearest to it horizontally.
+    /// For each tie pick naming this strip (by id or file stem): its index among the picks and
+    /// the height (up, local) of the strip's point nearest to it horizontally.
     pick_up_m: Vec<(usize, f64)>,
-    /// Projected bounding box of each run of [`BLOCK_POINTS`] points in file order.
-    blocks: Vec<[f64; 4]>,
     /// Points per [`COUNT_CELL_M`] cell (local north, east): they size the tiles.
     counts: Cells<u64>,
-    /// Every point as a [`Kept`] record, in file order: the later passes read these instead
-    /// of decoding the LAZ and inverting the projection again.
-    scratch: Mutex<File>,
-    /// Points in the strip (records in `scratch`).
-    count: u64,
 }
 
 /// Values per grid cell (the point counts, the region's buckets): looked up for every point,
@@ -463,46 +656,39 @@ fn count_cell(north: f64, east: f64) -> (i64, i64) {
     )
 }
 
-/// The first pass over one strip: every point read and checked (time, trajectory, recovery)
-/// as [`load_all`] does, only its horizontal position and height kept until the end.
-fn scan_strip(
-    path: &Path,
-    ctx: &TpuContext,
-    frame: &LocalFrame,
-    picks: Option<(&TiePicks, &[[f64; 2]])>,
-    want_radius: bool,
-    progress: &(dyn Fn(CalibrateStep) + Sync),
-) -> Result<StripScan> {
-    let mut xy: Vec<[f64; 2]> = Vec::new();
-    let mut down: Vec<f64> = Vec::new();
-    // Lowest north, lowest east, highest north, highest east, earliest, latest.
-    let mut ext: [Option<(f64, u64, Kept)>; 6] = [None; 6];
-    let mut blocks: Vec<[f64; 4]> = Vec::new();
-    let scratch_error = |source| Error::Scratch {
-        path: path.to_path_buf(),
-        source,
-    };
-    let mut scratch =
-        BufWriter::with_capacity(1 << 20, tempfile::tempfile().map_err(scratch_error)?);
-    let mut count = 0u64;
-    let (stem, id) = stream_strip(path, ctx, |k, kept, observed| {
+/// One line's points of one file as the first pass leaves them.
+struct Piece {
+    line: usize,
+    xy: Vec<[f64; 2]>,
+    down: Vec<f64>,
+    /// Lowest north, lowest east, highest north, highest east, earliest, latest: (value,
+    /// record, point).
+    ext: [Option<(f64, u64, Kept)>; 6],
+    blocks: Vec<[f64; 4]>,
+    scratch: BufWriter<File>,
+    count: u64,
+}
+
+impl Piece {
+    fn take(
+        &mut self,
+        kept: &Kept,
+        observed: &Observed,
+        frame: &LocalFrame,
+    ) -> std::io::Result<()> {
         // Only the local position and the time are needed for every point; the whole point
         // only for the extreme ones, built at the end (the latest point changes at every point).
+        let k = self.count;
         let local = kept.local(frame);
         let (x, y) = (kept.x, kept.y);
         if k % BLOCK_POINTS == 0 {
-            blocks.push([x, y, x, y]);
-            if k > 0 {
-                progress(CalibrateStep::Read(BLOCK_POINTS));
-            }
+            self.blocks.push([x, y, x, y]);
         }
-        if let Some(b) = blocks.last_mut() {
+        if let Some(b) = self.blocks.last_mut() {
             *b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
         }
-        xy.push([local.x, local.y]);
-        if picks.is_some() {
-            down.push(local.z);
-        }
+        self.xy.push([local.x, local.y]);
+        self.down.push(local.z);
         let v = [
             local.x,
             local.y,
@@ -511,83 +697,174 @@ fn scan_strip(
             observed.0.time_s,
             -observed.0.time_s,
         ];
-        for (slot, value) in ext.iter_mut().zip(v) {
+        for (slot, value) in self.ext.iter_mut().zip(v) {
             if slot.is_none_or(|(best, _, _)| value < best) {
                 *slot = Some((value, k, *kept));
             }
         }
-        count = k + 1;
-        scratch.write_all(&kept.to_bytes()).map_err(scratch_error)
+        self.count = k + 1;
+        self.scratch.write_all(&kept.to_bytes())
+    }
+}
+
+/// The first pass over one file: every point read and checked (time, trajectory, recovery)
+/// as [`load_all`] does and handed to its line's [`Piece`]; only its horizontal position and
+/// height kept until the end. The pieces in line order.
+fn scan_file(
+    path: &Path,
+    ctx: &TpuContext,
+    frame: &LocalFrame,
+    of_point: &[u32],
+    progress: &(dyn Fn(CalibrateStep) + Sync),
+) -> Result<Vec<Piece>> {
+    let scratch_error = |source| Error::Scratch {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut pieces: Vec<Piece> = Vec::new();
+    let mut read = 0u64;
+    stream_file(path, ctx, |kept, observed| {
+        let l = line_of(of_point, kept, path)?;
+        let at = match pieces.iter().position(|p| p.line == l) {
+            Some(i) => i,
+            None => {
+                pieces.push(Piece {
+                    line: l,
+                    xy: Vec::new(),
+                    down: Vec::new(),
+                    ext: [None; 6],
+                    blocks: Vec::new(),
+                    scratch: BufWriter::with_capacity(
+                        1 << 20,
+                        tempfile::tempfile().map_err(scratch_error)?,
+                    ),
+                    count: 0,
+                });
+                pieces.len() - 1
+            }
+        };
+        pieces[at]
+            .take(kept, observed, frame)
+            .map_err(scratch_error)?;
+        read += 1;
+        if read % BLOCK_POINTS == 0 {
+            progress(CalibrateStep::Read(BLOCK_POINTS));
+        }
+        Ok(())
     })?;
     // The last (partial) block's points.
-    progress(CalibrateStep::Read(
-        count - count.saturating_sub(1) / BLOCK_POINTS * BLOCK_POINTS,
-    ));
-    let scratch = scratch
-        .into_inner()
-        .map_err(|e| scratch_error(e.into_error()))?;
-    let extent_m = match (ext[0], ext[1], ext[2], ext[3]) {
-        (Some(a), Some(b), Some(c), Some(d)) => Some([a.0, b.0, -c.0, -d.0]),
-        _ => None,
-    };
-    let mut extreme_kept: Vec<(u64, Kept)> = ext.iter().flatten().map(|e| (e.1, e.2)).collect();
-    extreme_kept.sort_by_key(|e| e.0);
-    extreme_kept.dedup_by_key(|e| e.0);
-    let tile = ctx.open_tile(path)?;
-    let recoverer = Recoverer::new(&ctx.recovery_mounting);
-    let extremes = extreme_kept
-        .iter()
-        .map(|(k, kept)| {
-            let observed = kept.observe(
-                &tile.trajectory,
-                &mut SegmentRotation::default(),
-                &recoverer,
-                path,
-                *k,
-            )?;
-            Ok((*k, kept.raw_point(frame, &observed)))
-        })
-        .collect::<Result<Vec<_>>>()?;
-    let mut counts: Cells<u64> = Cells::default();
-    for [n, e] in &xy {
-        *counts.entry(count_cell(*n, *e)).or_default() += 1;
-    }
-    let radius_m = want_radius
-        .then(|| lidarqa_calib::radius_for_neighbours_m(&xy, VTPM_NEIGHBOURS))
-        .flatten();
-    let mut pick_up_m = Vec::new();
-    if let Some((table, guesses)) = picks {
-        let mut tree: Option<ImmutableKdTree<f64, 2>> = None;
-        for (i, p) in table.picks.iter().enumerate() {
-            if p.strip != id && p.strip != stem {
-                continue;
-            }
-            let up = if xy.is_empty() {
-                0.0
-            } else {
-                let t = tree.get_or_insert_with(|| ImmutableKdTree::new_from_slice(&xy));
-                let n = t.nearest_one::<SquaredEuclidean>(&guesses[i]);
-                usize::try_from(n.item)
-                    .ok()
-                    .and_then(|k| down.get(k))
-                    .map_or(0.0, |z| -z)
-            };
-            pick_up_m.push((i, up));
+    progress(CalibrateStep::Read(read % BLOCK_POINTS));
+    pieces.sort_by_key(|p| p.line);
+    Ok(pieces)
+}
+
+/// The strips from the files' pieces (`pieces[f]`: file f's, in line order): each line's
+/// pieces in the files' order, its extent, extreme points, density and the heights under the
+/// picks naming it.
+fn finish_lines(
+    pieces: Vec<Vec<Piece>>,
+    names: &[LineName],
+    paths: &[PathBuf],
+    ctx: &TpuContext,
+    frame: &LocalFrame,
+    picks: Option<(&TiePicks, &[[f64; 2]])>,
+    want_radius: bool,
+) -> Result<Vec<StripScan>> {
+    let mut per_line: Vec<Vec<(usize, Piece)>> = (0..names.len()).map(|_| Vec::new()).collect();
+    for (f, file_pieces) in pieces.into_iter().enumerate() {
+        for piece in file_pieces {
+            let l = piece.line;
+            per_line[l].push((f, piece));
         }
     }
-    Ok(StripScan {
-        path: path.to_path_buf(),
-        stem,
-        id,
-        extent_m,
-        extremes,
-        radius_m,
-        pick_up_m,
-        blocks,
-        counts,
-        scratch: Mutex::new(scratch),
-        count,
-    })
+    let recoverer = Recoverer::new(&ctx.recovery_mounting);
+    let mut scans = Vec::with_capacity(names.len());
+    for (name, line_pieces) in names.iter().zip(per_line) {
+        let mut ext: [Option<(f64, usize, u64, Kept)>; 6] = [None; 6];
+        let mut xy: Vec<[f64; 2]> = Vec::new();
+        let mut down: Vec<f64> = Vec::new();
+        let mut parts = Vec::with_capacity(line_pieces.len());
+        for (p, (f, piece)) in line_pieces.into_iter().enumerate() {
+            let path = &paths[f];
+            for (slot, e) in ext.iter_mut().zip(piece.ext) {
+                if let Some((value, k, kept)) = e
+                    && slot.is_none_or(|(best, ..)| value < best)
+                {
+                    *slot = Some((value, p, k, kept));
+                }
+            }
+            xy.extend(piece.xy);
+            down.extend(piece.down);
+            let scratch = piece.scratch.into_inner().map_err(|e| Error::Scratch {
+                path: path.clone(),
+                source: e.into_error(),
+            })?;
+            parts.push(Part {
+                path: path.clone(),
+                scratch: Mutex::new(scratch),
+                blocks: piece.blocks,
+                count: piece.count,
+            });
+        }
+        let extent_m = match (ext[0], ext[1], ext[2], ext[3]) {
+            (Some(a), Some(b), Some(c), Some(d)) => Some([a.0, b.0, -c.0, -d.0]),
+            _ => None,
+        };
+        let mut extreme_kept: Vec<(usize, u64, Kept)> =
+            ext.iter().flatten().map(|e| (e.1, e.2, e.3)).collect();
+        extreme_kept.sort_by_key(|e| (e.0, e.1));
+        extreme_kept.dedup_by_key(|e| (e.0, e.1));
+        let extremes = extreme_kept
+            .iter()
+            .map(|(p, k, kept)| {
+                let tile = ctx.open_tile(&parts[*p].path)?;
+                let observed = kept.observe(
+                    &tile.trajectory,
+                    &mut SegmentRotation::default(),
+                    &recoverer,
+                    &parts[*p].path,
+                )?;
+                Ok((*p, *k, kept.raw_point(frame, &observed)))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let mut counts: Cells<u64> = Cells::default();
+        for [n, e] in &xy {
+            *counts.entry(count_cell(*n, *e)).or_default() += 1;
+        }
+        let radius_m = want_radius
+            .then(|| lidarqa_calib::radius_for_neighbours_m(&xy, VTPM_NEIGHBOURS))
+            .flatten();
+        let mut pick_up_m = Vec::new();
+        if let Some((table, guesses)) = picks {
+            let mut tree: Option<ImmutableKdTree<f64, 2>> = None;
+            for (i, p) in table.picks.iter().enumerate() {
+                if !name.aliases.contains(&p.strip) {
+                    continue;
+                }
+                let up = if xy.is_empty() {
+                    0.0
+                } else {
+                    let t = tree.get_or_insert_with(|| ImmutableKdTree::new_from_slice(&xy));
+                    let n = t.nearest_one::<SquaredEuclidean>(&guesses[i]);
+                    usize::try_from(n.item)
+                        .ok()
+                        .and_then(|k| down.get(k))
+                        .map_or(0.0, |z| -z)
+                };
+                pick_up_m.push((i, up));
+            }
+        }
+        scans.push(StripScan {
+            id: name.id.clone(),
+            parts,
+            extent_m,
+            extremes,
+            radius_m,
+            pick_up_m,
+            counts,
+        });
+    }
+    Ok(scans)
 }
 
 /// Local rectangles `[min north, min east, max north, max east]` and their projected bounding
@@ -704,37 +981,42 @@ impl Region {
     }
 }
 
-/// A later pass over one strip: its points in `region` and its extreme points, in file order,
-/// from the first pass's scratch records of the blocks whose projected box meets the region.
+/// A later pass over one strip: its points in `region` and its extreme points, in (file,
+/// record) order, from the first pass's scratch records of the blocks whose projected box meets
+/// the region.
 fn cut_strip(
     scan: &StripScan,
     ctx: &TpuContext,
     frame: &LocalFrame,
     region: &Region,
 ) -> Result<Strip> {
-    let mut ranges: Vec<Range<u64>> = Vec::new();
-    if scan.extent_m.is_some_and(|e| region.meets(&e)) {
-        for (b, bx) in scan.blocks.iter().enumerate() {
-            if !region.meets_projected(bx) {
-                continue;
-            }
-            let start = b as u64 * BLOCK_POINTS;
-            let end = (start + BLOCK_POINTS).min(scan.count);
-            match ranges.last_mut() {
-                Some(r) if r.end == start => r.end = end,
-                _ => ranges.push(start..end),
-            }
-        }
-    }
     let mut points = Vec::new();
     let mut extremes = scan.extremes.iter().peekable();
-    if !ranges.is_empty() {
-        let tile = ctx.open_tile(&scan.path)?;
+    let meets = scan.extent_m.is_some_and(|e| region.meets(&e));
+    for (p, part) in scan.parts.iter().enumerate() {
+        let mut ranges: Vec<Range<u64>> = Vec::new();
+        if meets {
+            for (b, bx) in part.blocks.iter().enumerate() {
+                if !region.meets_projected(bx) {
+                    continue;
+                }
+                let start = b as u64 * BLOCK_POINTS;
+                let end = (start + BLOCK_POINTS).min(part.count);
+                match ranges.last_mut() {
+                    Some(r) if r.end == start => r.end = end,
+                    _ => ranges.push(start..end),
+                }
+            }
+        }
+        if ranges.is_empty() {
+            continue;
+        }
+        let tile = ctx.open_tile(&part.path)?;
         let recoverer = Recoverer::new(&ctx.recovery_mounting);
         let mut segment = SegmentRotation::default();
-        let mut scratch = scan.scratch.lock().unwrap_or_else(|e| e.into_inner());
+        let mut scratch = part.scratch.lock().unwrap_or_else(|e| e.into_inner());
         let scratch_error = |source| Error::Scratch {
-            path: scan.path.clone(),
+            path: part.path.clone(),
             source,
         };
         let mut buf = Vec::new();
@@ -757,20 +1039,20 @@ fn cut_strip(
                         continue;
                     }
                     let observed =
-                        kept.observe(&tile.trajectory, &mut segment, &recoverer, &scan.path, k)?;
-                    let p = kept.raw_point(frame, &observed);
-                    while let Some((_, e)) = extremes.next_if(|(j, _)| *j < k) {
+                        kept.observe(&tile.trajectory, &mut segment, &recoverer, &part.path)?;
+                    let point = kept.raw_point(frame, &observed);
+                    while let Some((_, _, e)) = extremes.next_if(|(q, j, _)| (*q, *j) < (p, k)) {
                         points.push(*e);
                     }
                     // An extreme point read here is the same point, computed the same way.
-                    let _ = extremes.next_if(|(j, _)| *j == k);
-                    points.push(p);
+                    let _ = extremes.next_if(|(q, j, _)| (*q, *j) == (p, k));
+                    points.push(point);
                 }
                 start += n;
             }
         }
     }
-    points.extend(extremes.map(|(_, p)| *p));
+    points.extend(extremes.map(|(_, _, p)| *p));
     points.shrink_to_fit();
     Ok(Strip {
         id: scan.id.clone(),
@@ -812,7 +1094,7 @@ fn auto_ties_tiled(
             .iter()
             .map(|s| Strip {
                 id: s.id.clone(),
-                points: s.extremes.iter().map(|(_, p)| *p).collect(),
+                points: s.extremes.iter().map(|(_, _, p)| *p).collect(),
             })
             .collect();
         return auto_ties(&strips, prior, opts).map_err(failed);
@@ -878,23 +1160,6 @@ fn auto_ties_tiled(
     select_auto_ties(candidates, opts).map_err(failed)
 }
 
-/// Reads the points of one strip and recovers every point's raw observation (module docs).
-fn load_strip(path: &Path, ctx: &TpuContext, frame: &LocalFrame) -> Result<LoadedStrip> {
-    let tile = ctx.open_tile(path)?;
-    // A LAZ header's count cannot be checked against the file size (issue #12): reserve at
-    // most 4 Mi points up front and let the vectors grow with what is really read.
-    let reserve = usize::try_from(tile.info.point_count.min(1 << 22)).unwrap_or(0);
-    let mut points = Vec::with_capacity(reserve);
-    let (stem, id) = stream_strip(path, ctx, |_, kept, observed| {
-        points.push(kept.raw_point(frame, observed));
-        Ok(())
-    })?;
-    Ok(LoadedStrip {
-        stem,
-        strip: Strip { id, points },
-    })
-}
-
 /// One point as the first pass leaves it in its strip's scratch file: its projected position
 /// (to cut by) and what its raw observation is recovered from, so that no later pass decodes
 /// the LAZ or inverts the projection again. Rebuilt from it, a point is computed exactly as
@@ -909,12 +1174,14 @@ struct Kept {
     ecef: [f64; 3],
     /// GPS seconds of week.
     sow: f64,
+    /// Index of the point in its file.
+    index: u64,
     /// Return intensity.
     intensity: u16,
 }
 
-/// Bytes of one [`Kept`] record: six f64 and a u16, little-endian.
-const KEPT_BYTES: usize = 50;
+/// Bytes of one [`Kept`] record: six f64, a u64 and a u16, little-endian.
+const KEPT_BYTES: usize = 58;
 
 /// Most records one read of a scratch file takes (bounds the read buffer).
 const SCRATCH_READ_POINTS: u64 = 65_536;
@@ -933,7 +1200,8 @@ impl Kept {
         for (slot, v) in b.chunks_exact_mut(8).zip(values) {
             slot.copy_from_slice(&v.to_le_bytes());
         }
-        b[48..].copy_from_slice(&self.intensity.to_le_bytes());
+        b[48..56].copy_from_slice(&self.index.to_le_bytes());
+        b[56..].copy_from_slice(&self.intensity.to_le_bytes());
         b
     }
 
@@ -948,7 +1216,12 @@ impl Kept {
             y: f(1),
             ecef: [f(2), f(3), f(4)],
             sow: f(5),
-            intensity: u16::from_le_bytes([b[48], b[49]]),
+            index: {
+                let mut a = [0u8; 8];
+                a.copy_from_slice(&b[48..56]);
+                u64::from_le_bytes(a)
+            },
+            intensity: u16::from_le_bytes([b[56], b[57]]),
         }
     }
 
@@ -960,11 +1233,10 @@ impl Kept {
         segment: &mut SegmentRotation,
         recoverer: &Recoverer,
         path: &Path,
-        index: u64,
     ) -> Result<Observed> {
         let point_error = |source| Error::Point {
             path: path.to_path_buf(),
-            index,
+            index: self.index,
             source,
         };
         let pose = trajectory.at_from(self.sow, segment).map_err(point_error)?;
@@ -989,24 +1261,20 @@ impl Kept {
 /// A point's pose and its raw observation.
 type Observed = (PoseAt, LinearRecovery);
 
-/// Streams one strip's points in file order, each checked (coordinates, time, trajectory,
-/// recovery) and handed to `take` as its [`Kept`] record and its recovered point. Returns the
-/// file's stem and the strip's id (the LAS point source id when every point has the same
-/// non-zero one, else the stem).
-fn stream_strip(
+/// Streams one file's points in file order, each checked (coordinates, time, trajectory,
+/// recovery) and handed to `take` as its [`Kept`] record and its recovered point. A file posed
+/// by its own per-point pose in coarse GPS time takes each point's time from that pose's keys.
+fn stream_file(
     path: &Path,
     ctx: &TpuContext,
-    mut take: impl FnMut(u64, &Kept, &Observed) -> Result<()>,
-) -> Result<(String, String)> {
+    mut take: impl FnMut(&Kept, &Observed) -> Result<()>,
+) -> Result<()> {
     let tile = ctx.open_tile(path)?;
     let projection = &tile.crs;
     let ellipsoid = tile.crs.ellipsoid();
     let recoverer = Recoverer::new(&ctx.recovery_mounting);
     let mut reader = LasReader::from_path(path)?;
     let mut chunk = PointChunk::new();
-    // The strip's point source id while every point has the same one.
-    let mut psid: Option<u16> = None;
-    let mut same_psid = true;
     let mut index = 0u64;
     let mut segment = SegmentRotation::default();
     while reader.fill(&mut chunk, 200_000)? > 0 {
@@ -1020,20 +1288,33 @@ fn stream_strip(
         let mut offset: Option<f64> = None;
         for p in &chunk.points {
             crate::error::check_finite(path, index, p.x, p.y, p.z)?;
-            same_psid &= *psid.get_or_insert(p.point_source_id) == p.point_source_id;
             let k = index;
             index += 1;
             let z =
                 p.z + *offset.get_or_insert_with(|| tile.heights.offset_at(projection, p.x, p.y));
-            let sow = match p.gps_time_s.map(|t| tile.converter.to_seconds_of_week(t)) {
-                Some(Ok(s)) => s,
-                Some(Err(e)) => {
+            let keyed = tile
+                .point_keys
+                .as_ref()
+                .map(|keys| usize::try_from(k).ok().and_then(|i| keys.get(i)).copied());
+            let sow = match (
+                keyed,
+                p.gps_time_s.map(|t| tile.converter.to_seconds_of_week(t)),
+            ) {
+                (Some(Some(key)), _) => key,
+                (Some(None), _) => {
+                    return Err(Error::BadTime {
+                        index: k,
+                        message: format!("{}: beyond the per-point pose", path.display()),
+                    });
+                }
+                (None, Some(Ok(s))) => s,
+                (None, Some(Err(e))) => {
                     return Err(Error::BadTime {
                         index: k,
                         message: e.to_string(),
                     });
                 }
-                None => {
+                (None, None) => {
                     return Err(Error::BadTime {
                         index: k,
                         message: format!("{}: point without GPS time", path.display()),
@@ -1047,22 +1328,14 @@ fn stream_strip(
                 y: p.y,
                 ecef: ecef.vector().into(),
                 sow,
+                index: k,
                 intensity: p.intensity,
             };
-            let observed = kept.observe(&tile.trajectory, &mut segment, &recoverer, path, k)?;
-            take(k, &kept, &observed)?;
+            let observed = kept.observe(&tile.trajectory, &mut segment, &recoverer, path)?;
+            take(&kept, &observed)?;
         }
     }
-    let stem = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    // The strip id: the LAS point source id when every point has the same non-zero one.
-    let id = match psid {
-        Some(id) if id != 0 && same_psid => id.to_string(),
-        _ => stem.clone(),
-    };
-    Ok((stem, id))
+    Ok(())
 }
 
 /// Local NED → projected `[easting, northing, ellipsoidal height]` in `zone`.
@@ -1091,14 +1364,38 @@ pub fn projected_to_local(frame: &LocalFrame, zone: &Crs, x: f64, y: f64, h: f64
 fn ties_from_scans(
     picks: &TiePicks,
     scans: &[StripScan],
+    names: &[LineName],
     frame: &LocalFrame,
     zone: &Crs,
     h0: f64,
 ) -> Result<Vec<Tie>> {
     let mut by_id: HashMap<&str, usize> = HashMap::new();
-    for (k, l) in scans.iter().enumerate() {
-        by_id.insert(l.id.as_str(), k);
-        by_id.insert(l.stem.as_str(), k);
+    for (k, l) in names.iter().enumerate() {
+        for a in &l.aliases {
+            by_id.insert(a.as_str(), k);
+        }
+    }
+    // A file holding several lines names none of them.
+    for p in &picks.picks {
+        if by_id.contains_key(p.strip.as_str()) {
+            continue;
+        }
+        let holding: Vec<&str> = names
+            .iter()
+            .filter(|l| l.files.contains(&p.strip))
+            .map(|l| l.id.as_str())
+            .collect();
+        if holding.len() > 1 {
+            return Err(Error::Calibration(format!(
+                "{}: line {}: strip {} is a file holding {} flight lines ({}): name the line \
+                 by its id",
+                picks.path.display(),
+                p.line,
+                p.strip,
+                holding.len(),
+                holding.join(", ")
+            )));
+        }
     }
     let mut order: Vec<String> = Vec::new();
     let mut ties: HashMap<String, Vec<TiePick>> = HashMap::new();
@@ -1142,13 +1439,13 @@ fn in_csv_terms(
     e: lidarqa_calib::Error,
     picks: Option<&TiePicks>,
     control: Option<(&ControlPoints, &Path)>,
-    strips: &[(String, String)],
+    strips: &[(String, Vec<String>)],
 ) -> String {
     use lidarqa_calib::Error as E;
     let same_strip = |csv: &str, id: &str| {
         strips
             .iter()
-            .any(|(i, stem)| i == id && (csv == i || csv == stem))
+            .any(|(i, aliases)| i == id && aliases.iter().any(|a| a == csv))
     };
     let pick = |tie: &str, strip: Option<&str>| {
         picks.and_then(|p| {
@@ -1230,6 +1527,7 @@ mod tests {
                 y: 3_995_000.000_000_001,
                 ecef: [-2_175_456.123_456_789, 4_525_012.987_654_321, 3_738_000.5],
                 sow: 400_000.123_456_789_1,
+                index: u64::MAX - 3,
                 intensity: 65_535,
             },
             Kept {
@@ -1237,6 +1535,7 @@ mod tests {
                 y: f64::MIN_POSITIVE / 4.0,
                 ecef: [f64::MAX, f64::MIN, 1e-300],
                 sow: 0.1 + 0.2,
+                index: 0,
                 intensity: 0,
             },
         ];
@@ -1246,6 +1545,7 @@ mod tests {
                 |k: &Kept| [k.x, k.y, k.ecef[0], k.ecef[1], k.ecef[2], k.sow].map(f64::to_bits);
             assert_eq!(bits(&back), bits(&k));
             assert_eq!(back.intensity, k.intensity);
+            assert_eq!(back.index, k.index);
         }
     }
 }

@@ -40,7 +40,7 @@ pub struct TpuOptions {
     /// A geoid grid (GTX or GeoTIFF, `--geoid`) for orthometric heights: N at each point.
     pub geoid: Option<PathBuf>,
     /// The classes of returns from below the water surface (the conic TPU's soundings).
-    pub water_classes: crate::water::WaterClasses,
+    pub water_classes: lidarqa_io::WaterClasses,
     /// Also write the full 3 × 3 covariance in the projected axes (PDAL `filters.als_tpu`'s
     /// VarianceX/Y/Z, CovarianceXY/XZ/YZ, f64 m²).
     pub covariance: bool,
@@ -59,7 +59,7 @@ impl Default for TpuOptions {
             covariance: false,
             geoid_separation_m: None,
             geoid: None,
-            water_classes: crate::water::WaterClasses::default(),
+            water_classes: lidarqa_io::WaterClasses::default(),
         }
     }
 }
@@ -236,14 +236,14 @@ pub fn check_held_parameters(path: &Path, prior: &Mounting) -> Result<()> {
 }
 
 /// The strip adjustment's per-line corrections of the `calibration.json` at `path`
-/// (`strip_adjustment.lines`), each with the file stem it was computed from; empty when the
-/// calibration has none.
+/// (`strip_adjustment.lines`), each with its point source id (which, with its time span, tells
+/// its points: [`crate::correct_tile_with_lines`]) and the stem of its file when it lies in
+/// one; empty when the calibration has none. A calibration written before lines were named by
+/// point source id gives `None` there (its lines are matched to files by their stem).
 ///
 /// # Errors
 /// [`Error::Calib`] naming the file and the key when a line cannot be read.
-pub fn read_line_corrections(
-    path: &Path,
-) -> Result<Vec<(lidarqa_calib::LineCorrection, Option<String>)>> {
+pub fn read_line_corrections(path: &Path) -> Result<Vec<(crate::LineMatch, Option<String>)>> {
     let doc = read_calibration_json(path)?;
     let Some(lines) = doc
         .pointer("/strip_adjustment/lines")
@@ -251,18 +251,35 @@ pub fn read_line_corrections(
     else {
         return Ok(Vec::new());
     };
+    let bad = |m: String| Error::Calib {
+        path: path.to_path_buf(),
+        source: lidarqa_calib::Error::InvalidCalibration(m),
+    };
     lines
         .iter()
         .enumerate()
         .map(|(k, v)| {
-            let line = lidarqa_calib::LineCorrection::from_json(v).map_err(|m| Error::Calib {
-                path: path.to_path_buf(),
-                source: lidarqa_calib::Error::InvalidCalibration(format!(
-                    "strip_adjustment.lines[{k}].{m}"
-                )),
-            })?;
+            let line = lidarqa_calib::LineCorrection::from_json(v)
+                .map_err(|m| bad(format!("strip_adjustment.lines[{k}].{m}")))?;
             let file = v.get("file").and_then(|f| f.as_str()).map(str::to_string);
-            Ok((line, file))
+            let point_source_id = match v.get("point_source_id") {
+                None | Some(serde_json::Value::Null) => None,
+                Some(id) => Some(id.as_u64().and_then(|i| u16::try_from(i).ok()).ok_or_else(
+                    || {
+                        bad(format!(
+                            "strip_adjustment.lines[{k}].point_source_id: {id} is not a \
+                                 point source id (0–65535)"
+                        ))
+                    },
+                )?),
+            };
+            Ok((
+                crate::LineMatch {
+                    correction: line,
+                    point_source_id,
+                },
+                file,
+            ))
         })
         .collect()
 }

@@ -32,6 +32,17 @@
 //! at once on nalgebra's SIMD scalar type (simba's `WideF64x4`): the same IEEE operations lane
 //! by lane as on one `f64`, so the same bits (test `four_at_once_is_one_at_a_time_bit_for_bit`),
 //! from one generic function ([`displacement`]).
+//!
+//! # Strip adjustment: per flight line
+//! `calibrate --adjust-strips` estimates one trajectory correction per flight line, a line being
+//! what [`crate::read_lines`] finds (a point source id, split at GPS-time gaps and sensor position
+//! jumps), not a file. Each line of `calibration.json`'s `strip_adjustment.lines` names its
+//! point source id and its first and last time (seconds of the GPS week, the time the points
+//! were posed at): a point takes the line of its point source id whose span holds its time.
+//! That identity needs no file: a line cut into tiles is corrected alike in every tile, and a
+//! file holding two passes of one id gets each pass its own correction. The spans of one id's
+//! lines do not overlap (its passes were split where time or position jumped). A point in no
+//! line's span is refused, naming it (the calibration was computed from other files).
 
 use crate::context::TpuContext;
 use crate::error::{Error, Result};
@@ -106,7 +117,31 @@ pub fn correct_tile_with_progress(
     job: &CorrectTileJob<'_>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<CorrectTileReport> {
-    correct_tile_with_line(job, None, progress)
+    correct_tile_with_lines(job, &[], progress)
+}
+
+/// A strip adjustment line as a point is matched to it: by its point source id and its time
+/// span (module docs), or, without an id (a calibration.json written before lines were named
+/// so), every point of the tile.
+#[derive(Debug, Clone)]
+pub struct LineMatch {
+    /// The line's estimated trajectory error.
+    pub correction: lidarqa_calib::LineCorrection,
+    /// Its point source id; `None`: the line holds every point of the tile.
+    pub point_source_id: Option<u16>,
+}
+
+/// As [`correct_tile_with_line`], each point with the line it belongs to among `lines` (module
+/// docs); no line correction when `lines` is empty.
+///
+/// # Errors
+/// As [`correct_tile_with_line`], and [`Error::Point`] for the first point no line holds.
+pub fn correct_tile_with_lines(
+    job: &CorrectTileJob<'_>,
+    lines: &[LineMatch],
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<CorrectTileReport> {
+    correct_tile_lines(job, lines, progress)
 }
 
 /// As [`correct_tile_with_progress`], georeferencing also with the trajectory minus the strip
@@ -123,6 +158,21 @@ pub fn correct_tile_with_line(
     line: Option<&lidarqa_calib::LineCorrection>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<CorrectTileReport> {
+    let lines: Vec<LineMatch> = line
+        .map(|l| LineMatch {
+            correction: l.clone(),
+            point_source_id: None,
+        })
+        .into_iter()
+        .collect();
+    correct_tile_lines(job, &lines, progress)
+}
+
+fn correct_tile_lines(
+    job: &CorrectTileJob<'_>,
+    lines: &[LineMatch],
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<CorrectTileReport> {
     let input = job.input;
     let ctx = job.context;
     let tile = ctx.open_tile(input)?;
@@ -136,14 +186,18 @@ pub fn correct_tile_with_line(
     let correction = Correction::new(&tile.crs, &ctx.recovery_mounting, job.mounting);
     let options = LasWriteOptions::for_input(&tile.info, &[]);
     let writer = ctx.create_output(input, job.output, &options, job.other_inputs)?;
-    let line = line
-        .map(|l| LineFix::new(l, &tile.trajectory, input))
-        .transpose()?;
+    let fixes: Vec<(Option<u16>, LineFix)> = lines
+        .iter()
+        .map(|l| {
+            LineFix::new(&l.correction, &tile.trajectory, input).map(|f| (l.point_source_id, f))
+        })
+        .collect::<Result<_>>()?;
     let checks = RecoveryCheck::new(ctx);
     let run = Run {
         path: input,
         output: job.output,
-        line: line.as_ref(),
+        lines: &fixes,
+        point_keys: tile.point_keys.as_deref().map(Vec::as_slice),
         correction: &correction,
         trajectory: &tile.trajectory,
         converter: &tile.converter,
@@ -208,8 +262,11 @@ struct Run<'a> {
     path: &'a Path,
     /// The output, which a coordinate beyond the record's range is reported against.
     output: &'a Path,
-    /// The line's trajectory correction, when the strip adjustment gave one.
-    line: Option<&'a LineFix>,
+    /// The lines' trajectory corrections, when the strip adjustment gave them, each with its
+    /// point source id (`None`: every point).
+    lines: &'a [(Option<u16>, LineFix)],
+    /// Each point's time key when posed by its own per-point pose in coarse GPS time.
+    point_keys: Option<&'a [f64]>,
     correction: &'a Correction,
     trajectory: &'a Trajectory,
     converter: &'a LasTimeConverter,
@@ -334,8 +391,38 @@ impl Run<'_> {
             self.correction
                 .prepare(&mut worker.cells, xyz, &p0, &r_be, slot);
             slot.time_s = sow;
+            if !self.lines.is_empty() {
+                let psid = block.point_source_id(k);
+                slot.line = self.line_of(block.index(k), psid, sow, worker.line)?;
+                worker.line = slot.line;
+            }
         }
         Ok(())
+    }
+
+    /// The line (index into `lines`) holding the point `index` of point source id `psid` at
+    /// `sow` (module docs); `last`, the previous point's, is tried first (consecutive points
+    /// are mostly of one line).
+    fn line_of(&self, index: u64, psid: u16, sow: f64, last: usize) -> Result<usize> {
+        let holds = |(id, fix): &(Option<u16>, LineFix)| match id {
+            None => true,
+            Some(id) => {
+                let [a, b] = fix.line.time_span_s;
+                *id == psid && a <= sow && sow <= b
+            }
+        };
+        if self.lines.get(last).is_some_and(holds) {
+            return Ok(last);
+        }
+        self.lines
+            .iter()
+            .position(holds)
+            .ok_or_else(|| Error::NotInAnyLine {
+                path: self.path.to_path_buf(),
+                index,
+                point_source_id: psid,
+                time_s: sow,
+            })
     }
 
     /// The arithmetic and the records for the points `points` of `block`, prepared in the
@@ -348,9 +435,9 @@ impl Run<'_> {
     ) -> Result<()> {
         let batch = &mut worker.batch[..points.len()];
         self.correction.steps(batch);
-        if let Some(line) = self.line {
+        if !self.lines.is_empty() {
             for slot in batch.iter_mut() {
-                line.apply(slot);
+                self.lines[slot.line].1.apply(slot);
             }
         }
         for (k, slot) in points.zip(batch.iter()) {
@@ -379,7 +466,17 @@ impl Run<'_> {
             index,
             message: format!("{}: point without GPS time", path.display()),
         })?;
-        let sow = self.converter.to_seconds_of_week(t)?;
+        let sow = match self.point_keys {
+            // Posed by its own per-point pose in coarse time: the pose's key of this point.
+            Some(keys) => *usize::try_from(index)
+                .ok()
+                .and_then(|i| keys.get(i))
+                .ok_or_else(|| Error::BadTime {
+                    index,
+                    message: format!("{}: beyond the per-point pose", path.display()),
+                })?,
+            None => self.converter.to_seconds_of_week(t)?,
+        };
         let (p0, r_be) = self.trajectory.body_to_ecef_at(sow, segment).map_err(|_| {
             let (start_s, end_s) = self.trajectory.span_s();
             Error::OutsideTrajectory {
@@ -449,6 +546,8 @@ const BATCH: usize = 64;
 #[derive(Debug)]
 pub(crate) struct Worker {
     segment: SegmentRotation,
+    /// The line of its last point (when lines are corrected).
+    line: usize,
     cells: Box<CellCache>,
     batch: Box<[Slot; BATCH]>,
 }
@@ -457,6 +556,7 @@ impl Default for Worker {
     fn default() -> Worker {
         Worker {
             segment: SegmentRotation::default(),
+            line: 0,
             cells: Box::default(),
             batch: Box::new([Slot::default(); BATCH]),
         }
@@ -481,6 +581,8 @@ pub(crate) struct Slot {
     step_m: Vector3<f64>,
     /// The point's time, s of the GPS week (for a line's trajectory correction).
     time_s: f64,
+    /// The point's line (index into [`Run::lines`]) when lines are corrected.
+    line: usize,
 }
 
 /// A line's trajectory correction, prepared once: the line's estimated error and the local

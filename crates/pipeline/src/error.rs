@@ -76,6 +76,21 @@ pub enum Error {
         /// Trajectory end, s.
         end_s: f64,
     },
+    /// A point no strip adjustment line of the calibration holds.
+    #[error(
+        "{}: point {index}: point source id {point_source_id} at {time_s} s of the GPS week lies in none of the calibration's strip_adjustment.lines (matched by point source id and time span): correct the files the calibration was computed from",
+        path.display()
+    )]
+    NotInAnyLine {
+        /// The LAS/LAZ file.
+        path: PathBuf,
+        /// Zero-based point index.
+        index: u64,
+        /// Its point source id.
+        point_source_id: u16,
+        /// Its time, GPS seconds of week.
+        time_s: f64,
+    },
     /// A point with NaN or infinite coordinates.
     #[error(
         "{}: point {index}: coordinates ({x}, {y}, {z}) are not finite (use --skip-invalid to skip such points)",

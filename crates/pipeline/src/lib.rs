@@ -77,20 +77,18 @@ mod targets_tile;
 mod tile;
 mod tile_beam;
 mod tpu_tiles;
-pub mod trajectory_from_returns;
-pub mod water;
 
 pub use calibrate_strips::{
-    CalibrateJob, CalibrateStep, LoadedStrip, POINTS_PER_TILE, StripCalibration, TieSource,
-    TrajectoryWeighting, VTPM_NEIGHBOURS, calibrate_strips, calibrate_strips_with_progress,
-    frame_for, load_all, local_to_projected, projected_to_local,
+    CalibrateJob, CalibrateStep, LineName, LoadedStrip, POINTS_PER_TILE, StripCalibration,
+    TieSource, TrajectoryWeighting, VTPM_NEIGHBOURS, calibrate_strips,
+    calibrate_strips_with_progress, frame_for, load_all, local_to_projected, projected_to_local,
 };
 pub use context::{
     TpuContext, TpuOptions, check_held_parameters, read_calibrated_mounting, read_line_corrections,
 };
 pub use correct_tile::{
-    CorrectTileJob, CorrectTileReport, correct_tile, correct_tile_with_line,
-    correct_tile_with_progress,
+    CorrectTileJob, CorrectTileReport, LineMatch, correct_tile, correct_tile_with_line,
+    correct_tile_with_lines, correct_tile_with_progress,
 };
 pub use csd_tpu::{
     CsdHeaderView, CsdMounting, CsdPoint, CsdTpuJob, CsdTpuReport, MountingView, csd_propagator,
@@ -101,7 +99,10 @@ pub use error::{Error, Result};
 pub use evaluate_files::{
     evaluate_nva, evaluate_target_files, ground_points, predicted_from_sensor,
 };
-pub use lines::{FlightLine, LineOptions, LinePoint, Lines, gap_starts, read_lines};
+pub use lines::{
+    FlightLine, JUMP_FLOOR_M, LineEntry, LineIndex, LineOptions, LinePoint, Lines, SensorAt,
+    gap_starts, line_index, read_lines,
+};
 pub use manifest::{
     Entry, EntryOutcome, InputFile, MANIFEST_FORMAT, Manifest, ManifestOptions, REPORT_SUFFIX,
     TILE_REPORT_FORMAT, Task, TpuPlan, collect, entry_status, plan_tpu, resolve, run_entry,

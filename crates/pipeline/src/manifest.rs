@@ -148,7 +148,7 @@ impl ManifestOptions {
             water_classes: self
                 .water_classes
                 .clone()
-                .map(crate::water::WaterClasses::given)
+                .map(lidarqa_io::WaterClasses::given)
                 .unwrap_or_default(),
         })
     }

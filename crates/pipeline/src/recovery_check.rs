@@ -19,10 +19,11 @@
 
 use crate::context::{OpenTile, TpuContext};
 use crate::error::{Error, Result};
-use crate::plausibility::{DEFAULT_MAX_RANGE_M, MOUNTING_ERROR_M, MountingTally};
+use crate::plausibility::DEFAULT_MAX_RANGE_M;
 use crate::summary::AngleCheck;
 use lidarqa_io::{LasReader, RawChunk};
 use lidarqa_model::{Ecef, Scanner, Sensor, Warning};
+use lidarqa_tpu::{MOUNTING_ERROR_M, MountingTally};
 use lidarqa_tpu::{PoseAt, Recoverer};
 use nalgebra::Matrix3;
 use std::path::Path;

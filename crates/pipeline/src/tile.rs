@@ -3,8 +3,8 @@
 use crate::context::{Heights, OpenTile, TpuContext};
 use crate::error::{Error, Result};
 use crate::plausibility::{
-    DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, MOUNTING_ERROR_M, MountingTally, check_distance,
-    check_gaps, crs_name, outside_zone, point_implausible,
+    DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, check_distance, check_gaps, crs_name, outside_zone,
+    point_implausible,
 };
 use crate::stages::{read_chunks, run_stages, write_chunks};
 use crate::summary::{
@@ -24,6 +24,7 @@ use lidarqa_tpu::{
     TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex, cos_incidence, judge_surfaces,
     judged_incidence, thu_95_m,
 };
+use lidarqa_tpu::{MOUNTING_ERROR_M, MountingTally};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -567,18 +568,34 @@ struct Recycle {
 impl Prepare {
     /// Converts each point of `chunk` (in parallel) to ECEF and seconds of week, into `pts`.
     fn chunk(&self, chunk: RawChunk, mut pts: Vec<Prep>) -> Prepared {
+        let unusable = self.convert(&chunk, chunk.len(), &mut pts);
+        Prepared {
+            first_index: chunk.first_index(),
+            usable: pts.len() - unusable,
+            chunk,
+            pts,
+        }
+    }
+
+    /// Converts the first `n` points of `chunk` (in parallel) into `pts`; the number of them
+    /// not usable ([`PrepState::Ok`]). The inverse projection's cells are those of these
+    /// points ([`LocalInverse`], fixed 2 km cells): a point converts to the same bits as in
+    /// the whole chunk unless one of the two sets is spread over too many cells for
+    /// interpolation (then that set takes the exact inverse, the same to nanometres).
+    fn convert(&self, chunk: &RawChunk, n: usize, pts: &mut Vec<Prep>) -> usize {
         let unit_m = self.unit_m;
+        let n = n.min(chunk.len());
         let inverse = LocalInverse::new(
             &self.crs,
             self.inverse,
-            chunk.points().map(|p| {
+            chunk.points().take(n).map(|p| {
                 let [x, y, _] = p.xyz();
                 [x * unit_m, y * unit_m]
             }),
         );
         // Counted as they are made: no walk of the chunk for it later.
         let unusable = AtomicUsize::new(0);
-        (0..chunk.len())
+        (0..n)
             .into_par_iter()
             .map(|i| {
                 let p = self.point(chunk.first_index() + i as u64, chunk.point(i), &inverse);
@@ -587,14 +604,27 @@ impl Prepare {
                 }
                 p
             })
-            .collect_into_vec(&mut pts);
-        Prepared {
-            first_index: chunk.first_index(),
-            usable: pts.len() - unusable.into_inner(),
-            chunk,
-            pts,
+            .collect_into_vec(pts);
+        unusable.into_inner()
+    }
+}
+
+/// How many of `chunk`'s first points the next chunk's look-ahead converts: the first
+/// `margin` (the soundings' surface returns) and as many as hold the first `margin` with a
+/// finite position (the incidence term's candidates).
+fn head_len(chunk: &RawChunk, margin: usize) -> usize {
+    let mut finite = 0;
+    let mut n = 0;
+    for p in chunk.points() {
+        if finite == margin {
+            break;
+        }
+        n += 1;
+        if p.xyz().iter().all(|v| v.is_finite()) {
+            finite += 1;
         }
     }
+    n.max(margin.min(chunk.len()))
 }
 
 /// An output chunk (the records with their σ) and the number of points read for it.
@@ -727,38 +757,44 @@ impl Run<'_> {
     ) -> Result<()> {
         // Conversions of chunks already computed, for reuse.
         let mut spare_pts: Vec<Vec<Prep>> = Vec::new();
-        let recv = |spare: &mut Vec<Vec<Prep>>| -> Result<Option<Prepared>> {
+        let recv = || -> Result<Option<RawChunk>> {
             match rx.recv() {
-                Ok(Ok(c)) => Ok(Some(self.prep.chunk(c, spare.pop().unwrap_or_default()))),
+                Ok(Ok(c)) => Ok(Some(c)),
                 Ok(Err(e)) => Err(e),
                 Err(_) => Ok(None),
             }
         };
+        let prepare = |c: RawChunk, spare: &mut Vec<Vec<Prep>>| {
+            self.prep.chunk(c, spare.pop().unwrap_or_default())
+        };
+        // The look-ahead's conversion of the next chunk's first points (reused).
+        let mut head_pts: Vec<Prep> = Vec::new();
         let margin = self.ctx.options.margin_points;
         let conic = matches!(self.kernel, Kernel::Conic(..));
         let mut tail: Vec<Vector3<f64>> = Vec::new();
         // Water-surface returns among the last `margin` points, with their file index.
         let mut water_tail: Vec<(u64, WaterReturn)> = Vec::new();
         // The next chunk's first points are the incidence term's neighbourhood margin and the
-        // soundings' surface; without either, a chunk is computed as soon as it arrives (one
-        // chunk's conversion less is held).
+        // soundings' surface; without either, a chunk is computed as soon as it arrives. The
+        // next chunk is held as read, and only its first points are converted for the margin
+        // (the whole chunk is converted when its turn comes): one chunk's conversion less is
+        // held.
         let lookahead = conic || self.kernel.has_incidence();
-        let mut current = recv(&mut spare_pts)?;
+        let mut current = recv()?.map(|c| prepare(c, &mut spare_pts));
         let mut water_points = 0u64;
         // One vector of slots serves every chunk.
         let mut slots = Vec::new();
         while let Some(cur) = current {
-            let next = if lookahead {
-                recv(&mut spare_pts)?
-            } else {
-                None
-            };
+            let next = if lookahead { recv()? } else { None };
             // Only the incidence term's neighbourhoods reach into the neighbouring chunks' points.
             let incidence = self.kernel.has_incidence() && !self.file_normals;
+            if let Some(n) = &next {
+                self.prep.convert(n, head_len(n, margin), &mut head_pts);
+            }
             let head: Vec<Vector3<f64>> = next
                 .as_ref()
                 .filter(|_| incidence)
-                .map(|n| valid_ecef(&n.pts).take(margin).collect())
+                .map(|_| valid_ecef(&head_pts).take(margin).collect())
                 .unwrap_or_default();
             // Soundings look for their surface in the chunk and the same margins.
             let in_water = cur
@@ -770,12 +806,16 @@ impl Run<'_> {
             let water = (conic && in_water > 0).then(|| {
                 let mut w: Vec<WaterReturn> = water_tail.iter().map(|(_, r)| *r).collect();
                 w.extend(
-                    water_returns(&cur, 0, cur.pts.len())
+                    water_returns(&cur.chunk, &cur.pts, 0, cur.pts.len())
                         .into_iter()
                         .map(|(_, r)| r),
                 );
                 if let Some(n) = &next {
-                    w.extend(water_returns(n, 0, margin).into_iter().map(|(_, r)| r));
+                    w.extend(
+                        water_returns(n, &head_pts, 0, margin)
+                            .into_iter()
+                            .map(|(_, r)| r),
+                    );
                 }
                 WaterSurfaceIndex::new(w)
             });
@@ -822,7 +862,7 @@ impl Run<'_> {
             if conic {
                 // Only the chunk's last `margin` points can be within `margin` of its end.
                 let from = cur.pts.len().saturating_sub(margin);
-                water_tail.extend(water_returns(&cur, from, cur.pts.len()));
+                water_tail.extend(water_returns(&cur.chunk, &cur.pts, from, cur.pts.len()));
                 water_tail.retain(|(i, _)| i + margin as u64 >= end);
             }
             let Prepared { chunk, pts, .. } = cur;
@@ -830,9 +870,10 @@ impl Run<'_> {
             let _ = spent.inputs.send(chunk);
             spare_pts.push(pts);
             current = match next {
-                None if !lookahead => recv(&mut spare_pts)?,
+                None if !lookahead => recv()?,
                 next => next,
-            };
+            }
+            .map(|c| prepare(c, &mut spare_pts));
         }
         let what = if conic {
             "recovered as soundings below their pulse's water-surface return"
@@ -865,12 +906,26 @@ impl Run<'_> {
                 let d = v - origin;
                 [d.x, d.y, d.z]
             };
+            // Built in parallel (in file order): a serial pass over the chunk here leaves a
+            // core idle.
             let mut candidates: Vec<[f64; 3]> =
                 Vec::with_capacity(tail.len() + cur.pts.len() + head.len());
-            candidates.extend(tail.iter().map(rel));
-            candidates.extend(valid_ecef(&cur.pts).map(|v| rel(&v)));
-            candidates.extend(head.iter().map(rel));
-            let targets: Vec<[f64; 3]> = cur.pts.iter().map(|p| rel(&p.ecef.vector())).collect();
+            candidates.par_extend(tail.par_iter().map(rel));
+            candidates.par_extend(
+                cur.pts
+                    .par_iter()
+                    .with_min_len(BLOCK)
+                    .filter(|p| !matches!(p.state, PrepState::NonFinite))
+                    .map(|p| rel(&p.ecef.vector())),
+            );
+            candidates.par_extend(head.par_iter().map(rel));
+            let mut targets: Vec<[f64; 3]> = Vec::with_capacity(cur.pts.len());
+            targets.par_extend(
+                cur.pts
+                    .par_iter()
+                    .with_min_len(BLOCK)
+                    .map(|p| rel(&p.ecef.vector())),
+            );
             judge_surfaces(&candidates, &targets, self.ctx.options.neighbours)
                 .into_iter()
                 .map(Some)
@@ -1492,19 +1547,25 @@ impl Run<'_> {
 }
 
 /// The water-surface returns (class 41, usable time) among the points `from..to` of a chunk
-/// (`to` clamped to its length), with their file index, in parallel (in file order).
-fn water_returns(c: &Prepared, from: usize, to: usize) -> Vec<(u64, WaterReturn)> {
-    let to = to.min(c.pts.len());
+/// whose first points are converted in `pts` (`to` clamped to their number), with their file
+/// index, in parallel (in file order).
+fn water_returns(
+    chunk: &RawChunk,
+    pts: &[Prep],
+    from: usize,
+    to: usize,
+) -> Vec<(u64, WaterReturn)> {
+    let to = to.min(pts.len());
     (from.min(to)..to)
         .into_par_iter()
         .with_min_len(BLOCK)
         .filter_map(|k| {
-            let p = &c.pts[k];
-            (c.chunk.point(k).classification() == CLASS_WATER_SURFACE
+            let p = &pts[k];
+            (chunk.point(k).classification() == CLASS_WATER_SURFACE
                 && matches!(p.state, PrepState::Ok))
             .then(|| {
                 (
-                    c.first_index + k as u64,
+                    chunk.first_index() + k as u64,
                     WaterReturn {
                         time_s: p.time_sow_s,
                         ecef_m: p.ecef,

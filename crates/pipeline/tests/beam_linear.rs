@@ -3,7 +3,7 @@
 //! simulated survey, points on their scan plane) the two kernels' σ agree per point within
 //! 0.5 % on every axis, with the trajectory's σ (SMRMSG) in and without.
 
-mod common;
+use lidarqa_fixtures as common;
 
 use common::{Survey, survey};
 use lidarqa_io::{LasReader, PointChunk};

@@ -2,7 +2,7 @@
 //! known exactly: every point comes back with its true range and scan angle, and a strip fails
 //! the same header checks as `tpu_tile` and `correct_tile`, naming the file.
 
-mod common;
+use lidarqa_fixtures as common;
 
 use lidarqa_pipeline::{TpuContext, TpuOptions, load_all};
 

@@ -3,7 +3,7 @@
 //! and a tile without a CRS is corrected in the zone the context gives (`--utm-zone` /
 //! `--epsg`), as `tpu_tile` does.
 
-mod common;
+use lidarqa_fixtures as common;
 
 use lidarqa_io::{
     Geodetic, Hemisphere, LasReader, PointChunk, UtmZone, ecef_to_geodetic, geodetic_to_ecef,

@@ -3,7 +3,7 @@
 //! or geodetic with a true heading; and `covariance` writes the full covariance whose diagonal
 //! is the σ.
 
-mod common;
+use lidarqa_fixtures as common;
 
 use common::{Survey, survey};
 use lidarqa_io::{LasReader, PointChunk, UtmZone, read_sbet};

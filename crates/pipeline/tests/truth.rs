@@ -2,7 +2,7 @@
 //! exactly: recovery equals the truth, σ equals lidarqa-tpu's `budget` at the true geometry, and
 //! tile reports merge into the summary of the whole strip.
 
-mod common;
+use lidarqa_fixtures as common;
 
 use common::{Survey, survey};
 use lidarqa_io::{Geodetic, LasReader, PointChunk, UtmDatum, UtmZone, geodetic_to_ecef};

@@ -2,7 +2,7 @@
 //! separation is given; with it, heights written as orthometric give the σ of the ellipsoidal
 //! file.
 
-mod common;
+use lidarqa_fixtures as common;
 
 use common::{pulses, survey, write_las};
 use lidarqa_io::{LasReader, PointChunk, RawVlr};

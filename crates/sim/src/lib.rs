@@ -56,8 +56,8 @@ mod write;
 
 pub use error::{Error, Result};
 pub use output::{
-    ControlPoint, InjectedErrors, LineErrorTruth, MountingParameters, Neu, Observation, PointTruth,
-    RandomErrors, RollPitchHeading, SimPoint, Strip, StripTruth, Survey, TargetTruth,
+    InjectedErrors, LineErrorTruth, MountingParameters, Neu, Observation, PointTruth, RandomErrors,
+    RollPitchHeading, SimPoint, Strip, StripTruth, Survey, SurveyedTarget, TargetTruth,
     TrajectoryRecord, TrajectorySigma, Truth,
 };
 pub use ray::{Curve, Hit};

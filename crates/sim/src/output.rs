@@ -121,7 +121,7 @@ pub struct TrajectorySigma {
 
 /// A surveyed control point: a target centre with survey noise.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ControlPoint {
+pub struct SurveyedTarget {
     /// Target id.
     pub id: String,
     /// Easting, m.
@@ -333,7 +333,7 @@ pub struct Survey {
     /// One entry per flight line, in scenario order.
     pub strips: Vec<Strip>,
     /// Control points (target centres with survey noise).
-    pub control: Vec<ControlPoint>,
+    pub control: Vec<SurveyedTarget>,
     /// The truth.
     pub truth: Truth,
     /// The true mounting used to cast the rays.

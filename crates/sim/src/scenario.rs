@@ -137,7 +137,7 @@ pub struct ErrorsFile {
     pub intensity_noise_percent: f64,
     /// Additive 1-sigma intensity noise as a percentage of the target–ground contrast at the
     /// return's range and incidence (real intensity is far noisier than a few percent of the
-    /// return; issue #18).
+    /// return).
     pub intensity_contrast_noise_percent: f64,
     /// σ of each line's own GNSS position offset `[north, east, up]`, m: one constant drawn per
     /// line (a float segment, a base station's error), added to the Gauss–Markov errors, and

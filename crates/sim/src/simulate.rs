@@ -18,8 +18,8 @@
 
 use crate::error::{Error, Result};
 use crate::output::{
-    ControlPoint, InjectedErrors, LineErrorTruth, MountingParameters, Observation, PointTruth,
-    RandomErrors, SimPoint, Strip, StripTruth, Survey, TargetTruth, TrajectoryRecord, Truth,
+    InjectedErrors, LineErrorTruth, MountingParameters, Observation, PointTruth, RandomErrors,
+    SimPoint, Strip, StripTruth, Survey, SurveyedTarget, TargetTruth, TrajectoryRecord, Truth,
 };
 use crate::scenario::{Line, ScanPattern, ScanWave, Scenario};
 use crate::scene::{
@@ -263,7 +263,7 @@ pub fn simulate_streaming(
     let control = scene
         .targets
         .iter()
-        .map(|t| ControlPoint {
+        .map(|t| SurveyedTarget {
             id: t.id.clone(),
             easting_m: origin[0] + t.center_m[0] + survey * sh * normal(&mut rng),
             northing_m: origin[1] + t.center_m[1] + survey * sh * normal(&mut rng),

@@ -56,8 +56,9 @@ use std::f64::consts::TAU;
 use serde::Serialize;
 use spade::{DelaunayTriangulation, FloatTriangulation, HasPosition, Point2, Triangulation};
 
-use crate::extract::{ControlPoint, TargetResult, validate_control};
+use crate::extract::{TargetResult, validate_control};
 use crate::{Error, FrameSide, Result};
+use lidarqa_model::ControlPoint;
 
 /// Minimum number of checkpoints for an ASPRS Ed. 2 product accuracy assessment.
 pub const ASPRS_MIN_CHECKPOINTS: usize = 30;

@@ -13,41 +13,7 @@ use crate::fcm::{ExtractionReport, FcmConfig, ThresholdRule, select_high_intensi
 use crate::plate::{PlateFit, RING_OUT_M, fit_plate};
 use crate::point::LidarPoint;
 use crate::{Error, Result};
-
-/// A surveyed control point or checkpoint (SPEC §7: `id,x,y,z[,sigma_h,sigma_v]`).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ControlPoint {
-    /// Unique id.
-    pub id: String,
-    /// Easting (projected m).
-    pub x: f64,
-    /// Northing (projected m).
-    pub y: f64,
-    /// Height (m, up).
-    pub z: f64,
-    /// The point's own horizontal survey accuracy, RMSE_H = √(σ_north² + σ_east²) (m), if known.
-    pub sigma_h_m: Option<f64>,
-    /// The point's own vertical survey accuracy (m, 1σ), if known.
-    pub sigma_v_m: Option<f64>,
-    /// The radius of the target at this point (m), overriding the configured one.
-    pub radius_m: Option<f64>,
-}
-
-impl ControlPoint {
-    /// A control point with no sigmas and no radius.
-    #[must_use]
-    pub fn new(id: impl Into<String>, x: f64, y: f64, z: f64) -> Self {
-        Self {
-            id: id.into(),
-            x,
-            y,
-            z,
-            sigma_h_m: None,
-            sigma_v_m: None,
-            radius_m: None,
-        }
-    }
-}
+use lidarqa_model::ControlPoint;
 
 /// Checks control points: at least one, unique ids, finite coordinates, sigmas ≥ 0.
 ///

@@ -10,7 +10,7 @@
 //! 2. [`segment_clusters`]: connected components in XY (k-d tree); with an unknown radius each
 //!    cluster is matched to the nearest control point within a search radius; unmatched
 //!    clusters and control points without a target are reported ([`TargetReport`]).
-//! 3. With a known radius, the plate model at every control point (module `plate`, issue #18):
+//! 3. With a known radius, the plate model at every control point (module `plate`):
 //!    a matched filter finds the disc, the centre is the posterior mean of an intensity
 //!    (footprint mixing) and height-step likelihood over every return around it, the elevation
 //!    the mean Z inside the circle minus the rim ([`PlateModel`]), with shape and neighbour
@@ -67,13 +67,15 @@ pub use evaluate::{
     asprs_combined_rmse, evaluate, evaluate_vertical_tin, nssda_horizontal, nssda_vertical,
 };
 pub use extract::{
-    ControlPoint, TargetConfig, TargetReport, TargetResult, UnmatchedCluster, UnmatchedReason,
-    extract_targets, segment_clusters, validate_control,
+    TargetConfig, TargetReport, TargetResult, UnmatchedCluster, UnmatchedReason, extract_targets,
+    segment_clusters, validate_control,
 };
 pub use fcm::{
     ExtractionReport, FcmConfig, FcmReport, FcmResult, ThresholdRule, fuzzy_c_means,
     select_high_intensity,
 };
+/// The control points the extraction and the evaluation take (model's one grid control point).
+pub use lidarqa_model::ControlPoint;
 pub use mec::{Circle, min_enclosing_circle};
 pub use merge::merge_reports;
 pub use plate::PlateModel;

@@ -1,5 +1,5 @@
 //! The plate model: find a disc of known radius near a control point and fit its centre from
-//! every point around it (issue #18).
+//! every point around it.
 //!
 //! A target is a disc of radius R, brighter than the ground around it and, for a raised plate,
 //! higher. Every return within R + 0.6 m of the disc obeys one model:

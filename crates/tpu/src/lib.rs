@@ -38,6 +38,7 @@ mod error;
 mod geometry;
 mod iho;
 mod montecarlo;
+mod mounting_check;
 mod normals;
 mod point;
 mod presets;
@@ -60,6 +61,10 @@ pub use iho::{
     IhoLimits, IhoOrder, THU_95_CBLUE, THU_95_CIRCULAR_PER_AXIS, TVU_95_FACTOR, thu_95_m,
 };
 pub use montecarlo::{MonteCarlo, monte_carlo};
+pub use mounting_check::{
+    FittedMounting, MOUNTING_ERROR_M, MOUNTING_WARNING_FLOOR_M, MOUNTING_WARNING_RATIO,
+    MountingTally, MountingView,
+};
 pub use normals::{
     IncidenceClass, MAX_NEIGHBOURS, MIN_NEIGHBOURS, Surface, WIDEN_FLATNESS, WIDEN_RADIUS_FACTOR,
     cos_incidence, fit_normal, incidence_angle, judge_surfaces, judged_incidence, plane_normals,

@@ -160,9 +160,16 @@ pub fn judge_surfaces(candidates: &[[f64; 3]], targets: &[[f64; 3]], k: usize) -
         targets,
         k,
         Surface::TooFew,
-        |q, nn, grid, wide| match judge_neighbours(q, nn) {
-            Surface::Linear(_) => widen(q, nn, grid, wide),
-            first => first,
+        |q, nn, grid, wide| {
+            if nn.len() < MIN_NEIGHBOURS {
+                return Surface::TooFew;
+            }
+            // The scatter of the k nearest is judged, and reused by the widening.
+            let first = scatter_of(q, nn);
+            match judge_scatter(&first, FLATNESS, true) {
+                Surface::Linear(along) => widen(q, nn, (&first, along), grid, wide),
+                judged => judged,
+            }
         },
     )
 }
@@ -293,30 +300,37 @@ const WIDEN_ALIGNMENT_RAD: f64 = 15.0 * std::f64::consts::PI / 180.0;
 /// prefix that is flat and planar ([`WIDEN_FLATNESS`]) and whose points off the first line
 /// agree with the plane ([`WIDEN_ALIGNMENT_RAD`]) is the answer; a scattered one, or none
 /// accepted, leaves the point linear.
-fn widen(q: &[f64; 3], nn: &[(f64, [f64; 3])], grid: &Grid, wide: &mut Vec<(f64, u32)>) -> Surface {
+fn widen(
+    q: &[f64; 3],
+    nn: &[(f64, [f64; 3])],
+    (first, along): (&Matrix3<f64>, Vector3<f64>),
+    grid: &Grid,
+    wide: &mut Vec<(f64, u32)>,
+) -> Surface {
     let k = nn.len();
-    // The first neighbourhood's line: its mean (as an offset from q) and direction. A point
-    // farther from it than half the first radius is not on it (the line's own thickness is
-    // noise, far smaller).
-    let first = scatter_of(q, nn);
-    let (vals, axes) = symmetric_eigen3(&first);
-    let along = axes[2];
-    // What the point is when no widened neighbourhood is accepted: a thin line (σ₁ ≥
-    // [`FLATNESS`] · σ₂, one scan line) lies in its surface; a thick one (a run of leaves in
-    // one scan plane) does not define one.
-    let line = if vals[2].max(0.0).sqrt() >= FLATNESS * vals[1].max(0.0).sqrt() {
-        Surface::Linear(along)
-    } else {
-        Surface::Scattered
+    // What the point is when no widened neighbourhood is accepted (`first` is the scatter of
+    // the k nearest, [`scatter_of`]): a thin line (σ₁ ≥ [`FLATNESS`] · σ₂, one scan line) lies
+    // in its surface; a thick one (a run of leaves in one scan plane) does not define one.
+    // Only needed when no prefix is accepted, so decided then.
+    let line = || {
+        let (vals, axes) = symmetric_eigen3(first);
+        if vals[2].max(0.0).sqrt() >= FLATNESS * vals[1].max(0.0).sqrt() {
+            Surface::Linear(axes[2])
+        } else {
+            Surface::Scattered
+        }
     };
     let Some(&(kth_m2, _)) = nn.last() else {
-        return line;
+        return line();
     };
     if !(kth_m2 > 0.0 && (WIDEN_RADIUS_FACTOR * WIDEN_RADIUS_FACTOR * kth_m2).is_finite())
         || k >= MAX_NEIGHBOURS
     {
-        return line;
+        return line();
     }
+    // The first neighbourhood's line: its mean (as an offset from q) and direction (the
+    // judgement's, `along`). A point farther from it than half the first radius is not on it
+    // (the line's own thickness is noise, far smaller).
     let mean = nn.iter().fold(Vector3::zeros(), |m, (_, p)| {
         m + Vector3::new(p[0] - q[0], p[1] - q[1], p[2] - q[2])
     }) / k as f64;
@@ -349,7 +363,7 @@ fn widen(q: &[f64; 3], nn: &[(f64, [f64; 3])], grid: &Grid, wide: &mut Vec<(f64,
                 next = most;
             }
             if next <= size {
-                return line;
+                return line();
             }
             let rest = &mut wide[taken..];
             if next - taken < rest.len() {
@@ -368,19 +382,23 @@ fn widen(q: &[f64; 3], nn: &[(f64, [f64; 3])], grid: &Grid, wide: &mut Vec<(f64,
                 Surface::Planar(n) if off_line_agrees(&off, &n) => {
                     return Surface::PlanarWidened(n);
                 }
-                Surface::Scattered => return line,
+                Surface::Scattered => return line(),
                 _ if size == MAX_NEIGHBOURS || (widest && size == most) => {
-                    return line;
+                    return line();
                 }
                 _ => {}
             }
         }
     }
-    line
+    line()
 }
 
 /// The radii, as multiples of the first neighbourhood's, within which [`widen`] gathers
-/// candidates in turn (the last is [`WIDEN_RADIUS_FACTOR`]).
+/// candidates in turn (the last is [`WIDEN_RADIUS_FACTOR`]). On the bench strip (see
+/// `docs/reference/performance.md`) nine in ten widened neighbourhoods are accepted at 4k
+/// points, about 2.8 times the first radius away: a first step of 1.5 gathered in vain and was
+/// slower. The steps change what is computed, not the answer (the prefixes are those of one
+/// gathering within the widest radius).
 const WIDEN_STEPS: [f64; 3] = [3.0, 6.0, WIDEN_RADIUS_FACTOR];
 
 /// Whether the points off the first line (their sums `off`) lie as scan lines of the plane of
@@ -465,6 +483,7 @@ fn search_each<T: Clone + Send + Sync>(
 }
 
 /// The neighbourhood of `q` judged by its dimensionality features.
+#[cfg(test)]
 fn judge_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
     if nn.len() < MIN_NEIGHBOURS {
         return Surface::TooFew;
@@ -722,8 +741,15 @@ impl Grid {
             let iv = clamp_cell((v - origin[1]) / cell, nv);
             iv * nu + iu
         };
-        // Counting sort into cells.
-        let ids: Vec<u32> = candidates.iter().map(|p| index(p) as u32).collect();
+        // Counting sort into cells (the cells found in parallel, the sort serial).
+        let ids: Vec<u32> = {
+            use rayon::prelude::*;
+            candidates
+                .par_iter()
+                .with_min_len(QUERY_BLOCK)
+                .map(|p| index(p) as u32)
+                .collect()
+        };
         let mut start = vec![0u32; nu * nv + 1];
         for &c in &ids {
             start[c as usize + 1] += 1;

@@ -5,7 +5,7 @@
 //! (zero) mounting, and range and attitude carry random noise.
 #![allow(dead_code)]
 
-use lidarqa_calib::{ControlPoint, RawPoint, Strip, Tie, TieKind, TiePick};
+use lidarqa_calib::{NedControlPoint, RawPoint, Strip, Tie, TieKind, TiePick};
 use lidarqa_model::{Attitude, LinearObservation, Mounting, rotation_zyx, scanner_vector};
 use nalgebra::{Vector2, Vector3};
 use rand::{Rng, SeedableRng};
@@ -416,12 +416,12 @@ impl Survey {
     }
 
     /// Ground control: the first `n` ties on flat ground as surveyed targets (true position).
-    pub fn control_for(&self, ties: &[Tie], n: usize) -> Vec<ControlPoint> {
+    pub fn control_for(&self, ties: &[Tie], n: usize) -> Vec<NedControlPoint> {
         ties.iter()
             .filter_map(|t| {
                 let k: usize = t.id[1..].parse().ok()?;
                 let (c, h) = self.scene.markings.get(k)?;
-                Some(ControlPoint {
+                Some(NedControlPoint {
                     id: t.id.clone(),
                     position_m: Vector3::new(c.x + h, c.y - h, 0.0),
                     target_radius_m: None,

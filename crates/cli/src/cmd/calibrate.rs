@@ -10,7 +10,7 @@ use clap::Args;
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use lidarqa_calib::{CalibrationOptions, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Method, StripModel};
 use lidarqa_pipeline::{
-    CalibrateJob, CalibrateStep, POINTS_PER_TILE, TieSource, TrajectoryWeighting,
+    CalibrateJob, CalibrateStep, LineOptions, POINTS_PER_TILE, TieSource, TrajectoryWeighting,
     calibrate_strips_with_progress,
 };
 use std::path::PathBuf;
@@ -26,7 +26,14 @@ Examples:
   lidarqa calibrate strips/*.laz --trajectory sbet.out --sensor sensor.toml --ties ties.csv \\
       --method plane -o calibration_plane.json
 
-Tie picks CSV: tie,strip,x,y (projected metres; strip = LAS point source id or file stem).
+The strips are flight lines, not files: the points of all files are grouped by point source id
+and split where GPS time jumps by more than --line-gap-s or the sensor position jumps farther
+than the platform can move (a line cut into tiles is one strip; a file holding two passes of one
+id is two). A line is named by its point source id, or <id>-<k> for the k-th pass of an id
+holding several; calibration.json lists the lines found and why (\"lines\").
+
+Tie picks CSV: tie,strip,x,y (projected metres; strip = the line's name, or the stem of a file
+holding that line only).
 Control CSV: id,x,y,z (projected metres, ellipsoidal height). A control id equal to a tie id
 observes all three coordinates; otherwise only its height. Without control the vertical lever
 arm is not observable and is held at the sensor file's value (\"observable\": false).
@@ -38,9 +45,12 @@ twice, or an output that is an input, is refused.";
 /// Flags of `lidarqa calibrate`.
 #[derive(Debug, Args)]
 pub struct CalibrateArgs {
-    /// Strips (LAS/LAZ with GPS time), one flight line each.
+    /// Strips or tiles (LAS/LAZ with GPS time); their points are read as flight lines.
     #[arg(required = true, value_name = "STRIP")]
     strips: Vec<PathBuf>,
+    /// A gap in GPS time longer than this within one point source id starts a new line, seconds.
+    #[arg(long, value_name = "S", default_value_t = 5.0)]
+    line_gap_s: f64,
     /// Trajectory (SBET).
     #[arg(long, value_name = "FILE")]
     trajectory: PathBuf,
@@ -268,6 +278,10 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
             attitude_correlation_s: a.attitude_correlation_s,
         }),
         tile_points: POINTS_PER_TILE,
+        lines: LineOptions {
+            max_gap_s: a.line_gap_s,
+            ..LineOptions::default()
+        },
     };
     let run = calibrate_strips_with_progress(&job, &progress);
     bar.finish_and_clear();

@@ -8,7 +8,8 @@ use super::tpu_flags::SurveyFlags;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lidarqa_pipeline::{
-    CorrectTileJob, correct_tile_with_line, read_calibrated_mounting, read_line_corrections,
+    CorrectTileJob, LineMatch, correct_tile_with_lines, read_calibrated_mounting,
+    read_line_corrections,
 };
 use std::path::{Path, PathBuf};
 
@@ -64,10 +65,17 @@ fn correct(a: &CorrectArgs) -> Result<()> {
     let shared = [&a.calibration, &a.sensor, &a.trajectory];
     let outputs = lidarqa_io::outputs_in_dir(&a.output, &a.strips, &shared)?;
     let mounting = read_calibrated_mounting(&a.calibration)?;
-    // The strip adjustment's per-line corrections, matched to each strip by its file stem.
+    // The strip adjustment's per-line corrections: each point takes the line of its point
+    // source id whose time span holds it, in whichever file it is (a calibration written
+    // before the lines named their id: the line computed from the file of that stem).
     let lines = read_line_corrections(&a.calibration)?;
-    let mut per_strip = Vec::new();
+    let by_id = lines.iter().all(|(l, _)| l.point_source_id.is_some());
+    let mut per_strip: Vec<Vec<LineMatch>> = Vec::new();
     for path in &a.strips {
+        if by_id {
+            per_strip.push(lines.iter().map(|(l, _)| l.clone()).collect());
+            continue;
+        }
         let stem = path.file_stem().map(|s| s.to_string_lossy().to_string());
         let line = lines.iter().find(|(_, f)| f.is_some() && *f == stem);
         if !lines.is_empty() && line.is_none() {
@@ -77,7 +85,14 @@ fn correct(a: &CorrectArgs) -> Result<()> {
                 a.calibration.display()
             );
         }
-        per_strip.push(line.map(|(l, _)| l.clone()));
+        per_strip.push(
+            line.map(|(l, _)| LineMatch {
+                correction: l.correction.clone(),
+                point_source_id: None,
+            })
+            .into_iter()
+            .collect(),
+        );
     }
     if a.output.is_file() {
         bail!("{}: the output must be a directory", a.output.display());
@@ -100,7 +115,7 @@ fn correct(a: &CorrectArgs) -> Result<()> {
             mounting: &mounting,
             other_inputs: &others,
         };
-        let r = correct_tile_with_line(&job, line.as_ref(), &|n| bar.inc(n))?;
+        let r = correct_tile_with_lines(&job, line, &|n| bar.inc(n))?;
         bar.suspend(|| {
             crate::format::print_warnings(&r.warnings);
             eprintln!(

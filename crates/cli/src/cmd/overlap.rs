@@ -16,8 +16,8 @@ Examples:
   lidarqa overlap corrected/*.laz -o overlap_after.json     also the dz grid and a profile
 
 The files are read as flight lines: by point source id across all files, split where the GPS time
-jumps by more than --line-gap-s (ids 0 or reused for several passes); the lines found and why are
-printed. dz = z(first line) − z(second) per cell of --cell-m where both lines are smooth (plane-fit
+jumps by more than --line-gap-s or the sensor position stored with the points jumps farther than
+the platform can move (ids 0 or reused for several passes); the lines found and why are printed. dz = z(first line) − z(second) per cell of --cell-m where both lines are smooth (plane-fit
 RMS ≤ --max-roughness-m, slope ≤ --max-slope-deg), on ground returns (class 2) when the files are
 ground-classified. Pairs sharing fewer than --min-cells cells are listed as not meaningful and left
 out of the grid and the overall RMSDz. Coordinates as in the files (projected, z up).
@@ -28,8 +28,8 @@ An existing -o file is replaced; a strip given twice, or an -o that is an input,
 /// Flags of `lidarqa overlap`.
 #[derive(Debug, Args)]
 pub struct OverlapArgs {
-    /// Strips (LAS/LAZ), two or more.
-    #[arg(required = true, num_args = 2.., value_name = "STRIP")]
+    /// Strips or tiles (LAS/LAZ) holding two flight lines or more (one file may hold several).
+    #[arg(required = true, num_args = 1.., value_name = "STRIP")]
     strips: Vec<PathBuf>,
     /// Write the JSON (pairs, grid, profile) to this file.
     #[arg(short, long, value_name = "FILE")]
@@ -75,6 +75,7 @@ pub fn run(a: OverlapArgs) -> Result<()> {
         &opts,
         &LineOptions {
             max_gap_s: a.line_gap_s,
+            ..LineOptions::default()
         },
     )?;
     print_warnings(&lines.warnings);

@@ -6,7 +6,7 @@ use crate::format::{OutputFormat, print_text, print_warnings};
 use anyhow::{Result, bail};
 use clap::Args;
 use lidarqa_io::QcDocument;
-use lidarqa_pipeline::water::WaterClasses;
+use lidarqa_io::WaterClasses;
 use lidarqa_pipeline::{LineOptions, QcOptions, Standard, qc_lines, qc_prediction, read_lines};
 use std::io::Write as _;
 use std::path::PathBuf;
@@ -18,8 +18,9 @@ Examples:
   lidarqa qc tiles/*.laz --trajectory sbet.out --sensor sensor.toml -o qc/   # and predicted
 
 The files are read as flight lines across all of them: by point source id, split where the GPS
-time jumps by more than --line-gap-s (ids 0 or reused for several passes); the lines found and why
-are printed. Relative accuracy is measured on ground (class 2) cells of --cell-m that are smooth in
+time jumps by more than --line-gap-s or the sensor position stored with the points jumps farther
+than the platform can move (ids 0 or reused for several passes); the lines found and why are
+printed. Relative accuracy is measured on ground (class 2) cells of --cell-m that are smooth in
 both lines (slope ≤ --max-slope-deg, plane-fit RMS ≤ --max-roughness-m); pairs and lines with fewer
 than --min-cells cells are listed, not judged. Checkpoints (--control, id,x,y,z CSV) are compared
 with a TIN of the ground points.
@@ -108,6 +109,7 @@ pub fn run(a: QcArgs) -> Result<()> {
         &a.delivery,
         &LineOptions {
             max_gap_s: a.line_gap_s,
+            ..LineOptions::default()
         },
     )?;
     let predicted = match (&a.sensor, &a.trajectory) {
@@ -122,6 +124,7 @@ pub fn run(a: QcArgs) -> Result<()> {
         min_cells: a.min_cells,
         lines: LineOptions {
             max_gap_s: a.line_gap_s,
+            ..LineOptions::default()
         },
         control: a.control.clone(),
         predicted,

@@ -4,8 +4,8 @@
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use lidarqa_io::WaterClasses;
 use lidarqa_io::{Crs, UtmZone};
-use lidarqa_pipeline::water::WaterClasses;
 use lidarqa_pipeline::{TpuContext, TpuOptions};
 use std::path::{Path, PathBuf};
 

@@ -1,13 +1,11 @@
 //! `lidarqa trajectory`: rebuild the sensor trajectory of strips that came without one, from
-//! their multi-return pulses (lidarqa-pipeline's `trajectory_from_returns`).
+//! their multi-return pulses (the `lidarqa-trajectory` crate).
 
 use crate::format::{OutputFormat, print_json, print_text, print_warnings};
 use anyhow::Result;
 use clap::Args;
-use lidarqa_pipeline::trajectory_from_returns::{
-    ReconstructOptions, TrajectoryReport, rebuild_trajectory_with,
-};
-use lidarqa_pipeline::water::WaterClasses;
+use lidarqa_io::WaterClasses;
+use lidarqa_trajectory::{ReconstructOptions, TrajectoryReport, rebuild_trajectory_with};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 

@@ -251,6 +251,11 @@ impl RawChunk {
         let points = points.max(1);
         let transforms = *self.data.transforms();
         let (gps_time_at, first_index) = (self.gps_time_at, self.first_index);
+        let point_source_id_at = if self.data.format().is_extended {
+            20
+        } else {
+            18
+        };
         let record_len = self.data.record_len();
         let len = self.data.len();
         self.data
@@ -262,6 +267,7 @@ impl RawChunk {
                 record_len,
                 transforms,
                 gps_time_at,
+                point_source_id_at,
                 first_index: first_index + (b * points) as u64,
             })
             .collect()
@@ -276,11 +282,20 @@ pub struct CoordinateBlock<'a> {
     record_len: usize,
     transforms: las::Vector<las::Transform>,
     gps_time_at: Option<usize>,
+    /// Byte offset of the point source id in a record (18 in formats 0–5, 20 in 6–10).
+    point_source_id_at: usize,
     /// Index in the file of the run's first point.
     first_index: u64,
 }
 
 impl CoordinateBlock<'_> {
+    /// The point source id of point `k` of the run.
+    #[inline]
+    pub fn point_source_id(&self, k: usize) -> u16 {
+        let at = k * self.record_len + self.point_source_id_at;
+        u16::from_le_bytes([self.records[at], self.records[at + 1]])
+    }
+
     /// Number of points.
     pub fn len(&self) -> usize {
         self.records.len() / self.record_len

@@ -15,7 +15,7 @@
 //!   ([`lidarqa_tpu::IhoOrder`]); S-44 asks that 95 % of the soundings meet them.
 
 use crate::lines::Lines;
-use crate::water::WaterClasses;
+use lidarqa_io::WaterClasses;
 use lidarqa_io::{IhoDepthBand, IhoDocument, IhoDocumentOrder, QcIho, QcIhoOrder};
 use lidarqa_model::median;
 use lidarqa_tpu::{IhoOrder, THU_95_CBLUE, TVU_95_FACTOR};

@@ -1,0 +1,334 @@
+//! The IHO S-44 tallies of the soundings: per depth band and order, mergeable, and their JSON
+//! views.
+
+use super::ResidualView;
+use super::checks::ResidualCheck;
+use super::histogram::{Coarse, SIGMA_MAP_CELL_M};
+use lidarqa_model::NORMAL_95_FACTOR;
+use lidarqa_tpu::{IhoLimits, IhoOrder, THU_95_CBLUE, TVU_95_FACTOR};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Depth bands of the IHO summary, m: `[from, to)`.
+pub const DEPTH_BANDS_M: [[f64; 2]; 5] = [
+    [0.0, 5.0],
+    [5.0, 10.0],
+    [10.0, 20.0],
+    [20.0, 50.0],
+    [50.0, f64::INFINITY],
+];
+
+/// One sounding's IHO S-44 result (computed by the tile, counted here).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SoundingResult {
+    /// Depth below the water surface, m.
+    pub depth_m: f64,
+    /// 95 % horizontal uncertainty (exact radius of the error ellipse), m.
+    pub thu_95_m: f64,
+    /// 95 % vertical uncertainty (1.96 σ_V), m.
+    pub tvu_95_m: f64,
+    /// Whether the surface was modelled (no surface return of its own pulse).
+    pub surface_modelled: bool,
+    /// Recovery residual, m.
+    pub residual_m: f64,
+    /// 1σ horizontal, m (for σ vs depth).
+    pub sigma_horizontal_m: f64,
+    /// 1σ vertical, m.
+    pub sigma_vertical_m: f64,
+}
+
+/// Counts of one depth band.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct BandTally {
+    pub(crate) n: u64,
+    pub(crate) both: [u64; 5],
+    pub(crate) thu: [u64; 5],
+    pub(crate) tvu: [u64; 5],
+    /// Σ σ_H², m² (tile reports written before it: 0).
+    #[serde(default)]
+    pub(crate) sum_sq_sigma_h_m2: f64,
+    /// Σ σ_V², m².
+    #[serde(default)]
+    pub(crate) sum_sq_sigma_v_m2: f64,
+}
+
+/// Mergeable IHO S-44 counts of soundings by depth band and order (stored as they are in tile
+/// reports: plain counts).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IhoTally {
+    bands: [BandTally; 5],
+    modelled: u64,
+    residual: ResidualCheck,
+    /// Per map cell (i, j) of [`SIGMA_MAP_CELL_M`]: soundings by the most stringent order they
+    /// meet (index in [`IhoOrder::ALL`]; the last slot: none). The orders are nested (each
+    /// order's THU and TVU allowances contain the stricter one's), so "meets order k" is
+    /// "best ≤ k", and a cell's share meeting any order follows from these counts.
+    #[serde(default, with = "order_cells")]
+    order_map: BTreeMap<(i64, i64), [u64; 6]>,
+}
+
+/// The order map as a list `[i, j, counts]` in JSON (map keys must be strings there).
+pub(crate) mod order_cells {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use std::collections::BTreeMap;
+
+    type Cells = BTreeMap<(i64, i64), [u64; 6]>;
+
+    pub fn serialize<S: Serializer>(m: &Cells, s: S) -> Result<S::Ok, S::Error> {
+        m.iter()
+            .map(|(k, v)| (k.0, k.1, *v))
+            .collect::<Vec<_>>()
+            .serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Cells, D::Error> {
+        let v: Vec<(i64, i64, [u64; 6])> = Vec::deserialize(d)?;
+        Ok(v.into_iter().map(|(i, j, c)| ((i, j), c)).collect())
+    }
+}
+
+impl IhoTally {
+    /// Counts one sounding at projected (x, y), m.
+    pub fn add(&mut self, r: &SoundingResult, x: f64, y: f64) {
+        let b = DEPTH_BANDS_M
+            .iter()
+            .position(|[lo, hi]| r.depth_m >= *lo && r.depth_m < *hi)
+            .unwrap_or(0);
+        let band = &mut self.bands[b];
+        band.n += 1;
+        for (k, o) in IhoOrder::ALL.iter().enumerate() {
+            let (h, v) = o.check(r.depth_m, r.thu_95_m, r.tvu_95_m);
+            band.thu[k] += u64::from(h);
+            band.tvu[k] += u64::from(v);
+            band.both[k] += u64::from(h && v);
+        }
+        band.sum_sq_sigma_h_m2 += r.sigma_horizontal_m * r.sigma_horizontal_m;
+        band.sum_sq_sigma_v_m2 += r.sigma_vertical_m * r.sigma_vertical_m;
+        if x.is_finite() && y.is_finite() {
+            let key = (
+                (x / SIGMA_MAP_CELL_M).floor() as i64,
+                (y / SIGMA_MAP_CELL_M).floor() as i64,
+            );
+            let best = IhoOrder::best(r.depth_m, r.thu_95_m, r.tvu_95_m)
+                .and_then(|o| IhoOrder::ALL.iter().position(|x| *x == o))
+                .unwrap_or(5);
+            self.order_map.entry(key).or_default()[best] += 1;
+        }
+        self.modelled += u64::from(r.surface_modelled);
+        self.residual.add(r.residual_m);
+    }
+
+    /// Adds another tally.
+    pub fn merge(&mut self, o: &IhoTally) {
+        for (a, b) in self.bands.iter_mut().zip(&o.bands) {
+            a.n += b.n;
+            for k in 0..5 {
+                a.both[k] += b.both[k];
+                a.thu[k] += b.thu[k];
+                a.tvu[k] += b.tvu[k];
+            }
+            a.sum_sq_sigma_h_m2 += b.sum_sq_sigma_h_m2;
+            a.sum_sq_sigma_v_m2 += b.sum_sq_sigma_v_m2;
+        }
+        for (k, c) in &o.order_map {
+            let e = self.order_map.entry(*k).or_default();
+            for (a, b) in e.iter_mut().zip(c) {
+                *a += b;
+            }
+        }
+        self.modelled += o.modelled;
+        self.residual.merge(&o.residual);
+    }
+
+    /// Soundings counted.
+    pub fn soundings(&self) -> u64 {
+        self.bands.iter().map(|b| b.n).sum()
+    }
+
+    /// The JSON view; `None` without soundings.
+    pub fn view(&self) -> Option<IhoView> {
+        let n = self.soundings();
+        if n == 0 {
+            return None;
+        }
+        let pct = |c: u64, n: u64| {
+            if n > 0 {
+                100.0 * c as f64 / n as f64
+            } else {
+                0.0
+            }
+        };
+        let per_order = |counts: [u64; 5], n: u64| -> BTreeMap<&'static str, f64> {
+            IhoOrder::ALL
+                .iter()
+                .zip(counts)
+                .map(|(o, c)| (o.name(), pct(c, n)))
+                .collect()
+        };
+        let mut total = BandTally::default();
+        for b in &self.bands {
+            total.n += b.n;
+            for k in 0..5 {
+                total.both[k] += b.both[k];
+                total.thu[k] += b.thu[k];
+                total.tvu[k] += b.tvu[k];
+            }
+        }
+        Some(IhoView {
+            standard: "IHO S-44 Edition 6.0.0 (2020), Table 1",
+            thu_95: format!(
+                "exact 95 % radius of each sounding's horizontal error ellipse \
+                 (>= total_thu = {THU_95_CBLUE} sigma_h, <= {NORMAL_95_FACTOR} sigma_h)"
+            ),
+            tvu_95: format!("{TVU_95_FACTOR} sigma_v"),
+            soundings: n,
+            surface_from_pulse: n - self.modelled,
+            surface_modelled: self.modelled,
+            recovery_residual_m: ResidualView {
+                kind: "sounding",
+                rms: (self.residual.sum_sq_m2 / self.residual.n.max(1) as f64).sqrt(),
+                max_abs: self.residual.max_abs_m,
+            },
+            orders: IhoOrder::ALL
+                .iter()
+                .enumerate()
+                .map(|(k, o)| {
+                    (
+                        o.name(),
+                        OrderView {
+                            limits: o.limits(),
+                            percent_meeting: pct(total.both[k], n),
+                        },
+                    )
+                })
+                .collect(),
+            bands: DEPTH_BANDS_M
+                .iter()
+                .zip(&self.bands)
+                .filter(|(_, b)| b.n > 0)
+                .map(|(range, b)| BandView {
+                    depth_m: [range[0], if range[1].is_finite() { range[1] } else { -1.0 }],
+                    soundings: b.n,
+                    percent_meeting: per_order(b.both, b.n),
+                    percent_thu: per_order(b.thu, b.n),
+                    percent_tvu: per_order(b.tvu, b.n),
+                    rms_sigma_horizontal_m: (b.sum_sq_sigma_h_m2 / b.n as f64).sqrt(),
+                    rms_sigma_vertical_m: (b.sum_sq_sigma_v_m2 / b.n as f64).sqrt(),
+                })
+                .collect(),
+            order_grid: self.order_grid(),
+        })
+    }
+
+    /// Dense view of the order map, coarsened like the σ map: per cell, the most stringent
+    /// order met by at least 95 % of its soundings (S-44's confidence level).
+    fn order_grid(&self) -> Option<OrderGridView> {
+        let Coarse { i0, j0, f, nx, ny } = Coarse::of(self.order_map.keys())?;
+        let mut acc = vec![[0u64; 6]; nx * ny];
+        for ((i, j), c) in &self.order_map {
+            let (a, b) = (((i - i0) / f) as usize, ((j - j0) / f) as usize);
+            for (x, y) in acc[b * nx + a].iter_mut().zip(c) {
+                *x += y;
+            }
+        }
+        Some(OrderGridView {
+            cell_m: SIGMA_MAP_CELL_M * f as f64,
+            origin_x: i0 as f64 * SIGMA_MAP_CELL_M,
+            origin_y: j0 as f64 * SIGMA_MAP_CELL_M,
+            nx,
+            ny,
+            order: acc
+                .into_iter()
+                .map(|c| {
+                    let n: u64 = c.iter().sum();
+                    (n > 0).then(|| {
+                        let mut met = 0;
+                        IhoOrder::ALL
+                            .iter()
+                            .zip(c)
+                            .find_map(|(o, k)| {
+                                met += k;
+                                (met as f64 >= 0.95 * n as f64).then_some(o.name())
+                            })
+                            .unwrap_or("none")
+                    })
+                })
+                .collect(),
+        })
+    }
+}
+
+/// The map of the IHO order achieved: the summary's `iho_s44.order_grid`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OrderGridView {
+    /// Cell size, m.
+    pub cell_m: f64,
+    /// Easting of the west edge, m.
+    pub origin_x: f64,
+    /// Northing of the south edge, m.
+    pub origin_y: f64,
+    /// Columns (west → east).
+    pub nx: usize,
+    /// Rows (south → north).
+    pub ny: usize,
+    /// Per cell, row-major from the south-west: the most stringent order (`exclusive`,
+    /// `special`, `1a`, `2`; 1a and 1b share their limits) met by ≥ 95 % of the cell's soundings,
+    /// `none`, or null where there is no sounding.
+    pub order: Vec<Option<&'static str>>,
+}
+
+/// JSON view of an [`IhoTally`]: the summary's `iho_s44` block.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IhoView {
+    /// The standard and table.
+    pub standard: &'static str,
+    /// How THU at 95 % is computed (the factors written from their constants).
+    pub thu_95: String,
+    /// How TVU at 95 % is computed.
+    pub tvu_95: String,
+    /// Soundings (class 40) with a TPU.
+    pub soundings: u64,
+    /// Soundings whose water surface is their pulse's own surface return.
+    pub surface_from_pulse: u64,
+    /// Soundings under a modelled (fitted) surface.
+    pub surface_modelled: u64,
+    /// Recovery residual of the soundings, m.
+    pub recovery_residual_m: ResidualView,
+    /// Per order: its limits and the percentage of all soundings meeting both THU and TVU.
+    pub orders: BTreeMap<&'static str, OrderView>,
+    /// Per depth band with soundings.
+    pub bands: Vec<BandView>,
+    /// Map of the order achieved.
+    pub order_grid: Option<OrderGridView>,
+}
+
+/// One order's line.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct OrderView {
+    /// Its limits.
+    #[serde(flatten)]
+    pub limits: IhoLimits,
+    /// Percentage of soundings meeting THU and TVU.
+    pub percent_meeting: f64,
+}
+
+/// One depth band's line.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BandView {
+    /// `[from, to)`, m; `to` = −1 for "and deeper".
+    pub depth_m: [f64; 2],
+    /// Soundings in the band.
+    pub soundings: u64,
+    /// Per order, percentage meeting both THU and TVU.
+    pub percent_meeting: BTreeMap<&'static str, f64>,
+    /// Per order, percentage meeting THU.
+    pub percent_thu: BTreeMap<&'static str, f64>,
+    /// Per order, percentage meeting TVU.
+    pub percent_tvu: BTreeMap<&'static str, f64>,
+    /// RMS over the band's soundings of their 1σ horizontal, m.
+    pub rms_sigma_horizontal_m: f64,
+    /// RMS of their 1σ vertical, m.
+    pub rms_sigma_vertical_m: f64,
+}
