@@ -55,6 +55,7 @@
 //! ```
 
 mod calibrate_strips;
+mod calibration_file;
 mod context;
 mod correct_tile;
 mod csd_tpu;
@@ -83,9 +84,10 @@ pub use calibrate_strips::{
     TieSource, TrajectoryWeighting, VTPM_NEIGHBOURS, calibrate_strips,
     calibrate_strips_with_progress, frame_for, load_all, local_to_projected, projected_to_local,
 };
-pub use context::{
-    TpuContext, TpuOptions, check_held_parameters, read_calibrated_mounting, read_line_corrections,
+pub use calibration_file::{
+    check_held_parameters, read_calibrated_mounting, read_line_corrections,
 };
+pub use context::{TpuContext, TpuOptions};
 pub use correct_tile::{
     CorrectTileJob, CorrectTileReport, LineMatch, correct_tile, correct_tile_with_line,
     correct_tile_with_lines, correct_tile_with_progress,
