@@ -1,7 +1,7 @@
 //! Raw observations recovered through ECEF with lidarqa-tpu and expressed in the local frame
 //! re-georeference to the delivered point, and to the right place with another mounting.
 
-use lidarqa_calib::{LocalFrame, RawPoint, georeference};
+use lidarqa_calib::{LocalFrame, RawPoint, ScanGeometry, georeference};
 use lidarqa_model::{
     Attitude, Ecef, Georeferencer, LinearObservation, LinearScanner, Mounting, ecef_from_ned,
 };
@@ -43,7 +43,15 @@ fn recovered_point_re_georeferences_in_the_local_frame() {
     };
     let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&at.attitude(), &nominal, &obs));
     let point = p0 + ecef_from_ned(lat, lon) * f;
-    let raw = RawPoint::recover(&frame, &at, &Recoverer::new(&nominal), &point, 10).unwrap();
+    let raw = RawPoint::recover(
+        &frame,
+        &at,
+        &Recoverer::new(&nominal),
+        &point,
+        10,
+        ScanGeometry::Plane,
+    )
+    .unwrap();
     assert!((raw.observation.range_m - 812.5).abs() < 1e-6);
     assert!((georeference(&raw, &nominal) - raw.position_m).norm() < 1e-6);
     // Another mounting: the same answer as georeferencing in the pose's own N frame.

@@ -312,6 +312,16 @@ fn check_calibration_values(path: &Path, doc: &serde_json::Value) -> Result<()> 
 }
 
 impl TpuContext {
+    /// What calibration and correction keep of each point's recovered scanner vector: its scan
+    /// plane for the linear scanner, the whole vector for every other head (a conic or beam
+    /// head's beams leave the scanner's y–z plane by design).
+    pub(crate) fn scan_geometry(&self) -> lidarqa_calib::ScanGeometry {
+        match self.sensor.scanner {
+            lidarqa_model::Scanner::Linear => lidarqa_calib::ScanGeometry::Plane,
+            _ => lidarqa_calib::ScanGeometry::Beam,
+        }
+    }
+
     /// From data already read. `trajectory_path` names the SBET in messages.
     ///
     /// # Errors

@@ -1,0 +1,252 @@
+//! Boresight from the point-to-plane misfit of overlapping strips over 3-D surfaces: the
+//! calibration of dense strips where no tie patch of [`crate::auto_ties`] qualifies (a UAV pass
+//! over a car or a tent: walls, a roof, rough ground, no flat patch with paint).
+//!
+//! Every strip is sampled evenly (at most [`SurfaceOptions::samples_per_strip`] points); each
+//! sample point `p` of strip `a` takes its [`SurfaceOptions::neighbours`] nearest points in 3-D
+//! of every other strip `b` (all within [`SurfaceOptions::max_neighbour_m`], their own plane no
+//! rougher than [`SurfaceOptions::max_roughness_m`] RMS). The residual is the signed distance of
+//! `p` to the least-squares plane of those neighbours, all re-georeferenced with the trial
+//! mounting: `r = n · (p − c)`, the plane refitted at every trial and its normal kept on the side
+//! of the normal found at the start of the round (a wall's normal is horizontal; its sign must not
+//! flip between two evaluations of the Jacobian). Levenberg–Marquardt runs over the boresight
+//! angles (the lever arm is held: over one object seen from a few tens of metres a lever-arm
+//! change is a shift the angles and the trajectory also make). As the mounting moves the points
+//! by decimetres, the neighbours are searched again around the solution for
+//! [`SurfaceOptions::rounds`] rounds (iterative closest point in its point-to-plane form; Chen,
+//! Y., Medioni, G., "Object modelling by registration of multiple range images", Image and
+//! Vision Computing 10(3), 1992). The same idea for the boresight of a laser scanner is the
+//! rigorous self-calibration of Skaloud, J., Lichti, D., "Rigorous approach to bore-sight
+//! self-calibration in airborne laser scanning", ISPRS Journal of Photogrammetry and Remote
+//! Sensing 61(1), 2006, with planes found in the data rather than picked.
+
+use crate::calibrate::{
+    Calibration, CalibrationOptions, Method, TieReport, check_calibration_strips,
+    solve_with_observability,
+};
+use crate::error::{Error, Result};
+use crate::lm::LmModel;
+use crate::params::{PARAM_COUNT, mounting_from_vector, mounting_to_vector};
+use crate::strip::{Georeferencing, Strip};
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use lidarqa_model::{Mounting, fit_plane};
+use nalgebra::Vector3;
+use rayon::prelude::*;
+use std::num::NonZero;
+
+/// Options of the point-to-plane calibration over 3-D surfaces (module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfaceOptions {
+    /// Most sample points taken from each strip (evenly over its points).
+    pub samples_per_strip: usize,
+    /// Nearest points of the other strip that define the plane at a sample point.
+    pub neighbours: usize,
+    /// Farthest of those neighbours from the sample point, m: beyond it the sample point lies
+    /// outside the other strip's cover.
+    pub max_neighbour_m: f64,
+    /// Largest RMS distance of the neighbours from their own plane, m (vegetation, edges and
+    /// corners are left out).
+    pub max_roughness_m: f64,
+    /// Rounds of neighbour search and solution.
+    pub rounds: usize,
+}
+
+impl Default for SurfaceOptions {
+    fn default() -> Self {
+        SurfaceOptions {
+            samples_per_strip: 4000,
+            neighbours: 12,
+            max_neighbour_m: 0.5,
+            max_roughness_m: 0.05,
+            rounds: 4,
+        }
+    }
+}
+
+/// One sample point and the plane of its neighbours in another strip.
+#[derive(Debug, Clone)]
+struct SurfacePatch {
+    strip: usize,
+    point: usize,
+    other: usize,
+    neighbours: Vec<usize>,
+    /// The neighbours' plane normal when the round began (orients the refitted normal).
+    normal: Vector3<f64>,
+}
+
+#[derive(Clone)]
+struct SurfaceProblem<'a> {
+    strips: &'a [Strip],
+    patches: Vec<SurfacePatch>,
+}
+
+impl SurfaceProblem<'_> {
+    /// Each patch's signed distance (m) and its normal, at mounting vector `x`.
+    fn distances(&self, x: &[f64; PARAM_COUNT]) -> Vec<(f64, Vector3<f64>)> {
+        let g = Georeferencing::new(&mounting_from_vector(x));
+        self.patches
+            .par_iter()
+            .map(|p| {
+                let nb: Vec<Vector3<f64>> = p
+                    .neighbours
+                    .iter()
+                    .map(|&k| g.apply(&self.strips[p.other].points[k]))
+                    .collect();
+                match fit_plane(&nb) {
+                    Some(pl) => {
+                        let n = if pl.normal.dot(&p.normal) < 0.0 {
+                            -pl.normal
+                        } else {
+                            pl.normal
+                        };
+                        let q = g.apply(&self.strips[p.strip].points[p.point]);
+                        (n.dot(&(q - pl.centroid)), n)
+                    }
+                    None => (0.0, p.normal),
+                }
+            })
+            .collect()
+    }
+}
+
+impl LmModel for SurfaceProblem<'_> {
+    fn residuals(&self, x: &[f64; PARAM_COUNT]) -> Vec<f64> {
+        self.distances(x).into_iter().map(|(d, _)| d).collect()
+    }
+    fn accept(&mut self, _x: &[f64; PARAM_COUNT]) {}
+}
+
+/// The patches at `mounting` (module docs).
+fn build_patches(strips: &[Strip], mounting: &Mounting, opts: &SurfaceOptions) -> Vec<SurfacePatch> {
+    let g = Georeferencing::new(mounting);
+    let positions: Vec<Vec<[f64; 3]>> = strips
+        .iter()
+        .map(|s| s.points.par_iter().map(|p| g.apply(p).into()).collect())
+        .collect();
+    let trees: Vec<ImmutableKdTree<f64, 3>> = positions
+        .iter()
+        .map(|p| ImmutableKdTree::new_from_slice(p))
+        .collect();
+    let k = NonZero::new(opts.neighbours).unwrap_or(NonZero::<usize>::MIN);
+    let max2 = opts.max_neighbour_m * opts.max_neighbour_m;
+    let mut out = Vec::new();
+    for (a, pa) in positions.iter().enumerate() {
+        let step = (pa.len() / opts.samples_per_strip.max(1)).max(1);
+        for (b, pb) in positions.iter().enumerate() {
+            if a == b || pb.len() < opts.neighbours {
+                continue;
+            }
+            let found: Vec<SurfacePatch> = (0..pa.len())
+                .step_by(step)
+                .collect::<Vec<_>>()
+                .par_iter()
+                .filter_map(|&i| {
+                    let nn = trees[b].nearest_n::<SquaredEuclidean>(&pa[i], k);
+                    if nn.len() < opts.neighbours || nn.iter().any(|n| n.distance > max2) {
+                        return None;
+                    }
+                    let neighbours: Vec<usize> = nn.iter().map(|n| n.item as usize).collect();
+                    let pts: Vec<Vector3<f64>> =
+                        neighbours.iter().map(|&j| Vector3::from(pb[j])).collect();
+                    let pl = fit_plane(&pts)?;
+                    let rough = (pl.eigenvalues[0].max(0.0) / pts.len() as f64).sqrt();
+                    (rough <= opts.max_roughness_m).then_some(SurfacePatch {
+                        strip: a,
+                        point: i,
+                        other: b,
+                        neighbours,
+                        normal: pl.normal,
+                    })
+                })
+                .collect();
+            out.extend(found);
+        }
+    }
+    out
+}
+
+/// Boresight by point-to-plane over the strips' 3-D overlap (module docs), starting from and
+/// reported against `prior`. The report's ties are one per ordered pair of strips (`a→b`): the
+/// RMS of its sample points' distances, east / north / up of the distance along the normal.
+///
+/// # Errors
+/// Invalid strips or options; [`Error::NothingUsable`] when fewer than 100 sample points have a
+/// planar neighbourhood in another strip; the solver's errors.
+pub fn calibrate_surfaces(
+    strips: &[Strip],
+    prior: &Mounting,
+    options: &CalibrationOptions,
+    surfaces: &SurfaceOptions,
+) -> Result<Calibration> {
+    check_calibration_strips(strips)?;
+    if !(surfaces.max_neighbour_m > 0.0
+        && surfaces.max_roughness_m > 0.0
+        && surfaces.neighbours >= 3
+        && surfaces.rounds >= 1)
+    {
+        return Err(Error::InvalidOption {
+            name: "surface options",
+            expected: "radii > 0, at least 3 neighbours and 1 round",
+            value: surfaces.neighbours as f64,
+        });
+    }
+    let mut opts = *options;
+    opts.solve = [false, false, false, true, true, true];
+    let x_prior = mounting_to_vector(prior);
+    let mut x = x_prior;
+    let mut last = None;
+    for _ in 0..surfaces.rounds {
+        let patches = build_patches(strips, &mounting_from_vector(&x), surfaces);
+        if patches.len() < 100 {
+            return Err(Error::NothingUsable {
+                what: "surface patch",
+                reason: format!(
+                    "{} sample points have {} neighbours within {} m in another strip on a plane \
+                     no rougher than {} m (at least 100 are needed)",
+                    patches.len(),
+                    surfaces.neighbours,
+                    surfaces.max_neighbour_m,
+                    surfaces.max_roughness_m
+                ),
+            });
+        }
+        let problem = SurfaceProblem { strips, patches };
+        let solved = solve_with_observability(&problem, x, problem.patches.len(), &opts, false, None)?;
+        x = solved.x;
+        last = Some((problem, solved));
+    }
+    let Some((problem, solved)) = last else {
+        unreachable!("at least one round")
+    };
+    let before = problem.distances(&x_prior);
+    let after = problem.distances(&solved.x);
+    let mut pairs: Vec<(usize, usize)> = problem.patches.iter().map(|p| (p.strip, p.other)).collect();
+    pairs.sort_unstable();
+    pairs.dedup();
+    let rms = |d: &[(f64, Vector3<f64>)], a: usize, b: usize| -> [f64; 3] {
+        let mut acc = [0.0; 3];
+        let mut n = 0usize;
+        for (p, (v, normal)) in problem.patches.iter().zip(d) {
+            if (p.strip, p.other) == (a, b) {
+                let e = normal * *v;
+                // Local NED → east, north, up.
+                for (k, c) in [e.y, e.x, -e.z].into_iter().enumerate() {
+                    acc[k] += c * c;
+                }
+                n += 1;
+            }
+        }
+        acc.map(|s| (s / n.max(1) as f64).sqrt())
+    };
+    let ties = pairs
+        .iter()
+        .map(|&(a, b)| TieReport {
+            id: format!("surfaces {}→{}", strips[a].id, strips[b].id),
+            strips: vec![strips[a].id.clone(), strips[b].id.clone()],
+            control: false,
+            residual_before_m: rms(&before, a, b),
+            residual_after_m: rms(&after, a, b),
+        })
+        .collect();
+    Ok(solved.into_calibration(Method::Plane, prior, &opts, ties))
+}

@@ -1,0 +1,123 @@
+#!/usr/bin/env python3
+"""How far apart the two passes of an ARMO UAV file lie: an independent point-to-plane misfit.
+
+Written with numpy, laspy and scipy only, apart from lidarqa (none of its code or output is used
+except the LAZ files given).
+
+Usage:
+    python3 armo_misfit.py BEFORE.laz [AFTER.laz ...] [--json]
+
+For each file it prints the misfit between its two passes and the floor (the same measure between
+the alternate frames of one pass). With --json it prints one JSON object per file instead.
+
+Definitions:
+
+- **Lines.** The points are ordered by their frame counter (`frameNo`, a stable sort keeping the
+  file order within a frame) and cut where the stored sensor position (`SensorX/Y/Z`) steps by more
+  than 5 m between consecutive points. The platform moves well under 1 m between two points of one
+  pass, and the two passes of ARMO's Car and Tent are 20 m and 23 m apart where they join, so
+  each file gives exactly two lines; any other count is an error.
+- **The object.** ARMO's files are already cut to a box around the object (a car, a tent and their
+  surroundings, about 5 m × 5 m), and both passes cover the whole box, so the overlap is the file.
+  A point counts when the 12 nearest points of the other line (3-D, scipy's cKDTree) all lie
+  within 0.5 m of it, so that the box's edges, where one pass sees less, do not count.
+- **Misfit.** Each counted point's distance to the least-squares plane (numpy's eigen-decomposition
+  of the 12 neighbours' covariance, the normal the smallest eigenvector) of its 12 nearest
+  neighbours in the other line. The RMS is taken over the points of both lines, each line measured
+  against the other.
+- **Floor.** The same measure within one line, between its even and its odd frames (10 Hz
+  revolutions of the head): what the noise of the scanner and the roughness of the object leave when
+  the mounting cannot matter. Reported per line.
+"""
+
+import json
+import sys
+
+import laspy
+import numpy as np
+from scipy.spatial import cKDTree
+
+K = 12
+MAX_NEIGHBOUR_M = 0.5
+JUMP_M = 5.0
+
+
+def lines_of(path):
+    las = laspy.read(path)
+    frame = np.asarray(las["frameNo"], dtype=float)
+    order = np.argsort(frame, kind="stable")
+    xyz = np.c_[np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)][order]
+    sensor = np.c_[
+        np.asarray(las["SensorX"]), np.asarray(las["SensorY"]), np.asarray(las["SensorZ"])
+    ][order]
+    frame = frame[order]
+    step = np.linalg.norm(np.diff(sensor, axis=0), axis=1)
+    cuts = np.flatnonzero(step > JUMP_M) + 1
+    if len(cuts) != 1:
+        raise SystemExit(f"{path}: {len(cuts) + 1} lines at sensor steps over {JUMP_M} m, expected 2")
+    bounds = [0, cuts[0], len(xyz)]
+    return [(xyz[a:b], frame[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
+
+
+def plane_distances(points, reference):
+    """Distance of each point to the plane of its K nearest reference points, and a mask of the
+    points whose K neighbours all lie within MAX_NEIGHBOUR_M."""
+    tree = cKDTree(reference)
+    dist, idx = tree.query(points, k=K)
+    keep = dist[:, -1] <= MAX_NEIGHBOUR_M
+    nb = reference[idx[keep]]  # (n, K, 3)
+    centre = nb.mean(axis=1)
+    d = nb - centre[:, None, :]
+    cov = np.einsum("nki,nkj->nij", d, d)
+    _, vecs = np.linalg.eigh(cov)
+    normal = vecs[:, :, 0]
+    return np.abs(np.einsum("ni,ni->n", points[keep] - centre, normal)), keep
+
+
+def rms(a):
+    return float(np.sqrt(np.mean(a**2))) if len(a) else float("nan")
+
+
+def misfit(path):
+    (a, fa), (b, fb) = lines_of(path)
+    dab, ka = plane_distances(a, b)
+    dba, kb = plane_distances(b, a)
+    both = np.concatenate([dab, dba])
+    floors = []
+    for xyz, frame in ((a, fa), (b, fb)):
+        even = (frame.astype(np.int64) % 2) == 0
+        d1, _ = plane_distances(xyz[even], xyz[~even])
+        d2, _ = plane_distances(xyz[~even], xyz[even])
+        floors.append(rms(np.concatenate([d1, d2])))
+    return {
+        "file": path,
+        "line_points": [len(a), len(b)],
+        "counted_points": int(ka.sum() + kb.sum()),
+        "rms_m": rms(both),
+        "median_abs_m": float(np.median(both)),
+        "rms_a_to_b_m": rms(dab),
+        "rms_b_to_a_m": rms(dba),
+        "floor_m": floors,
+    }
+
+
+def main(argv):
+    as_json = "--json" in argv
+    paths = [a for a in argv if a != "--json"]
+    if not paths:
+        raise SystemExit(__doc__)
+    for p in paths:
+        r = misfit(p)
+        if as_json:
+            print(json.dumps(r))
+        else:
+            print(
+                f"{p}: lines of {r['line_points'][0]} and {r['line_points'][1]} points, "
+                f"{r['counted_points']} counted; point-to-plane RMS {100 * r['rms_m']:.1f} cm "
+                f"(median |d| {100 * r['median_abs_m']:.1f} cm); floor (alternate frames) "
+                f"{100 * r['floor_m'][0]:.1f} / {100 * r['floor_m'][1]:.1f} cm"
+            )
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
