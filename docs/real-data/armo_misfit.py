@@ -5,10 +5,14 @@ Written with numpy, laspy and scipy only, apart from lidarqa (none of its code o
 except the LAZ files given).
 
 Usage:
-    python3 armo_misfit.py BEFORE.laz [AFTER.laz ...] [--json]
+    python3 armo_misfit.py ORIGINAL.laz [CORRECTED.laz ...] [--json]
 
-For each file it prints the misfit between its two passes and the floor (the same measure between
-the alternate frames of one pass). With --json it prints one JSON object per file instead.
+For the original and each corrected file it prints the misfit between the two passes and the
+floor (the same measure between the alternate frames of one pass). With --json it prints one JSON
+object per file instead. A corrected file (`lidarqa correct`'s output) need not keep the extra
+bytes (`frameNo`, `SensorX/Y/Z`): its points are matched to the original's by their order, which
+`correct` keeps, and the match is checked (same count, same GPS time and intensity point by
+point, no point moved by more than 5 m).
 
 Definitions:
 
@@ -28,6 +32,11 @@ Definitions:
 - **Floor.** The same measure within one line, between its even and its odd frames (10 Hz
   revolutions of the head): what the noise of the scanner and the roughness of the object leave when
   the mounting cannot matter. Reported per line.
+- **Blocks.** The same measure within one line, between the points of its even laser rings
+  (`user_data` 0, 2, …, 30: the 16 channels 10°–31° off the spin plane) and its odd rings (the 16
+  channels within 11° of it). They fire in the same revolutions from the same pose, so a
+  disagreement above the floor is the scanner's own (its channels' angles or ranges), not the
+  trajectory's; a boresight moves both alike only where they look alike.
 """
 
 import json
@@ -42,20 +51,35 @@ MAX_NEIGHBOUR_M = 0.5
 JUMP_M = 5.0
 
 
-def lines_of(path):
+def lines_of(path, coordinates=None, with_rings=False):
     las = laspy.read(path)
     frame = np.asarray(las["frameNo"], dtype=float)
     order = np.argsort(frame, kind="stable")
-    xyz = np.c_[np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)][order]
+    xyz = np.c_[np.asarray(las.x), np.asarray(las.y), np.asarray(las.z)]
+    if coordinates is not None:
+        other = laspy.read(coordinates)
+        if len(other.points) != len(las.points):
+            raise SystemExit(f"{coordinates}: {len(other.points)} points, {path} has {len(las.points)}")
+        same = np.array_equal(np.asarray(other.gps_time), np.asarray(las.gps_time)) and np.array_equal(
+            np.asarray(other.intensity), np.asarray(las.intensity)
+        )
+        moved = np.c_[np.asarray(other.x), np.asarray(other.y), np.asarray(other.z)]
+        if not same or np.max(np.linalg.norm(moved - xyz, axis=1)) > 5.0:
+            raise SystemExit(f"{coordinates}: its points are not {path}'s in the same order")
+        xyz = moved
+    xyz = xyz[order]
     sensor = np.c_[
         np.asarray(las["SensorX"]), np.asarray(las["SensorY"]), np.asarray(las["SensorZ"])
     ][order]
     frame = frame[order]
+    ring = np.asarray(las.user_data)[order]
     step = np.linalg.norm(np.diff(sensor, axis=0), axis=1)
     cuts = np.flatnonzero(step > JUMP_M) + 1
     if len(cuts) != 1:
         raise SystemExit(f"{path}: {len(cuts) + 1} lines at sensor steps over {JUMP_M} m, expected 2")
     bounds = [0, cuts[0], len(xyz)]
+    if with_rings:
+        return [(xyz[a:b], frame[a:b], ring[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
     return [(xyz[a:b], frame[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
 
 
@@ -78,19 +102,19 @@ def rms(a):
     return float(np.sqrt(np.mean(a**2))) if len(a) else float("nan")
 
 
-def misfit(path):
-    (a, fa), (b, fb) = lines_of(path)
+def misfit(path, coordinates=None):
+    (a, fa, ra), (b, fb, rb) = lines_of(path, coordinates, with_rings=True)
     dab, ka = plane_distances(a, b)
     dba, kb = plane_distances(b, a)
     both = np.concatenate([dab, dba])
-    floors = []
-    for xyz, frame in ((a, fa), (b, fb)):
-        even = (frame.astype(np.int64) % 2) == 0
-        d1, _ = plane_distances(xyz[even], xyz[~even])
-        d2, _ = plane_distances(xyz[~even], xyz[even])
-        floors.append(rms(np.concatenate([d1, d2])))
+    floors, blocks = [], []
+    for xyz, frame, ring in ((a, fa, ra), (b, fb, rb)):
+        for split, out in (((frame.astype(np.int64) % 2) == 0, floors), ((ring % 2) == 0, blocks)):
+            d1, _ = plane_distances(xyz[split], xyz[~split])
+            d2, _ = plane_distances(xyz[~split], xyz[split])
+            out.append(rms(np.concatenate([d1, d2])))
     return {
-        "file": path,
+        "file": coordinates or path,
         "line_points": [len(a), len(b)],
         "counted_points": int(ka.sum() + kb.sum()),
         "rms_m": rms(both),
@@ -98,6 +122,7 @@ def misfit(path):
         "rms_a_to_b_m": rms(dab),
         "rms_b_to_a_m": rms(dba),
         "floor_m": floors,
+        "blocks_m": blocks,
     }
 
 
@@ -106,8 +131,9 @@ def main(argv):
     paths = [a for a in argv if a != "--json"]
     if not paths:
         raise SystemExit(__doc__)
+    original = paths[0]
     for p in paths:
-        r = misfit(p)
+        r = misfit(original, None if p == original else p)
         if as_json:
             print(json.dumps(r))
         else:
@@ -115,7 +141,9 @@ def main(argv):
                 f"{p}: lines of {r['line_points'][0]} and {r['line_points'][1]} points, "
                 f"{r['counted_points']} counted; point-to-plane RMS {100 * r['rms_m']:.1f} cm "
                 f"(median |d| {100 * r['median_abs_m']:.1f} cm); floor (alternate frames) "
-                f"{100 * r['floor_m'][0]:.1f} / {100 * r['floor_m'][1]:.1f} cm"
+                f"{100 * r['floor_m'][0]:.1f} / {100 * r['floor_m'][1]:.1f} cm; "
+                f"the two laser blocks of one pass {100 * r['blocks_m'][0]:.1f} / "
+                f"{100 * r['blocks_m'][1]:.1f} cm"
             )
 
 

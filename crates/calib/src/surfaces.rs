@@ -21,7 +21,7 @@
 //! Sensing 61(1), 2006, with planes found in the data rather than picked.
 
 use crate::calibrate::{
-    Calibration, CalibrationOptions, Method, TieReport, check_calibration_strips,
+    Calibration, CalibrationOptions, Method, Solved, TieReport, check_calibration_strips,
     solve_with_observability,
 };
 use crate::error::{Error, Result};
@@ -195,7 +195,18 @@ pub fn calibrate_surfaces(
     let x_prior = mounting_to_vector(prior);
     let mut x = x_prior;
     let mut last = None;
-    for _ in 0..surfaces.rounds {
+    // A parameter the data do not determine is held at the prior (as `calibration.json` says);
+    // one held in the last round but free before gets one more round from its prior.
+    let mut round = 0;
+    while round < surfaces.rounds
+        || last.as_ref().is_some_and(|(_, s): &(SurfaceProblem<'_>, Solved<_>)| {
+            (0..PARAM_COUNT).any(|i| !s.observable[i] && s.x[i] != x_prior[i])
+        })
+    {
+        round += 1;
+        if round > surfaces.rounds + 2 {
+            break;
+        }
         let patches = build_patches(strips, &mounting_from_vector(&x), surfaces);
         if patches.len() < 100 {
             return Err(Error::NothingUsable {
@@ -213,6 +224,11 @@ pub fn calibrate_surfaces(
         let problem = SurfaceProblem { strips, patches };
         let solved = solve_with_observability(&problem, x, problem.patches.len(), &opts, false, None)?;
         x = solved.x;
+        for i in 0..PARAM_COUNT {
+            if !solved.observable[i] {
+                x[i] = x_prior[i];
+            }
+        }
         last = Some((problem, solved));
     }
     let Some((problem, solved)) = last else {
