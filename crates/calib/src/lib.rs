@@ -78,8 +78,8 @@ pub use strip::{
     Georeferencing, LocalFrame, RawPoint, ScanGeometry, Strip, correct_strip, georeference,
     radius_for_neighbours_m,
 };
-pub use surfaces::{SurfaceOptions, calibrate_surfaces};
 pub use strip_adjust::{Confounded, LineCorrection, SigmaTest, StripAdjustment, StripModel};
+pub use surfaces::{SurfaceOptions, calibrate_surfaces};
 pub use vtpm::{
     DroppedPick, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, NedControlPoint, Tie, TieKind, TiePick,
     VtpmOptions, tie_reach_m,

@@ -117,7 +117,11 @@ impl LmModel for SurfaceProblem<'_> {
 }
 
 /// The patches at `mounting` (module docs).
-fn build_patches(strips: &[Strip], mounting: &Mounting, opts: &SurfaceOptions) -> Vec<SurfacePatch> {
+fn build_patches(
+    strips: &[Strip],
+    mounting: &Mounting,
+    opts: &SurfaceOptions,
+) -> Vec<SurfacePatch> {
     let g = Georeferencing::new(mounting);
     let positions: Vec<Vec<[f64; 3]>> = strips
         .iter()
@@ -199,9 +203,11 @@ pub fn calibrate_surfaces(
     // one held in the last round but free before gets one more round from its prior.
     let mut round = 0;
     while round < surfaces.rounds
-        || last.as_ref().is_some_and(|(_, s): &(SurfaceProblem<'_>, Solved<_>)| {
-            (0..PARAM_COUNT).any(|i| !s.observable[i] && s.x[i] != x_prior[i])
-        })
+        || last
+            .as_ref()
+            .is_some_and(|(_, s): &(SurfaceProblem<'_>, Solved<_>)| {
+                (0..PARAM_COUNT).any(|i| !s.observable[i] && s.x[i] != x_prior[i])
+            })
     {
         round += 1;
         if round > surfaces.rounds + 2 {
@@ -222,7 +228,8 @@ pub fn calibrate_surfaces(
             });
         }
         let problem = SurfaceProblem { strips, patches };
-        let solved = solve_with_observability(&problem, x, problem.patches.len(), &opts, false, None)?;
+        let solved =
+            solve_with_observability(&problem, x, problem.patches.len(), &opts, false, None)?;
         x = solved.x;
         for i in 0..PARAM_COUNT {
             if !solved.observable[i] {
@@ -236,7 +243,8 @@ pub fn calibrate_surfaces(
     };
     let before = problem.distances(&x_prior);
     let after = problem.distances(&solved.x);
-    let mut pairs: Vec<(usize, usize)> = problem.patches.iter().map(|p| (p.strip, p.other)).collect();
+    let mut pairs: Vec<(usize, usize)> =
+        problem.patches.iter().map(|p| (p.strip, p.other)).collect();
     pairs.sort_unstable();
     pairs.dedup();
     let rms = |d: &[(f64, Vector3<f64>)], a: usize, b: usize| -> [f64; 3] {

@@ -44,9 +44,9 @@ use crate::lines::{LineIndex, LineOptions, line_index};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use lidarqa_calib::{
     AutoTieGrid, AutoTieOptions, Calibration, CalibrationOptions, LocalFrame, Method,
-    NedControlPoint, PlaneOptions, RawPoint, ScanGeometry, Strip, Tie, TieKind, TiePick,
-    TrajectorySigma,
-    SurfaceOptions, auto_tie_candidates, auto_ties, calibrate_plane, calibrate_surfaces, calibrate_vtpm, select_auto_ties, tie_reach_m,
+    NedControlPoint, PlaneOptions, RawPoint, ScanGeometry, Strip, SurfaceOptions, Tie, TieKind,
+    TiePick, TrajectorySigma, auto_tie_candidates, auto_ties, calibrate_plane, calibrate_surfaces,
+    calibrate_vtpm, select_auto_ties, tie_reach_m,
 };
 use lidarqa_io::{
     ControlPoints, Crs, Geodetic, InverseKind, LasInfo, LasReader, LocalInverse, PointChunk,
@@ -520,7 +520,9 @@ pub fn load_all(
                         per_line.len() - 1
                     }
                 };
-                per_line[at].1.push(kept.raw_point(&frame, observed, ctx.scan_geometry()));
+                per_line[at]
+                    .1
+                    .push(kept.raw_point(&frame, observed, ctx.scan_geometry()));
                 Ok(())
             })?;
             Ok(per_line)
@@ -857,7 +859,11 @@ fn finish_lines(
                     &recoverer,
                     &parts[*p].path,
                 )?;
-                Ok((*p, *k, kept.raw_point(frame, &observed, ctx.scan_geometry())))
+                Ok((
+                    *p,
+                    *k,
+                    kept.raw_point(frame, &observed, ctx.scan_geometry()),
+                ))
             })
             .collect::<Result<Vec<_>>>()?;
         let mut counts: Cells<u64> = Cells::default();

@@ -48,10 +48,10 @@ use crate::context::TpuContext;
 use crate::error::{Error, Result};
 use crate::recovery_check::{RecoveryCheck, RecoveryTally};
 use crate::stages::{read_chunks, run_stages, write_chunks};
+use lidarqa_calib::ScanGeometry;
 use lidarqa_io::{
     CellCache, CoordinateBlock, Crs, GridToEcef, LasTimeConverter, LasWriteOptions, RawChunk,
 };
-use lidarqa_calib::ScanGeometry;
 use lidarqa_model::{Ecef, Mounting};
 use lidarqa_tpu::{SegmentRotation, Trajectory};
 use nalgebra::{Matrix3, SimdRealField, SimdValue, Vector3};

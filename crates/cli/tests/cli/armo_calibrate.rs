@@ -84,16 +84,31 @@ fn lidarpod_boresight_reduces_the_misfit_between_passes() {
     for (name, bar) in [("Car", CAR_BAR), ("Tent", TENT_BAR)] {
         let laz = data.join(format!("{name}.adc.laz"));
         let (cal, corrected) = calibrate_and_correct(dir.path(), &sensor, &laz);
-        // The boresight's σ: finite, and between 0.0001° and 0.5° (a mounting the data fix).
-        for p in ["boresight_roll_deg", "boresight_pitch_deg", "boresight_yaw_deg"] {
-            let sigma = cal["sigma"][p].as_f64().unwrap_or(f64::NAN);
-            assert!(
-                sigma.is_finite() && (1e-4..0.5).contains(&sigma),
-                "{name}: σ of {p} = {sigma}"
-            );
+        // Roll and pitch are determined, with a finite σ between 0.0001° and 0.5°; the yaw
+        // too, or held at the preset's 0 with the reason (Car: its σ exceeds the 0.01° bar).
+        for p in [
+            "boresight_roll_deg",
+            "boresight_pitch_deg",
+            "boresight_yaw_deg",
+        ] {
+            let sigma = cal["sigma"][p].as_f64();
             let value = cal["parameters"][p].as_f64().unwrap_or(f64::NAN);
-            assert!(value.abs() < 10.0, "{name}: {p} = {value}°");
+            match sigma {
+                Some(sigma) => assert!(
+                    sigma.is_finite() && (1e-4..0.5).contains(&sigma) && value.abs() < 5.0,
+                    "{name}: {p} = {value}° ± {sigma}°"
+                ),
+                None => assert!(
+                    p == "boresight_yaw_deg" && value == 0.0 && cal["observable"][p] == false,
+                    "{name}: {p} = {value}° has no σ: {cal}"
+                ),
+            }
         }
+        assert!(
+            cal["warnings"].to_string().contains("surface_calibration"),
+            "{name}: {}",
+            cal["warnings"]
+        );
         let m = misfit(&python, &[&laz, &corrected]);
         let (before, after) = (
             m[0]["rms_m"].as_f64().unwrap(),
@@ -109,5 +124,6 @@ fn lidarpod_boresight_reduces_the_misfit_between_passes() {
 
 /// The largest share of the misfit left after correction (measured, with margin; docs/guide/
 /// scanners.md, "Calibrating a UAV multi-beam system").
-const CAR_BAR: f64 = 0.9;
-const TENT_BAR: f64 = 0.9;
+/// Car: 20.2 → 15.7 cm (0.78); Tent: 10.1 → 6.0 cm (0.59).
+const CAR_BAR: f64 = 0.85;
+const TENT_BAR: f64 = 0.7;
