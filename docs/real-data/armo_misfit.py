@@ -33,7 +33,7 @@ Definitions:
   revolutions of the head): what the noise of the scanner and the roughness of the object leave when
   the mounting cannot matter. Reported per line.
 - **Per ring.** The misfit of each line's points per laser ring (`user_data`), in the JSON
-  output (`by_ring_m`: two lists of 32, NaN for a ring with fewer than 50 counted points).
+  output (`by_ring_m`: two lists of 32, null for a ring with fewer than 50 counted points).
 - **Rigid** (`--rigid`, about a minute a file): the smallest misfit any rigid motion of the second
   line onto the first gives (three rotations about its centroid and a shift, Nelder–Mead from
   zero, three restarts, the misfit evaluated on 5 000 sample points of each line while searching):
@@ -122,7 +122,7 @@ def rigid_best(a, b):
         bb = moved(x)
         d1, _ = plane_distances(a if full else sample_a, bb)
         step = 1 if full else max(1, len(bb) // 5000)
-        d2, _ = plane_distances_tree(bb[::step], a, tree_a)
+        d2 = plane_distances_tree(bb[::step], a, tree_a)
         return rms(np.concatenate([d1, d2]))
 
     x = np.zeros(6)
@@ -149,7 +149,7 @@ def plane_distances_tree(points, reference, tree):
 
 def by_ring(d, keep, ring):
     r = ring[keep]
-    return [rms(d[r == k]) if (r == k).sum() >= 50 else float("nan") for k in range(32)]
+    return [rms(d[r == k]) if (r == k).sum() >= 50 else None for k in range(32)]
 
 
 def rms(a):

@@ -417,10 +417,14 @@ pub fn calibrate_strips_with_progress(
                      a roof slope): the boresight is from the point-to-plane misfit of the lines' \
                      3-D overlap ({} line pairs), the lever arm held{}",
                     c.ties.len(),
-                    if control.is_empty() {
-                        ""
-                    } else {
-                        "; the control points are not used by this method"
+                    match (control.is_empty(), options.strip_adjustment.is_some()) {
+                        (true, false) => "",
+                        (false, false) => "; the control points are not used by this method",
+                        (true, true) => "; the lines' trajectories are not adjusted by this method",
+                        (false, true) => {
+                            "; the control points and the lines' trajectory adjustment are not \
+                             used by this method"
+                        }
                     }
                 ),
             ));
