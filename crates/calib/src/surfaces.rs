@@ -274,3 +274,102 @@ pub fn calibrate_surfaces(
         .collect();
     Ok(solved.into_calibration(Method::Plane, prior, &opts, ties))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::strip::RawPoint;
+    use lidarqa_model::{Attitude, LinearObservation, rotation_zyx};
+
+    /// Height (m, up) of the test scene: flat ground and a tent-like ridge along north, 2 m high,
+    /// its faces sloped 45°.
+    fn height(_n: f64, e: f64) -> f64 {
+        (2.0 - e.abs()).max(0.0)
+    }
+
+    /// One pass at 20 m over the scene, heading north (`sign` 1) or south (−1), 5 m east of the
+    /// ridge times `sign`, with a head on its side firing channels 20° and 10° to either side of
+    /// its spin plane; the points made with `truth` and delivered with `nominal` (module docs).
+    fn pass(id: &str, sign: f64, truth: &Mounting, nominal: &Mounting) -> Strip {
+        let (r_true, r_nom) = (truth.scanner_to_body(), nominal.scanner_to_body());
+        let mut points = Vec::new();
+        for k in 0..60 {
+            let origin = Vector3::new(sign * (-15.0 + 0.5 * f64::from(k)), 5.0 * sign, -20.0);
+            let attitude = Attitude::from_degrees(1.0, -0.5, if sign > 0.0 { 0.0 } else { 180.0 });
+            let r_l = rotation_zyx(attitude.roll_rad, attitude.pitch_rad, attitude.heading_rad);
+            for el in [-20.0f64, -10.0, 10.0, 20.0] {
+                for a in 0..61 {
+                    let (el, az) = (el.to_radians(), (-60.0 + 2.0 * f64::from(a)).to_radians());
+                    let d = Vector3::new(el.sin(), el.cos() * az.sin(), el.cos() * az.cos());
+                    // March along the true beam to the scene (1 cm steps, then halving).
+                    let at = |rho: f64| origin + r_l * (r_true * d * rho + truth.lever_arm_m);
+                    let below = |rho: f64| {
+                        let p = at(rho);
+                        -p.z <= height(p.x, p.y)
+                    };
+                    let Some(mut hi) = (1..6000).map(|i| f64::from(i) * 0.01).find(|r| below(*r))
+                    else {
+                        continue;
+                    };
+                    let mut lo = hi - 0.01;
+                    for _ in 0..40 {
+                        let mid = 0.5 * (lo + hi);
+                        if below(mid) { hi = mid } else { lo = mid }
+                    }
+                    let s = d * hi;
+                    points.push(RawPoint {
+                        position_m: origin + r_l * (r_nom * s + nominal.lever_arm_m),
+                        origin_m: origin,
+                        attitude,
+                        observation: LinearObservation {
+                            range_m: hi,
+                            scan_angle_rad: s.y.atan2(s.z),
+                        },
+                        out_of_plane_m: s.x,
+                        time_s: f64::from(k) * 0.1,
+                        intensity: 0,
+                    });
+                }
+            }
+        }
+        Strip {
+            id: id.into(),
+            points,
+        }
+    }
+
+    #[test]
+    fn recovers_an_injected_boresight_of_a_multibeam_head() {
+        let nominal = Mounting {
+            lever_arm_m: Vector3::new(0.161, 0.0, -0.016),
+            ..Mounting::default()
+        };
+        let truth = Mounting {
+            boresight_roll_rad: 0.3f64.to_radians(),
+            boresight_pitch_rad: (-0.2f64).to_radians(),
+            boresight_yaw_rad: 0.4f64.to_radians(),
+            ..nominal
+        };
+        let strips = [
+            pass("n", 1.0, &truth, &nominal),
+            pass("s", -1.0, &truth, &nominal),
+        ];
+        let c = calibrate_surfaces(
+            &strips,
+            &nominal,
+            &CalibrationOptions::default(),
+            &SurfaceOptions::default(),
+        )
+        .unwrap();
+        let got = mounting_to_vector(&c.mounting);
+        let want = mounting_to_vector(&truth);
+        for i in 3..6 {
+            assert!(
+                (got[i] - want[i]).abs().to_degrees() < 0.02,
+                "parameter {i}: {}° against {}°",
+                got[i].to_degrees(),
+                want[i].to_degrees()
+            );
+        }
+    }
+}
