@@ -293,8 +293,8 @@ mod tests {
     fn pass(id: &str, sign: f64, truth: &Mounting, nominal: &Mounting) -> Strip {
         let (r_true, r_nom) = (truth.scanner_to_body(), nominal.scanner_to_body());
         let mut points = Vec::new();
-        for k in 0..60 {
-            let origin = Vector3::new(sign * (-15.0 + 0.5 * f64::from(k)), 5.0 * sign, -20.0);
+        for k in 0..120 {
+            let origin = Vector3::new(sign * (-15.0 + 0.25 * f64::from(k)), 5.0 * sign, -20.0);
             let attitude = Attitude::from_degrees(1.0, -0.5, if sign > 0.0 { 0.0 } else { 180.0 });
             let r_l = rotation_zyx(attitude.roll_rad, attitude.pitch_rad, attitude.heading_rad);
             for el in [-20.0f64, -10.0, 10.0, 20.0] {
@@ -358,7 +358,11 @@ mod tests {
             &strips,
             &nominal,
             &CalibrationOptions::default(),
-            &SurfaceOptions::default(),
+            // The test's beams are 0.25 m apart along track and 0.7 m across.
+            &SurfaceOptions {
+                max_neighbour_m: 2.5,
+                ..SurfaceOptions::default()
+            },
         )
         .unwrap();
         let got = mounting_to_vector(&c.mounting);
