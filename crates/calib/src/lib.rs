@@ -31,6 +31,7 @@
 //!     origin_m: Vector3::new(0.0, 0.0, -500.0),
 //!     attitude: Attitude::default(),
 //!     observation: LinearObservation { range_m: 500.0 / theta.cos(), scan_angle_rad: theta },
+//!     out_of_plane_m: 0.0,
 //!     time_s: 0.0,
 //!     intensity: 0,
 //! };
@@ -53,6 +54,7 @@ mod params;
 mod plane;
 mod strip;
 mod strip_adjust;
+mod surfaces;
 mod vtpm;
 mod weighting;
 
@@ -73,10 +75,11 @@ pub use overlap::{
 pub use params::{PARAM_COUNT, Param, mounting_from_vector, mounting_to_vector};
 pub use plane::{PlaneOptions, calibrate_plane, check_plane_rms};
 pub use strip::{
-    Georeferencing, LocalFrame, RawPoint, Strip, correct_strip, georeference,
+    Georeferencing, LocalFrame, RawPoint, ScanGeometry, Strip, correct_strip, georeference,
     radius_for_neighbours_m,
 };
 pub use strip_adjust::{Confounded, LineCorrection, SigmaTest, StripAdjustment, StripModel};
+pub use surfaces::{SurfaceOptions, calibrate_surfaces};
 pub use vtpm::{
     DroppedPick, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, NedControlPoint, Tie, TieKind, TiePick,
     VtpmOptions, tie_reach_m,

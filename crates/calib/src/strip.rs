@@ -74,6 +74,23 @@ impl LocalFrame {
     }
 }
 
+/// What a calibration keeps of a point's recovered scanner-frame vector `S = R_Mᵀ (R_Nᵀ (P − P0) − ΔP)`.
+///
+/// A linear scanner's beams lie in its scan plane, so what leaves the plane is the misfit of the
+/// mounting or trajectory the point was recovered with, and the point is re-georeferenced from
+/// its range and scan angle alone. The beams of the other heads leave that plane by design (a
+/// spinning multi-beam head's channels sweep cones up to ±30° out of it, an elliptical scanner's
+/// cone is tilted, a Risley pair's rosette fills a disc): dropping the out-of-plane part would move
+/// their points by metres, so the whole vector is kept.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ScanGeometry {
+    /// Range and scan angle only: `S' = ρ (0, sin θ, cos θ)` (the linear scanner).
+    #[default]
+    Plane,
+    /// The whole vector `S`, out-of-plane part included (every beam head).
+    Beam,
+}
+
 /// One laser point with its raw observation, everything in the local frame `L` (module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RawPoint {
@@ -85,6 +102,11 @@ pub struct RawPoint {
     pub attitude: Attitude,
     /// Range ρ (m) and scan angle θ (rad, positive to the right wing), recovered once.
     pub observation: LinearObservation,
+    /// The scanner-frame x component of `S` (m, along the body's forward axis for a level
+    /// mounting) that a beam head's return keeps ([`ScanGeometry::Beam`]); 0 for a linear
+    /// scanner, whose point is re-georeferenced in its scan plane. With it
+    /// `S = (x, r sin θ, r cos θ)`, `r = √(ρ² − x²)`.
+    pub out_of_plane_m: f64,
     /// GPS seconds of week of the pulse, s (for output, and for the trajectory weighting's
     /// time-varying offsets).
     pub time_s: f64,
@@ -94,13 +116,15 @@ pub struct RawPoint {
 
 impl RawPoint {
     /// Builds a point from a pose and a recovery already computed (lidarqa-tpu
-    /// [`Recoverer::linear_ecef`]) and the point's ECEF position.
+    /// [`Recoverer::linear_ecef`]) and the point's ECEF position; `geometry` says whether the
+    /// out-of-plane part of `S` is kept.
     pub fn from_recovery(
         frame: &LocalFrame,
         pose: &PoseAt,
         recovery: &LinearRecovery,
         point_ecef_m: &Vector3<f64>,
         intensity: u16,
+        geometry: ScanGeometry,
     ) -> RawPoint {
         let (origin_m, attitude) = frame.pose_in_local(pose);
         RawPoint {
@@ -110,6 +134,10 @@ impl RawPoint {
             observation: LinearObservation {
                 range_m: recovery.range_m,
                 scan_angle_rad: recovery.scan_angle_rad,
+            },
+            out_of_plane_m: match geometry {
+                ScanGeometry::Plane => 0.0,
+                ScanGeometry::Beam => recovery.out_of_plane_m,
             },
             time_s: pose.time_s,
             intensity,
@@ -127,6 +155,7 @@ impl RawPoint {
         recoverer: &Recoverer,
         point_ecef_m: &Vector3<f64>,
         intensity: u16,
+        geometry: ScanGeometry,
     ) -> Result<RawPoint> {
         let r = recoverer.linear_ecef(pose, &Ecef::from_vector(*point_ecef_m))?;
         Ok(RawPoint::from_recovery(
@@ -135,6 +164,7 @@ impl RawPoint {
             &r,
             point_ecef_m,
             intensity,
+            geometry,
         ))
     }
 
@@ -149,9 +179,25 @@ impl RawPoint {
                 range_m: 0.0,
                 scan_angle_rad: 0.0,
             },
+            out_of_plane_m: 0.0,
             time_s: 0.0,
             intensity,
         }
+    }
+
+    /// The scanner-frame vector `S` (m) this point is re-georeferenced from: `ρ (0, sin θ, cos θ)`
+    /// in the scan plane, or with the kept out-of-plane part `(x, r sin θ, r cos θ)`,
+    /// `r = √(ρ² − x²)` ([`ScanGeometry`]).
+    #[inline]
+    pub fn scanner_m(&self) -> Vector3<f64> {
+        let (rho, theta) = (self.observation.range_m, self.observation.scan_angle_rad);
+        if self.out_of_plane_m == 0.0 {
+            return scanner_vector(rho, theta);
+        }
+        let x = self.out_of_plane_m;
+        let r = (rho * rho - x * x).max(0.0).sqrt();
+        let (s, c) = theta.sin_cos();
+        Vector3::new(x, r * s, r * c)
     }
 
     /// Local north, east and up of [`RawPoint::position_m`], m.
@@ -233,7 +279,12 @@ pub fn radius_for_neighbours_m(xy: &[[f64; 2]], neighbours: usize) -> Option<f64
 
 /// Seed 000 eq. (2) in the local frame with the model: `P = P0 + R_L (R_M S + ΔP)`, through
 /// [`LinearScanner::footprint_ned`] (the reference path; [`Georeferencing`] is the fast one).
+/// A point that keeps the out-of-plane part of `S` (a beam head) takes the same formula with
+/// its whole `S` ([`RawPoint::scanner_m`]).
 pub fn georeference(point: &RawPoint, mounting: &Mounting) -> Vector3<f64> {
+    if point.out_of_plane_m != 0.0 {
+        return Georeferencing::new(mounting).apply(point);
+    }
     point.origin_m
         + LinearScanner.footprint_ned(&LinearScanner.parameters(
             &point.attitude,
@@ -267,8 +318,7 @@ impl Georeferencing {
     pub fn apply(&self, p: &RawPoint) -> Vector3<f64> {
         let a = &p.attitude;
         let r_l = rotation_zyx(a.roll_rad, a.pitch_rad, a.heading_rad);
-        let s = scanner_vector(p.observation.range_m, p.observation.scan_angle_rad);
-        p.origin_m + r_l * (self.r_m * s + self.lever_m)
+        p.origin_m + r_l * (self.r_m * p.scanner_m() + self.lever_m)
     }
 }
 
@@ -317,8 +367,7 @@ impl Georeferencing {
         let k = offset.profile.as_ref().map_or(1.0, |f| f.at(p.time_s));
         let [dr, dp, dh] = offset.attitude_rad.map(|v| v * k);
         let r_l = rotation_zyx(a.roll_rad + dr, a.pitch_rad + dp, a.heading_rad + dh);
-        let s = scanner_vector(p.observation.range_m, p.observation.scan_angle_rad);
-        p.origin_m + offset.position_m * k + r_l * (self.r_m * s + self.lever_m)
+        p.origin_m + offset.position_m * k + r_l * (self.r_m * p.scanner_m() + self.lever_m)
     }
 }
 
@@ -349,7 +398,8 @@ pub(crate) fn check_strips(strips: &[Strip]) -> Result<()> {
                 && p.attitude.pitch_rad.is_finite()
                 && p.attitude.heading_rad.is_finite()
                 && p.observation.range_m.is_finite()
-                && p.observation.scan_angle_rad.is_finite())
+                && p.observation.scan_angle_rad.is_finite()
+                && p.out_of_plane_m.is_finite())
         }) {
             return Err(Error::NonFinitePoint {
                 strip: s.id.clone(),
@@ -492,6 +542,7 @@ mod tests {
                 range_m: 520.0,
                 scan_angle_rad: -0.3,
             },
+            out_of_plane_m: 0.0,
             time_s: 0.0,
             intensity: 0,
         }

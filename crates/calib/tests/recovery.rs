@@ -1,7 +1,7 @@
 //! Raw observations recovered through ECEF with lidarqa-tpu and expressed in the local frame
 //! re-georeference to the delivered point, and to the right place with another mounting.
 
-use lidarqa_calib::{LocalFrame, RawPoint, georeference};
+use lidarqa_calib::{LocalFrame, RawPoint, ScanGeometry, georeference};
 use lidarqa_model::{
     Attitude, Ecef, Georeferencer, LinearObservation, LinearScanner, Mounting, ecef_from_ned,
 };
@@ -43,7 +43,15 @@ fn recovered_point_re_georeferences_in_the_local_frame() {
     };
     let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&at.attitude(), &nominal, &obs));
     let point = p0 + ecef_from_ned(lat, lon) * f;
-    let raw = RawPoint::recover(&frame, &at, &Recoverer::new(&nominal), &point, 10).unwrap();
+    let raw = RawPoint::recover(
+        &frame,
+        &at,
+        &Recoverer::new(&nominal),
+        &point,
+        10,
+        ScanGeometry::Plane,
+    )
+    .unwrap();
     assert!((raw.observation.range_m - 812.5).abs() < 1e-6);
     assert!((georeference(&raw, &nominal) - raw.position_m).norm() < 1e-6);
     // Another mounting: the same answer as georeferencing in the pose's own N frame.
@@ -59,4 +67,55 @@ fn recovered_point_re_georeferences_in_the_local_frame() {
         "{}",
         (georeference(&raw, &other) - expect).norm()
     );
+}
+
+/// A beam head's return off the scan plane (a spinning multi-beam channel 30° off it): kept
+/// whole ([`ScanGeometry::Beam`]) it re-georeferences to itself with the mounting it was made
+/// with and moves exactly as the rotated beam with another; put into the plane
+/// ([`ScanGeometry::Plane`]) it would move by ρ·(1 − cos 30°)-order metres for no change at all.
+#[test]
+fn an_off_plane_beam_is_kept_whole() {
+    let (lat, lon) = (0.62_f64, -1.85_f64);
+    let a = 6_378_137.0;
+    let p0 = Vector3::new(
+        (a + 50.0) * lat.cos() * lon.cos(),
+        (a + 50.0) * lat.cos() * lon.sin(),
+        (a + 50.0) * lat.sin(),
+    );
+    let frame = LocalFrame::new(p0, lat, lon);
+    let pose = |t| Pose {
+        time_s: t,
+        position_ecef_m: Ecef::from_vector(p0),
+        latitude_rad: lat,
+        longitude_rad: lon,
+        attitude: Attitude::from_degrees(2.0, -1.0, 150.0),
+    };
+    let traj = Trajectory::new(&[pose(0.0), pose(1.0)]).unwrap();
+    let at = traj.at(0.5).unwrap();
+    let nominal = Mounting {
+        lever_arm_m: Vector3::new(0.161, 0.0, -0.016),
+        ..Mounting::default()
+    };
+    // S: 25 m, 30° out of the y–z plane (towards +x), 40° across.
+    let (el, az) = (30f64.to_radians(), 40f64.to_radians());
+    let s = Vector3::new(el.sin(), el.cos() * az.sin(), el.cos() * az.cos()) * 25.0;
+    let body_to_ned = at.body_to_ned;
+    let point = p0 + at.ecef_to_ned.transpose() * body_to_ned * (s + nominal.lever_arm_m);
+    let recover = |g| RawPoint::recover(&frame, &at, &Recoverer::new(&nominal), &point, 0, g);
+    let whole = recover(ScanGeometry::Beam).unwrap();
+    assert!((whole.scanner_m() - s).norm() < 1e-6);
+    assert!((georeference(&whole, &nominal) - whole.position_m).norm() < 1e-6);
+    let flat = recover(ScanGeometry::Plane).unwrap();
+    assert!((georeference(&flat, &nominal) - flat.position_m).norm() > 1.0);
+    // Another boresight: the beam turned by it, in the body frame.
+    let other = Mounting {
+        boresight_pitch_rad: 0.01,
+        ..nominal
+    };
+    let expect = frame.to_local(
+        &(p0 + at.ecef_to_ned.transpose()
+            * body_to_ned
+            * (other.scanner_to_body() * s + other.lever_arm_m)),
+    );
+    assert!((georeference(&whole, &other) - expect).norm() < 1e-6);
 }

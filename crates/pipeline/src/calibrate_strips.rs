@@ -44,8 +44,9 @@ use crate::lines::{LineIndex, LineOptions, line_index};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use lidarqa_calib::{
     AutoTieGrid, AutoTieOptions, Calibration, CalibrationOptions, LocalFrame, Method,
-    NedControlPoint, PlaneOptions, RawPoint, Strip, Tie, TieKind, TiePick, TrajectorySigma,
-    auto_tie_candidates, auto_ties, calibrate_plane, calibrate_vtpm, select_auto_ties, tie_reach_m,
+    NedControlPoint, PlaneOptions, RawPoint, ScanGeometry, Strip, SurfaceOptions, Tie, TieKind,
+    TiePick, TrajectorySigma, auto_tie_candidates, auto_ties, calibrate_plane, calibrate_surfaces,
+    calibrate_vtpm, select_auto_ties, tie_reach_m,
 };
 use lidarqa_io::{
     ControlPoints, Crs, Geodetic, InverseKind, LasInfo, LasReader, LocalInverse, PointChunk,
@@ -373,9 +374,15 @@ pub fn calibrate_strips_with_progress(
             });
         }
     }
+    // No automatic tie (dense strips over a 3-D object, no flat patch with paint, no roof at the
+    // search's scale): the boresight from the point-to-plane misfit of the strips' whole overlap.
+    let surfaces = tie_picks.is_none() && ties.is_empty();
     // Second pass: only the points the adjustment reads, around the picks and control points.
     let plane_radius_m = PlaneOptions::default().radius_m;
     let mut squares = Vec::new();
+    if surfaces {
+        squares.extend(scans.iter().filter_map(|s| s.extent_m));
+    }
     for t in &ties {
         let reach = tie_reach_m(&options.vtpm, None) + REACH_SLACK_M;
         for p in &t.picks {
@@ -393,7 +400,36 @@ pub fn calibrate_strips_with_progress(
     let region = Region::new(squares, &frame, &zone);
     progress(CalibrateStep::Adjustment);
     let strips = cut_all(&scans, ctx, &frame, &region)?;
+    let mut surface_warning = None;
     let calibration = match job.method {
+        _ if surfaces => {
+            let c = calibrate_surfaces(&strips, &prior, &options, &SurfaceOptions::default())
+                .map_err(|e| {
+                    Error::Calibration(format!(
+                        "no usable automatic tie (no planar patch in two strips with intensity \
+                         contrast or a roof slope), and the strips' 3-D surfaces: {e}"
+                    ))
+                })?;
+            surface_warning = Some(Warning::new(
+                "surface_calibration",
+                format!(
+                    "no automatic tie (no planar patch in two strips with intensity contrast or \
+                     a roof slope): the boresight is from the point-to-plane misfit of the lines' \
+                     3-D overlap ({} line pairs), the lever arm held{}",
+                    c.ties.len(),
+                    match (control.is_empty(), options.strip_adjustment.is_some()) {
+                        (true, false) => "",
+                        (false, false) => "; the control points are not used by this method",
+                        (true, true) => "; the lines' trajectories are not adjusted by this method",
+                        (false, true) => {
+                            "; the control points and the lines' trajectory adjustment are not \
+                             used by this method"
+                        }
+                    }
+                ),
+            ));
+            c
+        }
         Method::Plane => {
             let centres: Vec<[f64; 2]> = ties.iter().map(pick_centre).collect();
             calibrate_plane(
@@ -419,6 +455,7 @@ pub fn calibrate_strips_with_progress(
     let mut warnings = ctx.warnings().to_vec();
     warnings.extend(index.warnings.iter().cloned());
     warnings.extend(calibration.warnings.iter().cloned());
+    warnings.extend(surface_warning);
     Ok(StripCalibration {
         calibration,
         frame,
@@ -487,7 +524,9 @@ pub fn load_all(
                         per_line.len() - 1
                     }
                 };
-                per_line[at].1.push(kept.raw_point(&frame, observed));
+                per_line[at]
+                    .1
+                    .push(kept.raw_point(&frame, observed, ctx.scan_geometry()));
                 Ok(())
             })?;
             Ok(per_line)
@@ -824,7 +863,11 @@ fn finish_lines(
                     &recoverer,
                     &parts[*p].path,
                 )?;
-                Ok((*p, *k, kept.raw_point(frame, &observed)))
+                Ok((
+                    *p,
+                    *k,
+                    kept.raw_point(frame, &observed, ctx.scan_geometry()),
+                ))
             })
             .collect::<Result<Vec<_>>>()?;
         let mut counts: Cells<u64> = Cells::default();
@@ -1040,7 +1083,7 @@ fn cut_strip(
                     }
                     let observed =
                         kept.observe(&tile.trajectory, &mut segment, &recoverer, &part.path)?;
-                    let point = kept.raw_point(frame, &observed);
+                    let point = kept.raw_point(frame, &observed, ctx.scan_geometry());
                     while let Some((_, _, e)) = extremes.next_if(|(q, j, _)| (*q, *j) < (p, k)) {
                         points.push(*e);
                     }
@@ -1157,7 +1200,11 @@ fn auto_ties_tiled(
             auto_tie_candidates(&strips, prior, opts, &grid, rows, columns).map_err(failed)?,
         );
     }
-    select_auto_ties(candidates, opts).map_err(failed)
+    match select_auto_ties(candidates, opts) {
+        // No tie patch: the caller turns to the strips' 3-D surfaces.
+        Err(lidarqa_calib::Error::NothingUsable { .. }) => Ok(Vec::new()),
+        other => other.map_err(failed),
+    }
 }
 
 /// One point as the first pass leaves it in its strip's scratch file: its projected position
@@ -1247,9 +1294,14 @@ impl Kept {
     }
 
     /// The point for the adjustment, from what [`Kept::observe`] found.
-    fn raw_point(&self, frame: &LocalFrame, (pose, recovery): &Observed) -> RawPoint {
+    fn raw_point(
+        &self,
+        frame: &LocalFrame,
+        (pose, recovery): &Observed,
+        geometry: ScanGeometry,
+    ) -> RawPoint {
         let ecef = Vector3::from(self.ecef);
-        RawPoint::from_recovery(frame, pose, recovery, &ecef, self.intensity)
+        RawPoint::from_recovery(frame, pose, recovery, &ecef, self.intensity, geometry)
     }
 
     /// The point's local position, as [`Kept::raw_point`] computes it.

@@ -173,6 +173,16 @@ fn scanner_pose_mounting(sensor: &mut Sensor, trajectory: &Path) -> Option<Warni
 }
 
 impl TpuContext {
+    /// What calibration and correction keep of each point's recovered scanner vector: its scan
+    /// plane for the linear scanner, the whole vector for every other head (a conic or beam
+    /// head's beams leave the scanner's y–z plane by design).
+    pub(crate) fn scan_geometry(&self) -> lidarqa_calib::ScanGeometry {
+        match self.sensor.scanner {
+            lidarqa_model::Scanner::Linear => lidarqa_calib::ScanGeometry::Plane,
+            _ => lidarqa_calib::ScanGeometry::Beam,
+        }
+    }
+
     /// From data already read. `trajectory_path` names the SBET in messages.
     ///
     /// # Errors

@@ -48,6 +48,7 @@ use crate::context::TpuContext;
 use crate::error::{Error, Result};
 use crate::recovery_check::{RecoveryCheck, RecoveryTally};
 use crate::stages::{read_chunks, run_stages, write_chunks};
+use lidarqa_calib::ScanGeometry;
 use lidarqa_io::{
     CellCache, CoordinateBlock, Crs, GridToEcef, LasTimeConverter, LasWriteOptions, RawChunk,
 };
@@ -183,7 +184,12 @@ fn correct_tile_lines(
             input.display()
         )));
     }
-    let correction = Correction::new(&tile.crs, &ctx.recovery_mounting, job.mounting);
+    let correction = Correction::new(
+        &tile.crs,
+        &ctx.recovery_mounting,
+        job.mounting,
+        ctx.scan_geometry(),
+    );
     let options = LasWriteOptions::for_input(&tile.info, &[]);
     let writer = ctx.create_output(input, job.output, &options, job.other_inputs)?;
     let fixes: Vec<(Option<u16>, LineFix)> = lines
@@ -521,10 +527,13 @@ struct Mountings<T: nalgebra::Scalar> {
     old_lever_m: Vector3<T>,
     new_r_m: Matrix3<T>,
     new_lever_m: Vector3<T>,
+    /// Whether the recovered `S` is kept whole (a beam head) or put into the scan plane (the
+    /// linear scanner), as calibrate's [`lidarqa_calib::ScanGeometry`].
+    geometry: ScanGeometry,
 }
 
 impl<T: SimdRealField<Element = f64> + Copy> Mountings<T> {
-    fn new(old: &Mounting, new: &Mounting) -> Mountings<T> {
+    fn new(old: &Mounting, new: &Mounting, geometry: ScanGeometry) -> Mountings<T> {
         let m = |m: Matrix3<f64>| m.map(T::splat);
         let v = |v: Vector3<f64>| v.map(T::splat);
         Mountings {
@@ -532,6 +541,7 @@ impl<T: SimdRealField<Element = f64> + Copy> Mountings<T> {
             old_lever_m: v(old.lever_arm_m),
             new_r_m: m(new.scanner_to_body()),
             new_lever_m: v(new.lever_arm_m),
+            geometry,
         }
     }
 }
@@ -641,13 +651,19 @@ impl LineFix {
 }
 
 impl Correction {
-    /// From the points' CRS, the mounting they were made with and the calibrated one.
-    pub(crate) fn new(crs: &Crs, old: &Mounting, new: &Mounting) -> Correction {
+    /// From the points' CRS, the mounting they were made with, the calibrated one and what of
+    /// each point's scanner vector is kept (the scanner type's).
+    pub(crate) fn new(
+        crs: &Crs,
+        old: &Mounting,
+        new: &Mounting,
+        geometry: ScanGeometry,
+    ) -> Correction {
         Correction {
             unit_m: crs.unit().metres(),
             map: GridToEcef::new(crs),
-            mountings: Mountings::new(old, new),
-            mountings4: Mountings::new(old, new),
+            mountings: Mountings::new(old, new, geometry),
+            mountings4: Mountings::new(old, new, geometry),
         }
     }
 
@@ -772,6 +788,11 @@ fn displacement<T: SimdRealField<Element = f64> + Copy>(
     // range ρ = |S|, scan angle θ = atan2(S_y, S_z), S' = ρ (0, sin θ, cos θ).
     let body = r_be.transpose() * beam;
     let s = m.old_r_m.transpose() * (body - m.old_lever_m);
+    if m.geometry == ScanGeometry::Beam {
+        // A beam head keeps the whole S: Δ = R_BE (R_M' S + ΔP' − B).
+        let d = r_be * (m.new_r_m * s + m.new_lever_m - body);
+        return (s.norm_squared(), grid_step(jacobian, &d));
+    }
     // S' = (0, S_y, S_z) scaled to the range ρ = |S|: by ρ / r_yz = √(1 + S_x² / r_yz²), one
     // root and one division (S_x is the small out-of-plane residual); (0, 0, ρ) for r_yz = 0.
     let (x2, r2) = (s.x * s.x, s.y * s.y + s.z * s.z);
@@ -786,15 +807,22 @@ fn displacement<T: SimdRealField<Element = f64> + Copy>(
     // then on the grid through the map's Jacobian at the point (module docs).
     // (S'_x = 0: two columns of R_M'.)
     let d = r_be * (m.new_r_m.column(1) * s_y + m.new_r_m.column(2) * s_z + m.new_lever_m - body);
+    (range2, grid_step(jacobian, &d))
+}
+
+/// An ECEF displacement `d` (m) on the grid through the map's Jacobian at the point.
+#[inline(always)]
+fn grid_step<T: SimdRealField<Element = f64> + Copy>(
+    jacobian: &Matrix3<T>,
+    d: &Vector3<T>,
+) -> Vector3<T> {
     // Cramer's rule on the columns (∂P/∂x, ∂P/∂y, ∂P/∂h).
     let (jx, jy, jh) = (jacobian.column(0), jacobian.column(1), jacobian.column(2));
     let yh = jy.cross(&jh);
     let det = jx.dot(&yh);
     // One division: the three quotients then differ from dividing each by at most an ulp of a
     // step of metres.
-    let step =
-        Vector3::new(d.dot(&yh), jx.dot(&d.cross(&jh)), jx.dot(&jy.cross(&d))) * det.simd_recip();
-    (range2, step)
+    Vector3::new(d.dot(&yh), jx.dot(&d.cross(&jh)), jx.dot(&jy.cross(d))) * det.simd_recip()
 }
 
 #[cfg(test)]
@@ -886,6 +914,7 @@ mod tests {
             &Recoverer::new(old),
             &ecef(lat, lon, xyz[2]),
             0,
+            ScanGeometry::Plane,
         )
         .unwrap();
         let local = Georeferencing::new(new).apply(&raw);
@@ -959,7 +988,7 @@ mod tests {
             let pts = points(&zone, &trajectory);
             for d in changes {
                 let new = changed(d);
-                let c = Correction::new(&Crs::from(zone), &old(), &new);
+                let c = Correction::new(&Crs::from(zone), &old(), &new, ScanGeometry::Plane);
                 // One worker's cells for all points, as within a chunk.
                 let mut cells = CellCache::default();
                 for &(t, xyz) in &pts {
@@ -1014,6 +1043,7 @@ mod tests {
             &Crs::from(zone),
             &level,
             &changed([0.05, 0.08, -0.1, 0.2, 0.1, -0.3]),
+            ScanGeometry::Plane,
         );
         let mut cells = CellCache::default();
         let mut slots: Vec<Slot> = points(&zone, &trajectory)

@@ -330,6 +330,7 @@ pub fn simulate(
                     origin_m: origin,
                     attitude: att_noisy,
                     observation: obs,
+                    out_of_plane_m: 0.0,
                     time_s,
                     intensity: scene.intensity_at(&Vector2::new(p.x, p.y)),
                 });

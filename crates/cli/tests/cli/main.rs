@@ -6,6 +6,7 @@
 
 mod binary;
 
+mod armo_calibrate;
 mod bathymetry;
 mod beam_truth;
 mod budget;
