@@ -62,6 +62,7 @@ mod csd_tpu;
 mod digest;
 mod error;
 mod evaluate_files;
+mod heights;
 mod lines;
 mod manifest;
 mod overlap_files;

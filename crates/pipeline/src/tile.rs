@@ -1,7 +1,8 @@
 //! One tile: read → recover → propagate → write, streaming in chunks.
 
-use crate::context::{Heights, OpenTile, TpuContext};
+use crate::context::{OpenTile, TpuContext};
 use crate::error::{Error, Result};
+use crate::heights::Heights;
 use crate::plausibility::{
     DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, check_distance, check_gaps, crs_name, outside_zone,
     point_implausible,
