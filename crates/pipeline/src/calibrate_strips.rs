@@ -21,6 +21,13 @@
 //! 3. a last pass keeps the points within [`lidarqa_calib::tie_reach_m`] of every pick and
 //!    control point.
 //!
+//! When the automatic search finds no tie (dense strips over a 3-D object: no flat patch with
+//! paint, no roof face at its scale), the last pass keeps the strips whole and the boresight comes
+//! from the point-to-plane misfit of their 3-D overlap ([`lidarqa_calib::calibrate_surfaces`],
+//! warning `surface_calibration`); it refuses when too few points have a planar neighbourhood in
+//! another strip. A linear scanner's points are recovered into its scan plane, every other
+//! head's keep the whole scanner vector ([`lidarqa_calib::ScanGeometry`]).
+//!
 //! Every cut strip keeps its extreme points and its file order, so its extent, its grid cells
 //! and the order in which a neighbourhood's points come are the whole strip's: the ties and the
 //! calibration are the same as from whole strips.
