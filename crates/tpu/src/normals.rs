@@ -61,8 +61,8 @@
 //! not depend on the number of threads, and a caller that judges its targets in pieces
 //! (lidarqa-pipeline's chunks) gets the same judgements as in one call when every piece starts
 //! at a multiple of [`SHARE_STRIDE`]. On a scan line a seed's k nearest reach about k/2 points
-//! either side and a widened neighbourhood farther: most of the targets after a seed lie within
-//! it, and the time of the judgement falls by about as much.
+//! either side and a widened neighbourhood farther, so many of the targets after a seed lie
+//! within it: on the benchmark strip of `lidarqa-bench` the incidence term's CPU time halves.
 //!
 //! # Beam-aware incidence
 //! A surface the footprint lies on must be one the beam meets. [`judged_incidence`] turns a
