@@ -31,7 +31,10 @@ pub struct TpuOptions {
     /// Skip (and count) points with non-finite coordinates, an unusable GPS time or no
     /// recoverable observation instead of failing.
     pub skip_invalid: bool,
-    /// Points per chunk (memory is bounded by a few chunks whatever the file size).
+    /// Points per chunk (memory is bounded by a few chunks whatever the file size). The
+    /// incidence term's judgement is shared along the scan from seeds counted from each chunk's
+    /// start ([`lidarqa_tpu::SHARE_STRIDE`]): chunks of a multiple of it give the same output
+    /// as one chunk (to rounding, with margins wide enough).
     pub chunk_points: usize,
     /// Neighbours k of the plane fit for the incidence angle.
     pub neighbours: usize,

@@ -66,9 +66,9 @@ pub use mounting_check::{
     MountingTally, MountingView,
 };
 pub use normals::{
-    IncidenceClass, MAX_NEIGHBOURS, MIN_NEIGHBOURS, Surface, WIDEN_FLATNESS, WIDEN_RADIUS_FACTOR,
-    cos_incidence, fit_normal, incidence_angle, judge_surfaces, judged_incidence, plane_normals,
-    prior_cos_incidence,
+    IncidenceClass, MAX_NEIGHBOURS, MIN_NEIGHBOURS, SHARE_STRIDE, Surface, WIDEN_FLATNESS,
+    WIDEN_RADIUS_FACTOR, cos_incidence, fit_normal, incidence_angle, judge_surfaces,
+    judge_surfaces_shared, judged_incidence, plane_normals, prior_cos_incidence,
 };
 pub use point::{Incidence, MAX_INCIDENCE_RAD, PointPropagator, PointUncertainty};
 pub use presets::Preset;

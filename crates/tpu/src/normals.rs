@@ -36,10 +36,33 @@
 //! The radius bound keeps the widening local (a multiple of the first neighbourhood's size,
 //! enough to reach scan lines tens of point spacings apart) and the k bound keeps memory and
 //! time per point bounded. Both searches are exact and each point's answer depends only on the
-//! candidates, so the result is the same whatever the number of threads. One case geometry
+//! candidates (and, where it shares a judgement, on its seed's: see "Sharing"), so the result is
+//! the same whatever the number of threads. One case geometry
 //! cannot settle: returns of one scan plane only (one scan cycle through a tree) are coplanar
 //! whatever they hit, and are judged planar with the scan plane's normal, as the k nearest
 //! alone already judge them where they are not one line.
+//!
+//! # Sharing
+//! Judging every point's neighbourhood (a k-nearest search, an eigen-decomposition, and for
+//! the points of one scan line a widened one) costs several times the reading and writing of
+//! the point. Targets come in scan order, and a point's neighbours along its scan line lie in
+//! the neighbourhood already judged for the point a few places before it, so
+//! [`judge_surfaces`] judges one target in [`SHARE_STRIDE`] (the seeds: index a multiple of
+//! it) and gives the next ones, up to the next seed, the seed's judgement (its class and its
+//! plane's normal or its line's direction) where they lie within the neighbourhood the
+//! judgement rests on: the k nearest, or the accepted widened one. A target outside it (the
+//! next return of a pulse through a tree, the far side of a gap) is judged on its own. The
+//! incidence itself is still each point's own: the angle between its own beam and the shared
+//! normal ([`judged_incidence`]). [`judge_surfaces_shared`] with a stride of 1 judges every
+//! point; the crate's `tests/incidence_sigma.rs` holds both to the same bar.
+//!
+//! The seeds are fixed by the targets' indices alone (counted from the first target of the
+//! call, and [`SHARE_STRIDE`] divides the block of targets a thread takes), so the result does
+//! not depend on the number of threads, and a caller that judges its targets in pieces
+//! (lidarqa-pipeline's chunks) gets the same judgements as in one call when every piece starts
+//! at a multiple of [`SHARE_STRIDE`]. On a scan line a seed's k nearest reach about k/2 points
+//! either side and a widened neighbourhood farther, so many of the targets after a seed lie
+//! within it: on the benchmark strip of `lidarqa-bench` the incidence term's CPU time halves.
 //!
 //! # Beam-aware incidence
 //! A surface the footprint lies on must be one the beam meets. [`judged_incidence`] turns a
@@ -152,23 +175,51 @@ impl Surface {
 
 /// Each target's neighbourhood judged (see the module docs), with the `k` nearest neighbours
 /// among `candidates`, widened where those are linear ([`Surface::PlanarWidened`] when a wider
-/// one is planar); coordinates as for [`plane_normals`]. Parallel over targets (rayon); the
+/// one is planar); coordinates as for [`plane_normals`]. One judgement is shared by up to
+/// [`SHARE_STRIDE`] targets in a row where they lie within it ([`judge_surfaces_shared`], the
+/// module docs' "Sharing"): give the targets in scan order. Parallel over targets (rayon); the
 /// result does not depend on the number of threads.
 pub fn judge_surfaces(candidates: &[[f64; 3]], targets: &[[f64; 3]], k: usize) -> Vec<Surface> {
+    judge_surfaces_shared(candidates, targets, k, SHARE_STRIDE)
+}
+
+/// Targets in a row that share one judgement (see the module docs, "Sharing"): target `i` with
+/// `i % SHARE_STRIDE == 0` is judged, and the next ones take its judgement where they lie
+/// within its judged neighbourhood. A divisor of the block of targets searched together, so
+/// that the seeds are those of the targets' indices whatever the number of threads.
+pub const SHARE_STRIDE: usize = 8;
+
+// The seeds of one call are the targets whose index is a multiple of the stride only when the
+// stride divides the blocks the threads take.
+const _: () = assert!(QUERY_BLOCK % SHARE_STRIDE == 0);
+
+/// [`judge_surfaces`] with one judgement shared by up to `stride` targets in a row (1: every
+/// target judged on its own neighbourhood). `stride` is clamped to 1..=2048 (the targets
+/// searched together); the seeds are the targets whose index is a multiple of it when it divides
+/// 2048 (a power of two does), and the result never depends on the number of threads.
+pub fn judge_surfaces_shared(
+    candidates: &[[f64; 3]],
+    targets: &[[f64; 3]],
+    k: usize,
+    stride: usize,
+) -> Vec<Surface> {
+    let stride = stride.clamp(1, QUERY_BLOCK);
     search_each(
         candidates,
         targets,
         k,
+        stride,
         Surface::TooFew,
         |q, nn, grid, wide| {
             if nn.len() < MIN_NEIGHBOURS {
-                return Surface::TooFew;
+                return (Surface::TooFew, 0.0);
             }
             // The scatter of the k nearest is judged, and reused by the widening.
             let first = scatter_of(q, nn);
+            let kth_m2 = nn.last().map_or(0.0, |&(d2, _)| d2);
             match judge_scatter(&first, FLATNESS, true) {
                 Surface::Linear(along) => widen(q, nn, (&first, along), grid, wide),
-                judged => judged,
+                judged => (judged, kth_m2),
             }
         },
     )
@@ -306,7 +357,7 @@ fn widen(
     (first, along): (&Matrix3<f64>, Vector3<f64>),
     grid: &Grid,
     wide: &mut Vec<(f64, u32)>,
-) -> Surface {
+) -> (Surface, f64) {
     let k = nn.len();
     // What the point is when no widened neighbourhood is accepted (`first` is the scatter of
     // the k nearest, [`scatter_of`]): a thin line (σ₁ ≥ [`FLATNESS`] · σ₂, one scan line) lies
@@ -321,8 +372,9 @@ fn widen(
         }
     };
     let Some(&(kth_m2, _)) = nn.last() else {
-        return line();
+        return (line(), 0.0);
     };
+    let line = || (line(), kth_m2);
     if !(kth_m2 > 0.0 && (WIDEN_RADIUS_FACTOR * WIDEN_RADIUS_FACTOR * kth_m2).is_finite())
         || k >= MAX_NEIGHBOURS
     {
@@ -337,6 +389,8 @@ fn widen(
     let off_m2 = kth_m2 / 4.0;
     let (mut all, mut off) = (Sums::default(), Sums::default());
     let (mut size, mut taken) = (k, 0);
+    // The farthest point judged so far (squared distance): the accepted neighbourhood's radius.
+    let mut far_m2 = kth_m2;
     // The nearest candidates in the total order of (distance, index), as the k-nearest search
     // orders them, so the prefixes do not depend on the order of the cells. Most widened
     // neighbourhoods are accepted within a few times the first radius: the candidates are
@@ -369,7 +423,8 @@ fn widen(
             if next - taken < rest.len() {
                 rest.select_nth_unstable_by(next - taken - 1, order);
             }
-            for &(_, j) in &wide[taken..next] {
+            for &(d2, j) in &wide[taken..next] {
+                far_m2 = far_m2.max(d2);
                 let p = grid.point(j as usize);
                 all.add(q, &p);
                 let d = Vector3::new(p[0] - q[0], p[1] - q[1], p[2] - q[2]) - mean;
@@ -380,7 +435,7 @@ fn widen(
             (taken, size) = (next, next);
             match judge_scatter(&all.scatter(), WIDEN_FLATNESS, false) {
                 Surface::Planar(n) if off_line_agrees(&off, &n) => {
-                    return Surface::PlanarWidened(n);
+                    return (Surface::PlanarWidened(n), far_m2);
                 }
                 Surface::Scattered => return line(),
                 _ if size == MAX_NEIGHBOURS || (widest && size == most) => {
@@ -436,17 +491,25 @@ fn for_each_neighbourhood<T: Clone + Send + Sync>(
     none: T,
     f: impl Fn(&[f64; 3], &[(f64, [f64; 3])]) -> T + Sync,
 ) -> Vec<T> {
-    search_each(candidates, targets, k, none, |q, nn, _, _| f(q, nn))
+    search_each(candidates, targets, k, 1, none, |q, nn, _, _| {
+        (f(q, nn), 0.0)
+    })
 }
 
 /// [`for_each_neighbourhood`], with `f` also given the grid and a buffer reused within a block
-/// (for [`widen`]).
+/// (for [`widen`]), and returning with its answer the squared radius of the neighbourhood it
+/// rests on. With `stride` > 1, target `i` with `i % stride == 0` is a seed: the targets after
+/// it, up to the next seed, take the seed's answer without a search where their squared
+/// distance to the seed is within that radius (they lie in the seed's judged neighbourhood),
+/// and are searched and answered on their own otherwise (seeds restart at each block of
+/// [`QUERY_BLOCK`] targets).
 fn search_each<T: Clone + Send + Sync>(
     candidates: &[[f64; 3]],
     targets: &[[f64; 3]],
     k: usize,
+    stride: usize,
     none: T,
-    f: impl Fn(&[f64; 3], &[(f64, [f64; 3])], &Grid, &mut Vec<(f64, u32)>) -> T + Sync,
+    f: impl Fn(&[f64; 3], &[(f64, [f64; 3])], &Grid, &mut Vec<(f64, u32)>) -> (T, f64) + Sync,
 ) -> Vec<T> {
     use rayon::prelude::*;
     if candidates.len() < MIN_NEIGHBOURS {
@@ -467,7 +530,19 @@ fn search_each<T: Clone + Send + Sync>(
             // candidates, and most insertions of those that would be pushed out later (see
             // `Grid::within`); the ring search without a limit takes the rest.
             let mut limit_m2 = f64::INFINITY;
-            for (o, q) in out.iter_mut().zip(targets) {
+            // The last seed: its position, its answer's squared radius, its answer's slot.
+            let mut seed: Option<([f64; 3], f64, usize)> = None;
+            for (i, q) in targets.iter().enumerate() {
+                if i % stride != 0 {
+                    if let Some((s, r2, at)) = seed {
+                        let d2 =
+                            (q[0] - s[0]).powi(2) + (q[1] - s[1]).powi(2) + (q[2] - s[2]).powi(2);
+                        if d2 <= r2 {
+                            out[i] = out[at].clone();
+                            continue;
+                        }
+                    }
+                }
                 if !grid.within(q, &mut best, limit_m2) {
                     grid.nearest(q, &mut best, f64::INFINITY);
                 }
@@ -476,7 +551,11 @@ fn search_each<T: Clone + Send + Sync>(
                 } else {
                     f64::INFINITY
                 };
-                *o = f(q, best.points(), &grid, &mut wide);
+                let (answer, r2) = f(q, best.points(), &grid, &mut wide);
+                out[i] = answer;
+                if i % stride == 0 {
+                    seed = Some((*q, r2, i));
+                }
             }
         });
     out
@@ -1477,6 +1556,49 @@ mod tests {
             let n = s.normal().unwrap();
             assert!(n.dot(&truth).abs() > 0.1f64.to_radians().cos(), "{n}");
         }
+    }
+
+    #[test]
+    fn a_shared_judgement_is_the_seeds_or_the_targets_own_and_the_same_in_pieces() {
+        // Scan lines (widened), and the strip with its wall, column and duplicates.
+        let mut pts = scan_lines(0.1, 2.5, 12);
+        pts.extend(strip(14, 20_000));
+        let every = judge_surfaces_shared(&pts, &pts, 10, 1);
+        let shared = judge_surfaces(&pts, &pts, 10);
+        let mut taken = 0;
+        for (i, s) in shared.iter().enumerate() {
+            let seed = i - i % SHARE_STRIDE;
+            if *s != every[i] {
+                // A shared judgement is its seed's, at a target within the seed's neighbourhood.
+                assert_eq!(*s, every[seed], "target {i}");
+            }
+            taken += usize::from(i < 7200 && *s == every[seed] && i != seed);
+        }
+        // The seeds are judged as on their own; on the scan lines (widened neighbourhoods, the
+        // first 7 200 points) most targets take their seed's judgement.
+        assert!(
+            shared
+                .iter()
+                .zip(&every)
+                .step_by(SHARE_STRIDE)
+                .all(|(a, b)| a == b)
+        );
+        let followers = 7200 - 7200 / SHARE_STRIDE;
+        assert!(taken > followers * 3 / 4, "{taken} of {followers}");
+        // Judged in pieces that start at multiples of the stride (not of the thread's block),
+        // against the same candidates: the same judgements.
+        let cut = 11_072;
+        assert!(cut % SHARE_STRIDE == 0 && cut % QUERY_BLOCK != 0);
+        let mut pieces = judge_surfaces(&pts, &pts[..cut], 10);
+        pieces.extend(judge_surfaces(&pts, &pts[cut..], 10));
+        assert_eq!(pieces, shared);
+        // Stride 1 is every target judged on its own, on any number of threads.
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| judge_surfaces_shared(&pts, &pts, 10, 1));
+        assert_eq!(one, every);
     }
 
     #[test]
