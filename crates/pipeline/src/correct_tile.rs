@@ -247,7 +247,11 @@ fn correct_tile_lines(
             }
         },
     )?;
-    let mut warnings = Vec::new();
+    let mut warnings: Vec<lidarqa_model::Warning> = tile
+        .info
+        .extra_bytes_not_carried(job.output)
+        .into_iter()
+        .collect();
     if let Some(t) = &tally {
         warnings.extend(t.scan_warnings(input, &ctx.sensor, ctx.trajectory_format()));
         warnings.extend(t.range_warning(input));

@@ -199,6 +199,9 @@ pub fn tpu_tile_with_progress(
     let step_deg = if info.point_format >= 6 { 0.006 } else { 1.0 };
     let mut summary = TpuSummary::new(kernel.kind(), kernel.source_names(), n_sigma);
     summary.warnings = ctx.warnings.clone();
+    summary
+        .warnings
+        .extend(info.extra_bytes_not_carried(job.output));
     summary.warnings.extend(ctx.heights_note(&info, &heights));
     summary.scan_angle.step_deg = step_deg;
     summary.plausibility.sigma_span_s = ctx.sigma_span_s;

@@ -100,6 +100,17 @@ fn armo_per_point_pose_as_trajectory() {
     assert_eq!(v["points_written"], 72225);
     let c = codes(&v);
     assert!(c.iter().any(|c| c == "per_point_pose"), "{c:?}");
+    // The pose the file carries in its extra bytes is not in the output: said, not dropped in
+    // silence.
+    assert!(
+        v["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w["code"] == "extra_bytes_not_carried"
+                && w["message"].as_str().unwrap().contains("SensorX")),
+        "{v}"
+    );
     // Another file cannot be posed by Car's frames.
     let o = lidarqa(&[
         "tpu",

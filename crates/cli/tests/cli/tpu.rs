@@ -310,3 +310,41 @@ fn tpu_output_for_laspy() {
         lidarqa_testkit::run_python_check(&python, &script, &json_path);
     }
 }
+
+/// A file's own extra bytes are not in lidarqa's output: never dropped silently. The strip as
+/// simulated has none (no warning); `tpu`'s own output has its σ dimensions, and a second `tpu`
+/// on it names them.
+#[test]
+fn a_files_own_extra_bytes_are_named_when_not_carried() {
+    let dir = tempfile::tempdir().unwrap();
+    let sv = common::survey(dir.path(), 500, "las", None);
+    let codes = |v: &Value| -> Vec<String> {
+        v["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| w["code"].as_str().unwrap().to_string())
+            .collect()
+    };
+    let first = dir.path().join("first.las");
+    let v = json_ok(&tpu_args(&sv, &sv.strip, &first));
+    assert!(
+        !codes(&v).iter().any(|c| c == "extra_bytes_not_carried"),
+        "{v}"
+    );
+    let second = dir.path().join("second.las");
+    let v = json_ok(&tpu_args(&sv, &first, &second));
+    let w = v["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|w| w["code"] == "extra_bytes_not_carried")
+        .unwrap_or_else(|| panic!("{v}"));
+    let message = w["message"].as_str().unwrap();
+    assert!(
+        message.contains("first.las")
+            && message.contains("sigma_north")
+            && message.contains("second.las"),
+        "{message}"
+    );
+}

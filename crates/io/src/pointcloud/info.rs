@@ -40,6 +40,29 @@ pub struct LasInfo {
 }
 
 impl LasInfo {
+    /// The warning that the file's own extra-bytes dimensions are not in `output`: lidarqa's
+    /// outputs keep each record up to its point format and append lidarqa's own values, so a
+    /// per-point pose, PDAL's normals or a vendor's fields stay only in the input. `None` when
+    /// the file has none.
+    #[must_use]
+    pub fn extra_bytes_not_carried(&self, output: &Path) -> Option<lidarqa_model::Warning> {
+        if self.extra_dims.is_empty() {
+            return None;
+        }
+        let names: Vec<&str> = self.extra_dims.iter().map(|d| d.name.as_str()).collect();
+        Some(lidarqa_model::Warning::new(
+            "extra_bytes_not_carried",
+            format!(
+                "{}: its own extra-bytes dimensions ({}) are not written to {} (lidarqa keeps each \
+                 record up to its point format and appends its own values): keep the input \
+                 beside the output",
+                self.path.display(),
+                names.join(", "),
+                output.display()
+            ),
+        ))
+    }
+
     pub(super) fn from_header(path: &Path, header: &las::Header) -> Result<Self> {
         let v = header.version();
         let t = header.transforms();
