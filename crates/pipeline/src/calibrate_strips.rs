@@ -391,8 +391,13 @@ pub fn calibrate_strips_with_progress(
         }
     }
     // No automatic tie (dense strips over a 3-D object, no flat patch with paint, no roof at the
-    // search's scale): the boresight from the point-to-plane misfit of the strips' whole overlap.
-    let surfaces = tie_picks.is_none() && ties.is_empty();
+    // search's scale): the boresight from the point-to-plane misfit of the strips' whole overlap,
+    // for the beam heads it is made for (UAV multi-beam systems over objects). A linear scanner's
+    // strips without a tie are refused as before: its region is each strip's whole extent, which
+    // corrupted records can make unbounded.
+    let surfaces = tie_picks.is_none()
+        && ties.is_empty()
+        && ctx.scan_geometry() == lidarqa_calib::ScanGeometry::Beam;
     // Second pass: only the points the adjustment reads, around the picks and control points.
     let plane_radius_m = PlaneOptions::default().radius_m;
     let mut squares = Vec::new();
