@@ -70,7 +70,7 @@ pub use error::{Error, Result};
 pub use lm::{LmOptions, Termination};
 pub use overlap::{
     OverlapGrid, OverlapOptions, OverlapPair, OverlapProfile, OverlapReport, OverlapStrip,
-    ProfileStrip, overlap_qc,
+    ProfileStrip, overlap_qc, robust_extent,
 };
 pub use params::{PARAM_COUNT, Param, mounting_from_vector, mounting_to_vector};
 pub use plane::{PlaneOptions, calibrate_plane, check_plane_rms};

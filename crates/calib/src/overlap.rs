@@ -175,27 +175,31 @@ struct CellFit {
 /// Most cells of the dz grid (8 bytes each plus the fits): 50 million, 400 MB.
 const MAX_GRID_CELLS: usize = 50_000_000;
 
-/// The extent the grid covers: the full `min`–`max` when the points fill it, else their
-/// 1–99 % quantiles widened by a quarter of their span and ten cells each side (a strip's
-/// corrupted records, kilometres off, then neither size the grid nor exhaust memory).
-fn robust_extent(
-    strips: &[OverlapStrip],
+/// The horizontal extent the point `sets` fill: the full `min`–`max` when the points fill it,
+/// else their 1–99 % quantiles widened by a quarter of their span and `pad_m` each side (a
+/// strip's corrupted records, kilometres off, then size neither a grid nor a region, and exhaust
+/// no memory). A point is `[x, y, …]`; at most about 200 000 of them are sorted.
+///
+/// # Panics
+/// When the sets hold no point.
+pub fn robust_extent<const D: usize>(
+    sets: &[&[[f64; D]]],
     min: [f64; 2],
     max: [f64; 2],
-    c: f64,
+    pad_m: f64,
 ) -> ([f64; 2], [f64; 2]) {
-    let n: usize = strips.iter().map(|s| s.points.len()).sum();
+    let n: usize = sets.iter().map(|s| s.len()).sum();
     let step = (n / 200_000).max(1);
     let mut out = (min, max);
     for k in 0..2 {
-        let mut v: Vec<f64> = strips
+        let mut v: Vec<f64> = sets
             .iter()
-            .flat_map(|s| s.points.iter().step_by(step).map(move |p| p[k]))
+            .flat_map(|s| s.iter().step_by(step).map(move |p| p[k]))
             .collect();
         v.sort_by(f64::total_cmp);
         let q = |f: f64| v[((v.len() - 1) as f64 * f).round() as usize];
         let (lo, hi) = (q(0.01), q(0.99));
-        let pad = 0.25 * (hi - lo) + 10.0 * c;
+        let pad = 0.25 * (hi - lo) + pad_m;
         out.0[k] = min[k].max(lo - pad);
         out.1[k] = max[k].min(hi + pad);
     }
@@ -318,7 +322,8 @@ pub fn overlap_qc(strips: &[OverlapStrip], opts: &OverlapOptions) -> Result<Over
     let c = opts.cell_m;
     // The grid covers the points' robust extent: a few corrupted records kilometres away do
     // not size it (they fall outside and are not compared).
-    let (min, max) = robust_extent(strips, min, max, c);
+    let sets: Vec<&[[f64; 3]]> = strips.iter().map(|s| s.points.as_slice()).collect();
+    let (min, max) = robust_extent(&sets, min, max, 10.0 * c);
     let origin = [(min[0] / c).floor() * c, (min[1] / c).floor() * c];
     let cells = |k: usize| ((max[k] - origin[k]) / c).floor() + 1.0;
     if cells(0) * cells(1) > MAX_GRID_CELLS as f64 {

@@ -27,10 +27,11 @@ use crate::calibrate::{
 use crate::error::{Error, Result};
 use crate::lm::LmModel;
 use crate::params::{PARAM_COUNT, mounting_from_vector, mounting_to_vector};
-use crate::strip::{Georeferencing, Strip};
+use crate::strip::{Georeferencing, Strip, TrajectoryOffset};
+use crate::weighting::{TrajectorySigma, gauss_markov_modes};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use lidarqa_model::{Mounting, fit_plane};
-use nalgebra::Vector3;
+use nalgebra::{DMatrix, DVector, Vector3};
 use rayon::prelude::*;
 use std::num::NonZero;
 
@@ -83,15 +84,27 @@ struct SurfaceProblem<'a> {
 impl SurfaceProblem<'_> {
     /// Each patch's signed distance (m) and its normal, at mounting vector `x`.
     fn distances(&self, x: &[f64; PARAM_COUNT]) -> Vec<(f64, Vector3<f64>)> {
+        self.distances_offset(x, None)
+    }
+
+    /// [`SurfaceProblem::distances`] with the trajectory of strip `offset.0` off by `offset.1`.
+    fn distances_offset(
+        &self,
+        x: &[f64; PARAM_COUNT],
+        offset: Option<(usize, &TrajectoryOffset)>,
+    ) -> Vec<(f64, Vector3<f64>)> {
         let g = Georeferencing::new(&mounting_from_vector(x));
+        let at = |s: usize, k: usize| {
+            let p = &self.strips[s].points[k];
+            match offset {
+                Some((o, off)) if o == s => g.apply_offset(p, off),
+                _ => g.apply(p),
+            }
+        };
         self.patches
             .par_iter()
             .map(|p| {
-                let nb: Vec<Vector3<f64>> = p
-                    .neighbours
-                    .iter()
-                    .map(|&k| g.apply(&self.strips[p.other].points[k]))
-                    .collect();
+                let nb: Vec<Vector3<f64>> = p.neighbours.iter().map(|&k| at(p.other, k)).collect();
                 match fit_plane(&nb) {
                     Some(pl) => {
                         let n = if pl.normal.dot(&p.normal) < 0.0 {
@@ -99,7 +112,7 @@ impl SurfaceProblem<'_> {
                         } else {
                             pl.normal
                         };
-                        let q = g.apply(&self.strips[p.strip].points[p.point]);
+                        let q = at(p.strip, p.point);
                         (n.dot(&(q - pl.centroid)), n)
                     }
                     None => (0.0, p.normal),
@@ -272,7 +285,92 @@ pub fn calibrate_surfaces(
             residual_after_m: rms(&after, a, b),
         })
         .collect();
-    Ok(solved.into_calibration(Method::Plane, prior, &opts, ties))
+    let mut solved = solved;
+    if let Some(t) = &options.trajectory_sigma {
+        add_trajectory_covariance(&problem, &mut solved, t);
+    }
+    let mut calibration = solved.into_calibration(Method::Plane, prior, &opts, ties);
+    calibration.trajectory_sigma = options.trajectory_sigma;
+    Ok(calibration)
+}
+
+/// Adds each strip's trajectory error (`t` at 1 σ) to the σ and correlations of the solved
+/// parameters: `C += Σ d dᵀ` over every strip, component (north, east, up, roll, pitch,
+/// heading) and mode `e` of it, with `d = −N⁻¹ Jᵀ ∂r/∂e` how the point-to-plane fit answers that
+/// error. A component is constant over the strip, or with a correlation time the Karhunen–Loève
+/// modes of its Gauss–Markov process over the strip's time span; strips are independent. The
+/// same model of the trajectory as [`crate::weighting`]'s, which weights the ties with it.
+///
+/// Why: over a strip's seconds the navigation error is nearly constant, so the surfaces see it
+/// as a boresight error of that strip, which σ0 of the point-to-plane scatter knows nothing of.
+/// The fit stays unweighted, so this is the sandwich covariance of that estimator.
+fn add_trajectory_covariance(
+    problem: &SurfaceProblem<'_>,
+    solved: &mut Solved<SurfaceProblem<'_>>,
+    t: &TrajectorySigma,
+) {
+    let free: Vec<usize> = (0..PARAM_COUNT).filter(|&i| !solved.held[i]).collect();
+    let j = &solved.jacobian;
+    let k = free.len();
+    if k == 0 || j.ncols() != k {
+        return;
+    }
+    let mut extra = DMatrix::<f64>::zeros(k, k);
+    for (s, strip) in problem.strips.iter().enumerate() {
+        let (lo, hi) = strip
+            .points
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p.time_s), hi.max(p.time_s))
+            });
+        for (unit, sigma, tau) in t.unit_offsets() {
+            if !(sigma > 0.0) {
+                continue;
+            }
+            let profiles = match tau {
+                Some(tau) if hi > lo => gauss_markov_modes(lo, hi, tau)
+                    .into_iter()
+                    .map(Some)
+                    .collect(),
+                _ => vec![None],
+            };
+            for profile in profiles {
+                let offset = |sign: f64| TrajectoryOffset {
+                    position_m: unit.position_m * sigma * sign,
+                    attitude_rad: unit.attitude_rad.map(|v| v * sigma * sign),
+                    profile: profile.clone(),
+                };
+                let rp = problem.distances_offset(&solved.x, Some((s, &offset(1.0))));
+                let rm = problem.distances_offset(&solved.x, Some((s, &offset(-1.0))));
+                let mut jt_a = DVector::<f64>::zeros(k);
+                for (row, ((a, _), (b, _))) in rp.iter().zip(&rm).enumerate() {
+                    jt_a += j.row(row).transpose() * (0.5 * (a - b));
+                }
+                let d = -(&solved.inverse_normal * jt_a);
+                extra += &d * d.transpose();
+            }
+        }
+    }
+    let cov = |a: usize, b: usize| -> f64 {
+        let (ia, ib) = (free[a], free[b]);
+        let fit = match (
+            solved.sigma[ia],
+            solved.sigma[ib],
+            solved.correlation[ia][ib],
+        ) {
+            (Some(sa), Some(sb), Some(r)) => sa * sb * r,
+            _ => 0.0,
+        };
+        fit + extra[(a, b)]
+    };
+    let total = DMatrix::from_fn(k, k, cov);
+    for (a, &ia) in free.iter().enumerate() {
+        solved.sigma[ia] = Some(total[(a, a)].sqrt());
+        for (b, &ib) in free.iter().enumerate() {
+            solved.correlation[ia][ib] =
+                Some(total[(a, b)] / (total[(a, a)] * total[(b, b)]).sqrt());
+        }
+    }
 }
 
 #[cfg(test)]

@@ -72,7 +72,7 @@ impl TrajectorySigma {
 
     /// The six offsets of one strip at 1 σ, as trajectory offsets (NED: up is −down), with the
     /// correlation time of each.
-    fn unit_offsets(&self) -> [(TrajectoryOffset, f64, Option<f64>); 6] {
+    pub(crate) fn unit_offsets(&self) -> [(TrajectoryOffset, f64, Option<f64>); 6] {
         let [n, e, u] = self.position_m;
         let [r, p, h] = self.attitude_rad;
         let (tp, ta) = (self.position_correlation_s, self.attitude_correlation_s);

@@ -393,8 +393,8 @@ pub fn calibrate_strips_with_progress(
     // No automatic tie (dense strips over a 3-D object, no flat patch with paint, no roof at the
     // search's scale): the boresight from the point-to-plane misfit of the strips' whole overlap,
     // for the beam heads it is made for (UAV multi-beam systems over objects). A linear scanner's
-    // strips without a tie are refused as before: its region is each strip's whole extent, which
-    // corrupted records can make unbounded.
+    // strips without a tie are refused as before. The region is each strip's robust extent: a
+    // few corrupted records far away must not size it (its lookup cells would exhaust memory).
     let surfaces = tie_picks.is_none()
         && ties.is_empty()
         && ctx.scan_geometry() == lidarqa_calib::ScanGeometry::Beam;
@@ -402,7 +402,7 @@ pub fn calibrate_strips_with_progress(
     let plane_radius_m = PlaneOptions::default().radius_m;
     let mut squares = Vec::new();
     if surfaces {
-        squares.extend(scans.iter().filter_map(|s| s.extent_m));
+        squares.extend(scans.iter().filter_map(|s| s.robust_extent_m));
     }
     for t in &ties {
         let reach = tie_reach_m(&options.vtpm, None) + REACH_SLACK_M;

@@ -1,7 +1,7 @@
 //! The text summary of `lidarqa calibrate` (presentation only; the numbers come from
 //! lidarqa-calib).
 
-use lidarqa_calib::{Calibration, Param, TrajectorySigma};
+use lidarqa_calib::{Calibration, Method, Param, TrajectorySigma};
 
 /// The calibrated mounting, one row per parameter with its σ, prior σ and observability, then
 /// the trajectory weighting, the dropped picks and the tie residuals before and after.
@@ -38,7 +38,7 @@ pub fn table(cal: &Calibration) -> String {
     }
     if let Some(t) = &cal.trajectory_sigma {
         s += &format!(
-            "sigma includes each strip's trajectory error (GNSS {:.3}/{:.3}/{:.3} m, roll/pitch/heading {:.4}/{:.4}/{:.4} deg, {}; the ties are weighted by it)\n",
+            "sigma includes each strip's trajectory error (GNSS {:.3}/{:.3}/{:.3} m, roll/pitch/heading {:.4}/{:.4}/{:.4} deg, {}; {})\n",
             t.position_m[0],
             t.position_m[1],
             t.position_m[2],
@@ -46,6 +46,12 @@ pub fn table(cal: &Calibration) -> String {
             t.attitude_rad[1].to_degrees(),
             t.attitude_rad[2].to_degrees(),
             correlation_phrase(t),
+            // The surface fit (method plane) stays unweighted; its σ propagate the error.
+            if cal.method == Method::Vtpm {
+                "the ties are weighted by it"
+            } else {
+                "propagated through the unweighted surface fit"
+            },
         );
     }
     for d in &cal.dropped_picks {

@@ -279,7 +279,7 @@ fn tpu_refuses_a_summary_onto_its_own_output_before_any_work() {
 }
 
 /// Writes `strip` with `n` records' X, Y, Z replaced by far-off values (corrupted records).
-fn corrupt_records(strip: &Path, n: usize) {
+pub(crate) fn corrupt_records(strip: &Path, n: usize) {
     let mut bytes = std::fs::read(strip).unwrap();
     let offset = u32::from_le_bytes(bytes[96..100].try_into().unwrap()) as usize;
     let len = u16::from_le_bytes(bytes[105..107].try_into().unwrap()) as usize;

@@ -8,6 +8,7 @@ mod binary;
 
 mod armo_calibrate;
 mod bathymetry;
+mod beam_calibrate;
 mod beam_truth;
 mod budget;
 mod calib_independent;

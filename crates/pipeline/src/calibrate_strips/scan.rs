@@ -43,6 +43,9 @@ pub(super) struct StripScan {
     pub(super) parts: Vec<Part>,
     /// Horizontal extent `[min north, min east, max north, max east]`, local, m.
     pub(super) extent_m: Option<[f64; 4]>,
+    /// [`StripScan::extent_m`] without the few far records a corrupted file can hold
+    /// ([`lidarqa_calib::robust_extent`]): what the surface calibration's region covers.
+    pub(super) robust_extent_m: Option<[f64; 4]>,
     /// The points holding the extent and the time span, in (part, record) order: every cut of
     /// the strip keeps them, so a cut's extent, grid geometry and time span are the whole
     /// strip's.
@@ -224,6 +227,15 @@ pub(super) fn finish_lines(
             (Some(a), Some(b), Some(c), Some(d)) => Some([a.0, b.0, -c.0, -d.0]),
             _ => None,
         };
+        let robust_extent_m = extent_m.map(|e| {
+            let (lo, hi) = lidarqa_calib::robust_extent(
+                &[xy.as_slice()],
+                [e[0], e[1]],
+                [e[2], e[3]],
+                REACH_SLACK_M,
+            );
+            [lo[0], lo[1], hi[0], hi[1]]
+        });
         let mut extreme_kept: Vec<(usize, u64, Kept)> =
             ext.iter().flatten().map(|e| (e.1, e.2, e.3)).collect();
         extreme_kept.sort_by_key(|e| (e.0, e.1));
@@ -276,6 +288,7 @@ pub(super) fn finish_lines(
             id: name.id.clone(),
             parts,
             extent_m,
+            robust_extent_m,
             extremes,
             radius_m,
             pick_up_m,
