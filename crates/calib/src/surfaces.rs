@@ -324,7 +324,7 @@ fn add_trajectory_covariance(
                 (lo.min(p.time_s), hi.max(p.time_s))
             });
         for (unit, sigma, tau) in t.unit_offsets() {
-            if !(sigma > 0.0) {
+            if sigma.is_nan() || sigma <= 0.0 {
                 continue;
             }
             let profiles = match tau {
