@@ -18,7 +18,9 @@
 //! Vision Computing 10(3), 1992). The same idea for the boresight of a laser scanner is the
 //! rigorous self-calibration of Skaloud, J., Lichti, D., "Rigorous approach to bore-sight
 //! self-calibration in airborne laser scanning", ISPRS Journal of Photogrammetry and Remote
-//! Sensing 61(1), 2006, with planes found in the data rather than picked.
+//! Sensing 61(1), 2006, with planes found in the data rather than picked. With
+//! [`CalibrationOptions::trajectory_sigma`] the reported σ also carry each strip's navigation
+//! error, which the surfaces cannot tell from a boresight error of that strip.
 
 use crate::calibrate::{
     Calibration, CalibrationOptions, Method, Solved, TieReport, check_calibration_strips,

@@ -35,7 +35,7 @@ gps_week = 2200
 
 [sensor.scanner]
 type = "spinning-multibeam"
-head_pitch_deg = 90.0
+head_pitch_deg = 90.0           # the rotation axis along track, as routescene-lidarpod
 channel_elevations_deg = [-30.67, -29.33, -28.0, -26.67, -25.33, -24.0, -22.67, -21.33, -20.0, -18.67, -17.33, -16.0, -14.67, -13.33, -12.0, -10.67, -9.33, -8.0, -6.67, -5.33, -4.0, -2.67, -1.33, 0.0, 1.33, 2.67, 4.0, 5.33, 6.67, 8.0, 9.33, 10.67]
 beam_divergence_mrad = 0.0
 
@@ -63,7 +63,7 @@ lever_y_m = 0.01
 lever_z_m = 0.01
 
 [scanner]
-pulse_rate_hz = 20000.0
+pulse_rate_hz = 20000.0         # a tenth of the HDL-32E's: small strips, the same geometry
 scan_frequency_hz = 10.0
 
 [errors]
@@ -71,7 +71,7 @@ random = true
 random_mounting = false
 gnss_correlation_time_s = 1800.0
 attitude_correlation_time_s = 20.0
-boresight_roll_deg = 0.30
+boresight_roll_deg = 0.30       # injected: true mounting = nominal + these
 boresight_pitch_deg = -0.20
 boresight_yaw_deg = 0.40
 lever_arm_m = [0.0, 0.0, 0.0]
@@ -120,7 +120,7 @@ center_m = [-12.0, 15.0]
 size_m = [14.0, 9.0]
 azimuth_deg = 0.0
 eave_height_m = 5.0
-roof_slope_deg = 65.0
+roof_slope_deg = 65.0           # steeper than a tie roof (10–60°)
 
 [[scene.buildings]]
 center_m = [14.0, -14.0]
