@@ -248,6 +248,7 @@ mod tests {
                 .map(|n| (n.to_string(), String::new()))
                 .collect(),
             file_source_id: 0,
+            carried_extra: Default::default(),
         };
         let mut w = LasWriter::create(&path, &opts, &[] as &[&Path]).unwrap();
         // Two poses flying grid north (stored yaw −90°), then a third turned 30° to the east.

@@ -99,6 +99,7 @@ fn options(minor: u8, format: u8, crs: Vec<RawVlr>) -> LasWriteOptions {
             .map(|(n, d)| (n.to_string(), d.to_string()))
             .collect(),
         file_source_id: 7,
+        carried_extra: Default::default(),
         extra_dims_f64: Vec::new(),
     }
 }
