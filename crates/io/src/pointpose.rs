@@ -207,7 +207,7 @@ mod tests {
     use super::*;
     use crate::gpstime::LasTimeBase;
     use crate::pointcloud::{LasPoint, LasWriteOptions, LasWriter};
-    use std::f64::consts::FRAC_PI_2;
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_6};
 
     #[test]
     fn stored_yaw_turns_counter_clockwise_from_west() {
@@ -255,7 +255,10 @@ mod tests {
         let poses = [
             (0.0, [500.0, 1000.0, 80.0, 0.02, -0.01, -FRAC_PI_2]),
             (0.1, [500.0, 1001.0, 80.0, 0.02, -0.01, -FRAC_PI_2]),
-            (0.2, [500.5, 1002.0, 80.0, 0.03, 0.04, -FRAC_PI_2 - 0.5236]),
+            (
+                0.2,
+                [500.5, 1002.0, 80.0, 0.03, 0.04, -FRAC_PI_2 - FRAC_PI_6],
+            ),
         ];
         for (t, pose) in poses {
             let p = LasPoint {
@@ -278,7 +281,7 @@ mod tests {
             .map(|p| p.heading_rad.to_degrees())
             .collect();
         assert!(h[0].abs() < 1e-9 && h[1].abs() < 1e-9, "{h:?}");
-        assert!((h[2] - 30.0).abs() < 1e-3, "{h:?}");
+        assert!((h[2] - 30.0).abs() < 1e-9, "{h:?}");
         assert_eq!(traj.poses[2].roll_rad, 0.03);
         assert_eq!(traj.poses[2].pitch_rad, 0.04);
     }

@@ -136,13 +136,16 @@ fn carries_the_input_extra_bytes(python: &std::ffi::OsStr, laz: &Path, corrected
         c
     };
     let (a, b) = (read(laz), read(corrected));
-    let names = |c: &RawChunk| -> Vec<String> {
-        c.extra_dims().iter().map(|d| d.name.clone()).collect()
-    };
+    let names =
+        |c: &RawChunk| -> Vec<String> { c.extra_dims().iter().map(|d| d.name.clone()).collect() };
     assert_eq!(names(&a), names(&b));
     for n in POSE_DIMS.iter().chain(&["frameNo"]) {
         let bits = |c: &RawChunk| -> Vec<u64> {
-            c.extra_column(n).unwrap().iter().map(|v| v.to_bits()).collect()
+            c.extra_column(n)
+                .unwrap()
+                .iter()
+                .map(|v| v.to_bits())
+                .collect()
         };
         assert_eq!(bits(&a), bits(&b), "{n}");
     }

@@ -313,22 +313,36 @@ mod tests {
         };
         let long = "a_name_of_exactly_thirty_two_by_";
         assert_eq!(long.len(), 32);
-        let dims = [dim("SensorX", 0, 8), dim("sigma_up", 8, 8), dim(long, 16, 8)];
+        let dims = [
+            dim("SensorX", 0, 8),
+            dim("sigma_up", 8, 8),
+            dim(long, 16, 8),
+        ];
         // 24 described bytes of 280: 256 undescribed ones follow (255 + 1).
         let c = CarriedExtraBytes::new(&dims, 280, &["sigma_up", long, "sigma_up_input"]);
         assert_eq!(c.len(), 280);
         assert_eq!(c.descriptors.len(), 5);
-        assert_eq!(c.descriptors[0], dims[0].descriptor, "not renamed: copied whole");
+        assert_eq!(
+            c.descriptors[0], dims[0].descriptor,
+            "not renamed: copied whole"
+        );
         let name = |d: &[u8; EXTRA_BYTES_DESCRIPTOR_LEN]| las_string(&d[4..36]);
         // `sigma_up_input` is taken too: numbered.
         assert_eq!(name(&c.descriptors[1]), "sigma_up_input2");
-        assert_eq!(&c.descriptors[1][36..], &dims[1].descriptor[36..], "only the name changes");
-        assert_eq!(name(&c.descriptors[2]), "a_name_of_exactly_thirty__input");
+        assert_eq!(
+            &c.descriptors[1][36..],
+            &dims[1].descriptor[36..],
+            "only the name changes"
+        );
+        assert_eq!(name(&c.descriptors[2]), "a_name_of_exactly_thirty_t_input");
         assert_eq!(
             c.renamed,
             [
                 ("sigma_up".to_string(), "sigma_up_input2".to_string()),
-                (long.to_string(), "a_name_of_exactly_thirty__input".to_string()),
+                (
+                    long.to_string(),
+                    "a_name_of_exactly_thirty_t_input".to_string()
+                ),
             ]
         );
         assert_eq!((c.descriptors[3][2], c.descriptors[3][3]), (0, 255));
