@@ -13,7 +13,8 @@ every point of a ring has the same elevation from the spin plane, `asin(S_x / |S
 `*_fullframes.json`). For each candidate reading of `SensorRollRads`, `SensorPitchRads` and
 `SensorYawRads` as the body → NED rotation `Rz(heading) Ry(pitch) Rx(roll)` it prints the RMS over
 rings of the elevation's standard deviation within a ring: a wrong heading spreads each ring over
-degrees. The roll turns the cones about their own axis and is not seen by this test.
+degrees, and so does a pitch of the wrong sign. The roll turns the cones about their own axis and
+is not seen by this test.
 """
 
 import sys
@@ -28,6 +29,7 @@ CANDIDATES = {
     "heading = yaw (clockwise from grid north)": (1.0, 0.0, 1.0),
     "heading = 90° − yaw (counter-clockwise from east), pitch negated": (-1.0, np.pi / 2, -1.0),
     "heading = −yaw − 90°": (-1.0, -np.pi / 2, 1.0),
+    "heading = −yaw − 90°, pitch negated": (-1.0, -np.pi / 2, -1.0),
 }
 
 

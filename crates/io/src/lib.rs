@@ -72,10 +72,11 @@ pub use gpstime::{
 pub use grid_to_ecef::{CellCache, GridToEcef, MapAt};
 pub use local_inverse::{CELL_M, InverseKind, Inverted, LocalInverse, Located, TOLERANCE};
 pub use pointcloud::{
-    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, CoordinateBlock, ExtraDim, LasInfo, LasPoint, LasReader,
-    LasWriteOptions, LasWriter, PointChunk, RawChunk, RawPoint, WRITE_BATCH_POINTS,
+    CLASS_BATHYMETRY, CLASS_WATER_SURFACE, CarriedExtraBytes, CoordinateBlock, ExtraDim, LasInfo,
+    LasPoint, LasReader, LasWriteOptions, LasWriter, PointChunk, RawChunk, RawPoint,
+    WRITE_BATCH_POINTS,
 };
-pub use pointpose::{POSE_DIMS, has_point_pose};
+pub use pointpose::{POSE_DIMS, has_point_pose, heading_from_yaw};
 pub use qc_doc::{
     IhoDepthBand, IhoDocument, IhoDocumentOrder, QC_FORMAT, QcDensity, QcDocument, QcIho,
     QcIhoOrder, QcInterswath, QcIntraswath, QcLine, QcLines, QcNva, QcPredicted, QcRaster,

@@ -22,8 +22,11 @@
 //! `Point::extra_bytes`; everything else (headers, VLR storage, point records, LAZ) is the crate's.
 //! The CRS VLRs are read by the crs module ([`LasCrs`](crate::crs::LasCrs)).
 //!
-//! An input's own extra bytes are readable by name but are not carried into outputs: an output
-//! has exactly the dimensions its caller names.
+//! An input's own extra bytes are readable by name. An output has the dimensions its caller
+//! names, and the input's own extra bytes when the caller asks for them
+//! ([`LasWriteOptions::carry_extra_bytes`]): the input's descriptors ahead of the caller's in
+//! the extra-bytes VLR, each record's bytes copied unchanged, a name the caller writes itself
+//! renamed with the suffix `_input`.
 //!
 //! # Full disks and corrupt input
 //! `las::Writer` finishes a file in its `Drop` and panics if that fails (a full disk). The file
@@ -46,7 +49,7 @@ mod raw_chunk;
 mod reader;
 mod writer;
 
-pub use extra_bytes::ExtraDim;
+pub use extra_bytes::{CarriedExtraBytes, ExtraDim};
 pub use info::LasInfo;
 pub use point::{CLASS_BATHYMETRY, CLASS_WATER_SURFACE, LasPoint};
 pub use raw_chunk::{CoordinateBlock, RawChunk, RawPoint};

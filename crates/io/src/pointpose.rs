@@ -1,10 +1,20 @@
 //! A trajectory stored with the points: a LAS/LAZ whose every point carries the sensor's pose
 //! in extra bytes, as Routescene's LidarPod / LidarViewer exports it (lanl-ansi/ARMO's UAV
 //! samples): `SensorX`, `SensorY`, `SensorZ` (the scanner's position in the points' projected
-//! CRS and units) and `SensorRollRads`, `SensorPitchRads`, `SensorYawRads` (radians; the yaw a
-//! heading clockwise from grid north, as the projected position implies). PDAL defines no
-//! dimension names for a per-point platform pose (its `Roll`, `Pitch`, `Azimuth` are those of
-//! `readers.sbet`, a trajectory file), so these are the names read.
+//! CRS and units) and `SensorRollRads`, `SensorPitchRads`, `SensorYawRads` (radians). PDAL
+//! defines no dimension names for a per-point platform pose (its `Roll`, `Pitch`, `Azimuth` are
+//! those of `readers.sbet`, a trajectory file), so these are the names read.
+//!
+//! The stored yaw is not a heading: it turns counter-clockwise, as an east-north-up yaw does,
+//! and is zero when the body's x axis points to grid west, so the grid heading (clockwise from
+//! grid north) is `heading = −yaw − 90°` ([`heading_from_yaw`]); roll and pitch are read as
+//! stored. Nothing in the export says so; the points do. A spinning multi-beam head on its side
+//! puts each laser ring on one cone about the body's x axis, and only the right attitude brings
+//! every point of a ring back to one elevation from the spin plane.
+//! `docs/real-data/armo_yaw_convention.py` measures that spread for each reading: reading the yaw
+//! as a heading spreads each ring over degrees, `−yaw − 90°` with the stored pitch brings it
+//! down to a few tenths of a degree, a negated pitch spreads it again. The roll turns the cones
+//! about their own axis, so that test cannot see its sign.
 //!
 //! The pose of each point is its own stored pose: the trajectory has one pose per point, keyed
 //! by a time each point of the file also gets. When the file's GPS time resolves the points
@@ -22,7 +32,7 @@ use std::sync::Arc;
 
 /// A per-point pose as read, before it becomes a trajectory (`trajtext` builds that).
 pub(crate) struct PointPoses {
-    /// (key, x, y, z, roll, pitch, yaw) in key order, one per distinct key.
+    /// (key, x, y, z, roll, pitch, grid heading) in key order, one per distinct key.
     pub(crate) poses: Vec<[f64; 7]>,
     /// Each point's key in file order, when GPS time is coarse (else the GPS time is the key).
     pub(crate) point_keys: Option<Arc<Vec<f64>>>,
@@ -39,6 +49,15 @@ pub const POSE_DIMS: [&str; 6] = [
     "SensorPitchRads",
     "SensorYawRads",
 ];
+
+/// The grid heading (rad, clockwise from grid north, in [−π, π)) of a stored `SensorYawRads`
+/// (rad, counter-clockwise, zero with the body's x axis to grid west): `−yaw − π/2` (see the
+/// module docs for the evidence).
+#[must_use]
+pub fn heading_from_yaw(yaw_rad: f64) -> f64 {
+    use std::f64::consts::{FRAC_PI_2, PI, TAU};
+    (-yaw_rad - FRAC_PI_2 + PI).rem_euclid(TAU) - PI
+}
 
 /// Frame counters that order the points when GPS time is coarse.
 const FRAME_DIMS: [&str; 3] = ["frameNo", "FrameNo", "frame"];
@@ -168,7 +187,7 @@ pub(crate) fn read_point_poses(path: &Path) -> Result<PointPoses> {
             continue;
         }
         let [x, y, z, roll, pitch, yaw] = pose[i];
-        poses.push([keys[i], x, y, z, roll, pitch, yaw]);
+        poses.push([keys[i], x, y, z, roll, pitch, heading_from_yaw(yaw)]);
     }
     let note = format!(
         "{}: the sensor pose stored with each of its {n} points is the trajectory ({} poses), \
@@ -181,4 +200,89 @@ pub(crate) fn read_point_poses(path: &Path) -> Result<PointPoses> {
         point_keys: (!fine).then(|| Arc::new(keys)),
         note,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpstime::LasTimeBase;
+    use crate::pointcloud::{LasPoint, LasWriteOptions, LasWriter};
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_6};
+
+    #[test]
+    fn stored_yaw_turns_counter_clockwise_from_west() {
+        // yaw 0: body x to grid west (heading 270° = −90°); −90°: north; +90°: south (−180°);
+        // 180°: east (+90°). A small positive yaw turns the body from west towards south.
+        for (yaw_deg, heading_deg) in [
+            (0.0, -90.0),
+            (-90.0, 0.0),
+            (90.0, -180.0),
+            (180.0, 90.0),
+            (-180.0, 90.0),
+            (10.0, -100.0),
+            (-135.0, 45.0),
+        ] {
+            let h = heading_from_yaw(f64::to_radians(yaw_deg));
+            assert!(
+                (h - f64::to_radians(heading_deg)).abs() < 1e-12,
+                "yaw {yaw_deg}°: heading {}°, expected {heading_deg}°",
+                h.to_degrees()
+            );
+        }
+    }
+
+    #[test]
+    fn a_stored_pose_becomes_a_grid_heading_with_roll_and_pitch_as_stored() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("pose.las");
+        let opts = LasWriteOptions {
+            version_minor: 2,
+            point_format: 1,
+            scale: [0.001; 3],
+            offset: [0.0; 3],
+            time_base: LasTimeBase::AdjustedStandard,
+            crs_vlrs: Vec::new(),
+            extra_dims: Vec::new(),
+            extra_dims_f64: POSE_DIMS
+                .iter()
+                .map(|n| (n.to_string(), String::new()))
+                .collect(),
+            file_source_id: 0,
+            carried_extra: Default::default(),
+        };
+        let mut w = LasWriter::create(&path, &opts, &[] as &[&Path]).unwrap();
+        // Two poses flying grid north (stored yaw −90°), then a third turned 30° to the east.
+        let poses = [
+            (0.0, [500.0, 1000.0, 80.0, 0.02, -0.01, -FRAC_PI_2]),
+            (0.1, [500.0, 1001.0, 80.0, 0.02, -0.01, -FRAC_PI_2]),
+            (
+                0.2,
+                [500.5, 1002.0, 80.0, 0.03, 0.04, -FRAC_PI_2 - FRAC_PI_6],
+            ),
+        ];
+        for (t, pose) in poses {
+            let p = LasPoint {
+                x: pose[0],
+                y: pose[1],
+                z: 60.0,
+                gps_time_s: Some(t),
+                return_number: 1,
+                number_of_returns: 1,
+                ..LasPoint::default()
+            };
+            w.write_point_f64(&p, &[], &pose).unwrap();
+        }
+        w.finish().unwrap();
+        let traj = crate::read_point_pose(&path).unwrap();
+        assert_eq!(traj.poses.len(), 3);
+        let h: Vec<f64> = traj
+            .poses
+            .iter()
+            .map(|p| p.heading_rad.to_degrees())
+            .collect();
+        assert!(h[0].abs() < 1e-9 && h[1].abs() < 1e-9, "{h:?}");
+        assert!((h[2] - 30.0).abs() < 1e-9, "{h:?}");
+        assert_eq!(traj.poses[2].roll_rad, 0.03);
+        assert_eq!(traj.poses[2].pitch_rad, 0.04);
+    }
 }

@@ -206,8 +206,8 @@ pub fn read_trajectory(path: impl AsRef<Path>) -> Result<TrajectoryFile> {
 }
 
 /// The sensor pose stored with every point of a LAS/LAZ as a trajectory (see the `pointpose`
-/// module): projected positions in the points' CRS, the yaw a grid heading, heights in the
-/// points' own system.
+/// module): projected positions in the points' CRS, the grid heading made from the stored yaw
+/// ([`heading_from_yaw`](crate::heading_from_yaw)), heights in the points' own system.
 ///
 /// # Errors
 /// The reader's errors; [`Error::InvalidLas`] naming the file when a pose dimension is missing,
@@ -222,12 +222,12 @@ pub fn read_point_pose(path: &Path) -> Result<TextTrajectory> {
         poses: p
             .poses
             .iter()
-            .map(|[t, x, y, z, roll, pitch, yaw]| TextPose {
+            .map(|[t, x, y, z, roll, pitch, heading]| TextPose {
                 time_s: *t,
                 position: [*x, *y, *z],
                 roll_rad: *roll,
                 pitch_rad: *pitch,
-                heading_rad: *yaw,
+                heading_rad: *heading,
                 sigma: None,
             })
             .collect(),

@@ -46,6 +46,7 @@ fn las_and_laz_for_laspy() {
             .map(|n| (n.to_string(), String::new()))
             .collect(),
         file_source_id: 3,
+        carried_extra: Default::default(),
         extra_dims_f64: Vec::new(),
     };
     let n = 40;

@@ -13,7 +13,8 @@ that test run this script, and LIDARQA_LASPY_DIR=DIR to keep the files). Its lay
      "xyz_tolerance_m": 1e-6, "gps_time_tolerance_s": 1e-9}
 
 Extra-bytes values are compared exactly: they are f32 in the file and in the JSON
-(as the f64 nearest to each f32). Exits non-zero on the first mismatch; prints one line per
+(as the f64 nearest to each f32), or the type an optional `"extra_dtypes": {"name": "float64"}`
+names. Exits non-zero on the first mismatch; prints one line per
 check and a closing "N passed, 0 failed" line.
 
 Requires: pip install laspy lazrs numpy
@@ -68,9 +69,10 @@ def main(path):
            f"extra dimensions {extra_names}")
         for dim, values in entry["extra"].items():
             dtype = las.point_format.dimension_by_name(dim).dtype
-            ok(dtype == np.float32, f"{dim} is float32 ({dtype})")
+            want_dtype = np.dtype(entry.get("extra_dtypes", {}).get(dim, "float32"))
+            ok(dtype == want_dtype, f"{dim} is {want_dtype} ({dtype})")
             got = np.asarray(las[dim], dtype=np.float64)
-            want = np.asarray(values, dtype=np.float32).astype(np.float64)
+            want = np.asarray(values, dtype=want_dtype).astype(np.float64)
             ok(np.array_equal(got, want), f"{dim} values equal")
         if "epsg" in entry:
             # laspy parses the WKT VLR into WktCoordinateSystemVlr (text in `.string`).

@@ -37,6 +37,7 @@ fn write_points(dir: &Path, name: &str, format: u8, extra: bool, n: u32) -> Path
             Vec::new()
         },
         file_source_id: 1,
+        carried_extra: Default::default(),
         extra_dims_f64: Vec::new(),
     };
     let extras: &[f32] = if extra { &[0.05] } else { &[] };

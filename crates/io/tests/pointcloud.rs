@@ -99,6 +99,7 @@ fn options(minor: u8, format: u8, crs: Vec<RawVlr>) -> LasWriteOptions {
             .map(|(n, d)| (n.to_string(), d.to_string()))
             .collect(),
         file_source_id: 7,
+        carried_extra: Default::default(),
         extra_dims_f64: Vec::new(),
     }
 }
@@ -570,5 +571,94 @@ fn raw_points_read_as_decoded_and_pushed_with_appended_values_as_the_decoded_pat
         assert_eq!(back.extra_names(), ["a", "b", "c"]);
         assert_eq!(back.extra(3, "c"), Some(1e-9 * 6.0));
         assert_eq!(back.points[3], decoded.points[6]);
+    }
+}
+
+#[test]
+fn an_inputs_extra_bytes_are_carried_unchanged_ahead_of_the_outputs_own() {
+    // Formats 1 and 7, LAS and LAZ; the input has four f32 dimensions, one of them `sigma_up`.
+    for (format, ext) in [(1u8, "las"), (7, "laz")] {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join(format!("in.{ext}"));
+        write(
+            &input,
+            &options(4, format, vec![geokeys(32633)]),
+            &points(format),
+        );
+        let info = LasReader::from_path(&input).unwrap().info().clone();
+        let bits = |path: &Path, name: &str| -> Vec<u64> {
+            let mut r = LasReader::from_path(path).unwrap();
+            let mut c = lidarqa_io::RawChunk::new();
+            r.fill_raw(&mut c, 100).unwrap();
+            c.extra_column(name)
+                .unwrap_or_else(|| panic!("{}: no `{name}`", path.display()))
+                .iter()
+                .map(|v| v.to_bits())
+                .collect()
+        };
+        // As `correct` writes: the records as read (coordinates moved), no value of its own.
+        let moved = dir.path().join(format!("moved.{ext}"));
+        let mut opts = LasWriteOptions::for_input(&info, &[]);
+        assert!(opts.carry_extra_bytes(&info, &moved).is_none(), "no clash");
+        let mut w = LasWriter::create(&moved, &opts, &[&input]).unwrap();
+        let mut r = LasReader::from_path(&input).unwrap();
+        let mut chunk = lidarqa_io::RawChunk::new();
+        while r.fill_raw(&mut chunk, 7).unwrap() > 0 {
+            let xyz: Vec<[f64; 3]> = chunk.coordinates().map(|(p, _)| p).collect();
+            let xyz = xyz.into_iter().map(|[x, y, z]| [x + 1.5, y, z]);
+            chunk.set_coordinates(&moved, xyz).unwrap();
+            w.write_raw(&chunk).unwrap();
+        }
+        assert_eq!(w.finish().unwrap(), 25);
+        let back = LasReader::from_path(&moved).unwrap().info().clone();
+        assert_eq!(
+            back.extra_dims, info.extra_dims,
+            "descriptors as the input's"
+        );
+        for (name, _) in EXTRA {
+            assert_eq!(bits(&moved, name), bits(&input, name), "{name}");
+        }
+        // As `tpu` writes: its own `sigma_up` after the input's, which is renamed.
+        let tpu = dir.path().join(format!("tpu.{ext}"));
+        let mut opts = LasWriteOptions::for_input(&info, &[("sigma_up", "ours")]);
+        let warning = opts.carry_extra_bytes(&info, &tpu).unwrap();
+        assert_eq!(warning.code, "extra_bytes_renamed");
+        assert!(
+            warning.message.contains("`sigma_up` as `sigma_up_input`"),
+            "{}",
+            warning.message
+        );
+        let mut w = LasWriter::create(&tpu, &opts, &[&input]).unwrap();
+        let mut r = LasReader::from_path(&input).unwrap();
+        let mut out = w.raw_chunk();
+        r.fill_raw(&mut chunk, 100).unwrap();
+        for (k, p) in chunk.points().enumerate() {
+            out.push(&tpu, p, &[k as f32 * 0.25], &[]).unwrap();
+        }
+        w.write_raw(&out).unwrap();
+        assert_eq!(w.finish().unwrap(), 25);
+        let names: Vec<String> = LasReader::from_path(&tpu)
+            .unwrap()
+            .info()
+            .extra_dims
+            .iter()
+            .map(|d| d.name.clone())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "sigma_north",
+                "sigma_east",
+                "sigma_up_input",
+                "total_thu",
+                "sigma_up"
+            ]
+        );
+        assert_eq!(bits(&tpu, "sigma_up_input"), bits(&input, "sigma_up"));
+        assert_eq!(bits(&tpu, "total_thu"), bits(&input, "total_thu"));
+        let ours: Vec<u64> = (0..25)
+            .map(|k| f64::from(k as f32 * 0.25).to_bits())
+            .collect();
+        assert_eq!(bits(&tpu, "sigma_up"), ours);
     }
 }

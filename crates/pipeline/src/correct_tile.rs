@@ -195,7 +195,9 @@ fn correct_tile_lines(
         job.mounting,
         ctx.scan_geometry(),
     );
-    let options = LasWriteOptions::for_input(&tile.info, &[]);
+    let mut options = LasWriteOptions::for_input(&tile.info, &[]);
+    // The input's own extra bytes are copied with each record (lidarqa adds none here).
+    let carried = options.carry_extra_bytes(&tile.info, job.output);
     let writer = ctx.create_output(input, job.output, &options, job.other_inputs)?;
     let fixes: Vec<(Option<u16>, LineFix)> = lines
         .iter()
@@ -247,11 +249,7 @@ fn correct_tile_lines(
             }
         },
     )?;
-    let mut warnings: Vec<lidarqa_model::Warning> = tile
-        .info
-        .extra_bytes_not_carried(job.output)
-        .into_iter()
-        .collect();
+    let mut warnings: Vec<lidarqa_model::Warning> = carried.into_iter().collect();
     if let Some(t) = &tally {
         warnings.extend(t.scan_warnings(input, &ctx.sensor, ctx.trajectory_format()));
         warnings.extend(t.range_warning(input));

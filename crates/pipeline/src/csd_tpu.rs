@@ -435,6 +435,7 @@ fn create_writer(job: &CsdTpuJob<'_>, wkt: RawVlr, first: &LasPoint) -> Result<L
             .collect(),
         extra_dims_f64: Vec::new(),
         file_source_id: 0,
+        carried_extra: Default::default(),
     };
     Ok(LasWriter::create(
         job.output,

@@ -177,6 +177,8 @@ pub fn tpu_tile_with_progress(
             .map(|(n, d)| (n.to_string(), d.to_string()))
             .collect();
     }
+    // The input's own extra bytes ride ahead of the σ (after lidarqa's own names are set).
+    let carried = options.carry_extra_bytes(&info, job.output);
     let file_normals = NORMAL_DIMS
         .iter()
         .all(|n| info.extra_dims.iter().any(|d| d.name == *n));
@@ -199,9 +201,7 @@ pub fn tpu_tile_with_progress(
     let step_deg = if info.point_format >= 6 { 0.006 } else { 1.0 };
     let mut summary = TpuSummary::new(kernel.kind(), kernel.source_names(), n_sigma);
     summary.warnings = ctx.warnings.clone();
-    summary
-        .warnings
-        .extend(info.extra_bytes_not_carried(job.output));
+    summary.warnings.extend(carried);
     summary.warnings.extend(ctx.heights_note(&info, &heights));
     summary.scan_angle.step_deg = step_deg;
     summary.plausibility.sigma_span_s = ctx.sigma_span_s;

@@ -54,6 +54,7 @@ fn bench(c: &mut Criterion) {
                     crs_vlrs: Vec::new(),
                     extra_dims: Vec::new(),
                     file_source_id: 1,
+                    carried_extra: Default::default(),
                     extra_dims_f64: Vec::new(),
                 };
                 let mut w = LasWriter::create(&path, &options, &[] as &[&Path]).unwrap();

@@ -244,6 +244,7 @@ impl StripFile {
                 Vec::new()
             },
             file_source_id: id,
+            carried_extra: Default::default(),
             extra_dims_f64: Vec::new(),
         };
         Ok(StripFile {

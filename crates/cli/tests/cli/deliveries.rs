@@ -100,17 +100,25 @@ fn armo_per_point_pose_as_trajectory() {
     assert_eq!(v["points_written"], 72225);
     let c = codes(&v);
     assert!(c.iter().any(|c| c == "per_point_pose"), "{c:?}");
-    // The pose the file carries in its extra bytes is not in the output: said, not dropped in
-    // silence.
+    // The pose the file carries in its extra bytes rides through, ahead of the σ, unrenamed.
+    assert!(!c.iter().any(|c| c.starts_with("extra_bytes")), "{c:?}");
+    let out = lidarqa_io::LasReader::from_path(dir.path().join("car.laz")).unwrap();
+    let names: Vec<&str> = out
+        .info()
+        .extra_dims
+        .iter()
+        .map(|d| d.name.as_str())
+        .collect();
+    assert_eq!(&names[..2], ["frameNo", "SensorX"], "{names:?}");
     assert!(
-        v["warnings"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|w| w["code"] == "extra_bytes_not_carried"
-                && w["message"].as_str().unwrap().contains("SensorX")),
-        "{v}"
+        names.contains(&"SensorYawRads") && names.contains(&"sigma_up"),
+        "{names:?}"
     );
+    // The median σ (docs/guide/deliveries.md): 7.8 cm north, 8.0 cm east, 10.4 cm up.
+    for (axis, median_m) in [("north", 0.0775), ("east", 0.0797), ("up", 0.1036)] {
+        let got = v["sigma"][axis]["median"].as_f64().unwrap();
+        assert!((got - median_m).abs() < 0.002, "{axis}: {got} m");
+    }
     // Another file cannot be posed by Car's frames.
     let o = lidarqa(&[
         "tpu",

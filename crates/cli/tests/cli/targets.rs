@@ -22,6 +22,7 @@ fn las_options() -> LasWriteOptions {
         crs_vlrs: Vec::new(),
         extra_dims: Vec::new(),
         file_source_id: 1,
+        carried_extra: Default::default(),
         extra_dims_f64: Vec::new(),
     }
 }

@@ -311,11 +311,15 @@ fn tpu_output_for_laspy() {
     }
 }
 
-/// A file's own extra bytes are not in lidarqa's output: never dropped silently. The strip as
-/// simulated has none (no warning); `tpu`'s own output has its σ dimensions, and a second `tpu`
-/// on it names them.
+/// A file's own extra bytes ride through `tpu`: a first `tpu --covariance` writes σ (f32) and
+/// the covariance (f64); a second `tpu` on that output, without `--covariance`, writes its own σ
+/// after the first's. The first's covariance keeps its names and its values bit for bit; the
+/// first's σ clash with the second's own names, so they are renamed `…_input` (one warning line),
+/// bit for bit too; the second's own σ are those of the first (same points, same trajectory).
+/// laspy + lazrs read the same (tests/laspy_check.py of lidarqa-io).
 #[test]
-fn a_files_own_extra_bytes_are_named_when_not_carried() {
+fn a_files_own_extra_bytes_are_carried_and_a_clash_renamed() {
+    use lidarqa_io::{LasReader, RawChunk};
     let dir = tempfile::tempdir().unwrap();
     let sv = common::survey(dir.path(), 500, "las", None);
     let codes = |v: &Value| -> Vec<String> {
@@ -327,24 +331,122 @@ fn a_files_own_extra_bytes_are_named_when_not_carried() {
             .collect()
     };
     let first = dir.path().join("first.las");
-    let v = json_ok(&tpu_args(&sv, &sv.strip, &first));
+    let v = json_ok(&[tpu_args(&sv, &sv.strip, &first), vec!["--covariance"]].concat());
+    assert!(
+        !codes(&v).iter().any(|c| c.starts_with("extra_bytes")),
+        "the simulated strip has no extra bytes: {v}"
+    );
+    let second = dir.path().join("second.laz");
+    let v = json_ok(&tpu_args(&sv, &first, &second));
     assert!(
         !codes(&v).iter().any(|c| c == "extra_bytes_not_carried"),
         "{v}"
     );
-    let second = dir.path().join("second.las");
-    let v = json_ok(&tpu_args(&sv, &first, &second));
-    let w = v["warnings"]
+    let renamed: Vec<&Value> = v["warnings"]
         .as_array()
         .unwrap()
         .iter()
-        .find(|w| w["code"] == "extra_bytes_not_carried")
-        .unwrap_or_else(|| panic!("{v}"));
-    let message = w["message"].as_str().unwrap();
+        .filter(|w| w["code"] == "extra_bytes_renamed")
+        .collect();
+    assert_eq!(renamed.len(), 1, "one warning line: {v}");
+    let message = renamed[0]["message"].as_str().unwrap();
     assert!(
         message.contains("first.las")
-            && message.contains("sigma_north")
-            && message.contains("second.las"),
+            && message.contains("second.laz")
+            && message.contains("`sigma_north` as `sigma_north_input`")
+            && message.contains("`sigma_vertical` as `sigma_vertical_input`")
+            && !message.contains("VarianceX"),
         "{message}"
     );
+    let read = |path: &Path| {
+        let mut r = LasReader::from_path(path).unwrap();
+        let mut c = RawChunk::new();
+        r.fill_raw(&mut c, 10_000).unwrap();
+        assert_eq!(c.len(), 500);
+        c
+    };
+    let (a, b) = (read(&first), read(&second));
+    let names =
+        |c: &RawChunk| -> Vec<String> { c.extra_dims().iter().map(|d| d.name.clone()).collect() };
+    let sigma: Vec<String> = names(&a)
+        .into_iter()
+        .filter(|n| !n.starts_with("Var") && !n.starts_with("Cov"))
+        .collect();
+    assert_eq!(sigma.len(), 5, "{:?}", names(&a));
+    let covariance = [
+        "VarianceX",
+        "VarianceY",
+        "VarianceZ",
+        "CovarianceXY",
+        "CovarianceXZ",
+        "CovarianceYZ",
+    ];
+    let expected: Vec<String> = sigma
+        .iter()
+        .map(|n| format!("{n}_input"))
+        .chain(covariance.iter().map(|n| n.to_string()))
+        .chain(sigma.iter().cloned())
+        .collect();
+    assert_eq!(names(&b), expected);
+    let bits = |c: &RawChunk, n: &str| -> Vec<u64> {
+        c.extra_column(n)
+            .unwrap()
+            .iter()
+            .map(|v| v.to_bits())
+            .collect()
+    };
+    for n in &sigma {
+        let input = bits(&a, n);
+        assert_eq!(bits(&b, &format!("{n}_input")), input, "{n}");
+        assert_eq!(bits(&b, n), input, "{n}: the second run's own σ");
+        assert!(
+            a.extra_column(n).unwrap().iter().any(|v| *v != 0.0),
+            "{n} is not all zeros"
+        );
+    }
+    for n in covariance {
+        assert_eq!(bits(&b, n), bits(&a, n), "{n}");
+        assert!(
+            a.extra_column(n)
+                .unwrap()
+                .iter()
+                .all(|v| *v > 0.0 || !n.starts_with("Var"))
+        );
+    }
+    // The records up to the point format are unchanged.
+    for (p, q) in a.points().zip(b.points()) {
+        assert_eq!((p.xyz(), p.gps_time()), (q.xyz(), q.gps_time()));
+    }
+    // laspy + lazrs, an independent reader, see the same names, types and values.
+    let mut extra = serde_json::Map::new();
+    let mut dtypes = serde_json::Map::new();
+    for n in &expected {
+        extra.insert(n.clone(), serde_json::json!(b.extra_column(n).unwrap()));
+        if covariance.contains(&n.as_str()) {
+            dtypes.insert(n.clone(), serde_json::json!("float64"));
+        }
+    }
+    let xyz: Vec<[f64; 3]> = b.points().map(|p| p.xyz()).collect();
+    let spec = serde_json::json!({
+        "files": [{
+            "path": second,
+            "version": "1.4",
+            "point_format": 6,
+            "compressed": true,
+            "x": xyz.iter().map(|p| p[0]).collect::<Vec<_>>(),
+            "y": xyz.iter().map(|p| p[1]).collect::<Vec<_>>(),
+            "z": xyz.iter().map(|p| p[2]).collect::<Vec<_>>(),
+            "gps_time": b.points().map(|p| p.gps_time().unwrap()).collect::<Vec<_>>(),
+            "extra": extra,
+            "extra_dtypes": dtypes,
+        }],
+        "xyz_tolerance_m": 0.0,
+        "gps_time_tolerance_s": 0.0,
+    });
+    let json_path = dir.path().join("carried_check.json");
+    std::fs::write(&json_path, serde_json::to_string_pretty(&spec).unwrap()).unwrap();
+    if let Some(python) = lidarqa_testkit::python("the laspy cross-check") {
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../io/tests/laspy_check.py");
+        lidarqa_testkit::run_python_check(&python, &script, &json_path);
+    }
 }

@@ -31,6 +31,8 @@ pub struct ExtraDim {
     pub scale: f64,
     /// Offset applied on read, 0 when the descriptor has none.
     pub value_offset: f64,
+    /// The descriptor as the file stores it, for an output that carries the dimension.
+    pub(super) descriptor: [u8; EXTRA_BYTES_DESCRIPTOR_LEN],
 }
 
 impl ExtraDim {
@@ -127,6 +129,7 @@ pub(super) fn parse_extra_dims(path: &Path, header: &las::Header) -> Result<Vec<
             size,
             scale,
             value_offset,
+            descriptor: d.try_into().unwrap_or([0; EXTRA_BYTES_DESCRIPTOR_LEN]),
         });
         offset += size;
     }
@@ -150,6 +153,96 @@ pub(super) fn descriptor(
     d[4..4 + name.len()].copy_from_slice(name.as_bytes());
     d[160..160 + description.len()].copy_from_slice(description.as_bytes());
     d
+}
+
+/// An input's own extra bytes as an output carries them: every record's extra bytes copied
+/// unchanged ahead of lidarqa's own values, and the input's descriptors ahead of lidarqa's in
+/// the extra-bytes VLR, a name lidarqa writes itself renamed ([`CarriedExtraBytes::renamed`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CarriedExtraBytes {
+    /// The descriptors, as the input stores them but for a renamed name; bytes the input does
+    /// not describe get an untyped descriptor (`input_extra_bytes`).
+    pub(super) descriptors: Vec<[u8; EXTRA_BYTES_DESCRIPTOR_LEN]>,
+    /// Bytes carried per record: all the input's extra bytes.
+    pub(super) len: usize,
+    /// (input name, output name) of each dimension renamed because lidarqa writes a dimension
+    /// of that name itself.
+    pub renamed: Vec<(String, String)>,
+}
+
+impl CarriedExtraBytes {
+    /// The extra bytes of records of `extra_len` bytes described by `dims` (the input's), each
+    /// name in `own` (lidarqa's dimensions) or met before renamed with the suffix `_input`
+    /// (cut to 32 bytes, then numbered if still taken).
+    pub(super) fn new(dims: &[ExtraDim], extra_len: usize, own: &[&str]) -> Self {
+        let mut taken: std::collections::HashSet<String> =
+            own.iter().map(|n| (*n).to_string()).collect();
+        let mut renamed = Vec::new();
+        let mut descriptors = Vec::with_capacity(dims.len() + 1);
+        let free_name = |name: &str, taken: &mut std::collections::HashSet<String>| {
+            let mut k = 1;
+            let mut candidate = name.to_string();
+            while taken.contains(&candidate) {
+                let suffix = if k == 1 {
+                    "_input".to_string()
+                } else {
+                    format!("_input{k}")
+                };
+                let mut stem = name.to_string();
+                while stem.len() + suffix.len() > 32 {
+                    stem.pop();
+                }
+                candidate = stem + &suffix;
+                k += 1;
+            }
+            taken.insert(candidate.clone());
+            candidate
+        };
+        let mut described = 0;
+        for d in dims {
+            let mut descriptor = d.descriptor;
+            let name = free_name(&d.name, &mut taken);
+            if name != d.name {
+                descriptor[4..36].fill(0);
+                descriptor[4..4 + name.len()].copy_from_slice(name.as_bytes());
+                renamed.push((d.name.clone(), name));
+            }
+            descriptors.push(descriptor);
+            described = described.max(d.offset + d.size);
+        }
+        // Bytes after the described ones: untyped descriptors of up to 255 bytes each.
+        let mut rest = extra_len.saturating_sub(described);
+        let mut k = 1;
+        while rest > 0 {
+            let n = rest.min(255);
+            let base = if k == 1 {
+                "input_extra_bytes".to_string()
+            } else {
+                format!("input_extra_bytes{k}")
+            };
+            k += 1;
+            let name = free_name(&base, &mut taken);
+            let mut d = descriptor(0, &name, "undescribed bytes of the input");
+            d[3] = n as u8;
+            descriptors.push(d);
+            rest -= n;
+        }
+        CarriedExtraBytes {
+            descriptors,
+            len: extra_len,
+            renamed,
+        }
+    }
+
+    /// Bytes carried per record (0: nothing carried).
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether nothing is carried.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
 }
 
 /// Whether the fields of `out` (its extra bytes aside) are the start of a record of `inp`: the
@@ -193,10 +286,69 @@ mod tests {
             size: 2,
             scale: 0.01,
             value_offset: 100.0,
+            descriptor: [0; EXTRA_BYTES_DESCRIPTOR_LEN],
         };
         // i16 −250 at byte 2, scale 0.01, offset 100 ⇒ 97.5.
         let bytes = [0, 0, (-250i16).to_le_bytes()[0], (-250i16).to_le_bytes()[1]];
         assert_eq!(dim.decode(&bytes), Some(97.5));
         assert_eq!(dim.decode(&bytes[..3]), None);
+    }
+
+    #[test]
+    fn carried_extra_bytes_keep_descriptors_and_rename_clashes() {
+        let dim = |name: &str, offset: usize, size: usize| {
+            let mut d = descriptor(EB_F64, name, "kept as stored");
+            d[3] = 0b1000; // a scale present: the descriptor is copied whole
+            d[112..120].copy_from_slice(&0.5f64.to_le_bytes());
+            ExtraDim {
+                name: name.into(),
+                description: "kept as stored".into(),
+                data_type: EB_F64,
+                offset,
+                size,
+                scale: 0.5,
+                value_offset: 0.0,
+                descriptor: d,
+            }
+        };
+        let long = "a_name_of_exactly_thirty_two_by_";
+        assert_eq!(long.len(), 32);
+        let dims = [
+            dim("SensorX", 0, 8),
+            dim("sigma_up", 8, 8),
+            dim(long, 16, 8),
+        ];
+        // 24 described bytes of 280: 256 undescribed ones follow (255 + 1).
+        let c = CarriedExtraBytes::new(&dims, 280, &["sigma_up", long, "sigma_up_input"]);
+        assert_eq!(c.len(), 280);
+        assert_eq!(c.descriptors.len(), 5);
+        assert_eq!(
+            c.descriptors[0], dims[0].descriptor,
+            "not renamed: copied whole"
+        );
+        let name = |d: &[u8; EXTRA_BYTES_DESCRIPTOR_LEN]| las_string(&d[4..36]);
+        // `sigma_up_input` is taken too: numbered.
+        assert_eq!(name(&c.descriptors[1]), "sigma_up_input2");
+        assert_eq!(
+            &c.descriptors[1][36..],
+            &dims[1].descriptor[36..],
+            "only the name changes"
+        );
+        assert_eq!(name(&c.descriptors[2]), "a_name_of_exactly_thirty_t_input");
+        assert_eq!(
+            c.renamed,
+            [
+                ("sigma_up".to_string(), "sigma_up_input2".to_string()),
+                (
+                    long.to_string(),
+                    "a_name_of_exactly_thirty_t_input".to_string()
+                ),
+            ]
+        );
+        assert_eq!((c.descriptors[3][2], c.descriptors[3][3]), (0, 255));
+        assert_eq!((c.descriptors[4][2], c.descriptors[4][3]), (0, 1));
+        assert_eq!(name(&c.descriptors[3]), "input_extra_bytes");
+        assert_eq!(name(&c.descriptors[4]), "input_extra_bytes2");
+        assert!(CarriedExtraBytes::new(&[], 0, &[]).is_empty());
     }
 }

@@ -37,27 +37,34 @@ pub struct LasInfo {
     pub crs: LasCrs,
     /// The extra-bytes dimensions described by the extra-bytes VLR.
     pub extra_dims: Vec<ExtraDim>,
+    /// Extra bytes per record, described by [`LasInfo::extra_dims`] or not.
+    pub extra_bytes_len: usize,
 }
 
 impl LasInfo {
-    /// The warning that the file's own extra-bytes dimensions are not in `output`: lidarqa's
-    /// outputs keep each record up to its point format and append lidarqa's own values, so a
-    /// per-point pose, PDAL's normals or a vendor's fields stay only in the input. `None` when
-    /// the file has none.
+    /// The warning that the file's own extra bytes are not in `output` because `reason`; `None`
+    /// when the file has none.
     #[must_use]
-    pub fn extra_bytes_not_carried(&self, output: &Path) -> Option<lidarqa_model::Warning> {
-        if self.extra_dims.is_empty() {
+    pub fn extra_bytes_not_carried(
+        &self,
+        output: &Path,
+        reason: &str,
+    ) -> Option<lidarqa_model::Warning> {
+        if self.extra_bytes_len == 0 {
             return None;
         }
         let names: Vec<&str> = self.extra_dims.iter().map(|d| d.name.as_str()).collect();
+        let names = if names.is_empty() {
+            format!("{} undescribed bytes a point", self.extra_bytes_len)
+        } else {
+            names.join(", ")
+        };
         Some(lidarqa_model::Warning::new(
             "extra_bytes_not_carried",
             format!(
-                "{}: its own extra-bytes dimensions ({}) are not written to {} (lidarqa keeps each \
-                 record up to its point format and appends its own values): keep the input \
-                 beside the output",
+                "{}: its own extra-bytes dimensions ({names}) are not written to {} ({reason}): \
+                 keep the input beside the output",
                 self.path.display(),
-                names.join(", "),
                 output.display()
             ),
         ))
@@ -95,6 +102,7 @@ impl LasInfo {
             creation_date,
             crs: LasCrs::from_header(header),
             extra_dims: parse_extra_dims(path, header)?,
+            extra_bytes_len: usize::from(format.extra_bytes),
         })
     }
 

@@ -24,6 +24,8 @@ pub struct RawChunk {
     pub(super) extra_dims: Vec<ExtraDim>,
     /// The f32 and f64 extra-bytes values [`RawChunk::push`] appends (an output's chunk).
     extra_counts: (usize, usize),
+    /// The input's extra bytes [`RawChunk::push`] carries ahead of them, per record.
+    carried: usize,
 }
 
 /// One record of a [`RawChunk`], decoded field by field on demand (as `las` decodes them).
@@ -86,6 +88,7 @@ impl Default for RawChunk {
             first_index: 0,
             extra_dims: Vec::new(),
             extra_counts: (0, 0),
+            carried: 0,
         }
     }
 }
@@ -96,14 +99,21 @@ impl RawChunk {
         Self::default()
     }
 
-    /// An empty chunk of `data`'s layout whose records end in `n32` f32 then `n64` f64 values.
-    pub(super) fn with_layout(data: las::PointData, n32: usize, n64: usize) -> Self {
+    /// An empty chunk of `data`'s layout whose records end in `carried` bytes of the input's
+    /// then `n32` f32 then `n64` f64 values.
+    pub(super) fn with_layout(
+        data: las::PointData,
+        carried: usize,
+        n32: usize,
+        n64: usize,
+    ) -> Self {
         RawChunk {
             gps_time_at: gps_time_offset(data.format()),
             data,
             first_index: 0,
             extra_dims: Vec::new(),
             extra_counts: (n32, n64),
+            carried,
         }
     }
 
@@ -114,12 +124,15 @@ impl RawChunk {
 
     /// Appends `from` (a point of a chunk read from a file) as a record of this chunk's layout:
     /// its bytes up to this format's fields (without the waveform packet, NIR or extra bytes
-    /// this format does not have), then `extra` and `extra64`. No field is decoded.
+    /// this format does not have), its extra bytes unchanged when this chunk carries them
+    /// ([`LasWriteOptions::carry_extra_bytes`](super::writer::LasWriteOptions::carry_extra_bytes)),
+    /// then `extra` and `extra64`. No field is decoded.
     ///
     /// # Errors
     /// [`Error::PointMismatch`] naming `path` (the file the chunk is for) when this format's
-    /// fields are not a prefix of `from`'s record, the scale and offset differ, or the values do
-    /// not match this chunk's extra-bytes dimensions.
+    /// fields are not a prefix of `from`'s record, the scale and offset differ, `from` has not
+    /// the extra bytes this chunk carries, or the values do not match this chunk's extra-bytes
+    /// dimensions.
     pub fn push(
         &mut self,
         path: &Path,
@@ -130,16 +143,19 @@ impl RawChunk {
         let mut base = *self.data.format();
         base.extra_bytes = 0;
         let src = &from.chunk.data;
+        let carried = self.carried;
         if !is_prefix(&base, src.format())
             || src.transforms() != self.data.transforms()
             || (extra.len(), extra64.len()) != self.extra_counts
+            || (carried > 0 && usize::from(src.format().extra_bytes) != carried)
         {
             return Err(Error::PointMismatch {
                 path: path.to_path_buf(),
                 index: from.chunk.first_index + from.index as u64,
                 message: format!(
                     "a record of point format {} and scale/offset {:?} with {} f32 + {} f64 \
-                     values cannot be written as format {} with {:?} and {} + {}",
+                     values cannot be written as format {} with {:?}, {carried} bytes of the \
+                     input's and {} + {}",
                     src.format(),
                     src.transforms(),
                     extra.len(),
@@ -158,7 +174,8 @@ impl RawChunk {
         );
         let record = &mut self.data.resize_for(n + 1)[n * len..];
         record[..head].copy_from_slice(&from.record[..head]);
-        encode_extra(&mut record[head..], extra, extra64);
+        record[head..head + carried].copy_from_slice(&from.record[from.record.len() - carried..]);
+        encode_extra(&mut record[head + carried..], extra, extra64);
         Ok(())
     }
 

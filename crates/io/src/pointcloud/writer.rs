@@ -1,8 +1,8 @@
 //! Writing a LAS/LAZ file atomically ([`LasWriter`], [`LasWriteOptions`]).
 
 use super::extra_bytes::{
-    EB_F32, EB_F64, EXTRA_BYTES_DESCRIPTOR_LEN, EXTRA_BYTES_RECORD, EXTRA_BYTES_USER, descriptor,
-    encode_extra, is_prefix,
+    CarriedExtraBytes, EB_F32, EB_F64, EXTRA_BYTES_DESCRIPTOR_LEN, EXTRA_BYTES_RECORD,
+    EXTRA_BYTES_USER, descriptor, encode_extra, is_prefix,
 };
 use super::info::LasInfo;
 use super::point::LasPoint;
@@ -37,6 +37,9 @@ pub struct LasWriteOptions {
     pub extra_dims_f64: Vec<(String, String)>,
     /// File source id (LAS 1.1+), e.g. the strip's point source id.
     pub file_source_id: u16,
+    /// The input's own extra bytes, carried ahead of `extra_dims` in every record (set by
+    /// [`LasWriteOptions::carry_extra_bytes`]; empty: none).
+    pub carried_extra: CarriedExtraBytes,
 }
 
 impl LasWriteOptions {
@@ -73,7 +76,63 @@ impl LasWriteOptions {
                 .collect(),
             extra_dims_f64: Vec::new(),
             file_source_id: 0,
+            carried_extra: CarriedExtraBytes::default(),
         }
+    }
+
+    /// Carries `input`'s own extra bytes into the output ahead of the dimensions already named
+    /// (`extra_dims`, `extra_dims_f64`: set them first): the input's descriptors go ahead of
+    /// lidarqa's in the extra-bytes VLR and each record's extra bytes are copied unchanged by
+    /// [`RawChunk::push`] and [`LasWriter::write_raw`]. An input dimension named as one of
+    /// lidarqa's is renamed with the suffix `_input`. Returns the warning that says so
+    /// (`extra_bytes_renamed`), or, when the records would outgrow the 65 535 bytes a LAS
+    /// record can have, the warning that nothing is carried to `output`
+    /// ([`LasInfo::extra_bytes_not_carried`]).
+    pub fn carry_extra_bytes(
+        &mut self,
+        input: &LasInfo,
+        output: &Path,
+    ) -> Option<lidarqa_model::Warning> {
+        self.carried_extra = CarriedExtraBytes::default();
+        if input.extra_bytes_len == 0 {
+            return None;
+        }
+        let base = las::point::Format::new(self.point_format).map_or(0, |f| usize::from(f.len()));
+        let own_len = 4 * self.extra_dims.len() + 8 * self.extra_dims_f64.len();
+        if base + own_len + input.extra_bytes_len > usize::from(u16::MAX) {
+            return input.extra_bytes_not_carried(
+                output,
+                &format!(
+                    "{} bytes a record with lidarqa's {own_len} would exceed the 65 535 of a LAS \
+                     record",
+                    input.extra_bytes_len
+                ),
+            );
+        }
+        let own: Vec<&str> = self
+            .extra_dims
+            .iter()
+            .chain(&self.extra_dims_f64)
+            .map(|(n, _)| n.as_str())
+            .collect();
+        self.carried_extra = CarriedExtraBytes::new(&input.extra_dims, input.extra_bytes_len, &own);
+        let renamed = &self.carried_extra.renamed;
+        (!renamed.is_empty()).then(|| {
+            let pairs: Vec<String> = renamed
+                .iter()
+                .map(|(a, b)| format!("`{a}` as `{b}`"))
+                .collect();
+            lidarqa_model::Warning::new(
+                "extra_bytes_renamed",
+                format!(
+                    "{}: its own extra-bytes dimensions are carried into {}, {} (lidarqa writes \
+                     a dimension of that name itself)",
+                    input.path.display(),
+                    output.display(),
+                    pairs.join(", ")
+                ),
+            )
+        })
     }
 
     fn header(&self, path: &Path) -> Result<las::Header> {
@@ -115,9 +174,10 @@ impl LasWriteOptions {
         }
         let mut format =
             las::point::Format::new(self.point_format).map_err(|e| Error::las(path, e))?;
-        format.extra_bytes =
-            u16::try_from(4 * self.extra_dims.len() + 8 * self.extra_dims_f64.len())
-                .map_err(|_| invalid("too many extra-bytes dimensions".into()))?;
+        format.extra_bytes = u16::try_from(
+            self.carried_extra.len() + 4 * self.extra_dims.len() + 8 * self.extra_dims_f64.len(),
+        )
+        .map_err(|_| invalid("too many extra-bytes dimensions".into()))?;
         format.is_compressed = is_laz(path);
         let mut b = las::Builder::from(las::Header::default());
         b.version = las::Version::new(1, self.version_minor);
@@ -144,9 +204,13 @@ impl LasWriteOptions {
         // The WKT bit is defined from LAS 1.4 on (and required there for formats 6–10).
         b.has_wkt_crs =
             self.version_minor >= 4 && self.crs_vlrs.iter().any(|v| v.record_id == 2112);
-        if !(self.extra_dims.is_empty() && self.extra_dims_f64.is_empty()) {
-            let n = self.extra_dims.len() + self.extra_dims_f64.len();
+        let carried = &self.carried_extra.descriptors;
+        if !(self.extra_dims.is_empty() && self.extra_dims_f64.is_empty() && carried.is_empty()) {
+            let n = carried.len() + self.extra_dims.len() + self.extra_dims_f64.len();
             let mut data = Vec::with_capacity(EXTRA_BYTES_DESCRIPTOR_LEN * n);
+            for d in carried {
+                data.extend_from_slice(d);
+            }
             for (name, description) in &self.extra_dims {
                 data.extend_from_slice(&descriptor(EB_F32, name, description));
             }
@@ -193,6 +257,8 @@ pub struct LasWriter {
     format: las::point::Format,
     n_extra: usize,
     n_extra_f64: usize,
+    /// The input's extra bytes carried ahead of lidarqa's values, per record.
+    carried: usize,
     index: u64,
     /// Encoded records not yet handed to `las`: they go in batches of [`WRITE_BATCH_POINTS`]
     /// so that the parallel LAZ compressor has whole chunks to spread over the cores. The same
@@ -234,13 +300,15 @@ impl LasWriter {
             format,
             n_extra: options.extra_dims.len(),
             n_extra_f64: options.extra_dims_f64.len(),
+            carried: options.carried_extra.len(),
             index: 0,
             pending,
             scratch: Vec::new(),
         })
     }
 
-    /// Appends a point with its extra-bytes values (one per dimension, in option order).
+    /// Appends a point with its extra-bytes values (one per dimension, in option order); the
+    /// bytes carried from an input ([`LasWriteOptions::carried_extra`]) are zeros.
     ///
     /// # Errors
     /// [`Error::PointMismatch`] when the point lacks an attribute the format needs (GPS time,
@@ -293,8 +361,8 @@ impl LasWriter {
                 p.scan_angle_deg
             )));
         }
-        let mut extra_bytes = vec![0; 4 * extra.len() + 8 * extra64.len()];
-        encode_extra(&mut extra_bytes, extra, extra64);
+        let mut extra_bytes = vec![0; self.carried + 4 * extra.len() + 8 * extra64.len()];
+        encode_extra(&mut extra_bytes[self.carried..], extra, extra64);
         let point = las::Point {
             x: p.x,
             y: p.y,
@@ -363,6 +431,7 @@ impl LasWriter {
             las::PointDataBuilder::new()
                 .for_header(self.inner.header())
                 .build(),
+            self.carried,
             self.n_extra,
             self.n_extra_f64,
         )
@@ -408,7 +477,9 @@ impl LasWriter {
     /// fields this file's point format does not have: a record of the input's format is cut to
     /// this one when this one is its prefix (the same base, time and colour, without the
     /// waveform packet, NIR or extra bytes that follow them), e.g. `correct`'s output of a
-    /// format 9 input in format 6. Earlier points given to [`LasWriter::write_point`] come first.
+    /// format 9 input in format 6; the record's extra bytes stay when this file carries them
+    /// ([`LasWriteOptions::carry_extra_bytes`], and no value of lidarqa's follows them). Earlier
+    /// points given to [`LasWriter::write_point`] come first.
     ///
     /// # Errors
     /// [`Error::PointMismatch`] when the formats or the scale and offset differ otherwise;
@@ -416,7 +487,11 @@ impl LasWriter {
     pub fn write_raw(&mut self, chunk: &RawChunk) -> Result<()> {
         let data = &chunk.data;
         let (out, inp) = (self.format, *data.format());
-        let prefix = is_prefix(&out, &inp) && out.extra_bytes == 0
+        // The input's extra bytes kept at the end of each record (0: none).
+        let carried = usize::from(out.extra_bytes);
+        let carries =
+            self.carried > 0 && self.carried == carried && usize::from(inp.extra_bytes) == carried;
+        let prefix = is_prefix(&out, &inp) && (out.extra_bytes == 0 || carries)
             || out.len() == inp.len() && {
                 let mut same = inp;
                 same.is_compressed = out.is_compressed;
@@ -441,7 +516,8 @@ impl LasWriter {
         } else {
             let mut bytes = Vec::with_capacity(out_len * data.len());
             for r in data.raw_bytes().chunks_exact(in_len) {
-                bytes.extend_from_slice(&r[..out_len]);
+                bytes.extend_from_slice(&r[..out_len - carried]);
+                bytes.extend_from_slice(&r[in_len - carried..]);
             }
             self.write_slab(bytes)
         }
