@@ -279,11 +279,11 @@ fn small_chunks_give_the_same_output_as_one_chunk() {
         read_all(&out).extra_column("sigma_up").unwrap()
     };
     let one = run(1_000_000, "one.las");
-    // Chunks of 3 000 points, ≥ the margin (the look-ahead reaches one chunk ahead), and a
+    // Chunks of 3 008 points, ≥ the margin (the look-ahead reaches one chunk ahead), and a
     // multiple of the judgement's sharing stride (`lidarqa_tpu::SHARE_STRIDE`), so that the
     // same points are judged as seeds in both runs.
-    assert_eq!(3000 % lidarqa_tpu::SHARE_STRIDE, 0);
-    let many = run(3000, "many.las");
+    assert_eq!(3008 % lidarqa_tpu::SHARE_STRIDE, 0);
+    let many = run(3008, "many.las");
     let worst = one
         .iter()
         .zip(&many)

@@ -60,7 +60,7 @@ pub struct TpuFlags {
     /// instead of failing.
     #[arg(long)]
     skip_invalid: bool,
-    /// Points per chunk (memory grows with it; the result does not, for a multiple of 8: the
+    /// Points per chunk (memory grows with it; the result does not, for a multiple of 32: the
     /// incidence judgement is shared from seeds counted from each chunk's start).
     #[arg(long, value_name = "N", default_value_t = TpuOptions::default().chunk_points)]
     chunk_points: usize,
