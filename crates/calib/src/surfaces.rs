@@ -21,6 +21,13 @@
 //! Sensing 61(1), 2006, with planes found in the data rather than picked. With
 //! [`CalibrationOptions::trajectory_sigma`] the reported σ also carry each strip's navigation
 //! error, which the surfaces cannot tell from a boresight error of that strip.
+//!
+//! Which angles are determined is decided as for the ties ([`crate::calibrate_vtpm`] with a
+//! trajectory σ): on the fit's own scatter (σ0, at least [`CalibrationOptions::sigma_floor_m`],
+//! and the normal matrix) against [`CalibrationOptions::max_sigma_angle_rad`]; the navigation
+//! error is added to the σ afterwards and holds nothing. An angle the overlap hardly sees (yaw
+//! between lines flown the same way) is held at the prior; one whose σ is mostly the navigation
+//! error is reported with that σ.
 
 use crate::calibrate::{
     Calibration, CalibrationOptions, Method, Solved, TieReport, check_calibration_strips,
@@ -243,6 +250,8 @@ pub fn calibrate_surfaces(
             });
         }
         let problem = SurfaceProblem { strips, patches };
+        // The holds are the ties' rule on the unweighted fit (module docs); the trajectory's
+        // share of the σ is added after the last round.
         let solved =
             solve_with_observability(&problem, x, problem.patches.len(), &opts, false, None)?;
         x = solved.x;
