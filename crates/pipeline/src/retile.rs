@@ -138,9 +138,9 @@ pub struct RetileReport {
 ///
 /// # Errors
 /// [`Error::InvalidOption`] for an empty grid, no inputs, inputs with different CRS, scale,
-/// offset or point format (a tile has one header), a non-empty `out_dir` without `overwrite`,
-/// or point clouds in it that are not tiles; lidarqa-io's `DuplicateInput`; I/O and LAS errors
-/// naming the file.
+/// offset, point format or extra-bytes layout (a tile has one header), a non-empty `out_dir`
+/// without `overwrite`, or point clouds in it that are not tiles; lidarqa-io's
+/// `DuplicateInput`; I/O and LAS errors naming the file.
 pub fn retile(
     inputs: &[PathBuf],
     grid: TileGrid,
