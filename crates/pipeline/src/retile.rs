@@ -26,6 +26,18 @@
 //! record with `"complete": true`: a run killed during the move leaves a record that says so,
 //! and the next `overwrite` cleans exactly those files.
 //!
+//! **Extra bytes, unchanged.** A tile's records are its strips' records copied byte for byte
+//! (cut only of a waveform packet, which lidarqa does not write), so every extra-bytes dimension
+//! keeps its type and value bit for bit, and the tile's extra-bytes descriptors are the strips'
+//! own (names, types, scale, offset, no-data, description), carried by lidarqa-io's
+//! `LasWriteOptions::carry_extra_bytes`. That needs one layout: strips whose extra bytes differ
+//! (another dimension, type, order, scale, offset or no-data; the minimum and maximum each file
+//! records may differ) are refused with one line naming the two files and the first differing
+//! dimension. Carrying the union instead would leave the points of a strip without a dimension
+//! holding a value nobody measured (not every type has a no-data value to say so), and
+//! converting would change values; the surveyor tiles such strips apart, or makes their extra
+//! bytes alike first.
+//!
 //! **Bounded.** The cells are counted first; a grid with more than [`MAX_TILES`] non-empty cells
 //! is refused (a tile per few points is not a tiling), and at most [`MAX_OPEN_TILES`] tiles are
 //! open at once (more non-empty cells are written in several passes over the strips), so a
@@ -33,7 +45,7 @@
 
 use crate::digest::FileDigest;
 use crate::error::{Error, Result};
-use lidarqa_io::{LasInfo, LasReader, LasWriteOptions, LasWriter, PointChunk};
+use lidarqa_io::{LasInfo, LasReader, LasWriteOptions, LasWriter, RawChunk};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -46,6 +58,9 @@ pub const MAX_TILES: usize = 20_000;
 /// Most tiles open for writing at once (file handles and each writer's buffers); more
 /// non-empty cells are written in several passes over the strips.
 pub const MAX_OPEN_TILES: usize = 256;
+/// Points a tile's buffer holds before they go to its writer: with [`MAX_OPEN_TILES`] open,
+/// at most a few tens of MB of records.
+const TILE_BUFFER_POINTS: usize = 4096;
 
 /// One tile in the record.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -123,9 +138,9 @@ pub struct RetileReport {
 ///
 /// # Errors
 /// [`Error::InvalidOption`] for an empty grid, no inputs, inputs with different CRS, scale,
-/// offset or point format (a tile has one header), a non-empty `out_dir` without `overwrite`,
-/// or point clouds in it that are not tiles; lidarqa-io's `DuplicateInput`; I/O and LAS errors
-/// naming the file.
+/// offset, point format or extra-bytes layout (a tile has one header), a non-empty `out_dir`
+/// without `overwrite`, or point clouds in it that are not tiles; lidarqa-io's
+/// `DuplicateInput`; I/O and LAS errors naming the file.
 pub fn retile(
     inputs: &[PathBuf],
     grid: TileGrid,
@@ -149,15 +164,21 @@ pub fn retile(
         .first()
         .ok_or_else(|| Error::InvalidOption("no input strips to tile".into()))?;
     for i in &infos[1..] {
+        if let Some(difference) = extra_bytes_difference(first, i) {
+            return Err(Error::InvalidOption(format!(
+                "{}: {difference}; a tile has one extra-bytes layout, so tile these strips apart \
+                 or make their extra bytes alike first",
+                i.path.display()
+            )));
+        }
         if i.crs != first.crs
             || i.scale != first.scale
             || i.offset != first.offset
             || i.point_format != first.point_format
             || i.time_base != first.time_base
-            || i.extra_dims != first.extra_dims
         {
             return Err(Error::InvalidOption(format!(
-                "{}: its CRS, scale, offset, point format, time base or extra bytes differ from {}'s; tiles need one header",
+                "{}: its CRS, scale, offset, point format or time base differ from {}'s; tiles need one header",
                 i.path.display(),
                 first.path.display()
             )));
@@ -180,12 +201,13 @@ pub fn retile(
     let name_of = |c: usize, r: usize| format!("tile_{c:0width$}_{r:0width$}.{ext}");
     // Count first: the non-empty cells bound the tiles and the passes.
     let mut counts = vec![0u64; grid.nx * grid.ny];
-    let mut chunk = PointChunk::new();
+    let mut chunk = RawChunk::new();
+    let cell_of = |xyz: [f64; 3]| cell(xyz[1], 1) * grid.nx + cell(xyz[0], 0);
     for path in inputs {
         let mut reader = LasReader::from_path(path)?;
-        while reader.fill(&mut chunk, 200_000)? > 0 {
-            for p in &chunk.points {
-                counts[cell(p.y, 1) * grid.nx + cell(p.x, 0)] += 1;
+        while reader.fill_raw(&mut chunk, 200_000)? > 0 {
+            for p in chunk.points() {
+                counts[cell_of(p.xyz())] += 1;
             }
         }
     }
@@ -207,43 +229,49 @@ pub fn retile(
         .prefix(&format!(".lidarqa-tile.{}.", std::process::id()))
         .tempdir_in(out_dir)
         .map_err(|e| io_err(out_dir, e))?;
-    let names: Vec<&str> = first.extra_dims.iter().map(|d| d.name.as_str()).collect();
-    let dims: Vec<(&str, &str)> = first
-        .extra_dims
-        .iter()
-        .map(|d| (d.name.as_str(), d.description.as_str()))
-        .collect();
-    let options = LasWriteOptions::for_input(first, &dims);
-    let mut extra = vec![0f32; names.len()];
+    // The strips' own extra bytes ride unchanged; lidarqa adds no dimension, so nothing is
+    // renamed, and a record of at most 65 535 bytes stays one.
+    let mut options = LasWriteOptions::for_input(first, &[]);
+    if let Some(w) = options.carry_extra_bytes(first, out_dir) {
+        // Unreachable for a readable input (its records fit); never drop the bytes silently.
+        return Err(Error::InvalidOption(w.message));
+    }
     let mut total = 0u64;
     for batch in non_empty.chunks(MAX_OPEN_TILES) {
         let (lo, hi) = (batch[0], batch[batch.len() - 1]);
-        let mut writers: std::collections::HashMap<usize, LasWriter> = Default::default();
+        let mut writers: std::collections::HashMap<usize, (LasWriter, RawChunk, PathBuf)> =
+            Default::default();
         for &k in batch {
             let (c, r) = (k % grid.nx, k / grid.nx);
-            let w = LasWriter::create(staging.path().join(name_of(c, r)), &options, inputs)?;
-            writers.insert(k, w);
+            let path = staging.path().join(name_of(c, r));
+            let w = LasWriter::create(&path, &options, inputs)?;
+            let buffer = w.raw_chunk();
+            writers.insert(k, (w, buffer, path));
         }
         for path in inputs {
             let mut reader = LasReader::from_path(path)?;
-            while reader.fill(&mut chunk, 200_000)? > 0 {
-                for (i, p) in chunk.points.iter().enumerate() {
-                    let k = cell(p.y, 1) * grid.nx + cell(p.x, 0);
+            while reader.fill_raw(&mut chunk, 200_000)? > 0 {
+                for p in chunk.points() {
+                    let k = cell_of(p.xyz());
                     if k < lo || k > hi {
                         continue;
                     }
-                    if let Some(w) = writers.get_mut(&k) {
-                        for (e, name) in extra.iter_mut().zip(&names) {
-                            *e = chunk.extra(i, name).unwrap_or(f64::NAN) as f32;
+                    if let Some((w, buffer, tile)) = writers.get_mut(&k) {
+                        buffer.push(tile, p, &[], &[])?;
+                        if buffer.len() >= TILE_BUFFER_POINTS {
+                            w.write_raw(buffer)?;
+                            buffer.clear();
                         }
-                        w.write_point(p, &extra)?;
                         total += 1;
                     }
                 }
             }
         }
         for &k in batch {
-            if let Some(w) = writers.remove(&k) {
+            if let Some((mut w, buffer, _)) = writers.remove(&k) {
+                if !buffer.is_empty() {
+                    w.write_raw(&buffer)?;
+                }
                 w.finish()?;
             }
         }
@@ -308,6 +336,54 @@ pub fn retile(
         tiles,
         empty_cells,
         points: total,
+    })
+}
+
+/// How the extra bytes of `b` differ from those of `a` (module docs), naming the first
+/// differing dimension and `a`; `None` when one descriptor list serves both.
+fn extra_bytes_difference(a: &LasInfo, b: &LasInfo) -> Option<String> {
+    let show = |d: &lidarqa_io::ExtraDim| {
+        format!(
+            "`{}` (type {}, {} bytes at byte {}, scale {}, offset {})",
+            d.name, d.data_type, d.size, d.offset, d.scale, d.value_offset
+        )
+    };
+    let a_name = a.path.display();
+    for k in 0..a.extra_dims.len().max(b.extra_dims.len()) {
+        match (a.extra_dims.get(k), b.extra_dims.get(k)) {
+            (Some(x), Some(y)) if x.same_layout(y) => {}
+            (Some(x), Some(y)) => {
+                return Some(format!(
+                    "its extra-bytes dimension {} differs from {a_name}'s {}{}",
+                    show(y),
+                    show(x),
+                    if x.name == y.name && x.description != y.description {
+                        format!(" (description `{}` vs `{}`)", y.description, x.description)
+                    } else {
+                        String::new()
+                    }
+                ));
+            }
+            (Some(x), None) => {
+                return Some(format!(
+                    "it lacks the extra-bytes dimension {} of {a_name}",
+                    show(x)
+                ));
+            }
+            (None, Some(y)) => {
+                return Some(format!(
+                    "its extra-bytes dimension {} is not in {a_name}",
+                    show(y)
+                ));
+            }
+            (None, None) => {}
+        }
+    }
+    (a.extra_bytes_len != b.extra_bytes_len).then(|| {
+        format!(
+            "its records have {} extra bytes, {a_name}'s {}",
+            b.extra_bytes_len, a.extra_bytes_len
+        )
     })
 }
 

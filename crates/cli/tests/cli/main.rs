@@ -7,6 +7,7 @@
 mod binary;
 
 mod armo_calibrate;
+mod armo_tile;
 mod bathymetry;
 mod beam_calibrate;
 mod beam_truth;

@@ -54,6 +54,23 @@ impl ExtraDim {
         };
         Some(raw * self.scale + self.value_offset)
     }
+
+    /// Whether `other` stores its values as this dimension does, so that one descriptor serves
+    /// both files' records: the same position and size, and descriptors equal in type, name,
+    /// options, no-data, scale, offset and description. The minimum and maximum (and the
+    /// options bits saying they are present) may differ: each file records those of its own
+    /// values.
+    pub fn same_layout(&self, other: &ExtraDim) -> bool {
+        let kept = |d: &[u8; EXTRA_BYTES_DESCRIPTOR_LEN]| {
+            let mut d = *d;
+            d[3] &= !0b110; // options bits 1 and 2: min, max present (table 24)
+            d[64..112].fill(0); // min[3], max[3]
+            d
+        };
+        self.offset == other.offset
+            && self.size == other.size
+            && kept(&self.descriptor) == kept(&other.descriptor)
+    }
 }
 
 /// Size in bytes of extra-bytes data type `t` with `options` (untyped: `options` bytes).
@@ -292,6 +309,13 @@ mod tests {
         let bytes = [0, 0, (-250i16).to_le_bytes()[0], (-250i16).to_le_bytes()[1]];
         assert_eq!(dim.decode(&bytes), Some(97.5));
         assert_eq!(dim.decode(&bytes[..3]), None);
+        // Another file's min and max do not change the layout; its scale does.
+        let mut other = dim.clone();
+        other.descriptor[3] |= 0b110;
+        other.descriptor[64..72].copy_from_slice(&(-5.0f64).to_le_bytes());
+        assert!(dim.same_layout(&other));
+        other.descriptor[112..120].copy_from_slice(&0.001f64.to_le_bytes());
+        assert!(!dim.same_layout(&other));
     }
 
     #[test]
