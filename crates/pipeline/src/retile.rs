@@ -232,6 +232,11 @@ pub fn retile(
     // The strips' own extra bytes ride unchanged; lidarqa adds no dimension, so nothing is
     // renamed, and a record of at most 65 535 bytes stays one.
     let mut options = LasWriteOptions::for_input(first, &[]);
+    // A record without GPS time stays in its own format (`for_input` would give it one with a
+    // time lidarqa's products need, which a copy has no value for).
+    if !first.has_gps_time {
+        options.point_format = first.point_format;
+    }
     if let Some(w) = options.carry_extra_bytes(first, out_dir) {
         // Unreachable for a readable input (its records fit); never drop the bytes silently.
         return Err(Error::InvalidOption(w.message));

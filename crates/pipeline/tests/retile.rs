@@ -247,3 +247,47 @@ fn strips_whose_extra_bytes_differ_are_refused_naming_both_and_the_dimension() {
     );
     assert!(!out.exists(), "nothing written");
 }
+
+/// A strip without GPS time (point format 0) is tiled in its own format, every point's record
+/// as it was (a format with a time would have to invent one).
+#[test]
+fn a_strip_without_gps_time_keeps_its_format_and_every_point() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("f0.las");
+    let mut b = las::Builder::from((1, 2));
+    b.point_format = las::point::Format::new(0).unwrap();
+    let mut w = las::Writer::from_path(&a, b.into_header().unwrap()).unwrap();
+    let xyz = |k: usize| (k as f64 * 0.5, (k % 13) as f64, 100.0 + 0.01 * k as f64);
+    // The stored integers at the builder's 1 mm scale.
+    let mm = |(x, y, z): (f64, f64, f64)| [x, y, z].map(|v| (v * 1000.0).round() as i64);
+    for k in 0..200 {
+        let (x, y, z) = xyz(k);
+        w.write_point(las::Point {
+            x,
+            y,
+            z,
+            intensity: k as u16,
+            return_number: 1,
+            number_of_returns: 1,
+            ..Default::default()
+        })
+        .unwrap();
+    }
+    w.close().unwrap();
+    let out = dir.path().join("tiles");
+    let report = retile(&[a], TileGrid { nx: 2, ny: 2 }, &out, "laz", false).unwrap();
+    assert_eq!(report.points, 200);
+    let mut seen = Vec::new();
+    for t in &report.tiles {
+        let mut r = las::Reader::from_path(&t.path).unwrap();
+        assert_eq!(r.header().point_format().to_u8().unwrap(), 0);
+        let data = r.read_all().unwrap();
+        for p in data.points() {
+            let p = p.unwrap();
+            seen.push((p.intensity, mm((p.x, p.y, p.z))));
+        }
+    }
+    seen.sort_by_key(|s| s.0);
+    let want: Vec<_> = (0..200).map(|k| (k as u16, mm(xyz(k)))).collect();
+    assert_eq!(seen, want);
+}
