@@ -211,19 +211,8 @@ print(len(names), "dimensions equal over", len(b), "points")
             .collect::<Vec<_>>()
             .join("|")
     };
-    let out = std::process::Command::new(python)
-        .arg("-c")
-        .arg(script)
-        .arg(join(strips))
-        .arg(join(tiles))
-        .output()
-        .expect("the Python interpreter runs");
-    assert!(
-        out.status.success(),
-        "laspy: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    eprintln!("laspy: {}", String::from_utf8_lossy(&out.stdout).trim());
+    let (strips, tiles) = (join(strips), join(tiles));
+    lidarqa_testkit::run_python_script(&python, script, &[strips.as_ref(), tiles.as_ref()]);
 }
 
 #[test]

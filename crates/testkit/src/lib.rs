@@ -86,6 +86,28 @@ pub fn run_python_check(python: &OsStr, script: &Path, arg: &Path) {
     assert!(stdout.contains(" passed, 0 failed"), "{stdout}");
 }
 
+/// Runs an inline Python script (`python -c SCRIPT ARGS…`), asserts that it succeeded, and
+/// returns its standard output (also echoed to stderr, so `--nocapture` shows it).
+///
+/// # Panics
+/// When the script fails; the message holds its stderr.
+pub fn run_python_script(python: &OsStr, script: &str, args: &[&OsStr]) -> String {
+    let out = std::process::Command::new(python)
+        .arg("-c")
+        .arg(script)
+        .args(args)
+        .output()
+        .expect("the Python interpreter runs");
+    assert!(
+        out.status.success(),
+        "python: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    eprintln!("python: {stdout}");
+    stdout
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

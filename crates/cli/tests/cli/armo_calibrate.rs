@@ -157,19 +157,7 @@ fn carries_the_input_extra_bytes(python: &std::ffi::OsStr, laz: &Path, corrected
             assert np.array_equal(np.asarray(a[n]), np.asarray(b[n])), n\n\
             assert a.point_format.dimension_by_name(n).dtype == b.point_format.dimension_by_name(n).dtype, n\n\
         print(len(names), 'dimensions equal')\n";
-    let out = std::process::Command::new(python)
-        .arg("-c")
-        .arg(script)
-        .arg(laz)
-        .arg(corrected)
-        .output()
-        .expect("the Python interpreter runs");
-    assert!(
-        out.status.success(),
-        "laspy: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    eprintln!("laspy: {}", String::from_utf8_lossy(&out.stdout).trim());
+    lidarqa_testkit::run_python_script(python, script, &[laz.as_os_str(), corrected.as_os_str()]);
 }
 
 /// The largest share of the misfit left after correction (measured, with margin; docs/guide/

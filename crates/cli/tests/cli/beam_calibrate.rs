@@ -139,6 +139,28 @@ roof_slope_deg = 65.0
     )
 }
 
+/// Simulates the scenario `toml_text` into `dir/sim` as LAS (with each point's error when
+/// `truth`); returns that directory.
+fn simulate(dir: &Path, toml_text: &str, truth: bool) -> PathBuf {
+    let toml = dir.join("s.toml");
+    std::fs::write(&toml, toml_text).unwrap();
+    let sim = dir.join("sim");
+    let mut args = vec![
+        "simulate",
+        "--scenario",
+        s(&toml),
+        "-o",
+        s(&sim),
+        "--format",
+        "las",
+    ];
+    if truth {
+        args.push("--truth");
+    }
+    binary::run_ok(&args);
+    sim
+}
+
 /// Simulates `seed` into `dir/sim` (with each point's error) and calibrates it; returns the
 /// simulation directory, calibration.json and `calibrate`'s stderr.
 fn simulate_and_calibrate(dir: &Path, seed: u64) -> (PathBuf, Value, String) {
@@ -151,19 +173,7 @@ fn simulate_and_calibrate_lines(
     toml_text: &str,
     lines: usize,
 ) -> (PathBuf, Value, String) {
-    let toml = dir.join("s.toml");
-    std::fs::write(&toml, toml_text).unwrap();
-    let sim = dir.join("sim");
-    binary::run_ok(&[
-        "simulate",
-        "--scenario",
-        s(&toml),
-        "-o",
-        s(&sim),
-        "--format",
-        "las",
-        "--truth",
-    ]);
+    let sim = simulate(dir, toml_text, true);
     let strips: Vec<PathBuf> = (1..=lines)
         .map(|i| sim.join(format!("strip_00{i}.las")))
         .collect();
@@ -317,18 +327,7 @@ fn beam_calibrate_sigma_is_honest_over_seeds() {
 #[test]
 fn corrupted_records_neither_size_the_surface_region_nor_exhaust_memory() {
     let dir = tempfile::tempdir().unwrap();
-    let toml = dir.path().join("s.toml");
-    std::fs::write(&toml, scenario(3)).unwrap();
-    let sim = dir.path().join("sim");
-    binary::run_ok(&[
-        "simulate",
-        "--scenario",
-        s(&toml),
-        "-o",
-        s(&sim),
-        "--format",
-        "las",
-    ]);
+    let sim = simulate(dir.path(), &scenario(3), false);
     let calibrate = |name: &str, strips: &[PathBuf]| -> Value {
         let cal = dir.path().join(format!("{name}.json"));
         let command = format!(
