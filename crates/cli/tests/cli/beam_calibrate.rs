@@ -1,8 +1,8 @@
 //! Calibrating a simulated UAV spinning multi-beam system: the mounting the simulator injects is
 //! recovered by `calibrate --auto-ties` within 2 σ, and `correct` with it brings the points to
 //! the simulator's truth. The head is the HDL-32E's 32 channels with its rotation axis along
-//! track, as the `routescene-lidarpod` preset mounts it, 30 m above gentle relief and three
-//! steep-roofed houses (roofs steeper than the tie search's 60°, so no tie patch qualifies and
+//! track (as the LidarPod's, which points the other way along x), 30 m above gentle relief and
+//! three steep-roofed houses (roofs steeper than the tie search's 60°, so no tie patch qualifies and
 //! `calibrate` takes the boresight from the point-to-plane misfit of the lines' 3-D overlap,
 //! warning `surface_calibration`; the lever arm is held and the simulator injects none). Two
 //! opposite lines and one crossing, the simulator's navigation errors on (each strip's own
@@ -35,7 +35,7 @@ gps_week = 2200
 
 [sensor.scanner]
 type = "spinning-multibeam"
-head_pitch_deg = 90.0           # the rotation axis along track, as routescene-lidarpod
+head_pitch_deg = 90.0           # the rotation axis along track (+x; the LidarPod preset: −x)
 channel_elevations_deg = [-30.67, -29.33, -28.0, -26.67, -25.33, -24.0, -22.67, -21.33, -20.0, -18.67, -17.33, -16.0, -14.67, -13.33, -12.0, -10.67, -9.33, -8.0, -6.67, -5.33, -4.0, -2.67, -1.33, 0.0, 1.33, 2.67, 4.0, 5.33, 6.67, 8.0, 9.33, 10.67]
 beam_divergence_mrad = 0.0
 
