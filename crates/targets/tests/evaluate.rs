@@ -28,7 +28,7 @@ fn table2() -> (Vec<MeasuredPoint>, Vec<ControlPoint>) {
 }
 
 #[test]
-fn seed000_table2() {
+fn zhang_2018_table2() {
     let (lidar, control) = table2();
     let e = evaluate(&lidar, &control, &EvaluateOptions::default()).unwrap();
     assert_eq!(e.n, 4);

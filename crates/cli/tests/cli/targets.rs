@@ -72,8 +72,8 @@ fn write_grid(path: &Path, with_target: bool) {
 }
 
 #[test]
-fn seed000_table2_formula_7_is_17_56_cm() {
-    // Seed 000 Table 2 residuals (cm): ΔX is north (the paper's surveying convention), ΔY east.
+fn zhang_2018_table2_formula_7_is_17_56_cm() {
+    // Zhang et al. (2018) Table 2 residuals (cm): ΔX is north (the paper's surveying convention), ΔY east.
     let residuals = [
         ("QZ01", -7.2, 12.9),
         ("QZ03", 9.5, 14.3),
