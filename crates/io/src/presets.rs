@@ -225,7 +225,8 @@ mod tests {
         assert!(e.contains("applanix-ap60"), "{e}");
     }
 
-    /// The ARMO mounting of the LidarPod preset: the head's axis along track, the offset.
+    /// The ARMO mounting of the LidarPod preset: the head's axis along track (along −x, as
+    /// ARMO's laser rings show), the offset.
     #[test]
     fn routescene_lidarpod_has_the_armo_mounting() {
         let text = preset_sensor_text("routescene-lidarpod", None).unwrap();
@@ -234,9 +235,9 @@ mod tests {
             panic!("not a beam scanner")
         };
         assert_eq!(b.channel_elevations_rad.len(), 32);
-        // The rotation axis (head z) lies along scanner x.
+        // The rotation axis (head z) lies along scanner −x.
         assert!(
-            (b.head_to_scanner * nalgebra::Vector3::z() - nalgebra::Vector3::x()).norm() < 1e-12
+            (b.head_to_scanner * nalgebra::Vector3::z() + nalgebra::Vector3::x()).norm() < 1e-12
         );
         assert_eq!(
             sensor.mounting.lever_arm_m,
