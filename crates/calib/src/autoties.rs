@@ -289,7 +289,7 @@ pub fn select_auto_ties(
     Ok(out)
 }
 
-/// Every pick of the tie yields a virtual tie (step 2 of seed 001 would succeed).
+/// Every pick of the tie yields a virtual tie (step 2 of Zhang & Jiang (2011) would succeed).
 fn usable(idx: &Indexed<'_>, g: &Georeferencing, tie: &Tie, opts: &AutoTieOptions) -> bool {
     tie.picks.iter().enumerate().all(|(pi, p)| {
         idx.strip_index(&p.strip).is_some_and(|s| {

@@ -1,4 +1,5 @@
-//! Self-calibration with the VTPM (seed 001 §2.4), observability analysis and the result.
+//! Self-calibration with the VTPM (Zhang & Jiang 2011, §2.4), observability analysis and the
+//! result.
 
 use crate::error::{Error, Result};
 use crate::lm::{LmModel, LmOptions, Termination, jacobian, minimize};
@@ -21,7 +22,7 @@ use serde_json::{Map, Value, json};
 /// Which method produced a calibration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Method {
-    /// Virtual tie point model (seed 001), lever arm and boresight.
+    /// Virtual tie point model (Zhang & Jiang 2011), lever arm and boresight.
     Vtpm,
     /// Point-to-plane baseline (Attune-like), boresight only.
     Plane,
@@ -214,20 +215,20 @@ pub struct TieReport {
     pub control: bool,
     /// Per-axis RMS over the tie's strips of (tie coordinate − reference) at the prior, m,
     /// `[east, north, up]` in the local level frame; the reference is the mean over the strips
-    /// (seed 001 eq. 7) or the control point.
+    /// (Zhang & Jiang 2011, eq. 7) or the control point.
     pub residual_before_m: [f64; 3],
     /// The same after the adjustment, m.
     pub residual_after_m: [f64; 3],
 }
 
-/// Parameters and tie coordinates at one iteration (the data of seed 001 Fig. 9).
+/// Parameters and tie coordinates at one iteration (the data of Zhang & Jiang (2011) Fig. 9).
 #[derive(Debug, Clone, PartialEq)]
 pub struct IterationRecord {
     /// 0 = the prior; k = after the k-th accepted step.
     pub iteration: usize,
     /// The mounting at this iteration (SI, [`Param::ALL`] order).
     pub parameters: [f64; PARAM_COUNT],
-    /// Each tie's coordinate (mean over its strips, seed 001 eq. 7), local NED, m.
+    /// Each tie's coordinate (mean over its strips, Zhang & Jiang (2011) eq. 7), local NED, m.
     pub ties: Vec<(String, Vector3<f64>)>,
 }
 
@@ -866,7 +867,8 @@ fn tie_means(model: &TieModel) -> Vec<(String, Vector3<f64>)> {
         .collect()
 }
 
-/// Boresight and lever-arm self-calibration with the virtual tie point model (seed 001 §2.4).
+/// Boresight and lever-arm self-calibration with the virtual tie point model (Zhang & Jiang 2011,
+/// §2.4).
 ///
 /// Steps: virtual ties for every pick and control point (rule 1 heights at the `prior`), then
 /// Levenberg–Marquardt on the residuals *tie coordinate − mean over its strips* (eq. 7–8; *tie −
@@ -1326,8 +1328,8 @@ fn screen_outlier_ties(
 
 /// Tie residuals of `ties` (and control points) picked in `strips` as delivered (georeferenced
 /// with `prior`), before and after re-georeferencing with `mounting`, with no adjustment: the
-/// checkpoint evaluation of seed 001 Table 2 (picks made on the raw strips, carried to the
-/// corrected ones by rule 2).
+/// checkpoint evaluation of Zhang & Jiang (2011) Table 2 (picks made on the raw strips, carried to
+/// the corrected ones by rule 2).
 ///
 /// # Errors
 /// As [`calibrate_vtpm`] for the ties.

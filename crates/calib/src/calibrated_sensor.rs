@@ -1,5 +1,5 @@
 //! A sensor with a calibration applied: the calibrated mounting and its covariance replace the
-//! sensor file's nominal mounting and mounting σ (SPEC §8, seed 004 §2), so the TPU predicts
+//! sensor file's nominal mounting and mounting σ (SPEC §8; Li et al. 2016, §2), so the TPU predicts
 //! with what the calibration actually determined instead of the manufacturer's guess.
 
 use crate::calibrate::mounting_from_json;

@@ -1,6 +1,7 @@
 //! Small geometric kernels: RANSAC planes refitted by model's least-squares [`fit_plane`] (its
 //! [`Plane`], normal `n_z ≥ 0`, i.e. pointing down in NED), the rigid transform between two
-//! triangles (seed 001 eq. 6) and linear interpolation in a triangle (seed 001 eq. 5).
+//! triangles (Zhang & Jiang 2011, eq. 6) and linear interpolation in a triangle (Zhang &
+//! Jiang 2011, eq. 5).
 
 pub(crate) use lidarqa_model::Plane;
 use lidarqa_model::fit_plane;
@@ -8,9 +9,9 @@ use nalgebra::{Matrix2, Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// RANSAC (Fischler & Bolles 1981, seed 001 ref. 16): the plane through three random points with
-/// the most points within `threshold_m`, refitted by least squares to those inliers; returns the
-/// refitted plane and the indices (into `points`) within `threshold_m` of it.
+/// RANSAC (Fischler & Bolles 1981; Zhang & Jiang (2011), ref. 16): the plane through three random
+/// points with the most points within `threshold_m`, refitted by least squares to those inliers;
+/// returns the refitted plane and the indices (into `points`) within `threshold_m` of it.
 pub(crate) fn ransac_plane(
     points: &[Vector3<f64>],
     threshold_m: f64,
@@ -104,7 +105,8 @@ pub(crate) fn trim_to_plane(
 }
 
 /// The rigid transform (rotation `R`, translation `t`, `b ≈ R a + t`) that best maps triangle `a`
-/// onto triangle `b` in least squares (Kabsch / Horn, with the reflection guard): seed 001 eq. (6).
+/// onto triangle `b` in least squares (Kabsch / Horn, with the reflection guard): Zhang &
+/// Jiang (2011) eq. (6).
 pub(crate) fn rigid_transform(
     a: &[Vector3<f64>],
     b: &[Vector3<f64>],
@@ -138,8 +140,8 @@ pub(crate) fn rigid_transform(
     (r, cb - r * ca)
 }
 
-/// Seed 001 eq. (5): the height (NED z) at horizontal position (`x`, `y`) of the plane through the
-/// triangle's three points; `None` when the triangle is degenerate in plan.
+/// Zhang & Jiang (2011) eq. (5): the height (NED z) at horizontal position (`x`, `y`) of the plane
+/// through the triangle's three points; `None` when the triangle is degenerate in plan.
 pub(crate) fn interpolate_z(t: &[Vector3<f64>; 3], x: f64, y: f64) -> Option<f64> {
     let (a, b, c) = (t[0], t[1], t[2]);
     let det = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);

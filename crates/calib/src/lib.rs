@@ -1,21 +1,22 @@
 //! lidarqa-calib: how do we make the points more accurate?
 //!
 //! Boresight and lever-arm self-calibration of an airborne linear scanner from overlapping strips
-//! with the **virtual tie point model** (VTPM) of seed 001 (Zhang & Jiang 2011), a point-to-plane
+//! with the **virtual tie point model** (VTPM) of Zhang & Jiang (2011), a point-to-plane
 //! baseline (boresight only, as Leica Attune), strip correction and swath-to-swath overlap QC.
 //! Computation only: plain structs in and out; the `lidarqa` CLI reads and writes the files.
 //!
 //! - Inputs are [`Strip`]s of [`RawPoint`]s: each point keeps its raw observation (range and scan
 //!   angle, recovered once with lidarqa-tpu's [`lidarqa_tpu::Recoverer`]) and its pose, all in one
 //!   local North-East-Down frame ([`LocalFrame`]) built through ECEF, so that re-georeferencing
-//!   with any mounting ([`georeference`], [`Georeferencing`]) is seed 000 eq. (2), rigorously.
+//!   with any mounting ([`georeference`], [`Georeferencing`]) is Zhang et al. (2018) eq. (2),
+//!   rigorously.
 //! - Ties come from hand picks ([`Tie`], SPEC §7) or from the automatic search ([`auto_ties`]);
 //!   control points ([`NedControlPoint`]) add absolute observations, which make the vertical lever
 //!   arm observable.
 //! - [`calibrate_vtpm`] solves by Levenberg–Marquardt with a central-difference Jacobian
-//!   (seed 001 §2.4), checks observability at the solution and holds at the prior what the data do
-//!   not determine; [`calibrate_plane`] is the baseline. Both return a [`Calibration`] that
-//!   serialises to SPEC §8 `calibration.json`.
+//!   (Zhang & Jiang 2011, §2.4), checks observability at the solution and holds at the prior what
+//!   the data do not determine; [`calibrate_plane`] is the baseline. Both return a [`Calibration`]
+//!   that serialises to SPEC §8 `calibration.json`.
 //! - [`correct_strip`] re-georeferences a strip; [`overlap_qc`] measures swath-to-swath height
 //!   differences on smooth surfaces (USGS Lidar Base Specification style).
 //!

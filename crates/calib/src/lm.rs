@@ -1,12 +1,13 @@
 //! The six mounting parameters (any subset free) as a problem for the workspace's one
-//! Levenberg–Marquardt ([`lidarqa_model::lm`]), with a central-difference Jacobian (seed 001 step
-//! 6–8). VTPM rule 2 carries the tie coordinates from the last *accepted* iteration (seed 001
-//! step 4): [`LmModel::accept`].
+//! Levenberg–Marquardt ([`lidarqa_model::lm`]), with a central-difference Jacobian (Zhang &
+//! Jiang 2011, step 6–8). VTPM rule 2 carries the tie coordinates from the last *accepted*
+//! iteration (Zhang & Jiang 2011, step 4): [`LmModel::accept`].
 //!
-//! Why a central-difference Jacobian: seed 001 eq. (10) — the tie coordinate depends on the
-//! parameters through re-georeferencing, Delaunay-chosen triangles and a rigid-transform fit, and
-//! "writing the linearised form analytically is very difficult"; the central difference is exact
-//! to second order (error `h² f'''/6`: with `h` = 1e-5 rad and ranges of ~1 km, below 1e-10 m).
+//! Why a central-difference Jacobian: Zhang & Jiang (2011) eq. (10) — the tie coordinate depends on
+//! the parameters through re-georeferencing, Delaunay-chosen triangles and a rigid-transform fit,
+//! and "writing the linearised form analytically is very difficult"; the central difference is
+//! exact to second order (error `h² f'''/6`: with `h` = 1e-5 rad and ranges of ~1 km, below 1e-10
+//! m).
 
 use crate::params::{PARAM_COUNT, Param};
 pub use lidarqa_model::lm::Termination;
@@ -18,7 +19,8 @@ use nalgebra::{DMatrix, DVector};
 pub struct LmOptions {
     /// Iteration limit.
     pub max_iterations: usize,
-    /// "Residuals converged" (seed 001 step 8): relative decrease of the sum of squares below this.
+    /// "Residuals converged" (Zhang & Jiang 2011, step 8): relative decrease of the sum of squares
+    /// below this.
     pub cost_tolerance: f64,
     /// "Parameters unchanged": lever-arm steps all below this, m.
     pub lever_tolerance_m: f64,
@@ -95,7 +97,7 @@ fn free_values(x: &[f64; PARAM_COUNT], free: &[usize]) -> DVector<f64> {
     DVector::from_iterator(free.len(), free.iter().map(|&i| x[i]))
 }
 
-/// Central-difference Jacobian over the free parameters (seed 001 eq. 10).
+/// Central-difference Jacobian over the free parameters (Zhang & Jiang 2011, eq. 10).
 pub(crate) fn jacobian<M: LmModel>(
     model: &M,
     x: &[f64; PARAM_COUNT],

@@ -1,5 +1,6 @@
-//! The point-to-plane baseline (boresight only), as Leica Attune (Burman 2000, seed 001 ref. 10)
-//! against which seed 001 compares the VTPM, and the check-plane RMS of seed 001 eq. (13).
+//! The point-to-plane baseline (boresight only), as Leica Attune (Burman 2000;
+//! Zhang & Jiang (2011), ref. 10) against which Zhang & Jiang (2011) compare the VTPM, and the
+//! check-plane RMS of Zhang & Jiang (2011) eq. (13).
 //!
 //! A *patch* is a horizontal position; in every strip that covers it the points within
 //! [`PlaneOptions::radius_m`] are taken and their coplanar subset kept (RANSAC). At each trial
@@ -160,7 +161,7 @@ fn rms_enu(d: &[(usize, Vector3<f64>)]) -> [f64; 3] {
 
 /// The point-to-plane baseline (module docs): boresight angles only by default
 /// (`options.solve` is overridden to the three angles; the lever arm stays at `prior`, as
-/// Attune, whose results seed 001 applies with a zero lever arm).
+/// Attune, whose results Zhang & Jiang (2011) apply with a zero lever arm).
 ///
 /// # Errors
 /// As [`crate::calibrate_vtpm`]; [`Error::NothingUsable`] when no patch has coplanar points in two
@@ -235,10 +236,10 @@ fn check_plane_options(plane: &PlaneOptions) -> Result<()> {
     Ok(())
 }
 
-/// Check-plane RMS (seed 001 eq. 13, Table 3): for each check plane (a patch centre), the points
-/// of every covering strip selected at `prior`, re-georeferenced with `mounting`, one plane fitted
-/// through all of them, and `√(Σ d² / n)` of their distances to it, m. `None` for a centre with
-/// fewer than two covering strips.
+/// Check-plane RMS (Zhang & Jiang 2011, eq. 13, Table 3): for each check plane (a patch centre),
+/// the points of every covering strip selected at `prior`, re-georeferenced with `mounting`, one
+/// plane fitted through all of them, and `√(Σ d² / n)` of their distances to it, m. `None` for a
+/// centre with fewer than two covering strips.
 ///
 /// # Errors
 /// Invalid strips or options.

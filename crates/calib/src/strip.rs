@@ -5,7 +5,7 @@
 //! Each point keeps its trajectory pose expressed in `L`: the GNSS/INS reference point `P0` in `L`
 //! and the attitude `R_L = C_LE · C_EN(P0) · R_N` (body → `L`), where `C_EN(P0)` is the NED frame
 //! at the pose and `C_LE` the ECEF → `L` rotation. Since `R_L` is itself a rotation
-//! `Rz(h) Ry(p) Rx(r)`, seed 000 eq. (2) in `L` is the model's own
+//! `Rz(h) Ry(p) Rx(r)`, Zhang et al. (2018) eq. (2) in `L` is the model's own
 //! `P = P0 + R_L (R_M S + ΔP)` with the attitude angles of `R_L`: rigorous through ECEF (SPEC §3),
 //! with no NED vector ever added to grid coordinates.
 
@@ -220,8 +220,8 @@ impl Strip {
     /// the point count within 3 m of 256 evenly spaced sample points (median, so edges and gaps
     /// do not count); `None` for fewer than 16 points.
     ///
-    /// The VTPM radius has to grow with the point spacing: seed 001's 1 m holds ~3 points of a
-    /// strip flown at 800 m with 2 pts/m², too few for a RANSAC plane and a triangle.
+    /// The VTPM radius has to grow with the point spacing: Zhang & Jiang's (2011) 1 m holds ~3
+    /// points of a strip flown at 800 m with 2 pts/m², too few for a RANSAC plane and a triangle.
     pub fn radius_for_neighbours_m(&self, neighbours: usize) -> Option<f64> {
         let xy: Vec<[f64; 2]> = self
             .points
@@ -277,8 +277,9 @@ pub fn radius_for_neighbours_m(xy: &[[f64; 2]], neighbours: usize) -> Option<f64
     Some((neighbours as f64 / (std::f64::consts::PI * density)).sqrt())
 }
 
-/// Seed 000 eq. (2) in the local frame with the model: `P = P0 + R_L (R_M S + ΔP)`, through
-/// [`LinearScanner::footprint_ned`] (the reference path; [`Georeferencing`] is the fast one).
+/// Zhang et al. (2018) eq. (2) in the local frame with the model: `P = P0 + R_L (R_M S + ΔP)`,
+/// through [`LinearScanner::footprint_ned`] (the reference path; [`Georeferencing`] is the fast
+/// one).
 /// A point that keeps the out-of-plane part of `S` (a beam head) takes the same formula with
 /// its whole `S` ([`RawPoint::scanner_m`]).
 pub fn georeference(point: &RawPoint, mounting: &Mounting) -> Vector3<f64> {

@@ -1,4 +1,4 @@
-//! The virtual tie point model (seed 001 §2.3–2.4).
+//! The virtual tie point model (Zhang & Jiang 2011, §2.3–2.4).
 //!
 //! A tie picked in strip `i` at horizontal position `(x, y)` becomes a *virtual tie point*: the
 //! points of strip `i` within [`VtpmOptions::radius_m`] of the pick, their coplanar subset by
@@ -10,8 +10,8 @@
 //! - **rule 2** (eq. 6): when the mounting changes, the three points are re-georeferenced from
 //!   their raw observations and the tie moves rigidly with its triangle,
 //!   `T₁ = R_rigid T₀ + Δ`, the rigid transform estimated from the old and new triangle
-//!   (least squares, Kabsch). As in seed 001 step (4), "old" is the state of the previous accepted
-//!   iteration, so the tie coordinates are carried from iteration to iteration.
+//!   (least squares, Kabsch). As in Zhang & Jiang (2011) step (4), "old" is the state of the
+//!   previous accepted iteration, so the tie coordinates are carried from iteration to iteration.
 
 use crate::error::{Error, Result};
 use crate::geometry::{Plane, interpolate_z, ransac_plane, rigid_transform, trim_to_plane};
@@ -22,8 +22,8 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 use spade::{DelaunayTriangulation, HasPosition, Point2, PositionInTriangulation, Triangulation};
 
-/// Largest VTPM search radius, m: a tie is a local surface (seed 001: about the point spacing),
-/// and the points searched grow with the radius squared.
+/// Largest VTPM search radius, m: a tie is a local surface (Zhang & Jiang 2011: about the point
+/// spacing), and the points searched grow with the radius squared.
 pub const MAX_RADIUS_M: f64 = 50.0;
 /// Most RANSAC iterations per tie and strip.
 pub const MAX_RANSAC_ITERATIONS: usize = 100_000;
@@ -31,7 +31,8 @@ pub const MAX_RANSAC_ITERATIONS: usize = 100_000;
 /// Options of the virtual tie point model.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VtpmOptions {
-    /// Search radius around a pick, m (seed 001: "e.g. 1 m, from the mean point spacing").
+    /// Search radius around a pick, m (Zhang & Jiang 2011: "e.g. 1 m, from the mean point
+    /// spacing").
     pub radius_m: f64,
     /// RANSAC inlier threshold, point-to-plane distance, m.
     pub ransac_threshold_m: f64,
@@ -39,9 +40,9 @@ pub struct VtpmOptions {
     pub ransac_iterations: usize,
     /// Seed of RANSAC's random triples (each tie/strip derives its own from it).
     pub seed: u64,
-    /// Carry each tie by every coplanar point of its window instead of seed 001's one triangle:
-    /// rule 1's height from their least-squares plane, rule 2's rigid motion fitted to all of
-    /// them. Same model, √(n/3) less of the points' noise in every tie.
+    /// Carry each tie by every coplanar point of its window instead of Zhang & Jiang's (2011) one
+    /// triangle: rule 1's height from their least-squares plane, rule 2's rigid motion fitted to
+    /// all of them. Same model, √(n/3) less of the points' noise in every tie.
     pub patch: bool,
 }
 
@@ -95,11 +96,11 @@ impl VtpmOptions {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum TieKind {
     /// A feature located in every strip (a road marking corner picked on the intensity image,
-    /// seed 001 step 1): all three coordinates are observations.
+    /// Zhang & Jiang 2011, step 1): all three coordinates are observations.
     Feature,
     /// A point on a planar surface with no feature to fix it within the plane (a roof face found
     /// by the automatic search): only the component along the plane normal is an observation
-    /// (a weight matrix `P = n nᵀ` in seed 001 eq. 4).
+    /// (a weight matrix `P = n nᵀ` in Zhang & Jiang (2011) eq. 4).
     Surface,
     /// A point on a linear marking (a centre line, one zebra stripe): located across the line and
     /// in height, but not along it, where a pick only reflects where the window was. The field is
@@ -143,8 +144,8 @@ pub struct NedControlPoint {
     pub id: String,
     /// Surveyed position, local NED, m.
     pub position_m: Vector3<f64>,
-    /// Radius of the target the control point marks, m, when it is one (seed 000: 0.8 m, raised
-    /// above the ground). The height of a height-only control point is then the mean of the
+    /// Radius of the target the control point marks, m, when it is one (Zhang et al. 2018: 0.8 m,
+    /// raised above the ground). The height of a height-only control point is then the mean of the
     /// target's top points within 0.75 × this radius, never the ground around it.
     pub target_radius_m: Option<f64>,
     /// The survey's vertical 1-σ, m, when known (the control CSV's `sigma_v`): weighs the control
@@ -169,8 +170,8 @@ impl HasPosition for Vertex {
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct VirtualTie {
     pub(crate) strip: usize,
-    /// The laser points that carry the tie: seed 001's triangle (3), the whole coplanar patch
-    /// ([`VtpmOptions::patch`]) or a control target's top.
+    /// The laser points that carry the tie: Zhang & Jiang's (2011) triangle (3), the whole coplanar
+    /// patch ([`VtpmOptions::patch`]) or a control target's top.
     pub(crate) vertices: Vec<usize>,
     /// Those points at the last accepted parameters, local NED.
     pub(crate) carried: Vec<Vector3<f64>>,
@@ -295,7 +296,7 @@ pub(crate) struct PickInStrip<'a> {
 }
 
 /// Builds the virtual tie of `tie_id` in strip `strip` at the pick (x, y) with the mounting `g`
-/// (seed 001 step 2, then rule 1 for the initial height).
+/// (Zhang & Jiang 2011, step 2, then rule 1 for the initial height).
 ///
 /// The window starts at [`VtpmOptions::radius_m`] and grows by [`WINDOW_GROWTH_STEP`] (up to
 /// [`MAX_WINDOW_GROWTH`] times) while RANSAC finds no plane or no Delaunay triangle of the
@@ -502,7 +503,8 @@ fn build_target_tie(
 /// mounting displaces it.
 const TARGET_SEARCH_MARGIN_M: f64 = 1.5;
 
-/// How far above the local ground a target's top stands at least, m (seed 000's targets: 0.5 m).
+/// How far above the local ground a target's top stands at least, m (Zhang et al.'s (2018) targets:
+/// 0.5 m).
 const TARGET_MIN_HEIGHT_M: f64 = 0.25;
 
 impl VirtualTie {
@@ -603,7 +605,7 @@ pub struct DroppedPick {
     pub reason: String,
 }
 
-/// The tie set as the adjustment sees it (seed 001 steps 4–6).
+/// The tie set as the adjustment sees it (Zhang & Jiang 2011, steps 4–6).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct TieModel {
     pub(crate) ties: Vec<TieSpec>,
@@ -653,8 +655,9 @@ impl TieModel {
         self.residuals_from(&self.coords_at_offset(strips, x, Some(offset)))
     }
 
-    /// Residuals (seed 001 eq. 8 with the eq. 7 mean): per tie and strip, the tie coordinate minus
-    /// the mean over its strips (or minus the control), projected on the tie's directions.
+    /// Residuals (Zhang & Jiang 2011, eq. 8 with the eq. 7 mean): per tie and strip, the tie
+    /// coordinate minus the mean over its strips (or minus the control), projected on the tie's
+    /// directions.
     pub(crate) fn residuals_from(&self, coords: &[Vec<TieAt>]) -> Vec<f64> {
         let mut r = Vec::new();
         for (t, c) in self.ties.iter().zip(coords) {
@@ -671,8 +674,9 @@ impl TieModel {
         r
     }
 
-    /// Accepts the state at `x`: triangles and tie coordinates move to it (seed 001 step 4), and a
-    /// surface tie's direction becomes its surface's normal there ([`TieSpec::along_normal`]).
+    /// Accepts the state at `x`: triangles and tie coordinates move to it (Zhang & Jiang 2011,
+    /// step 4), and a surface tie's direction becomes its surface's normal there
+    /// ([`TieSpec::along_normal`]).
     pub(crate) fn accept(&mut self, strips: &[Strip], x: &[f64; 6]) {
         let coords = self.coords_at(strips, x);
         let g = Georeferencing::new(&mounting_from_vector(x));

@@ -6,9 +6,10 @@
 //! Why 300 and 800 m rather than the example 300 / 500 m: a boresight pitch Δβ moves a
 //! point along track by `H·Δβ` and the lever arm by `Δx`, and both flip with the flight direction,
 //! so only the ratio of the two heights separates them. With two equally weighted heights the
-//! correlation is `(H1+H2)/2 / √((H1²+H2²)/2)`: 0.970 for 300/500 m, 0.966 for seed 001's
-//! 760/1310 m, 0.91 for 300/800 m. Above [`CalibrationOptions::max_correlation`] (0.95) the
-//! lever arm would be held (reported not observable), which the test `heights_too_close_*` shows.
+//! correlation is `(H1+H2)/2 / √((H1²+H2²)/2)`: 0.970 for 300/500 m, 0.966 for Zhang &
+//! Jiang's (2011) 760/1310 m, 0.91 for 300/800 m. Above [`CalibrationOptions::max_correlation`]
+//! (0.95) the lever arm would be held (reported not observable), which the test
+//! `heights_too_close_*` shows.
 
 #![allow(clippy::needless_range_loop)] // indices are parameter numbers
 
@@ -239,7 +240,7 @@ fn convergence_record_converges() {
     assert_eq!(h.len(), cal.iterations + 1);
     assert!(h.len() >= 3, "{} records", h.len());
     assert_eq!(h[0].parameters, [0.0; 6]);
-    // Tie coordinate change between successive iterations shrinks (seed 001 Fig. 9).
+    // Tie coordinate change between successive iterations shrinks (Zhang & Jiang 2011, Fig. 9).
     let step = |k: usize| -> f64 {
         h[k].ties
             .iter()
@@ -377,8 +378,8 @@ fn correction_reduces_tie_residuals_rmsdz_and_target_rmse() {
 
 #[test]
 fn vtpm_against_plane_baseline_on_check_strips() {
-    // Seed 001 §3.2.2: calibrate on group 1, correct group 2 with each result, compare checkpoint
-    // residuals (Table 2) and check-plane RMS (Table 3).
+    // Zhang & Jiang (2011) §3.2.2: calibrate on group 1, correct group 2 with each result, compare
+    // checkpoint residuals (Table 2) and check-plane RMS (Table 3).
     let (s, ties) = survey();
     let vtpm = vtpm(s, ties, &[]);
     let centres: Vec<[f64; 2]> = s

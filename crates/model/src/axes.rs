@@ -16,11 +16,11 @@ pub struct Axes {
     pub east: f64,
     /// Up, m.
     pub up: f64,
-    /// √(north² + east²), m. Seed 004's σxy.
+    /// √(north² + east²), m. Li et al.'s (2016) σxy.
     pub horizontal: f64,
-    /// |up|, m. Seed 004's σz.
+    /// |up|, m. Li et al.'s (2016) σz.
     pub vertical: f64,
-    /// √(horizontal² + vertical²), m. Seed 004's σxyz.
+    /// √(horizontal² + vertical²), m. Li et al.'s (2016) σxyz.
     pub three_d: f64,
 }
 

@@ -1,5 +1,5 @@
-//! The constant-angle conic prism scanner of seed 004 (CZMIL-like), with refraction through the
-//! prism and at the water surface.
+//! The constant-angle conic prism scanner of Li et al. (2016) (CZMIL-like), with refraction through
+//! the prism and at the water surface.
 //!
 //! The seed's formula images are missing; these conventions (SPEC §3) reproduce its Table 4:
 //! - emitter direction in S: `l1 = [sin φls cos θls, sin φls sin θls, cos φls]`, fixed in S;
@@ -11,9 +11,9 @@
 //!   (`level`, physically right: attitude then changes the incidence angle);
 //! - ranges `ρ1 = c Δt1 / 2`, `ρ2 = c Δt2 / (2 nw)` with `c` the speed of light in air;
 //!   `X_S = ρ1 l3 + ρ2 l4`, then boresight, lever arm and attitude as for the linear scanner;
-//! - four more parameters for bathymetric soundings (not in seed 004): the water-surface height
-//!   δh at the refraction point (the point moves `δh / cos θi` back along `l3`, and the water
-//!   leg gains that optical path, `ρ1 + nw ρ2` held: the total travel time is measured), its
+//! - four more parameters for bathymetric soundings (not in Li et al. (2016)): the water-surface
+//!   height δh at the refraction point (the point moves `δh / cos θi` back along `l3`, and the
+//!   water leg gains that optical path, `ρ1 + nw ρ2` held: the total travel time is measured), its
 //!   slope towards north and east (waves: `p3 ∝ p3₀ + (R_N R_M)ᵀ [tan s_N, tan s_E, 0]`), and the
 //!   refraction index nw itself (Snell's law and `ρ2`). Their nominal values are 0, 0, 0 and the
 //!   scanner's nw; none of them moves a topographic or water-surface return (`Δt2 = 0`).
@@ -30,7 +30,7 @@ use crate::source::Source;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use num_dual::{DualSVec64, jacobian};
 
-/// Speed of light in air used by seed 004, m/s.
+/// Speed of light in air used by Li et al. (2016), m/s.
 pub const SPEED_OF_LIGHT_AIR_M_PER_S: f64 = 299_552_816.0;
 
 /// Number of parameters of the conic model.
@@ -39,7 +39,7 @@ pub const CONIC_N: usize = 25;
 /// Where the water-surface normal `p3` is fixed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Refraction {
-    /// `p3 = [0, 0, 1]` in the scanner frame: seed 004's model (reproduces its Table 4).
+    /// `p3 = [0, 0, 1]` in the scanner frame: Li et al.'s (2016) model (reproduces its Table 4).
     #[default]
     ScannerFrame,
     /// `p3` = local vertical in N: roll and pitch change the incidence angle, as they physically do.
@@ -65,7 +65,7 @@ impl Refraction {
     }
 }
 
-/// Seed 004's defaults: prism 1.461, air 1.0003, water 1.33.
+/// Li et al.'s (2016) defaults: prism 1.461, air 1.0003, water 1.33.
 pub const DEFAULT_N_PRISM: f64 = 1.461;
 /// Default refraction index of air.
 pub const DEFAULT_N_AIR: f64 = 1.0003;
@@ -99,7 +99,7 @@ struct NominalBeam {
 }
 
 /// Refract direction `l` (unit) through a surface with unit normal `n` pointing along the propagation
-/// direction, `eta = n_in / n_out` (vector Snell law, Glassner 1989, seed 004 ref. 14):
+/// direction, `eta = n_in / n_out` (vector Snell law, Glassner 1989; Li et al. (2016), ref. 14):
 /// `t = η l + (cos θt − η cos θi) n`, `cos θi = n·l`, `cos θt = √(1 − η² (1 − cos² θi))`.
 /// Returns NaN components on total internal reflection.
 pub fn refract<D: Scalar>(l: &Vector3<D>, n: &Vector3<D>, eta: D) -> Vector3<D> {
@@ -175,7 +175,7 @@ impl ConicScanner {
     }
 
     /// Build from the wanted exit angle (angle of the beam leaving the prism from the S Z axis), solving
-    /// for the prism slope. Seed 004: 20° ⇒ θf = 39.16°.
+    /// for the prism slope. Li et al. (2016): 20° ⇒ θf = 39.16°.
     pub fn from_exit_angle(
         exit_angle_rad: f64,
         n_prism: f64,
@@ -730,7 +730,7 @@ mod tests {
     #[test]
     fn exit_angle_20_deg_gives_prism_slope_39_16_deg() {
         let s = czmil(Refraction::ScannerFrame);
-        // Seed 004 §1.1: 39.16°; to more digits from the closed form
+        // Li et al. (2016) §1.1: 39.16°; to more digits from the closed form
         // θ4 = asin(nf/na · sin(θf − asin(na/nf · sin θf))).
         assert_relative_eq!(s.prism_slope_rad().to_degrees(), 39.1603, epsilon = 5e-5);
         let tf = s.prism_slope_rad();

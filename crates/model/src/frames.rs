@@ -194,13 +194,13 @@ impl Attitude {
 /// the GNSS/INS reference point.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Mounting {
-    /// Boresight roll (about S X), rad. Seed 000 Δα.
+    /// Boresight roll (about S X), rad. Zhang et al. (2018) Δα.
     pub boresight_roll_rad: f64,
-    /// Boresight pitch (about S Y), rad. Seed 000 Δβ.
+    /// Boresight pitch (about S Y), rad. Zhang et al. (2018) Δβ.
     pub boresight_pitch_rad: f64,
-    /// Boresight yaw (about S Z), rad. Seed 000 Δγ.
+    /// Boresight yaw (about S Z), rad. Zhang et al. (2018) Δγ.
     pub boresight_yaw_rad: f64,
-    /// Lever arm in the body frame (X forward, Y right, Z down), m. Seed 000 ΔP.
+    /// Lever arm in the body frame (X forward, Y right, Z down), m. Zhang et al. (2018) ΔP.
     pub lever_arm_m: Vector3<f64>,
 }
 

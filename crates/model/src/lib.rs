@@ -1,9 +1,10 @@
 //! lidarqa-model: the sensor geometry of airborne LiDAR, with no I/O.
 //!
 //! - rotations in the orders of SPEC §3 ([`rotation_zyx`]),
-//! - the linear scanner of seed 000 eq. (2), `P = P0 + R_N (R_M S + ΔP)` ([`LinearScanner`]),
-//! - the constant-angle conic prism scanner of seed 004 with vector Snell refraction through the prism
-//!   and at the water surface ([`ConicScanner`]),
+//! - the linear scanner of Zhang et al. (2018) eq. (2), `P = P0 + R_N (R_M S + ΔP)`
+//!   ([`LinearScanner`]),
+//! - the constant-angle conic prism scanner of Li et al. (2016) with vector Snell refraction
+//!   through the prism and at the water surface ([`ConicScanner`]),
 //! - the beam model of every scanner that measures a range along an encoder-given beam (rotating
 //!   mirror, spinning multi-beam, Risley prism pair, elliptical) ([`BeamScanner`]),
 //! - the checked [`Sensor`] that computation crates accept,
@@ -19,7 +20,7 @@
 //! use nalgebra::SVector;
 //! use num_dual::{jacobian, DualSVec64};
 //!
-//! // Seed 000: level flight, scan angle 30°, 80 m below.
+//! // Zhang et al. (2018): level flight, scan angle 30°, 80 m below.
 //! let obs = LinearObservation { range_m: 80.0 / 30f64.to_radians().cos(), scan_angle_rad: 30f64.to_radians() };
 //! let p = LinearScanner.parameters(&Attitude::default(), &Mounting::default(), &obs);
 //! let (footprint, j) = jacobian(|q: SVector<DualSVec64<14>, 14>| LinearScanner.footprint_ned(&q), &p);

@@ -1,7 +1,7 @@
-//! The linear (oscillating-mirror) scanner of seed 000.
+//! The linear (oscillating-mirror) scanner of Zhang et al. (2018).
 //!
-//! Seed 000 eq. (2): `P = P0 + R_N (R_M S + ΔP)` with `S = [0, ρ sin θ, ρ cos θ]` (θ > 0 to the
-//! right wing), `R_N = Rz(H) Ry(P) Rx(R)` and `R_M = Rz(Δγ) Ry(Δβ) Rx(Δα)`.
+//! Zhang et al. (2018) eq. (2): `P = P0 + R_N (R_M S + ΔP)` with `S = [0, ρ sin θ, ρ cos θ]` (θ > 0
+//! to the right wing), `R_N = Rz(H) Ry(P) Rx(R)` and `R_M = Rz(Δγ) Ry(Δβ) Rx(Δα)`.
 //! [`OffPlaneLinearScanner`] is the same scanner for a pulse recovered from a real point, which
 //! leaves that plane by a small along-track angle.
 
@@ -31,7 +31,7 @@ pub struct LinearObservation {
 }
 
 /// The linear scanner with the pulse tilted out of the scan plane by a fixed along-track angle β:
-/// `S = ρ [cos θ sin β, sin θ, cos θ cos β]`, i.e. `Ry(β)` applied to seed 000's vector.
+/// `S = ρ [cos θ sin β, sin θ, cos θ cos β]`, i.e. `Ry(β)` applied to Zhang et al.'s (2018) vector.
 ///
 /// Real pulses recovered from delivered points leave the nominal plane (a boresight, timing or
 /// trajectory misfit); near nadir the range and attitude σ depend on the small across-track
@@ -44,7 +44,7 @@ pub struct OffPlaneLinearScanner {
     pub along_track_rad: f64,
 }
 
-/// Pulse vector in the scanner frame: `S = [0, ρ sin θ, ρ cos θ]` (seed 000).
+/// Pulse vector in the scanner frame: `S = [0, ρ sin θ, ρ cos θ]` (Zhang et al. 2018).
 pub fn scanner_vector<D: Scalar>(range_m: D, scan_angle_rad: D) -> Vector3<D> {
     let (s, c) = scan_angle_rad.sin_cos();
     Vector3::new(D::zero(), range_m * s, range_m * c)
@@ -243,7 +243,7 @@ mod tests {
     use approx::assert_relative_eq;
 
     #[test]
-    fn seed000_footprint_at_level_flight() {
+    fn zhang_2018_footprint_at_level_flight() {
         let theta = 30f64.to_radians();
         let obs = LinearObservation {
             range_m: 80.0 / theta.cos(),
@@ -324,7 +324,7 @@ mod tests {
             rotation_zyx(att.roll_rad, att.pitch_rad, att.heading_rad) * (r_m * s + m.lever_arm_m);
         assert_relative_eq!(g.footprint_ned(&p), expected, epsilon = 1e-9);
         assert_staged_is_dual(&g, &p);
-        // β = 0 is seed 000's scanner, bit for bit.
+        // β = 0 is Zhang et al.'s (2018) scanner, bit for bit.
         let flat = OffPlaneLinearScanner::default();
         assert_eq!(
             flat.footprint_jacobian(&p),

@@ -17,8 +17,8 @@
 //! workspace uses 0.35 (two nalgebra versions, conversions at every call), and its
 //! `LeastSquaresProblem` sets trial parameters without telling the problem which ones were
 //! accepted, whereas the virtual tie point model carries the tie coordinates from the last
-//! *accepted* iteration (seed 001 step 4): [`LeastSquares::accept`]. The problems here have two to
-//! six unknowns, so the normal equations are solved directly.
+//! *accepted* iteration (Zhang & Jiang 2011, step 4): [`LeastSquares::accept`]. The problems here
+//! have two to six unknowns, so the normal equations are solved directly.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -48,10 +48,11 @@ pub struct LmSettings {
 /// Why the adjustment stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Termination {
-    /// The sum of squared residuals stopped decreasing (seed 001's first stopping rule).
+    /// The sum of squared residuals stopped decreasing (Zhang & Jiang's (2011) first stopping
+    /// rule).
     ResidualsConverged,
-    /// The parameter update became negligible (seed 001's second stopping rule), or no damping
-    /// decreased the sum of squares while the least damped step was already negligible.
+    /// The parameter update became negligible (Zhang & Jiang's (2011) second stopping rule), or no
+    /// damping decreased the sum of squares while the least damped step was already negligible.
     ParametersUnchanged,
     /// The iteration limit was reached first.
     MaxIterations,

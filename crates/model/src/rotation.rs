@@ -2,7 +2,7 @@
 //! local North-East-Down frame and ECEF at a latitude/longitude.
 //!
 //! All rotations are active (they rotate vectors) and right-handed. Attitude and boresight use the
-//! same order, `R = Rz(yaw) · Ry(pitch) · Rx(roll)`, which is exactly seed 000's printed
+//! same order, `R = Rz(yaw) · Ry(pitch) · Rx(roll)`, which is exactly Zhang et al.'s (2018) printed
 //! `R_N = R(H) · R(P) · R(R)`.
 
 use crate::scalar::{Scalar, c};
@@ -31,8 +31,8 @@ pub fn rot_z<D: Scalar>(a: D) -> Matrix3<D> {
 
 /// `Rz(yaw) · Ry(pitch) · Rx(roll)`, angles in radians.
 ///
-/// As the platform attitude this is seed 000's `R_N` (body B → navigation N, NED); as the boresight it
-/// is `R_M` (scanner S → body B), whose small-angle form is seed 000's
+/// As the platform attitude this is Zhang et al.'s (2018) `R_N` (body B → navigation N, NED); as
+/// the boresight it is `R_M` (scanner S → body B), whose small-angle form is Zhang et al.'s (2018)
 /// `[[1, −Δγ, Δβ], [Δγ, 1, −Δα], [−Δβ, Δα, 1]]` with Δα = roll, Δβ = pitch, Δγ = yaw.
 pub fn rotation_zyx<D: Scalar>(roll: D, pitch: D, yaw: D) -> Matrix3<D> {
     rot_z(yaw) * rot_y(pitch) * rot_x(roll)
@@ -126,8 +126,8 @@ mod tests {
     use super::*;
     use approx::assert_relative_eq;
 
-    /// Seed 000's printed R_N, evaluated element by element from its symbolic form.
-    fn seed000_printed(h: f64, p: f64, r: f64) -> Matrix3<f64> {
+    /// Zhang et al.'s (2018) printed R_N, evaluated element by element from its symbolic form.
+    fn zhang_2018_printed(h: f64, p: f64, r: f64) -> Matrix3<f64> {
         let (ch, sh, cp, sp, cr, sr) = (h.cos(), h.sin(), p.cos(), p.sin(), r.cos(), r.sin());
         Matrix3::new(
             ch * cp,
@@ -154,10 +154,10 @@ mod tests {
     }
 
     #[test]
-    fn attitude_matrix_equals_seed000_printed_matrix() {
+    fn attitude_matrix_equals_zhang_2018_printed_matrix() {
         let (h, p, r) = (4f64.to_radians(), 3f64.to_radians(), 3f64.to_radians());
         let ours = rotation_zyx(r, p, h);
-        let paper = seed000_printed(h, p, r);
+        let paper = zhang_2018_printed(h, p, r);
         for i in 0..3 {
             for j in 0..3 {
                 assert_relative_eq!(ours[(i, j)], paper[(i, j)], epsilon = 1e-15);
@@ -169,7 +169,7 @@ mod tests {
     }
 
     #[test]
-    fn small_angle_boresight_matches_seed000_form() {
+    fn small_angle_boresight_matches_zhang_2018_form() {
         let (a, b, g) = (1e-4, -2e-4, 3e-4);
         let r = rotation_zyx(a, b, g);
         let small = Matrix3::new(1.0, -g, b, g, 1.0, -a, -b, a, 1.0);

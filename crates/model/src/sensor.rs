@@ -14,9 +14,9 @@ use nalgebra::{DMatrix, SMatrix};
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 pub enum Scanner {
-    /// Linear oscillating-mirror scanner of seed 000: `S = [0, ρ sin θ, ρ cos θ]`.
+    /// Linear oscillating-mirror scanner of Zhang et al. (2018): `S = [0, ρ sin θ, ρ cos θ]`.
     Linear,
-    /// Constant-angle conic prism scanner of seed 004.
+    /// Constant-angle conic prism scanner of Li et al. (2016).
     Conic(ConicScanner),
     /// A scanner of the beam model (rotating mirror, spinning multi-beam, Risley, elliptical).
     Beam(BeamScanner),

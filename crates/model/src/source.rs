@@ -75,51 +75,54 @@ macro_rules! sources {
 }
 
 sources! {
-    /// GNSS/INS reference point position error, north (m). Seed 000 X0, seed 004 ΔxG.
+    /// GNSS/INS reference point position error, north (m). Zhang et al. (2018) X0,
+    /// Li et al. (2016) ΔxG.
     GnssNorth = "gnss_north", Metre;
-    /// GNSS/INS reference point position error, east (m). Seed 000 Y0, seed 004 ΔyG.
+    /// GNSS/INS reference point position error, east (m). Zhang et al. (2018) Y0,
+    /// Li et al. (2016) ΔyG.
     GnssEast = "gnss_east", Metre;
-    /// GNSS/INS reference point position error, up (m). Seed 000 Z0, seed 004 ΔzG.
+    /// GNSS/INS reference point position error, up (m). Zhang et al. (2018) Z0,
+    /// Li et al. (2016) ΔzG.
     GnssUp = "gnss_up", Metre;
-    /// Platform roll (rad). Seed 000 R, seed 004 ω.
+    /// Platform roll (rad). Zhang et al. (2018) R, Li et al. (2016) ω.
     Roll = "roll", Radian;
-    /// Platform pitch (rad). Seed 000 P, seed 004 ψ.
+    /// Platform pitch (rad). Zhang et al. (2018) P, Li et al. (2016) ψ.
     Pitch = "pitch", Radian;
-    /// Platform heading (rad). Seed 000 H, seed 004 κ.
+    /// Platform heading (rad). Zhang et al. (2018) H, Li et al. (2016) κ.
     Heading = "heading", Radian;
-    /// Boresight roll, about scanner X (rad). Seed 000 Δα, seed 004 θrol.
+    /// Boresight roll, about scanner X (rad). Zhang et al. (2018) Δα, Li et al. (2016) θrol.
     BoresightRoll = "boresight_roll", Radian;
-    /// Boresight pitch, about scanner Y (rad). Seed 000 Δβ, seed 004 θpit.
+    /// Boresight pitch, about scanner Y (rad). Zhang et al. (2018) Δβ, Li et al. (2016) θpit.
     BoresightPitch = "boresight_pitch", Radian;
-    /// Boresight yaw, about scanner Z (rad). Seed 000 Δγ, seed 004 θhea.
+    /// Boresight yaw, about scanner Z (rad). Zhang et al. (2018) Δγ, Li et al. (2016) θhea.
     BoresightYaw = "boresight_yaw", Radian;
-    /// Lever arm, body X (m). Seed 000 Δx, seed 004 Δxil.
+    /// Lever arm, body X (m). Zhang et al. (2018) Δx, Li et al. (2016) Δxil.
     LeverX = "lever_x", Metre;
-    /// Lever arm, body Y (m). Seed 000 Δy, seed 004 Δyil.
+    /// Lever arm, body Y (m). Zhang et al. (2018) Δy, Li et al. (2016) Δyil.
     LeverY = "lever_y", Metre;
-    /// Lever arm, body Z (m). Seed 000 Δz, seed 004 Δzil.
+    /// Lever arm, body Z (m). Zhang et al. (2018) Δz, Li et al. (2016) Δzil.
     LeverZ = "lever_z", Metre;
-    /// Laser range (m). Seed 000 ρ.
+    /// Laser range (m). Zhang et al. (2018) ρ.
     Range = "range", Metre;
-    /// Instantaneous scan angle (rad), positive to the right wing. Seed 000 θ.
+    /// Instantaneous scan angle (rad), positive to the right wing. Zhang et al. (2018) θ.
     ScanAngle = "scan_angle", Radian;
-    /// Prism top-surface slope (rad). Seed 004 θf.
+    /// Prism top-surface slope (rad). Li et al. (2016) θf.
     PrismSlope = "prism_slope", Radian;
-    /// Prism-to-scanner mounting angle about X (rad). Seed 004 θfsx.
+    /// Prism-to-scanner mounting angle about X (rad). Li et al. (2016) θfsx.
     PrismX = "prism_x", Radian;
-    /// Prism-to-scanner mounting angle about Y (rad). Seed 004 θfsy.
+    /// Prism-to-scanner mounting angle about Y (rad). Li et al. (2016) θfsy.
     PrismY = "prism_y", Radian;
-    /// Prism-to-scanner mounting angle about Z (rad). Seed 004 θfsz.
+    /// Prism-to-scanner mounting angle about Z (rad). Li et al. (2016) θfsz.
     PrismZ = "prism_z", Radian;
-    /// Scan azimuth of the rotating prism (rad). Seed 004 θaz.
+    /// Scan azimuth of the rotating prism (rad). Li et al. (2016) θaz.
     ScanAzimuth = "scan_azimuth", Radian;
-    /// Emitter zenith angle in the scanner frame (rad). Seed 004 φls.
+    /// Emitter zenith angle in the scanner frame (rad). Li et al. (2016) φls.
     EmitterZenith = "emitter_zenith", Radian;
-    /// Emitter azimuth angle in the scanner frame (rad). Seed 004 θls.
+    /// Emitter azimuth angle in the scanner frame (rad). Li et al. (2016) θls.
     EmitterAzimuth = "emitter_azimuth", Radian;
-    /// Two-way travel time in air (s). Seed 004 Δt1.
+    /// Two-way travel time in air (s). Li et al. (2016) Δt1.
     TimeAir = "time_air", Second;
-    /// Two-way travel time in water (s). Seed 004 Δt2.
+    /// Two-way travel time in water (s). Li et al. (2016) Δt2.
     TimeWater = "time_water", Second;
     /// Height of the water surface at the refraction point above where the air travel time puts
     /// it, along the surface normal (m), with the total travel time held: the refraction point

@@ -120,7 +120,8 @@ pub struct CalibrateJob<'a> {
     /// Whether `options.vtpm.radius_m` was chosen by the user; otherwise it grows to the radius
     /// that holds [`VTPM_NEIGHBOURS`] points of the sparsest strip.
     pub radius_given: bool,
-    /// Weigh the ties by each strip's trajectory error (`None`: plain least squares, seed 001).
+    /// Weigh the ties by each strip's trajectory error (`None`: plain least squares, as
+    /// Zhang & Jiang 2011).
     pub weighting: Option<TrajectoryWeighting>,
     /// Most points one tile of the automatic tie search holds ([`POINTS_PER_TILE`]; the
     /// result does not depend on it, the peak memory does).

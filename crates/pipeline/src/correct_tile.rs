@@ -1,5 +1,5 @@
 //! One tile's correction: re-georeference every point with a calibrated mounting (SPEC §7,
-//! seed 001). `lidarqa correct` runs this for each strip, so the two cannot differ.
+//! Zhang & Jiang 2011). `lidarqa correct` runs this for each strip, so the two cannot differ.
 //!
 //! # Why the new position is the old one plus a linearized displacement
 //! A calibration moves a point by centimetres to a few metres (a 0.1° boresight change at
@@ -8,7 +8,7 @@
 //! to write it back — cost most of the per-point work. Here the displacement Δ from the point
 //! as delivered to the point re-georeferenced with the new mounting is computed exactly in ECEF
 //! (the raw observation is recovered with the old mounting and georeferenced with the new one,
-//! seed 000 eq. 2), and only Δ is mapped to the grid, with the Jacobian of the map
+//! Zhang et al. 2018, eq. 2), and only Δ is mapped to the grid, with the Jacobian of the map
 //! (easting, northing, height) → ECEF at the point as delivered. Both the point's ECEF position
 //! and that Jacobian come from a biquadratic model of the map per 256 m grid cell
 //! ([`lidarqa_io::GridToEcef`]), built from the exact inverse projection at nine nodes: nanometres
@@ -100,8 +100,8 @@ pub struct CorrectTileReport {
 const CHUNK: usize = 200_000;
 
 /// Corrects one tile, streaming in chunks: each point's range and scan angle are recovered with
-/// the sensor's mounting, georeferenced again with `job.mounting` (seed 000 eq. 2), and the
-/// point is moved by that displacement (module docs); every other point record field is kept
+/// the sensor's mounting, georeferenced again with `job.mounting` (Zhang et al. 2018, eq. 2), and
+/// the point is moved by that displacement (module docs); every other point record field is kept
 /// (extra-bytes dimensions and waveform packets are not carried over yet). The
 /// output is atomic. Each point's result depends on that point and the trajectory only, so a
 /// tile corrected here equals the same points of `lidarqa correct` of the whole strip.
@@ -625,7 +625,7 @@ mod tests {
                 let theta = (60.0 * (1.0 - 4.0 * ((t * 7.0).fract() - 0.5).abs())).to_radians();
                 let range = 200.0 + 1300.0 * (t * 3.1).fract();
                 let s = lidarqa_model::scanner_vector(range, theta);
-                // Seed 000 eq. 2 in ECEF: P = P0 + C_EN R_N (R_M S + ΔP).
+                // Zhang et al. (2018) eq. 2 in ECEF: P = P0 + C_EN R_N (R_M S + ΔP).
                 let r_be = pose.ecef_to_ned.transpose() * pose.body_to_ned;
                 let p = pose.position_ecef_m + r_be * (r_m * s + m.lever_arm_m);
                 let geo = e.ecef_to_geodetic(&p);

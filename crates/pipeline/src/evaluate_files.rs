@@ -13,7 +13,8 @@ use lidarqa_targets::{
 use lidarqa_tpu::{ConicRanges, Geometry, LinearRange};
 use std::path::{Path, PathBuf};
 
-/// Targets CSV (`lidarqa targets` output) against a control CSV (seed 000 eqs. 7–8, ASPRS, NSSDA).
+/// Targets CSV (`lidarqa targets` output) against a control CSV (Zhang et al. 2018, eqs. 7–8,
+/// ASPRS, NSSDA).
 ///
 /// # Errors
 /// I/O and format errors naming the file; targets and control that cannot be in one projected

@@ -1,4 +1,4 @@
-//! One tile's target extraction (seed 000 §3): the per-tile form of `lidarqa targets`.
+//! One tile's target extraction (Zhang et al. 2018, §3): the per-tile form of `lidarqa targets`.
 
 use crate::digest::seed_for_tile;
 use crate::error::{Error, Result};

@@ -55,8 +55,8 @@ fn corrected_points_are_the_true_observations_with_the_new_mounting() {
     let m = calibrated();
     let (mut worst, mut largest) = (0f64, 0f64);
     for ((t, p), q) in sv.truth.iter().zip(&got.points).zip(&input.points) {
-        // Seed 000 eq. 2 with the true pose and observation and the new mounting, rigorously
-        // through ECEF → geodetic → UTM.
+        // Zhang et al. (2018) eq. 2 with the true pose and observation and the new mounting,
+        // rigorously through ECEF → geodetic → UTM.
         let (lat, lon, att) = common::pose(t.time_sow - common::SOW0);
         let obs = LinearObservation {
             range_m: t.range_m,

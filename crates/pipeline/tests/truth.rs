@@ -107,7 +107,7 @@ fn per_point_sigma_equals_the_budget_at_the_true_geometry() {
         assert!((cols[3][i] - h).abs() < 1e-6);
     }
     assert!(worst < 1e-6, "worst σ difference {worst} m");
-    // σ_up at seed 000's GNSS 10 cm dominates: between 10 and 11.5 cm.
+    // σ_up at Zhang et al.'s (2018) GNSS 10 cm dominates: between 10 and 11.5 cm.
     let up = report.summary.view().sigma["up"].unwrap();
     assert!(up.min > 0.1 && up.max < 0.115, "{up:?}");
     // The LAS scan-angle field agrees with the recovered angle within its 0.006° step.

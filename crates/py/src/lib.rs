@@ -203,8 +203,8 @@ fn find_targets(
 }
 
 /// Accuracy of a targets CSV (`lidarqa targets` output) against a control CSV: residuals, RMSE
-/// (seed 000 eqs. 7–8), ASPRS and NSSDA, as `lidarqa evaluate --targets … --control …`. The
-/// predicted σ comes from `tpu` (a `tpu_summary.json`: its median per-point σ, as `--tpu`), or
+/// (Zhang et al. 2018, eqs. 7–8), ASPRS and NSSDA, as `lidarqa evaluate --targets … --control …`.
+/// The predicted σ comes from `tpu` (a `tpu_summary.json`: its median per-point σ, as `--tpu`), or
 /// from `sensor` with `height_m` (the sensor file's budget at that height and `scan_angle_deg`,
 /// as `--sensor`). Returns the evaluation as JSON.
 #[pyfunction]

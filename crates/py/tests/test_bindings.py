@@ -1,5 +1,6 @@
 """The Python bindings of accuracy evaluation and the error budget (issue 22): each gives what the
-`lidarqa` command prints, and the values are checked against closed forms and seed 000 Table 1.
+`lidarqa` command prints, and the values are checked against closed forms and Zhang et al. (2018)
+Table 1.
 
 Run as `python3 crates/py/tests/test_bindings.py` (prints "N passed, N failed") or with pytest.
 Needs the wheel installed (`pip install ./crates/py`), numpy and laspy, and the release binary
@@ -29,26 +30,28 @@ def cli_json(*args):
     return v
 
 
-def test_budget_seed000_is_table_1_and_the_cli():
-    v = lidarqa.budget(preset="seed000")
-    # Seed 000 Table 1: 30° scan angle, 80 m below: footprint 80·tan 30° east, range 80 / cos 30°.
+def test_budget_zhang2018_is_table_1_and_the_cli():
+    v = lidarqa.budget(preset="zhang2018")
+    # Zhang et al. (2018) Table 1: 30° scan angle, 80 m below: footprint 80·tan 30° east, range 80 / cos 30°.
     assert abs(v["footprint"]["east"] - 80 * math.tan(math.radians(30))) < 1e-9
     assert abs(v["geometry"]["range_m"] - 80 / math.cos(math.radians(30))) < 1e-9
     # The table's totals, 5.27 / 5.19 / 10.04 cm (rounded to 0.1 mm there).
     for axis, cm in [("north", 5.27), ("east", 5.19), ("up", 10.04)]:
         assert abs(v["total"][axis] * 100 - cm) <= 0.005, (axis, v["total"][axis])
-    assert v == cli_json("budget", "--preset", "seed000")
+    assert v == cli_json("budget", "--preset", "zhang2018")
+    # The preset's former name is still accepted and gives the same budget.
+    assert lidarqa.budget(preset="seed000") == v
 
 
 def test_budget_geometry_sweep_and_bias_as_the_cli():
-    kw = dict(preset="seed000", height_m=200.0, sweep="scan-angle=-30:30:10",
+    kw = dict(preset="zhang2018", height_m=200.0, sweep="scan-angle=-30:30:10",
               bias="boresight_roll_deg=0.05,lever_x_m=0.02")
     v = lidarqa.budget(**kw)
     assert v["sweep"] == "scan-angle" and v["unit"] == "deg"
     assert [p["at"] for p in v["points"]] == [-30.0, -20.0, -10.0, 0.0, 10.0, 20.0, 30.0]
     # At nadir the range is the height.
     assert abs(v["points"][3]["geometry"]["range_m"] - 200.0) < 1e-9
-    assert v == cli_json("budget", "--preset", "seed000", "--height", "200",
+    assert v == cli_json("budget", "--preset", "zhang2018", "--height", "200",
                          "--sweep", "scan-angle=-30:30:10",
                          "--bias", "boresight_roll_deg=0.05,lever_x_m=0.02")
     one = lidarqa.budget(preset="czmil", azimuth_deg=90.0)
@@ -58,8 +61,8 @@ def test_budget_geometry_sweep_and_bias_as_the_cli():
 
 def test_budget_errors_name_the_value():
     for kw, want in [(dict(preset="nope"), "unknown preset 'nope'"),
-                     (dict(preset="seed000", azimuth_deg=10.0), "conic scanner"),
-                     (dict(preset="seed000", bias="boresight_roll=0.1"), "boresight_roll"),
+                     (dict(preset="zhang2018", azimuth_deg=10.0), "conic scanner"),
+                     (dict(preset="zhang2018", bias="boresight_roll=0.1"), "boresight_roll"),
                      (dict(), "preset or sensor")]:
         try:
             lidarqa.budget(**kw)
@@ -89,7 +92,7 @@ def test_evaluate_targets_closed_form_and_cli():
     offsets = _targets_and_control(d)
     e = lidarqa.evaluate_targets(d / "targets.csv", d / "control.csv", vertical_class_m=0.10)
     n = len(offsets)
-    # Seed 000 eqs. 7 and 8: RMSE_H = √(Σ(dx² + dy²)/n), RMSE_V = √(Σ dz²/n); residual = lidar − control.
+    # Zhang et al. (2018) eqs. 7 and 8: RMSE_H = √(Σ(dx² + dy²)/n), RMSE_V = √(Σ dz²/n); residual = lidar − control.
     rmse_h = math.sqrt(sum(dx * dx + dy * dy for dx, dy, _ in offsets) / n)
     rmse_v = math.sqrt(sum(dz * dz for _, _, dz in offsets) / n)
     assert e["n"] == n
@@ -98,9 +101,9 @@ def test_evaluate_targets_closed_form_and_cli():
     assert e["predicted"] is None
     assert e == cli_json("evaluate", "--targets", d / "targets.csv", "--control", d / "control.csv",
                          "--vertical-class-m", "0.10")
-    # With a sensor file the prediction is its budget at that height: seed 000's at 80 m, 30°.
-    sensor = d / "seed000.toml"
-    sensor.write_text(subprocess.run([common.lidarqa_bin(), "budget", "--preset", "seed000",
+    # With a sensor file the prediction is its budget at that height: that of Zhang et al. (2018) at 80 m, 30°.
+    sensor = d / "zhang2018.toml"
+    sensor.write_text(subprocess.run([common.lidarqa_bin(), "budget", "--preset", "zhang2018",
                                       "--print-sensor"], capture_output=True, text=True,
                                      check=True).stdout)
     p = lidarqa.evaluate_targets(d / "targets.csv", d / "control.csv", sensor=sensor,

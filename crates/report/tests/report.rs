@@ -37,8 +37,8 @@ fn sweep_json(preset: Preset, geometry: Geometry, spec: &str, biases: Option<&Bi
     json!({"sweep": sweep.variable.name(), "unit": sweep.variable.unit(), "points": points})
 }
 
-fn seed000_at_1000m() -> Geometry {
-    match Preset::Seed000.geometry() {
+fn zhang_2018_at_1000m() -> Geometry {
+    match Preset::Zhang2018.geometry() {
         Geometry::Linear {
             attitude,
             scan_angle_rad,
@@ -288,8 +288,8 @@ fn full_dir() -> tempfile::TempDir {
         d,
         &sweep_file_name("scan-angle"),
         &sweep_json(
-            Preset::Seed000,
-            seed000_at_1000m(),
+            Preset::Zhang2018,
+            zhang_2018_at_1000m(),
             "scan-angle=-30:30:5",
             Some(&biases),
         ),
@@ -437,7 +437,7 @@ fn full_report_has_every_section_and_plot() {
     assert!(html.contains("held at prior"));
     assert!(html.contains("id=\"correlation\""));
     assert!(html.contains("Order special by depth"));
-    // The czmil budget total (seed 004 Table 4): 10.14 cm horizontal, 12.55 cm vertical.
+    // The czmil budget total (Li et al. 2016, Table 4): 10.14 cm horizontal, 12.55 cm vertical.
     assert!(
         html.contains("<tr><td>horizontal</td><td>10.14</td>"),
         "budget totals"
@@ -633,12 +633,12 @@ fn degenerate_products_do_not_panic() {
 fn products_round_trip_through_serde() {
     let v = budget_json();
     let b: Budget = serde_json::from_value(v.clone()).unwrap();
-    assert_eq!(b.sources.len(), 25); // the conic model of seed 004 + the four water-surface sources
+    assert_eq!(b.sources.len(), 25); // the conic model of Li et al. (2016) + the four water-surface sources
     let back = serde_json::to_value(&b).unwrap();
     assert_eq!(back["total"], v["total"]);
     let s: lidarqa_report::Sweep = serde_json::from_value(sweep_json(
-        Preset::Seed000,
-        seed000_at_1000m(),
+        Preset::Zhang2018,
+        zhang_2018_at_1000m(),
         "scan-angle=-30:30:30",
         None,
     ))

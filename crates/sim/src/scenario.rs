@@ -415,9 +415,9 @@ impl Scenario {
     }
 
     /// A built-in scenario: `demo` (linear scanner, targets, markings, buildings, injected
-    /// boresight and lever-arm errors), `calibration` (seed 001: two crossing pairs of strips at
-    /// 300 m and 500 m, flown in opposite directions, over road markings and gable roofs) or
-    /// `bathymetry` (seed 004: conic prism scanner over a lake with a sloping bottom).
+    /// boresight and lever-arm errors), `calibration` (Zhang & Jiang 2011: two crossing pairs of
+    /// strips at 300 m and 500 m, flown in opposite directions, over road markings and gable roofs)
+    /// or `bathymetry` (Li et al. 2016: conic prism scanner over a lake with a sloping bottom).
     ///
     /// # Errors
     /// [`Error::UnknownBuiltin`] for another name.

@@ -20,10 +20,10 @@ pub struct SceneFile {
     /// Wavelength of the relief, m.
     #[serde(default = "default_relief_wavelength")]
     pub relief_wavelength_m: f64,
-    /// 1-sigma of the surveyed control-point coordinates, horizontal, m (seed 000: 5 mm).
+    /// 1-sigma of the surveyed control-point coordinates, horizontal, m (Zhang et al. 2018: 5 mm).
     #[serde(default = "default_control_h")]
     pub control_sigma_horizontal_m: f64,
-    /// 1-sigma of the surveyed control-point coordinates, vertical, m (seed 000: 2 cm).
+    /// 1-sigma of the surveyed control-point coordinates, vertical, m (Zhang et al. 2018: 2 cm).
     #[serde(default = "default_control_v")]
     pub control_sigma_vertical_m: f64,
     /// Flat paved areas with painted markings.
@@ -92,7 +92,7 @@ pub struct BuildingFile {
     pub roof_slope_deg: f64,
 }
 
-/// `[[scene.targets]]`: a horizontal circular plate of high reflectivity (seed 000: radius
+/// `[[scene.targets]]`: a horizontal circular plate of high reflectivity (Zhang et al. 2018: radius
 /// 0.8 m, 0.5 m above the ground).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -1,6 +1,6 @@
 //! Issue "Measured accuracy": the RMSE of target centres measured on a simulated survey agrees
-//! with the predicted σ within its sampling uncertainty (seed 000 Table 3, measured beside
-//! predicted).
+//! with the predicted σ within its sampling uncertainty (Zhang et al. 2018, Table 3, measured
+//! beside predicted).
 //!
 //! A target centre averages its points, so the per-point white errors (range, scan angle) shrink
 //! with the point count while the trajectory errors (GNSS, attitude: Gauss–Markov processes) are
@@ -35,8 +35,8 @@ fn target_rmse_agrees_with_predicted_sigma() {
         for l in &mut f.lines {
             l.height_m = 200.0;
         }
-        // Seed 000 Table 1's navigation (the demo flies a better one): the trajectory's share
-        // of a centre's σ is what this test weighs against the measured scatter.
+        // Zhang et al. (2018) Table 1's navigation (the demo flies a better one): the trajectory's
+        // share of a centre's σ is what this test weighs against the measured scatter.
         for (key, sigma) in [
             ("roll_deg", 0.005),
             ("pitch_deg", 0.005),

@@ -1,13 +1,13 @@
-//! Target centre estimators (seed 000 §3.2 and better ones).
+//! Target centre estimators (Zhang et al. 2018, §3.2 and better ones).
 //!
 //! Three estimators, selectable by name ([`CentreMethod`], `FromStr`):
 //!
-//! * `sector-mec` — seed 000 §3.2 as written: take the target point nearest the centroid as the
-//!   seed, split the plane around it into 8 sectors of 45°, keep the farthest point of each sector
-//!   as an edge point, and return the centre of the minimum enclosing circle of the edge points
-//!   ([`min_enclosing_circle`](crate::min_enclosing_circle), Welzl). The radius is not used.
-//! * `centroid` — the mean of the points (the "average method" seed 000 criticises: biased when
-//!   the target is sampled unevenly or only in part).
+//! * `sector-mec` — Zhang et al. (2018) §3.2 as written: take the target point nearest the centroid
+//!   as the seed, split the plane around it into 8 sectors of 45°, keep the farthest point of each
+//!   sector as an edge point, and return the centre of the minimum enclosing circle of the edge
+//!   points ([`min_enclosing_circle`](crate::min_enclosing_circle), Welzl). The radius is not used.
+//! * `centroid` — the mean of the points (the "average method" Zhang et al. (2018) criticise:
+//!   biased when the target is sampled unevenly or only in part).
 //! * `circle-fit` (default) — a robust geometric circle fit in the target plane:
 //!   1. fit a plane to the points (least squares: the normal is the eigenvector of the smallest
 //!      eigenvalue of the scatter matrix) and use it when its tilt is significant (> 3σ of the
@@ -47,8 +47,8 @@
 //! keeps their full sampling error (up to one point spacing); the centroid is good on complete,
 //! evenly sampled targets and biased on partial ones.
 //!
-//! Elevation: by default the mean Z of the target's points (seed 000, eq. 8), or optionally the
-//! fitted plane at the centre ([`Elevation::PlaneAtCentre`]).
+//! Elevation: by default the mean Z of the target's points (Zhang et al. 2018, eq. 8), or
+//! optionally the fitted plane at the centre ([`Elevation::PlaneAtCentre`]).
 
 use std::f64::consts::{PI, TAU};
 use std::fmt;
@@ -69,8 +69,8 @@ use crate::{Error, Result};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum CentreMethod {
-    /// Seed 000 §3.2: 8 × 45° sectors around a seed point, minimum enclosing circle of the
-    /// farthest point per sector.
+    /// Zhang et al. (2018) §3.2: 8 × 45° sectors around a seed point, minimum enclosing circle of
+    /// the farthest point per sector.
     SectorMec,
     /// Mean of the target points.
     Centroid,
@@ -120,7 +120,7 @@ impl FromStr for CentreMethod {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Elevation {
-    /// Mean Z of the target's points (seed 000, eq. 8). Default.
+    /// Mean Z of the target's points (Zhang et al. 2018, eq. 8). Default.
     #[default]
     MeanZ,
     /// The least-squares plane of the target's points, evaluated at the fitted centre (falls back
@@ -791,8 +791,8 @@ pub fn estimate_centre_with_background(
     let (centre2, cov2) = match options.method {
         CentreMethod::Centroid => ([0.0, 0.0], centroid_cov),
         CentreMethod::SectorMec => {
-            // Seed point: the target point nearest the centroid (seed 000 §3.2 step 1 leaves the
-            // choice open).
+            // Seed point: the target point nearest the centroid (Zhang et al. 2018, §3.2 step 1
+            // leaves the choice open).
             let seed = q
                 .iter()
                 .copied()

@@ -4,14 +4,14 @@
 //! metres. Over the n matched points:
 //!
 //! * `rmse.north`, `rmse.east`, `rmse.up` = √(Σ d²/n) per axis;
-//! * `rmse.horizontal` = √(Σ (dN² + dE²)/n) = √(RMSE_N² + RMSE_E²): seed 000 formula (7) and
-//!   ASPRS Ed. 2 RMSE_H;
-//! * `rmse.vertical` = `rmse.up`: seed 000 formula (8) when Z is the target's mean Z;
+//! * `rmse.horizontal` = √(Σ (dN² + dE²)/n) = √(RMSE_N² + RMSE_E²): Zhang et al. (2018) formula (7)
+//!   and ASPRS Ed. 2 RMSE_H;
+//! * `rmse.vertical` = `rmse.up`: Zhang et al. (2018) formula (8) when Z is the target's mean Z;
 //! * `rmse.three_d` = √(RMSE_H² + RMSE_V²) (ASPRS Ed. 2 RMSE_3D);
 //! * `mean`, `std` (sample standard deviation, n − 1; 0 for n = 1), `max_abs` (largest |d| per
 //!   axis, and the largest single horizontal and 3-D residual).
 //!
-//! Seed 000's Table 2 gives residuals for four targets. Formula (7) on them is 17.56 cm
+//! Zhang et al.'s (2018) Table 2 gives residuals for four targets. Formula (7) on them is 17.56 cm
 //! (RMSE_N 11.23 cm, RMSE_E 13.50 cm). The paper prints 21.66 cm = √(13.8² + 16.7²): the two
 //! largest per-axis residuals, both of QZ04, i.e. the largest single horizontal residual
 //! (`max_abs.horizontal`), not formula (7) (SPEC §3).
@@ -251,7 +251,7 @@ pub struct Nssda {
 pub struct Evaluation {
     /// Points compared.
     pub n: usize,
-    /// RMSE (m); `horizontal` is seed 000 formula (7), `vertical` formula (8).
+    /// RMSE (m); `horizontal` is Zhang et al. (2018) formula (7), `vertical` formula (8).
     pub rmse: Components,
     /// Mean residual (m).
     pub mean: Axes,

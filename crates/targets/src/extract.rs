@@ -469,7 +469,8 @@ pub fn extract_targets(
 
 /// The target's [`CentreEstimate`] from its plate fit: `circle-fit` takes the plate model's
 /// posterior centre and its elevation from the plate; `sector-mec` and `centroid` run on the
-/// plate's segmented points (seed 000: their elevation is the mean Z of those points, eq. 8).
+/// plate's segmented points (Zhang et al. 2018: their elevation is the mean Z of those points,
+/// eq. 8).
 fn plate_estimate(
     local: &[LidarPoint],
     fit: PlateFit,

@@ -1,6 +1,6 @@
-//! Fuzzy c-means on intensity and the high-intensity threshold (seed 000 §3.1).
+//! Fuzzy c-means on intensity and the high-intensity threshold (Zhang et al. 2018, §3.1).
 //!
-//! # Fuzzy c-means (seed 000, eqs. 4–6)
+//! # Fuzzy c-means (Zhang et al. 2018, eqs. 4–6)
 //!
 //! The N intensities `x_j` are split into `c` fuzzy classes by minimising
 //!
@@ -15,7 +15,7 @@
 //! spread evenly over the range, and seeded k-means++ draws), keeping the lowest J. The report gives the iterations, J and whether it converged; centres are returned in
 //! ascending order, so the last class is the high-reflectivity one.
 //!
-//! # The threshold (seed 000 §3.1, step 2) and why it is not the default
+//! # The threshold (Zhang et al. 2018, §3.1, step 2) and why it is not the default
 //!
 //! The paper keeps the points of the rough high cluster whose intensity exceeds
 //! `1.5 × I_mean`, `I_mean = (max + min) / 2` of that cluster ([`ThresholdRule::Paper`]). As
@@ -166,7 +166,7 @@ impl FcmResult {
     }
 }
 
-/// Fuzzy c-means clustering of one-dimensional values (seed 000, eqs. 4–6).
+/// Fuzzy c-means clustering of one-dimensional values (Zhang et al. 2018, eqs. 4–6).
 ///
 /// # Errors
 /// [`Error::NoPoints`] for an empty slice, [`Error::NonFinite`] for NaN/∞ values,
@@ -407,9 +407,9 @@ fn update_row(row: &mut [f64], xj: f64, v: &[f64], inv: f64, w: &mut [f64], max_
 #[serde(rename_all = "kebab-case")]
 #[non_exhaustive]
 pub enum ThresholdRule {
-    /// Seed 000 §3.1 step 2 as written: threshold = 1.5 × (max + min)/2 of the rough high cluster
-    /// (the points whose largest membership is in the high class). Usually keeps nothing; see the
-    /// module docs.
+    /// Zhang et al. (2018) §3.1 step 2 as written: threshold = 1.5 × (max + min)/2 of the rough
+    /// high cluster (the points whose largest membership is in the high class). Usually keeps
+    /// nothing; see the module docs.
     Paper,
     /// Default: threshold = (v_c + v_{c−1}) / 2, halfway between the two highest centres (the
     /// 50 % mixed-pixel level; equal memberships of the two top classes).

@@ -1,9 +1,9 @@
-//! Measured accuracy of airborne lidar from high-reflectivity targets (seed 000 §3–4).
+//! Measured accuracy of airborne lidar from high-reflectivity targets (Zhang et al. 2018, §3–4).
 //!
 //! The pipeline, one function per step, plain structs in and out (no file I/O):
 //!
-//! 1. [`fuzzy_c_means`] on intensity (seed 000 eqs. 4–6) and [`select_high_intensity`]: the
-//!    high-reflectivity points. The paper's refinement threshold (1.5 × the mean of the rough
+//! 1. [`fuzzy_c_means`] on intensity (Zhang et al. 2018, eqs. 4–6) and [`select_high_intensity`]:
+//!    the high-reflectivity points. The paper's refinement threshold (1.5 × the mean of the rough
 //!    cluster's max and min) is available as [`ThresholdRule::Paper`] but keeps no target point
 //!    on realistic data; the default is the midpoint between the two top cluster centres (see
 //!    the `fcm` module docs for the measurement).
@@ -14,22 +14,22 @@
 //!    a matched filter finds the disc, the centre is the posterior mean of an intensity
 //!    (footprint mixing) and height-step likelihood over every return around it, the elevation
 //!    the mean Z inside the circle minus the rim ([`PlateModel`]), with shape and neighbour
-//!    flags. Otherwise [`estimate_centre`]: `sector-mec` (seed 000 §3.2, with Welzl's
+//!    flags. Otherwise [`estimate_centre`]: `sector-mec` (Zhang et al. 2018, §3.2, with Welzl's
 //!    [`min_enclosing_circle`]), `centroid`, or `circle-fit` (robust circle fit in the target
 //!    plane), with covariance, coverage and flags. [`extract_targets`] runs 1–3.
-//! 4. [`evaluate`]: residuals lidar − control in north/east/up, RMSE (seed 000 formulas 7 and
-//!    8), ASPRS Positional Accuracy Standards Ed. 2 (2023), NSSDA 95 %; and
+//! 4. [`evaluate`]: residuals lidar − control in north/east/up, RMSE (Zhang et al. 2018, formulas 7
+//!    and 8), ASPRS Positional Accuracy Standards Ed. 2 (2023), NSSDA 95 %; and
 //!    [`evaluate_vertical_tin`] for vertical checkpoints against a TIN of ground points.
 //!
 //! Coordinates are projected metres (x = east, y = north, z = up), f64 throughout.
 //!
 //! # Example
 //!
-//! Seed 000's Table 2 (the residuals of four targets, cm) through [`evaluate`]:
+//! Zhang et al.'s (2018) Table 2 (the residuals of four targets, cm) through [`evaluate`]:
 //!
 //! ```
 //! use lidarqa_targets::{evaluate, ControlPoint, EvaluateOptions, MeasuredPoint};
-//! // (id, ΔX = north, ΔY = east) in cm; seed 000 writes x for north (SPEC §3).
+//! // (id, ΔX = north, ΔY = east) in cm; Zhang et al. (2018) write x for north (SPEC §3).
 //! let table2 = [("QZ01", -7.2, 12.9), ("QZ03", 9.5, 14.3), ("QZ04", 13.8, -16.7), ("QZ05", -13.1, 8.9)];
 //! let control: Vec<ControlPoint> =
 //!     table2.iter().enumerate().map(|(k, t)| ControlPoint::new(t.0, 100.0 * k as f64, 0.0, 0.0)).collect();

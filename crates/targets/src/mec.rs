@@ -6,8 +6,8 @@
 //! and the algorithm is thirty lines that the tests below pin down. This is the
 //! iterative (move-to-front free) form of Welzl's randomised incremental algorithm
 //! (E. Welzl, "Smallest enclosing disks (balls and ellipsoids)", 1991): expected O(n) after a
-//! seeded shuffle, so the result is deterministic. OpenCV's `minEnclosingCircle`, which seed 000
-//! uses, computes the same circle.
+//! seeded shuffle, so the result is deterministic. OpenCV's `minEnclosingCircle`, which
+//! Zhang et al. (2018) use, computes the same circle.
 
 use rand::SeedableRng;
 use rand::seq::SliceRandom;

@@ -1,12 +1,13 @@
-//! Accuracy statistics: seed 000 Table 2, ASPRS Ed. 2 hand cases, NSSDA, JSON field names.
+//! Accuracy statistics: Zhang et al. (2018) Table 2, ASPRS Ed. 2 hand cases, NSSDA, JSON field
+//! names.
 
 use lidarqa_targets::{
     ControlPoint, EvaluateOptions, MeasuredPoint, asprs_combined_rmse, evaluate,
     evaluate_vertical_tin, nssda_horizontal,
 };
 
-/// Seed 000 Table 2: fitted and measured X (north) and Y (east), leading digits hidden by the
-/// paper ("**"); any common prefix gives the same residuals. Residual = fitted − measured.
+/// Zhang et al. (2018) Table 2: fitted and measured X (north) and Y (east), leading digits hidden
+/// by the paper ("**"); any common prefix gives the same residuals. Residual = fitted − measured.
 fn table2() -> (Vec<MeasuredPoint>, Vec<ControlPoint>) {
     // (id, fitted X, fitted Y, measured X, measured Y); X = north, Y = east (SPEC §3).
     let rows = [

@@ -12,7 +12,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, Poisson};
 
-/// Seed 000 §4.1: disks of radius 0.8 m, 0.5 m above the ground.
+/// Zhang et al. (2018) §4.1: disks of radius 0.8 m, 0.5 m above the ground.
 const RADIUS_M: f64 = 0.8;
 const HEIGHT_M: f64 = 0.5;
 /// Footprint radius of the beam on the ground (m): 0.25 mrad half-angle at ~500 m.
@@ -241,8 +241,8 @@ fn horizontal(v: [f64; 3]) -> f64 {
 }
 
 /// Runs the cells, prints the README table (cm) and asserts the goals per cell: every
-/// target found, the default's horizontal RMSE below seed 000's sector-MEC and the centroid,
-/// and its RMSE / RMS σ within 0.7–1.4 per axis.
+/// target found, the default's horizontal RMSE below Zhang et al.'s (2018) sector-MEC and the
+/// centroid, and its RMSE / RMS σ within 0.7–1.4 per axis.
 ///
 /// Each cell is given with its index in the full table, which seeds its scene (a cell's numbers
 /// are the same whichever run prints it).

@@ -26,7 +26,7 @@ fn states() -> Vec<SVector<f64, 14>> {
 
 fn bench(c: &mut Criterion) {
     let states = states();
-    let cov = Preset::Seed000
+    let cov = Preset::Zhang2018
         .sensor()
         .covariance::<14>(&LinearScanner::SOURCES);
     let mut group = c.benchmark_group("linear_per_point");

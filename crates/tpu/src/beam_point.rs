@@ -142,7 +142,7 @@ mod tests {
         scanner.beam_divergence_rad = 3e-3;
         let sensor = Sensor {
             scanner: Scanner::Beam(scanner.clone()),
-            ..crate::Preset::Seed000.sensor()
+            ..crate::Preset::Zhang2018.sensor()
         };
         let mut sensor = sensor;
         sensor

@@ -1,4 +1,5 @@
-//! Systematic errors: what a given boresight, lever-arm or other bias does to a point (seed 001 §2.1).
+//! Systematic errors: what a given boresight, lever-arm or other bias does to a point
+//! (Zhang & Jiang 2011, §2.1).
 //!
 //! The exact displacement re-georeferences with and without the bias; the first-order one is
 //! `J · b`. Both are reported so a user sees where linearisation stops being good enough.

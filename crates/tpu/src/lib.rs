@@ -19,16 +19,17 @@
 //! ```
 //! use lidarqa_tpu::{evaluate, Preset};
 //!
-//! // Seed 000 Table 1 at scan angle 30°, 80 m below: 5.27 / 5.19 / 10.04 cm (north / east / up).
-//! let e = evaluate(&Preset::Seed000.sensor(), &Preset::Seed000.geometry(), None).unwrap();
+//! // Zhang et al. (2018) Table 1 at scan angle 30°, 80 m below: 5.27 / 5.19 / 10.04 cm
+//! // (north / east / up).
+//! let e = evaluate(&Preset::Zhang2018.sensor(), &Preset::Zhang2018.geometry(), None).unwrap();
 //! assert!((e.total.north - 0.0527).abs() < 5e-5);
 //! assert!((e.total.up - 0.1004).abs() < 5e-5);
 //! ```
 //!
-//! Seed 000 quotes 0.133 / 0.147 / 0.119 m for the same σ. Its formula (3) with the units right
-//! gives the values above, and no attitude or scan angle within the paper's ranges (±3°, ±4°, ±30°)
-//! gets near the published ones: the non-GNSS part is bounded by about 3 cm, so the published
-//! figures cannot come from Table 1 (SPEC §3). lidarqa reports the correct values.
+//! Zhang et al. (2018) quote 0.133 / 0.147 / 0.119 m for the same σ. Their formula (3) with the
+//! units right gives the values above, and no attitude or scan angle within the paper's ranges
+//! (±3°, ±4°, ±30°) gets near the published ones: the non-GNSS part is bounded by about 3 cm, so
+//! the published figures cannot come from Table 1 (SPEC §3). lidarqa reports the correct values.
 
 mod axes;
 mod beam_point;

@@ -1300,7 +1300,7 @@ mod tests {
         use crate::{Incidence, PointPropagator, Preset};
         use lidarqa_model::{Attitude, Georeferencer, LinearObservation, LinearScanner, Mounting};
         let pp =
-            PointPropagator::new(LinearScanner, &Preset::Seed000.sensor(), Some(0.5e-3)).unwrap();
+            PointPropagator::new(LinearScanner, &Preset::Zhang2018.sensor(), Some(0.5e-3)).unwrap();
         let pts = strip(5, 40_000);
         let targets: Vec<[f64; 3]> = pts[..40_000].iter().step_by(11).copied().collect();
         let (new, old) = (

@@ -326,7 +326,7 @@ mod tests {
     #[test]
     fn covariance_sums_are_the_matrix_product_to_the_bit() {
         // The six sums of `propagate_jacobian` against nalgebra's `a aᵀ` on an irregular J.
-        let sensor = Preset::Seed000.sensor();
+        let sensor = Preset::Zhang2018.sensor();
         let pp = PointPropagator::new(LinearScanner, &sensor, None).unwrap();
         let j = SMatrix::<f64, 3, 14>::from_fn(|r, c| {
             ((r * 14 + c) as f64 * 0.731).sin() * 10f64.powi(c as i32 % 5 - 2)
@@ -340,7 +340,7 @@ mod tests {
 
     #[test]
     fn without_extras_it_is_the_budget() {
-        let sensor = Preset::Seed000.sensor();
+        let sensor = Preset::Zhang2018.sensor();
         let pp = PointPropagator::new(LinearScanner, &sensor, None).unwrap();
         let p = params();
         let u = pp.propagate(&p, None, None).unwrap();
@@ -377,7 +377,7 @@ mod tests {
         );
         let sensor = lidarqa_model::Sensor {
             correlation: Some(Correlation::new(srcs, corr).unwrap()),
-            ..Preset::Seed000.sensor()
+            ..Preset::Zhang2018.sensor()
         };
         let pp = PointPropagator::new(LinearScanner, &sensor, None).unwrap();
         let t = PoseSigma {
@@ -408,7 +408,7 @@ mod tests {
 
     #[test]
     fn trajectory_sigma_replaces_gnss_and_attitude() {
-        let sensor = Preset::Seed000.sensor();
+        let sensor = Preset::Zhang2018.sensor();
         let pp = PointPropagator::new(LinearScanner, &sensor, None).unwrap();
         let t = PoseSigma {
             north_m: 0.01,
@@ -454,7 +454,7 @@ mod tests {
     fn incidence_term_is_along_the_beam() {
         let sensor = lidarqa_model::Sensor {
             sigma: lidarqa_model::Sigmas::zero(),
-            ..Preset::Seed000.sensor()
+            ..Preset::Zhang2018.sensor()
         };
         let pp = PointPropagator::new(LinearScanner, &sensor, Some(0.5e-3)).unwrap();
         let beam = Vector3::new(0.0, 0.6, 0.8);

@@ -13,7 +13,7 @@ use lidarqa_model::{
 pub enum Preset {
     /// Zhang et al. (2018), Table 1 σ; linear scanner; scan angle 30°, range 80/cos 30° m.
     /// Named `zhang2018` on the command line (formerly `seed000`, still accepted).
-    Seed000,
+    Zhang2018,
     /// Li et al. (2016), Table 3 σ; conic scanner, exit angle 20°, scanner-frame refraction; azimuth 0,
     /// ρ1 = 425.7 m, ρ2 = 51.7 m.
     Czmil,
@@ -21,12 +21,12 @@ pub enum Preset {
 
 impl Preset {
     /// Every preset.
-    pub const ALL: [Preset; 2] = [Preset::Seed000, Preset::Czmil];
+    pub const ALL: [Preset; 2] = [Preset::Zhang2018, Preset::Czmil];
 
     /// The preset's name on the command line.
     pub fn name(self) -> &'static str {
         match self {
-            Preset::Seed000 => "zhang2018",
+            Preset::Zhang2018 => "zhang2018",
             Preset::Czmil => "czmil",
         }
     }
@@ -43,7 +43,7 @@ impl Preset {
     /// caller says the name is deprecated (this library does not print).
     pub fn deprecated_alias(name: &str) -> Option<Preset> {
         match name {
-            "seed000" => Some(Preset::Seed000),
+            "seed000" => Some(Preset::Zhang2018),
             _ => None,
         }
     }
@@ -52,7 +52,7 @@ impl Preset {
     pub fn sensor(self) -> Sensor {
         let deg = |d: f64| d.to_radians();
         let table: &[(Source, f64)] = match self {
-            Preset::Seed000 => &[
+            Preset::Zhang2018 => &[
                 (Source::Range, 0.005),
                 (Source::ScanAngle, deg(0.0028)),
                 (Source::Heading, deg(0.008)),
@@ -96,7 +96,7 @@ impl Preset {
                 .expect("preset sigmas are finite and non-negative");
         }
         let scanner = match self {
-            Preset::Seed000 => Scanner::Linear,
+            Preset::Zhang2018 => Scanner::Linear,
             Preset::Czmil => Scanner::Conic(
                 ConicScanner::from_exit_angle(
                     20f64.to_radians(),
@@ -119,7 +119,7 @@ impl Preset {
     /// The preset's geometry (level flight).
     pub fn geometry(self) -> Geometry {
         match self {
-            Preset::Seed000 => Geometry::Linear {
+            Preset::Zhang2018 => Geometry::Linear {
                 attitude: Attitude::default(),
                 scan_angle_rad: 30f64.to_radians(),
                 range: LinearRange::Range(80.0 / 30f64.to_radians().cos()),

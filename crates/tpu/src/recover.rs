@@ -1,7 +1,7 @@
 //! Raw-observation recovery: from a georeferenced point and the trajectory at its time back to
 //! the scanner's own observation (range and scan angle, or azimuth and air range).
 //!
-//! Inverting seed 000 eq. (2) `P = P0 + R_N (R_M S + ΔP)` with the N-frame vector taken
+//! Inverting Zhang et al. (2018) eq. (2) `P = P0 + R_N (R_M S + ΔP)` with the N-frame vector taken
 //! rigorously through ECEF (SPEC §3):
 //!
 //! `S = R_Mᵀ (R_Nᵀ C_NE (P − P0) − ΔP)`
@@ -308,7 +308,8 @@ mod tests {
             range_m: 612.345,
             scan_angle_rad: -0.4321,
         };
-        // β = 0 is seed 000's scanner; β ≠ 0 a beam off the scan plane, given back by its β.
+        // β = 0 is Zhang et al.'s (2018) scanner; β ≠ 0 a beam off the scan plane, given back by
+        // its β.
         for beta in [0.0, 0.0123_f64] {
             let g = OffPlaneLinearScanner {
                 along_track_rad: beta,
@@ -341,7 +342,7 @@ mod tests {
                 r
             );
         }
-        // seed 000's own scanner gives the same point at β = 0.
+        // Zhang et al.'s (2018) own scanner gives the same point at β = 0.
         let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&pose.attitude(), &m, &obs));
         let g = OffPlaneLinearScanner::default();
         assert_eq!(

@@ -40,8 +40,8 @@ pub struct GeometryRequest {
 impl GeometryRequest {
     /// The geometry for `sensor`, defaults from `preset` (a preset's own geometry). For a height or
     /// depth `sweep` of a conic preset given by its ranges, the geometry starts from the preset's
-    /// own height above the water and depth (seed 004 §3 (3): at a fixed flying height the budget
-    /// is a function of depth).
+    /// own height above the water and depth (Li et al. 2016, §3 (3): at a fixed flying height the
+    /// budget is a function of depth).
     ///
     /// # Errors
     /// A value of the other scanner type, a missing range, or a geometry the model refuses.
@@ -228,7 +228,7 @@ mod tests {
             height_m: Some(500.0),
             ..GeometryRequest::default()
         };
-        let p = Preset::Seed000;
+        let p = Preset::Zhang2018;
         match request
             .resolve(&p.sensor(), Some(p.geometry()), None)
             .unwrap()
@@ -274,12 +274,12 @@ mod tests {
         .resolve(&czmil.sensor(), Some(czmil.geometry()), None)
         .unwrap_err();
         assert!(e.to_string().contains("linear scanner"), "{e}");
-        let seed000 = Preset::Seed000;
+        let zhang2018 = Preset::Zhang2018;
         let e = GeometryRequest {
             azimuth_deg: Some(10.0),
             ..GeometryRequest::default()
         }
-        .resolve(&seed000.sensor(), Some(seed000.geometry()), None)
+        .resolve(&zhang2018.sensor(), Some(zhang2018.geometry()), None)
         .unwrap_err();
         assert!(e.to_string().contains("conic scanner"), "{e}");
     }

@@ -1,5 +1,5 @@
 //! Sweeps: the same budget over a range of one geometry variable (scan angle, azimuth, height,
-//! depth, …), as seed 004 Fig. 4 and seed 001 Figs. 1–3 plot.
+//! depth, …), as Li et al. (2016) Fig. 4 and Zhang & Jiang (2011) Figs. 1–3 plot.
 
 use crate::error::{Error, Result};
 use crate::geometry::{ConicRanges, Geometry, LinearRange};

@@ -1,5 +1,5 @@
-//! Systematic-error effects (seed 001 §2.1, Figs. 1–3), with lidarqa's scan-angle convention
-//! (SPEC §3: θ > 0 towards the right wing).
+//! Systematic-error effects (Zhang & Jiang 2011, §2.1, Figs. 1–3), with lidarqa's scan-angle
+//! convention (SPEC §3: θ > 0 towards the right wing).
 //!
 //! With identity attitude (X along track = north, Y across = east, Z down) and small boresight angles
 //! (α roll, β pitch, γ yaw), the point at `S = ρ [0, sin θ, cos θ]` moves by
@@ -27,15 +27,15 @@ fn boresight_all(deg: f64) -> Biases {
     b
 }
 
-/// Exact and first-order displacement at scan angle θ and slant range ρ (seed 001's Figs. 1–3 plot
-/// against scan angle at a given range).
+/// Exact and first-order displacement at scan angle θ and slant range ρ (Zhang & Jiang's (2011)
+/// Figs. 1–3 plot against scan angle at a given range).
 fn displacement(theta_deg: f64, range_m: f64, biases: &Biases) -> (Displacement, Displacement) {
     let g = Geometry::Linear {
         attitude: Attitude::default(),
         scan_angle_rad: theta_deg.to_radians(),
         range: LinearRange::Range(range_m),
     };
-    let e = evaluate(&Preset::Seed000.sensor(), &g, Some(biases)).unwrap();
+    let e = evaluate(&Preset::Zhang2018.sensor(), &g, Some(biases)).unwrap();
     (e.bias.unwrap(), e.bias_first_order.unwrap())
 }
 
@@ -161,10 +161,10 @@ fn first_order_agrees_with_exact_within_1_percent_at_0_1_deg() {
 
 #[test]
 fn conic_emitter_tilt_makes_an_egg_shaped_track() {
-    // Seed 004 §3 (1), Fig. 6: an emitter tilted by φls moves the beam towards the circle's centre on
-    // one side and away from it on the other, so the circle becomes egg-shaped. With θls = 0 (tilt
-    // towards +X) the footprint moves out at azimuth 0 and in at 180°; the paper's Fig. 6 draws the
-    // tilt the other way (θls = 180°), which swaps the two.
+    // Li et al. (2016) §3 (1), Fig. 6: an emitter tilted by φls moves the beam towards the circle's
+    // centre on one side and away from it on the other, so the circle becomes egg-shaped. With
+    // θls = 0 (tilt towards +X) the footprint moves out at azimuth 0 and in at 180°; the paper's
+    // Fig. 6 draws the tilt the other way (θls = 180°), which swaps the two.
     let sensor = Preset::Czmil.sensor();
     let mut b = Biases::default();
     b.set(Source::EmitterZenith, 0.5f64.to_radians()).unwrap();

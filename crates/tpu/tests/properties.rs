@@ -32,7 +32,7 @@ proptest! {
             let at = |heading: f64| {
                 let attitude = Attitude::from_degrees(roll, pitch, heading);
                 let g = match preset {
-                    Preset::Seed000 => Geometry::Linear { attitude, scan_angle_rad: theta.to_radians(), range: LinearRange::Height(500.0) },
+                    Preset::Zhang2018 => Geometry::Linear { attitude, scan_angle_rad: theta.to_radians(), range: LinearRange::Height(500.0) },
                     Preset::Czmil => Geometry::Conic { attitude, azimuth_rad: az.to_radians(), ranges: ConicRanges::HeightDepth { height_m: 400.0, depth_m: 20.0 } },
                 };
                 evaluate(&sensor, &g, None).unwrap().total
@@ -47,7 +47,7 @@ proptest! {
     #[test]
     fn totals_are_the_root_sum_square_of_the_sources(theta in -40.0..40.0f64, h in 50.0..3000.0f64) {
         let g = Geometry::Linear { attitude: Attitude::default(), scan_angle_rad: theta.to_radians(), range: LinearRange::Height(h) };
-        let e = evaluate(&Preset::Seed000.sensor(), &g, None).unwrap();
+        let e = evaluate(&Preset::Zhang2018.sensor(), &g, None).unwrap();
         let rss = |f: fn(&lidarqa_tpu::Axes) -> f64| e.sources.iter().map(|s| f(&s.effect).powi(2)).sum::<f64>().sqrt();
         prop_assert!((rss(|a| a.north) - e.total.north).abs() < 1e-12);
         prop_assert!((rss(|a| a.east) - e.total.east).abs() < 1e-12);

@@ -16,8 +16,13 @@ fn close(what: &str, got: f64, want: f64, tol: f64) {
 }
 
 #[test]
-fn seed000_table1_budget_at_30_deg_scan_80_m_below() {
-    let e = evaluate(&Preset::Seed000.sensor(), &Preset::Seed000.geometry(), None).unwrap();
+fn zhang_2018_table1_budget_at_30_deg_scan_80_m_below() {
+    let e = evaluate(
+        &Preset::Zhang2018.sensor(),
+        &Preset::Zhang2018.geometry(),
+        None,
+    )
+    .unwrap();
     close("footprint north", e.footprint.north, 0.0, 1e-9);
     close("footprint east", e.footprint.east, 46.188, 5e-4);
     close("footprint up", e.footprint.up, -80.0, 1e-9);
@@ -47,11 +52,11 @@ fn seed000_table1_budget_at_30_deg_scan_80_m_below() {
     close("total three_d", e.total.three_d, 0.12474, 1e-5);
 }
 
-/// The non-GNSS part of seed 000's budget stays below ~3 cm anywhere in the paper's envelope, so its
-/// published 0.133 / 0.147 / 0.119 m are out of reach of its own Table 1.
+/// The non-GNSS part of Zhang et al.'s (2018) budget stays below ~3 cm anywhere in the paper's
+/// envelope, so its published 0.133 / 0.147 / 0.119 m are out of reach of its own Table 1.
 #[test]
-fn seed000_published_sigmas_are_out_of_reach() {
-    let mut sensor = Preset::Seed000.sensor();
+fn zhang_2018_published_sigmas_are_out_of_reach() {
+    let mut sensor = Preset::Zhang2018.sensor();
     for s in [Source::GnssNorth, Source::GnssEast, Source::GnssUp] {
         sensor.sigma.set(s, 0.0).unwrap();
     }
@@ -73,11 +78,16 @@ fn seed000_published_sigmas_are_out_of_reach() {
     }
     assert!(worst < 0.03, "non-GNSS part {worst} m");
     // Even with GNSS added in full, each axis is far below the published figures.
-    let e = evaluate(&Preset::Seed000.sensor(), &Preset::Seed000.geometry(), None).unwrap();
+    let e = evaluate(
+        &Preset::Zhang2018.sensor(),
+        &Preset::Zhang2018.geometry(),
+        None,
+    )
+    .unwrap();
     assert!(e.total.north < 0.133 / 2.0 && e.total.east < 0.147 / 2.0 && e.total.up < 0.119);
 }
 
-/// Seed 004 Table 4 (cm), columns σxy, σz, σxyz, at azimuth 0.
+/// Li et al. (2016) Table 4 (cm), columns σxy, σz, σxyz, at azimuth 0.
 const TABLE4: [(Source, f64, f64, f64); 18] = [
     (Source::PrismSlope, 2.37, 0.84, 2.51),
     (Source::PrismX, 0.24, 0.0, 0.24),
@@ -100,7 +110,7 @@ const TABLE4: [(Source, f64, f64, f64); 18] = [
 ];
 
 #[test]
-fn seed004_table4_at_azimuth_0() {
+fn li_2016_table4_at_azimuth_0() {
     let e = evaluate(&Preset::Czmil.sensor(), &Preset::Czmil.geometry(), None).unwrap();
     match e.geometry {
         GeometryFacts::Conic {
@@ -169,7 +179,7 @@ fn seed004_table4_at_azimuth_0() {
 }
 
 #[test]
-fn seed004_fig4_azimuth_sweep_is_180_deg_periodic_in_antiphase() {
+fn li_2016_fig4_azimuth_sweep_is_180_deg_periodic_in_antiphase() {
     let sensor = Preset::Czmil.sensor();
     let sweep: Sweep = "azimuth=0:360:5".parse().unwrap();
     let base = Preset::Czmil.geometry();

@@ -7,7 +7,7 @@ north->south at 500 m above flat ground), a sawtooth scanner with 1.36 m between
 0.13 m between points on a line (at nadir), 20 painted markings picked "by hand" in every strip
 (the picker sees each marking where that strip's delivered points put it, plus 1 cm of noise),
 6 control points, the site 2.6 deg east of UTM zone 33's central meridian, and an injected
-mounting. The georeferencing convention is seed 000 eq. (2) as SPEC fixes it:
+mounting. The georeferencing convention is Zhang et al. (2018) eq. (2) as SPEC fixes it:
 P = P0 + R_N (R_M S + lever), S = [0, rho sin(theta), rho cos(theta)], R = Rz(yaw) Ry(pitch) Rx(roll),
 NED. Writes strip_1..4.las (LAS 1.2, format 1, GPS week time), sbet.out, sensor.toml, ties.csv,
 control.csv and truth.json into the output directory.

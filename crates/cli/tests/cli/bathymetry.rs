@@ -219,7 +219,7 @@ fn soundings_agree_with_their_sigma_level_refraction() {
 
 #[test]
 fn soundings_agree_with_their_sigma_scanner_frame_refraction() {
-    // Seed 004's model refracts at a surface fixed in the scanner frame: it is the physical
+    // Li et al.'s (2016) model refracts at a surface fixed in the scanner frame: it is the physical
     // surface only when the aircraft flies level, so the simulated flight is level here (its
     // attitude errors are still drawn, and propagate as the scanner-frame model says).
     check_agreement("scanner-frame", true);
@@ -489,7 +489,7 @@ fn report_bathymetry_section_shows_the_tpu_summary() {
         assert!((got_h - rh).abs() < 1e-6 * rh.max(1.0), "{got_h} vs {rh}");
         assert!((got_v - rv).abs() < 1e-6 * rv.max(1.0), "{got_v} vs {rv}");
     }
-    // σ_H grows with depth (the water leg lengthens; seed 004 §3).
+    // σ_H grows with depth (the water leg lengthens; Li et al. (2016) §3).
     let rms_h: Vec<f64> = bands_json
         .iter()
         .map(|b| b["rms_sigma_horizontal_m"].as_f64().unwrap())

@@ -23,8 +23,8 @@ fn close(v: &Value, want: f64, tol: f64) {
 }
 
 #[test]
-fn seed000_json_contract_and_values() {
-    let v = json(&["budget", "--preset", "seed000"]);
+fn zhang_2018_json_contract_and_values() {
+    let v = json(&["budget", "--preset", "zhang2018"]);
     assert_eq!(v["scanner"], "linear");
     assert!(v["refraction"].is_null());
     close(&v["footprint"]["east"], 46.188, 5e-4);
@@ -68,7 +68,7 @@ fn sweep_and_bias_json() {
     let v = json(&[
         "budget",
         "--preset",
-        "seed000",
+        "zhang2018",
         "--scan-angle",
         "0",
         "--height",
@@ -87,7 +87,7 @@ fn monte_carlo_flag_agrees_with_the_linear_totals() {
     let v = json(&[
         "budget",
         "--preset",
-        "seed000",
+        "zhang2018",
         "--monte-carlo",
         "20000",
         "--seed",
@@ -173,16 +173,22 @@ fn bad_input_is_one_line_and_exit_1() {
     // A beam that cannot reach the ground: 80° of roll to the left with a right-looking scan.
     fails_with(
         &[
-            "budget", "--preset", "seed000", "--roll", "-80", "--height", "100",
+            "budget",
+            "--preset",
+            "zhang2018",
+            "--roll",
+            "-80",
+            "--height",
+            "100",
         ],
         "cannot reach the surface",
     );
     fails_with(
-        &["budget", "--preset", "seed000", "--range", "abc"],
+        &["budget", "--preset", "zhang2018", "--range", "abc"],
         "'abc'",
     );
     fails_with(
-        &["budget", "--preset", "seed000", "--range", "-5"],
+        &["budget", "--preset", "zhang2018", "--range", "-5"],
         "range_m",
     );
     fails_with(&["budget", "--preset", "nope"], "unknown preset 'nope'");
@@ -191,11 +197,17 @@ fn bad_input_is_one_line_and_exit_1() {
         "unknown variable 'tilt'",
     );
     fails_with(
-        &["budget", "--preset", "seed000", "--bias", "range_deg=1"],
+        &["budget", "--preset", "zhang2018", "--bias", "range_deg=1"],
         "unknown key 'range_deg'",
     );
     fails_with(
-        &["budget", "--preset", "seed000", "--bias", "time_water_ns=1"],
+        &[
+            "budget",
+            "--preset",
+            "zhang2018",
+            "--bias",
+            "time_water_ns=1",
+        ],
         "this scanner does not have",
     );
     fails_with(&["budget"], "--preset");

@@ -121,9 +121,9 @@ fn demo_recovers_the_injected_mounting_and_improves_accuracy() {
     );
     assert_eq!(cal["strip_adjustment"]["model"], "offset+drift+attitude");
     assert!(json(&d.join("calibration_mounting_only.json"))["strip_adjustment"].is_null());
-    // Issue #19: on seed 001's flight every parameter is determined and within 2σ of the
-    // injection, the boresight within 0.005° and the lever arm within 2 cm, at 80 % of the pulses
-    // as at full size (`default_demo_meets_the_calibration_bar`).
+    // Issue #19: on Zhang & Jiang's (2011) flight every parameter is determined and within 2σ of
+    // the injection, the boresight within 0.005° and the lever arm within 2 cm, at 80 % of the
+    // pulses as at full size (`default_demo_meets_the_calibration_bar`).
     assert_meets_the_bar(&truth, &cal);
     let before = json(&d.join("evaluate_before.json"));
     let after = json(&d.join("evaluate_after.json"));

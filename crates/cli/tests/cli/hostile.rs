@@ -523,15 +523,15 @@ fn budget_refuses_impossible_geometry_unbounded_draws_and_duplicate_keys() {
     let dir = tempfile::tempdir().unwrap();
     let cases: [(&[&str], &[&str]); 6] = [
         (
-            &["--preset", "seed000", "--scan-angle", "95"],
+            &["--preset", "zhang2018", "--scan-angle", "95"],
             &["does not point down"],
         ),
         (
-            &["--preset", "seed000", "--height", "1e300"],
+            &["--preset", "zhang2018", "--height", "1e300"],
             &["height", "1e300", "100000"],
         ),
         (
-            &["--preset", "seed000", "--range", "5e6"],
+            &["--preset", "zhang2018", "--range", "5e6"],
             &["range", "100000"],
         ),
         (
@@ -545,7 +545,7 @@ fn budget_refuses_impossible_geometry_unbounded_draws_and_duplicate_keys() {
         (
             &[
                 "--preset",
-                "seed000",
+                "zhang2018",
                 "--bias",
                 "boresight_roll_deg=1,boresight_roll_deg=2",
             ],

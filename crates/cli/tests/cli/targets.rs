@@ -1,5 +1,5 @@
-//! `lidarqa targets` and `lidarqa evaluate` run as the real binary: seed 000 Table 2, a target found
-//! in a small point cloud, and one-line errors for bad input.
+//! `lidarqa targets` and `lidarqa evaluate` run as the real binary: Zhang et al. (2018) Table 2, a
+//! target found in a small point cloud, and one-line errors for bad input.
 
 use crate::binary;
 use binary::{json_ok, lidarqa, run_ok, s};

@@ -70,8 +70,8 @@ def find_targets(inputs, control, radius_m=None, method="circle-fit", window_m=6
 def evaluate_targets(targets, control, horizontal_class_m=None, vertical_class_m=None,
                      sensor=None, height_m=None, scan_angle_deg=None, tpu=None):
     """Accuracy of a targets CSV against a control CSV (``lidarqa evaluate --targets --control``):
-    residuals, RMSE (seed 000 eqs. 7-8), ASPRS and NSSDA; the predicted σ beside it from ``tpu``
-    (a ``tpu_summary.json``: its median per-point σ, as ``--tpu``) or from ``sensor`` with
+    residuals, RMSE (Zhang et al. 2018, eqs. 7-8), ASPRS and NSSDA; the predicted σ beside it from
+    ``tpu`` (a ``tpu_summary.json``: its median per-point σ, as ``--tpu``) or from ``sensor`` with
     ``height_m`` (that sensor file's budget, as ``--sensor``)."""
     return _json.loads(_lidarqa.evaluate_targets(str(targets), str(control), horizontal_class_m,
                                                  vertical_class_m, _s(sensor), height_m,

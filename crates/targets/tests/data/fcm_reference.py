@@ -1,4 +1,4 @@
-"""Independent fixed point of fuzzy c-means (seed 000 eqs. 5-6, m = 2) for the unit test
+"""Independent fixed point of fuzzy c-means (Zhang et al. 2018, eqs. 5-6, m = 2) for the unit test
 `fcm::tests::fcm_converges_to_known_centres`. Plain Python, no dependencies.
 
 Run: python3 crates/targets/tests/data/fcm_reference.py
