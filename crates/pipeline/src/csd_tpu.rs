@@ -16,7 +16,7 @@
 //! returns computed in parallel; the output is written atomically.
 
 use crate::error::{Error, Result};
-use crate::summary::{Histogram, SIGMA_NAMES, Stats};
+use crate::summary::{Histogram, SIGMA_NAMES};
 use lidarqa_io::{
     Crs, CsdHeader, CsdPulse, CsdReader, CsdReturn, Geodetic, LasPoint, LasTimeBase,
     LasWriteOptions, LasWriter, RawVlr, utm_wkt, week_to_adjusted_standard,
@@ -25,6 +25,7 @@ use lidarqa_model::{
     Axes, Ecef, Georeferencer, Grid, LINEAR_N, LinearObservation, LinearScanner, Mounting, Ned,
     Scanner, Sensor, Warning, ecef_from_ned,
 };
+use lidarqa_products::Stats;
 use lidarqa_tpu::PointPropagator;
 use nalgebra::Matrix3;
 use rayon::prelude::*;

@@ -49,8 +49,8 @@
 //!     context: &ctx,
 //! })?;
 //! let (_, survey) = TileReport::merge(&[report]).unwrap();
-//! println!("{} points, median σ_up {:?} m", survey.summary.points_written,
-//!          survey.summary.sigma["up"].map(|s| s.median));
+//! println!("{} points, median σ_up {:?} m", survey.points_written,
+//!          survey.sigma["up"].map(|s| s.median));
 //! # Ok::<(), lidarqa_pipeline::Error>(())
 //! ```
 
@@ -116,10 +116,9 @@ pub use qc::{QcOptions, QlLimits, QualityLevel, Standard, qc_delivery, qc_lines,
 pub use retile::{RetileReport, TileFile, TileGrid, retile};
 pub use stored::{StoredHistogram, StoredSummary};
 pub use summary::{
-    AngleCheck, BandView, DEPTH_BANDS_M, Histogram, HistogramsView, IhoTally, IhoView,
-    IncidenceTally, LinearHistogram, OrderGridView, OrderView, ResidualCheck, ResidualView,
-    SIGMA_MAP_CELL_M, SIGMA_MAP_MAX_SIDE, SIGMA_NAMES, ScanAngleView, SigmaGridView, SigmaMap,
-    SkipReason, SoundingResult, Stats, SummaryView, SurveyReport, TileLine, TileReport, TpuSummary,
+    AngleCheck, DEPTH_BANDS_M, Histogram, IhoTally, IncidenceTally, ResidualCheck,
+    SIGMA_MAP_CELL_M, SIGMA_MAP_MAX_SIDE, SIGMA_NAMES, SigmaMap, SkipReason, SoundingResult,
+    TileReport, TpuSummary,
 };
 pub use targets_csv::targets_csv;
 pub use targets_files::{control_for_targets, find_targets, points_near_control};

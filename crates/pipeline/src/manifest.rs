@@ -27,9 +27,10 @@ use crate::context::{TpuContext, TpuOptions};
 use crate::digest::{FileDigest, seed_for_tile};
 use crate::error::{Error, Result};
 use crate::stored::StoredSummary;
-use crate::summary::{SurveyReport, TileReport, TpuSummary};
+use crate::summary::{TileReport, TpuSummary};
 use crate::tile::{TpuTileJob, tpu_tile};
 use lidarqa_io::{AtomicFile, Crs};
+use lidarqa_products::TpuSummaryDocument;
 use serde::{Deserialize, Serialize};
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -716,7 +717,10 @@ pub fn run_manifest_entry(manifest_path: &Path, index: usize, force: bool) -> Re
 /// [`Error::Manifest`] naming a shared input (trajectory, SMRMSG, sensor file) changed since
 /// the plan, or listing the incomplete entries (index and reason, the first few: a tile changed
 /// since the plan is one).
-pub fn collect(manifest_path: &Path, manifest: &Manifest) -> Result<(TpuSummary, SurveyReport)> {
+pub fn collect(
+    manifest_path: &Path,
+    manifest: &Manifest,
+) -> Result<(TpuSummary, TpuSummaryDocument)> {
     // Reports computed from inputs that changed since the plan describe files no longer there:
     // the shared inputs and every tile are compared with the digests the plan recorded.
     for f in [

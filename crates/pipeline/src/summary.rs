@@ -13,18 +13,14 @@ mod histogram;
 mod iho;
 
 pub use checks::{AngleCheck, IncidenceTally, ResidualCheck};
-pub use histogram::{
-    Histogram, HistogramsView, LinearHistogram, SIGMA_MAP_CELL_M, SIGMA_MAP_MAX_SIDE,
-    SigmaGridView, SigmaMap, Stats,
-};
-pub use iho::{
-    BandView, DEPTH_BANDS_M, IhoTally, IhoView, OrderGridView, OrderView, SoundingResult,
-};
+pub use histogram::{Histogram, SIGMA_MAP_CELL_M, SIGMA_MAP_MAX_SIDE, SigmaMap};
+pub use iho::{DEPTH_BANDS_M, IhoTally, SoundingResult};
 
 use crate::plausibility::PlausibilityTally;
 use lidarqa_model::Warning;
-use lidarqa_tpu::MountingView;
-use serde::Serialize;
+use lidarqa_products::{
+    RecoveryResidual, ScanAngleCheck, SigmaHistograms, TileLine, TpuSummaryDocument,
+};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
@@ -196,51 +192,57 @@ impl TpuSummary {
         self.skipped.values().sum()
     }
 
-    /// The serialisable view (SPEC-style JSON, σ in metres).
-    pub fn view(&self) -> SummaryView {
+    /// The `tpu_summary.json` of these statistics and the given tiles' lines.
+    pub fn document(&self, tiles: Vec<TileLine>) -> TpuSummaryDocument {
         let n = self.points_written;
-        SummaryView {
-            scanner: self.scanner,
+        TpuSummaryDocument {
+            tiles,
+            scanner: self.scanner.to_string(),
             points_read: self.points_read,
             points_written: n,
             points: n,
             skipped: SkipReason::ALL
                 .iter()
-                .map(|r| (r.name(), self.skipped.get(r).copied().unwrap_or(0)))
+                .map(|r| {
+                    let n = self.skipped.get(r).copied().unwrap_or(0);
+                    (r.name().to_string(), n)
+                })
                 .collect(),
             sigma: self
                 .sigma
                 .iter()
                 .zip(SIGMA_NAMES)
-                .map(|(h, name)| (name.trim_start_matches("sigma_"), h.stats()))
+                .map(|(h, name)| (name.trim_start_matches("sigma_").to_string(), h.stats()))
                 .collect(),
-            percentiles: "histogram: 1000 log bins per decade, bin centre (within 0.12 %)",
+            percentiles: "histogram: 1000 log bins per decade, bin centre (within 0.12 %)"
+                .to_string(),
             source_share: self
                 .share_sums
                 .iter()
-                .map(|(s, v)| (*s, if n > 0 { v / n as f64 } else { 0.0 }))
+                .map(|(s, v)| (s.to_string(), if n > 0 { v / n as f64 } else { 0.0 }))
                 .collect(),
             points_with_surface_normal: self.with_normal,
-            incidence: self.incidence,
-            histogram: HistogramsView {
+            incidence: self.incidence.counts(),
+            histogram: SigmaHistograms {
                 horizontal: self.sigma.get(3).and_then(|h| h.linear(40)),
                 vertical: self.sigma.get(4).and_then(|h| h.linear(40)),
             },
             grid: self.map.view(),
-            scan_angle_check: (self.scan_angle.n > 0).then(|| ScanAngleView {
+            scan_angle_check: (self.scan_angle.n > 0).then(|| ScanAngleCheck {
                 points: self.scan_angle.n,
                 rms_deg: (self.scan_angle.sum_sq_deg2 / self.scan_angle.n as f64).sqrt(),
                 max_deg: self.scan_angle.max_deg,
                 las_step_deg: self.scan_angle.step_deg,
                 max_beyond_las_step_deg: self.scan_angle.max_beyond_step_deg,
             }),
-            recovery_residual_m: (self.recovery_residual.n > 0).then(|| ResidualView {
+            recovery_residual_m: (self.recovery_residual.n > 0).then(|| RecoveryResidual {
                 kind: match self.scanner {
                     "linear" => "out_of_plane",
                     "conic" => "off_cone",
                     // A beam scanner: the distance from the nearest beam the head fires.
                     _ => "off_beam",
-                },
+                }
+                .to_string(),
                 rms: (self.recovery_residual.sum_sq_m2 / self.recovery_residual.n as f64).sqrt(),
                 max_abs: self.recovery_residual.max_abs_m,
             }),
@@ -249,75 +251,6 @@ impl TpuSummary {
             warnings: self.warnings(),
         }
     }
-}
-
-/// JSON view of a [`TpuSummary`].
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SummaryView {
-    /// `"linear"`, `"conic"` or a beam scanner's type (`"rotating-mirror"`, ...).
-    pub scanner: &'static str,
-    /// Points read.
-    pub points_read: u64,
-    /// Points written.
-    pub points_written: u64,
-    /// Points with a TPU (= `points_written`; the report's name).
-    pub points: u64,
-    /// Skipped points by reason (every reason listed, 0 included).
-    pub skipped: BTreeMap<&'static str, u64>,
-    /// Per σ (north, east, up, horizontal, vertical[, total_thu, total_tvu]): statistics, m;
-    /// null when no point was written.
-    pub sigma: BTreeMap<&'static str, Option<Stats>>,
-    /// How percentiles are computed.
-    pub percentiles: &'static str,
-    /// Mean over points of each source's share of the point's variance (diagonal terms; they
-    /// sum to 1).
-    pub source_share: BTreeMap<&'static str, f64>,
-    /// Points whose incidence angle was estimated.
-    pub points_with_surface_normal: u64,
-    /// Where the incidence term's normals came from and why some points have none.
-    pub incidence: IncidenceTally,
-    /// Equal-width histograms of σ horizontal and vertical (40 bins).
-    pub histogram: HistogramsView,
-    /// Mean σ vertical per 10 m cell (coarsened to ≤ 200 cells a side).
-    pub grid: Option<SigmaGridView>,
-    /// Recovered vs LAS scan angle (linear scanner), degrees.
-    pub scan_angle_check: Option<ScanAngleView>,
-    /// Recovery residual, m.
-    pub recovery_residual_m: Option<ResidualView>,
-    /// IHO S-44 Ed. 6 orders met by the bathymetric soundings (class 40) by depth band; only
-    /// present when there are soundings.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub iho_s44: Option<IhoView>,
-    /// Whether the sensor file's mounting fits the points, and the boresight that does.
-    pub mounting_check: Option<MountingView>,
-    /// Doubtful findings (SPEC §7): `{code, message}`, empty when none.
-    pub warnings: Vec<Warning>,
-}
-
-/// JSON view of an [`AngleCheck`].
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct ScanAngleView {
-    /// Points compared.
-    pub points: u64,
-    /// RMS of recovered − LAS, degrees.
-    pub rms_deg: f64,
-    /// Largest |recovered − LAS|, degrees.
-    pub max_deg: f64,
-    /// The LAS field's step, degrees.
-    pub las_step_deg: f64,
-    /// Largest disagreement beyond half a LAS step, degrees (0 when the rounding explains all).
-    pub max_beyond_las_step_deg: f64,
-}
-
-/// JSON view of a [`ResidualCheck`].
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct ResidualView {
-    /// `out_of_plane` (linear: S_x), `off_cone` (conic) or `sounding` (bathymetric).
-    pub kind: &'static str,
-    /// RMS, m.
-    pub rms: f64,
-    /// Largest |value|, m.
-    pub max_abs: f64,
 }
 
 /// The result of one tile.
@@ -331,35 +264,10 @@ pub struct TileReport {
     pub summary: TpuSummary,
 }
 
-/// One tile's line in a survey summary.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct TileLine {
-    /// The input tile.
-    pub input: PathBuf,
-    /// The output written.
-    pub output: PathBuf,
-    /// Points read.
-    pub points_read: u64,
-    /// Points written.
-    pub points_written: u64,
-    /// Points skipped.
-    pub points_skipped: u64,
-}
-
-/// The summary of a survey: every tile's line and the merged statistics.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SurveyReport {
-    /// The tiles, in the order given.
-    pub tiles: Vec<TileLine>,
-    /// Merged statistics.
-    #[serde(flatten)]
-    pub summary: SummaryView,
-}
-
 impl TileReport {
-    /// Merges tile reports into the survey summary (see the module docs for what is exact);
-    /// `None` for no tiles.
-    pub fn merge(reports: &[TileReport]) -> Option<(TpuSummary, SurveyReport)> {
+    /// Merges tile reports into the survey summary (see the module docs for what is exact) and
+    /// its `tpu_summary.json`; `None` for no tiles.
+    pub fn merge(reports: &[TileReport]) -> Option<(TpuSummary, TpuSummaryDocument)> {
         let (first, rest) = reports.split_first()?;
         let mut all = first.summary.clone();
         for r in rest {
@@ -375,14 +283,8 @@ impl TileReport {
                 points_skipped: r.summary.skipped_total(),
             })
             .collect();
-        let view = all.view();
-        Some((
-            all,
-            SurveyReport {
-                tiles,
-                summary: view,
-            },
-        ))
+        let document = all.document(tiles);
+        Some((all, document))
     }
 }
 

@@ -31,7 +31,10 @@ fn sigmas(s: &Survey, sensor: &Path, smrmsg: bool, out: &Path) -> (Vec<Vec<f64>>
         .iter()
         .map(|n| c.extra_column(n).unwrap())
         .collect();
-    (cols, report.summary.view().scanner.to_string())
+    (
+        cols,
+        report.summary.document(Vec::new()).scanner.to_string(),
+    )
 }
 
 #[test]

@@ -154,7 +154,7 @@ fn a_trajectory_without_roll_warns_and_a_bad_row_names_its_line() {
         context: &ctx,
     })
     .unwrap();
-    let view = r.summary.view();
+    let view = r.summary.document(Vec::new());
     assert!(
         view.warnings
             .iter()

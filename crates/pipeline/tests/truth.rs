@@ -108,10 +108,10 @@ fn per_point_sigma_equals_the_budget_at_the_true_geometry() {
     }
     assert!(worst < 1e-6, "worst σ difference {worst} m");
     // σ_up at Zhang et al.'s (2018) GNSS 10 cm dominates: between 10 and 11.5 cm.
-    let up = report.summary.view().sigma["up"].unwrap();
+    let up = report.summary.document(Vec::new()).sigma["up"].unwrap();
     assert!(up.min > 0.1 && up.max < 0.115, "{up:?}");
     // The LAS scan-angle field agrees with the recovered angle within its 0.006° step.
-    let v = report.summary.view();
+    let v = report.summary.document(Vec::new());
     let sa = v.scan_angle_check.unwrap();
     assert_eq!(sa.points, 3000);
     assert!(sa.max_deg <= 0.003 + 1e-4, "{sa:?}");
@@ -205,7 +205,7 @@ fn incidence_term_adds_variance_along_the_beam() {
         few.incidence
     );
     assert_eq!(few.with_normal, few.incidence.planar);
-    let v = run(100).view();
+    let v = run(100).document(Vec::new());
     assert_eq!(v.points_with_surface_normal, 2000);
     assert_eq!(v.incidence.planar, 2000);
     // Level ground: α = the beam's off-nadir angle (up to ~31°), σ_inc ≤ 600 m · 0.25 mrad ·
@@ -238,7 +238,10 @@ fn merged_tiles_equal_the_whole_strip() {
     assert_eq!(survey_report.tiles.len(), 2);
     assert_eq!(merged.points_read, whole.summary.points_read);
     assert_eq!(merged.points_written, whole.summary.points_written);
-    let (m, w) = (merged.view(), whole.summary.view());
+    let (m, w) = (
+        merged.document(Vec::new()),
+        whole.summary.document(Vec::new()),
+    );
     for axis in ["north", "east", "up", "horizontal", "vertical"] {
         let (x, y) = (m.sigma[axis].unwrap(), w.sigma[axis].unwrap());
         assert_eq!(x.min, y.min, "{axis}");

@@ -16,7 +16,7 @@ use lidarqa_pipeline::{
     find_targets as find_targets_in, overlap_files, predicted_from_sensor,
     read_calibrated_mounting, run_entry, targets_csv, tpu_tile as tpu_one,
 };
-use lidarqa_report::TpuSummary;
+use lidarqa_report::predicted_from_tpu_summary;
 use lidarqa_targets::{CentreMethod, ControlPoint, EvaluateOptions, TargetConfig};
 use lidarqa_tpu::{Biases, GeometryRequest, Preset, Sweep, evaluate, evaluate_sweep};
 use pyo3::create_exception;
@@ -229,7 +229,7 @@ fn evaluate_targets(
         let mut e = evaluate_target_files(&targets, &control, &options).map_err(err)?;
         match (&tpu, &sensor, height_m) {
             (Some(t), None, None) => {
-                e.set_predicted(TpuSummary::predicted_from_file(t).map_err(err)?);
+                e.set_predicted(predicted_from_tpu_summary(t).map_err(err)?);
             }
             (None, Some(s), Some(h)) => {
                 e.set_predicted(predicted_from_sensor(s, h, scan_angle_deg).map_err(err)?);

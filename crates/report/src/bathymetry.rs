@@ -8,6 +8,7 @@ use crate::plot::{self, Line, Scale};
 use crate::products::*;
 use crate::report::Products;
 use crate::text::{cm, esc, meaning};
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 /// The orders in the table's column order, with their display names.
@@ -51,20 +52,22 @@ pub(crate) fn section(p: &Products) -> Option<(&'static str, &'static str, Strin
 /// The most stringent order met (≥ 95 %) given per-order percentages.
 /// The strictest IHO S-44 order the survey's soundings meet as a whole, as a phrase ("Special
 /// Order", "Order 1a"); `None` when they meet none.
-pub(crate) fn overall_order(iho: &TpuIho) -> Option<String> {
-    let all = Ordered(
-        iho.orders
-            .iter()
-            .map(|(k, v)| (k.clone(), v.percent_meeting))
-            .collect(),
-    );
-    best_met(&all).map(order_phrase)
+pub(crate) fn overall_order(iho: &SoundingsIho) -> Option<String> {
+    best_met(&percent_meeting(iho)).map(order_phrase)
 }
 
-fn best_met(percent: &Ordered<f64>) -> Option<&'static str> {
+/// Per order, the percentage of all soundings meeting it.
+fn percent_meeting(iho: &SoundingsIho) -> BTreeMap<String, f64> {
+    iho.orders
+        .iter()
+        .map(|(k, v)| (k.clone(), v.percent_meeting))
+        .collect()
+}
+
+fn best_met(percent: &BTreeMap<String, f64>) -> Option<&'static str> {
     ORDERS
         .iter()
-        .find(|(k, _)| percent.get(k).is_some_and(|v| *v >= MEETS_PERCENT))
+        .find(|(k, _)| percent.get(*k).is_some_and(|v| *v >= MEETS_PERCENT))
         .map(|(_, name)| *name)
 }
 
@@ -76,7 +79,7 @@ fn order_phrase(short: &str) -> String {
     }
 }
 
-fn band_name(b: &TpuIhoBand) -> String {
+fn band_name(b: &IhoBand) -> String {
     if b.depth_m[1] < 0.0 {
         format!("{}+", b.depth_m[0])
     } else {
@@ -84,7 +87,7 @@ fn band_name(b: &TpuIhoBand) -> String {
     }
 }
 
-fn band_table(iho: &TpuIho, o: &mut String) {
+fn band_table(iho: &SoundingsIho, o: &mut String) {
     let _ = writeln!(
         o,
         "<p>{} soundings (class 40) have a per-sounding TPU. A sounding meets an order when its THU and its TVU at 95 % are both within the order's allowance at its depth (IHO S-44 Edition 6.0.0, Table 1); an order is met where at least 95 % of the soundings meet it.</p>",
@@ -101,8 +104,8 @@ fn band_table(iho: &TpuIho, o: &mut String) {
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td>",
             band_name(b),
             b.soundings,
-            b.rms_sigma_horizontal_m.map_or("—".into(), cm),
-            b.rms_sigma_vertical_m.map_or("—".into(), cm),
+            cm(b.rms_sigma_horizontal_m),
+            cm(b.rms_sigma_vertical_m),
         );
         for (k, _) in ORDERS {
             let _ = write!(
@@ -121,12 +124,7 @@ fn band_table(iho: &TpuIho, o: &mut String) {
             best.unwrap_or("none")
         );
     }
-    let all: Ordered<f64> = Ordered(
-        iho.orders
-            .iter()
-            .map(|(k, v)| (k.clone(), v.percent_meeting))
-            .collect(),
-    );
+    let all = percent_meeting(iho);
     let _ = write!(
         o,
         "<tr><th>all</th><td>{}</td><td></td><td></td>",
@@ -163,11 +161,13 @@ fn band_table(iho: &TpuIho, o: &mut String) {
         .bands
         .iter()
         .filter_map(|b| {
-            let (k, name) = ORDERS
-                .iter()
-                .find(|(k, _)| b.percent_meeting.get(k).is_some_and(|v| *v < MEETS_PERCENT))?;
-            let thu = b.percent_thu.get(k).copied().unwrap_or(f64::NAN);
-            let tvu = b.percent_tvu.get(k).copied().unwrap_or(f64::NAN);
+            let (k, name) = ORDERS.iter().find(|(k, _)| {
+                b.percent_meeting
+                    .get(*k)
+                    .is_some_and(|v| *v < MEETS_PERCENT)
+            })?;
+            let thu = b.percent_thu.get(*k).copied().unwrap_or(f64::NAN);
+            let tvu = b.percent_tvu.get(*k).copied().unwrap_or(f64::NAN);
             Some(format!(
                 "in {} m, {} is missed with {thu:.1} % meeting its THU and {tvu:.1} % its TVU",
                 band_name(b),
@@ -193,8 +193,8 @@ fn band_table(iho: &TpuIho, o: &mut String) {
 
 /// σ_H and σ_V vs depth: the budget's depth sweep (one geometry) and the survey's soundings
 /// (RMS per band), with the orders' allowances converted to 1σ.
-fn sigma_vs_depth(iho: &TpuIho, sweep: Option<&Sweep>, o: &mut String) {
-    let mid = |b: &TpuIhoBand| {
+fn sigma_vs_depth(iho: &SoundingsIho, sweep: Option<&Sweep>, o: &mut String) {
+    let mid = |b: &IhoBand| {
         if b.depth_m[1] < 0.0 {
             b.depth_m[0] + 5.0
         } else {
@@ -242,14 +242,14 @@ fn sigma_vs_depth(iho: &TpuIho, sweep: Option<&Sweep>, o: &mut String) {
         let pts: Vec<(f64, Option<f64>)> = iho
             .bands
             .iter()
-            .filter_map(|b| {
+            .map(|b| {
                 let v = if vertical {
                     b.rms_sigma_vertical_m
                 } else {
                     b.rms_sigma_horizontal_m
-                }? * 100.0;
+                } * 100.0;
                 data_max = data_max.max(v);
-                Some((mid(b), Some(v)))
+                (mid(b), Some(v))
             })
             .collect();
         if !pts.is_empty() {
@@ -390,7 +390,7 @@ fn across_azimuth(s: &Sweep, o: &mut String) {
 
 /// Variance shares: the survey's (every point) and the budget's at the shallowest and deepest
 /// point of the depth sweep.
-fn shares(t: &TpuSummary, sweep: Option<&Sweep>, o: &mut String) {
+fn shares(t: &TpuSummaryDocument, sweep: Option<&Sweep>, o: &mut String) {
     let share_of = |b: &Budget, name: &str| {
         let tot = b.total.three_d.powi(2);
         b.sources.iter().find(|s| s.name == name).map_or(0.0, |s| {
@@ -481,7 +481,8 @@ fn order_map(g: &OrderGrid, o: &mut String) {
             _ => return None,
         })
     };
-    let r = g.geometry.raster(
+    let r = raster(
+        &g.geometry(),
         g.order
             .iter()
             .map(|v| v.as_deref().and_then(code))
@@ -529,6 +530,6 @@ fn order_map(g: &OrderGrid, o: &mut String) {
     let _ = writeln!(
         o,
         "<p class=\"note\">Cells of {} m; empty cells have no soundings.</p>",
-        g.geometry.cell_m
+        g.cell_m
     );
 }

@@ -10,7 +10,7 @@ use crate::products::{
     CALIBRATION_FILE, CALIBRATION_MOUNTING_ONLY_FILE, Calibration, EVALUATE_AFTER_FILE,
     EVALUATE_BEFORE_FILE, Evaluation, OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE,
     OVERLAP_MOUNTING_ONLY_FILE, Overlap, REPORT_FILE, Sweep, TPU_SUMMARY_FILE, TRUTH_FILE,
-    TpuSummary, Truth, sweep_file_name,
+    TpuSummaryDocument, Truth, sweep_file_name,
 };
 use crate::report::read_product;
 use lidarqa_tpu::IhoOrder;
@@ -179,7 +179,7 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
 /// (no `iho_s44` block).
 pub fn bathymetry_demo_summary(dir: &Path) -> Result<String> {
     let tpu_path = dir.join(TPU_SUMMARY_FILE);
-    let tpu: TpuSummary = read_product(&tpu_path)?;
+    let tpu: TpuSummaryDocument = read_product(&tpu_path)?;
     let iho = tpu.iho_s44.ok_or_else(|| Error::Invalid {
         path: tpu_path,
         key: "iho_s44".into(),
@@ -214,15 +214,15 @@ pub fn bathymetry_demo_summary(dir: &Path) -> Result<String> {
         let met = IhoOrder::ALL
             .into_iter()
             .map(IhoOrder::name)
-            .find(|o| b.percent_meeting.get(o).is_some_and(|p| *p >= 95.0))
+            .find(|o| b.percent_meeting.get(*o).is_some_and(|p| *p >= 95.0))
             .unwrap_or("none");
         let _ = writeln!(
             t,
             "{:<10}{:>10}{:>12}{:>12}{:>12.1}{:>12}",
             band,
             b.soundings,
-            cm(b.rms_sigma_horizontal_m),
-            cm(b.rms_sigma_vertical_m),
+            cm(Some(b.rms_sigma_horizontal_m)),
+            cm(Some(b.rms_sigma_vertical_m)),
             b.percent_meeting
                 .get("special")
                 .copied()
@@ -260,7 +260,28 @@ mod tests {
     #[test]
     fn bathymetry_summary_without_soundings_names_the_file_and_key() {
         let dir = tempfile::tempdir().unwrap();
-        std::fs::write(dir.path().join(TPU_SUMMARY_FILE), r#"{"points": 10}"#).unwrap();
+        let summary = TpuSummaryDocument {
+            tiles: Vec::new(),
+            scanner: "linear".into(),
+            points_read: 10,
+            points_written: 10,
+            points: 10,
+            skipped: Default::default(),
+            sigma: Default::default(),
+            percentiles: String::new(),
+            source_share: Default::default(),
+            points_with_surface_normal: 0,
+            incidence: Default::default(),
+            histogram: Default::default(),
+            grid: None,
+            scan_angle_check: None,
+            recovery_residual_m: None,
+            iho_s44: None,
+            mounting_check: None,
+            warnings: Vec::new(),
+        };
+        let json = serde_json::to_string(&summary).unwrap();
+        std::fs::write(dir.path().join(TPU_SUMMARY_FILE), json).unwrap();
         let e = bathymetry_demo_summary(dir.path()).unwrap_err().to_string();
         assert_eq!(
             e,

@@ -252,7 +252,7 @@ fn inputs_and_contents(r: &Report, sections: &[(&str, &str, String)], o: &mut St
 fn what(name: &str) -> &'static str {
     match name {
         BUDGET_FILE => Budget::WHAT,
-        TPU_SUMMARY_FILE => TpuSummary::WHAT,
+        TPU_SUMMARY_FILE => TpuSummaryDocument::WHAT,
         EVALUATE_BEFORE_FILE => "accuracy against control, before calibration",
         EVALUATE_AFTER_FILE => "accuracy against control, after calibration",
         CALIBRATION_FILE => Calibration::WHAT,

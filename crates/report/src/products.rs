@@ -7,8 +7,9 @@
 //!
 //! Where a producer exists its JSON is the contract (SPEC §6 `budget` and `evaluate`, SPEC §8
 //! `calibration.json`, the simulator's `truth.json`). Where it does not exist yet
-//! (`tpu_summary.json`, `calibration_iterations.json`, `overlap_*.json`, `iho.json`), the struct
-//! here *is* the contract, documented field by field.
+//! (`calibration_iterations.json`, `overlap_*.json`), the struct here *is* the contract,
+//! documented field by field. `tpu_summary.json` is read with lidarqa-products' type, the one
+//! its writer serialises, and `qc.json` and `iho.json` with lidarqa-io's.
 
 use serde::de::{DeserializeOwned, MapAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
@@ -20,7 +21,7 @@ pub const BUDGET_FILE: &str = "budget.json";
 /// Prefix of a sweep product: `budget_sweep_<variable>.json`, e.g. `budget_sweep_azimuth.json`
 /// (`lidarqa budget --sweep … --format json`).
 pub const SWEEP_FILE_PREFIX: &str = "budget_sweep_";
-/// Per-point TPU summary of `lidarqa tpu` ([`TpuSummary`]).
+/// Per-point TPU summary of `lidarqa tpu` ([`TpuSummaryDocument`]).
 pub const TPU_SUMMARY_FILE: &str = "tpu_summary.json";
 /// `lidarqa evaluate --format json` before calibration (SPEC §6).
 pub const EVALUATE_BEFORE_FILE: &str = "evaluate_before.json";
@@ -298,243 +299,146 @@ impl Product for Sweep {
 }
 
 // ---------------------------------------------------------------------------------------------
-// tpu_summary.json (defined here)
+// tpu_summary.json (lidarqa-products' type, the one `lidarqa tpu` writes)
 
-/// Order statistics of one σ over all points, metres.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Stats {
-    /// Smallest, m.
-    pub min: f64,
-    /// Median, m.
-    pub median: f64,
-    /// 95th percentile, m: 95 % of the points have a smaller σ.
-    pub p95: f64,
-    /// Largest, m.
-    pub max: f64,
-}
+pub use lidarqa_products::{
+    GridGeometry, IhoBand, LinearHistogram, OrderGrid, SigmaGrid, SoundingsIho, Stats,
+    TpuSummaryDocument,
+};
 
-/// `sigma` of [`TpuSummary`]: statistics of each per-point 1σ, metres.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct TpuSigmas {
-    /// σ north.
-    #[serde(default)]
-    pub north: Option<Stats>,
-    /// σ east.
-    #[serde(default)]
-    pub east: Option<Stats>,
-    /// σ up.
-    #[serde(default)]
-    pub up: Option<Stats>,
-    /// σ horizontal = √(σN² + σE²).
-    #[serde(default)]
-    pub horizontal: Option<Stats>,
-    /// σ vertical (= σ up).
-    #[serde(default)]
-    pub vertical: Option<Stats>,
-}
-
-/// A histogram with explicit bin edges: bin `i` counts values in `[edges_m[i], edges_m[i+1])`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Histogram {
-    /// Bin edges, m, strictly increasing; one more than `counts`.
-    pub edges_m: Vec<f64>,
-    /// Points per bin.
-    pub counts: Vec<u64>,
-}
-
-impl Histogram {
-    fn check(&self, key: &str) -> std::result::Result<(), Invalid> {
-        if self.counts.is_empty() {
-            return Err(invalid(format!("{key}.counts"), "empty"));
-        }
-        if self.edges_m.len() != self.counts.len() + 1 {
-            return Err(invalid(
-                format!("{key}.edges_m"),
-                format!(
-                    "{} edges for {} counts (need one more edge than counts)",
-                    self.edges_m.len(),
-                    self.counts.len()
-                ),
-            ));
-        }
-        if !self.edges_m.iter().all(|e| e.is_finite())
-            || self.edges_m.windows(2).any(|w| w[1] <= w[0])
-        {
-            return Err(invalid(
-                format!("{key}.edges_m"),
-                "edges must be finite and strictly increasing",
-            ));
-        }
-        Ok(())
+/// A map of `values` (row-major, one per cell) on grid `g`.
+pub(crate) fn raster(g: &GridGeometry, values: Vec<Option<f64>>) -> crate::plot::Raster {
+    crate::plot::Raster {
+        origin_x: g.origin_x,
+        origin_y: g.origin_y,
+        cell_m: g.cell_m,
+        nx: g.nx,
+        ny: g.ny,
+        values,
     }
 }
 
-/// `histogram` of [`TpuSummary`].
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-pub struct TpuHistograms {
-    /// Of σ vertical.
-    #[serde(default)]
-    pub vertical: Option<Histogram>,
-    /// Of σ horizontal.
-    #[serde(default)]
-    pub horizontal: Option<Histogram>,
+/// Checks grid `g` (under JSON key `key`) and that it holds `cells` values.
+fn check_grid(g: &GridGeometry, key: &str, cells: usize) -> std::result::Result<(), Invalid> {
+    if !(g.cell_m.is_finite() && g.cell_m > 0.0) {
+        return Err(invalid(
+            format!("{key}.cell_m"),
+            format!("{} is not a positive size", g.cell_m),
+        ));
+    }
+    if !(g.origin_x.is_finite() && g.origin_y.is_finite()) {
+        return Err(invalid(format!("{key}.origin_x"), "origin is not finite"));
+    }
+    if g.nx == 0 || g.ny == 0 {
+        return Err(invalid(
+            format!("{key}.nx"),
+            "the grid is empty (nx or ny is 0)",
+        ));
+    }
+    if g.nx.checked_mul(g.ny) != Some(cells) {
+        return Err(invalid(
+            key.to_string(),
+            format!("nx·ny = {}·{} but {cells} values", g.nx, g.ny),
+        ));
+    }
+    Ok(())
 }
 
-/// A regular grid in projected coordinates.
+/// Checks a histogram (under JSON key `key`): one more edge than counts, increasing edges.
+fn check_histogram(h: &LinearHistogram, key: &str) -> std::result::Result<(), Invalid> {
+    if h.counts.is_empty() {
+        return Err(invalid(format!("{key}.counts"), "empty"));
+    }
+    if h.edges_m.len() != h.counts.len() + 1 {
+        return Err(invalid(
+            format!("{key}.edges_m"),
+            format!(
+                "{} edges for {} counts (need one more edge than counts)",
+                h.edges_m.len(),
+                h.counts.len()
+            ),
+        ));
+    }
+    if !h.edges_m.iter().all(|e| e.is_finite()) || h.edges_m.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(invalid(
+            format!("{key}.edges_m"),
+            "edges must be finite and strictly increasing",
+        ));
+    }
+    Ok(())
+}
+
+/// The accuracy a TPU summary predicts, as `lidarqa evaluate --tpu` shows it beside the
+/// measured RMSE: the median per-point σ north, east and up.
 ///
-/// Cell `(row j, column i)` covers easting `[origin_x + i·cell_m, origin_x + (i+1)·cell_m)` and
-/// northing `[origin_y + j·cell_m, origin_y + (j+1)·cell_m)`: the origin is the **south-west
-/// (lower-left) corner**, rows go north, and values are stored row-major at index `j·nx + i`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct GridGeometry {
-    /// Cell size, m.
-    pub cell_m: f64,
-    /// Easting of the grid's west edge, m.
-    pub origin_x: f64,
-    /// Northing of the grid's south edge, m.
-    pub origin_y: f64,
-    /// Columns (west → east).
-    pub nx: usize,
-    /// Rows (south → north).
-    pub ny: usize,
+/// # Errors
+/// `(key, message)` naming the missing `sigma.<axis>.median`.
+pub fn predicted(t: &TpuSummaryDocument) -> std::result::Result<Components, Invalid> {
+    let median = |axis: &str| {
+        t.sigma(axis)
+            .map(|s| s.median)
+            .ok_or_else(|| invalid(format!("sigma.{axis}.median"), "missing"))
+    };
+    Ok(Components::from_components(
+        median("north")?,
+        median("east")?,
+        median("up")?,
+    ))
 }
 
-impl GridGeometry {
-    /// A map of `values` (row-major, one per cell) on this grid.
-    pub(crate) fn raster(&self, values: Vec<Option<f64>>) -> crate::plot::Raster {
-        crate::plot::Raster {
-            origin_x: self.origin_x,
-            origin_y: self.origin_y,
-            cell_m: self.cell_m,
-            nx: self.nx,
-            ny: self.ny,
-            values,
-        }
-    }
-
-    fn check(&self, key: &str, cells: usize) -> std::result::Result<(), Invalid> {
-        if !(self.cell_m.is_finite() && self.cell_m > 0.0) {
-            return Err(invalid(
-                format!("{key}.cell_m"),
-                format!("{} is not a positive size", self.cell_m),
-            ));
-        }
-        if !(self.origin_x.is_finite() && self.origin_y.is_finite()) {
-            return Err(invalid(format!("{key}.origin_x"), "origin is not finite"));
-        }
-        if self.nx == 0 || self.ny == 0 {
-            return Err(invalid(
-                format!("{key}.nx"),
-                "the grid is empty (nx or ny is 0)",
-            ));
-        }
-        if self.nx.checked_mul(self.ny) != Some(cells) {
-            return Err(invalid(
-                key.to_string(),
-                format!("nx·ny = {}·{} but {cells} values", self.nx, self.ny),
-            ));
-        }
-        Ok(())
-    }
-}
-
-/// `grid` of [`TpuSummary`]: the mean per-point σ vertical in each cell.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SigmaGrid {
-    /// The grid.
-    #[serde(flatten)]
-    pub geometry: GridGeometry,
-    /// σ vertical per cell, m, row-major; null for a cell without points.
-    pub sigma_vertical_m: Vec<Option<f64>>,
-}
-
-/// `tpu_summary.json`: the per-point TPU of a survey (`lidarqa tpu`), summarised.
+/// Reads a TPU summary file ([`crate::read_product`]) and returns its [`predicted`] accuracy.
 ///
-/// ```json
-/// {"points": 1200000, "skipped": {"outside_trajectory": 12},
-///  "sigma": {"vertical": {"min": 0.051, "median": 0.062, "p95": 0.081, "max": 0.12}, "...": {}},
-///  "histogram": {"vertical": {"edges_m": [0.05, 0.06, 0.07], "counts": [400000, 800000]}},
-///  "grid": {"cell_m": 10.0, "origin_x": 500000.0, "origin_y": 4000000.0, "nx": 2, "ny": 1,
-///           "sigma_vertical_m": [0.06, null]},
-///  "source_share": {"gnss_up": 0.61, "range": 0.05}}
-/// ```
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TpuSummary {
-    /// Points with a TPU.
-    pub points: u64,
-    /// Points without one, by reason (e.g. `outside_trajectory`).
-    #[serde(default)]
-    pub skipped: Ordered<u64>,
-    /// Statistics of each σ, m.
-    #[serde(default)]
-    pub sigma: TpuSigmas,
-    /// Histograms of σ vertical / horizontal.
-    #[serde(default)]
-    pub histogram: TpuHistograms,
-    /// Map of σ vertical.
-    #[serde(default)]
-    pub grid: Option<SigmaGrid>,
-    /// Each source's share of the total variance (3-D), fractions summing to about 1.
-    #[serde(default)]
-    pub source_share: Ordered<f64>,
-    /// IHO S-44 statement of the bathymetric soundings (a conic survey with soundings).
-    #[serde(default)]
-    pub iho_s44: Option<TpuIho>,
+/// # Errors
+/// [`crate::Error`] naming the file and, for a missing median, the key.
+pub fn predicted_from_tpu_summary(path: &std::path::Path) -> crate::Result<Components> {
+    let summary: TpuSummaryDocument = crate::read_product(path)?;
+    predicted(&summary).map_err(|(key, message)| crate::Error::Invalid {
+        path: path.to_path_buf(),
+        key,
+        message,
+    })
 }
 
-impl TpuSummary {
-    /// The accuracy this summary predicts, as `lidarqa evaluate --tpu` shows it beside the
-    /// measured RMSE: the median per-point σ north, east and up.
-    ///
-    /// # Errors
-    /// `(key, message)` naming the missing `sigma.<axis>.median`.
-    pub fn predicted(&self) -> std::result::Result<Components, Invalid> {
-        let median = |axis: &str, stats: Option<Stats>| {
-            stats
-                .map(|s| s.median)
-                .ok_or_else(|| invalid(format!("sigma.{axis}.median"), "missing"))
-        };
-        Ok(Components::from_components(
-            median("north", self.sigma.north)?,
-            median("east", self.sigma.east)?,
-            median("up", self.sigma.up)?,
-        ))
-    }
-
-    /// Reads a TPU summary file ([`crate::read_product`]) and returns its
-    /// [`TpuSummary::predicted`].
-    ///
-    /// # Errors
-    /// [`crate::Error`] naming the file and, for a missing median, the key.
-    pub fn predicted_from_file(path: &std::path::Path) -> crate::Result<Components> {
-        let summary: TpuSummary = crate::read_product(path)?;
-        summary
-            .predicted()
-            .map_err(|(key, message)| crate::Error::Invalid {
-                path: path.to_path_buf(),
-                key,
-                message,
-            })
-    }
-}
-
-impl Product for TpuSummary {
+impl Product for TpuSummaryDocument {
     const WHAT: &'static str = "per-point TPU summary";
     fn validate(&self) -> std::result::Result<(), Invalid> {
         if let Some(h) = &self.histogram.vertical {
-            h.check("histogram.vertical")?;
+            check_histogram(h, "histogram.vertical")?;
         }
         if let Some(h) = &self.histogram.horizontal {
-            h.check("histogram.horizontal")?;
+            check_histogram(h, "histogram.horizontal")?;
         }
         if let Some(g) = &self.grid {
-            g.geometry.check("grid", g.sigma_vertical_m.len())?;
+            check_grid(&g.geometry(), "grid", g.sigma_vertical_m.len())?;
         }
         if let Some(i) = &self.iho_s44 {
-            i.check()?;
+            check_iho(i)?;
         }
         Ok(())
     }
+}
+
+fn check_iho(iho: &SoundingsIho) -> std::result::Result<(), Invalid> {
+    for (name, o) in &iho.orders {
+        if !(0.0..=100.0).contains(&o.percent_meeting) {
+            return Err(invalid(
+                format!("iho_s44.orders.{name}.percent_meeting"),
+                format!("{} is not a percentage", o.percent_meeting),
+            ));
+        }
+    }
+    for (i, b) in iho.bands.iter().enumerate() {
+        if !(b.depth_m[0].is_finite() && b.depth_m[0] >= 0.0) {
+            return Err(invalid(
+                format!("iho_s44.bands[{i}].depth_m"),
+                format!("{} is not a depth", b.depth_m[0]),
+            ));
+        }
+    }
+    if let Some(g) = &iho.order_grid {
+        check_grid(&g.geometry(), "iho_s44.order_grid", g.order.len())?;
+    }
+    Ok(())
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -994,7 +898,7 @@ impl Product for Overlap {
     const WHAT: &'static str = "strip-to-strip height differences";
     fn validate(&self) -> std::result::Result<(), Invalid> {
         if let Some(g) = &self.grid {
-            g.geometry.check("grid", g.dz_m.len())?;
+            check_grid(&g.geometry, "grid", g.dz_m.len())?;
         }
         if let Some(p) = &self.profile {
             if !p.distance_m.iter().all(|d| d.is_finite()) {
@@ -1032,100 +936,6 @@ impl Product for Iho {
                     format!("{} is not a percentage", o.percent_meeting),
                 ));
             }
-        }
-        Ok(())
-    }
-}
-
-// ---------------------------------------------------------------------------------------------
-// tpu_summary.json's `iho_s44` block (lidarqa-pipeline's `IhoView`)
-
-/// The limits of one order and the share of all soundings meeting it.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TpuIhoOrder {
-    /// Constant part of the THU, m.
-    pub thu_m: f64,
-    /// Depth-proportional part of the THU (0.05 = 5 % of depth).
-    pub thu_depth_fraction: f64,
-    /// TVU constant `a`, m.
-    pub tvu_a_m: f64,
-    /// TVU depth factor `b`.
-    pub tvu_b: f64,
-    /// Percentage of the soundings meeting THU and TVU at 95 %.
-    pub percent_meeting: f64,
-}
-
-/// One depth band of [`TpuIho`].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TpuIhoBand {
-    /// `[from, to)`, m; `to` = −1 for "and deeper".
-    pub depth_m: [f64; 2],
-    /// Soundings in the band.
-    pub soundings: u64,
-    /// Per order, percentage meeting THU and TVU.
-    pub percent_meeting: Ordered<f64>,
-    /// Per order, percentage meeting THU.
-    #[serde(default)]
-    pub percent_thu: Ordered<f64>,
-    /// Per order, percentage meeting TVU.
-    #[serde(default)]
-    pub percent_tvu: Ordered<f64>,
-    /// RMS of the soundings' 1σ horizontal, m.
-    #[serde(default)]
-    pub rms_sigma_horizontal_m: Option<f64>,
-    /// RMS of their 1σ vertical, m.
-    #[serde(default)]
-    pub rms_sigma_vertical_m: Option<f64>,
-}
-
-/// The order achieved per map cell (≥ 95 % of its soundings), as `lidarqa tpu` writes it.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct OrderGrid {
-    /// The grid.
-    #[serde(flatten)]
-    pub geometry: GridGeometry,
-    /// `exclusive`, `special`, `1a`, `1b`, `2`, `none`; null without soundings.
-    pub order: Vec<Option<String>>,
-}
-
-/// `iho_s44` of `tpu_summary.json`: IHO S-44 orders met by the soundings, by depth band.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TpuIho {
-    /// The standard and table the limits come from.
-    #[serde(default)]
-    pub standard: Option<String>,
-    /// Soundings with a TPU.
-    pub soundings: u64,
-    /// Per order (`exclusive`, `special`, `1a`, `1b`, `2`): limits and share meeting them.
-    pub orders: Ordered<TpuIhoOrder>,
-    /// Per depth band with soundings.
-    #[serde(default)]
-    pub bands: Vec<TpuIhoBand>,
-    /// Map of the order achieved.
-    #[serde(default)]
-    pub order_grid: Option<OrderGrid>,
-}
-
-impl TpuIho {
-    fn check(&self) -> std::result::Result<(), Invalid> {
-        for (name, o) in self.orders.iter() {
-            if !(0.0..=100.0).contains(&o.percent_meeting) {
-                return Err(invalid(
-                    format!("iho_s44.orders.{name}.percent_meeting"),
-                    format!("{} is not a percentage", o.percent_meeting),
-                ));
-            }
-        }
-        for (i, b) in self.bands.iter().enumerate() {
-            if !(b.depth_m[0].is_finite() && b.depth_m[0] >= 0.0) {
-                return Err(invalid(
-                    format!("iho_s44.bands[{i}].depth_m"),
-                    format!("{} is not a depth", b.depth_m[0]),
-                ));
-            }
-        }
-        if let Some(g) = &self.order_grid {
-            g.geometry.check("iho_s44.order_grid", g.order.len())?;
         }
         Ok(())
     }

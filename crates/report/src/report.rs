@@ -15,7 +15,7 @@ pub struct Products {
     /// `budget_sweep_*.json`, with their file names, sorted by file name.
     pub sweeps: Vec<(String, Sweep)>,
     /// `tpu_summary.json`.
-    pub tpu: Option<TpuSummary>,
+    pub tpu: Option<TpuSummaryDocument>,
     /// `evaluate_before.json`.
     pub evaluate_before: Option<Evaluation>,
     /// `evaluate_after.json`.

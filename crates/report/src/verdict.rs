@@ -19,13 +19,13 @@ pub(crate) fn verdict(p: &Products) -> Option<String> {
     if let Some(e) = last {
         accuracy_table(p, e, &mut o);
     } else if let Some(t) = &p.tpu {
-        let med = |s: &Option<crate::products::Stats>| s.as_ref().map_or(f64::NAN, |s| s.median);
+        let med = |s: Option<&crate::products::Stats>| s.map_or(f64::NAN, |s| s.median);
         let _ = writeln!(
             o,
             "<p>Predicted accuracy of the {} points (median 1σ): horizontal {} cm, vertical {} cm. No surveyed targets were measured, so the prediction is not yet checked.</p>",
             t.points,
-            cm(med(&t.sigma.horizontal)),
-            cm(med(&t.sigma.vertical))
+            cm(med(t.sigma("horizontal"))),
+            cm(med(t.sigma("vertical")))
         );
     }
     let mut statements = Vec::new();

@@ -52,6 +52,22 @@ fn zhang_2018_at_1000m() -> Geometry {
     }
 }
 
+/// The keys every `tpu_summary.json` has (lidarqa-products' `TpuSummaryDocument`), with
+/// `points` points and σ statistics `sigma`.
+fn tpu_base(points: u64, sigma: Value) -> Value {
+    let zero =
+        |keys: &[&str]| Value::Object(keys.iter().map(|k| (k.to_string(), json!(0))).collect());
+    json!({
+        "tiles": [], "scanner": "linear", "points_read": points, "points_written": points,
+        "points": points, "skipped": {}, "sigma": sigma,
+        "percentiles": "histogram: 1000 log bins per decade, bin centre (within 0.12 %)",
+        "source_share": {}, "points_with_surface_normal": 0,
+        "incidence": zero(&["file_normals", "invalid_file_normals", "planar", "planar_widened",
+                            "linear", "beam_in_plane", "scattered", "too_few_points"]),
+        "histogram": {}, "warnings": []
+    })
+}
+
 fn tpu_json() -> Value {
     let (nx, ny) = (30usize, 12usize);
     let cells: Vec<Value> = (0..ny)
@@ -65,15 +81,18 @@ fn tpu_json() -> Value {
             }
         })
         .collect();
-    json!({
-        "points": 120000, "skipped": {"outside_trajectory": 12},
-        "sigma": {
-            "north": {"min": 0.03, "median": 0.04, "p95": 0.055, "max": 0.07},
-            "east": {"min": 0.03, "median": 0.042, "p95": 0.058, "max": 0.08},
-            "up": {"min": 0.05, "median": 0.062, "p95": 0.081, "max": 0.12},
-            "horizontal": {"min": 0.045, "median": 0.058, "p95": 0.08, "max": 0.106},
-            "vertical": {"min": 0.05, "median": 0.062, "p95": 0.081, "max": 0.12}
-        },
+    let mut v = tpu_base(
+        120000,
+        json!({
+            "north": {"min": 0.03, "median": 0.04, "p95": 0.055, "max": 0.07, "mean": 0.045},
+            "east": {"min": 0.03, "median": 0.042, "p95": 0.058, "max": 0.08, "mean": 0.047},
+            "up": {"min": 0.05, "median": 0.062, "p95": 0.081, "max": 0.12, "mean": 0.065},
+            "horizontal": {"min": 0.045, "median": 0.058, "p95": 0.08, "max": 0.106, "mean": 0.063},
+            "vertical": {"min": 0.05, "median": 0.062, "p95": 0.081, "max": 0.12, "mean": 0.065}
+        }),
+    );
+    let rest = json!({
+        "skipped": {"outside_trajectory": 12},
         "histogram": {
             "vertical": {"edges_m": [0.05, 0.06, 0.07, 0.08, 0.09, 0.10, 0.11, 0.12],
                          "counts": [20000, 50000, 30000, 12000, 5000, 2000, 1000]},
@@ -83,9 +102,12 @@ fn tpu_json() -> Value {
         "grid": {"cell_m": 10.0, "origin_x": 500000.0, "origin_y": 4100000.0, "nx": nx, "ny": ny,
                  "sigma_vertical_m": cells},
         "source_share": {"gnss_up": 0.62, "gnss_north": 0.1, "range": 0.05, "boresight_roll": 0.23},
-        // The block `lidarqa tpu` writes for soundings (lidarqa-pipeline's IhoView).
+        // The block `lidarqa tpu` writes for soundings (lidarqa-products' SoundingsIho).
         "iho_s44": {
             "standard": "IHO S-44 Edition 6.0.0 (2020), Table 1", "soundings": 3000,
+            "thu_95": "exact 95 % radius of each sounding's horizontal error ellipse",
+            "tvu_95": "1.96 sigma_v", "surface_from_pulse": 2900, "surface_modelled": 100,
+            "recovery_residual_m": {"kind": "sounding", "rms": 0.01, "max_abs": 0.03},
             "orders": {
                 "exclusive": {"thu_m": 0.5, "thu_depth_fraction": 0.0, "tvu_a_m": 0.15, "tvu_b": 0.0075, "percent_meeting": 40.0},
                 "special": {"thu_m": 2.0, "thu_depth_fraction": 0.0, "tvu_a_m": 0.25, "tvu_b": 0.0075, "percent_meeting": 99.5},
@@ -108,7 +130,11 @@ fn tpu_json() -> Value {
             "order_grid": {"cell_m": 10.0, "origin_x": 500000.0, "origin_y": 4100000.0, "nx": 3, "ny": 2,
                            "order": ["exclusive", "special", null, "special", "2", "none"]}
         }
-    })
+    });
+    for (k, x) in rest.as_object().unwrap() {
+        v[k] = x.clone();
+    }
+    v
 }
 
 /// (id, control easting, northing, residual east, north, up), m.
@@ -687,18 +713,25 @@ fn the_report_opens_with_its_verdict() {
 #[test]
 fn tpu_summary_predicts_its_median_sigma_and_names_a_missing_one() {
     let dir = tempfile::tempdir().unwrap();
-    let stats = |median: f64| json!({"min": 0.01, "median": median, "p95": 0.2, "max": 0.3});
-    let summary = json!({"points": 10, "sigma": {"north": stats(0.03), "east": stats(0.04), "up": stats(0.12)}});
+    let stats =
+        |median: f64| json!({"min": 0.01, "median": median, "p95": 0.2, "max": 0.3, "mean": 0.1});
+    let summary = tpu_base(
+        10,
+        json!({"north": stats(0.03), "east": stats(0.04), "up": stats(0.12)}),
+    );
     write(dir.path(), TPU_SUMMARY_FILE, &summary);
-    let p = TpuSummary::predicted_from_file(&dir.path().join(TPU_SUMMARY_FILE)).unwrap();
+    let p = predicted_from_tpu_summary(&dir.path().join(TPU_SUMMARY_FILE)).unwrap();
     assert_eq!((p.north, p.east, p.up), (0.03, 0.04, 0.12));
     // √(0.03² + 0.04²) = 0.05 and √(0.05² + 0.12²) = 0.13.
     assert!((p.horizontal - 0.05).abs() < 1e-15);
     assert!((p.three_d - 0.13).abs() < 1e-15);
 
-    let no_up = json!({"points": 10, "sigma": {"north": stats(0.03), "east": stats(0.04)}});
+    let no_up = tpu_base(
+        10,
+        json!({"north": stats(0.03), "east": stats(0.04), "up": null}),
+    );
     write(dir.path(), TPU_SUMMARY_FILE, &no_up);
-    let e = TpuSummary::predicted_from_file(&dir.path().join(TPU_SUMMARY_FILE)).unwrap_err();
+    let e = predicted_from_tpu_summary(&dir.path().join(TPU_SUMMARY_FILE)).unwrap_err();
     assert!(
         matches!(&e, Error::Invalid { key, .. } if key == "sigma.up.median"),
         "{e}"

@@ -10,6 +10,7 @@
 //! eigenproblem (nalgebra) and a few sums, no crate does it.
 
 use lidarqa_model::Mounting;
+use lidarqa_products::MountingCheck;
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -155,30 +156,12 @@ impl MountingTally {
     }
 }
 
-/// JSON view of the mounting check: the summary's `mounting_check`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct MountingView {
-    /// RMS recovery residual of the points within the range envelope, m.
-    pub rms_residual_m: f64,
-    /// RMS of their 3-D σ, m.
-    pub rms_sigma_3d_m: f64,
-    /// Whether the residual is beyond what the σ explain (the `mounting_does_not_fit` warning).
-    pub does_not_fit: bool,
-    /// The sensor file's boresight roll, pitch, yaw, degrees.
-    pub file_boresight_deg: [f64; 3],
-    /// The boresight that puts the points on the scan plane (linear scanner): roll (the file's,
-    /// not observable), pitch, yaw, degrees.
-    pub fitted_boresight_deg: Option<[f64; 3]>,
-    /// RMS distance of the points from the fitted plane, m.
-    pub fitted_plane_rms_m: Option<f64>,
-}
-
 impl MountingTally {
-    /// The JSON view; `None` without points.
-    pub fn view(&self) -> Option<MountingView> {
+    /// The summary's `mounting_check`; `None` without points.
+    pub fn view(&self) -> Option<MountingCheck> {
         (self.n > 0).then(|| {
             let f = self.fit();
-            MountingView {
+            MountingCheck {
                 rms_residual_m: self.rms_residual_m(),
                 rms_sigma_3d_m: self.rms_sigma_m(),
                 does_not_fit: self.does_not_fit(),

@@ -54,7 +54,7 @@ pub fn run(a: CollectArgs) -> Result<()> {
         lidarqa_io::check_outputs(&[path], &inputs)?;
     }
     let (_, report) = collect(&a.manifest, &manifest)?;
-    print_warnings(&report.summary.warnings);
+    print_warnings(&report.warnings);
     if let Some(path) = &a.summary {
         write_json_file(path, &report, &inputs)?;
     }

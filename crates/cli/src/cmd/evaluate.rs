@@ -97,7 +97,7 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
         (Some(t), Some(c)) => {
             let mut e = evaluate_target_files(t, c, &options)?;
             if let Some(p) = &args.tpu {
-                e.set_predicted(lidarqa_report::TpuSummary::predicted_from_file(p)?);
+                e.set_predicted(lidarqa_report::predicted_from_tpu_summary(p)?);
             }
             if let (Some(s), Some(h)) = (&args.sensor, args.height) {
                 e.set_predicted(predicted_from_sensor(s, h, args.scan_angle)?);

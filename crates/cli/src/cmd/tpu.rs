@@ -199,7 +199,7 @@ pub fn run(args: TpuArgs) -> Result<()> {
     let reports = tpu_tiles(&jobs, &progress)?;
     bar.finish_and_clear();
     let (_, report) = TileReport::merge(&reports).context("no tiles")?;
-    print_warnings(&report.summary.warnings);
+    print_warnings(&report.warnings);
     if let Some(path) = &plan.summary {
         let mut inputs: Vec<&Path> = plan.tiles.iter().map(|t| t.input.as_path()).collect();
         inputs.push(&plan.trajectory);

@@ -1,18 +1,17 @@
 //! The text summary of `lidarqa tpu` and `lidarqa collect` (presentation only; the numbers are
-//! lidarqa-pipeline's [`SurveyReport`]).
+//! lidarqa-products' [`TpuSummaryDocument`]).
 
 use crate::format::cm;
-use lidarqa_pipeline::SurveyReport;
+use lidarqa_products::TpuSummaryDocument;
 use std::fmt::Write as _;
 
 /// The survey summary as text.
-pub(crate) fn table(r: &SurveyReport) -> String {
-    let s = &r.summary;
+pub(crate) fn table(s: &TpuSummaryDocument) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
         "{} tile(s), {} scanner: {} points read, {} written, {} skipped",
-        r.tiles.len(),
+        s.tiles.len(),
         s.scanner,
         s.points_read,
         s.points_written,

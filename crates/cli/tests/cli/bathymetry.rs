@@ -126,6 +126,7 @@ fn run(f: &ScenarioFile, dir: &Path) -> ([f64; 3], [f64; 3], usize, serde_json::
         "--summary",
         summary.to_str().unwrap(),
     ]);
+    crate::tpu::assert_summary_round_trips(&summary);
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&summary).unwrap()).unwrap();
     let c = read_all(&out);
@@ -283,6 +284,7 @@ fn summary_has_the_iho_block_and_soundings_without_their_surface_return_use_a_mo
         "--summary",
         s.to_str().unwrap(),
     ]);
+    crate::tpu::assert_summary_round_trips(&s);
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&s).unwrap()).unwrap();
     let modelled = v["iho_s44"]["surface_modelled"].as_u64().unwrap();
     assert!(

@@ -114,14 +114,40 @@ fn zhang_2018_table2_formula_7_is_17_56_cm() {
     assert_eq!(v["n"], 4);
 
     // With --tpu the TPU summary's median σ is the prediction, read by the report's reader.
-    let stats = |m: f64| serde_json::json!({"min": m, "median": m, "p95": m, "max": m});
+    let stats = |m: f64| {
+        Some(lidarqa_products::Stats {
+            min: m,
+            median: m,
+            p95: m,
+            max: m,
+            mean: m,
+        })
+    };
     let summary = dir.path().join("tpu_summary.json");
-    let sigma = serde_json::json!({"north": stats(0.03), "east": stats(0.04), "up": stats(0.12)});
-    std::fs::write(
-        &summary,
-        serde_json::json!({"points": 4, "sigma": sigma}).to_string(),
-    )
-    .unwrap();
+    let doc = lidarqa_products::TpuSummaryDocument {
+        tiles: Vec::new(),
+        scanner: "linear".into(),
+        points_read: 4,
+        points_written: 4,
+        points: 4,
+        skipped: Default::default(),
+        sigma: [("north", 0.03), ("east", 0.04), ("up", 0.12)]
+            .into_iter()
+            .map(|(k, m)| (k.to_string(), stats(m)))
+            .collect(),
+        percentiles: String::new(),
+        source_share: Default::default(),
+        points_with_surface_normal: 0,
+        incidence: Default::default(),
+        histogram: Default::default(),
+        grid: None,
+        scan_angle_check: None,
+        recovery_residual_m: None,
+        iho_s44: None,
+        mounting_check: None,
+        warnings: Vec::new(),
+    };
+    std::fs::write(&summary, serde_json::to_string(&doc).unwrap()).unwrap();
     let args = [
         "evaluate",
         "--targets",

@@ -2,6 +2,7 @@
 //! against the file's scan angle, and the recovery residual.
 
 use lidarqa_model::Warning;
+use lidarqa_products::IncidenceCounts;
 use lidarqa_tpu::IncidenceClass;
 use serde::{Deserialize, Serialize};
 
@@ -61,6 +62,20 @@ impl IncidenceTally {
         self.beam_in_plane += o.beam_in_plane;
         self.scattered += o.scattered;
         self.too_few_points += o.too_few_points;
+    }
+
+    /// The summary's `incidence` block.
+    pub fn counts(&self) -> IncidenceCounts {
+        IncidenceCounts {
+            file_normals: self.file_normals,
+            invalid_file_normals: self.invalid_file_normals,
+            planar: self.planar,
+            planar_widened: self.planar_widened,
+            linear: self.linear,
+            beam_in_plane: self.beam_in_plane,
+            scattered: self.scattered,
+            too_few_points: self.too_few_points,
+        }
     }
 
     /// Points whose term was left out.

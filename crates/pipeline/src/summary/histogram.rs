@@ -1,8 +1,8 @@
 //! The fixed logarithmic histogram (1000 bins per decade from 1 µm to 10 km) that makes
-//! percentiles merge exactly, the σ map of the survey, and their JSON views.
+//! percentiles merge exactly, the σ map of the survey, and the summary's blocks made from them.
 
 use lidarqa_model::floor_i64;
-use serde::Serialize;
+use lidarqa_products::{LinearHistogram, SigmaGrid, Stats};
 use std::collections::BTreeMap;
 
 pub(crate) const BINS_PER_DECADE: f64 = 1000.0;
@@ -224,15 +224,6 @@ impl Histogram {
     }
 }
 
-/// Equal-width histogram for display: `counts[k]` values in `[edges_m[k], edges_m[k + 1])`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct LinearHistogram {
-    /// Bin edges, m (one more than the counts).
-    pub edges_m: Vec<f64>,
-    /// Values per bin.
-    pub counts: Vec<u64>,
-}
-
 /// Mean σ vertical on a fixed grid of projected metres, kept sparse so tiles merge exactly.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SigmaMap {
@@ -294,7 +285,7 @@ impl SigmaMap {
 
     /// Dense row-major view (south-west origin, rows north), coarsened to at most
     /// [`SIGMA_MAP_MAX_SIDE`] cells a side; `None` when empty.
-    pub fn view(&self) -> Option<SigmaGridView> {
+    pub fn view(&self) -> Option<SigmaGrid> {
         let Coarse { i0, j0, f, nx, ny } = Coarse::of(self.cells.keys())?;
         let mut acc = vec![(0.0, 0u64); nx * ny];
         for ((i, j), (s, n)) in &self.cells {
@@ -302,7 +293,7 @@ impl SigmaMap {
             acc[b * nx + a].0 += s;
             acc[b * nx + a].1 += n;
         }
-        Some(SigmaGridView {
+        Some(SigmaGrid {
             cell_m: self.cell_m * f as f64,
             origin_x: i0 as f64 * self.cell_m,
             origin_y: j0 as f64 * self.cell_m,
@@ -349,47 +340,6 @@ impl Coarse {
             ny: ((j1 - j0) / f + 1) as usize,
         })
     }
-}
-
-/// JSON view of a [`SigmaMap`]: the report's `grid`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SigmaGridView {
-    /// Cell size, m.
-    pub cell_m: f64,
-    /// Easting of the west edge, m.
-    pub origin_x: f64,
-    /// Northing of the south edge, m.
-    pub origin_y: f64,
-    /// Columns (west → east).
-    pub nx: usize,
-    /// Rows (south → north).
-    pub ny: usize,
-    /// Mean σ vertical per cell, m, row-major from the south-west; null where no point fell.
-    pub sigma_vertical_m: Vec<Option<f64>>,
-}
-
-/// Histograms of the view.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct HistogramsView {
-    /// σ vertical.
-    pub vertical: Option<LinearHistogram>,
-    /// σ horizontal.
-    pub horizontal: Option<LinearHistogram>,
-}
-
-/// Summary statistics of one σ, metres.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Stats {
-    /// Smallest value, m (exact).
-    pub min: f64,
-    /// Median, m (histogram, ±0.12 %).
-    pub median: f64,
-    /// 95th percentile, m (histogram, ±0.12 %).
-    pub p95: f64,
-    /// Largest value, m (exact).
-    pub max: f64,
-    /// Mean, m.
-    pub mean: f64,
 }
 
 #[cfg(test)]

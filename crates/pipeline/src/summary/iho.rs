@@ -1,11 +1,11 @@
-//! The IHO S-44 tallies of the soundings: per depth band and order, mergeable, and their JSON
-//! views.
+//! The IHO S-44 tallies of the soundings: per depth band and order, mergeable, and the
+//! summary's `iho_s44` block made from them.
 
-use super::ResidualView;
 use super::checks::ResidualCheck;
 use super::histogram::{Coarse, SIGMA_MAP_CELL_M};
 use lidarqa_model::NORMAL_95_FACTOR;
-use lidarqa_tpu::{IhoLimits, IhoOrder, THU_95_CBLUE, TVU_95_FACTOR};
+use lidarqa_products::{IhoBand, IhoOrderLine, OrderGrid, RecoveryResidual, SoundingsIho};
+use lidarqa_tpu::{IhoOrder, THU_95_CBLUE, TVU_95_FACTOR};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -147,8 +147,8 @@ impl IhoTally {
         self.bands.iter().map(|b| b.n).sum()
     }
 
-    /// The JSON view; `None` without soundings.
-    pub fn view(&self) -> Option<IhoView> {
+    /// The summary's `iho_s44` block; `None` without soundings.
+    pub fn view(&self) -> Option<SoundingsIho> {
         let n = self.soundings();
         if n == 0 {
             return None;
@@ -160,11 +160,11 @@ impl IhoTally {
                 0.0
             }
         };
-        let per_order = |counts: [u64; 5], n: u64| -> BTreeMap<&'static str, f64> {
+        let per_order = |counts: [u64; 5], n: u64| -> BTreeMap<String, f64> {
             IhoOrder::ALL
                 .iter()
                 .zip(counts)
-                .map(|(o, c)| (o.name(), pct(c, n)))
+                .map(|(o, c)| (o.name().to_string(), pct(c, n)))
                 .collect()
         };
         let mut total = BandTally::default();
@@ -176,8 +176,8 @@ impl IhoTally {
                 total.tvu[k] += b.tvu[k];
             }
         }
-        Some(IhoView {
-            standard: "IHO S-44 Edition 6.0.0 (2020), Table 1",
+        Some(SoundingsIho {
+            standard: "IHO S-44 Edition 6.0.0 (2020), Table 1".to_string(),
             thu_95: format!(
                 "exact 95 % radius of each sounding's horizontal error ellipse \
                  (>= total_thu = {THU_95_CBLUE} sigma_h, <= {NORMAL_95_FACTOR} sigma_h)"
@@ -186,8 +186,8 @@ impl IhoTally {
             soundings: n,
             surface_from_pulse: n - self.modelled,
             surface_modelled: self.modelled,
-            recovery_residual_m: ResidualView {
-                kind: "sounding",
+            recovery_residual_m: RecoveryResidual {
+                kind: "sounding".to_string(),
                 rms: (self.residual.sum_sq_m2 / self.residual.n.max(1) as f64).sqrt(),
                 max_abs: self.residual.max_abs_m,
             },
@@ -195,20 +195,22 @@ impl IhoTally {
                 .iter()
                 .enumerate()
                 .map(|(k, o)| {
-                    (
-                        o.name(),
-                        OrderView {
-                            limits: o.limits(),
-                            percent_meeting: pct(total.both[k], n),
-                        },
-                    )
+                    let l = o.limits();
+                    let line = IhoOrderLine {
+                        thu_m: l.thu_m,
+                        thu_depth_fraction: l.thu_depth_fraction,
+                        tvu_a_m: l.tvu_a_m,
+                        tvu_b: l.tvu_b,
+                        percent_meeting: pct(total.both[k], n),
+                    };
+                    (o.name().to_string(), line)
                 })
                 .collect(),
             bands: DEPTH_BANDS_M
                 .iter()
                 .zip(&self.bands)
                 .filter(|(_, b)| b.n > 0)
-                .map(|(range, b)| BandView {
+                .map(|(range, b)| IhoBand {
                     depth_m: [range[0], if range[1].is_finite() { range[1] } else { -1.0 }],
                     soundings: b.n,
                     percent_meeting: per_order(b.both, b.n),
@@ -224,7 +226,7 @@ impl IhoTally {
 
     /// Dense view of the order map, coarsened like the σ map: per cell, the most stringent
     /// order met by at least 95 % of its soundings (S-44's confidence level).
-    fn order_grid(&self) -> Option<OrderGridView> {
+    fn order_grid(&self) -> Option<OrderGrid> {
         let Coarse { i0, j0, f, nx, ny } = Coarse::of(self.order_map.keys())?;
         let mut acc = vec![[0u64; 6]; nx * ny];
         for ((i, j), c) in &self.order_map {
@@ -233,7 +235,7 @@ impl IhoTally {
                 *x += y;
             }
         }
-        Some(OrderGridView {
+        Some(OrderGrid {
             cell_m: SIGMA_MAP_CELL_M * f as f64,
             origin_x: i0 as f64 * SIGMA_MAP_CELL_M,
             origin_y: j0 as f64 * SIGMA_MAP_CELL_M,
@@ -253,82 +255,10 @@ impl IhoTally {
                                 (met as f64 >= 0.95 * n as f64).then_some(o.name())
                             })
                             .unwrap_or("none")
+                            .to_string()
                     })
                 })
                 .collect(),
         })
     }
-}
-
-/// The map of the IHO order achieved: the summary's `iho_s44.order_grid`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct OrderGridView {
-    /// Cell size, m.
-    pub cell_m: f64,
-    /// Easting of the west edge, m.
-    pub origin_x: f64,
-    /// Northing of the south edge, m.
-    pub origin_y: f64,
-    /// Columns (west → east).
-    pub nx: usize,
-    /// Rows (south → north).
-    pub ny: usize,
-    /// Per cell, row-major from the south-west: the most stringent order (`exclusive`,
-    /// `special`, `1a`, `2`; 1a and 1b share their limits) met by ≥ 95 % of the cell's soundings,
-    /// `none`, or null where there is no sounding.
-    pub order: Vec<Option<&'static str>>,
-}
-
-/// JSON view of an [`IhoTally`]: the summary's `iho_s44` block.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct IhoView {
-    /// The standard and table.
-    pub standard: &'static str,
-    /// How THU at 95 % is computed (the factors written from their constants).
-    pub thu_95: String,
-    /// How TVU at 95 % is computed.
-    pub tvu_95: String,
-    /// Soundings (class 40) with a TPU.
-    pub soundings: u64,
-    /// Soundings whose water surface is their pulse's own surface return.
-    pub surface_from_pulse: u64,
-    /// Soundings under a modelled (fitted) surface.
-    pub surface_modelled: u64,
-    /// Recovery residual of the soundings, m.
-    pub recovery_residual_m: ResidualView,
-    /// Per order: its limits and the percentage of all soundings meeting both THU and TVU.
-    pub orders: BTreeMap<&'static str, OrderView>,
-    /// Per depth band with soundings.
-    pub bands: Vec<BandView>,
-    /// Map of the order achieved.
-    pub order_grid: Option<OrderGridView>,
-}
-
-/// One order's line.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct OrderView {
-    /// Its limits.
-    #[serde(flatten)]
-    pub limits: IhoLimits,
-    /// Percentage of soundings meeting THU and TVU.
-    pub percent_meeting: f64,
-}
-
-/// One depth band's line.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct BandView {
-    /// `[from, to)`, m; `to` = −1 for "and deeper".
-    pub depth_m: [f64; 2],
-    /// Soundings in the band.
-    pub soundings: u64,
-    /// Per order, percentage meeting both THU and TVU.
-    pub percent_meeting: BTreeMap<&'static str, f64>,
-    /// Per order, percentage meeting THU.
-    pub percent_thu: BTreeMap<&'static str, f64>,
-    /// Per order, percentage meeting TVU.
-    pub percent_tvu: BTreeMap<&'static str, f64>,
-    /// RMS over the band's soundings of their 1σ horizontal, m.
-    pub rms_sigma_horizontal_m: f64,
-    /// RMS of their 1σ vertical, m.
-    pub rms_sigma_vertical_m: f64,
 }

@@ -109,9 +109,11 @@ fn dz_maps(o: &mut String, runs: &[(&str, &Overlap)]) {
             let g = r.grid.as_ref()?;
             Some((
                 n.to_string(),
-                g.geometry
-                    .raster(g.dz_m.iter().map(|v| v.map(|v| v * 100.0)).collect())
-                    .downsampled(if runs.len() > 1 { 90 } else { 160 }),
+                raster(
+                    &g.geometry,
+                    g.dz_m.iter().map(|v| v.map(|v| v * 100.0)).collect(),
+                )
+                .downsampled(if runs.len() > 1 { 90 } else { 160 }),
             ))
         })
         .collect();

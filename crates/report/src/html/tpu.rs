@@ -5,9 +5,9 @@ use crate::products::*;
 use crate::text::{cm, esc, meaning};
 use std::fmt::Write as _;
 
-pub(super) fn tpu_section(t: &TpuSummary) -> String {
+pub(super) fn tpu_section(t: &TpuSummaryDocument) -> String {
     let mut o = String::new();
-    let skipped: u64 = t.skipped.iter().map(|(_, n)| *n).sum();
+    let skipped: u64 = t.skipped.values().sum();
     let _ = writeln!(
         o,
         "<p>{} points with a TPU{}.</p>",
@@ -24,8 +24,8 @@ pub(super) fn tpu_section(t: &TpuSummary) -> String {
         sigma_map(&mut o, g);
     }
     if !t.source_share.is_empty() {
-        let mut v: Vec<&(String, f64)> = t.source_share.iter().collect();
-        v.sort_by(|a, b| b.1.total_cmp(&a.1));
+        let mut v: Vec<(&String, &f64)> = t.source_share.iter().collect();
+        v.sort_by(|a, b| b.1.total_cmp(a.1));
         o.push_str("<table id=\"tpu-share\"><caption>Share of the total variance by source</caption><thead><tr><th>source</th><th>share (%)</th></tr></thead><tbody>\n");
         for (n, f) in v {
             let _ = writeln!(o, "<tr><td>{}</td><td>{:.1}</td></tr>", esc(n), f * 100.0);
@@ -50,18 +50,11 @@ pub(super) fn tpu_section(t: &TpuSummary) -> String {
 // ---------------------------------------------------------------------------------------------
 
 /// Statistics of each σ component, cm.
-fn stats_table(o: &mut String, t: &TpuSummary) {
-    let s = &t.sigma;
-    let rows: Vec<(&str, &Stats)> = [
-        ("north", s.north.as_ref()),
-        ("east", s.east.as_ref()),
-        ("up", s.up.as_ref()),
-        ("horizontal", s.horizontal.as_ref()),
-        ("vertical", s.vertical.as_ref()),
-    ]
-    .into_iter()
-    .filter_map(|(n, v)| v.map(|v| (n, v)))
-    .collect();
+fn stats_table(o: &mut String, t: &TpuSummaryDocument) {
+    let rows: Vec<(&str, &Stats)> = ["north", "east", "up", "horizontal", "vertical"]
+        .into_iter()
+        .filter_map(|n| t.sigma(n).map(|v| (n, v)))
+        .collect();
     if !rows.is_empty() {
         o.push_str("<table id=\"tpu-stats\"><caption>Per-point uncertainty (cm, 1σ)</caption><thead><tr><th>component</th><th>min</th><th>median</th><th>95th percentile</th><th>max</th></tr></thead><tbody>\n");
         for (n, st) in &rows {
@@ -79,20 +72,12 @@ fn stats_table(o: &mut String, t: &TpuSummary) {
 }
 
 /// The histograms of σ vertical and horizontal with their 95th percentile.
-fn histograms(o: &mut String, t: &TpuSummary) {
-    let s = &t.sigma;
-    for (key, h, st) in [
-        (
-            "vertical",
-            t.histogram.vertical.as_ref(),
-            s.vertical.as_ref(),
-        ),
-        (
-            "horizontal",
-            t.histogram.horizontal.as_ref(),
-            s.horizontal.as_ref(),
-        ),
+fn histograms(o: &mut String, t: &TpuSummaryDocument) {
+    for (key, h) in [
+        ("vertical", t.histogram.vertical.as_ref()),
+        ("horizontal", t.histogram.horizontal.as_ref()),
     ] {
+        let st = t.sigma(key);
         if let Some(h) = h {
             let edges: Vec<f64> = h.edges_m.iter().map(|e| e * 100.0).collect();
             o.push_str(&plot::histogram(
@@ -114,15 +99,14 @@ fn histograms(o: &mut String, t: &TpuSummary) {
 
 /// The map of σ vertical (mean per cell).
 fn sigma_map(o: &mut String, g: &SigmaGrid) {
-    let r = g
-        .geometry
-        .raster(
-            g.sigma_vertical_m
-                .iter()
-                .map(|v| v.map(|v| v * 100.0))
-                .collect(),
-        )
-        .downsampled(160);
+    let r = raster(
+        &g.geometry(),
+        g.sigma_vertical_m
+            .iter()
+            .map(|v| v.map(|v| v * 100.0))
+            .collect(),
+    )
+    .downsampled(160);
     let (lo, hi) = plot::span(r.values.iter().flatten().copied(), false, 0.0);
     o.push_str(&plot::heatmaps(
         "plot-tpu-map",
@@ -134,21 +118,20 @@ fn sigma_map(o: &mut String, g: &SigmaGrid) {
     let _ = writeln!(
         o,
         "<p class=\"note\">Cells of {} m; empty cells have no points.</p>",
-        g.geometry.cell_m
+        g.cell_m
     );
 }
 
 /// What the σ statistics mean for the client.
-fn summary_sentence(t: &TpuSummary) -> String {
-    let s = &t.sigma;
+fn summary_sentence(t: &TpuSummaryDocument) -> String {
     let mut text = String::new();
-    if let Some(v) = &s.vertical {
+    if let Some(v) = t.sigma("vertical") {
         let _ = write!(
             text,
             "95 % of the points have a vertical uncertainty (1σ) below {} cm",
             cm(v.p95)
         );
-        if let Some(h) = &s.horizontal {
+        if let Some(h) = t.sigma("horizontal") {
             let _ = write!(text, " and a horizontal one below {} cm", cm(h.p95));
         }
         let _ = write!(
@@ -156,7 +139,7 @@ fn summary_sentence(t: &TpuSummary) -> String {
             "; the median point is known to {} cm vertically.",
             cm(v.median)
         );
-    } else if let Some(h) = &s.horizontal {
+    } else if let Some(h) = t.sigma("horizontal") {
         let _ = write!(
             text,
             "95 % of the points have a horizontal uncertainty (1σ) below {} cm.",
