@@ -67,7 +67,7 @@ pub use iho::{
 pub use montecarlo::{MonteCarlo, monte_carlo};
 pub use mounting_check::{
     FittedMounting, MOUNTING_ERROR_M, MOUNTING_WARNING_FLOOR_M, MOUNTING_WARNING_RATIO,
-    MountingTally, MountingView,
+    MountingTally, MountingView, sigma_3d_bound,
 };
 pub use normals::{
     IncidenceClass, MAX_NEIGHBOURS, MIN_NEIGHBOURS, SHARE_STRIDE, Surface, WIDEN_FLATNESS,
