@@ -17,6 +17,8 @@
 //!   (Zhang & Jiang 2011, §2.4), checks observability at the solution and holds at the prior what
 //!   the data do not determine; [`calibrate_plane`] is the baseline. Both return a [`Calibration`]
 //!   that serialises to SPEC §8 `calibration.json`.
+//! - [`displacement`] moves a delivered point from its mounting to a calibrated one on its map
+//!   grid (with its line's [`LineShift`]), one point or four at once: `lidarqa correct`'s kernel.
 //! - [`correct_strip`] re-georeferences a strip; [`overlap_qc`] measures swath-to-swath height
 //!   differences on smooth surfaces (USGS Lidar Base Specification style).
 //!
@@ -47,6 +49,7 @@
 mod autoties;
 mod calibrate;
 mod calibrated_sensor;
+mod displacement;
 mod error;
 mod geometry;
 mod lm;
@@ -67,6 +70,7 @@ pub use calibrate::{
     mounting_from_json, tie_residuals,
 };
 pub use calibrated_sensor::calibrated_sensor;
+pub use displacement::{LineShift, Mountings, displacement};
 pub use error::{Error, Result};
 pub use lm::{LmOptions, Termination};
 pub use overlap::{

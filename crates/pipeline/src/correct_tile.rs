@@ -31,7 +31,7 @@
 //! time (pose and map, then the arithmetic, then the records), and the arithmetic four points
 //! at once on nalgebra's SIMD scalar type (simba's `WideF64x4`): the same IEEE operations lane
 //! by lane as on one `f64`, so the same bits (test `four_at_once_is_one_at_a_time_bit_for_bit`),
-//! from one generic function ([`displacement`]).
+//! from one generic function (lidarqa-calib's [`displacement`]).
 //!
 //! # Strip adjustment: per flight line
 //! `calibrate --adjust-strips` estimates one trajectory correction per flight line, a line being
@@ -48,13 +48,13 @@ use crate::context::TpuContext;
 use crate::error::{Error, Result};
 use crate::recovery_check::{RecoveryCheck, RecoveryTally};
 use crate::stages::{read_chunks, run_stages, write_chunks};
-use lidarqa_calib::ScanGeometry;
+use lidarqa_calib::{LineShift, Mountings, ScanGeometry, displacement};
 use lidarqa_io::{
     CellCache, CoordinateBlock, Crs, GridToEcef, LasTimeConverter, LasWriteOptions, RawChunk,
 };
 use lidarqa_model::{Ecef, Mounting};
 use lidarqa_tpu::{SegmentRotation, Trajectory};
-use nalgebra::{Matrix3, SimdRealField, SimdValue, Vector3};
+use nalgebra::{Matrix3, SimdValue, Vector3};
 use rayon::prelude::*;
 use simba::simd::WideF64x4;
 use std::path::{Path, PathBuf};
@@ -62,8 +62,8 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 
 mod correction;
 
-use correction::BATCH;
-pub(crate) use correction::{Correction, LineFix, Worker};
+use correction::{BATCH, line_shift, shift};
+pub(crate) use correction::{Correction, Worker};
 
 /// One tile to correct.
 #[derive(Debug, Clone, Copy)]
@@ -199,11 +199,9 @@ fn correct_tile_lines(
     // The input's own extra bytes are copied with each record (lidarqa adds none here).
     let carried = options.carry_extra_bytes(&tile.info, job.output);
     let writer = ctx.create_output(input, job.output, &options, job.other_inputs)?;
-    let fixes: Vec<(Option<u16>, LineFix)> = lines
+    let fixes: Vec<(Option<u16>, LineShift)> = lines
         .iter()
-        .map(|l| {
-            LineFix::new(&l.correction, &tile.trajectory, input).map(|f| (l.point_source_id, f))
-        })
+        .map(|l| line_shift(&l.correction, &tile.trajectory, input).map(|f| (l.point_source_id, f)))
         .collect::<Result<_>>()?;
     let checks = RecoveryCheck::new(ctx);
     let run = Run {
@@ -277,7 +275,7 @@ struct Run<'a> {
     output: &'a Path,
     /// The lines' trajectory corrections, when the strip adjustment gave them, each with its
     /// point source id (`None`: every point).
-    lines: &'a [(Option<u16>, LineFix)],
+    lines: &'a [(Option<u16>, LineShift)],
     /// Each point's time key when posed by its own per-point pose in coarse GPS time.
     point_keys: Option<&'a [f64]>,
     correction: &'a Correction,
@@ -417,10 +415,10 @@ impl Run<'_> {
     /// `sow` (module docs); `last`, the previous point's, is tried first (consecutive points
     /// are mostly of one line).
     fn line_of(&self, index: u64, psid: u16, sow: f64, last: usize) -> Result<usize> {
-        let holds = |(id, fix): &(Option<u16>, LineFix)| match id {
+        let holds = |(id, fix): &(Option<u16>, LineShift)| match id {
             None => true,
             Some(id) => {
-                let [a, b] = fix.line.time_span_s;
+                let [a, b] = fix.line().time_span_s;
                 *id == psid && a <= sow && sow <= b
             }
         };
@@ -450,7 +448,7 @@ impl Run<'_> {
         self.correction.steps(batch);
         if !self.lines.is_empty() {
             for slot in batch.iter_mut() {
-                self.lines[slot.line].1.apply(slot);
+                shift(&self.lines[slot.line].1, slot);
             }
         }
         for (k, slot) in points.zip(batch.iter()) {

@@ -23,7 +23,7 @@ use crate::plausibility::DEFAULT_MAX_RANGE_M;
 use crate::summary::AngleCheck;
 use lidarqa_io::{LasReader, RawChunk};
 use lidarqa_model::{Ecef, Scanner, Sensor, Warning};
-use lidarqa_tpu::{MOUNTING_ERROR_M, MountingTally};
+use lidarqa_tpu::{MOUNTING_ERROR_M, MountingTally, sigma_3d_bound};
 use lidarqa_tpu::{PoseAt, Recoverer};
 use nalgebra::Matrix3;
 use std::path::Path;
@@ -192,31 +192,6 @@ impl RecoveryTally {
             )
         })
     }
-}
-
-/// A conservative 3-D σ of a point at `range_m` from the sensor file's σ alone (every position
-/// and lever-arm σ plus the range's, every angle's at the range): no smaller than the propagated
-/// σ, so the mounting check does not fire on noise.
-pub(crate) fn sigma_3d_bound(sensor: &Sensor, range_m: f64) -> f64 {
-    use lidarqa_model::Source::*;
-    let s = |x| sensor.sigma.get(x).powi(2);
-    let metres: f64 = [GnssNorth, GnssEast, GnssUp, LeverX, LeverY, LeverZ, Range]
-        .map(s)
-        .iter()
-        .sum();
-    let angles: f64 = [
-        Roll,
-        Pitch,
-        Heading,
-        BoresightRoll,
-        BoresightPitch,
-        BoresightYaw,
-        ScanAngle,
-    ]
-    .map(s)
-    .iter()
-    .sum();
-    (metres + range_m * range_m * angles).sqrt()
 }
 
 /// The point at `xyz` (the file's units) in ECEF with its pose, when it has a GPS time within

@@ -50,9 +50,6 @@ const BLOCK: usize = 4096;
 /// Points of a chunk computed and handed to the writer at a time (whole blocks).
 const PIECE: usize = 12 * BLOCK;
 
-/// σ overrides for a conic return without a water leg: no water travel time.
-const NO_WATER_LEG: [(Source, f64); 1] = [(Source::TimeWater, 0.0)];
-
 /// The extra-bytes descriptions of [`SIGMA_NAMES`] then [`SOUNDING_DIMS`], with the 95 % factors
 /// written from the constants the writer multiplies by.
 fn descriptions() -> [String; 9] {

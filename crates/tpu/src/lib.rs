@@ -9,7 +9,9 @@
 //! - for the per-point TPU of a real survey: trajectory interpolation ([`Trajectory`], slerp of
 //!   the attitude), raw-observation recovery from a georeferenced point ([`Recoverer`]),
 //!   per-point propagation with the trajectory's own σ and an `incidence` term
-//!   ([`PointPropagator`]) and plane-fit surface normals ([`plane_normals`]). File handling is
+//!   ([`PointPropagator`]), the propagated covariance at the point, on the grid and by source
+//!   ([`local_covariance`], [`grid_covariance`], [`add_shares`]) and plane-fit surface normals
+//!   ([`plane_normals`]). File handling is
 //!   in lidarqa-pipeline;
 //! - bathymetric soundings of a conic scanner: their raw observation from the seabed point and
 //!   its water surface ([`Recoverer::sounding_from_surface_return`],
@@ -42,6 +44,7 @@ mod montecarlo;
 mod mounting_check;
 mod normals;
 mod point;
+mod point_sigma;
 mod presets;
 mod recover;
 mod request;
@@ -64,7 +67,7 @@ pub use iho::{
 pub use montecarlo::{MonteCarlo, monte_carlo};
 pub use mounting_check::{
     FittedMounting, MOUNTING_ERROR_M, MOUNTING_WARNING_FLOOR_M, MOUNTING_WARNING_RATIO,
-    MountingTally,
+    MountingTally, sigma_3d_bound,
 };
 pub use normals::{
     IncidenceClass, MAX_NEIGHBOURS, MIN_NEIGHBOURS, SHARE_STRIDE, Surface, WIDEN_FLATNESS,
@@ -72,6 +75,10 @@ pub use normals::{
     judge_surfaces_shared, judged_incidence, plane_normals, prior_cos_incidence,
 };
 pub use point::{Incidence, MAX_INCIDENCE_RAD, PointPropagator, PointUncertainty};
+pub use point_sigma::{
+    NO_WATER_LEG, add_shares, grid_covariance, local_covariance, p0_to_point, sounding_overrides,
+    topographic_overrides,
+};
 pub use presets::Preset;
 pub use recover::{BeamRecovery, ConicRecovery, LinearRecovery, Recoverer, nominal_l3};
 pub use request::{GeometryRequest, SweepEvaluation, SweepPoint, evaluate_sweep};

@@ -9,7 +9,7 @@
 //! over every point, `correct` and `calibrate` over a sample. Written by hand: a 3×3 symmetric
 //! eigenproblem (nalgebra) and a few sums, no crate does it.
 
-use lidarqa_model::Mounting;
+use lidarqa_model::{Mounting, Sensor};
 use lidarqa_products::MountingCheck;
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use serde::{Deserialize, Serialize};
@@ -184,6 +184,31 @@ pub struct FittedMounting {
     pub yaw_deg: f64,
     /// RMS distance of the points from the fitted plane, m.
     pub rms_m: f64,
+}
+
+/// A conservative 3-D σ of a point at `range_m` from the sensor file's σ alone (every position
+/// and lever-arm σ plus the range's, every angle's at the range): no smaller than the propagated
+/// σ, so the mounting check does not fire on noise where no σ is propagated.
+pub fn sigma_3d_bound(sensor: &Sensor, range_m: f64) -> f64 {
+    use lidarqa_model::Source::*;
+    let s = |x| sensor.sigma.get(x).powi(2);
+    let metres: f64 = [GnssNorth, GnssEast, GnssUp, LeverX, LeverY, LeverZ, Range]
+        .map(s)
+        .iter()
+        .sum();
+    let angles: f64 = [
+        Roll,
+        Pitch,
+        Heading,
+        BoresightRoll,
+        BoresightPitch,
+        BoresightYaw,
+        ScanAngle,
+    ]
+    .map(s)
+    .iter()
+    .sum();
+    (metres + range_m * range_m * angles).sqrt()
 }
 
 #[cfg(test)]

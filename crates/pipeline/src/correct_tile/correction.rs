@@ -1,5 +1,6 @@
-//! The displacement of each point from its mounting as delivered to the calibrated one (and
-//! its line's trajectory correction), in ECEF and back to the grid, four points at a time.
+//! One tile's correction prepared once (the CRS's map to ECEF, both mountings, the lines'
+//! corrections) and each worker's batch of points taken through calib's [`displacement`],
+//! four points at a time.
 
 use super::*;
 
@@ -13,33 +14,6 @@ pub(crate) struct Correction {
     /// Both mountings, for one point and for four.
     pub(super) mountings: Mountings<f64>,
     pub(super) mountings4: Mountings<WideF64x4>,
-}
-
-/// The mounting the points were made with (for the recovery) and the calibrated one, for
-/// [`displacement`] on `T`.
-#[derive(Debug, Clone)]
-pub(super) struct Mountings<T: nalgebra::Scalar> {
-    pub(super) old_r_m: Matrix3<T>,
-    pub(super) old_lever_m: Vector3<T>,
-    pub(super) new_r_m: Matrix3<T>,
-    pub(super) new_lever_m: Vector3<T>,
-    /// Whether the recovered `S` is kept whole (a beam head) or put into the scan plane (the
-    /// linear scanner), as calibrate's [`lidarqa_calib::ScanGeometry`].
-    pub(super) geometry: ScanGeometry,
-}
-
-impl<T: SimdRealField<Element = f64> + Copy> Mountings<T> {
-    pub(super) fn new(old: &Mounting, new: &Mounting, geometry: ScanGeometry) -> Mountings<T> {
-        let m = |m: Matrix3<f64>| m.map(T::splat);
-        let v = |v: Vector3<f64>| v.map(T::splat);
-        Mountings {
-            old_r_m: m(old.scanner_to_body()),
-            old_lever_m: v(old.lever_arm_m),
-            new_r_m: m(new.scanner_to_body()),
-            new_lever_m: v(new.lever_arm_m),
-            geometry,
-        }
-    }
 }
 
 /// Points a worker takes through each step of [`Run::correct_block`] together: enough for the
@@ -91,59 +65,40 @@ pub(crate) struct Slot {
     pub(super) line: usize,
 }
 
-/// A line's trajectory correction, prepared once: the line's estimated error and the local
-/// level frame at its middle (over a line's few kilometres the frame turns by hundredths of a
-/// degree: micrometres on centimetre corrections).
-#[derive(Debug, Clone)]
-pub(crate) struct LineFix {
-    pub(super) line: lidarqa_calib::LineCorrection,
-    /// NED → ECEF at the line's middle.
-    pub(super) c_en: Matrix3<f64>,
+/// A line's trajectory correction with the local level frame at its middle, from the
+/// trajectory there.
+pub(super) fn line_shift(
+    line: &lidarqa_calib::LineCorrection,
+    trajectory: &Trajectory,
+    path: &Path,
+) -> Result<LineShift> {
+    let mid = 0.5 * (line.time_span_s[0] + line.time_span_s[1]);
+    let pose = trajectory.at(mid).map_err(|_| {
+        let (start_s, end_s) = trajectory.span_s();
+        Error::OutsideTrajectory {
+            path: path.to_path_buf(),
+            index: 0,
+            time_s: mid,
+            start_s,
+            end_s,
+        }
+    })?;
+    Ok(LineShift::new(
+        line,
+        lidarqa_model::ecef_from_ned(pose.latitude_rad, pose.longitude_rad),
+    ))
 }
 
-impl LineFix {
-    pub(super) fn new(
-        line: &lidarqa_calib::LineCorrection,
-        trajectory: &Trajectory,
-        path: &Path,
-    ) -> Result<LineFix> {
-        let mid = 0.5 * (line.time_span_s[0] + line.time_span_s[1]);
-        let pose = trajectory.at(mid).map_err(|_| {
-            let (start_s, end_s) = trajectory.span_s();
-            Error::OutsideTrajectory {
-                path: path.to_path_buf(),
-                index: 0,
-                time_s: mid,
-                start_s,
-                end_s,
-            }
-        })?;
-        Ok(LineFix {
-            line: line.clone(),
-            c_en: lidarqa_model::ecef_from_ned(pose.latitude_rad, pose.longitude_rad),
-        })
-    }
-
-    /// Adds the line's correction to the displacement in `slot` (after [`Correction::step`]).
-    pub(super) fn apply(&self, slot: &mut Slot) {
-        let [n, e, u] = self.line.position_error_m(slot.time_s);
-        let mut extra = -(self.c_en * Vector3::new(n, e, -u));
-        if let Some([dr, dp, dh]) = self.line.attitude_rad {
-            // R_N = Rz(h) Ry(p) Rx(r): dR_N = [ω]× R_N with ω = δr R_N x̂ + δp Rz(h) ŷ + δh ẑ.
-            let r_n = self.c_en.transpose() * slot.r_be;
-            let x_axis = r_n.column(0).into_owned();
-            let h = r_n[(1, 0)].atan2(r_n[(0, 0)]);
-            let omega_ned =
-                x_axis * dr + Vector3::new(-h.sin(), h.cos(), 0.0) * dp + Vector3::z() * dh;
-            let omega = self.c_en * omega_ned;
-            // P' − P0 after the mounting's correction.
-            let beam = slot.beam_m + slot.jacobian * slot.step_m;
-            extra -= omega.cross(&beam);
-        }
-        if let Some(inv) = slot.jacobian.try_inverse() {
-            slot.step_m += inv * extra;
-        }
-    }
+/// Adds the line's correction to the displacement in `slot` (after [`Correction::step`]).
+#[inline]
+pub(super) fn shift(line: &LineShift, slot: &mut Slot) {
+    line.apply(
+        slot.time_s,
+        &slot.beam_m,
+        &slot.r_be,
+        &slot.jacobian,
+        &mut slot.step_m,
+    );
 }
 
 impl Correction {
@@ -267,56 +222,4 @@ impl Correction {
             moved.map(|v| v / self.unit_m).into()
         })
     }
-}
-
-/// The range squared (m²) and the displacement on the grid (m) of a point with `beam` = P − P0
-/// (ECEF), the body → ECEF rotation `r_be` and the map's Jacobian at it (module docs): for one
-/// point (`T = f64`) or four at once (`T = WideF64x4`, the same IEEE operations lane by lane,
-/// so the same bits).
-#[inline(always)]
-pub(super) fn displacement<T: SimdRealField<Element = f64> + Copy>(
-    m: &Mountings<T>,
-    beam: &Vector3<T>,
-    r_be: &Matrix3<T>,
-    jacobian: &Matrix3<T>,
-) -> (T, Vector3<T>) {
-    // Recovery: B = R_BEᵀ (P − P0), S = R_Mᵀ (B − ΔP) (as `Recoverer::scanner_from_body`);
-    // range ρ = |S|, scan angle θ = atan2(S_y, S_z), S' = ρ (0, sin θ, cos θ).
-    let body = r_be.transpose() * beam;
-    let s = m.old_r_m.transpose() * (body - m.old_lever_m);
-    if m.geometry == ScanGeometry::Beam {
-        // A beam head keeps the whole S: Δ = R_BE (R_M' S + ΔP' − B).
-        let d = r_be * (m.new_r_m * s + m.new_lever_m - body);
-        return (s.norm_squared(), grid_step(jacobian, &d));
-    }
-    // S' = (0, S_y, S_z) scaled to the range ρ = |S|: by ρ / r_yz = √(1 + S_x² / r_yz²), one
-    // root and one division (S_x is the small out-of-plane residual); (0, 0, ρ) for r_yz = 0.
-    let (x2, r2) = (s.x * s.x, s.y * s.y + s.z * s.z);
-    let range2 = r2 + x2;
-    let k = (T::one() + x2 / r2).simd_sqrt();
-    let in_plane = r2.simd_gt(T::zero());
-    let (s_y, s_z) = (
-        (s.y * k).select(in_plane, T::zero()),
-        (s.z * k).select(in_plane, range2.simd_sqrt()),
-    );
-    // Δ = P0 + R_BE (R_M' S' + ΔP') − P, taken in the body frame: R_BE (R_M' S' + ΔP' − B),
-    // then on the grid through the map's Jacobian at the point (module docs).
-    // (S'_x = 0: two columns of R_M'.)
-    let d = r_be * (m.new_r_m.column(1) * s_y + m.new_r_m.column(2) * s_z + m.new_lever_m - body);
-    (range2, grid_step(jacobian, &d))
-}
-
-/// An ECEF displacement `d` (m) on the grid through the map's Jacobian at the point.
-#[inline(always)]
-pub(super) fn grid_step<T: SimdRealField<Element = f64> + Copy>(
-    jacobian: &Matrix3<T>,
-    d: &Vector3<T>,
-) -> Vector3<T> {
-    // Cramer's rule on the columns (∂P/∂x, ∂P/∂y, ∂P/∂h).
-    let (jx, jy, jh) = (jacobian.column(0), jacobian.column(1), jacobian.column(2));
-    let yh = jy.cross(&jh);
-    let det = jx.dot(&yh);
-    // One division: the three quotients then differ from dividing each by at most an ulp of a
-    // step of metres.
-    Vector3::new(d.dot(&yh), jx.dot(&d.cross(&jh)), jx.dot(&jy.cross(d))) * det.simd_recip()
 }

@@ -1,6 +1,11 @@
-//! One point: its raw observations recovered, its σ propagated (topographic and sounding), and its share of each source.
+//! One point through the tile: its state checked, lidarqa-tpu's recovery and propagation for its
+//! scanner, and what comes out counted, kept or refused.
 
 use super::*;
+use lidarqa_tpu::{
+    add_shares, grid_covariance, local_covariance, p0_to_point, sounding_overrides,
+    topographic_overrides,
+};
 
 impl Run<'_> {
     pub(super) fn point(
@@ -103,17 +108,11 @@ impl Run<'_> {
         match result {
             Ok((cov_at_p0, rec, recovered, class)) => {
                 acc.incidence.add(class);
-                // σ in the local level frame at the point: rotate from N at P0 (the two differ
-                // by the geodesic angle between them, ~1e-4 rad at 600 m; cheap to do exactly).
-                // (`pose.ecef_to_ned` is `ecef_from_ned` at the pose, transposed.)
-                let m = p.ecef_from_ned().transpose() * pose.ecef_to_ned.transpose();
-                // The whole matrix for a sounding's THU and the covariance, else its diagonal.
-                let c = (rec.is_some() || opts.covariance).then(|| m * cov_at_p0 * m.transpose());
-                let [n2, e2, u2] = match &c {
-                    Some(c) => [c[(0, 0)], c[(1, 1)], c[(2, 2)]],
-                    None => rotated_diagonal(&m, &cov_at_p0),
-                }
-                .map(|v| v.max(0.0));
+                // σ in the local level frame at the point; the whole matrix for a sounding's
+                // THU and the covariance, else its diagonal.
+                let m = p0_to_point(&p.ecef_from_ned(), &pose.ecef_to_ned);
+                let (c, [n2, e2, u2]) =
+                    local_covariance(&m, &cov_at_p0, rec.is_some() || opts.covariance);
                 if let Some(r) = recovered {
                     let sigma_3d = (n2 + e2 + u2).sqrt();
                     if point_implausible(r.range_m, r.residual_m, sigma_3d) {
@@ -139,19 +138,11 @@ impl Run<'_> {
                     sigma_vertical_m: u2.sqrt(),
                 });
                 let cov = if let (true, Some(c)) = (opts.covariance, c) {
-                    // NED (true) → grid (easting, northing, up): a true azimuth α is the grid
-                    // azimuth α − γ. Ground metres, not scaled by the point scale factor.
-                    let (sg, cg) = (p.unprojected.sin_convergence, p.unprojected.cos_convergence);
-                    let t = Matrix3::new(-sg, cg, 0.0, cg, sg, 0.0, 0.0, 0.0, -1.0);
-                    let g = t * c * t.transpose();
-                    [
-                        g[(0, 0)],
-                        g[(1, 1)],
-                        g[(2, 2)],
-                        g[(0, 1)],
-                        g[(0, 2)],
-                        g[(1, 2)],
-                    ]
+                    grid_covariance(
+                        &c,
+                        p.unprojected.sin_convergence,
+                        p.unprojected.cos_convergence,
+                    )
                 } else {
                     [0.0; 6]
                 };
@@ -212,9 +203,8 @@ impl Run<'_> {
         }
     }
 
-    /// Propagation of a sounding: no incidence term; under a modelled surface the
-    /// water-surface height σ grows by the surface's scatter about its plane (the waves):
-    /// `√(σ_file² + rms²)`.
+    /// Propagation of a sounding: no incidence term, the σ override of its surface
+    /// ([`sounding_overrides`]).
     pub(super) fn propagate_sounding(
         &self,
         rec: &SoundingRecovery,
@@ -227,17 +217,10 @@ impl Run<'_> {
                 "a sounding needs a conic scanner".into(),
             ));
         };
-        let over = match rec.surface {
-            SurfaceSource::Pulse => None,
-            SurfaceSource::Modelled { rms_m, .. } => Some((
-                Source::WaterSurfaceHeight,
-                self.ctx
-                    .sensor
-                    .sigma
-                    .get(Source::WaterSurfaceHeight)
-                    .hypot(rms_m),
-            )),
-        };
+        let over = sounding_overrides(
+            rec.surface,
+            self.ctx.sensor.sigma.get(Source::WaterSurfaceHeight),
+        );
         let (footprint, j) =
             scanner.jacobian_at_pose(&pose.body_to_ned, &self.mounting_partials, &rec.observation);
         let u = pp.propagate_jacobian(footprint, &j, sigma, None, over.as_slice())?;
@@ -335,14 +318,9 @@ impl Run<'_> {
                     &self.mounting_partials,
                     &r.observation,
                 );
-                // A conic return recovered here has no water leg (topographic or water-surface
-                // return: Δt2 = 0), so the water travel time's σ must not move it; soundings
-                // take `propagate_sounding` with their own water terms.
-                let over: &[(Source, f64)] = if r.observation.time_water_s == 0.0 {
-                    &NO_WATER_LEG
-                } else {
-                    &[]
-                };
+                // A conic return recovered here has no water leg; soundings take
+                // `propagate_sounding` with their own water terms.
+                let over = topographic_overrides(r.observation.time_water_s);
                 let u = pp.propagate_jacobian(footprint, &j, sigma, inc.as_ref(), over)?;
                 add_shares(
                     &mut acc.shares,
@@ -397,59 +375,8 @@ pub(super) fn water_returns(
         .collect()
 }
 
-/// Adds a point's share of its variance from each source (the model's, then the incidence
-/// term's) to `shares`.
-pub(super) fn add_shares(shares: &mut [f64], vars: &[f64], incidence_m2: f64) {
-    let total: f64 = vars.iter().sum::<f64>() + incidence_m2;
-    if total > 0.0 {
-        // The model's sources over plain slices (the divisions vectorise), then the incidence.
-        let (model, incidence) = shares.split_at_mut(vars.len().min(shares.len()));
-        for (s, v) in model.iter_mut().zip(vars) {
-            *s += v / total;
-        }
-        if let Some(s) = incidence.first_mut() {
-            *s += incidence_m2 / total;
-        }
-    }
-}
-
-/// The diagonal of `m c mᵀ`, each element the same sums in the same order as nalgebra's
-/// product (so to the same bits), without the off-diagonal ones.
-pub(super) fn rotated_diagonal(m: &Matrix3<f64>, c: &Matrix3<f64>) -> [f64; 3] {
-    std::array::from_fn(|r| {
-        let t = |k: usize| m[(r, 0)] * c[(0, k)] + m[(r, 1)] * c[(1, k)] + m[(r, 2)] * c[(2, k)];
-        t(0) * m[(r, 0)] + t(1) * m[(r, 1)] + t(2) * m[(r, 2)]
-    })
-}
-
 pub(super) fn valid_ecef(pts: &[Prep]) -> impl DoubleEndedIterator<Item = Vector3<f64>> + '_ {
     pts.iter()
         .filter(|p| !matches!(p.state, PrepState::NonFinite))
         .map(|p| p.ecef.vector())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn rotated_diagonal_is_that_of_the_product_to_the_bit() {
-        let mut s = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
-        for k in 0..20_000 {
-            let m = Matrix3::from_fn(|_, _| next());
-            let a = Matrix3::from_fn(|_, _| next() * 10f64.powi(k % 7 - 4));
-            let c = a * a.transpose();
-            let want = m * c * m.transpose();
-            let got = rotated_diagonal(&m, &c);
-            for r in 0..3 {
-                assert_eq!(got[r].to_bits(), want[(r, r)].to_bits(), "{m} {c}");
-            }
-        }
-    }
 }
