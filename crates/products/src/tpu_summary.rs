@@ -6,8 +6,9 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-/// The whole file: every tile's line and the merged statistics.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// The whole file: every tile's line and the merged statistics. `Default` is an empty summary
+/// (tests build theirs from it).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TpuSummaryDocument {
     /// The tiles, in the order given.

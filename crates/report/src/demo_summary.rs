@@ -267,18 +267,7 @@ mod tests {
             points_written: 10,
             points: 10,
             skipped: Default::default(),
-            sigma: Default::default(),
-            percentiles: String::new(),
-            source_share: Default::default(),
-            points_with_surface_normal: 0,
-            incidence: Default::default(),
-            histogram: Default::default(),
-            grid: None,
-            scan_angle_check: None,
-            recovery_residual_m: None,
-            iho_s44: None,
-            mounting_check: None,
-            warnings: Vec::new(),
+            ..Default::default()
         };
         let json = serde_json::to_string(&summary).unwrap();
         std::fs::write(dir.path().join(TPU_SUMMARY_FILE), json).unwrap();

@@ -135,17 +135,7 @@ fn zhang_2018_table2_formula_7_is_17_56_cm() {
             .into_iter()
             .map(|(k, m)| (k.to_string(), stats(m)))
             .collect(),
-        percentiles: String::new(),
-        source_share: Default::default(),
-        points_with_surface_normal: 0,
-        incidence: Default::default(),
-        histogram: Default::default(),
-        grid: None,
-        scan_angle_check: None,
-        recovery_residual_m: None,
-        iho_s44: None,
-        mounting_check: None,
-        warnings: Vec::new(),
+        ..Default::default()
     };
     std::fs::write(&summary, serde_json::to_string(&doc).unwrap()).unwrap();
     let args = [
