@@ -117,9 +117,19 @@ def test_evaluate_targets_closed_form_and_cli():
         raise AssertionError("sensor without height_m accepted")
     # With a TPU summary the prediction is its median per-point σ: 3, 4, 12 cm give horizontal
     # √(3² + 4²) = 5 cm and 3-D √(5² + 12²) = 13 cm, as `lidarqa evaluate --tpu` shows.
-    stats = lambda m: {"min": 0.01, "median": m, "p95": 0.2, "max": 0.3}  # noqa: E731
-    (d / "tpu_summary.json").write_text(json.dumps(
-        {"points": 10, "sigma": {"north": stats(0.03), "east": stats(0.04), "up": stats(0.12)}}))
+    # The summary is read with its one type: every block `lidarqa tpu` writes, none it does not.
+    stats = lambda m: {"min": 0.01, "median": m, "p95": 0.2, "max": 0.3, "mean": m}  # noqa: E731
+    incidence = ["file_normals", "invalid_file_normals", "planar", "planar_widened", "linear",
+                 "beam_in_plane", "scattered", "too_few_points"]
+    summary = {
+        "tiles": [], "scanner": "linear", "points_read": 10, "points_written": 10, "points": 10,
+        "skipped": {}, "sigma": {"north": stats(0.03), "east": stats(0.04), "up": stats(0.12)},
+        "percentiles": "", "source_share": {}, "points_with_surface_normal": 0,
+        "incidence": {k: 0 for k in incidence}, "histogram": {"vertical": None, "horizontal": None},
+        "grid": None, "scan_angle_check": None, "recovery_residual_m": None,
+        "mounting_check": None, "warnings": [],
+    }
+    (d / "tpu_summary.json").write_text(json.dumps(summary))
     e = lidarqa.evaluate_targets(d / "targets.csv", d / "control.csv", tpu=d / "tpu_summary.json")
     p = e["predicted"]
     assert (p["north"], p["east"], p["up"]) == (0.03, 0.04, 0.12), p
