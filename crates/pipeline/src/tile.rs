@@ -20,9 +20,9 @@ use lidarqa_model::{
     Scanner, Source, ecef_from_ned_sin_cos, linear_jacobian_at_beam,
 };
 use lidarqa_tpu::{
-    BeamPropagator, IhoOrder, Incidence, IncidenceClass, PointPropagator, PoseAt, PoseSigma,
-    Recoverer, SegmentRotation, SoundingRecovery, Surface, SurfaceSource, THU_95_CBLUE,
-    TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex, cos_incidence, judge_surfaces,
+    BeamPropagator, GridBuffers, IhoOrder, Incidence, IncidenceClass, PointPropagator, PoseAt,
+    PoseSigma, Recoverer, SegmentRotation, SoundingRecovery, Surface, SurfaceSource, THU_95_CBLUE,
+    TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex, cos_incidence, judge_surfaces_into,
     judged_incidence, thu_95_m,
 };
 use lidarqa_tpu::{MOUNTING_ERROR_M, MountingTally};
@@ -122,7 +122,7 @@ pub fn tpu_tile(job: &TpuTileJob<'_>) -> Result<TileReport> {
 /// `margin_points` points of the previous / next chunk, so a time-ordered strip has no edge
 /// effect at chunk borders as long as the margin covers the neighbourhoods: a few scan lines
 /// for the k nearest, and as many lines as a widened neighbourhood (up to
-/// [`lidarqa_tpu::MAX_NEIGHBOURS`] points, see [`judge_surfaces`]) spans where the lines are
+/// [`lidarqa_tpu::MAX_NEIGHBOURS`] points, see [`lidarqa_tpu::judge_surfaces`]) spans where the lines are
 /// sparse (20 000 points by default: ≥ 40 ms at 500 kHz); a spatially sorted tile may lose
 /// neighbours at a border only
 /// when they lie more than the margin away in file order. The look-ahead reaches into the next
@@ -293,6 +293,16 @@ struct Recycle {
     covariance: bool,
 }
 
+/// The incidence term's vectors, kept from chunk to chunk for the reason given at [`Recycle`]:
+/// the neighbourhoods' candidates and targets, and each point's surface.
+#[derive(Default)]
+struct SurfaceBuffers {
+    candidates: Vec<[f64; 3]>,
+    targets: Vec<[f64; 3]>,
+    surfaces: Vec<Option<Surface>>,
+    grid: GridBuffers,
+}
+
 /// An output chunk (the records with their σ) and the number of points read for it.
 type WriteMsg = crate::stages::WriteMsg<(RawChunk, u64)>;
 
@@ -448,8 +458,9 @@ impl Run<'_> {
         let lookahead = conic || self.kernel.has_incidence();
         let mut current = recv()?.map(|c| prepare(c, &mut spare_pts));
         let mut water_points = 0u64;
-        // One vector of slots serves every chunk.
+        // One vector of slots serves every chunk, as do the incidence term's buffers.
         let mut slots = Vec::new();
+        let mut surface_bufs = SurfaceBuffers::default();
         while let Some(cur) = current {
             let next = if lookahead { recv()? } else { None };
             // Only the incidence term's neighbourhoods reach into the neighbouring chunks' points.
@@ -486,7 +497,8 @@ impl Run<'_> {
                 WaterSurfaceIndex::new(w)
             });
             self.check_chunk(&cur, summary)?;
-            let surfaces = self.surfaces(&cur, &tail, &head);
+            self.surfaces(&cur, &tail, &head, &mut surface_bufs);
+            let surfaces = &surface_bufs.surfaces;
             // The chunk goes to the writer in pieces: it encodes one while the next is computed,
             // and the slots and output records of a piece are reused for the next.
             let n = cur.pts.len();
@@ -496,7 +508,7 @@ impl Run<'_> {
                 slots = self.compute_piece(
                     &cur,
                     piece.clone(),
-                    &surfaces,
+                    surfaces,
                     water.as_ref(),
                     slots,
                     (&mut blocks, summary.share_sums.len()),
@@ -555,17 +567,25 @@ impl Run<'_> {
     }
 
     /// The incidence term's surface at each point of the chunk (none without the term), from
-    /// the file's normals or the neighbourhoods among the chunk's points and its margins.
+    /// the file's normals or the neighbourhoods among the chunk's points and its margins, into
+    /// `bufs.surfaces`.
     fn surfaces(
         &self,
         cur: &Prepared,
         tail: &[Vector3<f64>],
         head: &[Vector3<f64>],
-    ) -> Vec<Option<Surface>> {
+        bufs: &mut SurfaceBuffers,
+    ) {
+        let SurfaceBuffers {
+            candidates,
+            targets,
+            surfaces,
+            grid,
+        } = bufs;
+        surfaces.clear();
         if !self.kernel.has_incidence() {
-            Vec::new()
         } else if self.file_normals {
-            self.file_normals_of(cur)
+            self.file_normals_of(cur, surfaces);
         } else {
             let origin = valid_ecef(&cur.pts).next().unwrap_or_else(Vector3::zeros);
             let rel = |v: &Vector3<f64>| {
@@ -574,8 +594,7 @@ impl Run<'_> {
             };
             // Built in parallel (in file order): a serial pass over the chunk here leaves a
             // core idle.
-            let mut candidates: Vec<[f64; 3]> =
-                Vec::with_capacity(tail.len() + cur.pts.len() + head.len());
+            candidates.clear();
             candidates.par_extend(tail.par_iter().map(rel));
             candidates.par_extend(
                 cur.pts
@@ -585,17 +604,19 @@ impl Run<'_> {
                     .map(|p| rel(&p.ecef.vector())),
             );
             candidates.par_extend(head.par_iter().map(rel));
-            let mut targets: Vec<[f64; 3]> = Vec::with_capacity(cur.pts.len());
+            targets.clear();
             targets.par_extend(
                 cur.pts
                     .par_iter()
                     .with_min_len(BLOCK)
                     .map(|p| rel(&p.ecef.vector())),
             );
-            judge_surfaces(&candidates, &targets, self.ctx.options.neighbours)
-                .into_iter()
-                .map(Some)
-                .collect()
+            judge_surfaces_into(
+                candidates,
+                targets,
+                self.ctx.options.neighbours,
+                (surfaces, grid),
+            );
         }
     }
 
@@ -648,27 +669,23 @@ impl Run<'_> {
 
     /// The file's NormalX/Y/Z (grid easting, northing, up, as PDAL's `filters.normal` computes
     /// them from X, Y, Z) as ECEF unit vectors: turned from grid to true north by the grid
-    /// convergence at the point; `None` for a zero or non-finite normal.
-    fn file_normals_of(&self, cur: &Prepared) -> Vec<Option<Surface>> {
+    /// convergence at the point; `None` for a zero or non-finite normal. Into `out`.
+    fn file_normals_of(&self, cur: &Prepared, out: &mut Vec<Option<Surface>>) {
         let cols: Vec<Vec<f64>> = NORMAL_DIMS
             .iter()
             .map(|n| cur.chunk.extra_column(n).unwrap_or_default())
             .collect();
-        cur.pts
-            .par_iter()
-            .enumerate()
-            .map(|(i, p)| {
-                let g = Vector3::new(*cols[0].get(i)?, *cols[1].get(i)?, *cols[2].get(i)?);
-                if !(g.iter().all(|v| v.is_finite()) && g.norm() > 0.0) {
-                    return Some(Surface::TooFew);
-                }
-                let (sg, cg) = (p.unprojected.sin_convergence, p.unprojected.cos_convergence);
-                // Grid (E, N) → true (N, E): a grid azimuth α_g is the true azimuth α_g + γ.
-                let ned = Vector3::new(g.y * cg - g.x * sg, g.x * cg + g.y * sg, -g.z);
-                let ecef = p.ecef_from_ned() * ned;
-                Some(Surface::Planar(ecef / ecef.norm()))
-            })
-            .collect()
+        out.par_extend(cur.pts.par_iter().enumerate().map(|(i, p)| {
+            let g = Vector3::new(*cols[0].get(i)?, *cols[1].get(i)?, *cols[2].get(i)?);
+            if !(g.iter().all(|v| v.is_finite()) && g.norm() > 0.0) {
+                return Some(Surface::TooFew);
+            }
+            let (sg, cg) = (p.unprojected.sin_convergence, p.unprojected.cos_convergence);
+            // Grid (E, N) → true (N, E): a grid azimuth α_g is the true azimuth α_g + γ.
+            let ned = Vector3::new(g.y * cg - g.x * sg, g.x * cg + g.y * sg, -g.z);
+            let ecef = p.ecef_from_ned() * ned;
+            Some(Surface::Planar(ecef / ecef.norm()))
+        }));
     }
 
     /// How the incidence term is taken at a point whose surface (file normal or judged

@@ -70,9 +70,10 @@ pub use mounting_check::{
     MountingTally, sigma_3d_bound,
 };
 pub use normals::{
-    IncidenceClass, MAX_NEIGHBOURS, MIN_NEIGHBOURS, SHARE_STRIDE, Surface, WIDEN_FLATNESS,
-    WIDEN_RADIUS_FACTOR, cos_incidence, fit_normal, incidence_angle, judge_surfaces,
-    judge_surfaces_shared, judged_incidence, plane_normals, prior_cos_incidence,
+    GridBuffers, IncidenceClass, MAX_NEIGHBOURS, MIN_NEIGHBOURS, SHARE_STRIDE, Surface,
+    WIDEN_FLATNESS, WIDEN_RADIUS_FACTOR, cos_incidence, fit_normal, incidence_angle,
+    judge_surfaces, judge_surfaces_into, judge_surfaces_shared, judged_incidence, plane_normals,
+    prior_cos_incidence,
 };
 pub use point::{Incidence, MAX_INCIDENCE_RAD, PointPropagator, PointUncertainty};
 pub use point_sigma::{

@@ -206,26 +206,58 @@ pub fn judge_surfaces_shared(
     k: usize,
     stride: usize,
 ) -> Vec<Surface> {
+    let mut out = Vec::new();
+    let mut grid = GridBuffers::default();
+    judge_into(
+        candidates,
+        targets,
+        (k, stride),
+        (&mut out, &mut grid),
+        |s| s,
+    );
+    out
+}
+
+/// [`judge_surfaces`] into `out`, each judgement as `Some`, its search grid built in `grid`:
+/// both are cleared and their capacity reused, so a caller judging chunk after chunk does not
+/// map (and fault in) fresh vectors of tens of MB for each.
+pub fn judge_surfaces_into(
+    candidates: &[[f64; 3]],
+    targets: &[[f64; 3]],
+    k: usize,
+    (out, grid): (&mut Vec<Option<Surface>>, &mut GridBuffers),
+) {
+    judge_into(candidates, targets, (k, SHARE_STRIDE), (out, grid), Some);
+}
+
+/// The judgement of [`judge_surfaces_shared`], each answer wrapped by `wrap`, into `out`.
+fn judge_into<T: Clone + Send + Sync>(
+    candidates: &[[f64; 3]],
+    targets: &[[f64; 3]],
+    (k, stride): (usize, usize),
+    (out, grid): (&mut Vec<T>, &mut GridBuffers),
+    wrap: impl Fn(Surface) -> T + Sync,
+) {
     let stride = stride.clamp(1, QUERY_BLOCK);
     search_each(
         candidates,
         targets,
-        k,
-        stride,
-        Surface::TooFew,
+        (k, stride),
+        (wrap(Surface::TooFew), out, grid),
         |q, nn, grid, wide| {
             if nn.len() < MIN_NEIGHBOURS {
-                return (Surface::TooFew, 0.0);
+                return (wrap(Surface::TooFew), 0.0);
             }
             // The scatter of the k nearest is judged, and reused by the widening.
             let first = scatter_of(q, nn);
             let kth_m2 = nn.last().map_or(0.0, |&(d2, _)| d2);
-            match judge_scatter(&first, FLATNESS, true) {
+            let (judged, r2) = match judge_scatter(&first, FLATNESS, true) {
                 Surface::Linear(along) => widen(q, nn, (&first, along), grid, wide),
                 judged => (judged, kth_m2),
-            }
+            };
+            (wrap(judged), r2)
         },
-    )
+    );
 }
 
 /// How a point's incidence term was taken: the per-point `incidence_class` of `lidarqa tpu`'s
@@ -494,9 +526,16 @@ fn for_each_neighbourhood<T: Clone + Send + Sync>(
     none: T,
     f: impl Fn(&[f64; 3], &[(f64, [f64; 3])]) -> T + Sync,
 ) -> Vec<T> {
-    search_each(candidates, targets, k, 1, none, |q, nn, _, _| {
-        (f(q, nn), 0.0)
-    })
+    let mut out = Vec::new();
+    let mut grid = GridBuffers::default();
+    search_each(
+        candidates,
+        targets,
+        (k, 1),
+        (none, &mut out, &mut grid),
+        |q, nn, _, _| (f(q, nn), 0.0),
+    );
+    out
 }
 
 /// [`for_each_neighbourhood`], with `f` also given the grid and a buffer reused within a block
@@ -509,22 +548,21 @@ fn for_each_neighbourhood<T: Clone + Send + Sync>(
 fn search_each<T: Clone + Send + Sync>(
     candidates: &[[f64; 3]],
     targets: &[[f64; 3]],
-    k: usize,
-    stride: usize,
-    none: T,
+    (k, stride): (usize, usize),
+    (none, out, grid_bufs): (T, &mut Vec<T>, &mut GridBuffers),
     f: impl Fn(&[f64; 3], &[(f64, [f64; 3])], &Grid, &mut Vec<(f64, u32)>) -> (T, f64) + Sync,
-) -> Vec<T> {
+) {
     use rayon::prelude::*;
+    out.clear();
+    // Filled in parallel: the pages of a chunk-sized vector would otherwise fault on one core.
+    out.par_extend(targets.par_iter().map(|_| none.clone()));
     if candidates.len() < MIN_NEIGHBOURS {
-        return vec![none; targets.len()];
+        return;
     }
     let k = k
         .clamp(MIN_NEIGHBOURS, MAX_NEIGHBOURS)
         .min(candidates.len());
-    let grid = Grid::new(candidates, k);
-    // Filled in parallel: the pages of a chunk-sized vector would otherwise fault on one core.
-    let mut out = Vec::with_capacity(targets.len());
-    out.par_extend(targets.par_iter().map(|_| none.clone()));
+    let grid = Grid::new_in(candidates, k, std::mem::take(grid_bufs));
     out.par_chunks_mut(QUERY_BLOCK)
         .zip(targets.par_chunks(QUERY_BLOCK))
         .for_each(|(out, targets)| {
@@ -565,7 +603,7 @@ fn search_each<T: Clone + Send + Sync>(
                 }
             }
         });
-    out
+    *grid_bufs = grid.into_buffers();
 }
 
 /// The neighbourhood of `q` judged by its dimensionality features.
@@ -780,10 +818,38 @@ struct Grid {
     xs: Vec<f64>,
     ys: Vec<f64>,
     zs: Vec<f64>,
+    /// The building's cell of each candidate and fill counts, kept for [`Grid::into_buffers`].
+    spare: (Vec<u32>, Vec<u32>),
+}
+
+/// The vectors a grid is built in, handed back after its searches for the next one: a caller
+/// judging chunk after chunk then does not map (and fault in) them afresh.
+#[derive(Default)]
+pub struct GridBuffers {
+    ids: Vec<u32>,
+    start: Vec<u32>,
+    fill: Vec<u32>,
+    xs: Vec<f64>,
+    ys: Vec<f64>,
+    zs: Vec<f64>,
 }
 
 impl Grid {
+    #[cfg(test)]
     fn new(candidates: &[[f64; 3]], k: usize) -> Grid {
+        Grid::new_in(candidates, k, GridBuffers::default())
+    }
+
+    /// The grid of `candidates` for searches of `k` neighbours, built in `bufs`.
+    fn new_in(candidates: &[[f64; 3]], k: usize, bufs: GridBuffers) -> Grid {
+        let GridBuffers {
+            mut ids,
+            mut start,
+            mut fill,
+            mut xs,
+            mut ys,
+            mut zs,
+        } = bufs;
         let n = candidates.len();
         let axes = principal_axes(candidates);
         let project = |p: &[f64; 3]| -> [f64; 2] { [dot(&axes[0], p), dot(&axes[1], p)] };
@@ -828,23 +894,28 @@ impl Grid {
             iv * nu + iu
         };
         // Counting sort into cells (the cells found in parallel, the sort serial).
-        let ids: Vec<u32> = {
+        {
             use rayon::prelude::*;
             candidates
                 .par_iter()
                 .with_min_len(QUERY_BLOCK)
                 .map(|p| index(p) as u32)
-                .collect()
-        };
-        let mut start = vec![0u32; nu * nv + 1];
+                .collect_into_vec(&mut ids);
+        }
+        start.clear();
+        start.resize(nu * nv + 1, 0);
         for &c in &ids {
             start[c as usize + 1] += 1;
         }
         for c in 0..nu * nv {
             start[c + 1] += start[c];
         }
-        let mut fill = start.clone();
-        let (mut xs, mut ys, mut zs) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        fill.clear();
+        fill.extend_from_slice(&start);
+        for v in [&mut xs, &mut ys, &mut zs] {
+            v.clear();
+            v.resize(n, 0.0);
+        }
         for (p, &c) in candidates.iter().zip(&ids) {
             let slot = &mut fill[c as usize];
             let j = *slot as usize;
@@ -861,6 +932,20 @@ impl Grid {
             xs,
             ys,
             zs,
+            spare: (ids, fill),
+        }
+    }
+
+    /// The grid's vectors, for the next one.
+    fn into_buffers(self) -> GridBuffers {
+        let (ids, fill) = self.spare;
+        GridBuffers {
+            ids,
+            start: self.start,
+            fill,
+            xs: self.xs,
+            ys: self.ys,
+            zs: self.zs,
         }
     }
 
