@@ -11,9 +11,9 @@
 //! correction *is* re-georeferencing, so the first ratio is the parallel speed-up and the second
 //! the cost of building `R_M` per point.
 //!
-//! `cargo bench -p lidarqa-calib --bench calibrate`
+//! `cargo bench --manifest-path crates/microbench/Cargo.toml --bench calibrate`
 
-#[path = "../tests/common/mod.rs"]
+#[path = "../../calib/tests/common/mod.rs"]
 mod common;
 
 use common::*;

@@ -1,0 +1,1 @@
+//! Criterion micro-benchmarks of lidarqa (see `benches/` and Cargo.toml).
