@@ -40,6 +40,7 @@ mod eigen3;
 mod error;
 mod frames;
 mod georeferencer;
+mod histogram;
 mod linear;
 pub mod lm;
 mod numeric;
@@ -64,6 +65,7 @@ pub use eigen3::{symmetric_eigen3, symmetric_eigenvalues3, symmetric_eigenvector
 pub use error::{Error, Result};
 pub use frames::{Attitude, Ecef, Grid, Mounting, MountingPartials, Ned};
 pub use georeferencer::{Georeferencer, TRAJECTORY_SOURCES};
+pub use histogram::LogHistogram;
 pub use linear::{
     LINEAR_N, LinearObservation, LinearScanner, OffPlaneLinearScanner, linear_jacobian_at_beam,
     linear_range_for_height, scanner_vector,

@@ -16,11 +16,12 @@
 //! returns computed in parallel; the output is written atomically.
 
 use crate::error::{Error, Result};
-use crate::summary::{Histogram, SIGMA_NAMES};
+use crate::summary::{SIGMA_NAMES, stats};
 use lidarqa_io::{
     Crs, CsdHeader, CsdPulse, CsdReader, CsdReturn, Geodetic, LasPoint, LasTimeBase,
     LasWriteOptions, LasWriter, RawVlr, utm_wkt, week_to_adjusted_standard,
 };
+use lidarqa_model::LogHistogram;
 use lidarqa_model::{
     Axes, Ecef, Georeferencer, Grid, LINEAR_N, LinearObservation, LinearScanner, Mounting, Ned,
     Scanner, Sensor, Warning, ecef_from_ned,
@@ -259,7 +260,7 @@ pub fn tpu_csd(job: &CsdTpuJob<'_>) -> Result<CsdTpuReport> {
     let mut pulses = 0u64;
     let mut empty = 0u64;
     let mut written = 0u64;
-    let mut hist: [Histogram; 5] = Default::default();
+    let mut hist: [LogHistogram; 5] = Default::default();
     let mut chunk: Vec<CsdPulse> = Vec::with_capacity(CHUNK_PULSES);
     loop {
         chunk.clear();
@@ -322,7 +323,7 @@ pub fn tpu_csd(job: &CsdTpuJob<'_>) -> Result<CsdTpuReport> {
     let sigma = SIGMA_NAMES[..5]
         .iter()
         .zip(&hist)
-        .filter_map(|(name, h)| h.stats().map(|s| (*name, s)))
+        .filter_map(|(name, h)| stats(h).map(|s| (*name, s)))
         .collect();
     Ok(CsdTpuReport {
         input: job.input.to_path_buf(),

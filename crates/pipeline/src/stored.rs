@@ -5,14 +5,13 @@
 
 use crate::plausibility::PlausibilityTally;
 use crate::summary::{
-    AngleCheck, Histogram, IhoTally, IncidenceTally, ResidualCheck, SigmaMap, SkipReason,
-    TpuSummary,
+    AngleCheck, IhoTally, IncidenceTally, ResidualCheck, SigmaMap, SkipReason, TpuSummary,
 };
-use lidarqa_model::{BeamKind, Source};
+use lidarqa_model::{BeamKind, LogHistogram, Source};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-/// A [`Histogram`] as stored: empty bins left out.
+/// A [`LogHistogram`] as stored: empty bins left out.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StoredHistogram {
@@ -72,51 +71,30 @@ pub struct StoredSummary {
     pub warnings: Vec<lidarqa_model::Warning>,
 }
 
-impl From<&Histogram> for StoredHistogram {
-    fn from(h: &Histogram) -> Self {
+impl From<&LogHistogram> for StoredHistogram {
+    fn from(h: &LogHistogram) -> Self {
+        let (below, above) = h.outside();
         StoredHistogram {
-            n: h.n,
-            sum: h.sum,
-            min: (h.n > 0).then_some(h.min),
-            max: (h.n > 0).then_some(h.max),
-            below: h.below,
-            above: h.above,
-            bins: h
-                .counts
-                .iter()
-                .enumerate()
-                .filter(|(_, c)| **c > 0)
-                .map(|(i, c)| (i, *c))
-                .collect(),
+            n: h.count(),
+            sum: h.sum(),
+            min: h.min(),
+            max: h.max(),
+            below,
+            above,
+            bins: h.bins().collect(),
         }
     }
 }
 
 impl StoredHistogram {
-    fn restore(&self) -> Result<Histogram, String> {
-        let mut h = Histogram::default();
-        let n_bins = h.counts.len();
-        for (i, c) in &self.bins {
-            *h.counts
-                .get_mut(*i)
-                .ok_or_else(|| format!("histogram bin {i} is beyond the {n_bins} bins"))? = *c;
-        }
-        let total = h.counts.iter().sum::<u64>() + self.below + self.above;
-        if total != self.n {
-            return Err(format!(
-                "histogram of {} values holds {total} in its bins",
-                self.n
-            ));
-        }
-        h.below = self.below;
-        h.above = self.above;
-        h.n = self.n;
-        h.sum = self.sum;
-        if self.n > 0 {
-            h.min = self.min.ok_or("non-empty histogram without \"min\"")?;
-            h.max = self.max.ok_or("non-empty histogram without \"max\"")?;
-        }
-        Ok(h)
+    fn restore(&self) -> Result<LogHistogram, String> {
+        LogHistogram::from_parts(
+            self.n,
+            self.sum,
+            (self.min, self.max),
+            (self.below, self.above),
+            &self.bins,
+        )
     }
 }
 

@@ -13,11 +13,12 @@ mod histogram;
 mod iho;
 
 pub use checks::{AngleCheck, IncidenceTally, ResidualCheck};
-pub use histogram::{Histogram, SIGMA_MAP_CELL_M, SIGMA_MAP_MAX_SIDE, SigmaMap};
+pub(crate) use histogram::stats;
+pub use histogram::{SIGMA_MAP_CELL_M, SIGMA_MAP_MAX_SIDE, SigmaMap};
 pub use iho::{DEPTH_BANDS_M, IhoTally, SoundingResult};
 
 use crate::plausibility::PlausibilityTally;
-use lidarqa_model::Warning;
+use lidarqa_model::{LogHistogram, Warning};
 use lidarqa_products::{
     RecoveryResidual, ScanAngleCheck, SigmaHistograms, TileLine, TpuSummaryDocument,
 };
@@ -94,7 +95,7 @@ pub struct TpuSummary {
     /// Skipped points by reason.
     pub skipped: BTreeMap<SkipReason, u64>,
     /// One histogram per [`SIGMA_NAMES`] entry in use (5 for linear, 7 for conic).
-    pub sigma: Vec<Histogram>,
+    pub sigma: Vec<LogHistogram>,
     /// Source names (model order, then `incidence`) and the sum over points of each source's
     /// share of the point's variance.
     pub share_sums: Vec<(&'static str, f64)>,
@@ -126,7 +127,7 @@ impl TpuSummary {
             points_read: 0,
             points_written: 0,
             skipped: BTreeMap::new(),
-            sigma: vec![Histogram::default(); n_sigma],
+            sigma: vec![LogHistogram::default(); n_sigma],
             share_sums: sources.into_iter().map(|s| (s, 0.0)).collect(),
             with_normal: 0,
             incidence: IncidenceTally::default(),
@@ -212,7 +213,7 @@ impl TpuSummary {
                 .sigma
                 .iter()
                 .zip(SIGMA_NAMES)
-                .map(|(h, name)| (name.trim_start_matches("sigma_").to_string(), h.stats()))
+                .map(|(h, name)| (name.trim_start_matches("sigma_").to_string(), stats(h)))
                 .collect(),
             percentiles: "histogram: 1000 log bins per decade, bin centre (within 0.12 %)"
                 .to_string(),
@@ -224,8 +225,8 @@ impl TpuSummary {
             points_with_surface_normal: self.with_normal,
             incidence: self.incidence.counts(),
             histogram: SigmaHistograms {
-                horizontal: self.sigma.get(3).and_then(|h| h.linear(40)),
-                vertical: self.sigma.get(4).and_then(|h| h.linear(40)),
+                horizontal: self.sigma.get(3).and_then(|h| histogram::linear(h, 40)),
+                vertical: self.sigma.get(4).and_then(|h| histogram::linear(h, 40)),
             },
             grid: self.map.view(),
             scan_angle_check: (self.scan_angle.n > 0).then(|| ScanAngleCheck {
