@@ -22,8 +22,7 @@ use lidarqa_model::{
 use lidarqa_tpu::{
     BeamPropagator, GridBuffers, IhoOrder, Incidence, IncidenceClass, PointPropagator, PoseAt,
     PoseSigma, Recoverer, SegmentRotation, SoundingRecovery, Surface, SurfaceSource, THU_95_CBLUE,
-    TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex, cos_incidence, judge_surfaces_into,
-    judged_incidence, thu_95_m,
+    TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex, judge_surfaces_into, thu_95_m,
 };
 use lidarqa_tpu::{MOUNTING_ERROR_M, MountingTally};
 use nalgebra::{Matrix3, Vector3};
@@ -686,33 +685,6 @@ impl Run<'_> {
             let ecef = p.ecef_from_ned() * ned;
             Some(Surface::Planar(ecef / ecef.norm()))
         }));
-    }
-
-    /// How the incidence term is taken at a point whose surface (file normal or judged
-    /// neighbourhood, none without the term) is `surface`, for the beam `beam_ned` (NED at the
-    /// pose): its class and `|cos α|` (`None`: left out). A file's normal is used as it is
-    /// (capped at 85° like any other); a judged one is checked against the beam
-    /// ([`judged_incidence`]).
-    fn incidence_of(
-        &self,
-        surface: Option<Surface>,
-        pose: &PoseAt,
-        beam_ned: &Ned,
-    ) -> (IncidenceClass, Option<f64>) {
-        let Some(s) = surface else {
-            return (IncidenceClass::NoTerm, None);
-        };
-        if self.file_normals {
-            match s.normal() {
-                Some(n) => (
-                    IncidenceClass::FileNormal,
-                    Some(cos_incidence(&beam_ned.vector(), &(pose.ecef_to_ned * n))),
-                ),
-                None => (IncidenceClass::InvalidFileNormal, None),
-            }
-        } else {
-            judged_incidence(&s, &pose.ecef_to_ned, &beam_ned.vector())
-        }
     }
 }
 

@@ -71,7 +71,7 @@ pub use mounting_check::{
 };
 pub use normals::{
     GridBuffers, IncidenceClass, MAX_NEIGHBOURS, MIN_NEIGHBOURS, SHARE_STRIDE, Surface,
-    WIDEN_FLATNESS, WIDEN_RADIUS_FACTOR, cos_incidence, fit_normal, incidence_angle,
+    WIDEN_FLATNESS, WIDEN_RADIUS_FACTOR, cos_incidence, fit_normal, incidence_angle, incidence_at,
     judge_surfaces, judge_surfaces_into, judge_surfaces_shared, judged_incidence, plane_normals,
     prior_cos_incidence,
 };

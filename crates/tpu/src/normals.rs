@@ -317,6 +317,32 @@ pub fn prior_cos_incidence() -> f64 {
     1.0 / (1.0 - 2.0 * crate::MAX_INCIDENCE_RAD.cos().ln()).sqrt()
 }
 
+/// The incidence term at a point whose surface is `surface` (`None`: no term): a file's normal
+/// (`from_file`, PDAL's `NormalX/Y/Z` turned into the surface's frame) is used as it is,
+/// capped at α_max like any other ([`IncidenceClass::InvalidFileNormal`] where it is zero or
+/// not finite); a judged one is checked against the beam ([`judged_incidence`], frames as
+/// there).
+pub fn incidence_at(
+    surface: Option<Surface>,
+    from_file: bool,
+    to_ned: &Matrix3<f64>,
+    beam_ned: &Vector3<f64>,
+) -> (IncidenceClass, Option<f64>) {
+    let Some(s) = surface else {
+        return (IncidenceClass::NoTerm, None);
+    };
+    if !from_file {
+        return judged_incidence(&s, to_ned, beam_ned);
+    }
+    match s.normal() {
+        Some(n) => (
+            IncidenceClass::FileNormal,
+            Some(cos_incidence(beam_ned, &(to_ned * n))),
+        ),
+        None => (IncidenceClass::InvalidFileNormal, None),
+    }
+}
+
 /// The incidence term at a point: how it is taken and the `|cos α|` it uses (`None`: left
 /// out), from the point's judged `surface` (any frame), the rotation `to_ned` from that frame
 /// to the local level NED frame of the beam, and the beam's direction `beam_ned` there (any

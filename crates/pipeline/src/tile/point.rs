@@ -3,7 +3,7 @@
 
 use super::*;
 use lidarqa_tpu::{
-    add_shares, grid_covariance, local_covariance, p0_to_point, sounding_overrides,
+    add_shares, grid_covariance, incidence_at, local_covariance, p0_to_point, sounding_overrides,
     topographic_overrides,
 };
 
@@ -240,7 +240,12 @@ impl Run<'_> {
     ) -> lidarqa_tpu::Result<(Matrix3<f64>, Recovered, IncidenceClass)> {
         let mut class = IncidenceClass::NoTerm;
         let mut incidence = |range_m: f64, beam_ned: Ned| {
-            let (c, cos) = self.incidence_of(surface, pose, &beam_ned);
+            let (c, cos) = incidence_at(
+                surface,
+                self.file_normals,
+                &pose.ecef_to_ned,
+                &beam_ned.vector(),
+            );
             class = c;
             cos.map(|cos_incidence| Incidence {
                 range_m,
