@@ -7,7 +7,7 @@
 
 use crate::error::{Error, Result};
 use crate::products::{
-    CALIBRATION_FILE, CALIBRATION_MOUNTING_ONLY_FILE, Calibration, EVALUATE_AFTER_FILE,
+    CALIBRATION_FILE, CALIBRATION_MOUNTING_ONLY_FILE, CalibrationDocument, EVALUATE_AFTER_FILE,
     EVALUATE_BEFORE_FILE, Evaluation, OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE,
     OVERLAP_MOUNTING_ONLY_FILE, Overlap, REPORT_FILE, Sweep, TPU_SUMMARY_FILE, TRUTH_FILE,
     TpuSummaryDocument, Truth, sweep_file_name,
@@ -34,11 +34,11 @@ const MOUNTING_KEYS: [&str; 6] = [
 /// A missing or malformed truth, calibration or evaluation, naming the file and key.
 pub fn demo_summary(dir: &Path) -> Result<String> {
     let truth: Truth = read_product(dir.join(TRUTH_FILE))?;
-    let cal: Calibration = read_product(dir.join(CALIBRATION_FILE))?;
+    let cal: CalibrationDocument = read_product(dir.join(CALIBRATION_FILE))?;
     let before: Evaluation = read_product(dir.join(EVALUATE_BEFORE_FILE))?;
     let after: Evaluation = read_product(dir.join(EVALUATE_AFTER_FILE))?;
     // The mounting-only calibration beside a strip-adjusted one (the demo writes both).
-    let plain: Option<Calibration> = if cal.strip_adjustment.is_some() {
+    let plain: Option<CalibrationDocument> = if cal.strip_adjustment.is_some() {
         read_product(dir.join(CALIBRATION_MOUNTING_ONLY_FILE)).ok()
     } else {
         None

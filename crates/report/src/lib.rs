@@ -11,9 +11,9 @@
 //! | [`SWEEP_FILE_PREFIX`]`*.json` | [`Sweep`] (SPEC §6 `--sweep`) | totals vs the swept variable; bias curves |
 //! | [`TPU_SUMMARY_FILE`] `tpu_summary.json` | [`lidarqa_products::TpuSummaryDocument`] | σ histograms, map of σ, statistics |
 //! | [`EVALUATE_BEFORE_FILE`], [`EVALUATE_AFTER_FILE`] | [`Evaluation`] (SPEC §6) | residual vectors, predicted vs measured, ASPRS / NSSDA |
-//! | [`CALIBRATION_FILE`] (+ [`CALIBRATION_ITERATIONS_FILE`], [`TRUTH_FILE`]) | [`Calibration`] (SPEC §8) | mounting ± σ (vs truth), correlations, convergence |
+//! | [`CALIBRATION_FILE`] (+ [`CALIBRATION_ITERATIONS_FILE`], [`TRUTH_FILE`]) | [`CalibrationDocument`] (SPEC §8) | mounting ± σ (vs truth), correlations, convergence |
 //! | [`OVERLAP_BEFORE_FILE`], [`OVERLAP_AFTER_FILE`] (+ [`OVERLAP_MOUNTING_ONLY_FILE`]) | [`Overlap`] | dz maps and height profiles before / after (a mounting-only correction beside a strip-adjusted one) |
-//! | [`CALIBRATION_MOUNTING_ONLY_FILE`] | [`Calibration`] | the demo summary's mounting-only errors beside the strip-adjusted ones |
+//! | [`CALIBRATION_MOUNTING_ONLY_FILE`] | [`CalibrationDocument`] | the demo summary's mounting-only errors beside the strip-adjusted ones |
 //! | [`QC_FILE`] | `lidarqa_io::QcDocument` | delivery QC: lines, interswath pairs, verdict tables per standard |
 //! | [`IHO_FILE`] `iho.json` | [`Iho`] | IHO S-44 table |
 //! | [`TPU_SUMMARY_FILE`] with soundings ([`lidarqa_products::SoundingsIho`]; + `budget_sweep_depth.json`, `budget_sweep_azimuth.json`) | bathymetry | IHO table per depth band, σ vs depth with the IHO allowances, budget around the scan, variance shares, order map |
@@ -55,8 +55,8 @@ pub use demo_summary::{bathymetry_demo_summary, demo_summary};
 pub use error::{Error, Result};
 pub use products::{
     Asprs, AsprsComponent, BUDGET_FILE, Budget, BudgetSource, CALIBRATION_FILE,
-    CALIBRATION_ITERATIONS_FILE, CALIBRATION_MOUNTING_ONLY_FILE, Calibration,
-    CalibrationIterations, CalibrationTie, Components, Displacement, DroppedPick, DzGrid,
+    CALIBRATION_ITERATIONS_FILE, CALIBRATION_MOUNTING_ONLY_FILE, CalibrationDocument,
+    CalibrationIterationsDocument, CalibrationTie, Components, Displacement, DroppedPick, DzGrid,
     EVALUATE_AFTER_FILE, EVALUATE_BEFORE_FILE, Evaluation, GridGeometry, IHO_FILE, Id, Iho,
     IhoDepthBand, IhoOrder, Iteration, Neu, Nssda, OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE,
     OVERLAP_MOUNTING_ONLY_FILE, Ordered, Overlap, OverlapPair, PartialComponents, Product, Profile,

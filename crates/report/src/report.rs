@@ -21,9 +21,9 @@ pub struct Products {
     /// `evaluate_after.json`.
     pub evaluate_after: Option<Evaluation>,
     /// `calibration.json`.
-    pub calibration: Option<Calibration>,
+    pub calibration: Option<CalibrationDocument>,
     /// `calibration_iterations.json`.
-    pub calibration_iterations: Option<CalibrationIterations>,
+    pub calibration_iterations: Option<CalibrationIterationsDocument>,
     /// `truth.json`.
     pub truth: Option<Truth>,
     /// `overlap_before.json`.

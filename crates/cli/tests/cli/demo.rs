@@ -107,6 +107,13 @@ fn demo_recovers_the_injected_mounting_and_improves_accuracy() {
     ] {
         assert!(d.join(product).exists(), "{product} missing");
     }
+    // Each product is its lidarqa-products type, field for field.
+    for cal in ["calibration.json", "calibration_mounting_only.json"] {
+        crate::assert_round_trips::<lidarqa_products::CalibrationDocument>(&d.join(cal));
+    }
+    crate::assert_round_trips::<lidarqa_products::CalibrationIterationsDocument>(
+        &d.join("calibration_iterations.json"),
+    );
     let truth = json(&d.join("truth.json"));
     let cal = json(&d.join("calibration.json"));
     // The demo flies with each line's own trajectory error (the truth has it per strip) and
