@@ -236,7 +236,7 @@ pub struct IterationRecord {
     pub ties: Vec<(String, Vector3<f64>)>,
 }
 
-/// The result of a calibration: serialises to SPEC §8 `calibration.json` ([`Calibration::to_json`]).
+/// The result of a calibration: SPEC §8 `calibration.json` is [`Calibration::to_document`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Calibration {
     /// The method used.

@@ -6,10 +6,15 @@
 //! sees it too. One users may also write by hand (`calibration.json`) ignores them, and the
 //! round-trip tests of the commands' output catch a field missing here instead.
 
+mod budget;
 mod calibration;
 mod tpu_summary;
 mod values;
 
+pub use budget::{
+    Budget, BudgetDocument, BudgetSource, BudgetSweep, BudgetSweepDocument, BudgetSweepPoint,
+    Displacement, Footprint, GeometryFacts, MonteCarloSigma,
+};
 pub use calibration::{
     CalibrationDocument, CalibrationIterationsDocument, CalibrationTie, CalibrationTrajectorySigma,
     DroppedPick, FoundLine, FoundLines, Iteration, NorthEastUp, NotSeparable, RollPitchHeading,

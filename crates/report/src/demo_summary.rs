@@ -7,9 +7,9 @@
 
 use crate::error::{Error, Result};
 use crate::products::{
-    CALIBRATION_FILE, CALIBRATION_MOUNTING_ONLY_FILE, CalibrationDocument, EVALUATE_AFTER_FILE,
-    EVALUATE_BEFORE_FILE, Evaluation, OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE,
-    OVERLAP_MOUNTING_ONLY_FILE, Overlap, REPORT_FILE, Sweep, TPU_SUMMARY_FILE, TRUTH_FILE,
+    BudgetSweepDocument, CALIBRATION_FILE, CALIBRATION_MOUNTING_ONLY_FILE, CalibrationDocument,
+    EVALUATE_AFTER_FILE, EVALUATE_BEFORE_FILE, Evaluation, OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE,
+    OVERLAP_MOUNTING_ONLY_FILE, Overlap, REPORT_FILE, TPU_SUMMARY_FILE, TRUTH_FILE,
     TpuSummaryDocument, Truth, sweep_file_name,
 };
 use crate::report::read_product;
@@ -185,7 +185,7 @@ pub fn bathymetry_demo_summary(dir: &Path) -> Result<String> {
         key: "iho_s44".into(),
         message: "missing: the survey has no bathymetric soundings".into(),
     })?;
-    let sweep: Sweep = read_product(dir.join(sweep_file_name("depth")))?;
+    let sweep = read_product::<BudgetSweepDocument>(dir.join(sweep_file_name("depth")))?.sweep;
     let cm = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{:.2}", x * 100.0));
     let mut t = String::new();
     let _ = writeln!(

@@ -101,122 +101,52 @@ pub struct PartialComponents {
     pub three_d: Option<f64>,
 }
 
-/// A signed displacement, metres (lidar − true), SPEC §6 `bias`: the one lidarqa-tpu writes.
-pub use lidarqa_tpu::Displacement;
+/// `budget.json` and `budget_sweep_*.json` (SPEC §6): lidarqa-products' types, the ones
+/// `lidarqa budget` serialises.
+pub use lidarqa_products::{
+    Budget, BudgetDocument, BudgetSource, BudgetSweep, BudgetSweepDocument, BudgetSweepPoint,
+    Displacement,
+};
 
-/// One source of the budget: `|∂P/∂p|·σ` per axis, metres.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct BudgetSource {
-    /// Snake-case source name (SPEC §4).
-    pub name: String,
-    /// 1σ of the source in SI units (`unit`).
-    pub sigma: f64,
-    /// `m`, `rad` or `s`.
-    pub unit: String,
-    /// The effect per axis, m.
-    #[serde(flatten)]
-    pub effect: Components,
-}
-
-/// `budget.json`: `lidarqa budget --format json` of one geometry (SPEC §6).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Budget {
-    /// `linear` or `conic`.
-    pub scanner: String,
-    /// Refraction mode of the conic scanner, null for the linear one.
-    #[serde(default)]
-    pub refraction: Option<String>,
-    /// Footprint relative to the GNSS/INS reference point, m (north, east, up).
-    #[serde(default)]
-    pub footprint: Option<serde_json::Value>,
-    /// Geometry facts in display units (keys carry the unit: `scan_angle_deg`, `range_m`, …).
-    #[serde(default)]
-    pub geometry: Ordered<serde_json::Value>,
-    /// Every source with its effect.
-    pub sources: Vec<BudgetSource>,
-    /// Total propagated uncertainty (1σ), m.
-    pub total: Components,
-    /// Exact displacement caused by the requested biases, m (with `--bias`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub bias: Option<Displacement>,
-}
-
-impl Budget {
-    fn check(&self, at: &str) -> std::result::Result<(), Invalid> {
-        let t = &self.total;
-        for (k, v) in [
-            ("north", t.north),
-            ("east", t.east),
-            ("up", t.up),
-            ("horizontal", t.horizontal),
-            ("vertical", t.vertical),
-            ("three_d", t.three_d),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(invalid(
-                    format!("{at}total.{k}"),
-                    format!("{v} is not a σ (finite, ≥ 0)"),
-                ));
-            }
+/// The totals of a budget are σ: finite and ≥ 0.
+fn check_budget(b: &Budget, at: &str) -> std::result::Result<(), Invalid> {
+    let t = &b.total;
+    for (k, v) in [
+        ("north", t.north),
+        ("east", t.east),
+        ("up", t.up),
+        ("horizontal", t.horizontal),
+        ("vertical", t.vertical),
+        ("three_d", t.three_d),
+    ] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(invalid(
+                format!("{at}total.{k}"),
+                format!("{v} is not a σ (finite, ≥ 0)"),
+            ));
         }
-        Ok(())
     }
+    Ok(())
 }
 
-impl Product for Budget {
+impl Product for BudgetDocument {
     const WHAT: &'static str = "error budget of one geometry";
     fn validate(&self) -> std::result::Result<(), Invalid> {
-        self.check("")
+        check_budget(&self.budget, "")
     }
 }
 
-/// One point of a sweep: the value of the swept variable and the budget there.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SweepPoint {
-    /// The swept variable's value, in the sweep's `unit`.
-    pub at: f64,
-    /// The budget at this value.
-    #[serde(flatten)]
-    pub budget: Budget,
-}
-
-/// `budget_sweep_<variable>.json`: `lidarqa budget --sweep NAME=… --format json`
-/// (`{"sweep", "unit", "points": [{"at", …budget…}]}`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Sweep {
-    /// The swept variable (`scan-angle`, `azimuth`, `height`, `depth`, …).
-    pub sweep: String,
-    /// Unit of `at` (`deg`, `m`).
-    #[serde(default)]
-    pub unit: Option<String>,
-    /// The budgets, in sweep order.
-    pub points: Vec<SweepPoint>,
-}
-
-impl Sweep {
-    /// Smallest and largest of one total (`f`, e.g. horizontal σ) over the sweep, m;
-    /// (∞, −∞) for no points.
-    pub fn total_range(&self, f: fn(&Components) -> f64) -> (f64, f64) {
-        self.points
-            .iter()
-            .map(|p| f(&p.budget.total))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, v| {
-                (a.0.min(v), a.1.max(v))
-            })
-    }
-}
-
-impl Product for Sweep {
+impl Product for BudgetSweepDocument {
     const WHAT: &'static str = "error budget sweep";
     fn validate(&self) -> std::result::Result<(), Invalid> {
-        if self.points.is_empty() {
+        if self.sweep.points.is_empty() {
             return Err(invalid("points", "empty"));
         }
-        for (i, p) in self.points.iter().enumerate() {
+        for (i, p) in self.sweep.points.iter().enumerate() {
             if !p.at.is_finite() {
                 return Err(invalid(format!("points[{i}].at"), "not a finite number"));
             }
-            p.budget.check(&format!("points[{i}]."))?;
+            check_budget(&p.budget, &format!("points[{i}]."))?;
         }
         Ok(())
     }
