@@ -16,8 +16,12 @@ use crate::weighting::{
     Column, TrajectorySensitivity, TrajectorySigma, Whitening, group_noise_factors,
 };
 use lidarqa_model::{Mounting, Warning};
+use lidarqa_products::{
+    self as products, CalibrationDocument, CalibrationIterationsDocument, CalibrationTie,
+    CalibrationTrajectorySigma, Id, Iteration, Ordered, StripId, TiePosition,
+};
 use nalgebra::{DMatrix, DVector, Vector3};
-use serde_json::{Map, Value, json};
+use serde_json::Value;
 
 /// Which method produced a calibration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -232,7 +236,7 @@ pub struct IterationRecord {
     pub ties: Vec<(String, Vector3<f64>)>,
 }
 
-/// The result of a calibration: serialises to SPEC §8 `calibration.json` ([`Calibration::to_json`]).
+/// The result of a calibration: SPEC §8 `calibration.json` is [`Calibration::to_document`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Calibration {
     /// The method used.
@@ -281,17 +285,12 @@ fn enu(v: &Vector3<f64>) -> [f64; 3] {
     [v.y, v.x, -v.z]
 }
 
-fn param_map(f: impl Fn(Param) -> Value) -> Value {
-    let mut m = Map::new();
-    for p in Param::ALL {
-        m.insert(p.key().to_string(), f(p));
-    }
-    Value::Object(m)
-}
-
-/// A strip id as JSON: a number when it is one (a LAS point source id), else a string.
-fn strip_json(s: &str) -> Value {
-    s.parse::<u64>().map_or_else(|_| json!(s), |n| json!(n))
+/// One value per parameter, keyed as in `calibration.json`, in [`Param::ALL`] order.
+fn param_map<V>(f: impl Fn(Param) -> V) -> Ordered<V> {
+    Param::ALL
+        .iter()
+        .map(|&p| (p.key().to_string(), f(p)))
+        .collect()
 }
 
 impl Calibration {
@@ -299,81 +298,107 @@ impl Calibration {
     /// suffixes, degrees and metres), `sigma` (same keys, `null` when held), `correlation` (6 × 6 in
     /// key order, `null` where a parameter is held), `observable`, `iterations`, `ties`
     /// (`residual_*_m` as `[east, north, up]` per-axis RMS, m).
-    pub fn to_json(&self) -> Value {
+    pub fn to_document(&self) -> CalibrationDocument {
         let x = mounting_to_vector(&self.mounting);
-        let mut doc = json!({
-            "method": self.method.name(),
-            "parameters": param_map(|p| json!(p.to_display(x[p.index()]))),
-            "sigma": param_map(|p| self.sigma[p.index()].map_or(Value::Null, |s| json!(p.to_display(s)))),
-            "correlation": self.correlation.iter().map(|row| row.iter().map(|v| v.map_or(Value::Null, |v| json!(v))).collect::<Vec<_>>()).collect::<Vec<_>>(),
-            "observable": param_map(|p| json!(self.observable[p.index()])),
-            "iterations": self.iterations,
-            "ties": self.ties.iter().map(|t| json!({
-                "id": t.id,
-                "strips": t.strips.iter().map(|s| strip_json(s)).collect::<Vec<_>>(),
-                "residual_before_m": t.residual_before_m,
-                "residual_after_m": t.residual_after_m,
-            })).collect::<Vec<_>>(),
-        });
-        if self.prior_sigma.iter().any(Option::is_some) {
-            doc["prior_sigma"] = param_map(|p| {
-                self.prior_sigma[p.index()].map_or(Value::Null, |s| json!(p.to_display(s)))
-            });
+        let display = |p: Param, v: Option<f64>| v.map(|s| p.to_display(s));
+        let with_prior = self.prior_sigma.iter().any(Option::is_some);
+        CalibrationDocument {
+            method: Some(self.method.name().to_string()),
+            parameters: param_map(|p| p.to_display(x[p.index()])),
+            sigma: param_map(|p| display(p, self.sigma[p.index()])),
+            correlation: self.correlation.iter().map(|row| row.to_vec()).collect(),
+            observable: param_map(|p| self.observable[p.index()]),
+            iterations: Some(self.iterations as u64),
+            ties: self
+                .ties
+                .iter()
+                .map(|t| CalibrationTie {
+                    id: Id(t.id.clone()),
+                    strips: t.strips.iter().map(|s| StripId(s.clone())).collect(),
+                    residual_before_m: Some(t.residual_before_m),
+                    residual_after_m: Some(t.residual_after_m),
+                })
+                .collect(),
+            prior_sigma: with_prior.then(|| param_map(|p| display(p, self.prior_sigma[p.index()]))),
             // 1 − posterior σ / prior σ: how much the data reduced each prior's σ.
-            doc["sigma_reduction_by_data"] =
+            sigma_reduction_by_data: with_prior.then(|| {
                 param_map(
                     |p| match (self.prior_sigma[p.index()], self.sigma[p.index()]) {
-                        (Some(sp), Some(s)) => json!(1.0 - s / sp),
-                        _ => Value::Null,
+                        (Some(sp), Some(s)) => Some(1.0 - s / sp),
+                        _ => None,
                     },
-                );
-        }
-        if self.method == Method::Vtpm {
-            doc["dropped_picks"] = json!(
+                )
+            }),
+            dropped_picks: (self.method == Method::Vtpm).then(|| {
                 self.dropped_picks
                     .iter()
-                    .map(
-                        |d| json!({"tie": d.tie, "strip": strip_json(&d.strip), "reason": d.reason})
-                    )
-                    .collect::<Vec<_>>()
-            );
+                    .map(|d| products::DroppedPick {
+                        tie: Id(d.tie.clone()),
+                        strip: StripId(d.strip.clone()),
+                        reason: d.reason.clone(),
+                    })
+                    .collect()
+            }),
+            warnings: self.warnings.clone(),
+            strip_adjustment: self
+                .strip_adjustment
+                .as_ref()
+                .map(StripAdjustment::to_block),
+            // Beyond SPEC §8, only when it happened: control points no strip could triangulate.
+            skipped_control: (!self.skipped_control.is_empty())
+                .then(|| self.skipped_control.clone()),
+            // Beyond SPEC §8: the trajectory σ the ties were weighted with (and `sigma` includes).
+            trajectory_sigma: self
+                .trajectory_sigma
+                .as_ref()
+                .map(|t| CalibrationTrajectorySigma {
+                    gnss_north_m: t.position_m[0],
+                    gnss_east_m: t.position_m[1],
+                    gnss_up_m: t.position_m[2],
+                    roll_deg: t.attitude_rad[0].to_degrees(),
+                    pitch_deg: t.attitude_rad[1].to_degrees(),
+                    heading_deg: t.attitude_rad[2].to_degrees(),
+                    gnss_correlation_s: t.position_correlation_s,
+                    attitude_correlation_s: t.attitude_correlation_s,
+                }),
+            lines: None,
         }
-        doc["warnings"] = json!(self.warnings);
-        if let Some(sa) = &self.strip_adjustment {
-            doc["strip_adjustment"] = sa.to_json(strip_json);
-        }
-        // Beyond SPEC §8, only when it happened: control points no strip could triangulate.
-        if !self.skipped_control.is_empty() {
-            doc["skipped_control"] = json!(self.skipped_control);
-        }
-        // Beyond SPEC §8: the trajectory σ the ties were weighted with (and `sigma` includes).
-        if let Some(t) = &self.trajectory_sigma {
-            doc["trajectory_sigma"] = json!({
-                "gnss_north_m": t.position_m[0],
-                "gnss_east_m": t.position_m[1],
-                "gnss_up_m": t.position_m[2],
-                "roll_deg": t.attitude_rad[0].to_degrees(),
-                "pitch_deg": t.attitude_rad[1].to_degrees(),
-                "heading_deg": t.attitude_rad[2].to_degrees(),
-                "gnss_correlation_s": t.position_correlation_s,
-                "attitude_correlation_s": t.attitude_correlation_s,
-            });
-        }
-        doc
     }
 
-    /// `calibration_iterations.json`: `{"iterations": [{"iteration", "parameters": {same keys},
-    /// "ties": [{"id", "xyz_m": [x, y, z]}]}]}`; `to_output` maps a local NED position to the
-    /// output coordinates (e.g. projected easting, northing, height; [`local_enu`] for the local
-    /// frame).
+    /// [`Calibration::to_document`] as JSON.
+    pub fn to_json(&self) -> Value {
+        serde_json::to_value(self.to_document()).unwrap_or(Value::Null)
+    }
+
+    /// `calibration_iterations.json`; `to_output` maps a local NED position to the output
+    /// coordinates (e.g. projected easting, northing, height; [`local_enu`] for the local frame).
+    pub fn iterations_document(
+        &self,
+        to_output: impl Fn(&Vector3<f64>) -> [f64; 3],
+    ) -> CalibrationIterationsDocument {
+        CalibrationIterationsDocument {
+            iterations: self
+                .history
+                .iter()
+                .map(|it| Iteration {
+                    iteration: it.iteration as u64,
+                    parameters: param_map(|p| p.to_display(it.parameters[p.index()])),
+                    ties: it
+                        .ties
+                        .iter()
+                        .map(|(id, v)| TiePosition {
+                            id: Id(id.clone()),
+                            xyz_m: to_output(v),
+                        })
+                        .collect(),
+                })
+                .collect(),
+        }
+    }
+
+    /// [`Calibration::iterations_document`] as JSON.
     pub fn iterations_json(&self, to_output: impl Fn(&Vector3<f64>) -> [f64; 3]) -> Value {
-        json!({
-            "iterations": self.history.iter().map(|it| json!({
-                "iteration": it.iteration,
-                "parameters": param_map(|p| json!(p.to_display(it.parameters[p.index()]))),
-                "ties": it.ties.iter().map(|(id, v)| json!({"id": id, "xyz_m": to_output(v)})).collect::<Vec<_>>(),
-            })).collect::<Vec<_>>(),
-        })
+        serde_json::to_value(self.iterations_document(to_output)).unwrap_or(Value::Null)
     }
 
     /// Overall RMS of the tie residuals `(horizontal, vertical)` before and after, m:

@@ -33,8 +33,12 @@
 
 use crate::params::{PARAM_COUNT, Param};
 use crate::weighting::Column;
+use lidarqa_products::{
+    NorthEastUp, NotSeparable, RollPitchHeading, StripAdjustmentBlock, StripId, StripLine, TieRms,
+    TrajectorySigmaTest,
+};
 use nalgebra::{DMatrix, DVector};
-use serde_json::{Value, json};
+use serde_json::Value;
 
 /// Which per-line trajectory corrections the strip adjustment estimates and `correct` applies.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -128,29 +132,45 @@ impl LineCorrection {
         std::array::from_fn(|k| self.offset_m[k] + d[k] * tau)
     }
 
-    fn to_json(&self, strip: Value) -> Value {
-        let neu = |v: [f64; 3]| json!({"north": v[0], "east": v[1], "up": v[2]});
-        let rph = |v: [f64; 3]| json!({"roll": v[0].to_degrees(), "pitch": v[1].to_degrees(), "heading": v[2].to_degrees()});
-        let mut o = json!({
-            "strip": strip,
-            "start_time_s": self.time_span_s[0],
-            "end_time_s": self.time_span_s[1],
-            "offset_m": neu(self.offset_m),
-            "offset_sigma_m": neu(self.offset_sigma_m),
-        });
-        if let (Some(d), Some(s)) = (self.drift_m, self.drift_sigma_m) {
-            o["drift_m"] = neu(d);
-            o["drift_sigma_m"] = neu(s);
+    /// Its entry in `strip_adjustment.lines` (the files it lies in are the caller's to add).
+    fn to_line(&self) -> StripLine {
+        let neu = |v: [f64; 3]| NorthEastUp {
+            north: v[0],
+            east: v[1],
+            up: v[2],
+        };
+        let rph = |v: [f64; 3]| RollPitchHeading {
+            roll: v[0].to_degrees(),
+            pitch: v[1].to_degrees(),
+            heading: v[2].to_degrees(),
+        };
+        let (drift_m, drift_sigma_m) = match (self.drift_m, self.drift_sigma_m) {
+            (Some(d), Some(s)) => (Some(neu(d)), Some(neu(s))),
+            _ => (None, None),
+        };
+        let (attitude_deg, attitude_sigma_deg) = match (self.attitude_rad, self.attitude_sigma_rad)
+        {
+            (Some(a), Some(s)) => (Some(rph(a)), Some(rph(s))),
+            _ => (None, None),
+        };
+        StripLine {
+            strip: StripId(self.strip.clone()),
+            start_time_s: self.time_span_s[0],
+            end_time_s: self.time_span_s[1],
+            offset_m: neu(self.offset_m),
+            offset_sigma_m: neu(self.offset_sigma_m),
+            drift_m,
+            drift_sigma_m,
+            attitude_deg,
+            attitude_sigma_deg,
+            point_source_id: None,
+            files: None,
+            file: None,
         }
-        if let (Some(a), Some(s)) = (self.attitude_rad, self.attitude_sigma_rad) {
-            o["attitude_deg"] = rph(a);
-            o["attitude_sigma_deg"] = rph(s);
-        }
-        o
     }
 
     /// Reads one entry of `strip_adjustment.lines` (the inverse of the JSON written by
-    /// [`StripAdjustment::to_json`]); `Err` names the missing key.
+    /// [`StripAdjustment::to_block`]); `Err` names the missing key.
     pub fn from_json(v: &Value) -> std::result::Result<LineCorrection, String> {
         let num = |o: &Value, k: &str| -> std::result::Result<f64, String> {
             o.get(k)
@@ -236,31 +256,39 @@ pub struct StripAdjustment {
 }
 
 impl StripAdjustment {
-    /// The `strip_adjustment` object of `calibration.json`; `strip_json` maps a strip id.
-    pub fn to_json(&self, strip_json: impl Fn(&str) -> Value) -> Value {
-        json!({
-            "model": self.model.name(),
-            "datum": self.datum,
-            "lines": self.lines.iter().map(|l| l.to_json(strip_json(&l.strip))).collect::<Vec<_>>(),
-            "sigma_tests": self.tests.iter().map(|t| json!({
-                "group": t.group,
-                "statistic": t.statistic,
-                "redundancy": t.redundancy,
-                "quantile_99": t.quantile_99,
-                "sigma_factor": t.factor,
-            })).collect::<Vec<_>>(),
-            "not_separable": self.confounded.iter().map(|c| json!({
-                "parameter": c.parameter,
-                "common_correction": c.common,
-                "correlation": c.correlation,
-                "carried_by": c.carried_by,
-            })).collect::<Vec<_>>(),
-            "tie_rms_m": {
-                "prior": self.tie_rms_m[0],
-                "mounting_only": self.tie_rms_m[1],
-                "strip_adjusted": self.tie_rms_m[2],
-            },
-        })
+    /// The `strip_adjustment` block of `calibration.json`.
+    pub fn to_block(&self) -> StripAdjustmentBlock {
+        StripAdjustmentBlock {
+            model: self.model.name().to_string(),
+            datum: self.datum.clone(),
+            lines: self.lines.iter().map(LineCorrection::to_line).collect(),
+            sigma_tests: self
+                .tests
+                .iter()
+                .map(|t| TrajectorySigmaTest {
+                    group: t.group.to_string(),
+                    statistic: t.statistic,
+                    redundancy: t.redundancy,
+                    quantile_99: t.quantile_99,
+                    sigma_factor: t.factor,
+                })
+                .collect(),
+            not_separable: self
+                .confounded
+                .iter()
+                .map(|c| NotSeparable {
+                    parameter: c.parameter.to_string(),
+                    common_correction: c.common.to_string(),
+                    correlation: c.correlation,
+                    carried_by: c.carried_by.clone(),
+                })
+                .collect(),
+            tie_rms_m: Some(TieRms {
+                prior: self.tie_rms_m[0],
+                mounting_only: self.tie_rms_m[1],
+                strip_adjusted: self.tie_rms_m[2],
+            }),
+        }
     }
 }
 
@@ -450,6 +478,7 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, Normal};
+    use serde_json::json;
 
     #[test]
     fn the_joint_solution_is_the_stacked_least_squares() {
@@ -512,7 +541,7 @@ mod tests {
             attitude_rad: Some([1e-5, -2e-5, 3e-5]),
             attitude_sigma_rad: Some([1e-6; 3]),
         };
-        let back = LineCorrection::from_json(&l.to_json(json!(3))).unwrap();
+        let back = LineCorrection::from_json(&serde_json::to_value(l.to_line()).unwrap()).unwrap();
         assert_eq!(back.strip, "3");
         for k in 0..3 {
             assert!((back.attitude_rad.unwrap()[k] - l.attitude_rad.unwrap()[k]).abs() < 1e-15);

@@ -60,10 +60,10 @@ use lidarqa_io::{
     TiePicks,
 };
 use lidarqa_model::{Ecef, Source, Warning};
+use lidarqa_products::{CalibrationDocument, CalibrationIterationsDocument, FoundLine, FoundLines};
 use lidarqa_tpu::{LinearRecovery, PoseAt, Recoverer, SegmentRotation, Trajectory};
 use nalgebra::Vector3;
 use rayon::prelude::*;
-use serde_json::Value;
 use std::collections::HashMap;
 use std::fs::File;
 use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
@@ -206,42 +206,35 @@ impl StripCalibration {
     /// `calibration.json` (SPEC §8) with every warning and the flight lines found (`lines`:
     /// each strip's id, point source id, files and points, and why); each strip adjustment
     /// line also names its point source id and files (what `correct` matches points by).
-    pub fn to_json(&self) -> Value {
-        let mut doc = self.calibration.to_json();
-        if let Some(m) = doc.as_object_mut() {
-            let w = serde_json::to_value(&self.warnings).unwrap_or(Value::Null);
-            m.insert("warnings".into(), w);
-            let found: Vec<Value> = self
+    pub fn to_document(&self) -> CalibrationDocument {
+        let mut doc = self.calibration.to_document();
+        doc.warnings.clone_from(&self.warnings);
+        doc.lines = Some(FoundLines {
+            found: self
                 .lines
                 .iter()
-                .map(|l| {
-                    serde_json::json!({
-                        "strip": l.id,
-                        "point_source_id": l.point_source_id,
-                        "files": l.files,
-                        "points": l.points,
-                    })
+                .map(|l| FoundLine {
+                    strip: l.id.clone(),
+                    point_source_id: l.point_source_id,
+                    files: l.files.clone(),
+                    points: l.points,
                 })
-                .collect();
-            m.insert(
-                "lines".into(),
-                serde_json::json!({"found": found, "reasons": self.line_reasons}),
-            );
-        }
-        if let Some(lines) = doc
-            .pointer_mut("/strip_adjustment/lines")
-            .and_then(Value::as_array_mut)
-        {
-            for line in lines {
-                let id = match &line["strip"] {
-                    Value::String(s) => s.clone(),
-                    v => v.to_string(),
-                };
+                .collect(),
+            reasons: self.line_reasons.clone(),
+        });
+        if let Some(sa) = &mut doc.strip_adjustment {
+            for line in &mut sa.lines {
+                // The id as written: a numeric one as its number.
+                let id = line
+                    .strip
+                    .0
+                    .parse::<u64>()
+                    .map_or_else(|_| line.strip.0.clone(), |n| n.to_string());
                 if let Some(l) = self.lines.iter().find(|l| l.id == id) {
-                    line["point_source_id"] = l.point_source_id.into();
-                    line["files"] = l.files.clone().into();
+                    line.point_source_id = Some(l.point_source_id);
+                    line.files = Some(l.files.clone());
                     if let [one] = l.files.as_slice() {
-                        line["file"] = Value::String(one.clone());
+                        line.file = Some(one.clone());
                     }
                 }
             }
@@ -251,10 +244,10 @@ impl StripCalibration {
 
     /// `calibration_iterations.json` (the convergence record, projected coordinates) of a VTPM
     /// run; `None` for the plane method.
-    pub fn iterations_json(&self) -> Option<Value> {
+    pub fn iterations_document(&self) -> Option<CalibrationIterationsDocument> {
         (self.calibration.method == Method::Vtpm).then(|| {
             self.calibration
-                .iterations_json(|v| local_to_projected(&self.frame, &self.zone, v))
+                .iterations_document(|v| local_to_projected(&self.frame, &self.zone, v))
         })
     }
 }

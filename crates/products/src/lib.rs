@@ -1,13 +1,29 @@
 //! The JSON products of lidarqa, one serde type each: the command that writes a product
 //! serialises this type and the report deserialises the same type, so the two cannot drift apart.
 //!
-//! Lengths are metres and angles degrees unless a field says otherwise. Every type denies unknown
-//! fields: a field the writer adds must be added here, where the reader sees it too.
+//! Lengths are metres and angles degrees unless a field says otherwise. A product only lidarqa
+//! writes denies unknown fields: a field the writer adds must be added here, where the reader
+//! sees it too. One users may also write by hand (`calibration.json`) ignores them, and the
+//! round-trip tests of the commands' output catch a field missing here instead.
 
+mod budget;
+mod calibration;
 mod tpu_summary;
+mod values;
+
+pub use budget::{
+    Budget, BudgetDocument, BudgetSource, BudgetSweep, BudgetSweepDocument, BudgetSweepPoint,
+    Displacement, Footprint, GeometryFacts, MonteCarloSigma,
+};
+pub use calibration::{
+    CalibrationDocument, CalibrationIterationsDocument, CalibrationTie, CalibrationTrajectorySigma,
+    DroppedPick, FoundLine, FoundLines, Iteration, NorthEastUp, NotSeparable, RollPitchHeading,
+    StripAdjustmentBlock, StripLine, TiePosition, TieRms, TrajectorySigmaTest,
+};
 
 pub use tpu_summary::{
     GridGeometry, IhoBand, IhoOrderLine, IncidenceCounts, LinearHistogram, MountingCheck,
     OrderGrid, RecoveryResidual, ScanAngleCheck, SigmaGrid, SigmaHistograms, SoundingsIho, Stats,
     TileLine, TpuSummaryDocument,
 };
+pub use values::{Id, Ordered, StripId};

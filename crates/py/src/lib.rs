@@ -351,8 +351,16 @@ fn budget(
         .resolve(&sensor, preset_geometry, sweep.as_ref())
         .map_err(err)?;
     match &sweep {
-        Some(s) => json(&evaluate_sweep(&sensor, &geometry, s, biases.as_ref()).map_err(err)?),
-        None => json(&evaluate(&sensor, &geometry, biases.as_ref()).map_err(err)?),
+        Some(s) => json(
+            &evaluate_sweep(&sensor, &geometry, s, biases.as_ref())
+                .map_err(err)?
+                .to_sweep(),
+        ),
+        None => json(
+            &evaluate(&sensor, &geometry, biases.as_ref())
+                .map_err(err)?
+                .to_budget(),
+        ),
     }
 }
 

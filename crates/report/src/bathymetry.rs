@@ -193,7 +193,7 @@ fn band_table(iho: &SoundingsIho, o: &mut String) {
 
 /// σ_H and σ_V vs depth: the budget's depth sweep (one geometry) and the survey's soundings
 /// (RMS per band), with the orders' allowances converted to 1σ.
-fn sigma_vs_depth(iho: &SoundingsIho, sweep: Option<&Sweep>, o: &mut String) {
+fn sigma_vs_depth(iho: &SoundingsIho, sweep: Option<&BudgetSweep>, o: &mut String) {
     let mid = |b: &IhoBand| {
         if b.depth_m[1] < 0.0 {
             b.depth_m[0] + 5.0
@@ -341,7 +341,7 @@ fn sigma_vs_depth(iho: &SoundingsIho, sweep: Option<&Sweep>, o: &mut String) {
 }
 
 /// Li et al. (2016), Fig. 4: the budget around the conic scan.
-fn across_azimuth(s: &Sweep, o: &mut String) {
+fn across_azimuth(s: &BudgetSweep, o: &mut String) {
     let series = |f: fn(&Components) -> f64| -> Vec<(f64, Option<f64>)> {
         s.points
             .iter()
@@ -390,7 +390,7 @@ fn across_azimuth(s: &Sweep, o: &mut String) {
 
 /// Variance shares: the survey's (every point) and the budget's at the shallowest and deepest
 /// point of the depth sweep.
-fn shares(t: &TpuSummaryDocument, sweep: Option<&Sweep>, o: &mut String) {
+fn shares(t: &TpuSummaryDocument, sweep: Option<&BudgetSweep>, o: &mut String) {
     let share_of = |b: &Budget, name: &str| {
         let tot = b.total.three_d.powi(2);
         b.sources.iter().find(|s| s.name == name).map_or(0.0, |s| {

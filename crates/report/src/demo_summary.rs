@@ -7,9 +7,9 @@
 
 use crate::error::{Error, Result};
 use crate::products::{
-    CALIBRATION_FILE, CALIBRATION_MOUNTING_ONLY_FILE, Calibration, EVALUATE_AFTER_FILE,
-    EVALUATE_BEFORE_FILE, Evaluation, OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE,
-    OVERLAP_MOUNTING_ONLY_FILE, Overlap, REPORT_FILE, Sweep, TPU_SUMMARY_FILE, TRUTH_FILE,
+    BudgetSweepDocument, CALIBRATION_FILE, CALIBRATION_MOUNTING_ONLY_FILE, CalibrationDocument,
+    EVALUATE_AFTER_FILE, EVALUATE_BEFORE_FILE, Evaluation, OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE,
+    OVERLAP_MOUNTING_ONLY_FILE, Overlap, REPORT_FILE, TPU_SUMMARY_FILE, TRUTH_FILE,
     TpuSummaryDocument, Truth, sweep_file_name,
 };
 use crate::report::read_product;
@@ -34,11 +34,11 @@ const MOUNTING_KEYS: [&str; 6] = [
 /// A missing or malformed truth, calibration or evaluation, naming the file and key.
 pub fn demo_summary(dir: &Path) -> Result<String> {
     let truth: Truth = read_product(dir.join(TRUTH_FILE))?;
-    let cal: Calibration = read_product(dir.join(CALIBRATION_FILE))?;
+    let cal: CalibrationDocument = read_product(dir.join(CALIBRATION_FILE))?;
     let before: Evaluation = read_product(dir.join(EVALUATE_BEFORE_FILE))?;
     let after: Evaluation = read_product(dir.join(EVALUATE_AFTER_FILE))?;
     // The mounting-only calibration beside a strip-adjusted one (the demo writes both).
-    let plain: Option<Calibration> = if cal.strip_adjustment.is_some() {
+    let plain: Option<CalibrationDocument> = if cal.strip_adjustment.is_some() {
         read_product(dir.join(CALIBRATION_MOUNTING_ONLY_FILE)).ok()
     } else {
         None
@@ -185,7 +185,7 @@ pub fn bathymetry_demo_summary(dir: &Path) -> Result<String> {
         key: "iho_s44".into(),
         message: "missing: the survey has no bathymetric soundings".into(),
     })?;
-    let sweep: Sweep = read_product(dir.join(sweep_file_name("depth")))?;
+    let sweep = read_product::<BudgetSweepDocument>(dir.join(sweep_file_name("depth")))?.sweep;
     let cm = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{:.2}", x * 100.0));
     let mut t = String::new();
     let _ = writeln!(

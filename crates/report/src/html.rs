@@ -251,12 +251,12 @@ fn inputs_and_contents(r: &Report, sections: &[(&str, &str, String)], o: &mut St
 
 fn what(name: &str) -> &'static str {
     match name {
-        BUDGET_FILE => Budget::WHAT,
+        BUDGET_FILE => BudgetDocument::WHAT,
         TPU_SUMMARY_FILE => TpuSummaryDocument::WHAT,
         EVALUATE_BEFORE_FILE => "accuracy against control, before calibration",
         EVALUATE_AFTER_FILE => "accuracy against control, after calibration",
-        CALIBRATION_FILE => Calibration::WHAT,
-        CALIBRATION_ITERATIONS_FILE => CalibrationIterations::WHAT,
+        CALIBRATION_FILE => CalibrationDocument::WHAT,
+        CALIBRATION_ITERATIONS_FILE => CalibrationIterationsDocument::WHAT,
         TRUTH_FILE => Truth::WHAT,
         OVERLAP_BEFORE_FILE => "strip-to-strip height differences, before correction",
         OVERLAP_AFTER_FILE => "strip-to-strip height differences, after correction",
@@ -264,7 +264,7 @@ fn what(name: &str) -> &'static str {
             "strip-to-strip height differences, after a mounting-only correction"
         }
         IHO_FILE => Iho::WHAT,
-        n if n.starts_with(SWEEP_FILE_PREFIX) => Sweep::WHAT,
+        n if n.starts_with(SWEEP_FILE_PREFIX) => BudgetSweepDocument::WHAT,
         _ => "",
     }
 }

@@ -7,13 +7,13 @@
 //!
 //! | file | product | section |
 //! |---|---|---|
-//! | [`BUDGET_FILE`] `budget.json` | [`Budget`] (SPEC §6) | bar chart of the budget per source, totals |
-//! | [`SWEEP_FILE_PREFIX`]`*.json` | [`Sweep`] (SPEC §6 `--sweep`) | totals vs the swept variable; bias curves |
+//! | [`BUDGET_FILE`] `budget.json` | [`BudgetDocument`] (SPEC §6) | bar chart of the budget per source, totals |
+//! | [`SWEEP_FILE_PREFIX`]`*.json` | [`BudgetSweepDocument`] (SPEC §6 `--sweep`) | totals vs the swept variable; bias curves |
 //! | [`TPU_SUMMARY_FILE`] `tpu_summary.json` | [`lidarqa_products::TpuSummaryDocument`] | σ histograms, map of σ, statistics |
 //! | [`EVALUATE_BEFORE_FILE`], [`EVALUATE_AFTER_FILE`] | [`Evaluation`] (SPEC §6) | residual vectors, predicted vs measured, ASPRS / NSSDA |
-//! | [`CALIBRATION_FILE`] (+ [`CALIBRATION_ITERATIONS_FILE`], [`TRUTH_FILE`]) | [`Calibration`] (SPEC §8) | mounting ± σ (vs truth), correlations, convergence |
+//! | [`CALIBRATION_FILE`] (+ [`CALIBRATION_ITERATIONS_FILE`], [`TRUTH_FILE`]) | [`CalibrationDocument`] (SPEC §8) | mounting ± σ (vs truth), correlations, convergence |
 //! | [`OVERLAP_BEFORE_FILE`], [`OVERLAP_AFTER_FILE`] (+ [`OVERLAP_MOUNTING_ONLY_FILE`]) | [`Overlap`] | dz maps and height profiles before / after (a mounting-only correction beside a strip-adjusted one) |
-//! | [`CALIBRATION_MOUNTING_ONLY_FILE`] | [`Calibration`] | the demo summary's mounting-only errors beside the strip-adjusted ones |
+//! | [`CALIBRATION_MOUNTING_ONLY_FILE`] | [`CalibrationDocument`] | the demo summary's mounting-only errors beside the strip-adjusted ones |
 //! | [`QC_FILE`] | `lidarqa_io::QcDocument` | delivery QC: lines, interswath pairs, verdict tables per standard |
 //! | [`IHO_FILE`] `iho.json` | [`Iho`] | IHO S-44 table |
 //! | [`TPU_SUMMARY_FILE`] with soundings ([`lidarqa_products::SoundingsIho`]; + `budget_sweep_depth.json`, `budget_sweep_azimuth.json`) | bathymetry | IHO table per depth band, σ vs depth with the IHO allowances, budget around the scan, variance shares, order map |
@@ -28,10 +28,14 @@
 //! let dir = tempfile::tempdir().unwrap();
 //! std::fs::write(
 //!     dir.path().join(BUDGET_FILE),
-//!     r#"{"scanner": "linear", "sources": [
+//!     r#"{"scanner": "linear", "refraction": null,
+//!         "footprint": {"north": 0, "east": 0, "up": -100},
+//!         "geometry": {"scan_angle_deg": 0, "range_m": 100, "height_m": 100},
+//!         "sources": [
 //!          {"name": "gnss_up", "sigma": 0.1, "unit": "m", "north": 0, "east": 0, "up": 0.1,
 //!           "horizontal": 0, "vertical": 0.1, "three_d": 0.1}],
-//!         "total": {"north": 0, "east": 0, "up": 0.1, "horizontal": 0, "vertical": 0.1, "three_d": 0.1}}"#,
+//!         "total": {"north": 0, "east": 0, "up": 0.1, "horizontal": 0, "vertical": 0.1, "three_d": 0.1},
+//!         "warnings": []}"#,
 //! ).unwrap();
 //! let report = Report::from_dir(dir.path()).unwrap();
 //! let html = report.to_html();
@@ -54,14 +58,14 @@ mod verdict;
 pub use demo_summary::{bathymetry_demo_summary, demo_summary};
 pub use error::{Error, Result};
 pub use products::{
-    Asprs, AsprsComponent, BUDGET_FILE, Budget, BudgetSource, CALIBRATION_FILE,
-    CALIBRATION_ITERATIONS_FILE, CALIBRATION_MOUNTING_ONLY_FILE, Calibration,
-    CalibrationIterations, CalibrationTie, Components, Displacement, DroppedPick, DzGrid,
-    EVALUATE_AFTER_FILE, EVALUATE_BEFORE_FILE, Evaluation, GridGeometry, IHO_FILE, Id, Iho,
-    IhoDepthBand, IhoOrder, Iteration, Neu, Nssda, OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE,
-    OVERLAP_MOUNTING_ONLY_FILE, Ordered, Overlap, OverlapPair, PartialComponents, Product, Profile,
-    ProfileStrip, QC_FILE, REPORT_FILE, ResidualPoint, SWEEP_FILE_PREFIX, Sweep, SweepPoint,
-    TPU_SUMMARY_FILE, TRUTH_FILE, TiePosition, Truth, Xyz, predicted, predicted_from_tpu_summary,
-    sweep_file_name,
+    Asprs, AsprsComponent, BUDGET_FILE, Budget, BudgetDocument, BudgetSource, BudgetSweep,
+    BudgetSweepDocument, BudgetSweepPoint, CALIBRATION_FILE, CALIBRATION_ITERATIONS_FILE,
+    CALIBRATION_MOUNTING_ONLY_FILE, CalibrationDocument, CalibrationIterationsDocument,
+    CalibrationTie, Components, Displacement, DroppedPick, DzGrid, EVALUATE_AFTER_FILE,
+    EVALUATE_BEFORE_FILE, Evaluation, GridGeometry, IHO_FILE, Id, Iho, IhoDepthBand, IhoOrder,
+    Iteration, Neu, Nssda, OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE, OVERLAP_MOUNTING_ONLY_FILE,
+    Ordered, Overlap, OverlapPair, PartialComponents, Product, Profile, ProfileStrip, QC_FILE,
+    REPORT_FILE, ResidualPoint, SWEEP_FILE_PREFIX, TPU_SUMMARY_FILE, TRUTH_FILE, TiePosition,
+    Truth, Xyz, predicted, predicted_from_tpu_summary, sweep_file_name,
 };
 pub use report::{Products, Report, read_product};

@@ -5,16 +5,14 @@
 //! make fixtures. Lengths are metres and angles degrees unless a field says otherwise; the report
 //! converts to centimetres for display.
 //!
-//! Where a producer exists its JSON is the contract (SPEC §6 `budget` and `evaluate`, SPEC §8
-//! `calibration.json`, the simulator's `truth.json`). Where it does not exist yet
-//! (`calibration_iterations.json`, `overlap_*.json`), the struct here *is* the contract,
-//! documented field by field. `tpu_summary.json` is read with lidarqa-products' type, the one
-//! its writer serialises, and `qc.json` and `iho.json` with lidarqa-io's.
+//! Where a producer exists its JSON is the contract (SPEC §6 `budget` and `evaluate`, the
+//! simulator's `truth.json`). Where it does not exist yet (`overlap_*.json`), the struct here
+//! *is* the contract, documented field by field. `tpu_summary.json`, `calibration.json` and
+//! `calibration_iterations.json` are read with lidarqa-products' types, the ones their writers
+//! serialise, and `qc.json` and `iho.json` with lidarqa-io's.
 
-use serde::de::{DeserializeOwned, MapAccess, Visitor};
-use serde::{Deserialize, Deserializer, Serialize, Serializer};
-use std::fmt;
-use std::marker::PhantomData;
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
 
 /// `lidarqa budget --format json` of one geometry (SPEC §6).
 pub const BUDGET_FILE: &str = "budget.json";
@@ -30,9 +28,9 @@ pub const EVALUATE_AFTER_FILE: &str = "evaluate_after.json";
 /// `lidarqa calibrate` output (SPEC §8).
 pub const CALIBRATION_FILE: &str = "calibration.json";
 /// The calibration of the mounting alone, beside a strip-adjusted `calibration.json` (the demo's;
-/// [`Calibration`]).
+/// [`CalibrationDocument`]).
 pub const CALIBRATION_MOUNTING_ONLY_FILE: &str = "calibration_mounting_only.json";
-/// Per-iteration history of the calibration ([`CalibrationIterations`]).
+/// Per-iteration history of the calibration ([`CalibrationIterationsDocument`]).
 pub const CALIBRATION_ITERATIONS_FILE: &str = "calibration_iterations.json";
 /// The simulator's truth (`"mounting"` with SPEC §8 keys).
 pub const TRUTH_FILE: &str = "truth.json";
@@ -77,81 +75,7 @@ fn invalid(key: impl Into<String>, message: impl Into<String>) -> Invalid {
     (key.into(), message.into())
 }
 
-/// An ordered `{"name": value}` object (serde_json keeps the file's order; so does this).
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct Ordered<V>(pub Vec<(String, V)>);
-
-impl<V> Ordered<V> {
-    /// The value of `key`, if present.
-    pub fn get(&self, key: &str) -> Option<&V> {
-        self.0.iter().find(|(k, _)| k == key).map(|(_, v)| v)
-    }
-    /// The entries in file order.
-    pub fn iter(&self) -> impl Iterator<Item = &(String, V)> {
-        self.0.iter()
-    }
-    /// Number of entries.
-    pub fn len(&self) -> usize {
-        self.0.len()
-    }
-    /// No entries.
-    pub fn is_empty(&self) -> bool {
-        self.0.is_empty()
-    }
-}
-
-impl<'de, V: Deserialize<'de>> Deserialize<'de> for Ordered<V> {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
-        struct V2<V>(PhantomData<V>);
-        impl<'de, V: Deserialize<'de>> Visitor<'de> for V2<V> {
-            type Value = Ordered<V>;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("an object")
-            }
-            fn visit_map<A: MapAccess<'de>>(
-                self,
-                mut m: A,
-            ) -> std::result::Result<Self::Value, A::Error> {
-                let mut v = Vec::new();
-                while let Some((k, x)) = m.next_entry::<String, V>()? {
-                    v.push((k, x));
-                }
-                Ok(Ordered(v))
-            }
-        }
-        d.deserialize_map(V2(PhantomData))
-    }
-}
-
-impl<V: Serialize> Serialize for Ordered<V> {
-    fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
-        s.collect_map(self.0.iter().map(|(k, v)| (k, v)))
-    }
-}
-
-/// An id that a producer may write as a string or a number (strip ids are numbers, target ids
-/// strings); kept as text.
-#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize)]
-#[serde(transparent)]
-pub struct Id(pub String);
-
-impl<'de> Deserialize<'de> for Id {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
-        match serde_json::Value::deserialize(d)? {
-            serde_json::Value::String(s) => Ok(Id(s)),
-            serde_json::Value::Number(n) => Ok(Id(n.to_string())),
-            other => Err(serde::de::Error::custom(format!(
-                "expected an id (string or number), found {other}"
-            ))),
-        }
-    }
-}
-
-impl fmt::Display for Id {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
-}
+pub use lidarqa_products::{Id, Ordered};
 
 // ---------------------------------------------------------------------------------------------
 // budget.json and budget_sweep_*.json (SPEC §6)
@@ -177,122 +101,52 @@ pub struct PartialComponents {
     pub three_d: Option<f64>,
 }
 
-/// A signed displacement, metres (lidar − true), SPEC §6 `bias`: the one lidarqa-tpu writes.
-pub use lidarqa_tpu::Displacement;
+/// `budget.json` and `budget_sweep_*.json` (SPEC §6): lidarqa-products' types, the ones
+/// `lidarqa budget` serialises.
+pub use lidarqa_products::{
+    Budget, BudgetDocument, BudgetSource, BudgetSweep, BudgetSweepDocument, BudgetSweepPoint,
+    Displacement,
+};
 
-/// One source of the budget: `|∂P/∂p|·σ` per axis, metres.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct BudgetSource {
-    /// Snake-case source name (SPEC §4).
-    pub name: String,
-    /// 1σ of the source in SI units (`unit`).
-    pub sigma: f64,
-    /// `m`, `rad` or `s`.
-    pub unit: String,
-    /// The effect per axis, m.
-    #[serde(flatten)]
-    pub effect: Components,
-}
-
-/// `budget.json`: `lidarqa budget --format json` of one geometry (SPEC §6).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Budget {
-    /// `linear` or `conic`.
-    pub scanner: String,
-    /// Refraction mode of the conic scanner, null for the linear one.
-    #[serde(default)]
-    pub refraction: Option<String>,
-    /// Footprint relative to the GNSS/INS reference point, m (north, east, up).
-    #[serde(default)]
-    pub footprint: Option<serde_json::Value>,
-    /// Geometry facts in display units (keys carry the unit: `scan_angle_deg`, `range_m`, …).
-    #[serde(default)]
-    pub geometry: Ordered<serde_json::Value>,
-    /// Every source with its effect.
-    pub sources: Vec<BudgetSource>,
-    /// Total propagated uncertainty (1σ), m.
-    pub total: Components,
-    /// Exact displacement caused by the requested biases, m (with `--bias`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub bias: Option<Displacement>,
-}
-
-impl Budget {
-    fn check(&self, at: &str) -> std::result::Result<(), Invalid> {
-        let t = &self.total;
-        for (k, v) in [
-            ("north", t.north),
-            ("east", t.east),
-            ("up", t.up),
-            ("horizontal", t.horizontal),
-            ("vertical", t.vertical),
-            ("three_d", t.three_d),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(invalid(
-                    format!("{at}total.{k}"),
-                    format!("{v} is not a σ (finite, ≥ 0)"),
-                ));
-            }
+/// The totals of a budget are σ: finite and ≥ 0.
+fn check_budget(b: &Budget, at: &str) -> std::result::Result<(), Invalid> {
+    let t = &b.total;
+    for (k, v) in [
+        ("north", t.north),
+        ("east", t.east),
+        ("up", t.up),
+        ("horizontal", t.horizontal),
+        ("vertical", t.vertical),
+        ("three_d", t.three_d),
+    ] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(invalid(
+                format!("{at}total.{k}"),
+                format!("{v} is not a σ (finite, ≥ 0)"),
+            ));
         }
-        Ok(())
     }
+    Ok(())
 }
 
-impl Product for Budget {
+impl Product for BudgetDocument {
     const WHAT: &'static str = "error budget of one geometry";
     fn validate(&self) -> std::result::Result<(), Invalid> {
-        self.check("")
+        check_budget(&self.budget, "")
     }
 }
 
-/// One point of a sweep: the value of the swept variable and the budget there.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SweepPoint {
-    /// The swept variable's value, in the sweep's `unit`.
-    pub at: f64,
-    /// The budget at this value.
-    #[serde(flatten)]
-    pub budget: Budget,
-}
-
-/// `budget_sweep_<variable>.json`: `lidarqa budget --sweep NAME=… --format json`
-/// (`{"sweep", "unit", "points": [{"at", …budget…}]}`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Sweep {
-    /// The swept variable (`scan-angle`, `azimuth`, `height`, `depth`, …).
-    pub sweep: String,
-    /// Unit of `at` (`deg`, `m`).
-    #[serde(default)]
-    pub unit: Option<String>,
-    /// The budgets, in sweep order.
-    pub points: Vec<SweepPoint>,
-}
-
-impl Sweep {
-    /// Smallest and largest of one total (`f`, e.g. horizontal σ) over the sweep, m;
-    /// (∞, −∞) for no points.
-    pub fn total_range(&self, f: fn(&Components) -> f64) -> (f64, f64) {
-        self.points
-            .iter()
-            .map(|p| f(&p.budget.total))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, v| {
-                (a.0.min(v), a.1.max(v))
-            })
-    }
-}
-
-impl Product for Sweep {
+impl Product for BudgetSweepDocument {
     const WHAT: &'static str = "error budget sweep";
     fn validate(&self) -> std::result::Result<(), Invalid> {
-        if self.points.is_empty() {
+        if self.sweep.points.is_empty() {
             return Err(invalid("points", "empty"));
         }
-        for (i, p) in self.points.iter().enumerate() {
+        for (i, p) in self.sweep.points.iter().enumerate() {
             if !p.at.is_finite() {
                 return Err(invalid(format!("points[{i}].at"), "not a finite number"));
             }
-            p.budget.check(&format!("points[{i}]."))?;
+            check_budget(&p.budget, &format!("points[{i}]."))?;
         }
         Ok(())
     }
@@ -594,149 +448,14 @@ impl Product for Evaluation {
 // ---------------------------------------------------------------------------------------------
 // calibration.json (SPEC §8), calibration_iterations.json and truth.json
 
-/// A tie of the calibration with its residual before and after, m.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CalibrationTie {
-    /// Tie id.
-    pub id: Id,
-    /// Strips the tie was picked in.
-    #[serde(default)]
-    pub strips: Vec<Id>,
-    /// Residual (x, y, z) before the calibration, m.
-    #[serde(default)]
-    pub residual_before_m: Option<[f64; 3]>,
-    /// Residual after, m.
-    #[serde(default)]
-    pub residual_after_m: Option<[f64; 3]>,
-}
+/// `calibration.json` (SPEC §8) and `calibration_iterations.json`: lidarqa-products' types, the
+/// ones `lidarqa calibrate` serialises.
+pub use lidarqa_products::{
+    CalibrationDocument, CalibrationIterationsDocument, CalibrationTie, DroppedPick, Iteration,
+    StripAdjustmentBlock, TiePosition,
+};
 
-/// `calibration.json` (SPEC §8).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Calibration {
-    /// `vtpm` or another method.
-    #[serde(default)]
-    pub method: Option<String>,
-    /// Recovered mounting, keys with units (`lever_x_m`, `boresight_roll_deg`, …).
-    pub parameters: Ordered<f64>,
-    /// 1σ of each parameter, same keys.
-    #[serde(default)]
-    pub sigma: Ordered<Option<f64>>,
-    /// Correlation matrix of the estimated parameters (in `parameters` order, or of the observable
-    /// ones only); null for a parameter held at its prior.
-    #[serde(default)]
-    pub correlation: Vec<Vec<Option<f64>>>,
-    /// `false` for a parameter the geometry cannot determine (held at its prior).
-    #[serde(default)]
-    pub observable: Ordered<bool>,
-    /// Iterations of the solver.
-    #[serde(default)]
-    pub iterations: Option<u64>,
-    /// The ties.
-    #[serde(default)]
-    pub ties: Vec<CalibrationTie>,
-    /// Picks no virtual tie could be formed from in their strip, left out (SPEC §8).
-    #[serde(default)]
-    pub dropped_picks: Vec<DroppedPick>,
-    /// The strip adjustment's per-line corrections (`calibrate --adjust-strips`).
-    #[serde(default)]
-    pub strip_adjustment: Option<StripAdjustment>,
-}
-
-/// North, east, up, m.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct NorthEastUp {
-    /// North, m.
-    pub north: f64,
-    /// East, m.
-    pub east: f64,
-    /// Up, m.
-    pub up: f64,
-}
-
-/// Roll, pitch, heading, degrees.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct RollPitchHeading {
-    /// Roll, deg.
-    pub roll: f64,
-    /// Pitch, deg.
-    pub pitch: f64,
-    /// Heading, deg.
-    pub heading: f64,
-}
-
-/// One line's trajectory correction (`strip_adjustment.lines`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct StripLine {
-    /// Strip id.
-    pub strip: Id,
-    /// Position error at the line's middle.
-    pub offset_m: NorthEastUp,
-    /// Its 1 σ.
-    pub offset_sigma_m: NorthEastUp,
-    /// The position error's change from the middle to the end of the line.
-    #[serde(default)]
-    pub drift_m: Option<NorthEastUp>,
-    /// Attitude error.
-    #[serde(default)]
-    pub attitude_deg: Option<RollPitchHeading>,
-}
-
-/// The χ² test of one group of the trajectory's σ.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SigmaTest {
-    /// `gnss_position` or `attitude`.
-    pub group: String,
-    /// ûᵀû with the declared σ.
-    pub statistic: f64,
-    /// The group's redundancy.
-    pub redundancy: f64,
-    /// By how much the declared σ were multiplied.
-    pub sigma_factor: f64,
-}
-
-/// RMS of the tie residual rows, m.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct TieRms {
-    /// At the prior mounting.
-    pub prior: f64,
-    /// After the mounting alone.
-    pub mounting_only: f64,
-    /// After the mounting and the lines' corrections.
-    pub strip_adjusted: f64,
-}
-
-/// `calibration.json`'s `strip_adjustment`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct StripAdjustment {
-    /// `offset`, `offset+drift` or `offset+drift+attitude`.
-    pub model: String,
-    /// Where the datum comes from.
-    #[serde(default)]
-    pub datum: String,
-    /// One per line.
-    #[serde(default)]
-    pub lines: Vec<StripLine>,
-    /// The χ² tests of the trajectory's σ.
-    #[serde(default)]
-    pub sigma_tests: Vec<SigmaTest>,
-    /// Tie residual RMS before and after.
-    #[serde(default)]
-    pub tie_rms_m: Option<TieRms>,
-}
-
-/// A pick the calibration left out (SPEC §8 `dropped_picks`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct DroppedPick {
-    /// Tie id.
-    pub tie: Id,
-    /// Strip id.
-    pub strip: Id,
-    /// Why.
-    #[serde(default)]
-    pub reason: String,
-}
-
-impl Product for Calibration {
+impl Product for CalibrationDocument {
     const WHAT: &'static str = "boresight and lever-arm calibration";
     fn validate(&self) -> std::result::Result<(), Invalid> {
         if self.parameters.is_empty() {
@@ -755,37 +474,7 @@ impl Product for Calibration {
     }
 }
 
-/// One tie's position at one iteration.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TiePosition {
-    /// Tie id.
-    pub id: Id,
-    /// Easting, northing, height, m.
-    pub xyz_m: [f64; 3],
-}
-
-/// One iteration of the calibration.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Iteration {
-    /// Iteration number (0 = the start).
-    pub iteration: u64,
-    /// Parameters after this iteration (SPEC §8 keys).
-    #[serde(default)]
-    pub parameters: Ordered<f64>,
-    /// Tie positions after this iteration.
-    #[serde(default)]
-    pub ties: Vec<TiePosition>,
-}
-
-/// `calibration_iterations.json`: `{"iterations": [{"iteration", "parameters": {…},
-/// "ties": [{"id", "xyz_m": [x, y, z]}]}]}`, one entry per solver iteration, in order.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CalibrationIterations {
-    /// The iterations.
-    pub iterations: Vec<Iteration>,
-}
-
-impl Product for CalibrationIterations {
+impl Product for CalibrationIterationsDocument {
     const WHAT: &'static str = "calibration convergence history";
     fn validate(&self) -> std::result::Result<(), Invalid> {
         if self.iterations.is_empty() {

@@ -13,7 +13,7 @@ pub struct Products {
     /// `budget.json`.
     pub budget: Option<Budget>,
     /// `budget_sweep_*.json`, with their file names, sorted by file name.
-    pub sweeps: Vec<(String, Sweep)>,
+    pub sweeps: Vec<(String, BudgetSweep)>,
     /// `tpu_summary.json`.
     pub tpu: Option<TpuSummaryDocument>,
     /// `evaluate_before.json`.
@@ -21,9 +21,9 @@ pub struct Products {
     /// `evaluate_after.json`.
     pub evaluate_after: Option<Evaluation>,
     /// `calibration.json`.
-    pub calibration: Option<Calibration>,
+    pub calibration: Option<CalibrationDocument>,
     /// `calibration_iterations.json`.
-    pub calibration_iterations: Option<CalibrationIterations>,
+    pub calibration_iterations: Option<CalibrationIterationsDocument>,
     /// `truth.json`.
     pub truth: Option<Truth>,
     /// `overlap_before.json`.
@@ -191,7 +191,8 @@ impl Report {
                 }
             }
         }
-        p.budget = load(dir, BUDGET_FILE, &mut skipped, &mut read);
+        p.budget =
+            load::<BudgetDocument>(dir, BUDGET_FILE, &mut skipped, &mut read).map(|d| d.budget);
         let entries = std::fs::read_dir(dir).map_err(|source| Error::Read {
             path: dir.to_path_buf(),
             source,
@@ -203,8 +204,8 @@ impl Report {
             .collect();
         sweep_names.sort();
         for name in sweep_names {
-            if let Some(s) = load::<Sweep>(dir, &name, &mut skipped, &mut read) {
-                p.sweeps.push((name, s));
+            if let Some(s) = load::<BudgetSweepDocument>(dir, &name, &mut skipped, &mut read) {
+                p.sweeps.push((name, s.sweep));
             }
         }
         p.tpu = load(dir, TPU_SUMMARY_FILE, &mut skipped, &mut read);
@@ -298,7 +299,10 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(
             dir.path().join(BUDGET_FILE),
-            r#"{"scanner": "linear", "sources": [
+            r#"{"scanner": "linear", "refraction": null,
+                "footprint": {"north": 0, "east": 0, "up": -100},
+                "geometry": {"scan_angle_deg": 0, "range_m": 100, "height_m": 100},
+                "sources": [
                  {"name": "gnss_up", "sigma": 0.1, "unit": "m", "north": 0, "east": 0, "up": 0.1,
                   "horizontal": 0, "vertical": 0.1, "three_d": 0.1}],
                 "total": {"north": 0, "east": 0, "up": 0.1, "horizontal": 0, "vertical": 0.1,

@@ -73,8 +73,8 @@ pub(crate) fn verdict(p: &Products) -> Option<String> {
                 esc(&not.join(", "))
             );
         }
-        if !c.dropped_picks.is_empty() {
-            let _ = write!(o, "; {} tie picks dropped", c.dropped_picks.len());
+        if !c.dropped_picks().is_empty() {
+            let _ = write!(o, "; {} tie picks dropped", c.dropped_picks().len());
         }
         o.push_str(" (<a href=\"#sec-calibration\">details</a>).</p>\n");
     }

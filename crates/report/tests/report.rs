@@ -17,7 +17,12 @@ fn write(dir: &Path, name: &str, v: &Value) {
 /// `lidarqa budget --preset czmil --format json`.
 fn budget_json() -> Value {
     let e = evaluate(&Preset::Czmil.sensor(), &Preset::Czmil.geometry(), None).unwrap();
-    serde_json::to_value(&e).unwrap()
+    serde_json::to_value(lidarqa_report::BudgetDocument {
+        budget: e.to_budget(),
+        monte_carlo: None,
+        warnings: Vec::new(),
+    })
+    .unwrap()
 }
 
 /// `lidarqa budget … --sweep NAME=… --format json`: `{"sweep", "unit", "points": [{"at", …}]}`.
@@ -29,12 +34,14 @@ fn sweep_json(preset: Preset, geometry: Geometry, spec: &str, biases: Option<&Bi
         .into_iter()
         .map(|at| {
             let g = sweep.apply(&geometry, at).unwrap();
-            let mut v = serde_json::to_value(evaluate(&sensor, &g, biases).unwrap()).unwrap();
+            let mut v =
+                serde_json::to_value(evaluate(&sensor, &g, biases).unwrap().to_budget()).unwrap();
             v["at"] = json!(at);
             v
         })
         .collect();
-    json!({"sweep": sweep.variable.name(), "unit": sweep.variable.unit(), "points": points})
+    json!({"sweep": sweep.variable.name(), "unit": sweep.variable.unit(), "points": points,
+           "warnings": []})
 }
 
 fn zhang_2018_at_1000m() -> Geometry {
@@ -658,19 +665,19 @@ fn degenerate_products_do_not_panic() {
 #[test]
 fn products_round_trip_through_serde() {
     let v = budget_json();
-    let b: Budget = serde_json::from_value(v.clone()).unwrap();
-    assert_eq!(b.sources.len(), 25); // the conic model of Li et al. (2016) + the four water-surface sources
+    let b: lidarqa_report::BudgetDocument = serde_json::from_value(v.clone()).unwrap();
+    assert_eq!(b.budget.sources.len(), 25); // the conic model of Li et al. (2016) + the four water-surface sources
     let back = serde_json::to_value(&b).unwrap();
     assert_eq!(back["total"], v["total"]);
-    let s: lidarqa_report::Sweep = serde_json::from_value(sweep_json(
+    let s: lidarqa_report::BudgetSweepDocument = serde_json::from_value(sweep_json(
         Preset::Zhang2018,
         zhang_2018_at_1000m(),
         "scan-angle=-30:30:30",
         None,
     ))
     .unwrap();
-    assert_eq!(s.points.len(), 3);
-    assert_eq!(s.unit.as_deref(), Some("deg"));
+    assert_eq!(s.sweep.points.len(), 3);
+    assert_eq!(s.sweep.unit, "deg");
 }
 
 #[test]

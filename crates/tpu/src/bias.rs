@@ -4,7 +4,7 @@
 //! The exact displacement re-georeferences with and without the bias; the first-order one is
 //! `J · b`. Both are reported so a user sees where linearisation stops being good enough.
 
-use crate::axes::Displacement;
+use crate::axes::{Displacement, displacement_from_ned};
 use crate::budget::footprint_jacobian;
 use crate::error::{Error, Result};
 use lidarqa_model::{Georeferencer, Source};
@@ -128,8 +128,8 @@ pub fn bias_effect<G: Georeferencer<N>, const N: usize>(
         });
     }
     Ok(BiasEffect {
-        exact: Displacement::from_ned(&exact, heading_rad),
-        first_order: Displacement::from_ned(&first, heading_rad),
+        exact: displacement_from_ned(&exact, heading_rad),
+        first_order: displacement_from_ned(&first, heading_rad),
     })
 }
 

@@ -6,33 +6,34 @@
 use crate::axes::Axes;
 use crate::error::{Error, Result};
 use lidarqa_model::{Georeferencer, Source};
+use lidarqa_products::BudgetSource;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
-use serde::Serialize;
 
 /// One source's share of the budget.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct SourceTerm {
-    /// The source (serialised as its snake_case name).
-    #[serde(rename = "name", serialize_with = "serialize_source")]
+    /// The source.
     pub source: Source,
     /// Its 1-sigma, SI units (`unit`).
-    #[serde(rename = "sigma")]
     pub sigma_si: f64,
     /// `m`, `rad` or `s`.
     pub unit: &'static str,
     /// ∂(footprint NED)/∂p, metres per SI unit of the source.
-    #[serde(skip)]
     pub partial_ned: Vector3<f64>,
     /// `|∂P/∂p| · σ` per axis, metres.
-    #[serde(flatten)]
     pub effect: Axes,
 }
 
-fn serialize_source<S: serde::Serializer>(
-    s: &Source,
-    ser: S,
-) -> std::result::Result<S::Ok, S::Error> {
-    ser.serialize_str(s.name())
+impl SourceTerm {
+    /// Its entry in the budget's `sources` (the source by its snake_case name).
+    pub fn to_budget_source(&self) -> BudgetSource {
+        BudgetSource {
+            name: self.source.name().to_string(),
+            sigma: self.sigma_si,
+            unit: self.unit.to_string(),
+            effect: self.effect,
+        }
+    }
 }
 
 /// The propagated uncertainty of one footprint.

@@ -10,8 +10,8 @@ use lidarqa_model::{
     Attitude, ConicObservation, ConicScanner, Georeferencer, LinearObservation, LinearScanner,
     Refraction, Scanner, Sensor, linear_range_for_height,
 };
+use lidarqa_products::Budget;
 use nalgebra::{SVector, Vector3};
-use serde::Serialize;
 
 /// How the linear scanner's range is given.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -81,57 +81,13 @@ impl Geometry {
     }
 }
 
-/// Geometry facts reported beside the budget (SPEC §6 `geometry`), in display units.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-#[serde(untagged)]
-pub enum GeometryFacts {
-    /// Linear scanner.
-    Linear {
-        /// Scan angle, degrees.
-        scan_angle_deg: f64,
-        /// Slant range, m.
-        range_m: f64,
-        /// Height of the GNSS/INS reference point above the footprint, m.
-        height_m: f64,
-    },
-    /// Conic scanner.
-    Conic {
-        /// Scan azimuth, degrees.
-        azimuth_deg: f64,
-        /// Prism slope θf, degrees.
-        prism_slope_deg: f64,
-        /// Incidence angle of the beam on the water surface, degrees.
-        exit_angle_deg: f64,
-        /// Angle of the refracted beam from the surface normal, degrees.
-        water_angle_deg: f64,
-        /// Air range ρ1, m.
-        range_air_m: f64,
-        /// Water range ρ2, m.
-        range_water_m: f64,
-        /// Two-way air travel time Δt1, ns.
-        time_air_ns: f64,
-        /// Two-way water travel time Δt2, ns.
-        time_water_ns: f64,
-        /// Height of the GNSS/INS reference point above the water surface, m.
-        height_m: f64,
-        /// Depth of the footprint below the water surface, m.
-        depth_m: f64,
-    },
-}
+/// Geometry facts reported beside the budget and the footprint: lidarqa-products' types, the
+/// ones `budget.json` is written with.
+pub use lidarqa_products::{Footprint, GeometryFacts};
 
-/// Footprint relative to the GNSS/INS reference point, m.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Footprint {
-    /// North, m.
-    pub north: f64,
-    /// East, m.
-    pub east: f64,
-    /// Up, m (negative below the sensor).
-    pub up: f64,
-}
-
-/// Everything `lidarqa budget` reports for one geometry (its JSON is SPEC §6's contract).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// Everything `lidarqa budget` reports for one geometry (its JSON, [`Evaluation::to_budget`], is
+/// SPEC §6's contract).
+#[derive(Debug, Clone, PartialEq)]
 pub struct Evaluation {
     /// `"linear"` or `"conic"`.
     pub scanner: &'static str,
@@ -146,11 +102,29 @@ pub struct Evaluation {
     /// Total propagated uncertainty (1σ), m.
     pub total: Axes,
     /// Exact displacement caused by the requested biases (lidar − true), m.
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub bias: Option<Displacement>,
     /// The same to first order (`J · b`), m.
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub bias_first_order: Option<Displacement>,
+}
+
+impl Evaluation {
+    /// The budget as `lidarqa budget --format json` writes it (SPEC §6).
+    pub fn to_budget(&self) -> Budget {
+        Budget {
+            scanner: self.scanner.to_string(),
+            refraction: self.refraction.map(str::to_string),
+            footprint: self.footprint,
+            geometry: self.geometry,
+            sources: self
+                .sources
+                .iter()
+                .map(SourceTerm::to_budget_source)
+                .collect(),
+            total: self.total,
+            bias: self.bias,
+            bias_first_order: self.bias_first_order,
+        }
+    }
 }
 
 /// A resolved geometry: the model and its nominal parameter vector.

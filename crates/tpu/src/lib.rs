@@ -52,7 +52,7 @@ mod sounding;
 mod sweep;
 mod trajectory;
 
-pub use axes::{Axes, Displacement};
+pub use axes::{Axes, Displacement, displacement_from_ned};
 pub use beam_point::{BEAM_FOOTPRINT_SOURCE, BeamPropagator, BeamUncertainty};
 pub use bias::{BiasEffect, Biases, bias_effect};
 pub use budget::{Budget, SourceTerm, budget, footprint_jacobian, propagate_covariance};

@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{ConicRanges, Evaluation, Geometry, GeometryFacts, LinearRange, evaluate};
 use crate::sweep::{Sweep, SweepVariable};
 use lidarqa_model::{Attitude, Scanner, Sensor};
-use serde::Serialize;
+use lidarqa_products::{BudgetSweep, BudgetSweepPoint};
 
 /// The observation geometry as asked for: every value optional (degrees and metres, as typed);
 /// what is not given comes from the preset's geometry, else level flight heading north, scan
@@ -171,18 +171,18 @@ impl GeometryRequest {
 }
 
 /// One value of a sweep and the budget there.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct SweepPoint {
     /// The swept variable's value, in the sweep's unit (degrees or metres).
     pub at: f64,
     /// The budget at `at`.
-    #[serde(flatten)]
     pub evaluation: Evaluation,
 }
 
-/// The budget over a sweep: its JSON is `lidarqa budget --sweep … --format json`'s
-/// (`{"sweep", "unit", "points": [{"at", …budget…}]}`, SPEC §6).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// The budget over a sweep: its JSON ([`SweepEvaluation::to_sweep`]) is
+/// `lidarqa budget --sweep … --format json`'s (`{"sweep", "unit", "points": [{"at",
+/// …budget…}]}`, SPEC §6).
+#[derive(Debug, Clone, PartialEq)]
 pub struct SweepEvaluation {
     /// The swept variable (`scan-angle`, `azimuth`, `depth`, …).
     pub sweep: &'static str,
@@ -190,6 +190,24 @@ pub struct SweepEvaluation {
     pub unit: &'static str,
     /// The budgets, in sweep order.
     pub points: Vec<SweepPoint>,
+}
+
+impl SweepEvaluation {
+    /// The sweep as `lidarqa budget --sweep … --format json` writes it.
+    pub fn to_sweep(&self) -> BudgetSweep {
+        BudgetSweep {
+            sweep: self.sweep.to_string(),
+            unit: self.unit.to_string(),
+            points: self
+                .points
+                .iter()
+                .map(|p| BudgetSweepPoint {
+                    at: p.at,
+                    budget: p.evaluation.to_budget(),
+                })
+                .collect(),
+        }
+    }
 }
 
 /// The budget at every value of `sweep` from `geometry`, in order.

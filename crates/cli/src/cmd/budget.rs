@@ -6,11 +6,11 @@ use crate::format::{OutputFormat, print_json, print_text};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lidarqa_model::Sensor;
+use lidarqa_products::{BudgetDocument, BudgetSweepDocument, MonteCarloSigma};
 use lidarqa_tpu::{
     Biases, Geometry, GeometryRequest, Preset, Sweep, evaluate, evaluate_monte_carlo,
     evaluate_sweep,
 };
-use serde_json::json;
 use std::path::PathBuf;
 
 pub const AFTER_HELP: &str = "\
@@ -229,13 +229,14 @@ fn run_budget(args: BudgetArgs) -> Result<()> {
                 .map(|n| evaluate_monte_carlo(&plan.sensor, &plan.geometry, n, plan.seed))
                 .transpose()?;
             match plan.format {
-                OutputFormat::Json => {
-                    let mut v = serde_json::to_value(&e)?;
-                    if let Some(mc) = &mc {
-                        v["monte_carlo"] = json!({"samples": mc.samples, "sigma": mc.sigma});
-                    }
-                    print_json(&v)
-                }
+                OutputFormat::Json => print_json(&BudgetDocument {
+                    budget: e.to_budget(),
+                    monte_carlo: mc.as_ref().map(|mc| MonteCarloSigma {
+                        samples: mc.samples as u64,
+                        sigma: mc.sigma,
+                    }),
+                    warnings: Vec::new(),
+                }),
                 OutputFormat::Table => {
                     let mut t = budget_table::table(&plan.label, &e);
                     if let Some(mc) = &mc {
@@ -249,7 +250,10 @@ fn run_budget(args: BudgetArgs) -> Result<()> {
             let result =
                 evaluate_sweep(&plan.sensor, &plan.geometry, &sweep, plan.biases.as_ref())?;
             match plan.format {
-                OutputFormat::Json => print_json(&result),
+                OutputFormat::Json => print_json(&BudgetSweepDocument {
+                    sweep: result.to_sweep(),
+                    warnings: Vec::new(),
+                }),
                 OutputFormat::Table => print_text(&budget_table::sweep_table(&plan.label, &result)),
             }
         }

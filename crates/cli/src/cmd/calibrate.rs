@@ -296,9 +296,9 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
     // SPEC §7: the trajectory's warnings and the calibration's own (dropped picks) go to
     // stderr and into the JSON.
     crate::format::print_warnings(&run.warnings);
-    let doc = run.to_json();
+    let doc = run.to_document();
     write_json_file(&a.output, &doc, &inputs)?;
-    if let Some(iterations) = run.iterations_json() {
+    if let Some(iterations) = run.iterations_document() {
         write_json_file(&plan.iterations_path, &iterations, &inputs)?;
     }
     match a.format {

@@ -191,6 +191,7 @@ fn simulate_and_calibrate_lines(
         s(&cal),
     ]);
     let out = binary::run_ok(&args);
+    crate::assert_round_trips::<lidarqa_products::CalibrationDocument>(&cal);
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&cal).unwrap()).unwrap();
     (sim, v, String::from_utf8_lossy(&out.stderr).into_owned())
 }

@@ -4,10 +4,19 @@
 use crate::binary;
 use binary::lidarqa;
 
+use lidarqa_products::{BudgetDocument, BudgetSweepDocument};
 use serde_json::Value;
 
 fn json(args: &[&str]) -> Value {
     binary::json_ok(&[args, &["--format", "json"]].concat())
+}
+
+/// [`json`], checked to be lidarqa-products' type `T` field for field.
+fn typed_json<T: serde::de::DeserializeOwned + serde::Serialize>(args: &[&str]) -> Value {
+    let out = binary::run_ok(&[args, &["--format", "json"]].concat());
+    let text = String::from_utf8(out.stdout).unwrap();
+    crate::assert_text_round_trips::<T>(&text, &args.join(" "));
+    serde_json::from_str(&text).unwrap()
 }
 
 /// Runs, expects [`binary::fails_with`] with `needle` and nothing on stdout.
@@ -24,7 +33,7 @@ fn close(v: &Value, want: f64, tol: f64) {
 
 #[test]
 fn zhang_2018_json_contract_and_values() {
-    let v = json(&["budget", "--preset", "zhang2018"]);
+    let v = typed_json::<BudgetDocument>(&["budget", "--preset", "zhang2018"]);
     assert_eq!(v["scanner"], "linear");
     assert!(v["refraction"].is_null());
     close(&v["footprint"]["east"], 46.188, 5e-4);
@@ -47,7 +56,7 @@ fn zhang_2018_json_contract_and_values() {
 
 #[test]
 fn czmil_json_geometry_and_totals() {
-    let v = json(&["budget", "--preset", "czmil"]);
+    let v = typed_json::<BudgetDocument>(&["budget", "--preset", "czmil"]);
     assert_eq!(v["refraction"], "scanner-frame");
     close(&v["geometry"]["prism_slope_deg"], 39.16, 5e-3);
     close(&v["geometry"]["exit_angle_deg"], 20.0, 1e-9);
@@ -59,13 +68,19 @@ fn czmil_json_geometry_and_totals() {
 
 #[test]
 fn sweep_and_bias_json() {
-    let v = json(&["budget", "--preset", "czmil", "--sweep", "azimuth=0:90:45"]);
+    let v = typed_json::<BudgetSweepDocument>(&[
+        "budget",
+        "--preset",
+        "czmil",
+        "--sweep",
+        "azimuth=0:90:45",
+    ]);
     assert_eq!(v["sweep"], "azimuth");
     let pts = v["points"].as_array().unwrap();
     assert_eq!(pts.len(), 3);
     close(&pts[2]["at"], 90.0, 0.0);
     close(&pts[2]["geometry"]["azimuth_deg"], 90.0, 1e-12);
-    let v = json(&[
+    let v = typed_json::<BudgetDocument>(&[
         "budget",
         "--preset",
         "zhang2018",
@@ -84,7 +99,7 @@ fn sweep_and_bias_json() {
 
 #[test]
 fn monte_carlo_flag_agrees_with_the_linear_totals() {
-    let v = json(&[
+    let v = typed_json::<BudgetDocument>(&[
         "budget",
         "--preset",
         "zhang2018",

@@ -52,7 +52,7 @@ fn cut_strips_give_the_whole_strips_ties_and_calibration() {
     };
     let one = run(u64::MAX);
     let many = run(40_000);
-    assert_eq!(one.to_json(), many.to_json());
+    assert_eq!(one.to_document(), many.to_document());
 
     // The progress bar's steps: every point of the first pass once, then the ties, then the
     // adjustment.

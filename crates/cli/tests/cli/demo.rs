@@ -107,6 +107,17 @@ fn demo_recovers_the_injected_mounting_and_improves_accuracy() {
     ] {
         assert!(d.join(product).exists(), "{product} missing");
     }
+    // Each product is its lidarqa-products type, field for field.
+    for cal in ["calibration.json", "calibration_mounting_only.json"] {
+        crate::assert_round_trips::<lidarqa_products::CalibrationDocument>(&d.join(cal));
+    }
+    crate::assert_round_trips::<lidarqa_products::CalibrationIterationsDocument>(
+        &d.join("calibration_iterations.json"),
+    );
+    crate::assert_round_trips::<lidarqa_products::BudgetDocument>(&d.join("budget.json"));
+    crate::assert_round_trips::<lidarqa_products::BudgetSweepDocument>(
+        &d.join("budget_sweep_scan-angle.json"),
+    );
     let truth = json(&d.join("truth.json"));
     let cal = json(&d.join("calibration.json"));
     // The demo flies with each line's own trajectory error (the truth has it per strip) and
@@ -261,6 +272,10 @@ fn bathymetric_demo_reports_the_iho_orders_per_depth_band() {
         "strips/strip_001.laz",
     ] {
         assert!(d.join(product).exists(), "{product} missing");
+    }
+    crate::assert_round_trips::<lidarqa_products::BudgetDocument>(&d.join("budget.json"));
+    for sweep in ["budget_sweep_depth.json", "budget_sweep_azimuth.json"] {
+        crate::assert_round_trips::<lidarqa_products::BudgetSweepDocument>(&d.join(sweep));
     }
     let summary = String::from_utf8_lossy(&out.stdout);
     let tpu = json(&d.join("tpu_summary.json"));

@@ -80,6 +80,7 @@ fn lines_across_tiles_and_within_one_file_calibrate_and_correct_as_lines() {
     );
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     run_ok(&args);
+    crate::assert_round_trips::<lidarqa_products::CalibrationDocument>(&cal);
     let c: Value = serde_json::from_str(&std::fs::read_to_string(&cal).unwrap()).unwrap();
 
     // The lines found, and why.

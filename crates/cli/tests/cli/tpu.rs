@@ -55,40 +55,9 @@ fn listing(dir: &Path) -> Vec<PathBuf> {
 }
 
 /// Parses a `tpu_summary.json` into lidarqa-products' type (which denies unknown fields) and
-/// writes it back: the same keys in the same order with the same values, so a field the writer
-/// has and the type lacks, or one the type adds, fails here. Numbers are compared to 1e-15
-/// relative: serde_json's default parser may return a float one unit in the last place off.
+/// writes it back ([`crate::assert_round_trips`]).
 pub(crate) fn assert_summary_round_trips(path: &Path) {
-    fn same(a: &Value, b: &Value, at: &str) {
-        match (a, b) {
-            (Value::Object(x), Value::Object(y)) => {
-                let (kx, ky): (Vec<_>, Vec<_>) = (x.keys().collect(), y.keys().collect());
-                assert_eq!(kx, ky, "keys of {at}");
-                for (k, v) in x {
-                    same(v, &y[k], &format!("{at}.{k}"));
-                }
-            }
-            (Value::Array(x), Value::Array(y)) => {
-                assert_eq!(x.len(), y.len(), "length of {at}");
-                for (i, (v, w)) in x.iter().zip(y).enumerate() {
-                    same(v, w, &format!("{at}[{i}]"));
-                }
-            }
-            (Value::Number(x), Value::Number(y)) if x.is_f64() || y.is_f64() => {
-                let (x, y) = (x.as_f64().unwrap(), y.as_f64().unwrap());
-                assert!(
-                    (x - y).abs() <= 1e-15 * x.abs().max(y.abs()),
-                    "{at}: {x} vs {y}"
-                );
-            }
-            _ => assert_eq!(a, b, "{at}"),
-        }
-    }
-    let text = std::fs::read_to_string(path).unwrap();
-    let doc: lidarqa_products::TpuSummaryDocument = serde_json::from_str(&text)
-        .unwrap_or_else(|e| panic!("{} does not parse: {e}", path.display()));
-    let file: Value = serde_json::from_str(&text).unwrap();
-    same(&file, &serde_json::to_value(&doc).unwrap(), "tpu_summary");
+    crate::assert_round_trips::<lidarqa_products::TpuSummaryDocument>(path);
 }
 
 #[test]

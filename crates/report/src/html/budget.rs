@@ -21,12 +21,12 @@ fn geometry_line(b: &Budget) -> String {
     if let Some(r) = &b.refraction {
         parts.push(format!("{} refraction", esc(r)));
     }
-    for (k, v) in b.geometry.iter() {
-        let text = match v.as_f64() {
-            Some(x) => format!("{x:.3}"),
-            None => v.to_string(),
-        };
-        parts.push(format!("<code>{}</code> = {}", esc(k), esc(&text)));
+    for (k, x) in b.geometry.entries() {
+        parts.push(format!(
+            "<code>{}</code> = {}",
+            esc(k),
+            esc(&format!("{x:.3}"))
+        ));
     }
     parts.join(" · ")
 }

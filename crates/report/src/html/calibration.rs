@@ -33,8 +33,8 @@ fn num4(v: f64) -> String {
 const MAX_TIES: usize = 30;
 
 pub(super) fn calibration_section(
-    cal: Option<&Calibration>,
-    its: Option<&CalibrationIterations>,
+    cal: Option<&CalibrationDocument>,
+    its: Option<&CalibrationIterationsDocument>,
     truth: Option<&Truth>,
 ) -> String {
     let mut o = String::new();
@@ -94,7 +94,7 @@ pub(super) fn calibration_section(
 }
 
 /// Zhang & Jiang (2011), Fig. 9: tie coordinates minus their final value, per iteration (RMS over ties).
-pub(super) fn convergence(its: &CalibrationIterations) -> String {
+pub(super) fn convergence(its: &CalibrationIterationsDocument) -> String {
     let mut o = String::new();
     let last = match its.iterations.last() {
         Some(l) => l,
@@ -176,7 +176,7 @@ pub(super) fn convergence(its: &CalibrationIterations) -> String {
 /// error left in an observable boresight angle: (name, error, unit).
 fn mounting_table(
     o: &mut String,
-    c: &Calibration,
+    c: &CalibrationDocument,
     truth: Option<&Truth>,
 ) -> Option<(String, f64, &'static str)> {
     o.push_str("<table id=\"mounting\"><caption>Recovered mounting</caption><thead><tr><th>parameter</th><th>unit</th><th>recovered</th><th>σ</th>");
@@ -236,7 +236,7 @@ fn mounting_table(
 
 /// The strip adjustment: each line's correction, the tie residuals before and after, and the
 /// trajectory σ the data asked for.
-fn strip_adjustment_table(o: &mut String, sa: &StripAdjustment) {
+fn strip_adjustment_table(o: &mut String, sa: &StripAdjustmentBlock) {
     let _ = writeln!(
         o,
         "<table id=\"strip-adjustment\"><caption>Per-line trajectory corrections (model <code>{}</code>; cm, deg)</caption><thead><tr><th>strip</th><th>north</th><th>east</th><th>up</th><th>σ up</th><th>drift N/E/U</th><th>roll/pitch/heading</th></tr></thead><tbody>",
@@ -289,7 +289,7 @@ fn strip_adjustment_table(o: &mut String, sa: &StripAdjustment) {
 }
 
 /// The correlation matrix of the estimated parameters, coloured by |r|.
-fn correlation_table(o: &mut String, c: &Calibration) {
+fn correlation_table(o: &mut String, c: &CalibrationDocument) {
     let n = c.correlation.len();
     if n > 0 {
         let all: Vec<&String> = c.parameters.iter().map(|(k, _)| k).collect();
@@ -332,7 +332,7 @@ fn correlation_table(o: &mut String, c: &Calibration) {
 }
 
 /// Each tie's residual length before and after.
-fn tie_table(o: &mut String, c: &Calibration) {
+fn tie_table(o: &mut String, c: &CalibrationDocument) {
     o.push_str("<table id=\"ties\"><caption>Tie residuals (cm, length of the x/y/z residual)</caption><thead><tr><th>tie</th><th class=\"text\">strips</th><th>before</th><th>after</th></tr></thead><tbody>\n");
     let norm = |r: Option<[f64; 3]>| {
         r.map(|r| cm((r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt()))
@@ -360,7 +360,7 @@ fn tie_table(o: &mut String, c: &Calibration) {
 }
 
 /// The tie residuals as bars, the largest before first.
-fn tie_plot(o: &mut String, c: &Calibration) {
+fn tie_plot(o: &mut String, c: &CalibrationDocument) {
     let length_cm = |r: Option<[f64; 3]>| {
         r.map_or(f64::NAN, |r| {
             100.0 * (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt()
@@ -395,10 +395,10 @@ fn tie_plot(o: &mut String, c: &Calibration) {
 }
 
 /// The picks that formed no tie, and why.
-fn dropped_picks_table(o: &mut String, c: &Calibration) {
-    if !c.dropped_picks.is_empty() {
+fn dropped_picks_table(o: &mut String, c: &CalibrationDocument) {
+    if !c.dropped_picks().is_empty() {
         o.push_str("<table id=\"dropped-picks\"><caption>Picks left out: no virtual tie could be formed in that strip</caption><thead><tr><th class=\"text\">tie</th><th class=\"text\">strip</th><th class=\"text\">why</th></tr></thead><tbody>\n");
-        for d in &c.dropped_picks {
+        for d in c.dropped_picks() {
             let _ = writeln!(
                 o,
                 "<tr><td class=\"text\">{}</td><td class=\"text\">{}</td><td class=\"text\">{}</td></tr>",

@@ -6,18 +6,9 @@ use crate::text::{cm, esc, meaning};
 use std::fmt::Write as _;
 
 /// `scan-angle`, `deg` → ("scan angle", "deg").
-fn variable_label(s: &Sweep) -> (String, String) {
+fn variable_label(s: &BudgetSweep) -> (String, String) {
     let name = s.sweep.replace(['-', '_'], " ");
-    let unit = s.unit.clone().unwrap_or_else(|| {
-        if s.sweep.contains("angle")
-            || s.sweep.contains("azimuth")
-            || matches!(s.sweep.as_str(), "heading" | "pitch" | "roll")
-        {
-            "deg".into()
-        } else {
-            "m".into()
-        }
-    });
+    let unit = s.unit.clone();
     (name, unit)
 }
 
@@ -33,7 +24,7 @@ fn slug(s: &str) -> String {
         .collect()
 }
 
-pub(super) fn sweep_section(sweeps: &[(String, Sweep)]) -> String {
+pub(super) fn sweep_section(sweeps: &[(String, BudgetSweep)]) -> String {
     let mut o = String::new();
     for (file, s) in sweeps {
         one_sweep(&mut o, file, s);
@@ -42,7 +33,7 @@ pub(super) fn sweep_section(sweeps: &[(String, Sweep)]) -> String {
 }
 
 /// One sweep product: the σ plot, the displacement plot when it has biases, and the sentence.
-fn one_sweep(o: &mut String, file: &str, s: &Sweep) {
+fn one_sweep(o: &mut String, file: &str, s: &BudgetSweep) {
     let (name, unit) = variable_label(s);
     let slug = slug(&s.sweep);
     let _ = writeln!(
@@ -91,7 +82,7 @@ fn one_sweep(o: &mut String, file: &str, s: &Sweep) {
 }
 
 /// The total σ (horizontal, vertical, 3-D) across the sweep.
-fn sigma_plot(o: &mut String, s: &Sweep, name: &str, unit: &str, slug: &str) {
+fn sigma_plot(o: &mut String, s: &BudgetSweep, name: &str, unit: &str, slug: &str) {
     let series = |f: fn(&Components) -> f64| -> Vec<(f64, Option<f64>)> {
         s.points
             .iter()
