@@ -20,7 +20,9 @@
 //!
 //! A product that is present but malformed does not stop the report: its section is skipped,
 //! the error (naming the file and the key) is shown in the report's inputs table and returned
-//! by [`Report::skipped`]. Unknown JSON keys are ignored, so producers can add fields.
+//! by [`Report::skipped`]. A product with one serde type in `lidarqa_products` is read whole
+//! (`tpu_summary.json` also refuses keys its type does not have); the others' readers here ignore
+//! unknown keys.
 //!
 //! ```
 //! use lidarqa_report::{Report, BUDGET_FILE};
