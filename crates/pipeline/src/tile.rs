@@ -583,7 +583,9 @@ impl Run<'_> {
         } = bufs;
         surfaces.clear();
         if !self.kernel.has_incidence() {
-        } else if self.file_normals {
+            return;
+        }
+        if self.file_normals {
             self.file_normals_of(cur, surfaces);
         } else {
             let origin = valid_ecef(&cur.pts).next().unwrap_or_else(Vector3::zeros);
