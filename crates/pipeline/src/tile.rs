@@ -593,18 +593,10 @@ impl Run<'_> {
                 let d = v - origin;
                 [d.x, d.y, d.z]
             };
-            // Built in parallel (in file order): a serial pass over the chunk here leaves a
-            // core idle.
-            candidates.clear();
-            candidates.par_extend(tail.par_iter().map(rel));
-            candidates.par_extend(
-                cur.pts
-                    .par_iter()
-                    .with_min_len(BLOCK)
-                    .filter(|p| !matches!(p.state, PrepState::NonFinite))
-                    .map(|p| rel(&p.ecef.vector())),
-            );
-            candidates.par_extend(head.par_iter().map(rel));
+            // The targets in parallel, straight into their buffer; the candidates are the
+            // finite ones among them between the margins, copied in file order (a filtered
+            // parallel collect goes through a list of fresh vectors, which cost more than
+            // this copy).
             targets.clear();
             targets.par_extend(
                 cur.pts
@@ -612,6 +604,16 @@ impl Run<'_> {
                     .with_min_len(BLOCK)
                     .map(|p| rel(&p.ecef.vector())),
             );
+            candidates.clear();
+            candidates.extend(tail.iter().map(rel));
+            candidates.extend(
+                targets
+                    .iter()
+                    .zip(&cur.pts)
+                    .filter(|(_, p)| !matches!(p.state, PrepState::NonFinite))
+                    .map(|(t, _)| *t),
+            );
+            candidates.extend(head.iter().map(rel));
             judge_surfaces_into(
                 candidates,
                 targets,

@@ -54,7 +54,13 @@
 //! next return of a pulse through a tree, the far side of a gap, a point past the k/2
 //! neighbours a seed's k nearest reach along its scan line) is judged on its own and seeds
 //! the rest of the group in its turn, so a judgement is taken over as long as the scan stays
-//! within the last judged neighbourhood. The
+//! within the last judged neighbourhood. A plane reaches farther: a target beyond a planar
+//! neighbourhood (the k nearest or a widened one) but within [`SHARE_REACH`] times its radius
+//! takes the plane's judgement where it lies on the plane, within [`PLANE_TOLERANCE`] times
+//! the RMS distance of the neighbourhood's points from it (the surface's roughness and the
+//! ranging noise): the surface is still that plane there. A roof's far side, the foot of a
+//! wall, a kerb or a crown lie off the plane and are judged on their own; a line or a
+//! scattered neighbourhood reaches no farther than its own points. The
 //! incidence itself is still each point's own: the angle between its own beam and the shared
 //! normal ([`judged_incidence`]). [`judge_surfaces_shared`] with a stride of 1 judges every
 //! point; the crate's `tests/incidence_sigma.rs` holds both to the same bar.
@@ -192,6 +198,25 @@ pub fn judge_surfaces(candidates: &[[f64; 3]], targets: &[[f64; 3]], k: usize) -
 /// that the seeds are those of the targets' indices whatever the number of threads.
 pub const SHARE_STRIDE: usize = 32;
 
+/// How far, as a multiple of its radius, a judged plane reaches (see the module docs,
+/// "Sharing"): a target outside the neighbourhood but within this many radii takes the plane's
+/// judgement where it lies on the plane ([`PLANE_TOLERANCE`]).
+pub const SHARE_REACH: f64 = 4.0;
+
+/// A target beyond a judged plane's neighbourhood lies on it when its distance from the plane
+/// is within this many times the RMS distance of the neighbourhood's points (the surface's own
+/// roughness and the ranging noise), and at least [`PLANE_TOLERANCE_FLOOR_M`].
+pub const PLANE_TOLERANCE: f64 = 3.0;
+
+/// The least tolerance of [`PLANE_TOLERANCE`], m: the points of a noise-free plane are on it to
+/// rounding, not to zero.
+pub const PLANE_TOLERANCE_FLOOR_M: f64 = 1e-3;
+
+/// Only a well-defined plane reaches beyond its neighbourhood: σ₂ ≥ this × σ₃ (its points'
+/// spread across the plane against their spread off it). A neighbourhood across a ridge or a
+/// kerb is planar enough to be judged a plane, but its plane is neither side's.
+pub const REACH_FLATNESS: f64 = 8.0;
+
 // The seeds of one call are the targets whose index is a multiple of the stride only when the
 // stride divides the blocks the threads take.
 const _: () = assert!(QUERY_BLOCK % SHARE_STRIDE == 0);
@@ -246,16 +271,20 @@ fn judge_into<T: Clone + Send + Sync>(
         (wrap(Surface::TooFew), out, grid),
         |q, nn, grid, wide| {
             if nn.len() < MIN_NEIGHBOURS {
-                return (wrap(Surface::TooFew), 0.0);
+                return (wrap(Surface::TooFew), 0.0, None);
             }
             // The scatter of the k nearest is judged, and reused by the widening.
-            let first = scatter_of(q, nn);
+            let sums = sums_of(q, nn);
+            let first = sums.scatter();
             let kth_m2 = nn.last().map_or(0.0, |&(d2, _)| d2);
-            let (judged, r2) = match judge_scatter(&first, FLATNESS, true) {
+            let (judged, r2, plane) = match judge_scatter(&first, FLATNESS, true) {
                 Surface::Linear(along) => widen(q, nn, (&first, along), grid, wide),
-                judged => (judged, kth_m2),
+                judged => {
+                    let plane = judged.normal().and_then(|n| Plane::of(q, &sums, &first, n));
+                    (judged, kth_m2, plane)
+                }
             };
-            (wrap(judged), r2)
+            (wrap(judged), r2, plane)
         },
     );
 }
@@ -418,7 +447,7 @@ fn widen(
     (first, along): (&Matrix3<f64>, Vector3<f64>),
     grid: &Grid,
     wide: &mut Vec<(f64, u32)>,
-) -> (Surface, f64) {
+) -> (Surface, f64, Option<Plane>) {
     let k = nn.len();
     // What the point is when no widened neighbourhood is accepted (`first` is the scatter of
     // the k nearest, [`scatter_of`]): a thin line (σ₁ ≥ [`FLATNESS`] · σ₂, one scan line) lies
@@ -433,9 +462,9 @@ fn widen(
         }
     };
     let Some(&(kth_m2, _)) = nn.last() else {
-        return (line(), 0.0);
+        return (line(), 0.0, None);
     };
-    let line = || (line(), kth_m2);
+    let line = || (line(), kth_m2, None);
     if !(kth_m2 > 0.0 && (WIDEN_RADIUS_FACTOR * WIDEN_RADIUS_FACTOR * kth_m2).is_finite())
         || k >= MAX_NEIGHBOURS
     {
@@ -494,9 +523,11 @@ fn widen(
                 }
             }
             (taken, size) = (next, next);
-            match judge_scatter(&all.scatter(), WIDEN_FLATNESS, false) {
+            let scatter = all.scatter();
+            match judge_scatter(&scatter, WIDEN_FLATNESS, false) {
                 Surface::Planar(n) if off_line_agrees(&off, &n) => {
-                    return (Surface::PlanarWidened(n), far_m2);
+                    let plane = Plane::of(q, &all, &scatter, n);
+                    return (Surface::PlanarWidened(n), far_m2, plane);
                 }
                 Surface::Scattered => return line(),
                 _ if size == MAX_NEIGHBOURS || (widest && size == most) => {
@@ -559,24 +590,27 @@ fn for_each_neighbourhood<T: Clone + Send + Sync>(
         targets,
         (k, 1),
         (none, &mut out, &mut grid),
-        |q, nn, _, _| (f(q, nn), 0.0),
+        |q, nn, _, _| (f(q, nn), 0.0, None),
     );
     out
 }
 
 /// [`for_each_neighbourhood`], with `f` also given the grid and a buffer reused within a block
 /// (for [`widen`]), and returning with its answer the squared radius of the neighbourhood it
-/// rests on. With `stride` > 1, target `i` with `i % stride == 0` is a seed: the targets after
-/// it, up to the next multiple of `stride`, take the seed's answer without a search where their
-/// squared distance to the seed is within that radius (they lie in the seed's judged
-/// neighbourhood), and are searched and answered on their own otherwise, becoming the seed for
-/// the rest of the group (seeds restart at each block of [`QUERY_BLOCK`] targets).
+/// rests on and, for a plane, the [`Plane`]. With `stride` > 1, target `i` with
+/// `i % stride == 0` is a seed: the targets after it, up to the next multiple of `stride`, take
+/// the seed's answer without a search where their squared distance to the seed is within that
+/// radius (they lie in the seed's judged neighbourhood) or, for a plane, within
+/// [`SHARE_REACH`] radii and on the plane, and are searched and answered on their own
+/// otherwise, becoming the seed for the rest of the group (seeds restart at each block of
+/// [`QUERY_BLOCK`] targets).
 fn search_each<T: Clone + Send + Sync>(
     candidates: &[[f64; 3]],
     targets: &[[f64; 3]],
     (k, stride): (usize, usize),
     (none, out, grid_bufs): (T, &mut Vec<T>, &mut GridBuffers),
-    f: impl Fn(&[f64; 3], &[(f64, [f64; 3])], &Grid, &mut Vec<(f64, u32)>) -> (T, f64) + Sync,
+    f: impl Fn(&[f64; 3], &[(f64, [f64; 3])], &Grid, &mut Vec<(f64, u32)>) -> (T, f64, Option<Plane>)
+    + Sync,
 ) {
     use rayon::prelude::*;
     out.clear();
@@ -600,13 +634,16 @@ fn search_each<T: Clone + Send + Sync>(
             // `Grid::within`); the ring search without a limit takes the rest.
             let mut limit_m2 = f64::INFINITY;
             // The last seed: its position, its answer's squared radius, its answer's slot.
-            let mut seed: Option<([f64; 3], f64, usize)> = None;
+            let mut seed: Option<([f64; 3], f64, usize, Option<Plane>)> = None;
             for (i, q) in targets.iter().enumerate() {
                 if i % stride != 0 {
-                    if let Some((s, r2, at)) = seed {
+                    if let Some((s, r2, at, plane)) = seed {
                         let d2 =
                             (q[0] - s[0]).powi(2) + (q[1] - s[1]).powi(2) + (q[2] - s[2]).powi(2);
-                        if d2 <= r2 {
+                        if d2 <= r2
+                            || plane
+                                .is_some_and(|p| d2 <= SHARE_REACH * SHARE_REACH * r2 && p.holds(q))
+                        {
                             out[i] = out[at].clone();
                             continue;
                         }
@@ -620,12 +657,12 @@ fn search_each<T: Clone + Send + Sync>(
                 } else {
                     f64::INFINITY
                 };
-                let (answer, r2) = f(q, best.points(), &grid, &mut wide);
+                let (answer, r2, plane) = f(q, best.points(), &grid, &mut wide);
                 out[i] = answer;
                 // A target judged on its own seeds the rest of its group: on a scan line the
                 // next targets lie in its neighbourhood rather than in the first seed's.
                 if stride > 1 {
-                    seed = Some((*q, r2, i));
+                    seed = Some((*q, r2, i, plane));
                 }
             }
         });
@@ -694,11 +731,60 @@ fn line_direction(scatter: &Matrix3<f64>, l1: f64) -> Vector3<f64> {
 
 /// Scatter matrix about the mean of `nn`, from offsets to `q`.
 fn scatter_of(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Matrix3<f64> {
+    sums_of(q, nn).scatter()
+}
+
+/// The running sums of `nn`'s offsets to `q` ([`Sums`]).
+fn sums_of(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Sums {
     let mut sums = Sums::default();
     for (_, p) in nn {
         sums.add(q, p);
     }
-    sums.scatter()
+    sums
+}
+
+/// A judged plane, for the targets beyond its neighbourhood that may take its judgement (see
+/// the module docs, "Sharing"): a point of it, its unit normal, and how far off it a target may
+/// lie.
+#[derive(Clone, Copy, Debug)]
+struct Plane {
+    centre: [f64; 3],
+    normal: [f64; 3],
+    tolerance_m: f64,
+}
+
+impl Plane {
+    /// The plane of unit normal `n` through the mean of the points summed in `sums` (offsets to
+    /// `q`, their scatter matrix `scatter`), with a tolerance of [`PLANE_TOLERANCE`] times their
+    /// RMS distance from it.
+    fn of(q: &[f64; 3], sums: &Sums, scatter: &Matrix3<f64>, n: Vector3<f64>) -> Option<Plane> {
+        let [l3, l2, _] = symmetric_eigenvalues3(scatter);
+        if l2.max(0.0) < REACH_FLATNESS * REACH_FLATNESS * l3.max(0.0) {
+            return None;
+        }
+        let count = sums.n.max(1) as f64;
+        let centre = [
+            q[0] + sums.s[0] / count,
+            q[1] + sums.s[1] / count,
+            q[2] + sums.s[2] / count,
+        ];
+        let rms = ((n.transpose() * scatter * n)[0].max(0.0) / count).sqrt();
+        Some(Plane {
+            centre,
+            normal: [n.x, n.y, n.z],
+            tolerance_m: (PLANE_TOLERANCE * rms).max(PLANE_TOLERANCE_FLOOR_M),
+        })
+    }
+
+    /// Whether `q` lies on the plane, within its tolerance.
+    fn holds(&self, q: &[f64; 3]) -> bool {
+        let d = [
+            q[0] - self.centre[0],
+            q[1] - self.centre[1],
+            q[2] - self.centre[2],
+        ];
+        dot(&d, &self.normal).abs() <= self.tolerance_m
+    }
 }
 
 /// Running sums of offsets to a query point and of their products, from which the scatter
@@ -1646,6 +1732,46 @@ mod tests {
             }
         }
         pts
+    }
+
+    #[test]
+    fn a_shared_plane_stops_at_a_ridge_and_reaches_along_its_own_slope() {
+        // A gable roof (slopes of ±30° meeting at x = 0), sampled on a 0.1 m lattice with 2 mm
+        // noise, scanned row by row across the ridge: the k nearest are planar everywhere but at
+        // the ridge, and a plane shared beyond its neighbourhood must not cross it.
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let slope = 30f64.to_radians().tan();
+        let mut pts = Vec::new();
+        for row in 0..21 {
+            for col in 0..61 {
+                let x = -3.0 + 0.1 * col as f64;
+                let z = 10.0 - slope * x.abs() + rng.random_range(-0.002..0.002);
+                pts.push([x, -1.0 + 0.1 * row as f64, z]);
+            }
+        }
+        let shared = judge_surfaces(&pts, &pts, 10);
+        let own = judge_surfaces_shared(&pts, &pts, 10, 1);
+        let side = |x: f64| Vector3::new(slope * x.signum(), 0.0, 1.0).normalize();
+        let (mut reached, mut planes) = (0, 0);
+        for (i, p) in pts.iter().enumerate() {
+            // Away from the ridge (its neighbourhood straddles both slopes within ~0.2 m).
+            if p[0].abs() < 0.35 {
+                continue;
+            }
+            let n = shared[i].normal().expect("a plane on either slope");
+            assert!(
+                n.dot(&side(p[0])).abs() > 5f64.to_radians().cos(),
+                "point {i} at x = {:.2} took the other slope's plane: {n:?}",
+                p[0]
+            );
+            planes += 1;
+            if shared[i] != own[i] {
+                reached += 1;
+            }
+        }
+        // The sharing does happen: most points take a judgement made at another point.
+        assert!(reached * 2 > planes, "{reached} of {planes} shared");
     }
 
     #[test]
