@@ -21,6 +21,9 @@
 //!   grid (with its line's [`LineShift`]), one point or four at once: `lidarqa correct`'s kernel.
 //! - [`correct_strip`] re-georeferences a strip; [`overlap_qc`] measures swath-to-swath height
 //!   differences on smooth surfaces (USGS Lidar Base Specification style).
+//! - A delivery's QC measures: smooth cells and their planes ([`fit_cells`]), the interswath
+//!   differences of two lines ([`plane_differences`]), a line's intraswath precision
+//!   ([`intraswath`]) and the point density ([`density`]).
 //!
 //! ```
 //! use lidarqa_calib::{Georeferencing, RawPoint, georeference};
@@ -49,6 +52,7 @@
 mod autoties;
 mod calibrate;
 mod calibrated_sensor;
+mod density;
 mod displacement;
 mod error;
 mod geometry;
@@ -56,6 +60,7 @@ mod lm;
 mod overlap;
 mod params;
 mod plane;
+mod smooth;
 mod strip;
 mod strip_adjust;
 mod surfaces;
@@ -70,6 +75,7 @@ pub use calibrate::{
     mounting_from_json, tie_residuals,
 };
 pub use calibrated_sensor::calibrated_sensor;
+pub use density::{Density, DensityPoint, density};
 pub use displacement::{LineShift, Mountings, displacement};
 pub use error::{Error, Result};
 pub use lm::{LmOptions, Termination};
@@ -79,6 +85,10 @@ pub use overlap::{
 };
 pub use params::{PARAM_COUNT, Param, mounting_from_vector, mounting_to_vector};
 pub use plane::{PlaneOptions, calibrate_plane, check_plane_rms};
+pub use smooth::{
+    Cell, CellFit, Intraswath, MIN_SPREAD, cell_centre, cell_of, fit_cells, fit_plane, intraswath,
+    plane_differences,
+};
 pub use strip::{
     Georeferencing, LocalFrame, RawPoint, ScanGeometry, Strip, correct_strip, georeference,
     radius_for_neighbours_m,

@@ -4,8 +4,9 @@
 //!
 //! Each strip's points are binned into square cells of [`OverlapOptions::cell_m`]. In a cell with
 //! at least [`OverlapOptions::min_points`] points a least-squares plane `z = a + b·dx + c·dy` is
-//! fitted; the strip's height there is `a` (the plane at the cell centre), its roughness the RMS of
-//! the plane residuals and its slope `atan √(b² + c²)`. A cell is *smooth* in a strip when the
+//! fitted (the smooth cells' plane, [`crate::fit_plane`]); the strip's height there is `a` (the
+//! plane at the cell centre), its roughness the RMS of the plane residuals and its slope
+//! `atan √(b² + c²)`. A cell is *smooth* in a strip when the
 //! roughness is at most [`OverlapOptions::max_roughness_m`] and the slope at most
 //! [`OverlapOptions::max_slope_deg`]; `dz = z_a − z_b` is taken only where both strips are smooth
 //! (USGS: "smooth, open, non-vegetated terrain"), so vegetation, walls and roof edges do not count.
@@ -13,6 +14,7 @@
 //! height, or the local frame's east, north, up).
 
 use crate::error::{Error, Result};
+use crate::smooth::fit_plane;
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
 
@@ -233,36 +235,16 @@ fn fit_cells(
         .filter(|(_, v)| v.len() >= opts.min_points.max(3))
         .filter_map(|(cell, v)| {
             let (ix, iy) = (cell % nx, cell / nx);
-            let cx = origin[0] + (ix as f64 + 0.5) * c;
-            let cy = origin[1] + (iy as f64 + 0.5) * c;
-            let mut ata = nalgebra::Matrix3::<f64>::zeros();
-            let mut atb = nalgebra::Vector3::<f64>::zeros();
-            for &k in &v {
-                let p = points[k];
-                let a = nalgebra::Vector3::new(1.0, p[0] - cx, p[1] - cy);
-                ata += a * a.transpose();
-                atb += a * p[2];
-            }
-            let sol = ata.lu().solve(&atb)?;
-            let rss: f64 = v
-                .iter()
-                .map(|&k| {
-                    let p = points[k];
-                    (p[2] - sol[0] - sol[1] * (p[0] - cx) - sol[2] * (p[1] - cy)).powi(2)
-                })
-                .sum();
-            let rough = (rss / v.len() as f64).sqrt();
-            let slope = (sol[1] * sol[1] + sol[2] * sol[2]).sqrt();
-            // Points on one scan line make the plane fit degenerate (any tilt about the line fits):
-            // such a cell has no height worth comparing or drawing.
-            if !(sol.iter().all(|x| x.is_finite()) && slope < 10.0) {
-                return None;
-            }
+            let centre = [
+                origin[0] + (ix as f64 + 0.5) * c,
+                origin[1] + (iy as f64 + 0.5) * c,
+            ];
+            let f = fit_plane(v.iter().map(|&k| &points[k]), centre)?;
             Some((
                 cell,
                 CellFit {
-                    z: sol[0],
-                    smooth: rough <= opts.max_roughness_m && slope <= max_slope,
+                    z: f.z,
+                    smooth: f.smooth(max_slope, opts.max_roughness_m, None),
                 },
             ))
         })

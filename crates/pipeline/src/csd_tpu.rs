@@ -3,11 +3,11 @@
 //! propagated from them, with no recovery step and no trajectory.
 //!
 //! Per return (the frames are mapped in lidarqa-io's `csd` module):
-//! 1. the parameters of lidarqa-model's [`LinearScanner`] from the pulse's attitude, the mounting
+//! 1. the parameters of lidarqa-model's linear scanner from the pulse's attitude, the mounting
 //!    (the CSD header's boresight, or the sensor file's when asked) and the return's range and
 //!    scan angle;
 //! 2. the footprint `R_N (R_M S + ΔP)` (NED at the sensor) and its exact Jacobian from the model,
-//!    `J Σ Jᵀ` with the sensor file's σ (lidarqa-tpu's [`PointPropagator`]);
+//!    `J Σ Jᵀ` with the sensor file's σ (lidarqa-tpu's [`RawLinearPropagator`]);
 //! 3. rigorously to the output CRS: the sensor's geodetic position → ECEF, plus the footprint
 //!    turned from NED at the sensor to ECEF, → geodetic → the projected CRS; the covariance is
 //!    turned from NED at the sensor to NED at the point.
@@ -22,12 +22,9 @@ use lidarqa_io::{
     LasWriteOptions, LasWriter, RawVlr, utm_wkt, week_to_adjusted_standard,
 };
 use lidarqa_model::LogHistogram;
-use lidarqa_model::{
-    Axes, Ecef, Georeferencer, Grid, LINEAR_N, LinearObservation, LinearScanner, Mounting, Ned,
-    Scanner, Sensor, Warning, ecef_from_ned,
-};
+use lidarqa_model::{Axes, Grid, LinearObservation, Mounting, Ned, Sensor, Warning, ecef_from_ned};
 use lidarqa_products::Stats;
-use lidarqa_tpu::PointPropagator;
+use lidarqa_tpu::RawLinearPropagator;
 use nalgebra::Matrix3;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -147,12 +144,13 @@ pub struct CsdPoint {
     pub sigma: Axes,
 }
 
-/// Georeferences one return of `pulse` with its σ (steps 1–3 of the module doc).
+/// Georeferences one return of `pulse` with its σ (steps 1–3 of the module doc): lidarqa-tpu's
+/// [`RawLinearPropagator`] between io's geodesy of the sensor and of the point.
 ///
 /// # Errors
 /// [`Error::Implausible`] naming the record when the footprint or its Jacobian is not finite.
 pub fn georeference_csd_return(
-    propagator: &PointPropagator<LinearScanner, LINEAR_N>,
+    propagator: &RawLinearPropagator,
     crs: &Crs,
     mounting: &Mounting,
     pulse: &CsdPulse,
@@ -163,24 +161,25 @@ pub fn georeference_csd_return(
         range_m: ret.range_m,
         scan_angle_rad: pulse.scan_angle_rad,
     };
-    let p = LinearScanner.parameters(&pulse.attitude, mounting, &obs);
-    let u = propagator
-        .propagate(&p, None, None)
+    let ellipsoid = crs.ellipsoid();
+    let s = &pulse.position;
+    let r = propagator
+        .georeference(
+            &pulse.attitude,
+            mounting,
+            &obs,
+            &ellipsoid.geodetic_to_ecef(s),
+            &ecef_from_ned(s.latitude_rad, s.longitude_rad),
+        )
         .map_err(|e| Error::Implausible {
             path: path.to_path_buf(),
             message: format!("CSD record {}: {e}", pulse.index),
         })?;
-    let ellipsoid = crs.ellipsoid();
-    let s = &pulse.position;
-    let c0 = ecef_from_ned(s.latitude_rad, s.longitude_rad);
-    let p0 = ellipsoid.geodetic_to_ecef(s).vector();
-    let ecef = Ecef::from_vector(p0 + c0 * u.footprint_ned.vector());
-    let g = ellipsoid.ecef_to_geodetic(&ecef);
-    let m = ecef_from_ned(g.latitude_rad, g.longitude_rad).transpose() * c0;
-    let covariance_ned = m * u.covariance_ned * m.transpose();
+    let g = ellipsoid.ecef_to_geodetic(&r.ecef);
+    let covariance_ned = r.covariance_at(&ecef_from_ned(g.latitude_rad, g.longitude_rad));
     let xy = crs.forward(g.latitude_rad, g.longitude_rad);
     Ok(CsdPoint {
-        footprint_ned: u.footprint_ned,
+        footprint_ned: r.footprint_ned,
         geodetic: g,
         grid: Grid::new(xy.easting_m, xy.northing_m, g.height_m),
         covariance_ned,
@@ -193,23 +192,19 @@ pub fn georeference_csd_return(
 ///
 /// # Errors
 /// [`Error::Implausible`] naming the sensor file for a conic sensor.
-pub fn csd_propagator(
-    sensor: &Sensor,
-    sensor_path: &Path,
-) -> Result<PointPropagator<LinearScanner, LINEAR_N>> {
-    if !matches!(sensor.scanner, Scanner::Linear) {
-        return Err(Error::Implausible {
+pub fn csd_propagator(sensor: &Sensor, sensor_path: &Path) -> Result<RawLinearPropagator> {
+    RawLinearPropagator::new(sensor).map_err(|source| match source {
+        lidarqa_tpu::Error::NotLinearScanner { kind } => Error::Implausible {
             path: sensor_path.to_path_buf(),
             message: format!(
-                "scanner is {}, but Optech CSD records come from a linear (oscillating-mirror) \
-                 scanner: use a sensor file with [scanner] type = \"linear\"",
-                sensor.scanner.kind()
+                "scanner is {kind}, but Optech CSD records come from a linear (oscillating-mirror) \
+                 scanner: use a sensor file with [scanner] type = \"linear\""
             ),
-        });
-    }
-    PointPropagator::new(LinearScanner, sensor, None).map_err(|source| Error::Input {
-        path: sensor_path.to_path_buf(),
-        source,
+        },
+        source => Error::Input {
+            path: sensor_path.to_path_buf(),
+            source,
+        },
     })
 }
 

@@ -77,7 +77,6 @@ mod targets_csv;
 mod targets_files;
 mod targets_tile;
 mod tile;
-mod tile_beam;
 mod tpu_tiles;
 
 pub use calibrate_strips::{

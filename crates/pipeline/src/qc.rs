@@ -62,6 +62,7 @@ use verdict::*;
 use crate::error::{Error, Result};
 use crate::lines::{FlightLine, LineOptions, Lines, read_lines};
 use crate::targets_files::control_for_targets;
+use lidarqa_calib::{Cell, CellFit, MIN_SPREAD, plane_differences};
 use lidarqa_io::WaterClasses;
 use lidarqa_io::{
     AtomicFile, ControlPoints, GeoRaster, QC_FORMAT, QcDensity, QcDocument, QcIho, QcInterswath,
@@ -230,31 +231,16 @@ pub fn qc_lines(lines: &Lines, dir: &Path, options: &QcOptions) -> Result<QcDocu
     let fits: Vec<BTreeMap<Cell, CellFit>> = lines
         .lines
         .iter()
-        .map(|l| line_fits(l, ground_class, origin, c, options.min_points, max_slope))
+        .map(|l| line_fits(l, ground_class, origin, c, options.min_points))
         .collect();
-    let smooth = |f: &CellFit| f.slope_ok && f.rms <= options.max_roughness_m;
+    let smooth = |f: &CellFit| f.smooth(max_slope, options.max_roughness_m, Some(MIN_SPREAD * c));
     // Interswath.
     let mut interswath = Vec::new();
     let mut rasters = Vec::new();
     let mut pair_dz: Vec<([String; 2], BTreeMap<Cell, f64>)> = Vec::new();
     for a in 0..lines.lines.len() {
         for b in a + 1..lines.lines.len() {
-            let mut dz = BTreeMap::new();
-            for (cell, fa) in &fits[a] {
-                if let Some(fb) = fits[b].get(cell)
-                    && smooth(fa)
-                    && smooth(fb)
-                {
-                    // Both planes at the middle of the two lines' centroids: the least
-                    // extrapolation of either.
-                    let e = [
-                        0.5 * (fa.centroid[0] + fb.centroid[0]),
-                        0.5 * (fa.centroid[1] + fb.centroid[1]),
-                    ];
-                    let at = |f: &CellFit| f.z + f.grad[0] * e[0] + f.grad[1] * e[1];
-                    dz.insert(*cell, at(fa) - at(fb));
-                }
-            }
+            let dz = plane_differences(&fits[a], &fits[b], smooth);
             if dz.is_empty() {
                 continue;
             }
@@ -272,7 +258,7 @@ pub fn qc_lines(lines: &Lines, dir: &Path, options: &QcOptions) -> Result<QcDocu
         }
     }
     // Density.
-    let (density, density_raster, sigma_raster) = density(lines, &limits);
+    let (density, density_raster, sigma_raster) = delivery_density(lines, &limits);
     // Intraswath (USGS smooth-surface precision): cells of 2 × the delivery's aggregate nominal
     // pulse spacing, rounded up to a whole metre.
     let anps_m = 1.0 / density.last_returns_per_m2.max(1e-12).sqrt();
@@ -281,7 +267,7 @@ pub fn qc_lines(lines: &Lines, dir: &Path, options: &QcOptions) -> Result<QcDocu
         .lines
         .iter()
         .zip(&fits)
-        .map(|(l, f)| intraswath(l, f, &smooth, ground_class, origin, c, intra_cell))
+        .map(|(l, f)| line_intraswath(l, f, &smooth, ground_class, origin, c, intra_cell))
         .collect();
     // NVA.
     let nva = match &options.control {

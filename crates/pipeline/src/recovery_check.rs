@@ -121,10 +121,7 @@ impl RecoveryTally {
         if self.offsets_m.len() < 10 {
             return None;
         }
-        let mut v = self.offsets_m.clone();
-        let mid = v.len() / 2;
-        let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
-        Some(*m)
+        lidarqa_model::median(&mut self.offsets_m.clone())
     }
 
     /// Whether the points do not fit the sensor file's mounting (`tpu`'s criterion) or lie

@@ -47,7 +47,29 @@ pub struct BeamUncertainty {
     pub incidence_variance_m2: f64,
 }
 
+impl BeamUncertainty {
+    /// Each term's variance, m², in the order of [`BeamPropagator::share_names`] (the beam
+    /// model's sources, the footprint), then the incidence term's: a tile's per-source shares.
+    pub fn shares(&self) -> [f64; BEAM_N + 2] {
+        let mut shares = [0.0; BEAM_N + 2];
+        shares[..BEAM_N].copy_from_slice(self.source_variance_m2.as_slice());
+        shares[BEAM_N] = self.footprint_variance_m2;
+        shares[BEAM_N + 1] = self.incidence_variance_m2;
+        shares
+    }
+}
+
 impl BeamPropagator {
+    /// The names of the per-source shares but the incidence term's: the beam model's sixteen,
+    /// then the footprint ([`BEAM_FOOTPRINT_SOURCE`]).
+    pub fn share_names() -> Vec<&'static str> {
+        <BeamScanner as Georeferencer<BEAM_N>>::SOURCES
+            .iter()
+            .map(|s| s.name())
+            .chain([BEAM_FOOTPRINT_SOURCE])
+            .collect()
+    }
+
     /// Prepares `scanner` with the σ and correlations of `sensor`; `incidence_divergence_rad` is
     /// the full beam divergence of the incidence term (none: no incidence term).
     ///
@@ -173,5 +195,12 @@ mod tests {
         let want = scanner.covariance_ned(&sensor, &a, &m, &o);
         assert!((u.covariance_ned - want).amax() < 1e-15, "{u:?} {want}");
         assert!(u.footprint_variance_m2 > 0.0);
+        // The shares: the model's sources, the footprint, the incidence, named in that order.
+        let shares = u.shares();
+        assert_eq!(&shares[..BEAM_N], u.source_variance_m2.as_slice());
+        assert_eq!(shares[BEAM_N..], [u.footprint_variance_m2, 0.0]);
+        let names = BeamPropagator::share_names();
+        assert_eq!(names.len(), BEAM_N + 1);
+        assert_eq!(names[BEAM_N], BEAM_FOOTPRINT_SOURCE);
     }
 }

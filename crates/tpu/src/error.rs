@@ -13,6 +13,14 @@ pub enum Error {
         /// What was being computed.
         what: &'static str,
     },
+    /// A raw record of range and scan angle for a sensor that is not a linear scanner.
+    #[error(
+        "scanner is {kind}, but a raw record of range and scan angle comes from a linear scanner"
+    )]
+    NotLinearScanner {
+        /// The sensor's scanner kind.
+        kind: &'static str,
+    },
     /// A sweep specification that cannot be used.
     #[error("invalid sweep '{spec}': {reason}")]
     InvalidSweep {

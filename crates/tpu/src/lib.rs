@@ -13,6 +13,8 @@
 //!   ([`local_covariance`], [`grid_covariance`], [`add_shares`]) and plane-fit surface normals
 //!   ([`plane_normals`]). File handling is
 //!   in lidarqa-pipeline;
+//! - a raw linear-scanner record's return georeferenced from its own observations, with its σ
+//!   ([`RawLinearPropagator`]);
 //! - bathymetric soundings of a conic scanner: their raw observation from the seabed point and
 //!   its water surface ([`Recoverer::sounding_from_surface_return`],
 //!   [`Recoverer::sounding_from_plane`]) and the IHO S-44 Ed. 6 orders they meet ([`IhoOrder`],
@@ -46,6 +48,7 @@ mod normals;
 mod point;
 mod point_sigma;
 mod presets;
+mod raw_record;
 mod recover;
 mod request;
 mod sounding;
@@ -81,6 +84,7 @@ pub use point_sigma::{
     topographic_overrides,
 };
 pub use presets::Preset;
+pub use raw_record::{RawLinearPropagator, RawReturn};
 pub use recover::{BeamRecovery, ConicRecovery, LinearRecovery, Recoverer, nominal_l3};
 pub use request::{GeometryRequest, SweepEvaluation, SweepPoint, evaluate_sweep};
 pub use sounding::{

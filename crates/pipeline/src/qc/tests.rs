@@ -1,4 +1,5 @@
-//! The standards parsed, the measures on small closed-form deliveries, the verdicts.
+//! The standards parsed, the measures through `qc_lines` on a small closed-form delivery, the
+//! verdicts.
 
 use super::*;
 
@@ -20,30 +21,6 @@ fn standards_parse_and_refuse() {
         e.contains("standard `usgs-lbs-2024:QL9`: unknown quality level"),
         "{e}"
     );
-}
-
-#[test]
-fn a_tilted_plane_fits_exactly() {
-    let pts: Vec<[f64; 3]> = (0..16)
-        .map(|k| {
-            let (x, y) = ((k % 4) as f64 * 0.5, (k / 4) as f64 * 0.5);
-            [x, y, 10.0 + 0.1 * x - 0.05 * y]
-        })
-        .collect();
-    let f = fit(&pts, [0.75, 0.75], 2.0, 10f64.to_radians().tan()).unwrap();
-    assert!((f.z - (10.0 + 0.075 - 0.0375)).abs() < 1e-9);
-    assert!(f.rms < 1e-9 && f.slope_ok);
-    assert!((f.grad[0] - 0.1).abs() < 1e-9 && (f.grad[1] + 0.05).abs() < 1e-9);
-}
-
-#[test]
-fn a_band_of_points_is_not_smooth() {
-    // Eight points along one line across the cell: the slope across it is undetermined.
-    let pts: Vec<[f64; 3]> = (0..8)
-        .map(|k| [k as f64 * 0.25, 1.0 + 0.01 * (k % 2) as f64, 10.0])
-        .collect();
-    let f = fit(&pts, [1.0, 1.0], 2.0, 10f64.to_radians().tan()).unwrap();
-    assert!(!f.slope_ok);
 }
 
 /// splitmix64: a test's own reproducible random numbers.

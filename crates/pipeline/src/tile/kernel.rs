@@ -8,7 +8,7 @@ use super::*;
 pub(super) enum Kernel {
     Linear(PointPropagator<LinearScanner, 14>),
     Conic(PointPropagator<ConicScanner, 25>, ConicScanner),
-    /// A beam scanner (`tile_beam.rs`).
+    /// A beam scanner.
     Beam(BeamPropagator),
 }
 
@@ -64,7 +64,7 @@ impl Kernel {
         let mut v: Vec<&'static str> = match self {
             Kernel::Linear(_) => LinearScanner::SOURCES.iter().map(|s| s.name()).collect(),
             Kernel::Conic(..) => ConicScanner::SOURCES.iter().map(|s| s.name()).collect(),
-            Kernel::Beam(_) => crate::tile_beam::source_names(),
+            Kernel::Beam(_) => BeamPropagator::share_names(),
         };
         v.push("incidence");
         v

@@ -297,17 +297,16 @@ impl Run<'_> {
             Kernel::Beam(bp) => {
                 let r = self.recoverer.beam(bp.scanner(), pose, &p.ecef)?;
                 let inc = incidence(r.range_m, r.beam_ned);
-                let (cov, shares) = crate::tile_beam::propagate(
-                    bp,
-                    pose,
+                let u = bp.propagate(
+                    &pose.attitude(),
                     &self.ctx.sensor.mounting,
-                    &r,
+                    &r.inversion,
                     sigma,
                     inc.as_ref(),
                 )?;
-                add_shares(&mut acc.shares, &shares, 0.0);
+                add_shares(&mut acc.shares, &u.shares(), 0.0);
                 (
-                    cov,
+                    u.covariance_ned,
                     Recovered {
                         range_m: r.range_m,
                         residual_m: r.inversion.residual_m,
