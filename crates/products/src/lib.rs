@@ -8,6 +8,7 @@
 
 mod budget;
 mod calibration;
+mod evaluate;
 mod tpu_summary;
 mod values;
 
@@ -21,6 +22,10 @@ pub use calibration::{
     StripAdjustmentBlock, StripLine, TiePosition, TieRms, TrajectorySigmaTest,
 };
 
+pub use evaluate::{
+    Asprs, AsprsComponent, EvaluateDocument, Evaluation, Nssda, PointResidual, Position,
+    VerticalEvaluation, VerticalResidual,
+};
 pub use tpu_summary::{
     GridGeometry, IhoBand, IhoOrderLine, IncidenceCounts, LinearHistogram, MountingCheck,
     OrderGrid, RecoveryResidual, ScanAngleCheck, SigmaGrid, SigmaHistograms, SoundingsIho, Stats,

@@ -1,15 +1,10 @@
-//! The JSON products a run writes, their file names, and serde mirrors of their contracts.
+//! The JSON products a run writes, their file names, and the checks serde cannot express.
 //!
-//! Every struct here *reads* a product (unknown keys are ignored, so a producer may add fields
-//! without breaking the report) and can write it back (`Serialize`), which the tests use to
-//! make fixtures. Lengths are metres and angles degrees unless a field says otherwise; the report
-//! converts to centimetres for display.
-//!
-//! Where a producer exists its JSON is the contract (SPEC §6 `budget` and `evaluate`, the
-//! simulator's `truth.json`). Where it does not exist yet (`overlap_*.json`), the struct here
-//! *is* the contract, documented field by field. `tpu_summary.json`, `calibration.json` and
-//! `calibration_iterations.json` are read with lidarqa-products' types, the ones their writers
-//! serialise, and `qc.json` and `iho.json` with lidarqa-io's.
+//! `tpu_summary.json`, `calibration.json`, `calibration_iterations.json`, `budget.json`, the
+//! sweeps and `evaluate_*.json` are read with lidarqa-products' types, the ones their writers
+//! serialise, and `qc.json` and `iho.json` with lidarqa-io's. The mirrors left here (the
+//! simulator's `truth.json`, `overlap_*.json`) ignore unknown keys. Lengths are metres and angles
+//! degrees unless a field says otherwise; the report converts to centimetres for display.
 
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
@@ -83,23 +78,6 @@ pub use lidarqa_products::{Id, Ordered};
 /// Per-axis values, metres (SPEC §3): lidarqa-model's one six-axis struct, as the products
 /// write it.
 pub use lidarqa_model::Axes as Components;
-
-/// Like [`Components`], every value optional (`evaluate`'s `predicted` may give only some).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct PartialComponents {
-    /// North, m.
-    pub north: Option<f64>,
-    /// East, m.
-    pub east: Option<f64>,
-    /// Up, m.
-    pub up: Option<f64>,
-    /// Horizontal, m.
-    pub horizontal: Option<f64>,
-    /// Vertical, m.
-    pub vertical: Option<f64>,
-    /// 3-D, m.
-    pub three_d: Option<f64>,
-}
 
 /// `budget.json` and `budget_sweep_*.json` (SPEC §6): lidarqa-products' types, the ones
 /// `lidarqa budget` serialises.
@@ -298,144 +276,28 @@ fn check_iho(iho: &SoundingsIho) -> std::result::Result<(), Invalid> {
 // ---------------------------------------------------------------------------------------------
 // evaluate_{before,after}.json (SPEC §6)
 
-/// North / east / up, metres.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct Neu {
-    /// North, m.
-    pub north: f64,
-    /// East, m.
-    pub east: f64,
-    /// Up, m.
-    pub up: f64,
-}
+/// `evaluate_before.json` / `evaluate_after.json`: lidarqa-products' types, the ones
+/// `lidarqa evaluate --format json` serialises.
+pub use lidarqa_products::{
+    Asprs, AsprsComponent, EvaluateDocument, Evaluation, Nssda, PointResidual, Position,
+};
 
-/// A projected position, m.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Xyz {
-    /// Easting, m.
-    pub x: f64,
-    /// Northing, m.
-    pub y: f64,
-    /// Height, m.
-    pub z: f64,
-}
-
-/// One checkpoint's residual (lidar − control).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ResidualPoint {
-    /// Target / checkpoint id.
-    pub id: Id,
-    /// Lidar − control, m.
-    pub residual: Neu,
-    /// The control position (needed for the plan view of residual vectors).
-    #[serde(default)]
-    pub control: Option<Xyz>,
-    /// The lidar position.
-    #[serde(default)]
-    pub lidar: Option<Xyz>,
-}
-
-/// One component of the ASPRS Ed. 2 assessment (every field optional).
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-pub struct AsprsComponent {
-    /// Product RMSE, m.
-    #[serde(default)]
-    pub rmse_m: Option<f64>,
-    /// Accuracy class tested against, m.
-    #[serde(default)]
-    pub class_m: Option<f64>,
-    /// Whether the class is met.
-    #[serde(default)]
-    pub meets_class: Option<bool>,
-}
-
-/// ASPRS Positional Accuracy Standards Ed. 2 assessment.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-pub struct Asprs {
-    /// Edition.
-    #[serde(default)]
-    pub edition: Option<String>,
-    /// Horizontal component.
-    #[serde(default)]
-    pub horizontal: Option<AsprsComponent>,
-    /// Vertical component.
-    #[serde(default)]
-    pub vertical: Option<AsprsComponent>,
-    /// The compliance statement.
-    #[serde(default)]
-    pub statement: Option<String>,
-    /// Limits of the assessment.
-    #[serde(default)]
-    pub warnings: Vec<String>,
-}
-
-/// NSSDA 95 % figures.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-pub struct Nssda {
-    /// Horizontal accuracy at 95 %, m.
-    #[serde(default)]
-    pub horizontal_95_m: Option<f64>,
-    /// Which NSSDA formula gave it.
-    #[serde(default)]
-    pub horizontal_method: Option<String>,
-    /// Vertical accuracy at 95 %, m.
-    #[serde(default)]
-    pub vertical_95_m: Option<f64>,
-    /// A statement, if the producer wrote one.
-    #[serde(default)]
-    pub statement: Option<String>,
-}
-
-/// `evaluate_before.json` / `evaluate_after.json`: `lidarqa evaluate --format json` (SPEC §6).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Evaluation {
-    /// Points compared.
-    pub n: u64,
-    /// RMSE, m.
-    pub rmse: Components,
-    /// Mean residual, m.
-    #[serde(default)]
-    pub mean: Option<Neu>,
-    /// Standard deviation of the residuals, m.
-    #[serde(default)]
-    pub std: Option<Neu>,
-    /// ASPRS Ed. 2 assessment.
-    #[serde(default)]
-    pub asprs: Option<Asprs>,
-    /// NSSDA figures.
-    #[serde(default)]
-    pub nssda: Option<Nssda>,
-    /// Predicted (TPU) σ of the points, m.
-    #[serde(default)]
-    pub predicted: Option<PartialComponents>,
-    /// The RMSE the targets should show by that prediction (the points' σ with each target's
-    /// and control point's σ added), m.
-    #[serde(default)]
-    pub predicted_at_targets: Option<PartialComponents>,
-    /// Per-point residuals.
-    #[serde(default)]
-    pub points: Vec<ResidualPoint>,
-}
-
-impl Evaluation {
-    /// What the measured RMSE at the targets is to be compared with: `predicted_at_targets`,
-    /// or the points' σ alone from products written before it existed.
-    #[must_use]
-    pub fn predicted_rmse(&self) -> Option<PartialComponents> {
-        self.predicted_at_targets.or(self.predicted)
-    }
-}
-
-impl Product for Evaluation {
+impl Product for EvaluateDocument {
     const WHAT: &'static str = "accuracy against control";
     fn validate(&self) -> std::result::Result<(), Invalid> {
-        let r = &self.rmse;
+        let Some(e) = &self.targets else {
+            return Err(invalid(
+                "n",
+                "no targets' evaluation (the report shows targets, not the NVA block alone)",
+            ));
+        };
+        let r = &e.rmse;
         for (k, v) in [("horizontal", r.horizontal), ("vertical", r.vertical)] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(invalid(format!("rmse.{k}"), format!("{v} is not an RMSE")));
             }
         }
-        for (i, p) in self.points.iter().enumerate() {
+        for (i, p) in e.points.iter().enumerate() {
             let r = &p.residual;
             if !(r.north.is_finite() && r.east.is_finite() && r.up.is_finite()) {
                 return Err(invalid(format!("points[{i}].residual"), "not finite"));
@@ -443,6 +305,20 @@ impl Product for Evaluation {
         }
         Ok(())
     }
+}
+
+/// Reads an `evaluate_*.json` ([`crate::read_product`]) and returns the targets' evaluation.
+///
+/// # Errors
+/// As [`crate::read_product`]; a file without the targets' evaluation is invalid.
+pub fn read_evaluation(path: impl AsRef<std::path::Path>) -> crate::Result<Evaluation> {
+    let path = path.as_ref();
+    let doc: EvaluateDocument = crate::read_product(path)?;
+    doc.targets.ok_or_else(|| crate::Error::Invalid {
+        path: path.to_path_buf(),
+        key: "n".into(),
+        message: "no targets' evaluation".into(),
+    })
 }
 
 // ---------------------------------------------------------------------------------------------

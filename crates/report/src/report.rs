@@ -209,8 +209,12 @@ impl Report {
             }
         }
         p.tpu = load(dir, TPU_SUMMARY_FILE, &mut skipped, &mut read);
-        p.evaluate_before = load(dir, EVALUATE_BEFORE_FILE, &mut skipped, &mut read);
-        p.evaluate_after = load(dir, EVALUATE_AFTER_FILE, &mut skipped, &mut read);
+        p.evaluate_before =
+            load::<EvaluateDocument>(dir, EVALUATE_BEFORE_FILE, &mut skipped, &mut read)
+                .and_then(|d| d.targets);
+        p.evaluate_after =
+            load::<EvaluateDocument>(dir, EVALUATE_AFTER_FILE, &mut skipped, &mut read)
+                .and_then(|d| d.targets);
         p.calibration = load(dir, CALIBRATION_FILE, &mut skipped, &mut read);
         p.calibration_iterations = load(dir, CALIBRATION_ITERATIONS_FILE, &mut skipped, &mut read);
         p.truth = load(dir, TRUTH_FILE, &mut skipped, &mut read);

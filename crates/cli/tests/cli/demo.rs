@@ -118,6 +118,9 @@ fn demo_recovers_the_injected_mounting_and_improves_accuracy() {
     crate::assert_round_trips::<lidarqa_products::BudgetSweepDocument>(
         &d.join("budget_sweep_scan-angle.json"),
     );
+    for evaluation in ["evaluate_before.json", "evaluate_after.json"] {
+        crate::assert_round_trips::<lidarqa_products::EvaluateDocument>(&d.join(evaluation));
+    }
     let truth = json(&d.join("truth.json"));
     let cal = json(&d.join("calibration.json"));
     // The demo flies with each line's own trajectory error (the truth has it per strip) and
