@@ -10,6 +10,7 @@ mod budget;
 mod calibration;
 mod evaluate;
 mod tpu_summary;
+mod truth;
 mod values;
 
 pub use budget::{
@@ -30,5 +31,9 @@ pub use tpu_summary::{
     GridGeometry, IhoBand, IhoOrderLine, IncidenceCounts, LinearHistogram, MountingCheck,
     OrderGrid, RecoveryResidual, ScanAngleCheck, SigmaGrid, SigmaHistograms, SoundingsIho, Stats,
     TileLine, TpuSummaryDocument,
+};
+pub use truth::{
+    InjectedErrors, LineErrorTruth, MountingParameters, RandomErrors, StripTruth, TargetTruth,
+    TruthDocument,
 };
 pub use values::{Id, Ordered, StripId};

@@ -68,7 +68,7 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
         }
     );
     for key in MOUNTING_KEYS {
-        let inj = truth.mounting.get(key).copied().unwrap_or(f64::NAN);
+        let inj = truth.mounting.get(key).unwrap_or(f64::NAN);
         let rec = cal.parameters.get(key).copied().unwrap_or(f64::NAN);
         let sig = cal.sigma.get(key).copied().flatten().unwrap_or(f64::NAN);
         let observable = cal.observable.get(key).copied().unwrap_or(true);

@@ -65,9 +65,10 @@ pub use products::{
     CALIBRATION_MOUNTING_ONLY_FILE, CalibrationDocument, CalibrationIterationsDocument,
     CalibrationTie, Components, Displacement, DroppedPick, DzGrid, EVALUATE_AFTER_FILE,
     EVALUATE_BEFORE_FILE, EvaluateDocument, Evaluation, GridGeometry, IHO_FILE, Id, Iho,
-    IhoDepthBand, IhoOrder, Iteration, Nssda, OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE,
-    OVERLAP_MOUNTING_ONLY_FILE, Ordered, Overlap, OverlapPair, PointResidual, Position, Product,
-    Profile, ProfileStrip, QC_FILE, REPORT_FILE, SWEEP_FILE_PREFIX, TPU_SUMMARY_FILE, TRUTH_FILE,
-    TiePosition, Truth, predicted, predicted_from_tpu_summary, read_evaluation, sweep_file_name,
+    IhoDepthBand, IhoOrder, Iteration, MountingParameters, Nssda, OVERLAP_AFTER_FILE,
+    OVERLAP_BEFORE_FILE, OVERLAP_MOUNTING_ONLY_FILE, Ordered, Overlap, OverlapPair, PointResidual,
+    Position, Product, Profile, ProfileStrip, QC_FILE, REPORT_FILE, SWEEP_FILE_PREFIX,
+    TPU_SUMMARY_FILE, TRUTH_FILE, TiePosition, Truth, predicted, predicted_from_tpu_summary,
+    read_evaluation, sweep_file_name,
 };
 pub use report::{Products, Report, read_product};

@@ -1,9 +1,9 @@
 //! The JSON products a run writes, their file names, and the checks serde cannot express.
 //!
 //! `tpu_summary.json`, `calibration.json`, `calibration_iterations.json`, `budget.json`, the
-//! sweeps and `evaluate_*.json` are read with lidarqa-products' types, the ones their writers
-//! serialise, and `qc.json` and `iho.json` with lidarqa-io's. The mirrors left here (the
-//! simulator's `truth.json`, `overlap_*.json`) ignore unknown keys. Lengths are metres and angles
+//! sweeps, `evaluate_*.json` and the simulator's `truth.json` are read with lidarqa-products'
+//! types, the ones their writers serialise, and `qc.json` and `iho.json` with lidarqa-io's. The
+//! mirror left here (`overlap_*.json`) ignores unknown keys. Lengths are metres and angles
 //! degrees unless a field says otherwise; the report converts to centimetres for display.
 
 use serde::de::DeserializeOwned;
@@ -372,12 +372,11 @@ impl Product for CalibrationIterationsDocument {
     }
 }
 
-/// `truth.json` of the simulator: only the true mounting is read.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Truth {
-    /// True mounting, SPEC §8 keys.
-    pub mounting: Ordered<f64>,
-}
+/// `truth.json` of the simulator: lidarqa-products' document, the one the simulator writes,
+/// with the scene taken as it stands (the report does not read it).
+pub type Truth = lidarqa_products::TruthDocument<serde_json::Value>;
+
+pub use lidarqa_products::MountingParameters;
 
 impl Product for Truth {
     const WHAT: &'static str = "simulation truth";

@@ -274,6 +274,18 @@ fn overlap_json(scale: f64) -> Value {
     })
 }
 
+fn truth_json() -> Value {
+    let zero = json!({"lever_x_m": 0.0, "lever_y_m": 0.0, "lever_z_m": 0.0,
+                      "boresight_roll_deg": 0.0, "boresight_pitch_deg": 0.0, "boresight_yaw_deg": 0.0});
+    let mounting = json!({"lever_x_m": 0.1, "lever_y_m": -0.05, "lever_z_m": 0.02,
+                          "boresight_roll_deg": 0.05, "boresight_pitch_deg": -0.03, "boresight_yaw_deg": 0.08});
+    json!({"scenario": "demo", "seed": 1, "epsg": 32611, "gps_week": 2200, "origin_m": [500000.0, 4100000.0],
+           "mounting": mounting, "nominal_mounting": zero,
+           "injected": {"mounting": mounting, "random_mounting": zero, "range_offset_m": 0.0, "scan_angle_scale_ppm": 0.0},
+           "random": {"enabled": false, "gnss_correlation_time_s": 1800.0, "attitude_correlation_time_s": 20.0, "sigma": {}},
+           "targets": [], "strips": [], "scene": {}})
+}
+
 fn iho_json() -> Value {
     json!({"orders": [
         {"order": "exclusive", "percent_meeting": 41.2, "by_depth": []},
@@ -344,12 +356,7 @@ fn full_dir() -> tempfile::TempDir {
     write(d, EVALUATE_AFTER_FILE, &evaluate_json(0.3));
     write(d, CALIBRATION_FILE, &calibration_json());
     write(d, CALIBRATION_ITERATIONS_FILE, &iterations_json());
-    write(
-        d,
-        TRUTH_FILE,
-        &json!({"scenario": "demo", "seed": 1, "mounting": {"lever_x_m": 0.1, "lever_y_m": -0.05, "lever_z_m": 0.02,
-                 "boresight_roll_deg": 0.05, "boresight_pitch_deg": -0.03, "boresight_yaw_deg": 0.08}}),
-    );
+    write(d, TRUTH_FILE, &truth_json());
     write(d, OVERLAP_BEFORE_FILE, &overlap_json(1.0));
     write(d, OVERLAP_AFTER_FILE, &overlap_json(0.2));
     write(d, IHO_FILE, &iho_json());

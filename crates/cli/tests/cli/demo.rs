@@ -121,6 +121,9 @@ fn demo_recovers_the_injected_mounting_and_improves_accuracy() {
     for evaluation in ["evaluate_before.json", "evaluate_after.json"] {
         crate::assert_round_trips::<lidarqa_products::EvaluateDocument>(&d.join(evaluation));
     }
+    crate::assert_round_trips::<lidarqa_products::TruthDocument<lidarqa_sim::SceneFile>>(
+        &d.join("truth.json"),
+    );
     let truth = json(&d.join("truth.json"));
     let cal = json(&d.join("calibration.json"));
     // The demo flies with each line's own trajectory error (the truth has it per strip) and
@@ -280,6 +283,10 @@ fn bathymetric_demo_reports_the_iho_orders_per_depth_band() {
     for sweep in ["budget_sweep_depth.json", "budget_sweep_azimuth.json"] {
         crate::assert_round_trips::<lidarqa_products::BudgetSweepDocument>(&d.join(sweep));
     }
+    // The water body makes the scene's optional block present.
+    crate::assert_round_trips::<lidarqa_products::TruthDocument<lidarqa_sim::SceneFile>>(
+        &d.join("strips/truth.json"),
+    );
     let summary = String::from_utf8_lossy(&out.stdout);
     let tpu = json(&d.join("tpu_summary.json"));
     let iho = &tpu["iho_s44"];
