@@ -9,6 +9,7 @@
 mod budget;
 mod calibration;
 mod evaluate;
+mod overlap;
 mod tpu_summary;
 mod truth;
 mod values;
@@ -27,6 +28,7 @@ pub use evaluate::{
     Asprs, AsprsComponent, EvaluateDocument, Evaluation, Nssda, PointResidual, Position,
     VerticalEvaluation, VerticalResidual,
 };
+pub use overlap::{OverlapDocument, OverlapGrid, OverlapPair, OverlapProfile, OverlapProfileStrip};
 pub use tpu_summary::{
     GridGeometry, IhoBand, IhoOrderLine, IncidenceCounts, LinearHistogram, MountingCheck,
     OrderGrid, RecoveryResidual, ScanAngleCheck, SigmaGrid, SigmaHistograms, SoundingsIho, Stats,

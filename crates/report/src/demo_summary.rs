@@ -9,7 +9,7 @@ use crate::error::{Error, Result};
 use crate::products::{
     BudgetSweepDocument, CALIBRATION_FILE, CALIBRATION_MOUNTING_ONLY_FILE, CalibrationDocument,
     EVALUATE_AFTER_FILE, EVALUATE_BEFORE_FILE, Evaluation, OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE,
-    OVERLAP_MOUNTING_ONLY_FILE, Overlap, REPORT_FILE, TPU_SUMMARY_FILE, TRUTH_FILE,
+    OVERLAP_MOUNTING_ONLY_FILE, OverlapDocument, REPORT_FILE, TPU_SUMMARY_FILE, TRUTH_FILE,
     TpuSummaryDocument, Truth, read_evaluation, sweep_file_name,
 };
 use crate::report::read_product;
@@ -146,10 +146,10 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
     };
     let width = runs.iter().map(|(n, _)| n.len()).max().unwrap_or(0);
     for (name, file) in runs {
-        if let Ok(o) = read_product::<Overlap>(file) {
-            let counted = || o.pairs.iter().filter(|p| p.counts());
+        if let Ok(o) = read_product::<OverlapDocument>(file) {
+            let counted = || o.pairs.iter().filter(|p| p.meaningful);
             let worst = counted().map(|p| p.rmsdz_m).fold(0.0, f64::max);
-            let (s, n) = counted().fold((0.0, 0u64), |(s, n), p| {
+            let (s, n) = counted().fold((0.0, 0usize), |(s, n), p| {
                 (s + p.rmsdz_m.powi(2) * p.n as f64, n + p.n)
             });
             let pooled = if n > 0 {

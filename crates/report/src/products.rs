@@ -1,13 +1,12 @@
 //! The JSON products a run writes, their file names, and the checks serde cannot express.
 //!
 //! `tpu_summary.json`, `calibration.json`, `calibration_iterations.json`, `budget.json`, the
-//! sweeps, `evaluate_*.json` and the simulator's `truth.json` are read with lidarqa-products'
-//! types, the ones their writers serialise, and `qc.json` and `iho.json` with lidarqa-io's. The
-//! mirror left here (`overlap_*.json`) ignores unknown keys. Lengths are metres and angles
-//! degrees unless a field says otherwise; the report converts to centimetres for display.
+//! sweeps, `evaluate_*.json`, the simulator's `truth.json` and `overlap_*.json` are read with
+//! lidarqa-products' types, the ones their writers serialise, and `qc.json` and `iho.json` with
+//! lidarqa-io's. Lengths are metres and angles degrees unless a field says otherwise; the report
+//! converts to centimetres for display.
 
 use serde::de::DeserializeOwned;
-use serde::{Deserialize, Serialize};
 
 /// `lidarqa budget --format json` of one geometry (SPEC §6).
 pub const BUDGET_FILE: &str = "budget.json";
@@ -383,102 +382,31 @@ impl Product for Truth {
 }
 
 // ---------------------------------------------------------------------------------------------
-// overlap_{before,after}.json (defined here)
+// overlap_{before,after}.json
 
-/// Height differences between one pair of overlapping strips.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct OverlapPair {
-    /// The two strip ids.
-    pub strips: [Id; 2],
-    /// RMS of dz over the overlap, m.
-    pub rmsdz_m: f64,
-    /// Largest |dz|, m.
-    pub max_abs_dz_m: f64,
-    /// Cells / points compared.
-    pub n: u64,
-    /// `false` for a pair of fewer cells than `lidarqa overlap --min-cells`: listed, but left out
-    /// of the overall RMS and the worst pair; absent in older files (taken as meaningful).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub meaningful: Option<bool>,
-}
+/// `overlap_*.json`: lidarqa-products' types, the ones `lidarqa overlap -o` serialises.
+pub use lidarqa_products::{
+    OverlapDocument, OverlapGrid, OverlapPair, OverlapProfile, OverlapProfileStrip,
+};
 
-impl OverlapPair {
-    /// Whether the pair counts (module docs of `meaningful`).
-    pub fn counts(&self) -> bool {
-        self.meaningful != Some(false)
-    }
-}
-
-/// `grid` of [`Overlap`]: mean dz (strip minus strip, m) per cell; null outside the overlaps.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct DzGrid {
-    /// The grid.
-    #[serde(flatten)]
-    pub geometry: GridGeometry,
-    /// dz per cell, m, row-major (see [`GridGeometry`]); null where no strips overlap.
-    pub dz_m: Vec<Option<f64>>,
-}
-
-/// One strip along a profile.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ProfileStrip {
-    /// Strip id.
-    pub id: Id,
-    /// Height at each `distance_m`, m; null where the strip has no points.
-    pub z_m: Vec<Option<f64>>,
-}
-
-/// A height profile across overlapping strips (Zhang & Jiang 2011, Fig. 10).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Profile {
-    /// Distance along the profile, m.
-    pub distance_m: Vec<f64>,
-    /// One entry per strip.
-    pub strips: Vec<ProfileStrip>,
-}
-
-/// `overlap_before.json` / `overlap_after.json`: swath-to-swath consistency (`lidarqa overlap`).
-///
-/// ```json
-/// {"pairs": [{"strips": [1, 2], "rmsdz_m": 0.08, "max_abs_dz_m": 0.31, "n": 5120}],
-///  "grid": {"cell_m": 2.0, "origin_x": 500000.0, "origin_y": 4000000.0, "nx": 2, "ny": 1,
-///           "dz_m": [0.05, null]},
-///  "profile": {"distance_m": [0.0, 1.0], "strips": [{"id": 1, "z_m": [101.2, 101.3]}]}}
-/// ```
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Overlap {
-    /// Per strip pair.
-    #[serde(default)]
-    pub pairs: Vec<OverlapPair>,
-    /// Map of dz.
-    #[serde(default)]
-    pub grid: Option<DzGrid>,
-    /// A profile across the strips.
-    #[serde(default)]
-    pub profile: Option<Profile>,
-}
-
-impl Product for Overlap {
+impl Product for OverlapDocument {
     const WHAT: &'static str = "strip-to-strip height differences";
     fn validate(&self) -> std::result::Result<(), Invalid> {
-        if let Some(g) = &self.grid {
-            check_grid(&g.geometry, "grid", g.dz_m.len())?;
+        check_grid(&self.grid.geometry(), "grid", self.grid.dz_m.len())?;
+        let p = &self.profile;
+        if !p.distance_m.iter().all(|d| d.is_finite()) {
+            return Err(invalid("profile.distance_m", "not finite"));
         }
-        if let Some(p) = &self.profile {
-            if !p.distance_m.iter().all(|d| d.is_finite()) {
-                return Err(invalid("profile.distance_m", "not finite"));
-            }
-            for (i, s) in p.strips.iter().enumerate() {
-                if s.z_m.len() != p.distance_m.len() {
-                    return Err(invalid(
-                        format!("profile.strips[{i}].z_m"),
-                        format!(
-                            "{} heights for {} distances",
-                            s.z_m.len(),
-                            p.distance_m.len()
-                        ),
-                    ));
-                }
+        for (i, s) in p.strips.iter().enumerate() {
+            if s.z_m.len() != p.distance_m.len() {
+                return Err(invalid(
+                    format!("profile.strips[{i}].z_m"),
+                    format!(
+                        "{} heights for {} distances",
+                        s.z_m.len(),
+                        p.distance_m.len()
+                    ),
+                ));
             }
         }
         Ok(())

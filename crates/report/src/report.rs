@@ -27,12 +27,12 @@ pub struct Products {
     /// `truth.json`.
     pub truth: Option<Truth>,
     /// `overlap_before.json`.
-    pub overlap_before: Option<Overlap>,
+    pub overlap_before: Option<OverlapDocument>,
     /// `overlap_after.json`.
-    pub overlap_after: Option<Overlap>,
+    pub overlap_after: Option<OverlapDocument>,
     /// `overlap_mounting_only.json`: after a mounting-only correction, when `overlap_after.json`
     /// is of a strip-adjusted one.
-    pub overlap_mounting_only: Option<Overlap>,
+    pub overlap_mounting_only: Option<OverlapDocument>,
     /// `iho.json`.
     pub iho: Option<Iho>,
     /// `qc.json` (`lidarqa qc`).

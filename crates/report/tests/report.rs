@@ -264,10 +264,10 @@ fn overlap_json(scale: f64) -> Value {
             .collect()
     };
     json!({
-        "pairs": [{"strips": [1, 2], "rmsdz_m": 0.09 * scale, "max_abs_dz_m": 0.3 * scale, "n": 5000},
-                  {"strips": [2, 3], "rmsdz_m": 0.07 * scale, "max_abs_dz_m": 0.25 * scale, "n": 4200}],
+        "pairs": [{"strips": [1, 2], "rmsdz_m": 0.09 * scale, "max_abs_dz_m": 0.3 * scale, "mean_dz_m": 0.01 * scale, "n": 5000, "meaningful": true},
+                  {"strips": [2, 3], "rmsdz_m": 0.07 * scale, "max_abs_dz_m": 0.25 * scale, "mean_dz_m": -0.01 * scale, "n": 4200, "meaningful": true}],
         "grid": {"cell_m": 5.0, "origin_x": 500000.0, "origin_y": 4100000.0, "nx": nx, "ny": ny, "dz_m": dz},
-        "profile": {"distance_m": distance, "strips": [
+        "profile": {"line": [[500000.0, 4100050.0], [500030.0, 4100050.0]], "distance_m": distance, "strips": [
             {"id": 1, "z_m": strip(0.0, 0.0)},
             {"id": 2, "z_m": strip(0.12 * scale, 0.8 * scale)},
             {"id": 3, "z_m": strip(-0.1 * scale, -0.6 * scale)}]}
@@ -667,7 +667,7 @@ fn degenerate_products_do_not_panic() {
         d,
         OVERLAP_AFTER_FILE,
         &json!({"pairs": [], "grid": {"cell_m": 1.0, "origin_x": 0.0, "origin_y": 0.0, "nx": 1, "ny": 1, "dz_m": [0.0]},
-        "profile": {"distance_m": [], "strips": []}}),
+        "profile": {"line": [[0.0, 0.0], [1.0, 0.0]], "distance_m": [], "strips": []}}),
     );
     write(
         d,

@@ -121,6 +121,13 @@ fn demo_recovers_the_injected_mounting_and_improves_accuracy() {
     for evaluation in ["evaluate_before.json", "evaluate_after.json"] {
         crate::assert_round_trips::<lidarqa_products::EvaluateDocument>(&d.join(evaluation));
     }
+    for overlap in [
+        "overlap_before.json",
+        "overlap_mounting_only.json",
+        "overlap_after.json",
+    ] {
+        crate::assert_round_trips::<lidarqa_products::OverlapDocument>(&d.join(overlap));
+    }
     crate::assert_round_trips::<lidarqa_products::TruthDocument<lidarqa_sim::SceneFile>>(
         &d.join("truth.json"),
     );
