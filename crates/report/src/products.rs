@@ -15,9 +15,10 @@ pub const BUDGET_FILE: &str = "budget.json";
 pub const SWEEP_FILE_PREFIX: &str = "budget_sweep_";
 /// Per-point TPU summary of `lidarqa tpu` ([`TpuSummaryDocument`]).
 pub const TPU_SUMMARY_FILE: &str = "tpu_summary.json";
-/// `lidarqa evaluate --format json` before calibration (SPEC §6).
+/// `lidarqa evaluate --format json` before calibration (SPEC §6; [`EvaluateDocument`]).
 pub const EVALUATE_BEFORE_FILE: &str = "evaluate_before.json";
-/// `lidarqa evaluate --format json` after calibration and correction (SPEC §6).
+/// `lidarqa evaluate --format json` after calibration and correction (SPEC §6;
+/// [`EvaluateDocument`]).
 pub const EVALUATE_AFTER_FILE: &str = "evaluate_after.json";
 /// `lidarqa calibrate` output (SPEC §8).
 pub const CALIBRATION_FILE: &str = "calibration.json";
@@ -26,16 +27,16 @@ pub const CALIBRATION_FILE: &str = "calibration.json";
 pub const CALIBRATION_MOUNTING_ONLY_FILE: &str = "calibration_mounting_only.json";
 /// Per-iteration history of the calibration ([`CalibrationIterationsDocument`]).
 pub const CALIBRATION_ITERATIONS_FILE: &str = "calibration_iterations.json";
-/// The simulator's truth (`"mounting"` with SPEC §8 keys).
+/// The simulator's truth ([`Truth`]; `"mounting"` with SPEC §8 keys).
 pub const TRUTH_FILE: &str = "truth.json";
-/// `lidarqa overlap` before correction ([`Overlap`]).
+/// `lidarqa overlap` before correction ([`OverlapDocument`]).
 pub const OVERLAP_BEFORE_FILE: &str = "overlap_before.json";
 /// `lidarqa overlap` after a correction with the mounting alone, beside a strip-adjusted one
-/// (`overlap_after.json`) ([`Overlap`]).
+/// (`overlap_after.json`) ([`OverlapDocument`]).
 pub const OVERLAP_MOUNTING_ONLY_FILE: &str = "overlap_mounting_only.json";
 /// `lidarqa qc`'s product.
 pub const QC_FILE: &str = "qc.json";
-/// `lidarqa overlap` after correction ([`Overlap`]).
+/// `lidarqa overlap` after correction ([`OverlapDocument`]).
 pub const OVERLAP_AFTER_FILE: &str = "overlap_after.json";
 /// IHO S-44 statement of a bathymetric survey ([`Iho`]).
 pub const IHO_FILE: &str = "iho.json";
