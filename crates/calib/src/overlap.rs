@@ -15,7 +15,7 @@
 
 use crate::error::{Error, Result};
 use crate::smooth::fit_plane;
-use serde_json::{Value, json};
+use lidarqa_products::{OverlapDocument, OverlapProfileStrip, StripId};
 use std::collections::BTreeMap;
 
 /// A strip for overlap QC: points as `[x, y, z]`, metres, z up.
@@ -114,7 +114,7 @@ pub struct OverlapProfile {
     pub strips: Vec<ProfileStrip>,
 }
 
-/// The overlap QC result; [`OverlapReport::to_json`] gives the schema the report reads.
+/// The overlap QC result; [`OverlapReport::to_document`] gives the product the report reads.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OverlapReport {
     /// Pairs with at least one smooth cell in common (those under `min_cells` marked).
@@ -125,38 +125,46 @@ pub struct OverlapReport {
     pub profile: OverlapProfile,
 }
 
-fn strip_json(s: &str) -> Value {
-    s.parse::<u64>().map_or_else(|_| json!(s), |n| json!(n))
-}
-
 impl OverlapReport {
-    /// `{"pairs": [{"strips": [a, b], "rmsdz_m", "max_abs_dz_m", "n", "mean_dz_m"}], "grid":
-    /// {"cell_m", "origin_x", "origin_y", "nx", "ny", "dz_m": [row-major, null where empty]},
-    /// "profile": {"distance_m": [...], "strips": [{"id", "z_m": [...]}]}}`.
-    pub fn to_json(&self) -> Value {
-        json!({
-            "pairs": self.pairs.iter().map(|p| json!({
-                "strips": [strip_json(&p.strips[0]), strip_json(&p.strips[1])],
-                "rmsdz_m": p.rmsdz_m,
-                "max_abs_dz_m": p.max_abs_dz_m,
-                "mean_dz_m": p.mean_dz_m,
-                "n": p.n,
-                "meaningful": p.meaningful,
-            })).collect::<Vec<_>>(),
-            "grid": {
-                "cell_m": self.grid.cell_m,
-                "origin_x": self.grid.origin_x,
-                "origin_y": self.grid.origin_y,
-                "nx": self.grid.nx,
-                "ny": self.grid.ny,
-                "dz_m": self.grid.dz_m,
+    /// The product `lidarqa overlap -o` writes (lidarqa-products' [`OverlapDocument`]): strip
+    /// ids that are numbers (point source ids) are written as numbers.
+    pub fn to_document(&self) -> OverlapDocument {
+        let id = |s: &str| StripId(s.to_string());
+        OverlapDocument {
+            pairs: self
+                .pairs
+                .iter()
+                .map(|p| lidarqa_products::OverlapPair {
+                    strips: [id(&p.strips[0]), id(&p.strips[1])],
+                    rmsdz_m: p.rmsdz_m,
+                    max_abs_dz_m: p.max_abs_dz_m,
+                    mean_dz_m: p.mean_dz_m,
+                    n: p.n,
+                    meaningful: p.meaningful,
+                })
+                .collect(),
+            grid: lidarqa_products::OverlapGrid {
+                cell_m: self.grid.cell_m,
+                origin_x: self.grid.origin_x,
+                origin_y: self.grid.origin_y,
+                nx: self.grid.nx,
+                ny: self.grid.ny,
+                dz_m: self.grid.dz_m.clone(),
             },
-            "profile": {
-                "line": self.profile.line,
-                "distance_m": self.profile.distance_m,
-                "strips": self.profile.strips.iter().map(|s| json!({"id": strip_json(&s.id), "z_m": s.z_m})).collect::<Vec<_>>(),
+            profile: lidarqa_products::OverlapProfile {
+                line: self.profile.line,
+                distance_m: self.profile.distance_m.clone(),
+                strips: self
+                    .profile
+                    .strips
+                    .iter()
+                    .map(|s| OverlapProfileStrip {
+                        id: id(&s.id),
+                        z_m: s.z_m.clone(),
+                    })
+                    .collect(),
             },
-        })
+        }
     }
 
     /// RMS over the meaningful pairs' smooth cells of dz (each cell of each pair counts once), m.
@@ -458,7 +466,7 @@ mod tests {
         assert!((p.mean_dz_m + 0.07).abs() < 1e-9);
         // Overlap x in [5, 10): 5 columns × 5 rows of 1 m cells.
         assert_eq!(p.n, 25);
-        let j = r.to_json();
+        let j = serde_json::to_value(r.to_document()).unwrap();
         assert_eq!(j["pairs"][0]["strips"][1], 2);
         assert_eq!(
             j["grid"]["dz_m"].as_array().unwrap().len(),

@@ -106,6 +106,12 @@ pub struct NorthEastUp {
     pub up: f64,
 }
 
+impl From<[f64; 3]> for NorthEastUp {
+    fn from([north, east, up]: [f64; 3]) -> Self {
+        NorthEastUp { north, east, up }
+    }
+}
+
 /// Roll, pitch, heading, degrees.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RollPitchHeading {
@@ -115,6 +121,16 @@ pub struct RollPitchHeading {
     pub pitch: f64,
     /// Heading, deg.
     pub heading: f64,
+}
+
+impl From<[f64; 3]> for RollPitchHeading {
+    fn from([roll, pitch, heading]: [f64; 3]) -> Self {
+        RollPitchHeading {
+            roll,
+            pitch,
+            heading,
+        }
+    }
 }
 
 /// `strip_adjustment`: the per-line trajectory corrections estimated with the mounting.

@@ -8,7 +8,10 @@
 
 mod budget;
 mod calibration;
+mod evaluate;
+mod overlap;
 mod tpu_summary;
+mod truth;
 mod values;
 
 pub use budget::{
@@ -21,9 +24,18 @@ pub use calibration::{
     StripAdjustmentBlock, StripLine, TiePosition, TieRms, TrajectorySigmaTest,
 };
 
+pub use evaluate::{
+    Asprs, AsprsComponent, EvaluateDocument, Evaluation, Nssda, PointResidual, Position,
+    VerticalEvaluation, VerticalResidual,
+};
+pub use overlap::{OverlapDocument, OverlapGrid, OverlapPair, OverlapProfile, OverlapProfileStrip};
 pub use tpu_summary::{
     GridGeometry, IhoBand, IhoOrderLine, IncidenceCounts, LinearHistogram, MountingCheck,
     OrderGrid, RecoveryResidual, ScanAngleCheck, SigmaGrid, SigmaHistograms, SoundingsIho, Stats,
     TileLine, TpuSummaryDocument,
+};
+pub use truth::{
+    InjectedErrors, LineErrorTruth, MountingParameters, RandomErrors, StripTruth, TargetTruth,
+    TruthDocument,
 };
 pub use values::{Id, Ordered, StripId};

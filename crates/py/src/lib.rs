@@ -269,7 +269,7 @@ fn overlap(
         max_slope_deg,
         ..OverlapOptions::default()
     };
-    py.allow_threads(|| json(&overlap_files(&strips, &options).map_err(err)?.to_json()))
+    py.allow_threads(|| json(&overlap_files(&strips, &options).map_err(err)?.to_document()))
 }
 
 /// Vertical checkpoints (CSV `id,x,y,z[,…]`) against the TIN of the class-`ground_class` points

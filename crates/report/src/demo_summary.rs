@@ -9,8 +9,8 @@ use crate::error::{Error, Result};
 use crate::products::{
     BudgetSweepDocument, CALIBRATION_FILE, CALIBRATION_MOUNTING_ONLY_FILE, CalibrationDocument,
     EVALUATE_AFTER_FILE, EVALUATE_BEFORE_FILE, Evaluation, OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE,
-    OVERLAP_MOUNTING_ONLY_FILE, Overlap, REPORT_FILE, TPU_SUMMARY_FILE, TRUTH_FILE,
-    TpuSummaryDocument, Truth, sweep_file_name,
+    OVERLAP_MOUNTING_ONLY_FILE, OverlapDocument, REPORT_FILE, TPU_SUMMARY_FILE, TRUTH_FILE,
+    TpuSummaryDocument, Truth, read_evaluation, sweep_file_name,
 };
 use crate::report::read_product;
 use lidarqa_tpu::IhoOrder;
@@ -35,8 +35,8 @@ const MOUNTING_KEYS: [&str; 6] = [
 pub fn demo_summary(dir: &Path) -> Result<String> {
     let truth: Truth = read_product(dir.join(TRUTH_FILE))?;
     let cal: CalibrationDocument = read_product(dir.join(CALIBRATION_FILE))?;
-    let before: Evaluation = read_product(dir.join(EVALUATE_BEFORE_FILE))?;
-    let after: Evaluation = read_product(dir.join(EVALUATE_AFTER_FILE))?;
+    let before = read_evaluation(dir.join(EVALUATE_BEFORE_FILE))?;
+    let after = read_evaluation(dir.join(EVALUATE_AFTER_FILE))?;
     // The mounting-only calibration beside a strip-adjusted one (the demo writes both).
     let plain: Option<CalibrationDocument> = if cal.strip_adjustment.is_some() {
         read_product(dir.join(CALIBRATION_MOUNTING_ONLY_FILE)).ok()
@@ -68,7 +68,7 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
         }
     );
     for key in MOUNTING_KEYS {
-        let inj = truth.mounting.get(key).copied().unwrap_or(f64::NAN);
+        let inj = truth.mounting.get(key).unwrap_or(f64::NAN);
         let rec = cal.parameters.get(key).copied().unwrap_or(f64::NAN);
         let sig = cal.sigma.get(key).copied().flatten().unwrap_or(f64::NAN);
         let observable = cal.observable.get(key).copied().unwrap_or(true);
@@ -104,8 +104,8 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
         "accuracy at the targets (cm)", "pred. before", "before", "pred. after", "after"
     );
     let predicted = |e: &Evaluation, vertical: bool| {
-        e.predicted_rmse()
-            .and_then(|p| if vertical { p.vertical } else { p.horizontal })
+        e.predicted_at_targets
+            .map(|p| if vertical { p.vertical } else { p.horizontal })
     };
     for (name, vertical) in [
         ("plane RMSE (Zhang et al. 2018, eq. 7)", false),
@@ -146,10 +146,10 @@ pub fn demo_summary(dir: &Path) -> Result<String> {
     };
     let width = runs.iter().map(|(n, _)| n.len()).max().unwrap_or(0);
     for (name, file) in runs {
-        if let Ok(o) = read_product::<Overlap>(file) {
-            let counted = || o.pairs.iter().filter(|p| p.counts());
+        if let Ok(o) = read_product::<OverlapDocument>(file) {
+            let counted = || o.pairs.iter().filter(|p| p.meaningful);
             let worst = counted().map(|p| p.rmsdz_m).fold(0.0, f64::max);
-            let (s, n) = counted().fold((0.0, 0u64), |(s, n), p| {
+            let (s, n) = counted().fold((0.0, 0usize), |(s, n), p| {
                 (s + p.rmsdz_m.powi(2) * p.n as f64, n + p.n)
             });
             let pooled = if n > 0 {

@@ -10,9 +10,9 @@
 //! | [`BUDGET_FILE`] `budget.json` | [`BudgetDocument`] (SPEC §6) | bar chart of the budget per source, totals |
 //! | [`SWEEP_FILE_PREFIX`]`*.json` | [`BudgetSweepDocument`] (SPEC §6 `--sweep`) | totals vs the swept variable; bias curves |
 //! | [`TPU_SUMMARY_FILE`] `tpu_summary.json` | [`lidarqa_products::TpuSummaryDocument`] | σ histograms, map of σ, statistics |
-//! | [`EVALUATE_BEFORE_FILE`], [`EVALUATE_AFTER_FILE`] | [`Evaluation`] (SPEC §6) | residual vectors, predicted vs measured, ASPRS / NSSDA |
+//! | [`EVALUATE_BEFORE_FILE`], [`EVALUATE_AFTER_FILE`] | [`EvaluateDocument`] (SPEC §6) | residual vectors, predicted vs measured, ASPRS / NSSDA |
 //! | [`CALIBRATION_FILE`] (+ [`CALIBRATION_ITERATIONS_FILE`], [`TRUTH_FILE`]) | [`CalibrationDocument`] (SPEC §8) | mounting ± σ (vs truth), correlations, convergence |
-//! | [`OVERLAP_BEFORE_FILE`], [`OVERLAP_AFTER_FILE`] (+ [`OVERLAP_MOUNTING_ONLY_FILE`]) | [`Overlap`] | dz maps and height profiles before / after (a mounting-only correction beside a strip-adjusted one) |
+//! | [`OVERLAP_BEFORE_FILE`], [`OVERLAP_AFTER_FILE`] (+ [`OVERLAP_MOUNTING_ONLY_FILE`]) | [`OverlapDocument`] | dz maps and height profiles before / after (a mounting-only correction beside a strip-adjusted one) |
 //! | [`CALIBRATION_MOUNTING_ONLY_FILE`] | [`CalibrationDocument`] | the demo summary's mounting-only errors beside the strip-adjusted ones |
 //! | [`QC_FILE`] | `lidarqa_io::QcDocument` | delivery QC: lines, interswath pairs, verdict tables per standard |
 //! | [`IHO_FILE`] `iho.json` | [`Iho`] | IHO S-44 table |
@@ -63,11 +63,12 @@ pub use products::{
     Asprs, AsprsComponent, BUDGET_FILE, Budget, BudgetDocument, BudgetSource, BudgetSweep,
     BudgetSweepDocument, BudgetSweepPoint, CALIBRATION_FILE, CALIBRATION_ITERATIONS_FILE,
     CALIBRATION_MOUNTING_ONLY_FILE, CalibrationDocument, CalibrationIterationsDocument,
-    CalibrationTie, Components, Displacement, DroppedPick, DzGrid, EVALUATE_AFTER_FILE,
-    EVALUATE_BEFORE_FILE, Evaluation, GridGeometry, IHO_FILE, Id, Iho, IhoDepthBand, IhoOrder,
-    Iteration, Neu, Nssda, OVERLAP_AFTER_FILE, OVERLAP_BEFORE_FILE, OVERLAP_MOUNTING_ONLY_FILE,
-    Ordered, Overlap, OverlapPair, PartialComponents, Product, Profile, ProfileStrip, QC_FILE,
-    REPORT_FILE, ResidualPoint, SWEEP_FILE_PREFIX, TPU_SUMMARY_FILE, TRUTH_FILE, TiePosition,
-    Truth, Xyz, predicted, predicted_from_tpu_summary, sweep_file_name,
+    CalibrationTie, Components, Displacement, DroppedPick, EVALUATE_AFTER_FILE,
+    EVALUATE_BEFORE_FILE, EvaluateDocument, Evaluation, GridGeometry, IHO_FILE, Id, Iho,
+    IhoDepthBand, IhoOrder, Iteration, MountingParameters, Nssda, OVERLAP_AFTER_FILE,
+    OVERLAP_BEFORE_FILE, OVERLAP_MOUNTING_ONLY_FILE, Ordered, OverlapDocument, OverlapGrid,
+    OverlapPair, OverlapProfile, OverlapProfileStrip, PointResidual, Position, Product, QC_FILE,
+    REPORT_FILE, SWEEP_FILE_PREFIX, TPU_SUMMARY_FILE, TRUTH_FILE, TiePosition, Truth, predicted,
+    predicted_from_tpu_summary, read_evaluation, sweep_file_name,
 };
 pub use report::{Products, Report, read_product};

@@ -1,18 +1,12 @@
-//! The JSON products a run writes, their file names, and serde mirrors of their contracts.
+//! The JSON products a run writes, their file names, and the checks serde cannot express.
 //!
-//! Every struct here *reads* a product (unknown keys are ignored, so a producer may add fields
-//! without breaking the report) and can write it back (`Serialize`), which the tests use to
-//! make fixtures. Lengths are metres and angles degrees unless a field says otherwise; the report
+//! `tpu_summary.json`, `calibration.json`, `calibration_iterations.json`, `budget.json`, the
+//! sweeps, `evaluate_*.json`, the simulator's `truth.json` and `overlap_*.json` are read with
+//! lidarqa-products' types, the ones their writers serialise, and `qc.json` and `iho.json` with
+//! lidarqa-io's. Lengths are metres and angles degrees unless a field says otherwise; the report
 //! converts to centimetres for display.
-//!
-//! Where a producer exists its JSON is the contract (SPEC §6 `budget` and `evaluate`, the
-//! simulator's `truth.json`). Where it does not exist yet (`overlap_*.json`), the struct here
-//! *is* the contract, documented field by field. `tpu_summary.json`, `calibration.json` and
-//! `calibration_iterations.json` are read with lidarqa-products' types, the ones their writers
-//! serialise, and `qc.json` and `iho.json` with lidarqa-io's.
 
 use serde::de::DeserializeOwned;
-use serde::{Deserialize, Serialize};
 
 /// `lidarqa budget --format json` of one geometry (SPEC §6).
 pub const BUDGET_FILE: &str = "budget.json";
@@ -21,9 +15,10 @@ pub const BUDGET_FILE: &str = "budget.json";
 pub const SWEEP_FILE_PREFIX: &str = "budget_sweep_";
 /// Per-point TPU summary of `lidarqa tpu` ([`TpuSummaryDocument`]).
 pub const TPU_SUMMARY_FILE: &str = "tpu_summary.json";
-/// `lidarqa evaluate --format json` before calibration (SPEC §6).
+/// `lidarqa evaluate --format json` before calibration (SPEC §6; [`EvaluateDocument`]).
 pub const EVALUATE_BEFORE_FILE: &str = "evaluate_before.json";
-/// `lidarqa evaluate --format json` after calibration and correction (SPEC §6).
+/// `lidarqa evaluate --format json` after calibration and correction (SPEC §6;
+/// [`EvaluateDocument`]).
 pub const EVALUATE_AFTER_FILE: &str = "evaluate_after.json";
 /// `lidarqa calibrate` output (SPEC §8).
 pub const CALIBRATION_FILE: &str = "calibration.json";
@@ -32,16 +27,16 @@ pub const CALIBRATION_FILE: &str = "calibration.json";
 pub const CALIBRATION_MOUNTING_ONLY_FILE: &str = "calibration_mounting_only.json";
 /// Per-iteration history of the calibration ([`CalibrationIterationsDocument`]).
 pub const CALIBRATION_ITERATIONS_FILE: &str = "calibration_iterations.json";
-/// The simulator's truth (`"mounting"` with SPEC §8 keys).
+/// The simulator's truth ([`Truth`]; `"mounting"` with SPEC §8 keys).
 pub const TRUTH_FILE: &str = "truth.json";
-/// `lidarqa overlap` before correction ([`Overlap`]).
+/// `lidarqa overlap` before correction ([`OverlapDocument`]).
 pub const OVERLAP_BEFORE_FILE: &str = "overlap_before.json";
 /// `lidarqa overlap` after a correction with the mounting alone, beside a strip-adjusted one
-/// (`overlap_after.json`) ([`Overlap`]).
+/// (`overlap_after.json`) ([`OverlapDocument`]).
 pub const OVERLAP_MOUNTING_ONLY_FILE: &str = "overlap_mounting_only.json";
 /// `lidarqa qc`'s product.
 pub const QC_FILE: &str = "qc.json";
-/// `lidarqa overlap` after correction ([`Overlap`]).
+/// `lidarqa overlap` after correction ([`OverlapDocument`]).
 pub const OVERLAP_AFTER_FILE: &str = "overlap_after.json";
 /// IHO S-44 statement of a bathymetric survey ([`Iho`]).
 pub const IHO_FILE: &str = "iho.json";
@@ -83,23 +78,6 @@ pub use lidarqa_products::{Id, Ordered};
 /// Per-axis values, metres (SPEC §3): lidarqa-model's one six-axis struct, as the products
 /// write it.
 pub use lidarqa_model::Axes as Components;
-
-/// Like [`Components`], every value optional (`evaluate`'s `predicted` may give only some).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct PartialComponents {
-    /// North, m.
-    pub north: Option<f64>,
-    /// East, m.
-    pub east: Option<f64>,
-    /// Up, m.
-    pub up: Option<f64>,
-    /// Horizontal, m.
-    pub horizontal: Option<f64>,
-    /// Vertical, m.
-    pub vertical: Option<f64>,
-    /// 3-D, m.
-    pub three_d: Option<f64>,
-}
 
 /// `budget.json` and `budget_sweep_*.json` (SPEC §6): lidarqa-products' types, the ones
 /// `lidarqa budget` serialises.
@@ -298,144 +276,28 @@ fn check_iho(iho: &SoundingsIho) -> std::result::Result<(), Invalid> {
 // ---------------------------------------------------------------------------------------------
 // evaluate_{before,after}.json (SPEC §6)
 
-/// North / east / up, metres.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct Neu {
-    /// North, m.
-    pub north: f64,
-    /// East, m.
-    pub east: f64,
-    /// Up, m.
-    pub up: f64,
-}
+/// `evaluate_before.json` / `evaluate_after.json`: lidarqa-products' types, the ones
+/// `lidarqa evaluate --format json` serialises.
+pub use lidarqa_products::{
+    Asprs, AsprsComponent, EvaluateDocument, Evaluation, Nssda, PointResidual, Position,
+};
 
-/// A projected position, m.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Xyz {
-    /// Easting, m.
-    pub x: f64,
-    /// Northing, m.
-    pub y: f64,
-    /// Height, m.
-    pub z: f64,
-}
-
-/// One checkpoint's residual (lidar − control).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ResidualPoint {
-    /// Target / checkpoint id.
-    pub id: Id,
-    /// Lidar − control, m.
-    pub residual: Neu,
-    /// The control position (needed for the plan view of residual vectors).
-    #[serde(default)]
-    pub control: Option<Xyz>,
-    /// The lidar position.
-    #[serde(default)]
-    pub lidar: Option<Xyz>,
-}
-
-/// One component of the ASPRS Ed. 2 assessment (every field optional).
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-pub struct AsprsComponent {
-    /// Product RMSE, m.
-    #[serde(default)]
-    pub rmse_m: Option<f64>,
-    /// Accuracy class tested against, m.
-    #[serde(default)]
-    pub class_m: Option<f64>,
-    /// Whether the class is met.
-    #[serde(default)]
-    pub meets_class: Option<bool>,
-}
-
-/// ASPRS Positional Accuracy Standards Ed. 2 assessment.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-pub struct Asprs {
-    /// Edition.
-    #[serde(default)]
-    pub edition: Option<String>,
-    /// Horizontal component.
-    #[serde(default)]
-    pub horizontal: Option<AsprsComponent>,
-    /// Vertical component.
-    #[serde(default)]
-    pub vertical: Option<AsprsComponent>,
-    /// The compliance statement.
-    #[serde(default)]
-    pub statement: Option<String>,
-    /// Limits of the assessment.
-    #[serde(default)]
-    pub warnings: Vec<String>,
-}
-
-/// NSSDA 95 % figures.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-pub struct Nssda {
-    /// Horizontal accuracy at 95 %, m.
-    #[serde(default)]
-    pub horizontal_95_m: Option<f64>,
-    /// Which NSSDA formula gave it.
-    #[serde(default)]
-    pub horizontal_method: Option<String>,
-    /// Vertical accuracy at 95 %, m.
-    #[serde(default)]
-    pub vertical_95_m: Option<f64>,
-    /// A statement, if the producer wrote one.
-    #[serde(default)]
-    pub statement: Option<String>,
-}
-
-/// `evaluate_before.json` / `evaluate_after.json`: `lidarqa evaluate --format json` (SPEC §6).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Evaluation {
-    /// Points compared.
-    pub n: u64,
-    /// RMSE, m.
-    pub rmse: Components,
-    /// Mean residual, m.
-    #[serde(default)]
-    pub mean: Option<Neu>,
-    /// Standard deviation of the residuals, m.
-    #[serde(default)]
-    pub std: Option<Neu>,
-    /// ASPRS Ed. 2 assessment.
-    #[serde(default)]
-    pub asprs: Option<Asprs>,
-    /// NSSDA figures.
-    #[serde(default)]
-    pub nssda: Option<Nssda>,
-    /// Predicted (TPU) σ of the points, m.
-    #[serde(default)]
-    pub predicted: Option<PartialComponents>,
-    /// The RMSE the targets should show by that prediction (the points' σ with each target's
-    /// and control point's σ added), m.
-    #[serde(default)]
-    pub predicted_at_targets: Option<PartialComponents>,
-    /// Per-point residuals.
-    #[serde(default)]
-    pub points: Vec<ResidualPoint>,
-}
-
-impl Evaluation {
-    /// What the measured RMSE at the targets is to be compared with: `predicted_at_targets`,
-    /// or the points' σ alone from products written before it existed.
-    #[must_use]
-    pub fn predicted_rmse(&self) -> Option<PartialComponents> {
-        self.predicted_at_targets.or(self.predicted)
-    }
-}
-
-impl Product for Evaluation {
+impl Product for EvaluateDocument {
     const WHAT: &'static str = "accuracy against control";
     fn validate(&self) -> std::result::Result<(), Invalid> {
-        let r = &self.rmse;
+        let Some(e) = &self.targets else {
+            return Err(invalid(
+                "n",
+                "no targets' evaluation (the report shows targets, not the NVA block alone)",
+            ));
+        };
+        let r = &e.rmse;
         for (k, v) in [("horizontal", r.horizontal), ("vertical", r.vertical)] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(invalid(format!("rmse.{k}"), format!("{v} is not an RMSE")));
             }
         }
-        for (i, p) in self.points.iter().enumerate() {
+        for (i, p) in e.points.iter().enumerate() {
             let r = &p.residual;
             if !(r.north.is_finite() && r.east.is_finite() && r.up.is_finite()) {
                 return Err(invalid(format!("points[{i}].residual"), "not finite"));
@@ -443,6 +305,20 @@ impl Product for Evaluation {
         }
         Ok(())
     }
+}
+
+/// Reads an `evaluate_*.json` ([`crate::read_product`]) and returns the targets' evaluation.
+///
+/// # Errors
+/// As [`crate::read_product`]; a file without the targets' evaluation is invalid.
+pub fn read_evaluation(path: impl AsRef<std::path::Path>) -> crate::Result<Evaluation> {
+    let path = path.as_ref();
+    let doc: EvaluateDocument = crate::read_product(path)?;
+    doc.targets.ok_or_else(|| crate::Error::Invalid {
+        path: path.to_path_buf(),
+        key: "n".into(),
+        message: "no targets' evaluation".into(),
+    })
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -496,114 +372,42 @@ impl Product for CalibrationIterationsDocument {
     }
 }
 
-/// `truth.json` of the simulator: only the true mounting is read.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Truth {
-    /// True mounting, SPEC §8 keys.
-    pub mounting: Ordered<f64>,
-}
+/// `truth.json` of the simulator: lidarqa-products' document, the one the simulator writes,
+/// with the scene taken as it stands (the report does not read it).
+pub type Truth = lidarqa_products::TruthDocument<serde_json::Value>;
+
+pub use lidarqa_products::MountingParameters;
 
 impl Product for Truth {
     const WHAT: &'static str = "simulation truth";
 }
 
 // ---------------------------------------------------------------------------------------------
-// overlap_{before,after}.json (defined here)
+// overlap_{before,after}.json
 
-/// Height differences between one pair of overlapping strips.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct OverlapPair {
-    /// The two strip ids.
-    pub strips: [Id; 2],
-    /// RMS of dz over the overlap, m.
-    pub rmsdz_m: f64,
-    /// Largest |dz|, m.
-    pub max_abs_dz_m: f64,
-    /// Cells / points compared.
-    pub n: u64,
-    /// `false` for a pair of fewer cells than `lidarqa overlap --min-cells`: listed, but left out
-    /// of the overall RMS and the worst pair; absent in older files (taken as meaningful).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub meaningful: Option<bool>,
-}
+/// `overlap_*.json`: lidarqa-products' types, the ones `lidarqa overlap -o` serialises.
+pub use lidarqa_products::{
+    OverlapDocument, OverlapGrid, OverlapPair, OverlapProfile, OverlapProfileStrip,
+};
 
-impl OverlapPair {
-    /// Whether the pair counts (module docs of `meaningful`).
-    pub fn counts(&self) -> bool {
-        self.meaningful != Some(false)
-    }
-}
-
-/// `grid` of [`Overlap`]: mean dz (strip minus strip, m) per cell; null outside the overlaps.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct DzGrid {
-    /// The grid.
-    #[serde(flatten)]
-    pub geometry: GridGeometry,
-    /// dz per cell, m, row-major (see [`GridGeometry`]); null where no strips overlap.
-    pub dz_m: Vec<Option<f64>>,
-}
-
-/// One strip along a profile.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ProfileStrip {
-    /// Strip id.
-    pub id: Id,
-    /// Height at each `distance_m`, m; null where the strip has no points.
-    pub z_m: Vec<Option<f64>>,
-}
-
-/// A height profile across overlapping strips (Zhang & Jiang 2011, Fig. 10).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Profile {
-    /// Distance along the profile, m.
-    pub distance_m: Vec<f64>,
-    /// One entry per strip.
-    pub strips: Vec<ProfileStrip>,
-}
-
-/// `overlap_before.json` / `overlap_after.json`: swath-to-swath consistency (`lidarqa overlap`).
-///
-/// ```json
-/// {"pairs": [{"strips": [1, 2], "rmsdz_m": 0.08, "max_abs_dz_m": 0.31, "n": 5120}],
-///  "grid": {"cell_m": 2.0, "origin_x": 500000.0, "origin_y": 4000000.0, "nx": 2, "ny": 1,
-///           "dz_m": [0.05, null]},
-///  "profile": {"distance_m": [0.0, 1.0], "strips": [{"id": 1, "z_m": [101.2, 101.3]}]}}
-/// ```
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Overlap {
-    /// Per strip pair.
-    #[serde(default)]
-    pub pairs: Vec<OverlapPair>,
-    /// Map of dz.
-    #[serde(default)]
-    pub grid: Option<DzGrid>,
-    /// A profile across the strips.
-    #[serde(default)]
-    pub profile: Option<Profile>,
-}
-
-impl Product for Overlap {
+impl Product for OverlapDocument {
     const WHAT: &'static str = "strip-to-strip height differences";
     fn validate(&self) -> std::result::Result<(), Invalid> {
-        if let Some(g) = &self.grid {
-            check_grid(&g.geometry, "grid", g.dz_m.len())?;
+        check_grid(&self.grid.geometry(), "grid", self.grid.dz_m.len())?;
+        let p = &self.profile;
+        if !p.distance_m.iter().all(|d| d.is_finite()) {
+            return Err(invalid("profile.distance_m", "not finite"));
         }
-        if let Some(p) = &self.profile {
-            if !p.distance_m.iter().all(|d| d.is_finite()) {
-                return Err(invalid("profile.distance_m", "not finite"));
-            }
-            for (i, s) in p.strips.iter().enumerate() {
-                if s.z_m.len() != p.distance_m.len() {
-                    return Err(invalid(
-                        format!("profile.strips[{i}].z_m"),
-                        format!(
-                            "{} heights for {} distances",
-                            s.z_m.len(),
-                            p.distance_m.len()
-                        ),
-                    ));
-                }
+        for (i, s) in p.strips.iter().enumerate() {
+            if s.z_m.len() != p.distance_m.len() {
+                return Err(invalid(
+                    format!("profile.strips[{i}].z_m"),
+                    format!(
+                        "{} heights for {} distances",
+                        s.z_m.len(),
+                        p.distance_m.len()
+                    ),
+                ));
             }
         }
         Ok(())

@@ -27,12 +27,12 @@ pub struct Products {
     /// `truth.json`.
     pub truth: Option<Truth>,
     /// `overlap_before.json`.
-    pub overlap_before: Option<Overlap>,
+    pub overlap_before: Option<OverlapDocument>,
     /// `overlap_after.json`.
-    pub overlap_after: Option<Overlap>,
+    pub overlap_after: Option<OverlapDocument>,
     /// `overlap_mounting_only.json`: after a mounting-only correction, when `overlap_after.json`
     /// is of a strip-adjusted one.
-    pub overlap_mounting_only: Option<Overlap>,
+    pub overlap_mounting_only: Option<OverlapDocument>,
     /// `iho.json`.
     pub iho: Option<Iho>,
     /// `qc.json` (`lidarqa qc`).
@@ -209,8 +209,12 @@ impl Report {
             }
         }
         p.tpu = load(dir, TPU_SUMMARY_FILE, &mut skipped, &mut read);
-        p.evaluate_before = load(dir, EVALUATE_BEFORE_FILE, &mut skipped, &mut read);
-        p.evaluate_after = load(dir, EVALUATE_AFTER_FILE, &mut skipped, &mut read);
+        p.evaluate_before =
+            load::<EvaluateDocument>(dir, EVALUATE_BEFORE_FILE, &mut skipped, &mut read)
+                .and_then(|d| d.targets);
+        p.evaluate_after =
+            load::<EvaluateDocument>(dir, EVALUATE_AFTER_FILE, &mut skipped, &mut read)
+                .and_then(|d| d.targets);
         p.calibration = load(dir, CALIBRATION_FILE, &mut skipped, &mut read);
         p.calibration_iterations = load(dir, CALIBRATION_ITERATIONS_FILE, &mut skipped, &mut read);
         p.truth = load(dir, TRUTH_FILE, &mut skipped, &mut read);

@@ -30,11 +30,11 @@ pub(crate) fn verdict(p: &Products) -> Option<String> {
     }
     let mut statements = Vec::new();
     if let Some(e) = last {
-        if let Some(s) = e.asprs.as_ref().and_then(|a| a.statement.as_ref()) {
-            statements.push(format!("<strong>ASPRS</strong>: {}", esc(s)));
-        }
-        if let Some(s) = e.nssda.as_ref().and_then(|n| n.statement.as_ref()) {
-            statements.push(format!("<strong>NSSDA</strong>: {}", esc(s)));
+        if !e.asprs.statement.is_empty() {
+            statements.push(format!(
+                "<strong>ASPRS</strong>: {}",
+                esc(&e.asprs.statement)
+            ));
         }
     }
     if let Some(iho) = p.tpu.as_ref().and_then(|t| t.iho_s44.as_ref())
@@ -115,11 +115,11 @@ fn accuracy_table(p: &Products, last: &Evaluation, o: &mut String) {
         ("horizontal (radial, Zhang et al. 2018, eq. 7)", |e| {
             (
                 e.rmse.horizontal,
-                e.predicted_rmse().and_then(|p| p.horizontal),
+                e.predicted_at_targets.map(|p| p.horizontal),
             )
         }),
         ("vertical (Zhang et al. 2018, eq. 8)", |e| {
-            (e.rmse.vertical, e.predicted_rmse().and_then(|p| p.vertical))
+            (e.rmse.vertical, e.predicted_at_targets.map(|p| p.vertical))
         }),
     ];
     for (name, get) in rows {

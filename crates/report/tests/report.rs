@@ -160,8 +160,9 @@ fn evaluate_json(scale: f64) -> Value {
         .map(|(id, x, y, de, dn, du)| {
             let (de, dn, du) = (de * scale, dn * scale, du * scale);
             json!({"id": id, "residual": {"north": dn, "east": de, "up": du},
-                   "control": {"x": x, "y": y, "z": 100.0},
-                   "lidar": {"x": x + de, "y": y + dn, "z": 100.0 + du}})
+                   "horizontal": dn.hypot(de), "three_d": dn.hypot(de).hypot(du),
+                   "lidar": {"x": x + de, "y": y + dn, "z": 100.0 + du},
+                   "control": {"x": x, "y": y, "z": 100.0}})
         })
         .collect();
     let rmse = |f: &dyn Fn(&Target) -> f64| {
@@ -169,20 +170,31 @@ fn evaluate_json(scale: f64) -> Value {
     };
     let (n, e, u) = (rmse(&|t| t.4), rmse(&|t| t.3), rmse(&|t| t.5));
     let h = n.hypot(e);
+    let asprs_component = |rmse: f64, class: f64| {
+        json!({"measured_rmse_m": rmse, "checkpoint_rmse_m": null, "checkpoints_without_sigma": 5,
+               "rmse_m": rmse, "class_m": class, "meets_class": rmse <= class,
+               "mean_error_m": 0.0, "mean_error_limit_m": 0.25 * class, "mean_error_ok": true})
+    };
+    let predicted = json!({"north": 0.0523, "east": 0.0523, "up": 0.1004,
+                           "horizontal": 0.0740, "vertical": 0.1004, "three_d": 0.1248});
     json!({
         "n": targets.len(),
         "rmse": {"north": n, "east": e, "up": u, "horizontal": h, "vertical": u, "three_d": h.hypot(u)},
         "mean": {"north": 0.0, "east": 0.0, "up": 0.0},
         "std": {"north": n, "east": e, "up": u},
         "max_abs": {"north": 0.167, "east": 0.138, "up": 0.08, "horizontal": 0.2166, "vertical": 0.08, "three_d": 0.23},
-        "asprs": {"edition": "2 (2023)", "n_checkpoints": 5, "statement": format!("This data set was tested to meet ASPRS Positional Accuracy Standards for Digital Geospatial Data, Edition 2 (2023) for a {:.1} cm RMSE_H horizontal positional accuracy class.", h * 100.0),
-                  "horizontal": {"rmse_m": h, "class_m": 0.15, "meets_class": h <= 0.15},
-                  "vertical": {"rmse_m": u, "class_m": 0.10, "meets_class": u <= 0.10},
+        "asprs": {"edition": "2 (2023)", "n_checkpoints": 5, "min_checkpoints": 30, "sufficient_checkpoints": false,
+                  "horizontal": asprs_component(h, 0.15),
+                  "vertical": asprs_component(u, 0.10),
+                  "rmse_3d_m": h.hypot(u),
+                  "statement": format!("This data set was tested to meet ASPRS Positional Accuracy Standards for Digital Geospatial Data, Edition 2 (2023) for a {:.1} cm RMSE_H horizontal positional accuracy class.", h * 100.0),
                   "warnings": ["5 checkpoints, fewer than the 30 ASPRS requires for a product accuracy assessment"]},
-        "nssda": {"horizontal_95_m": 1.7308 * h, "horizontal_method": "1.7308 × RMSE_r", "vertical_95_m": 1.96 * u},
-        "predicted": {"horizontal": 0.0740, "vertical": 0.1004, "three_d": 0.1248},
+        "nssda": {"horizontal_95_m": 1.7308 * h, "horizontal_method": "1.7308 × RMSE_r", "rmse_ratio": n.min(e) / n.max(e), "vertical_95_m": 1.96 * u},
+        "predicted": predicted,
+        "predicted_at_targets": predicted,
         "points": points,
-        "unmatched_targets": [], "missing_control": []
+        "unmatched_targets": [], "missing_control": [],
+        "warnings": []
     })
 }
 
@@ -252,14 +264,26 @@ fn overlap_json(scale: f64) -> Value {
             .collect()
     };
     json!({
-        "pairs": [{"strips": [1, 2], "rmsdz_m": 0.09 * scale, "max_abs_dz_m": 0.3 * scale, "n": 5000},
-                  {"strips": [2, 3], "rmsdz_m": 0.07 * scale, "max_abs_dz_m": 0.25 * scale, "n": 4200}],
+        "pairs": [{"strips": [1, 2], "rmsdz_m": 0.09 * scale, "max_abs_dz_m": 0.3 * scale, "mean_dz_m": 0.01 * scale, "n": 5000, "meaningful": true},
+                  {"strips": [2, 3], "rmsdz_m": 0.07 * scale, "max_abs_dz_m": 0.25 * scale, "mean_dz_m": -0.01 * scale, "n": 4200, "meaningful": true}],
         "grid": {"cell_m": 5.0, "origin_x": 500000.0, "origin_y": 4100000.0, "nx": nx, "ny": ny, "dz_m": dz},
-        "profile": {"distance_m": distance, "strips": [
+        "profile": {"line": [[500000.0, 4100050.0], [500030.0, 4100050.0]], "distance_m": distance, "strips": [
             {"id": 1, "z_m": strip(0.0, 0.0)},
             {"id": 2, "z_m": strip(0.12 * scale, 0.8 * scale)},
             {"id": 3, "z_m": strip(-0.1 * scale, -0.6 * scale)}]}
     })
+}
+
+fn truth_json() -> Value {
+    let zero = json!({"lever_x_m": 0.0, "lever_y_m": 0.0, "lever_z_m": 0.0,
+                      "boresight_roll_deg": 0.0, "boresight_pitch_deg": 0.0, "boresight_yaw_deg": 0.0});
+    let mounting = json!({"lever_x_m": 0.1, "lever_y_m": -0.05, "lever_z_m": 0.02,
+                          "boresight_roll_deg": 0.05, "boresight_pitch_deg": -0.03, "boresight_yaw_deg": 0.08});
+    json!({"scenario": "demo", "seed": 1, "epsg": 32611, "gps_week": 2200, "origin_m": [500000.0, 4100000.0],
+           "mounting": mounting, "nominal_mounting": zero,
+           "injected": {"mounting": mounting, "random_mounting": zero, "range_offset_m": 0.0, "scan_angle_scale_ppm": 0.0},
+           "random": {"enabled": false, "gnss_correlation_time_s": 1800.0, "attitude_correlation_time_s": 20.0, "sigma": {}},
+           "targets": [], "strips": [], "scene": {}})
 }
 
 fn iho_json() -> Value {
@@ -332,12 +356,7 @@ fn full_dir() -> tempfile::TempDir {
     write(d, EVALUATE_AFTER_FILE, &evaluate_json(0.3));
     write(d, CALIBRATION_FILE, &calibration_json());
     write(d, CALIBRATION_ITERATIONS_FILE, &iterations_json());
-    write(
-        d,
-        TRUTH_FILE,
-        &json!({"scenario": "demo", "seed": 1, "mounting": {"lever_x_m": 0.1, "lever_y_m": -0.05, "lever_z_m": 0.02,
-                 "boresight_roll_deg": 0.05, "boresight_pitch_deg": -0.03, "boresight_yaw_deg": 0.08}}),
-    );
+    write(d, TRUTH_FILE, &truth_json());
     write(d, OVERLAP_BEFORE_FILE, &overlap_json(1.0));
     write(d, OVERLAP_AFTER_FILE, &overlap_json(0.2));
     write(d, IHO_FILE, &iho_json());
@@ -648,7 +667,7 @@ fn degenerate_products_do_not_panic() {
         d,
         OVERLAP_AFTER_FILE,
         &json!({"pairs": [], "grid": {"cell_m": 1.0, "origin_x": 0.0, "origin_y": 0.0, "nx": 1, "ny": 1, "dz_m": [0.0]},
-        "profile": {"distance_m": [], "strips": []}}),
+        "profile": {"line": [[0.0, 0.0], [1.0, 0.0]], "distance_m": [], "strips": []}}),
     );
     write(
         d,

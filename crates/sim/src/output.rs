@@ -3,7 +3,16 @@
 use crate::scenario::SceneFile;
 use lidarqa_model::{BeamObservation, ConicObservation, LinearObservation, Mounting};
 use serde::Serialize;
-use std::collections::BTreeMap;
+
+/// The truth's blocks are lidarqa-products', the types `truth.json` is read with.
+pub use lidarqa_products::{
+    InjectedErrors, LineErrorTruth, MountingParameters, NorthEastUp as Neu, RandomErrors,
+    RollPitchHeading, StripTruth, TargetTruth,
+};
+
+/// Everything a test or a calibration score needs to know (`truth.json`): lidarqa-products'
+/// document with the scenario's scene.
+pub type Truth = lidarqa_products::TruthDocument<SceneFile>;
 
 /// One simulated LiDAR point, as it goes into a LAS file.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -153,178 +162,6 @@ pub struct Strip {
     pub true_trajectory: Vec<TrajectoryRecord>,
     /// Number of pulses fired.
     pub pulses: u64,
-}
-
-/// Mounting parameters with exactly the keys of SPEC §8 `"parameters"`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct MountingParameters {
-    /// Lever arm, body X, m.
-    pub lever_x_m: f64,
-    /// Lever arm, body Y, m.
-    pub lever_y_m: f64,
-    /// Lever arm, body Z, m.
-    pub lever_z_m: f64,
-    /// Boresight roll, degrees.
-    pub boresight_roll_deg: f64,
-    /// Boresight pitch, degrees.
-    pub boresight_pitch_deg: f64,
-    /// Boresight yaw, degrees.
-    pub boresight_yaw_deg: f64,
-}
-
-impl From<&Mounting> for MountingParameters {
-    fn from(m: &Mounting) -> Self {
-        MountingParameters {
-            lever_x_m: m.lever_arm_m.x,
-            lever_y_m: m.lever_arm_m.y,
-            lever_z_m: m.lever_arm_m.z,
-            boresight_roll_deg: m.boresight_roll_rad.to_degrees(),
-            boresight_pitch_deg: m.boresight_pitch_rad.to_degrees(),
-            boresight_yaw_deg: m.boresight_yaw_rad.to_degrees(),
-        }
-    }
-}
-
-/// Injected systematic errors.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct InjectedErrors {
-    /// Mounting error injected by the scenario (true − nominal without the random draw).
-    pub mounting: MountingParameters,
-    /// Mounting error drawn from the sensor's σ (`random_mounting`), zero otherwise.
-    pub random_mounting: MountingParameters,
-    /// Range offset, m.
-    pub range_offset_m: f64,
-    /// Scan-angle scale error, ppm.
-    pub scan_angle_scale_ppm: f64,
-}
-
-/// Random error settings.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct RandomErrors {
-    /// Whether random errors were drawn.
-    pub enabled: bool,
-    /// GNSS Gauss–Markov correlation time, s.
-    pub gnss_correlation_time_s: f64,
-    /// Attitude Gauss–Markov correlation time, s.
-    pub attitude_correlation_time_s: f64,
-    /// The sensor's σ by `[sigma]` key (config units: m, degrees, ns).
-    pub sigma: BTreeMap<String, f64>,
-}
-
-/// A target's true centre.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct TargetTruth {
-    /// Target id.
-    pub id: String,
-    /// Easting of the plate centre, m.
-    pub easting_m: f64,
-    /// Northing, m.
-    pub northing_m: f64,
-    /// Ellipsoidal height of the plate, m.
-    pub height_m: f64,
-    /// Radius, m.
-    pub radius_m: f64,
-}
-
-/// Summary of one strip in the truth file.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct StripTruth {
-    /// Strip id.
-    pub id: u16,
-    /// Pulses fired.
-    pub pulses: u64,
-    /// Points written.
-    pub points: u64,
-    /// GPS seconds of week of the first and last trajectory record, s.
-    pub time_span_s: [f64; 2],
-    /// Ellipsoidal flying height, m.
-    pub height_m: f64,
-    /// The line's own trajectory error (`[errors] line_*`), when the scenario draws one.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub trajectory_error: Option<LineErrorTruth>,
-}
-
-/// One line's own trajectory error as drawn (`truth.json` `strips[].trajectory_error`): the
-/// measured trajectory is the true one plus this (and the Gauss–Markov errors).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct LineErrorTruth {
-    /// The line's nominal first time, GPS seconds of week.
-    pub start_time_s: f64,
-    /// The line's nominal last time; the drift is linear in time, zero at the middle.
-    pub end_time_s: f64,
-    /// GNSS position error at the line's middle, m.
-    pub offset_m: Neu,
-    /// Change of the GNSS position error from the middle to the end, m.
-    pub drift_m: Neu,
-    /// Attitude error, degrees.
-    pub attitude_deg: RollPitchHeading,
-}
-
-/// North, east, up.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Neu {
-    /// North.
-    pub north: f64,
-    /// East.
-    pub east: f64,
-    /// Up.
-    pub up: f64,
-}
-
-impl From<[f64; 3]> for Neu {
-    fn from([north, east, up]: [f64; 3]) -> Self {
-        Neu { north, east, up }
-    }
-}
-
-/// Roll, pitch, heading.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct RollPitchHeading {
-    /// Roll.
-    pub roll: f64,
-    /// Pitch.
-    pub pitch: f64,
-    /// Heading.
-    pub heading: f64,
-}
-
-impl From<[f64; 3]> for RollPitchHeading {
-    fn from([roll, pitch, heading]: [f64; 3]) -> Self {
-        RollPitchHeading {
-            roll,
-            pitch,
-            heading,
-        }
-    }
-}
-
-/// Everything a test or a calibration score needs to know (`truth.json`).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Truth {
-    /// Scenario name.
-    pub scenario: String,
-    /// Seed.
-    pub seed: u64,
-    /// EPSG code of the coordinates.
-    pub epsg: u32,
-    /// GPS week.
-    pub gps_week: u32,
-    /// Local origin (easting, northing), m.
-    pub origin_m: [f64; 2],
-    /// The TRUE mounting (nominal + injected + random draw), SPEC §8 keys.
-    pub mounting: MountingParameters,
-    /// The nominal mounting of the sensor file, SPEC §8 keys.
-    pub nominal_mounting: MountingParameters,
-    /// Injected systematic errors.
-    pub injected: InjectedErrors,
-    /// Random error settings.
-    pub random: RandomErrors,
-    /// True target centres.
-    pub targets: Vec<TargetTruth>,
-    /// Strips.
-    pub strips: Vec<StripTruth>,
-    /// The scene description (as in the scenario).
-    pub scene: SceneFile,
 }
 
 /// A simulated survey.

@@ -60,6 +60,16 @@ use crate::extract::{TargetResult, validate_control};
 use crate::{Error, FrameSide, Result};
 use lidarqa_model::ControlPoint;
 
+/// Per-axis and combined values (m), SPEC §3: lidarqa-model's one six-axis struct
+/// ([`lidarqa_model::Axes`]; signed components via [`lidarqa_model::Axes::from_components`]).
+pub use lidarqa_model::Axes as Components;
+/// The evaluation's types are lidarqa-products', the ones `lidarqa evaluate --format json`
+/// writes and the report reads; per-axis values north (= y), east (= x), up (= z), m.
+pub use lidarqa_products::{
+    Asprs, AsprsComponent, Evaluation, NorthEastUp as Axes, Nssda, PointResidual, Position,
+    VerticalEvaluation, VerticalResidual,
+};
+
 /// Minimum number of checkpoints for an ASPRS Ed. 2 product accuracy assessment.
 pub const ASPRS_MIN_CHECKPOINTS: usize = 30;
 /// NSSDA factor: 95 % circular error = 1.7308 × RMSE_r (RMSE_x = RMSE_y).
@@ -121,61 +131,6 @@ impl From<&TargetResult> for MeasuredPoint {
     }
 }
 
-/// Per-axis values (m): north (= y), east (= x), up (= z).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
-pub struct Axes {
-    /// North component (m).
-    pub north: f64,
-    /// East component (m).
-    pub east: f64,
-    /// Up component (m).
-    pub up: f64,
-}
-
-/// Per-axis and combined values (m), SPEC §3: lidarqa-model's one six-axis struct
-/// ([`lidarqa_model::Axes`]; signed components via [`lidarqa_model::Axes::from_components`]).
-pub use lidarqa_model::Axes as Components;
-
-/// A position (projected m).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Position {
-    /// Easting (m).
-    pub x: f64,
-    /// Northing (m).
-    pub y: f64,
-    /// Height (m).
-    pub z: f64,
-}
-
-/// One point's residual.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct PointResidual {
-    /// The id.
-    pub id: String,
-    /// Lidar − control (m).
-    pub residual: Axes,
-    /// √(north² + east²) of the residual (m).
-    pub horizontal: f64,
-    /// √(north² + east² + up²) of the residual (m).
-    pub three_d: f64,
-    /// The measured (lidar) position.
-    pub lidar: Position,
-    /// The control position.
-    pub control: Position,
-    /// The measured point's own 1σ, horizontal and vertical (m; a target's extraction σ).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub lidar_sigma_h_m: Option<f64>,
-    /// See `lidar_sigma_h_m`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub lidar_sigma_v_m: Option<f64>,
-    /// The control point's survey 1σ, horizontal and vertical (m), from the control file.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub control_sigma_h_m: Option<f64>,
-    /// See `control_sigma_h_m`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub control_sigma_v_m: Option<f64>,
-}
-
 /// Options of [`evaluate`] and [`evaluate_vertical_tin`].
 #[derive(Debug, Clone, PartialEq, Serialize, Default)]
 pub struct EvaluateOptions {
@@ -183,121 +138,6 @@ pub struct EvaluateOptions {
     pub horizontal_class_m: Option<f64>,
     /// ASPRS vertical accuracy class to test against: its RMSE_V (m). `None`: report only.
     pub vertical_class_m: Option<f64>,
-}
-
-/// One component (horizontal or vertical) of the ASPRS Ed. 2 assessment.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct AsprsComponent {
-    /// RMSE of the lidar against the checkpoints (m).
-    pub measured_rmse_m: f64,
-    /// √(mean σ²) of the checkpoints' own survey accuracy (m), over those that give one; `None`
-    /// when none does.
-    pub checkpoint_rmse_m: Option<f64>,
-    /// Checkpoints without a σ for this component.
-    pub checkpoints_without_sigma: usize,
-    /// Product RMSE = √(measured² + checkpoint²) (m).
-    pub rmse_m: f64,
-    /// The accuracy class tested against (its RMSE, m), if any.
-    pub class_m: Option<f64>,
-    /// Whether `rmse_m` ≤ `class_m`.
-    pub meets_class: Option<bool>,
-    /// Mean error (m): |mean up| or the length of the mean horizontal vector.
-    pub mean_error_m: f64,
-    /// 25 % of the class RMSE, or of `rmse_m` when no class is given (m).
-    pub mean_error_limit_m: f64,
-    /// Whether `mean_error_m` ≤ `mean_error_limit_m`.
-    pub mean_error_ok: bool,
-}
-
-/// ASPRS Positional Accuracy Standards, Edition 2 (2023) assessment.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Asprs {
-    /// `"2 (2023)"`.
-    pub edition: &'static str,
-    /// Checkpoints used.
-    pub n_checkpoints: usize,
-    /// 30.
-    pub min_checkpoints: usize,
-    /// `n_checkpoints ≥ 30`.
-    pub sufficient_checkpoints: bool,
-    /// Horizontal component (`None` for vertical-only checkpoints).
-    pub horizontal: Option<AsprsComponent>,
-    /// Vertical component.
-    pub vertical: AsprsComponent,
-    /// RMSE_3D = √(RMSE_H² + RMSE_V²) with checkpoint accuracy included (m); `None` without
-    /// a horizontal component.
-    pub rmse_3d_m: Option<f64>,
-    /// The compliance statement.
-    pub statement: String,
-    /// Everything that limits the assessment (few checkpoints, missing σ, mean error).
-    pub warnings: Vec<String>,
-}
-
-/// NSSDA 95 % accuracy figures.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Nssda {
-    /// Horizontal accuracy at 95 % (m); `None` for vertical-only checkpoints.
-    pub horizontal_95_m: Option<f64>,
-    /// Which formula gave it.
-    pub horizontal_method: Option<&'static str>,
-    /// RMSE_min / RMSE_max of the two horizontal axes.
-    pub rmse_ratio: Option<f64>,
-    /// Vertical accuracy at 95 % = 1.9600 × RMSE_z (m).
-    pub vertical_95_m: f64,
-}
-
-/// The result of [`evaluate`]; field names are SPEC §6's `evaluate` JSON.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Evaluation {
-    /// Points compared.
-    pub n: usize,
-    /// RMSE (m); `horizontal` is Zhang et al. (2018) formula (7), `vertical` formula (8).
-    pub rmse: Components,
-    /// Mean residual (m).
-    pub mean: Axes,
-    /// Sample standard deviation of the residuals (m).
-    pub std: Axes,
-    /// Largest |residual| per axis, and the largest horizontal / 3-D residual (m).
-    pub max_abs: Components,
-    /// ASPRS Ed. 2 assessment.
-    pub asprs: Asprs,
-    /// NSSDA 95 % figures.
-    pub nssda: Nssda,
-    /// The predicted (TPU) σ of the points, set by [`Evaluation::set_predicted`]; `None` here.
-    pub predicted: Option<Components>,
-    /// The RMSE the targets should show by that prediction: the points' σ with each target's
-    /// own σ and its control point's σ added (module docs); set with `predicted`.
-    pub predicted_at_targets: Option<Components>,
-    /// Per-point residuals, in the order of the measured points.
-    pub points: Vec<PointResidual>,
-    /// Measured ids with no control point.
-    pub unmatched_targets: Vec<String>,
-    /// Control ids with no measured point.
-    pub missing_control: Vec<String>,
-}
-
-impl Evaluation {
-    /// Sets the points' predicted σ and, from it, `predicted_at_targets`: per component
-    /// √(σ_TPU² + mean over the points of (own σ² + control σ²)), an unknown σ counting as 0
-    /// (module docs). The horizontal share is split equally between north and east.
-    pub fn set_predicted(&mut self, points_sigma: Components) {
-        let n = self.points.len().max(1) as f64;
-        let mean_sq = |f: fn(&PointResidual) -> [Option<f64>; 2]| {
-            self.points
-                .iter()
-                .map(|p| f(p).iter().flatten().map(|s| s * s).sum::<f64>())
-                .sum::<f64>()
-                / n
-        };
-        let h = mean_sq(|p| [p.lidar_sigma_h_m, p.control_sigma_h_m]);
-        let v = mean_sq(|p| [p.lidar_sigma_v_m, p.control_sigma_v_m]);
-        self.predicted = Some(points_sigma);
-        self.predicted_at_targets = Some(Components::from_components(
-            (points_sigma.north.powi(2) + h / 2.0).sqrt(),
-            (points_sigma.east.powi(2) + h / 2.0).sqrt(),
-            (points_sigma.up.powi(2) + v).sqrt(),
-        ));
-    }
 }
 
 fn rms(v: impl Iterator<Item = f64>) -> f64 {
@@ -510,7 +350,7 @@ fn asprs(n: usize, horizontal: Option<AsprsComponent>, vertical: AsprsComponent)
         ));
     }
     Asprs {
-        edition: "2 (2023)",
+        edition: "2 (2023)".into(),
         n_checkpoints: n,
         min_checkpoints: ASPRS_MIN_CHECKPOINTS,
         sufficient_checkpoints: sufficient,
@@ -703,7 +543,7 @@ pub fn evaluate(
     let (lo, hi) = (rmse.east.min(rmse.north), rmse.east.max(rmse.north));
     let nssda = Nssda {
         horizontal_95_m: Some(h95),
-        horizontal_method: Some(method),
+        horizontal_method: Some(method.into()),
         rmse_ratio: Some(if hi > 0.0 { lo / hi } else { 1.0 }),
         vertical_95_m: nssda_vertical(rmse.vertical),
     };
@@ -729,46 +569,6 @@ pub fn evaluate(
         unmatched_targets,
         missing_control,
     })
-}
-
-/// One vertical checkpoint against the TIN.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct VerticalResidual {
-    /// Checkpoint id.
-    pub id: String,
-    /// Checkpoint easting (m).
-    pub x: f64,
-    /// Checkpoint northing (m).
-    pub y: f64,
-    /// Surveyed height (m).
-    pub control_z: f64,
-    /// TIN height at (x, y) (m).
-    pub tin_z: f64,
-    /// TIN − control (m).
-    pub up: f64,
-}
-
-/// The result of [`evaluate_vertical_tin`] (NVA).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct VerticalEvaluation {
-    /// Checkpoints inside the TIN.
-    pub n: usize,
-    /// RMSE of the up residuals (m).
-    pub rmse_v_m: f64,
-    /// Mean up residual (m).
-    pub mean_up_m: f64,
-    /// Sample standard deviation of the up residuals (m).
-    pub std_up_m: f64,
-    /// Largest |up residual| (m).
-    pub max_abs_up_m: f64,
-    /// ASPRS Ed. 2 (vertical only).
-    pub asprs: Asprs,
-    /// NSSDA (vertical only).
-    pub nssda: Nssda,
-    /// Per-checkpoint residuals.
-    pub points: Vec<VerticalResidual>,
-    /// Checkpoints outside the TIN's convex hull (not evaluated).
-    pub outside_tin: Vec<String>,
 }
 
 #[derive(Clone, Copy)]

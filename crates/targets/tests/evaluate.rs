@@ -83,7 +83,7 @@ fn zhang_2018_table2() {
     );
     // NSSDA: ratio 11.23/13.50 = 0.83 ⇒ 2.4477 × 0.5 × (11.226 + 13.500) = 30.26 cm.
     assert_eq!(
-        e.nssda.horizontal_method,
+        e.nssda.horizontal_method.as_deref(),
         Some("2.4477 × 0.5 × (RMSE_x + RMSE_y)")
     );
     assert!((e.nssda.horizontal_95_m.unwrap() - 2.4477 * 0.5 * (0.112_26 + 0.135)).abs() < 1e-5);

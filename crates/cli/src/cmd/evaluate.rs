@@ -5,8 +5,8 @@ use crate::format::{OutputFormat, axes_cm, cm, print_json, print_text};
 use anyhow::{Result, bail};
 use clap::Args;
 use lidarqa_pipeline::{evaluate_nva, evaluate_target_files, predicted_from_sensor};
+use lidarqa_products::EvaluateDocument;
 use lidarqa_targets::{Components, EvaluateOptions, Evaluation, VerticalEvaluation};
-use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -74,16 +74,6 @@ pub struct EvaluateArgs {
     format: OutputFormat,
 }
 
-/// What `lidarqa evaluate --format json` prints: the targets' evaluation (SPEC §6), with the
-/// NVA block beside it when --ground is given.
-#[derive(Serialize)]
-struct Output {
-    #[serde(flatten)]
-    targets: Option<Evaluation>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    nva: Option<VerticalEvaluation>,
-}
-
 /// Run `lidarqa evaluate`.
 pub fn run(args: EvaluateArgs) -> Result<()> {
     let options = EvaluateOptions {
@@ -111,7 +101,11 @@ pub fn run(args: EvaluateArgs) -> Result<()> {
         None => None,
     };
     match args.format {
-        OutputFormat::Json => print_json(&Output { targets, nva }),
+        OutputFormat::Json => print_json(&EvaluateDocument {
+            targets,
+            nva,
+            warnings: Vec::new(),
+        }),
         OutputFormat::Table => {
             let mut text = String::new();
             if let Some(e) = &targets {

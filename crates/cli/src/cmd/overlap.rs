@@ -79,7 +79,7 @@ pub fn run(a: OverlapArgs) -> Result<()> {
         },
     )?;
     print_warnings(&lines.warnings);
-    let doc = report.to_json();
+    let doc = report.to_document();
     if let Some(out) = &a.output {
         let mut f = AtomicFile::create(out, &a.strips)?;
         serde_json::to_writer(&mut f, &doc)?;
@@ -89,7 +89,7 @@ pub fn run(a: OverlapArgs) -> Result<()> {
     match a.format {
         OutputFormat::Json => {
             let mut out = std::io::stdout().lock();
-            serde_json::to_writer_pretty(&mut out, &serde_json::json!({"pairs": doc["pairs"]}))?;
+            serde_json::to_writer_pretty(&mut out, &serde_json::json!({"pairs": doc.pairs}))?;
             writeln!(out)?;
             Ok(())
         }

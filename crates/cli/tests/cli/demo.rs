@@ -118,6 +118,19 @@ fn demo_recovers_the_injected_mounting_and_improves_accuracy() {
     crate::assert_round_trips::<lidarqa_products::BudgetSweepDocument>(
         &d.join("budget_sweep_scan-angle.json"),
     );
+    for evaluation in ["evaluate_before.json", "evaluate_after.json"] {
+        crate::assert_round_trips::<lidarqa_products::EvaluateDocument>(&d.join(evaluation));
+    }
+    for overlap in [
+        "overlap_before.json",
+        "overlap_mounting_only.json",
+        "overlap_after.json",
+    ] {
+        crate::assert_round_trips::<lidarqa_products::OverlapDocument>(&d.join(overlap));
+    }
+    crate::assert_round_trips::<lidarqa_products::TruthDocument<lidarqa_sim::SceneFile>>(
+        &d.join("truth.json"),
+    );
     let truth = json(&d.join("truth.json"));
     let cal = json(&d.join("calibration.json"));
     // The demo flies with each line's own trajectory error (the truth has it per strip) and
@@ -277,6 +290,10 @@ fn bathymetric_demo_reports_the_iho_orders_per_depth_band() {
     for sweep in ["budget_sweep_depth.json", "budget_sweep_azimuth.json"] {
         crate::assert_round_trips::<lidarqa_products::BudgetSweepDocument>(&d.join(sweep));
     }
+    // The water body makes the scene's optional block present.
+    crate::assert_round_trips::<lidarqa_products::TruthDocument<lidarqa_sim::SceneFile>>(
+        &d.join("strips/truth.json"),
+    );
     let summary = String::from_utf8_lossy(&out.stdout);
     let tpu = json(&d.join("tpu_summary.json"));
     let iho = &tpu["iho_s44"];

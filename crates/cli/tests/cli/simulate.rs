@@ -91,6 +91,10 @@ fn same_seed_byte_identical_files_read_by_laspy_and_numpy() {
         assert!(!a.is_empty(), "{name} is empty");
         assert!(a == b, "{name} differs between 1 and 2 threads");
     }
+    // The truth is lidarqa-products' document with the simulator's scene, field for field.
+    crate::assert_round_trips::<lidarqa_products::TruthDocument<lidarqa_sim::SceneFile>>(
+        &one.join("truth.json"),
+    );
 
     let Some(python) = lidarqa_testkit::python("the laspy / numpy read of the simulator's outputs")
     else {

@@ -2,13 +2,22 @@
 //! target found in a small point cloud, and one-line errors for bad input.
 
 use crate::binary;
-use binary::{json_ok, lidarqa, run_ok, s};
+use binary::{lidarqa, run_ok, s};
 
 use lidarqa_io::{LasPoint, LasTimeBase, LasWriteOptions, LasWriter};
+use lidarqa_products::EvaluateDocument;
 use std::path::Path;
 
 fn fails_with(args: &[&str], needle: &str) {
     binary::fails_with(&lidarqa(args), &[needle]);
+}
+
+/// `lidarqa evaluate ... --format json`, checked to be lidarqa-products' [`EvaluateDocument`]
+/// field for field.
+fn evaluate_json(args: &[&str]) -> serde_json::Value {
+    let text = String::from_utf8(run_ok(args).stdout).unwrap();
+    crate::assert_text_round_trips::<EvaluateDocument>(&text, &args.join(" "));
+    serde_json::from_str(&text).unwrap()
 }
 
 /// LAS 1.4 point format 6 at 1 mm, local offset, no CRS.
@@ -92,7 +101,7 @@ fn zhang_2018_table2_formula_7_is_17_56_cm() {
     std::fs::write(dir.path().join("c.csv"), control).unwrap();
     let t = dir.path().join("t.csv");
     let c = dir.path().join("c.csv");
-    let v = json_ok(&[
+    let v = evaluate_json(&[
         "evaluate",
         "--targets",
         s(&t),
@@ -149,7 +158,7 @@ fn zhang_2018_table2_formula_7_is_17_56_cm() {
         "--format",
         "json",
     ];
-    let v = json_ok(&args);
+    let v = evaluate_json(&args);
     assert_eq!(v["predicted"]["up"], 0.12);
     assert!((v["predicted"]["horizontal"].as_f64().unwrap() - 0.05).abs() < 1e-15);
     // Without the targets' own σ, the prediction at the targets is the points' σ.
@@ -181,7 +190,7 @@ fn zhang_2018_table2_formula_7_is_17_56_cm() {
     let mut args2 = args;
     args2[2] = s(&t2);
     args2[4] = s(&c2);
-    let v = json_ok(&args2);
+    let v = evaluate_json(&args2);
     assert!(
         (at(&v, "horizontal") - (0.05f64.powi(2) + 0.12f64.powi(2) + 0.09f64.powi(2)).sqrt()).abs()
             < 1e-12
@@ -355,7 +364,7 @@ fn nva_against_the_ground_tin() {
     csv += "OUT,500100.0,4000100.0,100.0,0.01,0.02\n";
     let cps = dir.path().join("checkpoints.csv");
     std::fs::write(&cps, csv).unwrap();
-    let v = json_ok(&[
+    let v = evaluate_json(&[
         "evaluate",
         "--ground",
         s(&las),

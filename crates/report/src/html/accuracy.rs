@@ -21,12 +21,8 @@ pub(super) fn accuracy_section(
     residual_table(&mut o, &runs);
     for (n, e) in &runs {
         let _ = writeln!(o, "<h3>Accuracy statements, {}</h3>", esc(n));
-        if let Some(a) = &e.asprs {
-            asprs_statement(&mut o, a);
-        }
-        if let Some(ns) = &e.nssda {
-            nssda_statement(&mut o, ns);
-        }
+        asprs_statement(&mut o, &e.asprs);
+        nssda_statement(&mut o, &e.nssda);
     }
     let text = summary_sentence(before, after, pred_h, pred_v);
     meaning(&mut o, &text);
@@ -42,16 +38,12 @@ fn predicted_vs_measured(
     runs: &[(&str, &Evaluation)],
     budget: Option<&Budget>,
 ) -> (Option<f64>, Option<f64>) {
-    let predicted = runs.iter().find_map(|(_, e)| e.predicted_rmse());
+    let predicted = runs.iter().find_map(|(_, e)| e.predicted_at_targets);
     let (pred_h, pred_v, pred_from) = match (predicted, budget) {
         (Some(p), _) => (
-            p.horizontal,
-            p.vertical,
-            if runs.iter().any(|(_, e)| e.predicted_at_targets.is_some()) {
-                "the TPU given to <code>lidarqa evaluate</code>, with each target's centre σ and its control point's σ added"
-            } else {
-                "the TPU given to <code>lidarqa evaluate</code>"
-            },
+            Some(p.horizontal),
+            Some(p.vertical),
+            "the TPU given to <code>lidarqa evaluate</code>, with each target's centre σ and its control point's σ added",
         ),
         (None, Some(b)) => (
             Some(b.total.horizontal),
@@ -77,7 +69,7 @@ fn predicted_vs_measured(
         (
             "3-D",
             predicted
-                .and_then(|p| p.three_d)
+                .map(|p| p.three_d)
                 .or(budget.map(|b| b.total.three_d)),
             |e: &Evaluation| e.rmse.three_d,
         ),
@@ -113,15 +105,14 @@ fn residual_map(o: &mut String, runs: &[(&str, &Evaluation)]) {
             items: e
                 .points
                 .iter()
-                .filter_map(|p| {
-                    let pos = p.control.or(p.lidar)?;
-                    Some((
-                        p.id.0.clone(),
-                        pos.x,
-                        pos.y,
+                .map(|p| {
+                    (
+                        p.id.clone(),
+                        p.control.x,
+                        p.control.y,
                         p.residual.north,
                         p.residual.east,
-                    ))
+                    )
                 })
                 .collect(),
         })
@@ -133,8 +124,6 @@ fn residual_map(o: &mut String, runs: &[(&str, &Evaluation)]) {
             "Horizontal residuals at the targets (lidar − control)",
             &sets,
         ));
-    } else if runs.iter().any(|(_, e)| !e.points.is_empty()) {
-        o.push_str("<p class=\"note\">The products give no target positions, so the residuals are listed but not mapped.</p>\n");
     }
 }
 
@@ -144,8 +133,8 @@ fn residual_table(o: &mut String, runs: &[(&str, &Evaluation)]) {
         let mut v: Vec<String> = Vec::new();
         for (_, e) in runs {
             for p in &e.points {
-                if !v.contains(&p.id.0) {
-                    v.push(p.id.0.clone());
+                if !v.contains(&p.id) {
+                    v.push(p.id.clone());
                 }
             }
         }
@@ -165,7 +154,7 @@ fn residual_table(o: &mut String, runs: &[(&str, &Evaluation)]) {
         for id in ids.iter().take(MAX_ROWS) {
             let _ = write!(o, "<tr><td>{}</td>", esc(id));
             for (_, e) in runs {
-                match e.points.iter().find(|p| &p.id.0 == id) {
+                match e.points.iter().find(|p| &p.id == id) {
                     Some(p) => {
                         let _ = write!(
                             o,
@@ -193,24 +182,17 @@ fn residual_table(o: &mut String, runs: &[(&str, &Evaluation)]) {
 
 /// The ASPRS statement and classes met.
 fn asprs_statement(o: &mut String, a: &Asprs) {
-    let ed = a
-        .edition
-        .as_deref()
-        .map(|s| format!(", Edition {}", esc(s)))
-        .unwrap_or_default();
-    match &a.statement {
-        Some(st) if !st.is_empty() => {
-            let _ = writeln!(
-                o,
-                "<p><strong>ASPRS Positional Accuracy Standards{ed}:</strong> {}</p>",
-                esc(st)
-            );
-        }
-        _ => {}
+    if !a.statement.is_empty() {
+        let _ = writeln!(
+            o,
+            "<p><strong>ASPRS Positional Accuracy Standards, Edition {}:</strong> {}</p>",
+            esc(&a.edition),
+            esc(&a.statement)
+        );
     }
     for (label, c) in [
         ("horizontal", a.horizontal.as_ref()),
-        ("vertical", a.vertical.as_ref()),
+        ("vertical", Some(&a.vertical)),
     ] {
         if let Some(c) = c
             && let (Some(class), Some(meets)) = (c.class_m, c.meets_class)
@@ -221,7 +203,7 @@ fn asprs_statement(o: &mut String, a: &Asprs) {
                 cm(class),
                 if meets { "ok" } else { "fail" },
                 if meets { "met" } else { "not met" },
-                cm_opt(c.rmse_m)
+                cm(c.rmse_m)
             );
         }
     }
@@ -230,37 +212,29 @@ fn asprs_statement(o: &mut String, a: &Asprs) {
     }
 }
 
-/// The NSSDA statement (or one built from the 95 % values).
+/// The NSSDA statement, built from the 95 % values.
 fn nssda_statement(o: &mut String, ns: &Nssda) {
-    if let Some(st) = &ns.statement {
-        let _ = writeln!(o, "<p><strong>NSSDA:</strong> {}</p>", esc(st));
-    } else {
-        let mut parts = Vec::new();
-        if let Some(h) = ns.horizontal_95_m {
-            parts.push(format!(
-                "Tested {} cm horizontal accuracy at 95 % confidence level",
-                cm(h)
-            ));
-        }
-        if let Some(v) = ns.vertical_95_m {
-            parts.push(format!(
-                "Tested {} cm vertical accuracy at 95 % confidence level",
-                cm(v)
-            ));
-        }
-        if !parts.is_empty() {
-            let method = ns
-                .horizontal_method
-                .as_deref()
-                .map(|m| format!(" <span class=\"note\">(horizontal: {})</span>", esc(m)))
-                .unwrap_or_default();
-            let _ = writeln!(
-                o,
-                "<p><strong>NSSDA (FGDC-STD-007.3-1998):</strong> {}.{method}</p>",
-                parts.join("; ")
-            );
-        }
+    let mut parts = Vec::new();
+    if let Some(h) = ns.horizontal_95_m {
+        parts.push(format!(
+            "Tested {} cm horizontal accuracy at 95 % confidence level",
+            cm(h)
+        ));
     }
+    parts.push(format!(
+        "Tested {} cm vertical accuracy at 95 % confidence level",
+        cm(ns.vertical_95_m)
+    ));
+    let method = ns
+        .horizontal_method
+        .as_deref()
+        .map(|m| format!(" <span class=\"note\">(horizontal: {})</span>", esc(m)))
+        .unwrap_or_default();
+    let _ = writeln!(
+        o,
+        "<p><strong>NSSDA (FGDC-STD-007.3-1998):</strong> {}.{method}</p>",
+        parts.join("; ")
+    );
 }
 
 /// What the measured accuracy means, beside the prediction.

@@ -207,7 +207,7 @@ fn mounting_table(
                     let _ = write!(
                         o,
                         "<td>{}</td><td>{:+.4}</td><td>{ratio}</td>",
-                        num4(*tv),
+                        num4(tv),
                         err
                     );
                     if observable

@@ -7,9 +7,9 @@ use crate::text::{cm, esc, meaning};
 use std::fmt::Write as _;
 
 pub(super) fn overlap_section(
-    before: Option<&Overlap>,
-    mounting_only: Option<&Overlap>,
-    after: Option<&Overlap>,
+    before: Option<&OverlapDocument>,
+    mounting_only: Option<&OverlapDocument>,
+    after: Option<&OverlapDocument>,
 ) -> String {
     let mut o = String::new();
     // Beside a mounting-only correction, "after" is the strip-adjusted one.
@@ -18,7 +18,7 @@ pub(super) fn overlap_section(
     } else {
         "after correction"
     };
-    let runs: Vec<(&str, &Overlap)> = [
+    let runs: Vec<(&str, &OverlapDocument)> = [
         ("before correction", before),
         ("after mounting-only correction", mounting_only),
         (after_name, after),
@@ -29,12 +29,12 @@ pub(super) fn overlap_section(
     pairs_table(&mut o, &runs);
     dz_maps(&mut o, &runs);
     profiles(&mut o, &runs);
-    let rms = |r: &Overlap| {
+    let rms = |r: &OverlapDocument| {
         let (s, n) = r
             .pairs
             .iter()
-            .filter(|p| p.counts())
-            .fold((0.0, 0u64), |(s, n), p| {
+            .filter(|p| p.meaningful)
+            .fold((0.0, 0usize), |(s, n), p| {
                 (s + p.rmsdz_m.powi(2) * p.n as f64, n + p.n)
             });
         (n > 0).then(|| (s / n as f64).sqrt())
@@ -50,7 +50,7 @@ pub(super) fn overlap_section(
 }
 
 /// The height differences per strip pair, merged over the runs.
-fn pairs_table(o: &mut String, runs: &[(&str, &Overlap)]) {
+fn pairs_table(o: &mut String, runs: &[(&str, &OverlapDocument)]) {
     let mut keys: Vec<(String, String)> = Vec::new();
     for (_, r) in runs {
         for p in &r.pairs {
@@ -102,19 +102,19 @@ fn pairs_table(o: &mut String, runs: &[(&str, &Overlap)]) {
 }
 
 /// Maps of the height difference, one colour scale for all runs.
-fn dz_maps(o: &mut String, runs: &[(&str, &Overlap)]) {
+fn dz_maps(o: &mut String, runs: &[(&str, &OverlapDocument)]) {
     let panels: Vec<(String, Raster)> = runs
         .iter()
-        .filter_map(|(n, r)| {
-            let g = r.grid.as_ref()?;
-            Some((
+        .map(|(n, r)| {
+            let g = &r.grid;
+            (
                 n.to_string(),
                 raster(
-                    &g.geometry,
+                    &g.geometry(),
                     g.dz_m.iter().map(|v| v.map(|v| v * 100.0)).collect(),
                 )
                 .downsampled(if runs.len() > 1 { 90 } else { 160 }),
-            ))
+            )
         })
         .collect();
     if !panels.is_empty() {
@@ -145,15 +145,12 @@ fn dz_maps(o: &mut String, runs: &[(&str, &Overlap)]) {
 }
 
 /// Each strip's height along the profile, minus the mean of the strips there; one y range.
-fn profiles(o: &mut String, runs: &[(&str, &Overlap)]) {
-    let profs: Vec<(&str, &Profile)> = runs
-        .iter()
-        .filter_map(|(n, r)| r.profile.as_ref().map(|p| (*n, p)))
-        .collect();
+fn profiles(o: &mut String, runs: &[(&str, &OverlapDocument)]) {
+    let profs: Vec<(&str, &OverlapProfile)> = runs.iter().map(|(n, r)| (*n, &r.profile)).collect();
     if !profs.is_empty() {
         // Each strip's height minus the mean of the strips at that distance, cm: centimetre
         // differences vanish in a plot of heights in metres.
-        let dz_cm = |p: &Profile, s: &crate::products::ProfileStrip| -> Vec<Option<f64>> {
+        let dz_cm = |p: &OverlapProfile, s: &OverlapProfileStrip| -> Vec<Option<f64>> {
             (0..p.distance_m.len())
                 .map(|k| {
                     let here: Vec<f64> = p
