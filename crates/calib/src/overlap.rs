@@ -77,22 +77,9 @@ pub struct OverlapPair {
 
 /// The dz grid: cell `(ix, iy)` covers `[origin_x + ix·cell, origin_x + (ix+1)·cell)` ×
 /// `[origin_y + iy·cell, …)`; `dz_m[iy·nx + ix]` is the dz of the pair with the largest |dz| in
-/// that cell (`None` where no pair is smooth).
-#[derive(Debug, Clone, PartialEq)]
-pub struct OverlapGrid {
-    /// Cell size, m.
-    pub cell_m: f64,
-    /// Lower-left corner x, m.
-    pub origin_x: f64,
-    /// Lower-left corner y, m.
-    pub origin_y: f64,
-    /// Columns (x).
-    pub nx: usize,
-    /// Rows (y).
-    pub ny: usize,
-    /// Row-major dz, m.
-    pub dz_m: Vec<Option<f64>>,
-}
+/// that cell (`None` where no pair is smooth). The product's own type: the grid is written as
+/// computed.
+pub use lidarqa_products::OverlapGrid;
 
 /// One strip's heights along the profile.
 #[derive(Debug, Clone, PartialEq)]
@@ -143,14 +130,7 @@ impl OverlapReport {
                     meaningful: p.meaningful,
                 })
                 .collect(),
-            grid: lidarqa_products::OverlapGrid {
-                cell_m: self.grid.cell_m,
-                origin_x: self.grid.origin_x,
-                origin_y: self.grid.origin_y,
-                nx: self.grid.nx,
-                ny: self.grid.ny,
-                dz_m: self.grid.dz_m.clone(),
-            },
+            grid: self.grid.clone(),
             profile: lidarqa_products::OverlapProfile {
                 line: self.profile.line,
                 distance_m: self.profile.distance_m.clone(),
