@@ -59,8 +59,10 @@
 //! takes the plane's judgement where it lies on the plane, within [`PLANE_TOLERANCE`] times
 //! the RMS distance of the neighbourhood's points from it (the surface's roughness and the
 //! ranging noise): the surface is still that plane there. A roof's far side, the foot of a
-//! wall, a kerb or a crown lie off the plane and are judged on their own; a line or a
-//! scattered neighbourhood reaches no farther than its own points. The
+//! wall, a kerb or a crown lie off the plane and are judged on their own; only a well-defined
+//! plane reaches ([`REACH_FLATNESS`]: a neighbourhood straddling a ridge is judged a plane but
+//! is neither side's), and a line or a scattered neighbourhood reaches no farther than its own
+//! points. The
 //! incidence itself is still each point's own: the angle between its own beam and the shared
 //! normal ([`judged_incidence`]). [`judge_surfaces_shared`] with a stride of 1 judges every
 //! point; the crate's `tests/incidence_sigma.rs` holds both to the same bar.
