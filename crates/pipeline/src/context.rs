@@ -5,9 +5,7 @@ use crate::calibration_file::{
 };
 use crate::error::{Error, Result};
 use crate::heights::Heights;
-use crate::plausibility::{
-    TrajectoryFacts, TrajectorySample, check_trajectory, check_trajectory_sigmas,
-};
+use crate::plausibility::implausible_trajectory;
 use lidarqa_io::{
     Crs, Ellipsoid, Geodetic, GeoidModel, HeadingReference, LasInfo, LasReader, LasTimeConverter,
     LasWriteOptions, LasWriter, SbetPose, SensorExtras, SmrmsgSigma, TextTrajectory,
@@ -15,7 +13,10 @@ use lidarqa_io::{
     read_sensor_with_extras, read_smrmsg, read_trajectory,
 };
 use lidarqa_model::{Attitude, Mounting, Sensor, Warning};
-use lidarqa_tpu::{Pose, PoseSigma, Trajectory, TrajectorySigmas};
+use lidarqa_tpu::{
+    Pose, PoseSigma, Trajectory, TrajectoryFacts, TrajectorySample, TrajectorySigmas,
+    check_trajectory, check_trajectory_sigmas,
+};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
@@ -226,6 +227,7 @@ impl TpuContext {
                     latitude_rad: p.latitude_rad,
                     longitude_rad: p.longitude_rad,
                     height_m: p.height_m,
+                    position_ecef_m: wgs84_ecef([p.latitude_rad, p.longitude_rad, p.height_m]),
                     attitude: Attitude {
                         roll_rad: p.roll_rad,
                         pitch_rad: p.pitch_rad,
@@ -241,6 +243,7 @@ impl TpuContext {
                     latitude_rad: p.position[0],
                     longitude_rad: p.position[1],
                     height_m: p.position[2],
+                    position_ecef_m: wgs84_ecef(p.position),
                     attitude: Attitude {
                         roll_rad: p.roll_rad,
                         pitch_rad: p.pitch_rad,
@@ -346,7 +349,8 @@ impl TpuContext {
             (None, true) => {}
         }
         if !samples.is_empty() {
-            ctx.facts = check_trajectory(&ctx.trajectory_path, &samples)?;
+            ctx.facts = check_trajectory(&ctx.trajectory_path, &samples)
+                .map_err(implausible_trajectory(&ctx.trajectory_path))?;
         }
         let found: Vec<Warning> = ctx
             .facts
@@ -507,6 +511,16 @@ impl TpuContext {
         cache.push((crs.clone(), heights.clone(), Arc::clone(&t)));
         Ok(t)
     }
+}
+
+/// A trajectory sample's position for tpu's plausibility checks, which judge speeds on WGS 84
+/// whatever the survey's datum.
+fn wgs84_ecef(llh: [f64; 3]) -> lidarqa_model::Ecef {
+    UtmDatum::Wgs84.ellipsoid().geodetic_to_ecef(&Geodetic {
+        latitude_rad: llh[0],
+        longitude_rad: llh[1],
+        height_m: llh[2],
+    })
 }
 
 /// A pose from geodetic coordinates on `e`.

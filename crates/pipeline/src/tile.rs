@@ -4,8 +4,8 @@ use crate::context::{OpenTile, TpuContext};
 use crate::error::{Error, Result};
 use crate::heights::Heights;
 use crate::plausibility::{
-    DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, check_distance, check_gaps, crs_name, outside_zone,
-    point_implausible,
+    DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, check_distance, crs_name, implausible_trajectory,
+    outside_zone, point_implausible,
 };
 use crate::stages::{read_chunks, run_stages, write_chunks};
 use crate::summary::{

@@ -13,6 +13,8 @@
 //!   ([`local_covariance`], [`grid_covariance`], [`add_shares`]) and plane-fit surface normals
 //!   ([`plane_normals`]). File handling is
 //!   in lidarqa-pipeline;
+//! - what a trajectory can physically be: heights, speeds, attitude rates, gaps and σ of an
+//!   aircraft ([`check_trajectory`], [`check_gaps`], [`check_trajectory_sigmas`]);
 //! - a raw linear-scanner record's return georeferenced from its own observations, with its σ
 //!   ([`RawLinearPropagator`]);
 //! - bathymetric soundings of a conic scanner: their raw observation from the seabed point and
@@ -54,6 +56,7 @@ mod request;
 mod sounding;
 mod sweep;
 mod trajectory;
+mod trajectory_checks;
 
 pub use axes::{Axes, Displacement, displacement_from_ned};
 pub use beam_point::{BEAM_FOOTPRINT_SOURCE, BeamPropagator, BeamUncertainty};
@@ -93,3 +96,9 @@ pub use sounding::{
 };
 pub use sweep::{MAX_SWEEP_POINTS, Sweep, SweepVariable};
 pub use trajectory::{Pose, PoseAt, PoseSigma, SegmentRotation, Trajectory, TrajectorySigmas};
+pub use trajectory_checks::{
+    ATTITUDE_BASELINE_S, DUPLICATE_POSITION_TOLERANCE_M, GAP_ERROR_S, GAP_WARNING_SAMPLES, Gap,
+    ImplausibleTrajectory, MAX_ATTITUDE_RATE_DEG_S, MAX_ATTITUDE_SIGMA_DEG, MAX_HEIGHT_M,
+    MAX_POSITION_SIGMA_M, MAX_SPEED_MPS, MIN_HEIGHT_M, SPEED_BASELINE_S, TrajectoryFacts,
+    TrajectorySample, check_gaps, check_trajectory, check_trajectory_sigmas,
+};

@@ -142,12 +142,13 @@ impl Run<'_> {
                 .filter(|t| gaps.len() > 16 || gaps.iter().any(|g| *t > g.start_s && *t < g.end_s))
                 .collect();
             times.sort_by(f64::total_cmp);
-            check_gaps(
+            lidarqa_tpu::check_gaps(
                 self.path,
                 &self.ctx.trajectory_path,
                 &self.ctx.facts.gaps,
                 &times,
-            )?
+            )
+            .map_err(implausible_trajectory(self.path))?
         };
         // Points outside the zone's area and the σ's span are counted in the per-point loop.
         summary.plausibility.warn(w);
