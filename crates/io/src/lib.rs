@@ -12,9 +12,7 @@
 //!   ([`Crs`]); GPS time bases ([`LasTimeConverter`]);
 //! - geoid models: EGM2008 built in and GTX / GeoTIFF grids ([`GeoidModel`]);
 //! - atomic outputs: a temporary file beside the target, renamed when complete ([`AtomicFile`]);
-//! - single-band float GeoTIFF rasters with their GeoKeys ([`GeoRaster`]) and the `qc.json` type
-//!   that `lidarqa qc` writes and the report reads ([`QcDocument`], and `iho.json`:
-//!   [`IhoDocument`]).
+//! - single-band float GeoTIFF rasters with their GeoKeys ([`GeoRaster`]).
 //!
 //! Every error names the file and, where there is one, the line, record or key at fault.
 
@@ -39,7 +37,6 @@ mod grid_to_ecef;
 mod local_inverse;
 mod pointcloud;
 mod pointpose;
-mod qc_doc;
 mod sbet;
 mod trajtext;
 mod water;
@@ -77,11 +74,6 @@ pub use pointcloud::{
     WRITE_BATCH_POINTS,
 };
 pub use pointpose::{POSE_DIMS, has_point_pose, heading_from_yaw};
-pub use qc_doc::{
-    IhoDepthBand, IhoDocument, IhoDocumentOrder, QC_FORMAT, QcDensity, QcDocument, QcIho,
-    QcIhoOrder, QcInterswath, QcIntraswath, QcLine, QcLines, QcNva, QcPredicted, QcRaster,
-    QcRequirement, QcSmoothCells, QcVerdict,
-};
 pub use sbet::{
     F64Record, RAD_PER_ARCMIN, RecordReader, RecordWriter, SbetPose, SbetReader, SbetWriter,
     SmrmsgReader, SmrmsgSigma, SmrmsgWriter, raw as sbet_raw, read_sbet, read_smrmsg,

@@ -1,5 +1,5 @@
 //! Delivery QC against the standards: the work behind `lidarqa qc`, writing `qc.json`
-//! ([`lidarqa_io::QcDocument`]) and GeoTIFF rasters into one directory.
+//! ([`lidarqa_products::QcDocument`]) and GeoTIFF rasters into one directory.
 //!
 //! The delivery is read as flight lines across all its files ([`crate::read_lines`]). Then:
 //!
@@ -64,12 +64,12 @@ use crate::lines::{FlightLine, LineOptions, Lines, read_lines};
 use crate::targets_files::control_for_targets;
 use lidarqa_calib::{Cell, CellFit, MIN_SPREAD, plane_differences};
 use lidarqa_io::WaterClasses;
-use lidarqa_io::{
-    AtomicFile, ControlPoints, GeoRaster, QC_FORMAT, QcDensity, QcDocument, QcIho, QcInterswath,
-    QcIntraswath, QcLine, QcLines, QcNva, QcPredicted, QcRaster, QcRequirement, QcSmoothCells,
-    QcVerdict,
-};
+use lidarqa_io::{AtomicFile, ControlPoints, GeoRaster};
 use lidarqa_model::{Warning, median};
+use lidarqa_products::{
+    QC_FORMAT, QcDensity, QcDocument, QcIho, QcInterswath, QcIntraswath, QcLine, QcLines, QcNva,
+    QcPredicted, QcRaster, QcRequirement, QcSmoothCells, QcVerdict,
+};
 use lidarqa_targets::{EvaluateOptions, evaluate_vertical_tin};
 use std::collections::BTreeMap;
 use std::io::Write as _;

@@ -10,6 +10,7 @@ mod budget;
 mod calibration;
 mod evaluate;
 mod overlap;
+mod qc;
 mod tpu_summary;
 mod truth;
 mod values;
@@ -29,6 +30,11 @@ pub use evaluate::{
     VerticalEvaluation, VerticalResidual,
 };
 pub use overlap::{OverlapDocument, OverlapGrid, OverlapPair, OverlapProfile, OverlapProfileStrip};
+pub use qc::{
+    IhoDepthBand, IhoDocument, IhoDocumentOrder, QC_FORMAT, QcDensity, QcDocument, QcIho,
+    QcIhoOrder, QcInterswath, QcIntraswath, QcLine, QcLines, QcNva, QcPredicted, QcRaster,
+    QcRequirement, QcSmoothCells, QcVerdict,
+};
 pub use tpu_summary::{
     GridGeometry, IhoBand, IhoOrderLine, IncidenceCounts, LinearHistogram, MountingCheck,
     OrderGrid, RecoveryResidual, ScanAngleCheck, SigmaGrid, SigmaHistograms, SoundingsIho, Stats,

@@ -14,7 +14,7 @@
 //! | [`CALIBRATION_FILE`] (+ [`CALIBRATION_ITERATIONS_FILE`], [`TRUTH_FILE`]) | [`CalibrationDocument`] (SPEC §8) | mounting ± σ (vs truth), correlations, convergence |
 //! | [`OVERLAP_BEFORE_FILE`], [`OVERLAP_AFTER_FILE`] (+ [`OVERLAP_MOUNTING_ONLY_FILE`]) | [`OverlapDocument`] | dz maps and height profiles before / after (a mounting-only correction beside a strip-adjusted one) |
 //! | [`CALIBRATION_MOUNTING_ONLY_FILE`] | [`CalibrationDocument`] | the demo summary's mounting-only errors beside the strip-adjusted ones |
-//! | [`QC_FILE`] | `lidarqa_io::QcDocument` | delivery QC: lines, interswath pairs, verdict tables per standard |
+//! | [`QC_FILE`] | `lidarqa_products::QcDocument` | delivery QC: lines, interswath pairs, verdict tables per standard |
 //! | [`IHO_FILE`] `iho.json` | [`Iho`] | IHO S-44 table |
 //! | [`TPU_SUMMARY_FILE`] with soundings ([`lidarqa_products::SoundingsIho`]; + `budget_sweep_depth.json`, `budget_sweep_azimuth.json`) | bathymetry | IHO table per depth band, σ vs depth with the IHO allowances, budget around the scan, variance shares, order map |
 //!

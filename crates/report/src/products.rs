@@ -2,8 +2,8 @@
 //!
 //! `tpu_summary.json`, `calibration.json`, `calibration_iterations.json`, `budget.json`, the
 //! sweeps, `evaluate_*.json`, the simulator's `truth.json` and `overlap_*.json` are read with
-//! lidarqa-products' types, the ones their writers serialise, and `qc.json` and `iho.json` with
-//! lidarqa-io's. Lengths are metres and angles degrees unless a field says otherwise; the report
+//! lidarqa-products' types, the ones their writers serialise (`qc.json` and `iho.json`
+//! included). Lengths are metres and angles degrees unless a field says otherwise; the report
 //! converts to centimetres for display.
 
 use serde::de::DeserializeOwned;
@@ -415,9 +415,9 @@ impl Product for OverlapDocument {
 }
 
 // ---------------------------------------------------------------------------------------------
-// iho.json (lidarqa-io's type, the one `lidarqa qc` writes beside qc.json)
+// iho.json (products' type, the one `lidarqa qc` writes beside qc.json)
 
-pub use lidarqa_io::{IhoDepthBand, IhoDocument as Iho, IhoDocumentOrder as IhoOrder};
+pub use lidarqa_products::{IhoDepthBand, IhoDocument as Iho, IhoDocumentOrder as IhoOrder};
 
 impl Product for Iho {
     const WHAT: &'static str = "IHO S-44 statement";
@@ -435,8 +435,8 @@ impl Product for Iho {
 }
 
 // ---------------------------------------------------------------------------------------------
-// qc.json (lidarqa-io's type, the one `lidarqa qc` writes)
+// qc.json (products' type, the one `lidarqa qc` writes)
 
-impl Product for lidarqa_io::QcDocument {
+impl Product for lidarqa_products::QcDocument {
     const WHAT: &'static str = "delivery QC (lidarqa qc)";
 }

@@ -36,7 +36,7 @@ pub struct Products {
     /// `iho.json`.
     pub iho: Option<Iho>,
     /// `qc.json` (`lidarqa qc`).
-    pub qc: Option<lidarqa_io::QcDocument>,
+    pub qc: Option<lidarqa_products::QcDocument>,
     /// The `warnings` of every product read (SPEC §7), with the file they came from.
     pub warnings: Vec<(String, lidarqa_model::Warning)>,
 }

@@ -5,9 +5,9 @@
 use crate::format::{OutputFormat, print_text, print_warnings};
 use anyhow::{Result, bail};
 use clap::Args;
-use lidarqa_io::QcDocument;
 use lidarqa_io::WaterClasses;
 use lidarqa_pipeline::{LineOptions, QcOptions, Standard, qc_lines, qc_prediction, read_lines};
+use lidarqa_products::QcDocument;
 use std::io::Write as _;
 use std::path::PathBuf;
 

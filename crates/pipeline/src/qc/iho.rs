@@ -16,8 +16,8 @@
 
 use crate::lines::Lines;
 use lidarqa_io::WaterClasses;
-use lidarqa_io::{IhoDepthBand, IhoDocument, IhoDocumentOrder, QcIho, QcIhoOrder};
 use lidarqa_model::median;
+use lidarqa_products::{IhoDepthBand, IhoDocument, IhoDocumentOrder, QcIho, QcIhoOrder};
 use lidarqa_tpu::{IhoOrder, THU_95_CBLUE, TVU_95_FACTOR};
 use std::collections::BTreeMap;
 

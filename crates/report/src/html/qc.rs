@@ -2,7 +2,7 @@
 //! verdict table per standard, read with the same type the command writes.
 
 use crate::text::{esc, meaning};
-use lidarqa_io::{QcDocument, QcRequirement};
+use lidarqa_products::{QcDocument, QcRequirement};
 use std::fmt::Write as _;
 
 fn value(v: Option<f64>, unit: &str) -> String {
