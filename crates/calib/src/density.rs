@@ -5,6 +5,7 @@
 //! cells are partly empty by construction.
 
 use crate::smooth::{Cell, cell_of};
+use lidarqa_products::QcDensity;
 use std::collections::{BTreeMap, BTreeSet};
 
 /// One point as density counts it.
@@ -21,22 +22,8 @@ pub struct DensityPoint {
 /// The density of a delivery and its coarse cells.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Density {
-    /// Cell of the spatial-distribution test (2 × the nominal pulse spacing), m.
-    pub cell_m: f64,
-    /// Footprint area, m².
-    pub area_m2: f64,
-    /// All points per m² over the footprint.
-    pub points_per_m2: f64,
-    /// Last returns per m² over the footprint.
-    pub last_returns_per_m2: f64,
-    /// Distribution cells inside the footprint.
-    pub cells: usize,
-    /// Share of those holding at least one last return.
-    pub cells_with_last_return: f64,
-    /// Footprint cells whose last-return density is under the required one.
-    pub coarse_cells_under: usize,
-    /// Footprint cells.
-    pub coarse_cells: usize,
+    /// What `qc.json` reports of it.
+    pub summary: QcDensity,
     /// The coarse grid's lower-left corner, m.
     pub origin: [f64; 2],
     /// The coarse cell, m (a whole number of distribution cells near 10 m).
@@ -110,14 +97,16 @@ pub fn density(
         .filter(|c| (cc[c].1 as f64) / (coarse * coarse) < anpd_per_m2)
         .count();
     Density {
-        cell_m: fine,
-        area_m2: area,
-        points_per_m2: np as f64 / area,
-        last_returns_per_m2: nl as f64 / area,
-        cells,
-        cells_with_last_return: with as f64 / cells.max(1) as f64,
-        coarse_cells_under: under,
-        coarse_cells: used.len(),
+        summary: QcDensity {
+            cell_m: fine,
+            area_m2: area,
+            points_per_m2: np as f64 / area,
+            last_returns_per_m2: nl as f64 / area,
+            cells,
+            cells_with_last_return: with as f64 / cells.max(1) as f64,
+            coarse_cells_under: under,
+            coarse_cells: used.len(),
+        },
         origin,
         coarse_m: coarse,
         last_per_m2: cc
@@ -152,11 +141,12 @@ mod tests {
             })
             .collect();
         let d = density(points.iter().copied(), 0.5, 2.0);
-        assert_eq!((d.cell_m, d.coarse_m, d.coarse_cells), (1.0, 10.0, 4));
-        assert_eq!(d.area_m2, 400.0);
-        assert_eq!((d.points_per_m2, d.last_returns_per_m2), (4.0, 4.0));
-        assert_eq!((d.cells, d.cells_with_last_return), (400, 1.0));
-        assert_eq!(d.coarse_cells_under, 0);
+        let q = &d.summary;
+        assert_eq!((q.cell_m, d.coarse_m, q.coarse_cells), (1.0, 10.0, 4));
+        assert_eq!(q.area_m2, 400.0);
+        assert_eq!((q.points_per_m2, q.last_returns_per_m2), (4.0, 4.0));
+        assert_eq!((q.cells, q.cells_with_last_return), (400, 1.0));
+        assert_eq!(q.coarse_cells_under, 0);
         assert_eq!(d.last_per_m2.len(), 16);
         assert!(
             d.mean_sigma_up_m

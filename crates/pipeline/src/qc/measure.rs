@@ -66,20 +66,9 @@ pub(super) fn delivery_density(
             sigma_up_m: p.sigma_up_m,
         });
     let d = density(points, limits.anps_m, limits.anpd_per_m2);
-    (
-        QcDensity {
-            cell_m: d.cell_m,
-            area_m2: d.area_m2,
-            points_per_m2: d.points_per_m2,
-            last_returns_per_m2: d.last_returns_per_m2,
-            cells: d.cells,
-            cells_with_last_return: d.cells_with_last_return,
-            coarse_cells_under: d.coarse_cells_under,
-            coarse_cells: d.coarse_cells,
-        },
-        raster(&d.last_per_m2, d.origin, d.coarse_m, lines.epsg),
-        raster(&d.mean_sigma_up_m, d.origin, d.coarse_m, lines.epsg),
-    )
+    let last = raster(&d.last_per_m2, d.origin, d.coarse_m, lines.epsg);
+    let sigma = raster(&d.mean_sigma_up_m, d.origin, d.coarse_m, lines.epsg);
+    (d.summary, last, sigma)
 }
 
 pub(super) fn nva(
