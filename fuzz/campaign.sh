@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The long fuzz campaigns of issue #12: each target for SECONDS (default 600) on ONE core, one
+# The long fuzz campaigns: each target for SECONDS (default 600) on ONE core, one
 # target after another, logs in fuzz/logs/TARGET.log and a line per target in
 # fuzz/logs/summary.txt (executions, crashes).
 #

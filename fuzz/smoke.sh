@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Fuzz smoke run for CI (issue #12): every target for SECONDS (default 12) from its seeds and the
+# Fuzz smoke run for CI: every target for SECONDS (default 12) from its seeds and the
 # inputs of past crashes (regressions/TARGET). A crash fails the run (exit 1) and leaves the
 # input in fuzz/artifacts/TARGET/. Without a nightly toolchain this prints a warning and exits 0:
 # the smoke run must never fail CI for want of tools.

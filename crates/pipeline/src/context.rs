@@ -54,6 +54,11 @@ pub struct TpuOptions {
     pub covariance: bool,
 }
 
+/// The default points per chunk: a multiple of the judgement's sharing stride (see
+/// [`TpuOptions::chunk_points`]).
+const CHUNK_POINTS: usize = 500_000;
+const _: () = assert!(CHUNK_POINTS % lidarqa_tpu::SHARE_STRIDE == 0);
+
 impl Default for TpuOptions {
     fn default() -> Self {
         TpuOptions {
@@ -61,7 +66,7 @@ impl Default for TpuOptions {
             gps_week: None,
             skip_outside: false,
             skip_invalid: false,
-            chunk_points: 500_000,
+            chunk_points: CHUNK_POINTS,
             neighbours: 10,
             margin_points: 20_000,
             covariance: false,

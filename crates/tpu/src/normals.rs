@@ -195,9 +195,12 @@ pub fn judge_surfaces(candidates: &[[f64; 3]], targets: &[[f64; 3]], k: usize) -
 }
 
 /// Targets in a row that may share judgements (see the module docs, "Sharing"): target `i`
-/// with `i % SHARE_STRIDE == 0` is judged, and the next ones take the last judgement of their
-/// group where they lie within its judged neighbourhood. A divisor of the block of targets searched together, so
-/// that the seeds are those of the targets' indices whatever the number of threads.
+/// with `i % SHARE_STRIDE == 0` is judged, and the next ones take the last judgement where they
+/// lie within its judged neighbourhood. Each target is tested against a judgement made on its
+/// own neighbourhood, so a longer stride would not let an error travel; the stride bounds how
+/// far a result depends on the targets before it. A divisor of the block of targets searched
+/// together (so that the seeds are those of the targets' indices whatever the number of
+/// threads) and of lidarqa-pipeline's default chunk of 500 000 points.
 pub const SHARE_STRIDE: usize = 32;
 
 /// How far, as a multiple of its radius, a judged plane reaches (see the module docs,
@@ -279,10 +282,13 @@ fn judge_into<T: Clone + Send + Sync>(
             let sums = sums_of(q, nn);
             let first = sums.scatter();
             let kth_m2 = nn.last().map_or(0.0, |&(d2, _)| d2);
-            let (judged, r2, plane) = match judge_scatter(&first, FLATNESS, true) {
+            let (judged, values) = judge_scatter(&first, FLATNESS, true);
+            let (judged, r2, plane) = match judged {
                 Surface::Linear(along) => widen(q, nn, (&first, along), grid, wide),
                 judged => {
-                    let plane = judged.normal().and_then(|n| Plane::of(q, &sums, &first, n));
+                    let plane = judged
+                        .normal()
+                        .and_then(|n| Plane::of(q, &sums, (&first, values), n));
                     (judged, kth_m2, plane)
                 }
             };
@@ -526,9 +532,10 @@ fn widen(
             }
             (taken, size) = (next, next);
             let scatter = all.scatter();
-            match judge_scatter(&scatter, WIDEN_FLATNESS, false) {
+            let (judged, values) = judge_scatter(&scatter, WIDEN_FLATNESS, false);
+            match judged {
                 Surface::Planar(n) if off_line_agrees(&off, &n) => {
-                    let plane = Plane::of(q, &all, &scatter, n);
+                    let plane = Plane::of(q, &all, (&scatter, values), n);
                     return (Surface::PlanarWidened(n), far_m2, plane);
                 }
                 Surface::Scattered => return line(),
@@ -677,7 +684,7 @@ fn judge_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
     if nn.len() < MIN_NEIGHBOURS {
         return Surface::TooFew;
     }
-    judge_scatter(&scatter_of(q, nn), FLATNESS, true)
+    judge_scatter(&scatter_of(q, nn), FLATNESS, true).0
 }
 
 /// The k nearest neighbours are planar only when σ₂ ≥ this × σ₃: a neighbourhood more planar
@@ -685,12 +692,30 @@ fn judge_neighbours(q: &[f64; 3], nn: &[(f64, [f64; 3])]) -> Surface {
 /// module docs, "Beam-aware incidence".
 pub const FLATNESS: f64 = 3.0;
 
-/// The judgement of a scatter matrix (see the module docs); a planar one must also have
-/// σ₂ ≥ `flatness` · σ₃ (planarity ≥ scattering alone implies 2).
-fn judge_scatter(scatter: &Matrix3<f64>, flatness: f64, thick_scattered: bool) -> Surface {
+/// The judgement of a scatter matrix (see the module docs), and its eigenvalues (ascending,
+/// for [`Plane::of`]); a planar one must also have σ₂ ≥ `flatness` · σ₃ (planarity ≥
+/// scattering alone implies 2).
+fn judge_scatter(
+    scatter: &Matrix3<f64>,
+    flatness: f64,
+    thick_scattered: bool,
+) -> (Surface, [f64; 3]) {
+    let values = symmetric_eigenvalues3(scatter);
+    (
+        judge_values(scatter, values, flatness, thick_scattered),
+        values,
+    )
+}
+
+/// [`judge_scatter`] given the scatter matrix's eigenvalues `[l3, l2, l1]` (ascending).
+fn judge_values(
+    scatter: &Matrix3<f64>,
+    [l3, l2, l1]: [f64; 3],
+    flatness: f64,
+    thick_scattered: bool,
+) -> Surface {
     // The values alone decide; only a planar neighbourhood needs its smallest one's vector,
     // then well separated from the other two (σ₂ > 2σ₃ and σ₂ ≥ σ₁/2).
-    let [l3, l2, l1] = symmetric_eigenvalues3(scatter);
     let (s1, s2, s3) = (l1.max(0.0).sqrt(), l2.max(0.0).sqrt(), l3.max(0.0).sqrt());
     if !(s1 > 0.0 && s1.is_finite()) {
         return Surface::TooFew;
@@ -757,10 +782,14 @@ struct Plane {
 
 impl Plane {
     /// The plane of unit normal `n` through the mean of the points summed in `sums` (offsets to
-    /// `q`, their scatter matrix `scatter`), with a tolerance of [`PLANE_TOLERANCE`] times their
-    /// RMS distance from it.
-    fn of(q: &[f64; 3], sums: &Sums, scatter: &Matrix3<f64>, n: Vector3<f64>) -> Option<Plane> {
-        let [l3, l2, _] = symmetric_eigenvalues3(scatter);
+    /// `q`, their scatter matrix `scatter` and its ascending eigenvalues), with a tolerance of
+    /// [`PLANE_TOLERANCE`] times their RMS distance from it.
+    fn of(
+        q: &[f64; 3],
+        sums: &Sums,
+        (scatter, [l3, l2, _]): (&Matrix3<f64>, [f64; 3]),
+        n: Vector3<f64>,
+    ) -> Option<Plane> {
         if l2.max(0.0) < REACH_FLATNESS * REACH_FLATNESS * l3.max(0.0) {
             return None;
         }
