@@ -67,7 +67,18 @@ fn calibrate_and_correct(dir: &Path, sensor: &Path, laz: &Path) -> (Value, PathB
 }
 
 #[test]
-fn lidarpod_boresight_reduces_the_misfit_between_passes() {
+fn lidarpod_boresight_reduces_the_misfit_between_passes_car() {
+    boresight_reduces_the_misfit("Car", CAR_BAR);
+}
+
+#[test]
+fn lidarpod_boresight_reduces_the_misfit_between_passes_tent() {
+    boresight_reduces_the_misfit("Tent", TENT_BAR);
+}
+
+/// One ARMO file (`Car` or `Tent`) calibrated and corrected: its misfit between the passes falls
+/// to at most `bar` of what it was. One test a file, so that the two run side by side.
+fn boresight_reduces_the_misfit(name: &str, bar: f64) {
     let Some(data) = lidarqa_testkit::realdata("armo_uav") else {
         return;
     };
@@ -81,47 +92,45 @@ fn lidarpod_boresight_reduces_the_misfit_between_passes() {
         binary::stdout_ok(&["sensor", "routescene-lidarpod"]),
     )
     .unwrap();
-    for (name, bar) in [("Car", CAR_BAR), ("Tent", TENT_BAR)] {
-        let laz = data.join(format!("{name}.adc.laz"));
-        every_point_fits_a_channel(dir.path(), &sensor, &laz);
-        let (cal, corrected) = calibrate_and_correct(dir.path(), &sensor, &laz);
-        // Roll and pitch are determined, with a finite σ between 0.0001° and 0.5°; the yaw
-        // too, or held at the preset's 0 with the reason (Car: its σ exceeds the 0.01° bar).
-        for p in [
-            "boresight_roll_deg",
-            "boresight_pitch_deg",
-            "boresight_yaw_deg",
-        ] {
-            let sigma = cal["sigma"][p].as_f64();
-            let value = cal["parameters"][p].as_f64().unwrap_or(f64::NAN);
-            match sigma {
-                Some(sigma) => assert!(
-                    sigma.is_finite() && (1e-4..0.5).contains(&sigma) && value.abs() < 5.0,
-                    "{name}: {p} = {value}° ± {sigma}°"
-                ),
-                None => assert!(
-                    p == "boresight_yaw_deg" && value == 0.0 && cal["observable"][p] == false,
-                    "{name}: {p} = {value}° has no σ: {cal}"
-                ),
-            }
+    let laz = data.join(format!("{name}.adc.laz"));
+    every_point_fits_a_channel(dir.path(), &sensor, &laz);
+    let (cal, corrected) = calibrate_and_correct(dir.path(), &sensor, &laz);
+    // Roll and pitch are determined, with a finite σ between 0.0001° and 0.5°; the yaw
+    // too, or held at the preset's 0 with the reason (Car: its σ exceeds the 0.01° bar).
+    for p in [
+        "boresight_roll_deg",
+        "boresight_pitch_deg",
+        "boresight_yaw_deg",
+    ] {
+        let sigma = cal["sigma"][p].as_f64();
+        let value = cal["parameters"][p].as_f64().unwrap_or(f64::NAN);
+        match sigma {
+            Some(sigma) => assert!(
+                sigma.is_finite() && (1e-4..0.5).contains(&sigma) && value.abs() < 5.0,
+                "{name}: {p} = {value}° ± {sigma}°"
+            ),
+            None => assert!(
+                p == "boresight_yaw_deg" && value == 0.0 && cal["observable"][p] == false,
+                "{name}: {p} = {value}° has no σ: {cal}"
+            ),
         }
-        assert!(
-            cal["warnings"].to_string().contains("surface_calibration"),
-            "{name}: {}",
-            cal["warnings"]
-        );
-        carries_the_input_extra_bytes(&python, &laz, &corrected);
-        let m = misfit(&python, &[&laz, &corrected]);
-        let (before, after) = (
-            m[0]["rms_m"].as_f64().unwrap(),
-            m[1]["rms_m"].as_f64().unwrap(),
-        );
-        eprintln!("{name}: point-to-plane RMS between the passes {before:.4} m → {after:.4} m");
-        assert!(
-            after <= bar * before,
-            "{name}: the misfit went from {before:.4} m to {after:.4} m, more than {bar} of it"
-        );
     }
+    assert!(
+        cal["warnings"].to_string().contains("surface_calibration"),
+        "{name}: {}",
+        cal["warnings"]
+    );
+    carries_the_input_extra_bytes(&python, &laz, &corrected);
+    let m = misfit(&python, &[&laz, &corrected]);
+    let (before, after) = (
+        m[0]["rms_m"].as_f64().unwrap(),
+        m[1]["rms_m"].as_f64().unwrap(),
+    );
+    eprintln!("{name}: point-to-plane RMS between the passes {before:.4} m → {after:.4} m");
+    assert!(
+        after <= bar * before,
+        "{name}: the misfit went from {before:.4} m to {after:.4} m, more than {bar} of it"
+    );
 }
 
 /// The preset's head (its rotation axis along the body's −x) recovers every return of the file
