@@ -15,14 +15,10 @@ use lidarqa_io::{
     CLASS_WATER_SURFACE, Crs, InverseKind, LasTimeConverter, LasWriteOptions, LocalInverse,
     RawChunk, RawPoint, Unprojected,
 };
-use lidarqa_model::{
-    ConicScanner, Ecef, Georeferencer, Grid, LinearScanner, Mounting, MountingPartials, Ned,
-    Scanner, Source, ecef_from_ned_sin_cos, linear_jacobian_at_beam,
-};
+use lidarqa_model::{Ecef, Grid, ecef_from_ned_sin_cos};
 use lidarqa_tpu::{
-    BeamPropagator, GridBuffers, IhoOrder, Incidence, IncidenceClass, PointPropagator, PoseAt,
-    PoseSigma, Recoverer, SegmentRotation, SoundingRecovery, Surface, SurfaceSource, THU_95_CBLUE,
-    TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex, judge_surfaces_into, thu_95_m,
+    GridBuffers, IhoOrder, IncidenceClass, KernelOptions, PointKernel, SegmentRotation, Surface,
+    THU_95_CBLUE, TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex, judge_surfaces_into,
 };
 use lidarqa_tpu::{MOUNTING_ERROR_M, MountingTally};
 use nalgebra::{Matrix3, Vector3};
@@ -32,13 +28,11 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, Sender, SyncSender, channel};
 
-mod kernel;
 mod point;
 mod prepare;
 mod scan_angle;
 mod summarize;
 
-use kernel::Kernel;
 use point::{valid_ecef, water_returns};
 use prepare::{Prep, PrepState, Prepare, Prepared, head_len};
 pub(crate) use scan_angle::scan_angle_disagreement;
@@ -151,15 +145,31 @@ pub fn tpu_tile_with_progress(
         heights,
         point_keys,
     } = ctx.open_tile(input)?;
-    let kernel = Kernel::new(ctx)?;
-    let n_sigma = kernel.n_sigma();
+    let file_normals = NORMAL_DIMS
+        .iter()
+        .all(|n| info.extra_dims.iter().any(|d| d.name == *n));
+    let kernel = PointKernel::new(
+        &ctx.sensor,
+        ctx.beam_divergence_rad,
+        &ctx.recovery_mounting,
+        KernelOptions {
+            covariance: ctx.options.covariance,
+            file_normals,
+        },
+    )
+    .map_err(|source| Error::Input {
+        path: ctx.trajectory_path.clone(),
+        source,
+    })?;
+    // σ N, E, U, H, V, and for soundings THU and TVU, then their `depth` and `iho_order`.
+    let (n_sigma, n_values) = if kernel.soundings() { (7, 9) } else { (5, 5) };
     // With the incidence term, each point's `incidence_class` follows the σ (and soundings).
-    let n_dims = kernel.n_dims() + usize::from(kernel.has_incidence());
+    let n_dims = n_values + usize::from(kernel.has_incidence());
     let descriptions = descriptions();
     let mut dims: Vec<(&str, &str)> = SIGMA_NAMES
         .iter()
         .chain(&SOUNDING_DIMS)
-        .take(kernel.n_dims())
+        .take(n_values)
         .zip(&descriptions)
         .map(|(n, d)| (*n, d.as_str()))
         .collect();
@@ -175,9 +185,6 @@ pub fn tpu_tile_with_progress(
     }
     // The input's own extra bytes ride ahead of the σ (after lidarqa's own names are set).
     let carried = options.carry_extra_bytes(&info, job.output);
-    let file_normals = NORMAL_DIMS
-        .iter()
-        .all(|n| info.extra_dims.iter().any(|d| d.name == *n));
     let writer = ctx.create_output(input, job.output, &options, &[])?;
     let out_chunk = writer.raw_chunk();
 
@@ -217,10 +224,6 @@ pub fn tpu_tile_with_progress(
         path: &path,
         trajectory: &trajectory,
         kernel: &kernel,
-        recoverer: Recoverer::new(&ctx.recovery_mounting),
-        recovery_mounting: ctx.recovery_mounting,
-        r_m: ctx.recovery_mounting.scanner_to_body(),
-        mounting_partials: MountingPartials::new(&ctx.sensor.mounting),
         tally0,
         central_meridian_rad: crs.utm_zone().map(|z| z.central_meridian_rad()),
         crs_name: &crs_name,
@@ -385,17 +388,6 @@ struct Partial {
     water_hint: usize,
 }
 
-/// What the recovery of a topographic point gives the plausibility checks.
-#[derive(Debug, Clone, Copy)]
-struct Recovered {
-    /// Range, m.
-    range_m: f64,
-    /// Out-of-plane / off-cone residual, m.
-    residual_m: f64,
-    /// Scanner origin → point in the body frame (linear scanner), m.
-    body_m: Option<Vector3<f64>>,
-}
-
 struct Run<'a> {
     ctx: &'a TpuContext,
     /// Converts each chunk received (the reader only decodes: fewer chunks' conversions are
@@ -403,15 +395,8 @@ struct Run<'a> {
     prep: &'a Prepare,
     path: &'a PathBuf,
     trajectory: &'a Trajectory,
-    kernel: &'a Kernel,
-    recoverer: Recoverer,
-    /// The mounting the points were made with: raw observations are recovered with it.
-    recovery_mounting: Mounting,
-    /// `R_M` of the mounting the points were made with (the sensor file's), scanner → body.
-    r_m: Matrix3<f64>,
-    /// The mounting the σ are propagated at (calibrated, or the sensor file's), prepared for
-    /// the linear and conic Jacobians.
-    mounting_partials: MountingPartials,
+    /// The sensor's recovery and propagation, one point at a time.
+    kernel: &'a PointKernel,
     /// An empty mounting tally for this sensor.
     tally0: MountingTally,
     /// The central meridian of the points' UTM zone, rad (no zone-area check for other CRSs).
@@ -445,7 +430,7 @@ impl Run<'_> {
         // The look-ahead's conversion of the next chunk's first points (reused).
         let mut head_pts: Vec<Prep> = Vec::new();
         let margin = self.ctx.options.margin_points;
-        let conic = matches!(self.kernel, Kernel::Conic(..));
+        let conic = self.kernel.soundings();
         let mut tail: Vec<Vector3<f64>> = Vec::new();
         // Water-surface returns among the last `margin` points, with their file index.
         let mut water_tail: Vec<(u64, WaterReturn)> = Vec::new();
@@ -554,7 +539,7 @@ impl Run<'_> {
         }
         let what = if conic {
             "recovered as soundings below their pulse's water-surface return"
-        } else if matches!(self.kernel, Kernel::Beam(_)) {
+        } else if self.kernel.kind() != "linear" {
             "propagated as topography (a beam scanner's model has no refraction)"
         } else {
             "propagated as topography (a linear scanner's model has no refraction)"

@@ -10,9 +10,9 @@
 //!   the attitude), raw-observation recovery from a georeferenced point ([`Recoverer`]),
 //!   per-point propagation with the trajectory's own σ and an `incidence` term
 //!   ([`PointPropagator`]), the propagated covariance at the point, on the grid and by source
-//!   ([`local_covariance`], [`grid_covariance`], [`add_shares`]) and plane-fit surface normals
-//!   ([`plane_normals`]). File handling is
-//!   in lidarqa-pipeline;
+//!   ([`local_covariance`], [`grid_covariance`], [`add_shares`]), all of it for one point of a
+//!   tile from its prepared inputs ([`PointKernel`]), and plane-fit surface normals
+//!   ([`plane_normals`]). File handling is in lidarqa-pipeline;
 //! - what a trajectory can physically be: heights, speeds, attitude rates, gaps and σ of an
 //!   aircraft ([`check_trajectory`], [`check_gaps`], [`check_trajectory_sigmas`]);
 //! - a raw linear-scanner record's return georeferenced from its own observations, with its σ
@@ -48,6 +48,7 @@ mod montecarlo;
 mod mounting_check;
 mod normals;
 mod point;
+mod point_kernel;
 mod point_sigma;
 mod presets;
 mod raw_record;
@@ -82,6 +83,10 @@ pub use normals::{
     prior_cos_incidence,
 };
 pub use point::{Incidence, MAX_INCIDENCE_RAD, PointPropagator, PointUncertainty};
+pub use point_kernel::{
+    KernelOptions, KernelPoint, PointKernel, PointTpu, Recovered, SoundingTpu, SourceVariances,
+    WaterAt,
+};
 pub use point_sigma::{
     NO_WATER_LEG, add_shares, grid_covariance, local_covariance, p0_to_point, sounding_overrides,
     topographic_overrides,

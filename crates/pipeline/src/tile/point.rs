@@ -1,11 +1,8 @@
-//! One point through the tile: its state checked, lidarqa-tpu's recovery and propagation for its
-//! scanner, and what comes out counted, kept or refused.
+//! One point through the tile: its state checked, lidarqa-tpu's [`PointKernel`] for its TPU,
+//! and what comes out counted, kept or refused.
 
 use super::*;
-use lidarqa_tpu::{
-    add_shares, grid_covariance, incidence_at, local_covariance, p0_to_point, sounding_overrides,
-    topographic_overrides,
-};
+use lidarqa_tpu::{KernelPoint, Recovered, WaterAt};
 
 impl Run<'_> {
     pub(super) fn point(
@@ -84,267 +81,86 @@ impl Run<'_> {
             }
         };
         let sigma = self.ctx.sigmas.as_ref().map(|s| s.at(p.time_sow_s));
-        let sounding = match (self.kernel, water) {
-            (Kernel::Conic(_, scanner), Some(w))
-                if self.ctx.options.water_classes.contains(lp.classification()) =>
-            {
-                Some(self.recover_sounding(scanner, pose, p, w, &mut acc.water_hint))
-            }
-            _ => None,
+        // Soundings are recovered under their water surface when the scanner has refraction.
+        let water = water
+            .filter(|_| opts.water_classes.contains(lp.classification()))
+            .map(|surface| WaterAt {
+                surface,
+                hint: &mut acc.water_hint,
+            });
+        let point = KernelPoint {
+            ecef: p.ecef,
+            grid_m: p.xyz_m,
+            time_s: p.time_sow_s,
+            ecef_from_ned: p.ecef_from_ned(),
+            sin_convergence: p.unprojected.sin_convergence,
+            cos_convergence: p.unprojected.cos_convergence,
         };
-        // A sounding has its own terms: no incidence surface.
-        let surface = if sounding.is_none() { surface } else { None };
-        // With skip_invalid an implausible point is dropped after propagation: its shares too.
-        let shares_before = opts.skip_invalid.then(|| acc.shares.clone());
-        let result = match sounding {
-            None => self
-                .propagate(pose, p, lp, sigma.as_ref(), surface, acc)
-                .map(|(c, r, class)| (c, None, Some(r), class)),
-            Some(Err(e)) => Err(e),
-            Some(Ok(rec)) => self
-                .propagate_sounding(&rec, pose, sigma.as_ref(), acc)
-                .map(|c| (c, Some(rec), None, IncidenceClass::NoTerm)),
-        };
-        match result {
-            Ok((cov_at_p0, rec, recovered, class)) => {
-                acc.incidence.add(class);
-                // σ in the local level frame at the point; the whole matrix for a sounding's
-                // THU and the covariance, else its diagonal.
-                let m = p0_to_point(&p.ecef_from_ned(), &pose.ecef_to_ned);
-                let (c, [n2, e2, u2]) =
-                    local_covariance(&m, &cov_at_p0, rec.is_some() || opts.covariance);
-                if let Some(r) = recovered {
-                    let sigma_3d = (n2 + e2 + u2).sqrt();
-                    if point_implausible(r.range_m, r.residual_m, sigma_3d) {
-                        acc.implausible.push((index, r.range_m, r.residual_m));
-                        if let Some(before) = shares_before {
-                            acc.shares = before;
-                            return Slot::Skipped(SkipReason::Implausible);
-                        }
-                    }
-                    acc.residual.push(r.residual_m);
-                    // Points beyond the envelope stay out of the mounting check.
-                    if r.range_m <= DEFAULT_MAX_RANGE_M {
-                        acc.mounting.add(r.residual_m, sigma_3d, r.body_m.as_ref());
-                    }
-                }
-                let result = rec.zip(c.as_ref()).map(|(r, c)| SoundingResult {
-                    depth_m: r.depth_m,
-                    thu_95_m: thu_95_m(&c.fixed_view::<2, 2>(0, 0).into_owned()),
-                    tvu_95_m: TVU_95_FACTOR * u2.sqrt(),
-                    surface_modelled: matches!(r.surface, SurfaceSource::Modelled { .. }),
-                    residual_m: r.residual_m,
-                    sigma_horizontal_m: (n2 + e2).sqrt(),
-                    sigma_vertical_m: u2.sqrt(),
-                });
-                let cov = if let (true, Some(c)) = (opts.covariance, c) {
-                    grid_covariance(
-                        &c,
-                        p.unprojected.sin_convergence,
-                        p.unprojected.cos_convergence,
-                    )
-                } else {
-                    [0.0; 6]
-                };
-                Slot::Ok(
-                    [n2.sqrt(), e2.sqrt(), u2.sqrt(), (n2 + e2).sqrt(), u2.sqrt()],
-                    result,
-                    cov,
-                    class as u8,
-                )
-            }
+        let t = match self
+            .kernel
+            .propagate(&point, pose, sigma.as_ref(), surface, water)
+        {
+            Ok(t) => t,
             Err(source) => {
                 let reason = match source {
                     lidarqa_tpu::Error::NoWaterSurface { .. } => SkipReason::NoWaterSurface,
                     lidarqa_tpu::Error::NegativeDepth { .. } => SkipReason::NegativeDepth,
                     _ => SkipReason::NoObservation,
                 };
-                invalid(
+                return invalid(
                     reason,
                     Error::Point {
                         path: self.path.clone(),
                         index,
                         source,
                     },
-                )
-            }
-        }
-    }
-
-    /// The raw observation of a sounding from its pulse's surface return or a modelled surface.
-    pub(super) fn recover_sounding(
-        &self,
-        scanner: &ConicScanner,
-        pose: &PoseAt,
-        p: &Prep,
-        water: &WaterSurfaceIndex,
-        hint: &mut usize,
-    ) -> lidarqa_tpu::Result<SoundingRecovery> {
-        match water.same_pulse_from(p.time_sow_s, hint) {
-            Some(s) => self.recoverer.sounding_from_surface_return(
-                scanner,
-                pose,
-                &p.ecef,
-                p.xyz_m[2],
-                &s.ecef_m,
-                s.grid.height_m(),
-            ),
-            None => {
-                let plane = water.plane_at(p.xyz_m[0], p.xyz_m[1])?;
-                self.recoverer.sounding_from_plane(
-                    scanner,
-                    &self.recovery_mounting,
-                    pose,
-                    &p.ecef,
-                    &Grid::from_vector(p.xyz_m.into()),
-                    &plane,
-                )
-            }
-        }
-    }
-
-    /// Propagation of a sounding: no incidence term, the σ override of its surface
-    /// ([`sounding_overrides`]).
-    pub(super) fn propagate_sounding(
-        &self,
-        rec: &SoundingRecovery,
-        pose: &PoseAt,
-        sigma: Option<&PoseSigma>,
-        acc: &mut Partial,
-    ) -> lidarqa_tpu::Result<Matrix3<f64>> {
-        let Kernel::Conic(pp, scanner) = self.kernel else {
-            return Err(lidarqa_tpu::Error::Recovery(
-                "a sounding needs a conic scanner".into(),
-            ));
-        };
-        let over = sounding_overrides(
-            rec.surface,
-            self.ctx.sensor.sigma.get(Source::WaterSurfaceHeight),
-        );
-        let (footprint, j) =
-            scanner.jacobian_at_pose(&pose.body_to_ned, &self.mounting_partials, &rec.observation);
-        let u = pp.propagate_jacobian(footprint, &j, sigma, None, over.as_slice())?;
-        add_shares(&mut acc.shares, u.source_variance_m2.as_slice(), 0.0);
-        Ok(u.covariance_ned)
-    }
-
-    /// Recovery + propagation: the covariance in N at P0, m².
-    pub(super) fn propagate(
-        &self,
-        pose: &PoseAt,
-        p: &Prep,
-        lp: RawPoint<'_>,
-        sigma: Option<&PoseSigma>,
-        surface: Option<Surface>,
-        acc: &mut Partial,
-    ) -> lidarqa_tpu::Result<(Matrix3<f64>, Recovered, IncidenceClass)> {
-        let mut class = IncidenceClass::NoTerm;
-        let mut incidence = |range_m: f64, beam_ned: Ned| {
-            let (c, cos) = incidence_at(
-                surface,
-                self.file_normals,
-                &pose.ecef_to_ned,
-                &beam_ned.vector(),
-            );
-            class = c;
-            cos.map(|cos_incidence| Incidence {
-                range_m,
-                beam_ned,
-                cos_incidence,
-            })
-        };
-        let (cov, recovered) = match self.kernel {
-            Kernel::Linear(pp) => {
-                // The beam is the incidence term's alone.
-                let r = if surface.is_some_and(|s| s != Surface::TooFew) {
-                    self.recoverer.linear_ecef(pose, &p.ecef)?
-                } else {
-                    self.recoverer.linear_ecef_without_beam(pose, &p.ecef)?
-                };
-                // The beam as recovered, out-of-plane part included (β): near nadir the range
-                // and attitude σ depend on the small across-track part, which the projection
-                // on the scan plane would change. The Jacobian at the parameters of
-                // `r.off_plane()`, from S itself.
-                let fj = linear_jacobian_at_beam(
-                    &pose.body_to_ned,
-                    &self.mounting_partials,
-                    &r.scanner_m,
                 );
-                let inc = incidence(r.range_m, r.beam_ned);
-                // Borrowed, not moved out of the `Result`.
-                let propagated = pp.propagate_jacobian(fj.0, &fj.1, sigma, inc.as_ref(), &[]);
-                let u = match propagated {
-                    Ok(ref u) => u,
-                    Err(e) => return Err(e),
-                };
-                acc.scan
-                    .push(r.scan_angle_rad.to_degrees() - f64::from(lp.scan_angle_deg()));
-                add_shares(
-                    &mut acc.shares,
-                    u.source_variance_m2.as_slice(),
-                    u.incidence_variance_m2,
-                );
-                (
-                    u.covariance_ned,
-                    Recovered {
-                        range_m: r.range_m,
-                        residual_m: r.out_of_plane_m,
-                        // S in the body frame: R_M S.
-                        body_m: Some(self.r_m * r.scanner_m),
-                    },
-                )
-            }
-            Kernel::Beam(bp) => {
-                let r = self.recoverer.beam(bp.scanner(), pose, &p.ecef)?;
-                let inc = incidence(r.range_m, r.beam_ned);
-                let u = bp.propagate(
-                    &pose.attitude(),
-                    &self.ctx.sensor.mounting,
-                    &r.inversion,
-                    sigma,
-                    inc.as_ref(),
-                )?;
-                add_shares(&mut acc.shares, &u.shares(), 0.0);
-                (
-                    u.covariance_ned,
-                    Recovered {
-                        range_m: r.range_m,
-                        residual_m: r.inversion.residual_m,
-                        body_m: None,
-                    },
-                )
-            }
-            Kernel::Conic(pp, scanner) => {
-                let r = self.recoverer.conic(scanner, pose, &p.ecef)?;
-                let inc = incidence(r.range_air_m, r.beam_ned);
-                let (footprint, j) = scanner.jacobian_at_pose(
-                    &pose.body_to_ned,
-                    &self.mounting_partials,
-                    &r.observation,
-                );
-                // A conic return recovered here has no water leg; soundings take
-                // `propagate_sounding` with their own water terms.
-                let over = topographic_overrides(r.observation.time_water_s);
-                let u = pp.propagate_jacobian(footprint, &j, sigma, inc.as_ref(), over)?;
-                add_shares(
-                    &mut acc.shares,
-                    u.source_variance_m2.as_slice(),
-                    u.incidence_variance_m2,
-                );
-                (
-                    u.covariance_ned,
-                    Recovered {
-                        range_m: r.range_air_m,
-                        residual_m: r.off_cone_m,
-                        body_m: None,
-                    },
-                )
             }
         };
+        let class = t.incidence;
+        acc.incidence.add(class);
         if !matches!(class, IncidenceClass::NoTerm) && !class.left_out() {
             acc.with_normal += 1;
         }
-        Ok((cov, recovered, class))
+        let sigma_m = t.sigma_m();
+        let sounding = match t.recovered {
+            Recovered::Topographic {
+                range_m,
+                residual_m,
+                body_m,
+                scan_angle_rad,
+            } => {
+                if let Some(a) = scan_angle_rad {
+                    acc.scan
+                        .push(a.to_degrees() - f64::from(lp.scan_angle_deg()));
+                }
+                let sigma_3d = t.sigma_3d_m();
+                if point_implausible(range_m, residual_m, sigma_3d) {
+                    acc.implausible.push((index, range_m, residual_m));
+                    // With skip_invalid an implausible point is dropped: its shares too.
+                    if opts.skip_invalid {
+                        return Slot::Skipped(SkipReason::Implausible);
+                    }
+                }
+                acc.residual.push(residual_m);
+                // Points beyond the envelope stay out of the mounting check.
+                if range_m <= DEFAULT_MAX_RANGE_M {
+                    acc.mounting.add(residual_m, sigma_3d, body_m.as_ref());
+                }
+                None
+            }
+            Recovered::Sounding(s) => Some(SoundingResult {
+                depth_m: s.depth_m,
+                thu_95_m: s.thu_95_m,
+                tvu_95_m: s.tvu_95_m,
+                surface_modelled: s.surface_modelled,
+                residual_m: s.residual_m,
+                sigma_horizontal_m: sigma_m[3],
+                sigma_vertical_m: sigma_m[4],
+            }),
+        };
+        t.variances.add_shares_to(&mut acc.shares);
+        Slot::Ok(sigma_m, sounding, t.covariance_grid_m2, class as u8)
     }
 }
 

@@ -11,7 +11,7 @@ impl Run<'_> {
         slots: &[Slot],
         summary: &mut TpuSummary,
     ) {
-        let conic = matches!(self.kernel, Kernel::Conic(..));
+        let conic = self.kernel.soundings();
         // One walk of the slots and points: the σ map takes them as an iterator, and the
         // other tallies are added as it goes (each in file order, as before).
         let TpuSummary {
