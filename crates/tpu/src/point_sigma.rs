@@ -1,7 +1,7 @@
 //! A point's propagated covariance made into what a per-point TPU reports: moved from the level
 //! frame at the scanner (P0) to the one at the point, its variances, onto the map grid, and each
 //! source's share of the variance; with the σ overrides a conic return's propagation takes.
-//! Plain functions, so that the file readers that call them keep only the bookkeeping.
+//! Plain functions; [`crate::PointKernel`] calls them for each point of a tile.
 
 use lidarqa_model::Source;
 use nalgebra::Matrix3;
