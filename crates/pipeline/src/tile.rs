@@ -208,7 +208,7 @@ pub fn tpu_tile_with_progress(
     summary.warnings.extend(ctx.heights_note(&info, &heights));
     summary.scan_angle.step_deg = step_deg;
     summary.plausibility.sigma_span_s = ctx.sigma_span_s;
-    let tally0 = MountingTally::new(&ctx.sensor.mounting, kernel.kind() == "linear");
+    let tally0 = MountingTally::new(&ctx.sensor.mounting, kernel.is_linear());
     summary.plausibility.mounting = tally0;
     let crs_name = crs_name(&crs);
 
@@ -539,7 +539,7 @@ impl Run<'_> {
         }
         let what = if conic {
             "recovered as soundings below their pulse's water-surface return"
-        } else if self.kernel.kind() != "linear" {
+        } else if !self.kernel.is_linear() {
             "propagated as topography (a beam scanner's model has no refraction)"
         } else {
             "propagated as topography (a linear scanner's model has no refraction)"

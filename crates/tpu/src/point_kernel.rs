@@ -243,6 +243,11 @@ impl PointKernel {
         }
     }
 
+    /// Whether the scanner is the linear one (one scan plane: the mounting check's fit applies).
+    pub fn is_linear(&self) -> bool {
+        matches!(self.model, Model::Linear(_))
+    }
+
     /// Whether water points are recovered as soundings (the conic scanner's refraction).
     pub fn soundings(&self) -> bool {
         matches!(self.model, Model::Conic(..))
