@@ -116,7 +116,7 @@ pub use retile::{RetileReport, TileFile, TileGrid, retile};
 pub use stored::{StoredHistogram, StoredSummary};
 pub use summary::{
     AngleCheck, DEPTH_BANDS_M, IhoTally, IncidenceTally, ResidualCheck, SIGMA_MAP_CELL_M,
-    SIGMA_MAP_MAX_SIDE, SIGMA_NAMES, SigmaMap, SkipReason, SoundingResult, TileReport, TpuSummary,
+    SIGMA_MAP_MAX_SIDE, SIGMA_NAMES, SigmaMap, SkipReason, TileReport, TpuSummary,
 };
 pub use targets_csv::targets_csv;
 pub use targets_files::{control_for_targets, find_targets, points_near_control};

@@ -15,7 +15,7 @@ mod iho;
 pub use checks::{AngleCheck, IncidenceTally, ResidualCheck};
 pub(crate) use histogram::stats;
 pub use histogram::{SIGMA_MAP_CELL_M, SIGMA_MAP_MAX_SIDE, SigmaMap};
-pub use iho::{DEPTH_BANDS_M, IhoTally, SoundingResult};
+pub use iho::{DEPTH_BANDS_M, IhoTally};
 
 use crate::plausibility::PlausibilityTally;
 use lidarqa_model::{LogHistogram, Warning};

@@ -8,17 +8,16 @@ use crate::plausibility::{
     outside_zone, point_implausible,
 };
 use crate::stages::{read_chunks, run_stages, write_chunks};
-use crate::summary::{
-    IncidenceTally, SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary,
-};
+use crate::summary::{IncidenceTally, SIGMA_NAMES, SkipReason, TileReport, TpuSummary};
 use lidarqa_io::{
     CLASS_WATER_SURFACE, Crs, InverseKind, LasTimeConverter, LasWriteOptions, LocalInverse,
     RawChunk, RawPoint, Unprojected,
 };
 use lidarqa_model::{Ecef, Grid, ecef_from_ned_sin_cos};
 use lidarqa_tpu::{
-    GridBuffers, IhoOrder, IncidenceClass, KernelOptions, PointKernel, SegmentRotation, Surface,
-    THU_95_CBLUE, TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex, judge_surfaces_into,
+    GridBuffers, IhoOrder, IncidenceClass, KernelOptions, PointKernel, SegmentRotation,
+    SoundingTpu, Surface, THU_95_CBLUE, TVU_95_FACTOR, Trajectory, WaterReturn, WaterSurfaceIndex,
+    judge_surfaces_into,
 };
 use lidarqa_tpu::{MOUNTING_ERROR_M, MountingTally};
 use nalgebra::{Matrix3, Vector3};
@@ -359,7 +358,7 @@ enum Slot {
     /// σ north, east, up, horizontal, vertical (m, local level frame at the point), for a
     /// sounding its depth and 95 % uncertainties, and the covariance in the projected axes
     /// (xx, yy, zz, xy, xz, yz, m²; zeros unless asked for).
-    Ok([f64; 5], Option<SoundingResult>, [f64; 6], u8),
+    Ok([f64; 5], Option<SoundingTpu>, [f64; 6], u8),
     Skipped(SkipReason),
     Failed(Box<Error>),
 }

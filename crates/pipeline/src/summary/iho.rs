@@ -5,7 +5,7 @@ use super::checks::ResidualCheck;
 use super::histogram::{Coarse, SIGMA_MAP_CELL_M};
 use lidarqa_model::NORMAL_95_FACTOR;
 use lidarqa_products::{IhoBand, IhoOrderLine, OrderGrid, RecoveryResidual, SoundingsIho};
-use lidarqa_tpu::{IhoOrder, THU_95_CBLUE, TVU_95_FACTOR};
+use lidarqa_tpu::{IhoOrder, SoundingTpu, THU_95_CBLUE, TVU_95_FACTOR};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -17,25 +17,6 @@ pub const DEPTH_BANDS_M: [[f64; 2]; 5] = [
     [20.0, 50.0],
     [50.0, f64::INFINITY],
 ];
-
-/// One sounding's IHO S-44 result (computed by the tile, counted here).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SoundingResult {
-    /// Depth below the water surface, m.
-    pub depth_m: f64,
-    /// 95 % horizontal uncertainty (exact radius of the error ellipse), m.
-    pub thu_95_m: f64,
-    /// 95 % vertical uncertainty (1.96 σ_V), m.
-    pub tvu_95_m: f64,
-    /// Whether the surface was modelled (no surface return of its own pulse).
-    pub surface_modelled: bool,
-    /// Recovery residual, m.
-    pub residual_m: f64,
-    /// 1σ horizontal, m (for σ vs depth).
-    pub sigma_horizontal_m: f64,
-    /// 1σ vertical, m.
-    pub sigma_vertical_m: f64,
-}
 
 /// Counts of one depth band.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -90,8 +71,9 @@ pub(crate) mod order_cells {
 }
 
 impl IhoTally {
-    /// Counts one sounding at projected (x, y), m.
-    pub fn add(&mut self, r: &SoundingResult, x: f64, y: f64) {
+    /// Counts one sounding (tpu's [`SoundingTpu`]) of 1 σ horizontal and vertical
+    /// `sigma_h_v_m` at projected (x, y), m.
+    pub fn add(&mut self, r: &SoundingTpu, sigma_h_v_m: [f64; 2], x: f64, y: f64) {
         let b = DEPTH_BANDS_M
             .iter()
             .position(|[lo, hi]| r.depth_m >= *lo && r.depth_m < *hi)
@@ -104,8 +86,9 @@ impl IhoTally {
             band.tvu[k] += u64::from(v);
             band.both[k] += u64::from(h && v);
         }
-        band.sum_sq_sigma_h_m2 += r.sigma_horizontal_m * r.sigma_horizontal_m;
-        band.sum_sq_sigma_v_m2 += r.sigma_vertical_m * r.sigma_vertical_m;
+        let [sigma_h_m, sigma_v_m] = sigma_h_v_m;
+        band.sum_sq_sigma_h_m2 += sigma_h_m * sigma_h_m;
+        band.sum_sq_sigma_v_m2 += sigma_v_m * sigma_v_m;
         if x.is_finite() && y.is_finite() {
             let key = (
                 (x / SIGMA_MAP_CELL_M).floor() as i64,

@@ -149,15 +149,7 @@ impl Run<'_> {
                 }
                 None
             }
-            Recovered::Sounding(s) => Some(SoundingResult {
-                depth_m: s.depth_m,
-                thu_95_m: s.thu_95_m,
-                tvu_95_m: s.tvu_95_m,
-                surface_modelled: s.surface_modelled,
-                residual_m: s.residual_m,
-                sigma_horizontal_m: sigma_m[3],
-                sigma_vertical_m: sigma_m[4],
-            }),
+            Recovered::Sounding(s) => Some(s),
         };
         t.variances.add_shares_to(&mut acc.shares);
         Slot::Ok(sigma_m, sounding, t.covariance_grid_m2, class as u8)

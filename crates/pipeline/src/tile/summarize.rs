@@ -31,7 +31,7 @@ impl Run<'_> {
                         *points_written += 1;
                         let [x_m, y_m, _] = p.xyz_m;
                         if let Some(r) = sounding {
-                            iho.add(r, x_m, y_m);
+                            iho.add(r, [sig[3], sig[4]], x_m, y_m);
                         }
                         for (h, v) in sigma.iter_mut().zip(sig) {
                             h.add(*v);
