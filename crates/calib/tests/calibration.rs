@@ -3,7 +3,7 @@
 //! ground with markings and gable roofs; injected boresight (0.05°, −0.03°, 0.08°) and lever arm
 //! (0.10, −0.05, 0.20) m; range noise 2 cm, attitude noise 0.001°, pick noise 1 cm.
 //!
-//! Why 300 and 800 m rather than the example 300 / 500 m: a boresight pitch Δβ moves a
+//! Why 300 and 800 m rather than 300 / 500 m: a boresight pitch Δβ moves a
 //! point along track by `H·Δβ` and the lever arm by `Δx`, and both flip with the flight direction,
 //! so only the ratio of the two heights separates them. With two equally weighted heights the
 //! correlation is `(H1+H2)/2 / √((H1²+H2²)/2)`: 0.970 for 300/500 m, 0.966 for Zhang &

@@ -169,7 +169,7 @@ fn invalid_options_and_one_strip() {
         e.to_string(),
         "option radius_m must be a finite number > 0 and at most 50 m, got -1"
     );
-    // An unbounded search radius (issue #25: 1e6 m ran for minutes).
+    // An unbounded search radius (1e6 m once ran for minutes).
     o.vtpm.radius_m = 1e6;
     let e = calibrate_vtpm(&s.strips, &[], &[], &Mounting::default(), &o).unwrap_err();
     assert_eq!(

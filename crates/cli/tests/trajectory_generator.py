@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""An independent witness for `lidarqa trajectory` (issue #24): multi-return pulses written from
-the issue's description alone, with numpy + laspy, not with lidarqa's simulator.
+"""An independent witness for `lidarqa trajectory`: multi-return pulses written from
+the format's description alone, with numpy + laspy, not with lidarqa's simulator.
 
 A scanner flies a straight line at 300 m, 55 m/s, on a grid bearing of 30 degrees, nose up 1.5
 degrees, rolling 2 degrees (which the method cannot see). A sine scan of +-25 degrees at 35 Hz fires
@@ -18,7 +18,7 @@ pitch and azimuth it has where the scanner is are that axis in the local east-no
 there (`level_at`): the local vertical turns by d/R over d metres from the tangent point
 (0.0005 deg at 55 m), and lidarqa re-levels its own plane at each epoch in the same way.
 
-What limits the pitch (measured with this generator, issue #24): from the returns alone, with the
+What limits the pitch (measured with this generator): from the returns alone, with the
 true scanner positions as the beams' apex, the scan plane gives the pitch to 0.04 arcsec; the
 apex the method has is the fitted scanner position, and an error of d along the plane's normal
 (nearly the flight direction) tilts every beam by d / range: 3 mm gives 2.1 arcsec. The block

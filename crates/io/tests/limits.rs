@@ -1,4 +1,4 @@
-//! Resource limits (issue #12): a header that claims more than the file holds is refused with a
+//! Resource limits: a header that claims more than the file holds is refused with a
 //! one-line error naming the file and the claim, before anything is sized from the claim. Each
 //! test crafts a file by patching the header of a small valid one (LAS 1.4 R15 table 3 offsets).
 

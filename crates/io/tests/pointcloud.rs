@@ -319,7 +319,7 @@ fn truncated_las_is_an_error_not_a_panic() {
     let bytes = std::fs::read(&path).unwrap();
     let cut = dir.path().join("cut.las");
     std::fs::write(&cut, &bytes[..bytes.len() - 50]).unwrap();
-    // Refused when opened (issue #12): the header's count is checked against the file size.
+    // Refused when opened: the header's count is checked against the file size.
     let e = LasReader::from_path(&cut).unwrap_err().to_string();
     assert!(
         e.starts_with(&format!(

@@ -1,7 +1,7 @@
 //! Per-point cost of the full budget (exact Jacobian from dual numbers + `J Σ Jᵀ`) against
 //! evaluating the georeferencing function alone, for the linear scanner: the kernel of the per-point
 //! TPU. Both run over the same 4096 varied geometries in one criterion run, so the ratio is what to
-//! read (issue aim: ≤ 5×, ≥ 2 million points per second per core).
+//! read (aim: ≤ 5×, ≥ 2 million points per second per core).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use lidarqa_model::{Attitude, Georeferencer, LinearObservation, LinearScanner, Mounting};

@@ -1,7 +1,7 @@
 //! Calibration and correction cost on a synthetic survey (tests/common): 8 strips flown at 300 and
 //! 800 m over a 250 m × 250 m scene at 4 points/m², about 250 000 points per strip (2 million in
 //! all), with the hand-picked ties of the scene (markings and roof faces, at most 100).
-//! `LIDARQA_BENCH_HALF_M=250` doubles the scene's side for the 8 × 1 million points
+//! `LIDARQA_BENCH_HALF_M=250` doubles the scene's side for 8 × 1 million points
 //! (about 1.5 GB: each `RawPoint` is 112 bytes and the simulator keeps two more positions).
 //!
 //! What to read: `calibrate_vtpm` (whole solve: indexing, RANSAC + Delaunay per tie and strip,

@@ -1,5 +1,5 @@
 //! Throughput of `correct_tile` (strip correction with a calibrated mounting) against a plain
-//! LAZ read + LAZ write of the same file, in one run (issue #7's "time to correct a strip against
+//! LAZ read + LAZ write of the same file, in one run ("time to correct a strip against
 //! LAZ read + write alone").
 //!
 //! A bench binary rather than a criterion loop, as `tpu_tile`: one pass over a multi-million-point
@@ -25,7 +25,7 @@ fn main() {
     // Baseline: LAZ read + LAZ write of every point, no computation.
     let base_s = shared::laz_copy_s(&files.input, &files.dir.join("copy.laz"), &[]);
 
-    // The issue's injected mounting, as a calibration would return it.
+    // The injected mounting, as a calibration would return it.
     let mounting = Mounting {
         boresight_roll_rad: 0.05f64.to_radians(),
         boresight_pitch_rad: (-0.03f64).to_radians(),

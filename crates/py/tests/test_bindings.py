@@ -1,4 +1,4 @@
-"""The Python bindings of accuracy evaluation and the error budget (issue 22): each gives what the
+"""The Python bindings of accuracy evaluation and the error budget: each gives what the
 `lidarqa` command prints, and the values are checked against closed forms and Zhang et al. (2018)
 Table 1.
 

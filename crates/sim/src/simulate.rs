@@ -1,6 +1,6 @@
 //! The simulation kernel.
 //!
-//! For every pulse (SPEC §3, issue "survey simulator with known truth"):
+//! For every pulse (SPEC §3):
 //! 1. the **true** ray is cast from the true trajectory, the true mounting (nominal + injected
 //!    errors) and the true scan angle / azimuth into the scene, giving the true range;
 //! 2. the **measured** observations are made from it: range + offset + white noise, scan angle ·

@@ -1,5 +1,5 @@
 //! Issue #18 acceptance on scenes our simulator did not make: `tests/independent/gen_scenes.py`
-//! (numpy + laspy, written from the issue's description) generates raised plates (50 pts/m²,
+//! (numpy + laspy, written from the method's description) generates raised plates (50 pts/m²,
 //! 15 % intensity noise, 15 cm footprint mixing, a painted line 1.7 m away), flat painted discs
 //! (scan lines 0.45 m × 0.22 m, 25 % noise) and a flag scene. Runs when `LIDARQA_PYTHON` names
 //! a Python with numpy and laspy (CI sets it); `LIDARQA_SCENES_DIR` keeps the files.

@@ -112,7 +112,7 @@ fn scene(density: f64, n: usize, seed: u64) -> Scene {
 
 const DENSITIES: [f64; 3] = [4.0, 16.0, 50.0];
 
-/// One cell of the issue #18 table.
+/// One cell of the detection table.
 #[derive(Debug, Clone, Copy)]
 struct Cell {
     /// Intensity noise, a fraction of the plate–ground contrast.
@@ -132,7 +132,7 @@ const CONTRAST_I: f64 = 160.0;
 const TABLE_FOOTPRINT_M: f64 = 0.075;
 
 /// `n` targets 10 m apart, each in a 6 × 6 m window, sampled as `cell` says. Written for this
-/// test from the issue's description (not the simulator's code): intensity = ground + contrast ×
+/// test from the method's description (not the simulator's code): intensity = ground + contrast ×
 /// the footprint's area fraction on the plate + N(0, (noise × contrast)²); heights of the surface
 /// under the footprint centre + N(0, 2 cm); horizontal noise 2 cm.
 fn cell_scene(cell: Cell, n: usize, seed: u64) -> Scene {
@@ -241,7 +241,7 @@ fn horizontal(v: [f64; 3]) -> f64 {
     v[0].hypot(v[1])
 }
 
-/// Runs the cells, prints the README table (cm) and asserts the issue's goals per cell: every
+/// Runs the cells, prints the README table (cm) and asserts the goals per cell: every
 /// target found, the default's horizontal RMSE below Zhang et al.'s (2018) sector-MEC and the
 /// centroid, and its RMSE / RMS σ within 0.7–1.4 per axis.
 ///
@@ -340,7 +340,7 @@ fn method_table_subset() {
     method_table(&cells, 40);
 }
 
-/// The 36 cells of the issue #18 table, in the README's order.
+/// The 36 cells of the detection table, in the README's order.
 fn all_cells() -> Vec<Cell> {
     let mut cells = Vec::new();
     for noise in [0.05, 0.15, 0.30] {
@@ -360,7 +360,7 @@ fn all_cells() -> Vec<Cell> {
     cells
 }
 
-/// The full issue #18 table (36 cells, 100 targets each) for the README:
+/// The full detection table (36 cells, 100 targets each) for the README:
 /// `cargo test -p lidarqa-targets --release --test synthetic -- --ignored --nocapture method_table_full`.
 /// `LIDARQA_CELLS=FROM..TO` runs only the cells FROM..TO (0-based, the README's row order) with
 /// the same scenes, to share the table between processes.

@@ -1,4 +1,4 @@
-//! Round trip of georeferencing and raw-observation recovery (issue #12, property tests): a point
+//! Round trip of georeferencing and raw-observation recovery (property tests): a point
 //! georeferenced from random raw observations, attitudes, mountings and trajectory positions is
 //! recovered by [`Recoverer`] to the same observations. Bounded, seeded case counts, so the
 //! suite is repeatable and fast.

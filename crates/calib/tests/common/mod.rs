@@ -12,7 +12,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-/// The injected mounting of the issue: boresight (0.05°, −0.03°, 0.08°), lever (0.10, −0.05, 0.20) m.
+/// The injected mounting: boresight (0.05°, −0.03°, 0.08°), lever (0.10, −0.05, 0.20) m.
 pub fn true_mounting() -> Mounting {
     Mounting {
         boresight_roll_rad: 0.05f64.to_radians(),

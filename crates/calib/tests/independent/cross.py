@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""An independent generator of issue #19's calibration cross, written from the issue's words with
+"""An independent generator of the calibration cross, written from its description with
 numpy, laspy and pyproj only (none of lidarqa's simulator code).
 
 Four strips in a cross (west->east at 300 m, east->west at 500 m, south->north at 300 m,

@@ -194,7 +194,7 @@ fn check_agreement(refraction: &str, level_flight: bool) -> [f64; 3] {
     assert_eq!(iho["surface_from_pulse"].as_u64().unwrap() as usize, n);
     assert_eq!(summary["skipped"]["no_water_surface"], 0);
     // Ground and water-surface returns have no water leg: no water travel time, surface or
-    // refractive-index term may enter their σ (issue #23: σ_V was 0.124 m against 0.077 m).
+    // refractive-index term may enter their σ (σ_V was once 0.124 m against 0.077 m without it).
     assert!(dry.n >= 1_000, "{} returns without a water leg", dry.n);
     let (pred, act) = dry.rms();
     for (k, axis) in ["north", "east", "up"].iter().enumerate() {

@@ -1,4 +1,4 @@
-//! Crash safety of the real binary (issue #12, SPEC §7 "outputs are atomic"):
+//! Crash safety of the real binary (SPEC §7 "outputs are atomic"):
 //!
 //! - `lidarqa simulate` and `lidarqa tpu` killed with SIGKILL in the middle of writing leave every
 //!   final-named output either absent, complete, or the previous run's file byte for byte; what

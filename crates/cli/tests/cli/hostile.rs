@@ -1,4 +1,4 @@
-//! Hostile input for every command (issue #25, part A): outputs never touch inputs, bounded
+//! Hostile input for every command: outputs never touch inputs, bounded
 //! work, and one clear line for each refusal.
 //!
 //! Every case here was an exit 0 with a destroyed input, a silently wrong number, an abort or a

@@ -1,7 +1,7 @@
 //! Issue #25's "silent or misleading results" that are physical-plausibility cases, each run as
 //! the real binary: before this layer every one exited 0 with nothing on stderr.
 //!
-//! The leeward mounting check (issue #20) runs when `LIDARQA_LEEWARD_DIR` names a directory
+//! The leeward mounting check runs when `LIDARQA_LEEWARD_DIR` names a directory
 //! with leeward's `points.las` and `sbet.out` (see the README's "Real data" section); it says it
 //! skipped otherwise.
 

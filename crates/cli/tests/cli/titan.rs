@@ -72,7 +72,7 @@ fn titan_sample_as_shipped() {
         "{text}{}",
         String::from_utf8_lossy(&o.stderr)
     );
-    // Every point, every group, σ_h and σ_up: within 1 % of the physical beam (issue 20).
+    // Every point, every group, σ_h and σ_up: within 1 % of the physical beam.
     for g in ["range", "attitude", "gnss"] {
         let line = text
             .lines()

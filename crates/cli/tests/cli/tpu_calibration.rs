@@ -1,5 +1,5 @@
 //! `lidarqa tpu --calibration`: the calibrated mounting and its σ replace the sensor file's
-//! (issue #23, SPEC §8). A boresight σ cut from the sensor file's 0.008° to 0.001° cuts the
+//! (SPEC §8). A boresight σ cut from the sensor file's 0.008° to 0.001° cuts the
 //! boresight share of every point's variance by (1/8)² (before renormalising), and the TPU of
 //! the raw strip with the calibration equals the TPU of the strip that `lidarqa correct` wrote,
 //! with a sensor file holding the calibrated mounting: the calibration moves the points the

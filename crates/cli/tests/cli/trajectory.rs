@@ -1,6 +1,6 @@
 //! `lidarqa trajectory` on the built-in forest scenario (300 m, canopy and ground returns):
 //! the rebuilt trajectory against the simulator's TRUE trajectory, and the TPU from it against
-//! the TPU from the SBET (issue #24 acceptance).
+//! the TPU from the SBET.
 
 use crate::binary;
 use binary::{lidarqa, s};
@@ -393,7 +393,7 @@ fn full_forest_strip_sigma_is_honest() {
 }
 
 /// The independent witness: `tests/trajectory_generator.py` writes multi-return pulses with
-/// numpy + laspy from the issue's description (not with lidarqa's simulator), runs
+/// numpy + laspy from the format's description (not with lidarqa's simulator), runs
 /// `lidarqa trajectory` on four flights with their own noise and checks them against the flight
 /// it made, the σ both ways (RMS(error/σ) of x, y, z, heading, pitch within 0.5–2), when
 /// `LIDARQA_PYTHON` names an interpreter with laspy, lazrs, numpy and pyproj.

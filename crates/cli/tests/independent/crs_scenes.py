@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The same airborne strip written in several projected CRSs, for issue #20's CRS acceptance.
+"""The same airborne strip written in several projected CRSs, for the CRS acceptance tests.
 
 Independent of lidarqa's simulator and geodesy: numpy for the geometry, pyproj for every
 projection (PROJ), laspy for the LAS files. Usage:

@@ -2,7 +2,7 @@
 
     python3 qc_forest.py generate OUT_DIR [DZ_M]
         Three north-south flight lines over a 300 m x 300 m hilly forest (NAD83 / BC Albers,
-        EPSG:3005, LAS 1.2 point format 1 with GeoTIFF keys, as the issue's real survey), cut into
+        EPSG:3005, LAS 1.2 point format 1 with GeoTIFF keys, as the real survey it imitates), cut into
         four 150 m tiles, every point source id 0 (the lines are told apart by GPS time only: they
         were flown 200 s apart). Pulses at 4 per m^2 and line; under tree crowns a pulse returns
         from the canopy (class 5) and, two times in three, from the ground (class 2). Line 3 is

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Independent target scenes for issue #18, written from the issue's description with numpy and
+"""Independent target scenes, written from the method's description with numpy and
 laspy only (no lidarqa code path): raised plates, flat painted discs, and the flag scene.
 
     python3 gen_scenes.py OUTDIR [SEED]
@@ -8,7 +8,7 @@ writes, for each scene S in raised, flat, flags: OUTDIR/S.las (point format 1, i
 uint16) and OUTDIR/S_control.csv (id,x,y,z,radius_m: the true plate centre, plate top for a
 raised plate, ground for a painted disc), plus OUTDIR/S_truth.json (scene parameters).
 
-Intensity model (the issue's): ground level G with a slow range/incidence trend, plate level
+Intensity model: ground level G with a slow range/incidence trend, plate level
 P = G + C; every return's intensity is G + C * (fraction of its 15 cm footprint on the plate
 or paint), plus Gaussian noise of a fraction of the contrast C. Heights: the return's height
 is the surface under the footprint centre, plus 2 cm Gaussian noise.
