@@ -1,9 +1,7 @@
 //! Bad input gives a clear error naming the value at fault.
 
-mod common;
-
-use common::*;
 use lidarqa_calib::*;
+use lidarqa_fixtures::calibration_survey::*;
 use lidarqa_model::Mounting;
 use nalgebra::Vector3;
 

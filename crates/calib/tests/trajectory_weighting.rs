@@ -1,17 +1,15 @@
 //! The trajectory weighting: each strip's navigation error is in the ties' covariance, so the
 //! mounting's σ include it and its errors stay within them.
 //!
-//! The synthetic survey of tests/common (eight crossing strips at 300 and 800 m, hand ties,
+//! The synthetic survey of lidarqa-fixtures' calibration_survey (eight crossing strips at 300 and 800 m, hand ties,
 //! control) gets, on top of its white noise, a seeded error per strip: GNSS north/east 2 cm, up
 //! 3 cm, roll and pitch 0.0025°, heading 0.005° (1-σ, a PPK-grade trajectory), which moves every
 //! point and every hand pick of that strip. Either constant over each strip, or a Gauss–Markov
 //! process correlated over 8 s, about half a strip: then it drifts within the strip, and only the
 //! weighting told the correlation time keeps its σ honest.
 
-mod common;
-
-use common::*;
 use lidarqa_calib::*;
+use lidarqa_fixtures::calibration_survey::*;
 use lidarqa_model::Mounting;
 use nalgebra::Vector3;
 use rand::SeedableRng;

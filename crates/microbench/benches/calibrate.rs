@@ -1,4 +1,4 @@
-//! Calibration and correction cost on a synthetic survey (tests/common): 8 strips flown at 300 and
+//! Calibration and correction cost on a synthetic survey (lidarqa-fixtures' calibration_survey): 8 strips flown at 300 and
 //! 800 m over a 250 m × 250 m scene at 4 points/m², about 250 000 points per strip (2 million in
 //! all), with the hand-picked ties of the scene (markings and roof faces, at most 100).
 //! `LIDARQA_BENCH_HALF_M=250` doubles the scene's side for 8 × 1 million points
@@ -13,15 +13,12 @@
 //!
 //! `cargo bench --manifest-path crates/microbench/Cargo.toml --bench calibrate`
 
-#[path = "../../calib/tests/common/mod.rs"]
-mod common;
-
-use common::*;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use lidarqa_calib::{
     CalibrationOptions, Error, Georeferencing, TrajectorySigma, calibrate_vtpm, correct_strip,
     georeference,
 };
+use lidarqa_fixtures::calibration_survey::*;
 use lidarqa_model::Mounting;
 use std::hint::black_box;
 
