@@ -1,7 +1,8 @@
 //! End-to-end checks of the VTPM self-calibration on a synthetic survey built with the model
 //! (lidarqa-fixtures' calibration_survey): eight crossing strips flown in opposite directions
-//! at 300 and 800 m over flat ground with markings and gable roofs; injected boresight (0.05°, −0.03°, 0.08°) and lever arm
-//! (0.10, −0.05, 0.20) m; range noise 2 cm, attitude noise 0.001°, pick noise 1 cm.
+//! at 300 and 800 m over flat ground with markings and gable roofs; injected boresight (0.05°,
+//! −0.03°, 0.08°) and lever arm (0.10, −0.05, 0.20) m; range noise 2 cm, attitude noise
+//! 0.001°, pick noise 1 cm.
 //!
 //! Why 300 and 800 m rather than 300 / 500 m: a boresight pitch Δβ moves a
 //! point along track by `H·Δβ` and the lever arm by `Δx`, and both flip with the flight direction,
