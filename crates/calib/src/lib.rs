@@ -7,9 +7,9 @@
 //!
 //! - Inputs are [`Strip`]s of [`RawPoint`]s: each point keeps its raw observation (range and scan
 //!   angle, recovered once with lidarqa-tpu's [`lidarqa_tpu::Recoverer`]) and its pose, all in one
-//!   local North-East-Down frame ([`LocalFrame`]) built through ECEF, so that re-georeferencing
-//!   with any mounting ([`georeference`], [`Georeferencing`]) is Zhang et al. (2018) eq. (2),
-//!   rigorously.
+//!   local North-East-Down frame (lidarqa-io's [`lidarqa_io::TangentFrame`]) built through ECEF,
+//!   so that re-georeferencing with any mounting ([`georeference`], [`Georeferencing`]) is
+//!   Zhang et al. (2018) eq. (2), rigorously.
 //! - Ties come from hand picks ([`Tie`], SPEC §7) or from the automatic search ([`auto_ties`]);
 //!   control points ([`NedControlPoint`]) add absolute observations, which make the vertical lever
 //!   arm observable.
@@ -90,7 +90,7 @@ pub use smooth::{
     plane_differences,
 };
 pub use strip::{
-    Georeferencing, LocalFrame, RawPoint, ScanGeometry, Strip, correct_strip, georeference,
+    Georeferencing, RawPoint, ScanGeometry, Strip, correct_strip, georeference,
     radius_for_neighbours_m,
 };
 pub use strip_adjust::{Confounded, LineCorrection, SigmaTest, StripAdjustment, StripModel};

@@ -10,68 +10,28 @@
 //! with no NED vector ever added to grid coordinates.
 
 use crate::error::{Error, Result};
+use lidarqa_io::TangentFrame;
 use lidarqa_model::{
-    Attitude, Ecef, Georeferencer, LinearObservation, LinearScanner, Mounting, ecef_from_ned,
-    rotation_zyx, scanner_vector, zyx_angles,
+    Attitude, Ecef, Georeferencer, LinearObservation, LinearScanner, Mounting, rotation_zyx,
+    scanner_vector, zyx_angles,
 };
 use lidarqa_tpu::{LinearRecovery, PoseAt, Recoverer};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
-/// A local North-East-Down frame at a survey centre: the one Cartesian frame of a calibration.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LocalFrame {
-    origin_ecef_m: Vector3<f64>,
-    latitude_rad: f64,
-    longitude_rad: f64,
-    ecef_to_local: Matrix3<f64>,
-}
-
-impl LocalFrame {
-    /// The frame at `origin_ecef_m` (ECEF metres), whose geodetic latitude and longitude (rad)
-    /// define its axes (the caller converts with lidarqa-io's geodesy).
-    pub fn new(origin_ecef_m: Vector3<f64>, latitude_rad: f64, longitude_rad: f64) -> LocalFrame {
-        LocalFrame {
-            origin_ecef_m,
-            latitude_rad,
-            longitude_rad,
-            ecef_to_local: ecef_from_ned(latitude_rad, longitude_rad).transpose(),
-        }
-    }
-
-    /// Origin, ECEF metres.
-    pub fn origin_ecef_m(&self) -> Vector3<f64> {
-        self.origin_ecef_m
-    }
-
-    /// Latitude and longitude of the origin, rad.
-    pub fn origin_lat_lon_rad(&self) -> (f64, f64) {
-        (self.latitude_rad, self.longitude_rad)
-    }
-
-    /// ECEF metres → local NED metres.
-    pub fn to_local(&self, ecef_m: &Vector3<f64>) -> Vector3<f64> {
-        self.ecef_to_local * (ecef_m - self.origin_ecef_m)
-    }
-
-    /// Local NED metres → ECEF metres.
-    pub fn to_ecef(&self, local_m: &Vector3<f64>) -> Vector3<f64> {
-        self.origin_ecef_m + self.ecef_to_local.transpose() * local_m
-    }
-
-    /// A trajectory pose (lidarqa-tpu, ECEF) as `P0` in `L` and the attitude of `R_L` (body → `L`).
-    pub fn pose_in_local(&self, pose: &PoseAt) -> (Vector3<f64>, Attitude) {
-        let r_l = self.ecef_to_local * pose.ecef_to_ned.transpose() * pose.body_to_ned;
-        let a = zyx_angles(&r_l);
-        (
-            self.to_local(&pose.position_ecef_m.vector()),
-            Attitude {
-                roll_rad: a.x,
-                pitch_rad: a.y,
-                heading_rad: a.z,
-            },
-        )
-    }
+/// A trajectory pose (lidarqa-tpu, ECEF) as `P0` in `L` (local NED, m) and the attitude of
+/// `R_L = C_LE · C_EN(P0) · R_N` (body → `L`).
+fn pose_in_local(frame: &TangentFrame, pose: &PoseAt) -> (Vector3<f64>, Attitude) {
+    let r_l = frame.ned_from_ecef() * pose.ecef_to_ned.transpose() * pose.body_to_ned;
+    let a = zyx_angles(&r_l);
+    (
+        frame.to_ned(&pose.position_ecef_m).vector(),
+        Attitude {
+            roll_rad: a.x,
+            pitch_rad: a.y,
+            heading_rad: a.z,
+        },
+    )
 }
 
 /// What a calibration keeps of a point's recovered scanner-frame vector `S = R_Mᵀ (R_Nᵀ (P − P0) − ΔP)`.
@@ -116,19 +76,19 @@ pub struct RawPoint {
 
 impl RawPoint {
     /// Builds a point from a pose and a recovery already computed (lidarqa-tpu
-    /// [`Recoverer::linear_ecef`]) and the point's ECEF position; `geometry` says whether the
-    /// out-of-plane part of `S` is kept.
+    /// [`Recoverer::linear_ecef`]) and the point's ECEF position, in the calibration's frame `L`;
+    /// `geometry` says whether the out-of-plane part of `S` is kept.
     pub fn from_recovery(
-        frame: &LocalFrame,
+        frame: &TangentFrame,
         pose: &PoseAt,
         recovery: &LinearRecovery,
-        point_ecef_m: &Vector3<f64>,
+        point: &Ecef,
         intensity: u16,
         geometry: ScanGeometry,
     ) -> RawPoint {
-        let (origin_m, attitude) = frame.pose_in_local(pose);
+        let (origin_m, attitude) = pose_in_local(frame, pose);
         RawPoint {
-            position_m: frame.to_local(point_ecef_m),
+            position_m: frame.to_ned(point).vector(),
             origin_m,
             attitude,
             observation: LinearObservation {
@@ -145,26 +105,21 @@ impl RawPoint {
     }
 
     /// Recovers the raw observation of a georeferenced point (ECEF) with the mounting it was
-    /// georeferenced with, once, and keeps it.
+    /// georeferenced with, once, and keeps it, in the calibration's frame `L`.
     ///
     /// # Errors
     /// [`Error::Tpu`] when the point coincides with the scanner origin.
     pub fn recover(
-        frame: &LocalFrame,
+        frame: &TangentFrame,
         pose: &PoseAt,
         recoverer: &Recoverer,
-        point_ecef_m: &Vector3<f64>,
+        point: &Ecef,
         intensity: u16,
         geometry: ScanGeometry,
     ) -> Result<RawPoint> {
-        let r = recoverer.linear_ecef(pose, &Ecef::from_vector(*point_ecef_m))?;
+        let r = recoverer.linear_ecef(pose, point)?;
         Ok(RawPoint::from_recovery(
-            frame,
-            pose,
-            &r,
-            point_ecef_m,
-            intensity,
-            geometry,
+            frame, pose, &r, point, intensity, geometry,
         ))
     }
 

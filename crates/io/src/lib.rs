@@ -38,6 +38,7 @@ mod local_inverse;
 mod pointcloud;
 mod pointpose;
 mod sbet;
+mod tangent;
 mod trajtext;
 mod water;
 mod wkt;
@@ -79,6 +80,7 @@ pub use sbet::{
     SmrmsgReader, SmrmsgSigma, SmrmsgWriter, raw as sbet_raw, read_sbet, read_smrmsg,
     write_records_to_path,
 };
+pub use tangent::{TangentFrame, enu_from_ecef};
 pub use trajtext::{
     HEIGHTS_AS_POINTS, HeadingReference, TextPose, TextSigma, TextTrajectory, TrajectoryFile,
     TrajectoryFormat, TrajectoryPosition, parse_text_trajectory, read_point_pose, read_trajectory,

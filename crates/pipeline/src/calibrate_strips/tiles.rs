@@ -49,7 +49,7 @@ pub(super) fn square(north: f64, east: f64, reach: f64) -> [f64; 4] {
 }
 
 impl Region {
-    pub(super) fn new(rects: Vec<[f64; 4]>, frame: &LocalFrame, zone: &Crs) -> Region {
+    pub(super) fn new(rects: Vec<[f64; 4]>, frame: &TangentFrame, zone: &Crs) -> Region {
         let boxes: Vec<[f64; 4]> = rects
             .iter()
             .map(|r| {
@@ -125,7 +125,7 @@ impl Region {
 pub(super) fn cut_strip(
     scan: &StripScan,
     ctx: &TpuContext,
-    frame: &LocalFrame,
+    frame: &TangentFrame,
     region: &Region,
 ) -> Result<Strip> {
     let mut points = Vec::new();
@@ -202,7 +202,7 @@ pub(super) fn cut_strip(
 pub(super) fn cut_all(
     scans: &[StripScan],
     ctx: &TpuContext,
-    frame: &LocalFrame,
+    frame: &TangentFrame,
     region: &Region,
 ) -> Result<Vec<Strip>> {
     let cut: Vec<Result<Strip>> = scans
@@ -219,7 +219,7 @@ pub(super) fn auto_ties_tiled(
     scans: &[StripScan],
     tile_points: u64,
     ctx: &TpuContext,
-    frame: &LocalFrame,
+    frame: &TangentFrame,
     zone: &Crs,
     prior: &lidarqa_model::Mounting,
     opts: &AutoTieOptions,
@@ -309,7 +309,7 @@ pub(super) fn ties_from_scans(
     picks: &TiePicks,
     scans: &[StripScan],
     names: &[LineName],
-    frame: &LocalFrame,
+    frame: &TangentFrame,
     zone: &Crs,
     h0: f64,
 ) -> Result<Vec<Tie>> {
