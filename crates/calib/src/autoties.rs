@@ -586,6 +586,7 @@ fn bright_components(points: &[[f64; 2]], link_m: f64) -> usize {
 mod tests {
     use super::*;
     use crate::strip::RawPoint;
+    use lidarqa_model::Ned;
 
     /// Flat ground, every point its own origin, with a 0.4 m painted stripe along east at north 0;
     /// points `north_m` apart across the stripe and `east_m` along it, starting at `phase_m`.
@@ -596,7 +597,7 @@ mod tests {
             for j in -ej..=ej {
                 let (x, y) = (phase_m + i as f64 * north_m, j as f64 * east_m);
                 let intensity = if x.abs() <= 0.2 { 4000 } else { 500 };
-                points.push(RawPoint::own_origin(Vector3::new(x, y, 0.0), intensity));
+                points.push(RawPoint::own_origin(Ned::new(x, y, 0.0), intensity));
             }
         }
         Strip {

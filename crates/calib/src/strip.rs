@@ -1,7 +1,8 @@
 //! Strips of points with their raw observations, in one local Cartesian frame, and
 //! re-georeferencing them with any mounting.
 //!
-//! The local frame `L` is North-East-Down at a survey centre (metres; x north, y east, z down).
+//! The local frame `L` is North-East-Down at a survey centre (lidarqa-io's [`TangentFrame`];
+//! metres; x north, y east, z down), and positions in it are model's [`Ned`].
 //! Each point keeps its trajectory pose expressed in `L`: the GNSS/INS reference point `P0` in `L`
 //! and the attitude `R_L = C_LE · C_EN(P0) · R_N` (body → `L`), where `C_EN(P0)` is the NED frame
 //! at the pose and `C_LE` the ECEF → `L` rotation. Since `R_L` is itself a rotation
@@ -12,7 +13,7 @@
 use crate::error::{Error, Result};
 use lidarqa_io::TangentFrame;
 use lidarqa_model::{
-    Attitude, Ecef, Georeferencer, LinearObservation, LinearScanner, Mounting, rotation_zyx,
+    Attitude, Ecef, Georeferencer, LinearObservation, LinearScanner, Mounting, Ned, rotation_zyx,
     scanner_vector, zyx_angles,
 };
 use lidarqa_tpu::{LinearRecovery, PoseAt, Recoverer};
@@ -21,11 +22,11 @@ use rayon::prelude::*;
 
 /// A trajectory pose (lidarqa-tpu, ECEF) as `P0` in `L` (local NED, m) and the attitude of
 /// `R_L = C_LE · C_EN(P0) · R_N` (body → `L`).
-fn pose_in_local(frame: &TangentFrame, pose: &PoseAt) -> (Vector3<f64>, Attitude) {
+fn pose_in_local(frame: &TangentFrame, pose: &PoseAt) -> (Ned, Attitude) {
     let r_l = frame.ned_from_ecef() * pose.ecef_to_ned.transpose() * pose.body_to_ned;
     let a = zyx_angles(&r_l);
     (
-        frame.to_ned(&pose.position_ecef_m).vector(),
+        frame.to_ned(&pose.position_ecef_m),
         Attitude {
             roll_rad: a.x,
             pitch_rad: a.y,
@@ -54,10 +55,10 @@ pub enum ScanGeometry {
 /// One laser point with its raw observation, everything in the local frame `L` (module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RawPoint {
-    /// Current coordinates (as delivered, i.e. georeferenced with the prior mounting), local NED, m.
-    pub position_m: Vector3<f64>,
-    /// GNSS/INS reference point `P0` at the pulse time, local NED, m.
-    pub origin_m: Vector3<f64>,
+    /// Current coordinates (as delivered, i.e. georeferenced with the prior mounting) in `L`, m.
+    pub position_m: Ned,
+    /// GNSS/INS reference point `P0` at the pulse time in `L`, m.
+    pub origin_m: Ned,
     /// Attitude of `R_L` (body → `L`), rad: `R_L = Rz(heading) Ry(pitch) Rx(roll)`.
     pub attitude: Attitude,
     /// Range ρ (m) and scan angle θ (rad, positive to the right wing), recovered once.
@@ -88,7 +89,7 @@ impl RawPoint {
     ) -> RawPoint {
         let (origin_m, attitude) = pose_in_local(frame, pose);
         RawPoint {
-            position_m: frame.to_ned(point).vector(),
+            position_m: frame.to_ned(point),
             origin_m,
             attitude,
             observation: LinearObservation {
@@ -125,7 +126,7 @@ impl RawPoint {
 
     /// A test point whose georeferencing is itself (zero range, level, no lever arm).
     #[cfg(test)]
-    pub(crate) fn own_origin(p: Vector3<f64>, intensity: u16) -> RawPoint {
+    pub(crate) fn own_origin(p: Ned, intensity: u16) -> RawPoint {
         RawPoint {
             position_m: p,
             origin_m: p,
@@ -157,7 +158,8 @@ impl RawPoint {
 
     /// Local north, east and up of [`RawPoint::position_m`], m.
     pub fn neu_m(&self) -> [f64; 3] {
-        [self.position_m.x, self.position_m.y, -self.position_m.z]
+        let p = &self.position_m;
+        [p.north_m(), p.east_m(), p.up_m()]
     }
 }
 
@@ -181,7 +183,7 @@ impl Strip {
         let xy: Vec<[f64; 2]> = self
             .points
             .iter()
-            .map(|p| [p.position_m.x, p.position_m.y])
+            .map(|p| [p.position_m.north_m(), p.position_m.east_m()])
             .collect();
         radius_for_neighbours_m(&xy, neighbours)
     }
@@ -195,10 +197,11 @@ impl Strip {
             f64::NEG_INFINITY,
         ];
         for p in &self.points {
-            e[0] = e[0].min(p.position_m.x);
-            e[1] = e[1].min(p.position_m.y);
-            e[2] = e[2].max(p.position_m.x);
-            e[3] = e[3].max(p.position_m.y);
+            let (north, east) = (p.position_m.north_m(), p.position_m.east_m());
+            e[0] = e[0].min(north);
+            e[1] = e[1].min(east);
+            e[2] = e[2].max(north);
+            e[3] = e[3].max(east);
         }
         (!self.points.is_empty()).then_some(e)
     }
@@ -236,17 +239,19 @@ pub fn radius_for_neighbours_m(xy: &[[f64; 2]], neighbours: usize) -> Option<f64
 /// through [`LinearScanner::footprint_ned`] (the reference path; [`Georeferencing`] is the fast
 /// one).
 /// A point that keeps the out-of-plane part of `S` (a beam head) takes the same formula with
-/// its whole `S` ([`RawPoint::scanner_m`]).
-pub fn georeference(point: &RawPoint, mounting: &Mounting) -> Vector3<f64> {
+/// its whole `S` ([`RawPoint::scanner_m`]). The point is in the calibration's frame `L`.
+pub fn georeference(point: &RawPoint, mounting: &Mounting) -> Ned {
     if point.out_of_plane_m != 0.0 {
-        return Georeferencing::new(mounting).apply(point);
+        return Ned::from_vector(Georeferencing::new(mounting).apply(point));
     }
-    point.origin_m
-        + LinearScanner.footprint_ned(&LinearScanner.parameters(
-            &point.attitude,
-            mounting,
-            &point.observation,
-        ))
+    Ned::from_vector(
+        point.origin_m.vector()
+            + LinearScanner.footprint_ned(&LinearScanner.parameters(
+                &point.attitude,
+                mounting,
+                &point.observation,
+            )),
+    )
 }
 
 /// A mounting prepared for re-georeferencing many points: `R_M` computed once.
@@ -274,7 +279,7 @@ impl Georeferencing {
     pub fn apply(&self, p: &RawPoint) -> Vector3<f64> {
         let a = &p.attitude;
         let r_l = rotation_zyx(a.roll_rad, a.pitch_rad, a.heading_rad);
-        p.origin_m + r_l * (self.r_m * p.scanner_m() + self.lever_m)
+        p.origin_m.vector() + r_l * (self.r_m * p.scanner_m() + self.lever_m)
     }
 }
 
@@ -323,15 +328,21 @@ impl Georeferencing {
         let k = offset.profile.as_ref().map_or(1.0, |f| f.at(p.time_s));
         let [dr, dp, dh] = offset.attitude_rad.map(|v| v * k);
         let r_l = rotation_zyx(a.roll_rad + dr, a.pitch_rad + dp, a.heading_rad + dh);
-        p.origin_m + offset.position_m * k + r_l * (self.r_m * p.scanner_m() + self.lever_m)
+        p.origin_m.vector()
+            + offset.position_m * k
+            + r_l * (self.r_m * p.scanner_m() + self.lever_m)
     }
 }
 
 /// Strip correction: every point re-georeferenced from its raw observation with `mounting`
-/// (local NED metres, in point order; rayon-parallel).
-pub fn correct_strip(strip: &Strip, mounting: &Mounting) -> Vec<Vector3<f64>> {
+/// (in the calibration's frame `L`, in point order; rayon-parallel).
+pub fn correct_strip(strip: &Strip, mounting: &Mounting) -> Vec<Ned> {
     let g = Georeferencing::new(mounting);
-    strip.points.par_iter().map(|p| g.apply(p)).collect()
+    strip
+        .points
+        .par_iter()
+        .map(|p| Ned::from_vector(g.apply(p)))
+        .collect()
 }
 
 /// Checks strips: at least one point each, unique ids, finite values.
@@ -348,8 +359,8 @@ pub(crate) fn check_strips(strips: &[Strip]) -> Result<()> {
             });
         }
         if let Some(index) = s.points.iter().position(|p| {
-            !(p.position_m.iter().all(|v| v.is_finite())
-                && p.origin_m.iter().all(|v| v.is_finite())
+            !(p.position_m.vector().iter().all(|v| v.is_finite())
+                && p.origin_m.vector().iter().all(|v| v.is_finite())
                 && p.attitude.roll_rad.is_finite()
                 && p.attitude.pitch_rad.is_finite()
                 && p.attitude.heading_rad.is_finite()
@@ -477,7 +488,7 @@ pub(crate) fn within(index: &GridIndex, points: &[RawPoint], x: f64, y: f64, r: 
     let mut out = Vec::new();
     index.candidates(x, y, r, |k| {
         let p = &points[k].position_m;
-        if (p.x - x).powi(2) + (p.y - y).powi(2) <= r * r {
+        if (p.north_m() - x).powi(2) + (p.east_m() - y).powi(2) <= r * r {
             out.push(k);
         }
     });
@@ -491,8 +502,8 @@ mod tests {
 
     fn point() -> RawPoint {
         RawPoint {
-            position_m: Vector3::zeros(),
-            origin_m: Vector3::new(10.0, -20.0, -500.0),
+            position_m: Ned::default(),
+            origin_m: Ned::new(10.0, -20.0, -500.0),
             attitude: Attitude::from_degrees(1.5, -2.0, 123.0),
             observation: LinearObservation {
                 range_m: 520.0,
@@ -514,7 +525,7 @@ mod tests {
         };
         let p = point();
         assert_relative_eq!(
-            georeference(&p, &m),
+            georeference(&p, &m).vector(),
             Georeferencing::new(&m).apply(&p),
             epsilon = 1e-9
         );

@@ -388,7 +388,7 @@ fn add_trajectory_covariance(
 mod tests {
     use super::*;
     use crate::strip::RawPoint;
-    use lidarqa_model::{Attitude, LinearObservation, rotation_zyx};
+    use lidarqa_model::{Attitude, LinearObservation, Ned, rotation_zyx};
 
     /// Height (m, up) of the test scene: flat ground and a tent-like ridge along north, 2 m high,
     /// its faces sloped 45°.
@@ -427,8 +427,10 @@ mod tests {
                     }
                     let s = d * hi;
                     points.push(RawPoint {
-                        position_m: origin + r_l * (r_nom * s + nominal.lever_arm_m),
-                        origin_m: origin,
+                        position_m: Ned::from_vector(
+                            origin + r_l * (r_nom * s + nominal.lever_arm_m),
+                        ),
+                        origin_m: Ned::from_vector(origin),
                         attitude,
                         observation: LinearObservation {
                             range_m: hi,

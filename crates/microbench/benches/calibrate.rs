@@ -112,7 +112,7 @@ fn bench(c: &mut Criterion) {
             strip
                 .points
                 .iter()
-                .map(|p| georeference(black_box(p), &m).z)
+                .map(|p| georeference(black_box(p), &m).down_m())
                 .sum::<f64>()
         })
     });

@@ -316,13 +316,13 @@ pub fn calibrate_strips_with_progress(
         TieSource::Automatic => None,
     };
     // First pass: each strip's extent, extreme points, density and the heights under the picks.
-    let h0 = local_to_projected(&frame, &zone, &Vector3::zeros())[2];
+    let h0 = local_to_projected(&frame, &zone, &Ned::default())[2];
     let guesses: Vec<[f64; 2]> = tie_picks.as_ref().map_or_else(Vec::new, |t| {
         t.picks
             .iter()
             .map(|p| {
                 let g = projected_to_local(&frame, &zone, p.x, p.y, h0);
-                [g.x, g.y]
+                [g.north_m(), g.east_m()]
             })
             .collect()
     });
@@ -410,7 +410,7 @@ pub fn calibrate_strips_with_progress(
     }
     for c in &control {
         let reach = tie_reach_m(&options.vtpm, c.target_radius_m) + REACH_SLACK_M;
-        squares.push(square(c.position_m.x, c.position_m.y, reach));
+        squares.push(square(c.position_m.north_m(), c.position_m.east_m(), reach));
     }
     let region = Region::new(squares, &frame, &zone);
     progress(CalibrateStep::Adjustment);
@@ -644,30 +644,23 @@ fn open_all(paths: &[PathBuf], ctx: &TpuContext) -> Result<(TangentFrame, Crs)> 
     Ok((frame, zone))
 }
 
-/// Local NED → projected `[easting, northing, ellipsoidal height]` in `zone`.
-pub fn local_to_projected(frame: &TangentFrame, zone: &Crs, v: &Vector3<f64>) -> [f64; 3] {
-    let g = zone
-        .ellipsoid()
-        .ecef_to_geodetic(&frame.ned_to_ecef(&Ned::from_vector(*v)));
+/// A position in the calibration's frame → projected `[easting, northing, ellipsoidal height]`
+/// in `zone`.
+pub fn local_to_projected(frame: &TangentFrame, zone: &Crs, v: &Ned) -> [f64; 3] {
+    let g = zone.ellipsoid().ecef_to_geodetic(&frame.ned_to_ecef(v));
     let p = zone.forward(g.latitude_rad, g.longitude_rad);
     [p.easting_m, p.northing_m, g.height_m]
 }
 
-/// Projected position → local NED.
-pub fn projected_to_local(
-    frame: &TangentFrame,
-    zone: &Crs,
-    x: f64,
-    y: f64,
-    h: f64,
-) -> Vector3<f64> {
+/// Projected position → the calibration's frame.
+pub fn projected_to_local(frame: &TangentFrame, zone: &Crs, x: f64, y: f64, h: f64) -> Ned {
     let (lat, lon) = zone.inverse(x, y);
     let ecef = zone.ellipsoid().geodetic_to_ecef(&Geodetic {
         latitude_rad: lat,
         longitude_rad: lon,
         height_m: h,
     });
-    frame.to_ned(&ecef).vector()
+    frame.to_ned(&ecef)
 }
 
 #[cfg(test)]

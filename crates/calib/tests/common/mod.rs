@@ -6,7 +6,7 @@
 #![allow(dead_code)]
 
 use lidarqa_calib::{NedControlPoint, RawPoint, Strip, Tie, TieKind, TiePick};
-use lidarqa_model::{Attitude, LinearObservation, Mounting, rotation_zyx, scanner_vector};
+use lidarqa_model::{Attitude, LinearObservation, Mounting, Ned, rotation_zyx, scanner_vector};
 use nalgebra::{Vector2, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -326,8 +326,8 @@ pub fn simulate(
                 );
                 let delivered = origin + r_noisy * scanner_vector(obs.range_m, theta);
                 points.push(RawPoint {
-                    position_m: delivered,
-                    origin_m: origin,
+                    position_m: Ned::from_vector(delivered),
+                    origin_m: Ned::from_vector(origin),
                     attitude: att_noisy,
                     observation: obs,
                     out_of_plane_m: 0.0,
@@ -424,7 +424,7 @@ impl Survey {
                 let (c, h) = self.scene.markings.get(k)?;
                 Some(NedControlPoint {
                     id: t.id.clone(),
-                    position_m: Vector3::new(c.x + h, c.y - h, 0.0),
+                    position_m: Ned::new(c.x + h, c.y - h, 0.0),
                     target_radius_m: None,
                     sigma_vertical_m: None,
                 })

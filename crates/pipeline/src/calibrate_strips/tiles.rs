@@ -63,7 +63,7 @@ impl Region {
                     .into_iter()
                     .chain([(1.0, 0.5), (0.0, 1.0), (0.5, 1.0), (1.0, 1.0)])
                 {
-                    let v = Vector3::new(r[0] + fa * (r[2] - r[0]), r[1] + fb * (r[3] - r[1]), 0.0);
+                    let v = Ned::new(r[0] + fa * (r[2] - r[0]), r[1] + fb * (r[3] - r[1]), 0.0);
                     let [x, y, _] = local_to_projected(frame, zone, &v);
                     b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
                 }
@@ -363,8 +363,8 @@ pub(super) fn ties_from_scans(
         }
         ties.entry(p.tie.clone()).or_default().push(TiePick {
             strip: scans[k].id.clone(),
-            north_m: local.x,
-            east_m: local.y,
+            north_m: local.north_m(),
+            east_m: local.east_m(),
         });
     }
     Ok(order
