@@ -323,7 +323,10 @@ fn candidate(
         if near.len() < opts.min_points {
             continue;
         }
-        let pos: Vec<Vector3<f64>> = near.iter().map(|&i| g.apply(&strip.points[i])).collect();
+        let pos: Vec<Vector3<f64>> = near
+            .iter()
+            .map(|&i| g.apply_vector(&strip.points[i]))
+            .collect();
         let (plane, inl) = ransac_plane(&pos, opts.planarity_m, 100, mix_seed(opts.seed, k, s))?;
         if (inl.len() as f64) < 0.9 * pos.len() as f64 {
             return None;

@@ -46,7 +46,7 @@
 //! // A boresight pitch Δβ of 0.05° moves the point along track by ρ cos θ · Δβ = 500 m · Δβ = 0.436 m.
 //! let m = Mounting { boresight_pitch_rad: 0.05f64.to_radians(), ..Mounting::default() };
 //! let moved = Georeferencing::new(&m).apply(&p);
-//! assert!((moved.x - 500.0 * 0.05f64.to_radians()).abs() < 1e-6);
+//! assert!((moved.north_m() - 500.0 * 0.05f64.to_radians()).abs() < 1e-6);
 //! ```
 
 mod autoties;

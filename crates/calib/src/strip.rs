@@ -242,7 +242,7 @@ pub fn radius_for_neighbours_m(xy: &[[f64; 2]], neighbours: usize) -> Option<f64
 /// its whole `S` ([`RawPoint::scanner_m`]). The point is in the calibration's frame `L`.
 pub fn georeference(point: &RawPoint, mounting: &Mounting) -> Ned {
     if point.out_of_plane_m != 0.0 {
-        return Ned::from_vector(Georeferencing::new(mounting).apply(point));
+        return Georeferencing::new(mounting).apply(point);
     }
     Ned::from_vector(
         point.origin_m.vector()
@@ -274,9 +274,15 @@ impl Georeferencing {
         }
     }
 
-    /// `P0 + R_L (R_M S + ΔP)`, local NED metres; equal to [`georeference`] to rounding.
+    /// `P0 + R_L (R_M S + ΔP)` in `L`; equal to [`georeference`] to rounding.
     #[inline]
-    pub fn apply(&self, p: &RawPoint) -> Vector3<f64> {
+    pub fn apply(&self, p: &RawPoint) -> Ned {
+        Ned::from_vector(self.apply_vector(p))
+    }
+
+    /// [`Georeferencing::apply`] as a plain vector, for the crate's kernels.
+    #[inline]
+    pub(crate) fn apply_vector(&self, p: &RawPoint) -> Vector3<f64> {
         let a = &p.attitude;
         let r_l = rotation_zyx(a.roll_rad, a.pitch_rad, a.heading_rad);
         p.origin_m.vector() + r_l * (self.r_m * p.scanner_m() + self.lever_m)
@@ -338,11 +344,7 @@ impl Georeferencing {
 /// (in the calibration's frame `L`, in point order; rayon-parallel).
 pub fn correct_strip(strip: &Strip, mounting: &Mounting) -> Vec<Ned> {
     let g = Georeferencing::new(mounting);
-    strip
-        .points
-        .par_iter()
-        .map(|p| Ned::from_vector(g.apply(p)))
-        .collect()
+    strip.points.par_iter().map(|p| g.apply(p)).collect()
 }
 
 /// Checks strips: at least one point each, unique ids, finite values.
@@ -526,7 +528,7 @@ mod tests {
         let p = point();
         assert_relative_eq!(
             georeference(&p, &m).vector(),
-            Georeferencing::new(&m).apply(&p),
+            Georeferencing::new(&m).apply(&p).vector(),
             epsilon = 1e-9
         );
     }

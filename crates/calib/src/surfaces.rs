@@ -107,7 +107,7 @@ impl SurfaceProblem<'_> {
             let p = &self.strips[s].points[k];
             match offset {
                 Some((o, off)) if o == s => g.apply_offset(p, off),
-                _ => g.apply(p),
+                _ => g.apply_vector(p),
             }
         };
         self.patches
@@ -147,7 +147,12 @@ fn build_patches(
     let g = Georeferencing::new(mounting);
     let positions: Vec<Vec<[f64; 3]>> = strips
         .iter()
-        .map(|s| s.points.par_iter().map(|p| g.apply(p).into()).collect())
+        .map(|s| {
+            s.points
+                .par_iter()
+                .map(|p| g.apply_vector(p).into())
+                .collect()
+        })
         .collect();
     let trees: Vec<ImmutableKdTree<f64, 3>> = positions
         .iter()

@@ -347,7 +347,10 @@ fn build_virtual_tie_within(pick: &PickInStrip<'_>, radius_m: f64) -> Result<Vir
         strip: strip.id.clone(),
         reason,
     };
-    let pos: Vec<Vector3<f64>> = near.iter().map(|&k| g.apply(&strip.points[k])).collect();
+    let pos: Vec<Vector3<f64>> = near
+        .iter()
+        .map(|&k| g.apply_vector(&strip.points[k]))
+        .collect();
     let (plane, inliers): (Plane, Vec<usize>) =
         ransac_plane(&pos, opts.ransac_threshold_m, opts.ransac_iterations, seed)
             .and_then(|(plane, inliers)| trim_to_plane(&pos, inliers, plane))
@@ -452,7 +455,7 @@ fn build_target_tie(
     opts: &VtpmOptions,
 ) -> Option<VirtualTie> {
     let strip = &idx.strips[s];
-    let at = |k: usize| g.apply(&strip.points[k]);
+    let at = |k: usize| g.apply_vector(&strip.points[k]);
     let around = within(
         &idx.grids[s],
         &strip.points,
@@ -519,7 +522,7 @@ impl VirtualTie {
         let pts = &strips[self.strip].points;
         let place = |k: usize| match offset {
             Some((s, o)) if s == self.strip => g.apply_offset(&pts[k], o),
-            _ => g.apply(&pts[k]),
+            _ => g.apply_vector(&pts[k]),
         };
         let new: Vec<Vector3<f64>> = self.vertices.iter().map(|&k| place(k)).collect();
         if self.target_mean {
@@ -690,7 +693,7 @@ impl TieModel {
                 let pts: Vec<Vector3<f64>> = v
                     .plane_points
                     .iter()
-                    .map(|&k| g.apply(&strips[v.strip].points[k]))
+                    .map(|&k| g.apply_vector(&strips[v.strip].points[k]))
                     .collect();
                 if let Some(pl) = fit_plane(&pts) {
                     t.directions = vec![pl.normal];

@@ -104,7 +104,7 @@ fn perturbed(tau_s: Option<f64>) -> Perturbed {
             p.attitude.roll_rad += e[3];
             p.attitude.pitch_rad += e[4];
             p.attitude.heading_rad += e[5];
-            p.position_m = Ned::from_vector(nominal.apply(p));
+            p.position_m = nominal.apply(p);
         }
         // A hand pick sees the feature where the strip now puts it.
         for tie in &mut ties {

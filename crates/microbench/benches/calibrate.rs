@@ -103,7 +103,7 @@ fn bench(c: &mut Criterion) {
             strip
                 .points
                 .iter()
-                .map(|p| geo.apply(black_box(p)).z)
+                .map(|p| geo.apply(black_box(p)).down_m())
                 .sum::<f64>()
         })
     });

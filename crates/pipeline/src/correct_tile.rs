@@ -518,7 +518,7 @@ mod tests {
     use super::*;
     use lidarqa_calib::{Georeferencing, RawPoint};
     use lidarqa_io::{Geodetic, Hemisphere, TangentFrame, UtmDatum, UtmZone};
-    use lidarqa_model::{Attitude, Ned};
+    use lidarqa_model::Attitude;
     use lidarqa_tpu::{Pose, Recoverer};
 
     /// The mounting the points are made with.
@@ -605,7 +605,7 @@ mod tests {
         )
         .unwrap();
         let local = Georeferencing::new(new).apply(&raw);
-        let g = e.ecef_to_geodetic(&frame.ned_to_ecef(&Ned::from_vector(local)));
+        let g = e.ecef_to_geodetic(&frame.ned_to_ecef(&local));
         let p = proj.forward(g.latitude_rad, g.longitude_rad);
         [p.easting_m, p.northing_m, g.height_m]
     }
