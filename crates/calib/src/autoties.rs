@@ -323,7 +323,10 @@ fn candidate(
         if near.len() < opts.min_points {
             continue;
         }
-        let pos: Vec<Vector3<f64>> = near.iter().map(|&i| g.apply(&strip.points[i])).collect();
+        let pos: Vec<Vector3<f64>> = near
+            .iter()
+            .map(|&i| g.apply_vector(&strip.points[i]))
+            .collect();
         let (plane, inl) = ransac_plane(&pos, opts.planarity_m, 100, mix_seed(opts.seed, k, s))?;
         if (inl.len() as f64) < 0.9 * pos.len() as f64 {
             return None;
@@ -586,6 +589,7 @@ fn bright_components(points: &[[f64; 2]], link_m: f64) -> usize {
 mod tests {
     use super::*;
     use crate::strip::RawPoint;
+    use lidarqa_model::Ned;
 
     /// Flat ground, every point its own origin, with a 0.4 m painted stripe along east at north 0;
     /// points `north_m` apart across the stripe and `east_m` along it, starting at `phase_m`.
@@ -596,7 +600,7 @@ mod tests {
             for j in -ej..=ej {
                 let (x, y) = (phase_m + i as f64 * north_m, j as f64 * east_m);
                 let intensity = if x.abs() <= 0.2 { 4000 } else { 500 };
-                points.push(RawPoint::own_origin(Vector3::new(x, y, 0.0), intensity));
+                points.push(RawPoint::own_origin(Ned::new(x, y, 0.0), intensity));
             }
         }
         Strip {

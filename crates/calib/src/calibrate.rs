@@ -15,7 +15,7 @@ use crate::vtpm::{
 use crate::weighting::{
     Column, TrajectorySensitivity, TrajectorySigma, Whitening, group_noise_factors,
 };
-use lidarqa_model::{Mounting, Warning};
+use lidarqa_model::{Mounting, Ned, Warning};
 use lidarqa_products::{
     self as products, CalibrationDocument, CalibrationIterationsDocument, CalibrationTie,
     CalibrationTrajectorySigma, Id, Iteration, Ordered, StripId, TiePosition,
@@ -232,8 +232,9 @@ pub struct IterationRecord {
     pub iteration: usize,
     /// The mounting at this iteration (SI, [`Param::ALL`] order).
     pub parameters: [f64; PARAM_COUNT],
-    /// Each tie's coordinate (mean over its strips, Zhang & Jiang (2011) eq. 7), local NED, m.
-    pub ties: Vec<(String, Vector3<f64>)>,
+    /// Each tie's coordinate (mean over its strips, Zhang & Jiang (2011) eq. 7), in the
+    /// calibration's frame `L`.
+    pub ties: Vec<(String, Ned)>,
 }
 
 /// The result of a calibration: SPEC §8 `calibration.json` is [`Calibration::to_document`].
@@ -370,11 +371,12 @@ impl Calibration {
         serde_json::to_value(self.to_document()).unwrap_or(Value::Null)
     }
 
-    /// `calibration_iterations.json`; `to_output` maps a local NED position to the output
-    /// coordinates (e.g. projected easting, northing, height; [`local_enu`] for the local frame).
+    /// `calibration_iterations.json`; `to_output` maps a position in the calibration's frame `L`
+    /// to the output coordinates (e.g. projected easting, northing, height; [`local_enu`] for the
+    /// local frame).
     pub fn iterations_document(
         &self,
-        to_output: impl Fn(&Vector3<f64>) -> [f64; 3],
+        to_output: impl Fn(&Ned) -> [f64; 3],
     ) -> CalibrationIterationsDocument {
         CalibrationIterationsDocument {
             iterations: self
@@ -397,7 +399,7 @@ impl Calibration {
     }
 
     /// [`Calibration::iterations_document`] as JSON.
-    pub fn iterations_json(&self, to_output: impl Fn(&Vector3<f64>) -> [f64; 3]) -> Value {
+    pub fn iterations_json(&self, to_output: impl Fn(&Ned) -> [f64; 3]) -> Value {
         serde_json::to_value(self.iterations_document(to_output)).unwrap_or(Value::Null)
     }
 
@@ -423,8 +425,8 @@ impl Calibration {
 
 /// Local NED → `[east, north, up]`, m: the default output mapping of
 /// [`Calibration::iterations_json`].
-pub fn local_enu(v: &Vector3<f64>) -> [f64; 3] {
-    enu(v)
+pub fn local_enu(v: &Ned) -> [f64; 3] {
+    enu(&v.vector())
 }
 
 /// Reads the calibrated mounting from a SPEC §8 `calibration.json` document.
@@ -881,13 +883,13 @@ pub(crate) fn tie_reports(strips: &[Strip], before: &TieModel, after: &TieModel)
         .collect()
 }
 
-fn tie_means(model: &TieModel) -> Vec<(String, Vector3<f64>)> {
+fn tie_means(model: &TieModel) -> Vec<(String, Ned)> {
     model
         .ties
         .iter()
         .map(|t| {
             let c = t.virtuals.iter().map(|v| v.coord).sum::<Vector3<f64>>();
-            (t.id.clone(), c / t.virtuals.len() as f64)
+            (t.id.clone(), Ned::from_vector(c / t.virtuals.len() as f64))
         })
         .collect()
 }

@@ -7,9 +7,9 @@
 //!
 //! - Inputs are [`Strip`]s of [`RawPoint`]s: each point keeps its raw observation (range and scan
 //!   angle, recovered once with lidarqa-tpu's [`lidarqa_tpu::Recoverer`]) and its pose, all in one
-//!   local North-East-Down frame ([`LocalFrame`]) built through ECEF, so that re-georeferencing
-//!   with any mounting ([`georeference`], [`Georeferencing`]) is Zhang et al. (2018) eq. (2),
-//!   rigorously.
+//!   local North-East-Down frame (lidarqa-io's [`lidarqa_io::TangentFrame`]) built through ECEF,
+//!   so that re-georeferencing with any mounting ([`georeference`], [`Georeferencing`]) is
+//!   Zhang et al. (2018) eq. (2), rigorously.
 //! - Ties come from hand picks ([`Tie`], SPEC §7) or from the automatic search ([`auto_ties`]);
 //!   control points ([`NedControlPoint`]) add absolute observations, which make the vertical lever
 //!   arm observable.
@@ -27,14 +27,14 @@
 //!
 //! ```
 //! use lidarqa_calib::{Georeferencing, RawPoint, georeference};
-//! use lidarqa_model::{Attitude, LinearObservation, Mounting};
+//! use lidarqa_model::{Attitude, LinearObservation, Mounting, Ned};
 //! use nalgebra::Vector3;
 //!
 //! // Level flight heading north, 500 m above the origin, a pulse 20° to the right wing.
 //! let theta = 20f64.to_radians();
 //! let p = RawPoint {
-//!     position_m: Vector3::zeros(),
-//!     origin_m: Vector3::new(0.0, 0.0, -500.0),
+//!     position_m: Ned::default(),
+//!     origin_m: Ned::new(0.0, 0.0, -500.0),
 //!     attitude: Attitude::default(),
 //!     observation: LinearObservation { range_m: 500.0 / theta.cos(), scan_angle_rad: theta },
 //!     out_of_plane_m: 0.0,
@@ -42,11 +42,11 @@
 //!     intensity: 0,
 //! };
 //! let nominal = georeference(&p, &Mounting::default());
-//! assert!((nominal - Vector3::new(0.0, 500.0 * theta.tan(), 0.0)).norm() < 1e-9);
+//! assert!((nominal.vector() - Vector3::new(0.0, 500.0 * theta.tan(), 0.0)).norm() < 1e-9);
 //! // A boresight pitch Δβ of 0.05° moves the point along track by ρ cos θ · Δβ = 500 m · Δβ = 0.436 m.
 //! let m = Mounting { boresight_pitch_rad: 0.05f64.to_radians(), ..Mounting::default() };
 //! let moved = Georeferencing::new(&m).apply(&p);
-//! assert!((moved.x - 500.0 * 0.05f64.to_radians()).abs() < 1e-6);
+//! assert!((moved.north_m() - 500.0 * 0.05f64.to_radians()).abs() < 1e-6);
 //! ```
 
 mod autoties;
@@ -90,7 +90,7 @@ pub use smooth::{
     plane_differences,
 };
 pub use strip::{
-    Georeferencing, LocalFrame, RawPoint, ScanGeometry, Strip, correct_strip, georeference,
+    Georeferencing, RawPoint, ScanGeometry, Strip, correct_strip, georeference,
     radius_for_neighbours_m,
 };
 pub use strip_adjust::{Confounded, LineCorrection, SigmaTest, StripAdjustment, StripModel};

@@ -81,7 +81,7 @@ fn build_patches(
             }
             let pos: Vec<Vector3<f64>> = near
                 .iter()
-                .map(|&k| g.apply(&idx.strips[s].points[k]))
+                .map(|&k| g.apply_vector(&idx.strips[s].points[k]))
                 .collect();
             let Some((_, inl)) = ransac_plane(
                 &pos,
@@ -120,7 +120,7 @@ impl PlaneProblem<'_> {
                     .iter()
                     .flat_map(|(s, ks)| {
                         ks.iter()
-                            .map(move |&k| (*s, g.apply(&self.strips[*s].points[k])))
+                            .map(move |&k| (*s, g.apply_vector(&self.strips[*s].points[k])))
                     })
                     .collect();
                 let only: Vec<Vector3<f64>> = pts.iter().map(|(_, v)| *v).collect();

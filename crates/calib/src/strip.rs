@@ -1,7 +1,8 @@
 //! Strips of points with their raw observations, in one local Cartesian frame, and
 //! re-georeferencing them with any mounting.
 //!
-//! The local frame `L` is North-East-Down at a survey centre (metres; x north, y east, z down).
+//! The local frame `L` is North-East-Down at a survey centre (lidarqa-io's [`TangentFrame`];
+//! metres; x north, y east, z down), and positions in it are model's [`Ned`].
 //! Each point keeps its trajectory pose expressed in `L`: the GNSS/INS reference point `P0` in `L`
 //! and the attitude `R_L = C_LE · C_EN(P0) · R_N` (body → `L`), where `C_EN(P0)` is the NED frame
 //! at the pose and `C_LE` the ECEF → `L` rotation. Since `R_L` is itself a rotation
@@ -10,68 +11,28 @@
 //! with no NED vector ever added to grid coordinates.
 
 use crate::error::{Error, Result};
+use lidarqa_io::TangentFrame;
 use lidarqa_model::{
-    Attitude, Ecef, Georeferencer, LinearObservation, LinearScanner, Mounting, ecef_from_ned,
-    rotation_zyx, scanner_vector, zyx_angles,
+    Attitude, Ecef, Georeferencer, LinearObservation, LinearScanner, Mounting, Ned, rotation_zyx,
+    scanner_vector, zyx_angles,
 };
 use lidarqa_tpu::{LinearRecovery, PoseAt, Recoverer};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
-/// A local North-East-Down frame at a survey centre: the one Cartesian frame of a calibration.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LocalFrame {
-    origin_ecef_m: Vector3<f64>,
-    latitude_rad: f64,
-    longitude_rad: f64,
-    ecef_to_local: Matrix3<f64>,
-}
-
-impl LocalFrame {
-    /// The frame at `origin_ecef_m` (ECEF metres), whose geodetic latitude and longitude (rad)
-    /// define its axes (the caller converts with lidarqa-io's geodesy).
-    pub fn new(origin_ecef_m: Vector3<f64>, latitude_rad: f64, longitude_rad: f64) -> LocalFrame {
-        LocalFrame {
-            origin_ecef_m,
-            latitude_rad,
-            longitude_rad,
-            ecef_to_local: ecef_from_ned(latitude_rad, longitude_rad).transpose(),
-        }
-    }
-
-    /// Origin, ECEF metres.
-    pub fn origin_ecef_m(&self) -> Vector3<f64> {
-        self.origin_ecef_m
-    }
-
-    /// Latitude and longitude of the origin, rad.
-    pub fn origin_lat_lon_rad(&self) -> (f64, f64) {
-        (self.latitude_rad, self.longitude_rad)
-    }
-
-    /// ECEF metres → local NED metres.
-    pub fn to_local(&self, ecef_m: &Vector3<f64>) -> Vector3<f64> {
-        self.ecef_to_local * (ecef_m - self.origin_ecef_m)
-    }
-
-    /// Local NED metres → ECEF metres.
-    pub fn to_ecef(&self, local_m: &Vector3<f64>) -> Vector3<f64> {
-        self.origin_ecef_m + self.ecef_to_local.transpose() * local_m
-    }
-
-    /// A trajectory pose (lidarqa-tpu, ECEF) as `P0` in `L` and the attitude of `R_L` (body → `L`).
-    pub fn pose_in_local(&self, pose: &PoseAt) -> (Vector3<f64>, Attitude) {
-        let r_l = self.ecef_to_local * pose.ecef_to_ned.transpose() * pose.body_to_ned;
-        let a = zyx_angles(&r_l);
-        (
-            self.to_local(&pose.position_ecef_m.vector()),
-            Attitude {
-                roll_rad: a.x,
-                pitch_rad: a.y,
-                heading_rad: a.z,
-            },
-        )
-    }
+/// A trajectory pose (lidarqa-tpu, ECEF) as `P0` in `L` (local NED, m) and the attitude of
+/// `R_L = C_LE · C_EN(P0) · R_N` (body → `L`).
+fn pose_in_local(frame: &TangentFrame, pose: &PoseAt) -> (Ned, Attitude) {
+    let r_l = frame.ned_from_ecef() * pose.ecef_to_ned.transpose() * pose.body_to_ned;
+    let a = zyx_angles(&r_l);
+    (
+        frame.to_ned(&pose.position_ecef_m),
+        Attitude {
+            roll_rad: a.x,
+            pitch_rad: a.y,
+            heading_rad: a.z,
+        },
+    )
 }
 
 /// What a calibration keeps of a point's recovered scanner-frame vector `S = R_Mᵀ (R_Nᵀ (P − P0) − ΔP)`.
@@ -94,10 +55,10 @@ pub enum ScanGeometry {
 /// One laser point with its raw observation, everything in the local frame `L` (module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RawPoint {
-    /// Current coordinates (as delivered, i.e. georeferenced with the prior mounting), local NED, m.
-    pub position_m: Vector3<f64>,
-    /// GNSS/INS reference point `P0` at the pulse time, local NED, m.
-    pub origin_m: Vector3<f64>,
+    /// Current coordinates (as delivered, i.e. georeferenced with the prior mounting) in `L`, m.
+    pub position_m: Ned,
+    /// GNSS/INS reference point `P0` at the pulse time in `L`, m.
+    pub origin_m: Ned,
     /// Attitude of `R_L` (body → `L`), rad: `R_L = Rz(heading) Ry(pitch) Rx(roll)`.
     pub attitude: Attitude,
     /// Range ρ (m) and scan angle θ (rad, positive to the right wing), recovered once.
@@ -116,19 +77,19 @@ pub struct RawPoint {
 
 impl RawPoint {
     /// Builds a point from a pose and a recovery already computed (lidarqa-tpu
-    /// [`Recoverer::linear_ecef`]) and the point's ECEF position; `geometry` says whether the
-    /// out-of-plane part of `S` is kept.
+    /// [`Recoverer::linear_ecef`]) and the point's ECEF position, in the calibration's frame `L`;
+    /// `geometry` says whether the out-of-plane part of `S` is kept.
     pub fn from_recovery(
-        frame: &LocalFrame,
+        frame: &TangentFrame,
         pose: &PoseAt,
         recovery: &LinearRecovery,
-        point_ecef_m: &Vector3<f64>,
+        point: &Ecef,
         intensity: u16,
         geometry: ScanGeometry,
     ) -> RawPoint {
-        let (origin_m, attitude) = frame.pose_in_local(pose);
+        let (origin_m, attitude) = pose_in_local(frame, pose);
         RawPoint {
-            position_m: frame.to_local(point_ecef_m),
+            position_m: frame.to_ned(point),
             origin_m,
             attitude,
             observation: LinearObservation {
@@ -145,32 +106,27 @@ impl RawPoint {
     }
 
     /// Recovers the raw observation of a georeferenced point (ECEF) with the mounting it was
-    /// georeferenced with, once, and keeps it.
+    /// georeferenced with, once, and keeps it, in the calibration's frame `L`.
     ///
     /// # Errors
     /// [`Error::Tpu`] when the point coincides with the scanner origin.
     pub fn recover(
-        frame: &LocalFrame,
+        frame: &TangentFrame,
         pose: &PoseAt,
         recoverer: &Recoverer,
-        point_ecef_m: &Vector3<f64>,
+        point: &Ecef,
         intensity: u16,
         geometry: ScanGeometry,
     ) -> Result<RawPoint> {
-        let r = recoverer.linear_ecef(pose, &Ecef::from_vector(*point_ecef_m))?;
+        let r = recoverer.linear_ecef(pose, point)?;
         Ok(RawPoint::from_recovery(
-            frame,
-            pose,
-            &r,
-            point_ecef_m,
-            intensity,
-            geometry,
+            frame, pose, &r, point, intensity, geometry,
         ))
     }
 
     /// A test point whose georeferencing is itself (zero range, level, no lever arm).
     #[cfg(test)]
-    pub(crate) fn own_origin(p: Vector3<f64>, intensity: u16) -> RawPoint {
+    pub(crate) fn own_origin(p: Ned, intensity: u16) -> RawPoint {
         RawPoint {
             position_m: p,
             origin_m: p,
@@ -202,7 +158,8 @@ impl RawPoint {
 
     /// Local north, east and up of [`RawPoint::position_m`], m.
     pub fn neu_m(&self) -> [f64; 3] {
-        [self.position_m.x, self.position_m.y, -self.position_m.z]
+        let p = &self.position_m;
+        [p.north_m(), p.east_m(), p.up_m()]
     }
 }
 
@@ -226,7 +183,7 @@ impl Strip {
         let xy: Vec<[f64; 2]> = self
             .points
             .iter()
-            .map(|p| [p.position_m.x, p.position_m.y])
+            .map(|p| [p.position_m.north_m(), p.position_m.east_m()])
             .collect();
         radius_for_neighbours_m(&xy, neighbours)
     }
@@ -240,10 +197,11 @@ impl Strip {
             f64::NEG_INFINITY,
         ];
         for p in &self.points {
-            e[0] = e[0].min(p.position_m.x);
-            e[1] = e[1].min(p.position_m.y);
-            e[2] = e[2].max(p.position_m.x);
-            e[3] = e[3].max(p.position_m.y);
+            let (north, east) = (p.position_m.north_m(), p.position_m.east_m());
+            e[0] = e[0].min(north);
+            e[1] = e[1].min(east);
+            e[2] = e[2].max(north);
+            e[3] = e[3].max(east);
         }
         (!self.points.is_empty()).then_some(e)
     }
@@ -281,17 +239,19 @@ pub fn radius_for_neighbours_m(xy: &[[f64; 2]], neighbours: usize) -> Option<f64
 /// through [`LinearScanner::footprint_ned`] (the reference path; [`Georeferencing`] is the fast
 /// one).
 /// A point that keeps the out-of-plane part of `S` (a beam head) takes the same formula with
-/// its whole `S` ([`RawPoint::scanner_m`]).
-pub fn georeference(point: &RawPoint, mounting: &Mounting) -> Vector3<f64> {
+/// its whole `S` ([`RawPoint::scanner_m`]). The point is in the calibration's frame `L`.
+pub fn georeference(point: &RawPoint, mounting: &Mounting) -> Ned {
     if point.out_of_plane_m != 0.0 {
         return Georeferencing::new(mounting).apply(point);
     }
-    point.origin_m
-        + LinearScanner.footprint_ned(&LinearScanner.parameters(
-            &point.attitude,
-            mounting,
-            &point.observation,
-        ))
+    Ned::from_vector(
+        point.origin_m.vector()
+            + LinearScanner.footprint_ned(&LinearScanner.parameters(
+                &point.attitude,
+                mounting,
+                &point.observation,
+            )),
+    )
 }
 
 /// A mounting prepared for re-georeferencing many points: `R_M` computed once.
@@ -314,12 +274,18 @@ impl Georeferencing {
         }
     }
 
-    /// `P0 + R_L (R_M S + ΔP)`, local NED metres; equal to [`georeference`] to rounding.
+    /// `P0 + R_L (R_M S + ΔP)` in `L`; equal to [`georeference`] to rounding.
     #[inline]
-    pub fn apply(&self, p: &RawPoint) -> Vector3<f64> {
+    pub fn apply(&self, p: &RawPoint) -> Ned {
+        Ned::from_vector(self.apply_vector(p))
+    }
+
+    /// [`Georeferencing::apply`] as a plain vector, for the crate's kernels.
+    #[inline]
+    pub(crate) fn apply_vector(&self, p: &RawPoint) -> Vector3<f64> {
         let a = &p.attitude;
         let r_l = rotation_zyx(a.roll_rad, a.pitch_rad, a.heading_rad);
-        p.origin_m + r_l * (self.r_m * p.scanner_m() + self.lever_m)
+        p.origin_m.vector() + r_l * (self.r_m * p.scanner_m() + self.lever_m)
     }
 }
 
@@ -368,13 +334,15 @@ impl Georeferencing {
         let k = offset.profile.as_ref().map_or(1.0, |f| f.at(p.time_s));
         let [dr, dp, dh] = offset.attitude_rad.map(|v| v * k);
         let r_l = rotation_zyx(a.roll_rad + dr, a.pitch_rad + dp, a.heading_rad + dh);
-        p.origin_m + offset.position_m * k + r_l * (self.r_m * p.scanner_m() + self.lever_m)
+        p.origin_m.vector()
+            + offset.position_m * k
+            + r_l * (self.r_m * p.scanner_m() + self.lever_m)
     }
 }
 
 /// Strip correction: every point re-georeferenced from its raw observation with `mounting`
-/// (local NED metres, in point order; rayon-parallel).
-pub fn correct_strip(strip: &Strip, mounting: &Mounting) -> Vec<Vector3<f64>> {
+/// (in the calibration's frame `L`, in point order; rayon-parallel).
+pub fn correct_strip(strip: &Strip, mounting: &Mounting) -> Vec<Ned> {
     let g = Georeferencing::new(mounting);
     strip.points.par_iter().map(|p| g.apply(p)).collect()
 }
@@ -393,8 +361,8 @@ pub(crate) fn check_strips(strips: &[Strip]) -> Result<()> {
             });
         }
         if let Some(index) = s.points.iter().position(|p| {
-            !(p.position_m.iter().all(|v| v.is_finite())
-                && p.origin_m.iter().all(|v| v.is_finite())
+            !(p.position_m.vector().iter().all(|v| v.is_finite())
+                && p.origin_m.vector().iter().all(|v| v.is_finite())
                 && p.attitude.roll_rad.is_finite()
                 && p.attitude.pitch_rad.is_finite()
                 && p.attitude.heading_rad.is_finite()
@@ -522,7 +490,7 @@ pub(crate) fn within(index: &GridIndex, points: &[RawPoint], x: f64, y: f64, r: 
     let mut out = Vec::new();
     index.candidates(x, y, r, |k| {
         let p = &points[k].position_m;
-        if (p.x - x).powi(2) + (p.y - y).powi(2) <= r * r {
+        if (p.north_m() - x).powi(2) + (p.east_m() - y).powi(2) <= r * r {
             out.push(k);
         }
     });
@@ -536,8 +504,8 @@ mod tests {
 
     fn point() -> RawPoint {
         RawPoint {
-            position_m: Vector3::zeros(),
-            origin_m: Vector3::new(10.0, -20.0, -500.0),
+            position_m: Ned::default(),
+            origin_m: Ned::new(10.0, -20.0, -500.0),
             attitude: Attitude::from_degrees(1.5, -2.0, 123.0),
             observation: LinearObservation {
                 range_m: 520.0,
@@ -559,8 +527,8 @@ mod tests {
         };
         let p = point();
         assert_relative_eq!(
-            georeference(&p, &m),
-            Georeferencing::new(&m).apply(&p),
+            georeference(&p, &m).vector(),
+            Georeferencing::new(&m).apply(&p).vector(),
             epsilon = 1e-9
         );
     }

@@ -107,7 +107,7 @@ impl SurfaceProblem<'_> {
             let p = &self.strips[s].points[k];
             match offset {
                 Some((o, off)) if o == s => g.apply_offset(p, off),
-                _ => g.apply(p),
+                _ => g.apply_vector(p),
             }
         };
         self.patches
@@ -147,7 +147,12 @@ fn build_patches(
     let g = Georeferencing::new(mounting);
     let positions: Vec<Vec<[f64; 3]>> = strips
         .iter()
-        .map(|s| s.points.par_iter().map(|p| g.apply(p).into()).collect())
+        .map(|s| {
+            s.points
+                .par_iter()
+                .map(|p| g.apply_vector(p).into())
+                .collect()
+        })
         .collect();
     let trees: Vec<ImmutableKdTree<f64, 3>> = positions
         .iter()
@@ -388,7 +393,7 @@ fn add_trajectory_covariance(
 mod tests {
     use super::*;
     use crate::strip::RawPoint;
-    use lidarqa_model::{Attitude, LinearObservation, rotation_zyx};
+    use lidarqa_model::{Attitude, LinearObservation, Ned, rotation_zyx};
 
     /// Height (m, up) of the test scene: flat ground and a tent-like ridge along north, 2 m high,
     /// its faces sloped 45°.
@@ -427,8 +432,10 @@ mod tests {
                     }
                     let s = d * hi;
                     points.push(RawPoint {
-                        position_m: origin + r_l * (r_nom * s + nominal.lever_arm_m),
-                        origin_m: origin,
+                        position_m: Ned::from_vector(
+                            origin + r_l * (r_nom * s + nominal.lever_arm_m),
+                        ),
+                        origin_m: Ned::from_vector(origin),
                         attitude,
                         observation: LinearObservation {
                             range_m: hi,

@@ -17,7 +17,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{Plane, interpolate_z, ransac_plane, rigid_transform, trim_to_plane};
 use crate::params::mounting_from_vector;
 use crate::strip::{Georeferencing, GridIndex, Strip, TrajectoryOffset, within};
-use lidarqa_model::fit_plane;
+use lidarqa_model::{Ned, fit_plane};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 use spade::{DelaunayTriangulation, HasPosition, Point2, PositionInTriangulation, Triangulation};
@@ -142,8 +142,8 @@ pub struct Tie {
 pub struct NedControlPoint {
     /// Identifier.
     pub id: String,
-    /// Surveyed position, local NED, m.
-    pub position_m: Vector3<f64>,
+    /// Surveyed position in the calibration's frame `L`, m.
+    pub position_m: Ned,
     /// Radius of the target the control point marks, m, when it is one (Zhang et al. 2018: 0.8 m,
     /// raised above the ground). The height of a height-only control point is then the mean of the
     /// target's top points within 0.75 × this radius, never the ground around it.
@@ -233,7 +233,7 @@ impl<'a> Indexed<'a> {
                 let xy: Vec<[f64; 2]> = s
                     .points
                     .iter()
-                    .map(|p| [p.position_m.x, p.position_m.y])
+                    .map(|p| [p.position_m.north_m(), p.position_m.east_m()])
                     .collect();
                 GridIndex::new(&xy, cell_m)
             })
@@ -347,7 +347,10 @@ fn build_virtual_tie_within(pick: &PickInStrip<'_>, radius_m: f64) -> Result<Vir
         strip: strip.id.clone(),
         reason,
     };
-    let pos: Vec<Vector3<f64>> = near.iter().map(|&k| g.apply(&strip.points[k])).collect();
+    let pos: Vec<Vector3<f64>> = near
+        .iter()
+        .map(|&k| g.apply_vector(&strip.points[k]))
+        .collect();
     let (plane, inliers): (Plane, Vec<usize>) =
         ransac_plane(&pos, opts.ransac_threshold_m, opts.ransac_iterations, seed)
             .and_then(|(plane, inliers)| trim_to_plane(&pos, inliers, plane))
@@ -452,7 +455,7 @@ fn build_target_tie(
     opts: &VtpmOptions,
 ) -> Option<VirtualTie> {
     let strip = &idx.strips[s];
-    let at = |k: usize| g.apply(&strip.points[k]);
+    let at = |k: usize| g.apply_vector(&strip.points[k]);
     let around = within(
         &idx.grids[s],
         &strip.points,
@@ -519,7 +522,7 @@ impl VirtualTie {
         let pts = &strips[self.strip].points;
         let place = |k: usize| match offset {
             Some((s, o)) if s == self.strip => g.apply_offset(&pts[k], o),
-            _ => g.apply(&pts[k]),
+            _ => g.apply_vector(&pts[k]),
         };
         let new: Vec<Vector3<f64>> = self.vertices.iter().map(|&k| place(k)).collect();
         if self.target_mean {
@@ -690,7 +693,7 @@ impl TieModel {
                 let pts: Vec<Vector3<f64>> = v
                     .plane_points
                     .iter()
-                    .map(|&k| g.apply(&strips[v.strip].points[k]))
+                    .map(|&k| g.apply_vector(&strips[v.strip].points[k]))
                     .collect();
                 if let Some(pl) = fit_plane(&pts) {
                     t.directions = vec![pl.normal];
@@ -840,7 +843,7 @@ pub(crate) fn build_tie_model(
             virtuals,
             along_normal: plain || matches!(tie.kind, TieKind::Surface),
             directions,
-            control: c.map(|c| c.position_m),
+            control: c.map(|c| c.position_m.vector()),
             control_sigma_m: c.and_then(|c| c.sigma_vertical_m),
         });
     }
@@ -849,13 +852,13 @@ pub(crate) fn build_tie_model(
         if ties.iter().any(|t| t.id == c.id) {
             continue;
         }
-        if !c.position_m.iter().all(|v| v.is_finite()) {
+        if !c.position_m.vector().iter().all(|v| v.is_finite()) {
             return Err(Error::InvalidTie {
                 tie: c.id.clone(),
                 message: "control coordinates are not finite".into(),
             });
         }
-        let (x, y) = (c.position_m.x, c.position_m.y);
+        let (x, y) = (c.position_m.north_m(), c.position_m.east_m());
         let target_radius = c.target_radius_m.filter(|r| r.is_finite() && *r > 0.0);
         let cover_radius = target_radius.map_or(opts.radius_m, |r| 0.75 * r);
         let mut virtuals = Vec::new();
@@ -903,7 +906,7 @@ pub(crate) fn build_tie_model(
             virtuals,
             directions: vec![Vector3::z()],
             along_normal: false,
-            control: Some(c.position_m),
+            control: Some(c.position_m.vector()),
             control_sigma_m: c.sigma_vertical_m,
         });
     }
@@ -922,7 +925,7 @@ mod tests {
 
     /// A point whose georeferencing is its own origin (zero range, level, no lever arm).
     fn at(x: f64, y: f64, up: f64) -> crate::strip::RawPoint {
-        crate::strip::RawPoint::own_origin(Vector3::new(x, y, -up), 0)
+        crate::strip::RawPoint::own_origin(Ned::new(x, y, -up), 0)
     }
 
     #[test]
@@ -938,7 +941,7 @@ mod tests {
                 points.push(at(x, y, if on_disc { 0.5 } else { 0.0 }));
             }
         }
-        let on_disc = points.iter().filter(|p| p.position_m.z < -0.25).count();
+        let on_disc = points.iter().filter(|p| p.position_m.up_m() > 0.25).count();
         let strips = [Strip {
             id: "1".into(),
             points,
@@ -1002,7 +1005,7 @@ mod tests {
         let xs: Vec<f64> = v
             .vertices
             .iter()
-            .map(|&k| strips[0].points[k].position_m.x)
+            .map(|&k| strips[0].points[k].position_m.north_m())
             .collect();
         assert!(xs.iter().any(|x| x.abs() < 1e-9) && xs.iter().any(|x| (x - 1.36).abs() < 1e-9));
         // Beyond the growth limit: still an error for this one strip.

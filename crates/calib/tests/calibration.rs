@@ -16,7 +16,7 @@
 
 use lidarqa_calib::*;
 use lidarqa_fixtures::calibration_survey::*;
-use lidarqa_model::Mounting;
+use lidarqa_model::{Mounting, Ned};
 use std::sync::OnceLock;
 
 /// The eight-strip survey of the module docs, seed 1.
@@ -244,7 +244,7 @@ fn convergence_record_converges() {
         h[k].ties
             .iter()
             .zip(&h[k - 1].ties)
-            .map(|((_, a), (_, b))| (a - b).norm())
+            .map(|((_, a), (_, b))| (a.vector() - b.vector()).norm())
             .fold(0.0, f64::max)
     };
     let first = step(1);
@@ -313,13 +313,16 @@ fn calibration_json_has_exactly_the_spec_keys() {
     assert!((m.boresight_yaw_rad - cal.mounting.boresight_yaw_rad).abs() < 1e-15);
 }
 
-fn enu_strips(strips: &[Strip], positions: &[Vec<nalgebra::Vector3<f64>>]) -> Vec<OverlapStrip> {
+fn enu_strips(strips: &[Strip], positions: &[Vec<Ned>]) -> Vec<OverlapStrip> {
     strips
         .iter()
         .zip(positions)
         .map(|(s, p)| OverlapStrip {
             id: s.id.clone(),
-            points: p.iter().map(|v| [v.y, v.x, -v.z]).collect(),
+            points: p
+                .iter()
+                .map(|v| [v.east_m(), v.north_m(), v.up_m()])
+                .collect(),
         })
         .collect()
 }
@@ -370,8 +373,8 @@ fn correction_reduces_tie_residuals_rmsdz_and_target_rmse() {
     assert!(t0 > 0.2 && t1 < 0.05, "{t0} -> {t1}");
     // The corrected points are where the truth is: the noise-free part of the error is gone.
     let k = 1234;
-    let d0 = (before[0][k] - s.true_positions[0][k]).norm();
-    let d1 = (after[0][k] - s.true_positions[0][k]).norm();
+    let d0 = (before[0][k].vector() - s.true_positions[0][k]).norm();
+    let d1 = (after[0][k].vector() - s.true_positions[0][k]).norm();
     assert!(d0 > 0.2 && d1 < 0.08, "{d0} -> {d1}");
 }
 

@@ -2,8 +2,7 @@
 
 use lidarqa_calib::*;
 use lidarqa_fixtures::calibration_survey::*;
-use lidarqa_model::Mounting;
-use nalgebra::Vector3;
+use lidarqa_model::{Mounting, Ned};
 
 fn small() -> Survey {
     simulate(
@@ -32,7 +31,8 @@ fn strips_that_do_not_overlap() {
     let s = small();
     let mut far = s.strips[1].clone();
     for p in &mut far.points {
-        p.position_m.x += 10_000.0;
+        let q = p.position_m;
+        p.position_m = Ned::new(q.north_m() + 10_000.0, q.east_m(), q.down_m());
     }
     let e = run(&[s.strips[0].clone(), far], &[], &[]);
     assert_eq!(e.to_string(), "strip 1 does not overlap any other strip");
@@ -112,7 +112,7 @@ fn control_point_outside_every_strip() {
     let ties = s.hand_ties(0.0, 1);
     let c = NedControlPoint {
         id: "gcp9".into(),
-        position_m: Vector3::new(900.0, 900.0, 0.0),
+        position_m: Ned::new(900.0, 900.0, 0.0),
         target_radius_m: None,
         sigma_vertical_m: None,
     };
@@ -132,7 +132,7 @@ fn a_pick_with_no_coplanar_triangle_is_dropped_and_the_rest_calibrates() {
     let mut strips = s.strips.clone();
     let (x, y) = (ties[0].picks[0].north_m, ties[0].picks[0].east_m);
     for (k, p) in strips[0].points.iter_mut().enumerate() {
-        if (p.position_m.x - x).hypot(p.position_m.y - y) < 5.0 {
+        if (p.position_m.north_m() - x).hypot(p.position_m.east_m() - y) < 5.0 {
             p.observation.range_m += ((k as u64).wrapping_mul(2_654_435_761) % 1000) as f64 * 0.002;
         }
     }

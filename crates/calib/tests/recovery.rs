@@ -1,7 +1,8 @@
 //! Raw observations recovered through ECEF with lidarqa-tpu and expressed in the local frame
 //! re-georeference to the delivered point, and to the right place with another mounting.
 
-use lidarqa_calib::{LocalFrame, RawPoint, ScanGeometry, georeference};
+use lidarqa_calib::{RawPoint, ScanGeometry, georeference};
+use lidarqa_io::TangentFrame;
 use lidarqa_model::{
     Attitude, Ecef, Georeferencer, LinearObservation, LinearScanner, Mounting, ecef_from_ned,
 };
@@ -20,7 +21,7 @@ fn recovered_point_re_georeferences_in_the_local_frame() {
             (a + h) * lat.sin(),
         )
     };
-    let frame = LocalFrame::new(ecef(lat0, lon0, 0.0), lat0, lon0);
+    let frame = TangentFrame::new(Ecef::from_vector(ecef(lat0, lon0, 0.0)), lat0, lon0);
     let (lat, lon) = (lat0 + 3000.0 / a, lon0 + 1000.0 / a);
     let p0 = ecef(lat, lon, 800.0);
     let pose = |t| Pose {
@@ -42,7 +43,7 @@ fn recovered_point_re_georeferences_in_the_local_frame() {
         scan_angle_rad: 0.3,
     };
     let f = LinearScanner.footprint_ned(&LinearScanner.parameters(&at.attitude(), &nominal, &obs));
-    let point = p0 + ecef_from_ned(lat, lon) * f;
+    let point = Ecef::from_vector(p0 + ecef_from_ned(lat, lon) * f);
     let raw = RawPoint::recover(
         &frame,
         &at,
@@ -53,7 +54,7 @@ fn recovered_point_re_georeferences_in_the_local_frame() {
     )
     .unwrap();
     assert!((raw.observation.range_m - 812.5).abs() < 1e-6);
-    assert!((georeference(&raw, &nominal) - raw.position_m).norm() < 1e-6);
+    assert!((georeference(&raw, &nominal).vector() - raw.position_m.vector()).norm() < 1e-6);
     // Another mounting: the same answer as georeferencing in the pose's own N frame.
     let other = Mounting {
         boresight_yaw_rad: 0.002,
@@ -61,11 +62,13 @@ fn recovered_point_re_georeferences_in_the_local_frame() {
         ..Mounting::default()
     };
     let f2 = LinearScanner.footprint_ned(&LinearScanner.parameters(&at.attitude(), &other, &obs));
-    let expect = frame.to_local(&(p0 + ecef_from_ned(lat, lon) * f2));
+    let expect = frame
+        .to_ned(&Ecef::from_vector(p0 + ecef_from_ned(lat, lon) * f2))
+        .vector();
     assert!(
-        (georeference(&raw, &other) - expect).norm() < 1e-6,
+        (georeference(&raw, &other).vector() - expect).norm() < 1e-6,
         "{}",
-        (georeference(&raw, &other) - expect).norm()
+        (georeference(&raw, &other).vector() - expect).norm()
     );
 }
 
@@ -82,7 +85,7 @@ fn an_off_plane_beam_is_kept_whole() {
         (a + 50.0) * lat.cos() * lon.sin(),
         (a + 50.0) * lat.sin(),
     );
-    let frame = LocalFrame::new(p0, lat, lon);
+    let frame = TangentFrame::new(Ecef::from_vector(p0), lat, lon);
     let pose = |t| Pose {
         time_s: t,
         position_ecef_m: Ecef::from_vector(p0),
@@ -100,22 +103,26 @@ fn an_off_plane_beam_is_kept_whole() {
     let (el, az) = (30f64.to_radians(), 40f64.to_radians());
     let s = Vector3::new(el.sin(), el.cos() * az.sin(), el.cos() * az.cos()) * 25.0;
     let body_to_ned = at.body_to_ned;
-    let point = p0 + at.ecef_to_ned.transpose() * body_to_ned * (s + nominal.lever_arm_m);
+    let point = Ecef::from_vector(
+        p0 + at.ecef_to_ned.transpose() * body_to_ned * (s + nominal.lever_arm_m),
+    );
     let recover = |g| RawPoint::recover(&frame, &at, &Recoverer::new(&nominal), &point, 0, g);
     let whole = recover(ScanGeometry::Beam).unwrap();
     assert!((whole.scanner_m() - s).norm() < 1e-6);
-    assert!((georeference(&whole, &nominal) - whole.position_m).norm() < 1e-6);
+    assert!((georeference(&whole, &nominal).vector() - whole.position_m.vector()).norm() < 1e-6);
     let flat = recover(ScanGeometry::Plane).unwrap();
-    assert!((georeference(&flat, &nominal) - flat.position_m).norm() > 1.0);
+    assert!((georeference(&flat, &nominal).vector() - flat.position_m.vector()).norm() > 1.0);
     // Another boresight: the beam turned by it, in the body frame.
     let other = Mounting {
         boresight_pitch_rad: 0.01,
         ..nominal
     };
-    let expect = frame.to_local(
-        &(p0 + at.ecef_to_ned.transpose()
-            * body_to_ned
-            * (other.scanner_to_body() * s + other.lever_arm_m)),
-    );
-    assert!((georeference(&whole, &other) - expect).norm() < 1e-6);
+    let expect = frame
+        .to_ned(&Ecef::from_vector(
+            p0 + at.ecef_to_ned.transpose()
+                * body_to_ned
+                * (other.scanner_to_body() * s + other.lever_arm_m),
+        ))
+        .vector();
+    assert!((georeference(&whole, &other).vector() - expect).norm() < 1e-6);
 }

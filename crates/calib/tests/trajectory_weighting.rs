@@ -10,7 +10,7 @@
 
 use lidarqa_calib::*;
 use lidarqa_fixtures::calibration_survey::*;
-use lidarqa_model::Mounting;
+use lidarqa_model::{Mounting, Ned};
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -93,11 +93,12 @@ fn perturbed(tau_s: Option<f64>) -> Perturbed {
                 *v = phi * *v + (1.0 - phi * phi).sqrt() * n01.sample(&mut rng);
             }
         }
-        let before: Vec<Vector3<f64>> = strip.points.iter().map(|p| p.position_m).collect();
+        let before: Vec<Vector3<f64>> =
+            strip.points.iter().map(|p| p.position_m.vector()).collect();
         for p in &mut strip.points {
             let k = (((p.time_s - t0) / DT_S).round() as usize).min(steps - 1);
             let e: [f64; 6] = std::array::from_fn(|i| series[k][i] * scale[i]);
-            p.origin_m += Vector3::new(e[0], e[1], -e[2]);
+            p.origin_m = Ned::from_vector(p.origin_m.vector() + Vector3::new(e[0], e[1], -e[2]));
             p.attitude.roll_rad += e[3];
             p.attitude.pitch_rad += e[4];
             p.attitude.heading_rad += e[5];
@@ -114,7 +115,7 @@ fn perturbed(tau_s: Option<f64>) -> Perturbed {
                         d(&before[a]).total_cmp(&d(&before[b]))
                     })
                     .unwrap();
-                let moved = strip.points[k].position_m - before[k];
+                let moved = strip.points[k].position_m.vector() - before[k];
                 pick.north_m += moved.x;
                 pick.east_m += moved.y;
             }

@@ -100,7 +100,7 @@ fn bench(c: &mut Criterion) {
             strip
                 .points
                 .iter()
-                .map(|p| geo.apply(black_box(p)).z)
+                .map(|p| geo.apply(black_box(p)).down_m())
                 .sum::<f64>()
         })
     });
@@ -109,7 +109,7 @@ fn bench(c: &mut Criterion) {
             strip
                 .points
                 .iter()
-                .map(|p| georeference(black_box(p), &m).z)
+                .map(|p| georeference(black_box(p), &m).down_m())
                 .sum::<f64>()
         })
     });

@@ -1,8 +1,8 @@
 //! Frame-carrying types used at crate boundaries (SPEC §3).
 //!
 //! Inside a kernel plain nalgebra vectors are fine; across crates a vector says which frame it is in:
-//! [`Ecef`] positions, local [`Ned`] vectors and projected [`Grid`] coordinates are distinct types,
-//! so handing one to a function that expects another does not compile.
+//! [`Ecef`] positions, local [`Ned`] (or [`Enu`]) vectors and projected [`Grid`] coordinates are
+//! distinct types, so handing one to a function that expects another does not compile.
 //!
 //! ```
 //! use lidarqa_model::{Ecef, Grid, Ned};
@@ -121,6 +121,43 @@ impl Ned {
     /// Up component, m (= −down).
     pub fn up_m(&self) -> f64 {
         -self.0.z
+    }
+}
+
+/// A vector in a local East-North-Up frame, metres: the axes of [`Ned`] reordered, down turned
+/// up (where a computation is more natural with z up, e.g. fitting flight lines).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Enu(Vector3<f64>);
+
+impl Enu {
+    /// From east, north and up components in metres.
+    pub fn new(east_m: f64, north_m: f64, up_m: f64) -> Enu {
+        Enu(Vector3::new(east_m, north_m, up_m))
+    }
+
+    /// From a plain ENU vector (metres).
+    pub fn from_vector(v: Vector3<f64>) -> Enu {
+        Enu(v)
+    }
+
+    /// As a plain ENU vector (metres).
+    pub fn vector(&self) -> Vector3<f64> {
+        self.0
+    }
+
+    /// East component, m.
+    pub fn east_m(&self) -> f64 {
+        self.0.x
+    }
+
+    /// North component, m.
+    pub fn north_m(&self) -> f64 {
+        self.0.y
+    }
+
+    /// Up component, m.
+    pub fn up_m(&self) -> f64 {
+        self.0.z
     }
 }
 

@@ -63,7 +63,7 @@ pub use conic::{
 pub use control::ControlPoint;
 pub use eigen3::{symmetric_eigen3, symmetric_eigenvalues3, symmetric_eigenvector3};
 pub use error::{Error, Result};
-pub use frames::{Attitude, Ecef, Grid, Mounting, MountingPartials, Ned};
+pub use frames::{Attitude, Ecef, Enu, Grid, Mounting, MountingPartials, Ned};
 pub use georeferencer::{Georeferencer, TRAJECTORY_SOURCES};
 pub use histogram::LogHistogram;
 pub use linear::{

@@ -50,16 +50,16 @@ use crate::error::{Error, Result};
 use crate::lines::{LineIndex, LineOptions, line_index};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use lidarqa_calib::{
-    AutoTieGrid, AutoTieOptions, Calibration, CalibrationOptions, LocalFrame, Method,
-    NedControlPoint, PlaneOptions, RawPoint, ScanGeometry, Strip, SurfaceOptions, Tie, TieKind,
-    TiePick, TrajectorySigma, auto_tie_candidates, auto_ties, calibrate_plane, calibrate_surfaces,
+    AutoTieGrid, AutoTieOptions, Calibration, CalibrationOptions, Method, NedControlPoint,
+    PlaneOptions, RawPoint, ScanGeometry, Strip, SurfaceOptions, Tie, TieKind, TiePick,
+    TrajectorySigma, auto_tie_candidates, auto_ties, calibrate_plane, calibrate_surfaces,
     calibrate_vtpm, select_auto_ties, tie_reach_m,
 };
 use lidarqa_io::{
     ControlPoints, Crs, Geodetic, InverseKind, LasInfo, LasReader, LocalInverse, PointChunk,
-    TiePicks,
+    TangentFrame, TiePicks,
 };
-use lidarqa_model::{Ecef, Source, Warning};
+use lidarqa_model::{Ecef, Ned, Source, Warning};
 use lidarqa_products::{CalibrationDocument, CalibrationIterationsDocument, FoundLine, FoundLines};
 use lidarqa_tpu::{LinearRecovery, PoseAt, Recoverer, SegmentRotation, Trajectory};
 use nalgebra::Vector3;
@@ -190,7 +190,7 @@ pub struct StripCalibration {
     /// The adjustment's result.
     pub calibration: Calibration,
     /// The local frame of the adjustment.
-    pub frame: LocalFrame,
+    pub frame: TangentFrame,
     /// The points' CRS.
     pub zone: Crs,
     /// The trajectory's warnings, the lines' (ids holding several passes, id 0) and the
@@ -316,13 +316,13 @@ pub fn calibrate_strips_with_progress(
         TieSource::Automatic => None,
     };
     // First pass: each strip's extent, extreme points, density and the heights under the picks.
-    let h0 = local_to_projected(&frame, &zone, &Vector3::zeros())[2];
+    let h0 = local_to_projected(&frame, &zone, &Ned::default())[2];
     let guesses: Vec<[f64; 2]> = tie_picks.as_ref().map_or_else(Vec::new, |t| {
         t.picks
             .iter()
             .map(|p| {
                 let g = projected_to_local(&frame, &zone, p.x, p.y, h0);
-                [g.x, g.y]
+                [g.north_m(), g.east_m()]
             })
             .collect()
     });
@@ -410,7 +410,7 @@ pub fn calibrate_strips_with_progress(
     }
     for c in &control {
         let reach = tie_reach_m(&options.vtpm, c.target_radius_m) + REACH_SLACK_M;
-        squares.push(square(c.position_m.x, c.position_m.y, reach));
+        squares.push(square(c.position_m.north_m(), c.position_m.east_m(), reach));
     }
     let region = Region::new(squares, &frame, &zone);
     progress(CalibrateStep::Adjustment);
@@ -491,7 +491,7 @@ fn pick_centre(tie: &Tie) -> [f64; 2] {
 }
 
 /// Survey centre of the files (from their headers) as a local frame, on `zone`'s ellipsoid.
-pub fn frame_for(infos: &[LasInfo], zone: &Crs) -> LocalFrame {
+pub fn frame_for(infos: &[LasInfo], zone: &Crs) -> TangentFrame {
     let n = infos.len().max(1) as f64;
     let c = |k: usize| {
         infos
@@ -507,7 +507,7 @@ pub fn frame_for(infos: &[LasInfo], zone: &Crs) -> LocalFrame {
         longitude_rad: lon,
         height_m: c(2),
     });
-    LocalFrame::new(ecef.vector(), lat, lon)
+    TangentFrame::new(ecef, lat, lon)
 }
 
 /// Loads every flight line of the files into one frame (the files must be distinct and share a
@@ -518,7 +518,7 @@ pub fn frame_for(infos: &[LasInfo], zone: &Crs) -> LocalFrame {
 pub fn load_all(
     paths: &[PathBuf],
     ctx: &TpuContext,
-) -> Result<(LocalFrame, Crs, Vec<LoadedStrip>)> {
+) -> Result<(TangentFrame, Crs, Vec<LoadedStrip>)> {
     let (frame, zone) = open_all(paths, ctx)?;
     let index = index_lines(paths, ctx, &LineOptions::default())?;
     let names = LineName::of_index(&index);
@@ -610,7 +610,7 @@ fn line_of(of_point: &[u32], kept: &Kept, path: &Path) -> Result<usize> {
 
 /// Checks the strips' headers (distinct files, one metre CRS) and puts the local frame at their
 /// centre.
-fn open_all(paths: &[PathBuf], ctx: &TpuContext) -> Result<(LocalFrame, Crs)> {
+fn open_all(paths: &[PathBuf], ctx: &TpuContext) -> Result<(TangentFrame, Crs)> {
     lidarqa_io::check_distinct_inputs(paths)?;
     let mut infos = Vec::with_capacity(paths.len());
     let mut zone: Option<Crs> = None;
@@ -644,24 +644,23 @@ fn open_all(paths: &[PathBuf], ctx: &TpuContext) -> Result<(LocalFrame, Crs)> {
     Ok((frame, zone))
 }
 
-/// Local NED → projected `[easting, northing, ellipsoidal height]` in `zone`.
-pub fn local_to_projected(frame: &LocalFrame, zone: &Crs, v: &Vector3<f64>) -> [f64; 3] {
-    let g = zone
-        .ellipsoid()
-        .ecef_to_geodetic(&Ecef::from_vector(frame.to_ecef(v)));
+/// A position in the calibration's frame → projected `[easting, northing, ellipsoidal height]`
+/// in `zone`.
+pub fn local_to_projected(frame: &TangentFrame, zone: &Crs, v: &Ned) -> [f64; 3] {
+    let g = zone.ellipsoid().ecef_to_geodetic(&frame.ned_to_ecef(v));
     let p = zone.forward(g.latitude_rad, g.longitude_rad);
     [p.easting_m, p.northing_m, g.height_m]
 }
 
-/// Projected position → local NED.
-pub fn projected_to_local(frame: &LocalFrame, zone: &Crs, x: f64, y: f64, h: f64) -> Vector3<f64> {
+/// Projected position → the calibration's frame.
+pub fn projected_to_local(frame: &TangentFrame, zone: &Crs, x: f64, y: f64, h: f64) -> Ned {
     let (lat, lon) = zone.inverse(x, y);
     let ecef = zone.ellipsoid().geodetic_to_ecef(&Geodetic {
         latitude_rad: lat,
         longitude_rad: lon,
         height_m: h,
     });
-    frame.to_local(&ecef.vector())
+    frame.to_ned(&ecef)
 }
 
 #[cfg(test)]

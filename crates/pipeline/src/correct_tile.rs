@@ -516,8 +516,8 @@ impl Run<'_> {
 mod tests {
     use super::correction::Slot;
     use super::*;
-    use lidarqa_calib::{Georeferencing, LocalFrame, RawPoint};
-    use lidarqa_io::{Geodetic, Hemisphere, UtmDatum, UtmZone};
+    use lidarqa_calib::{Georeferencing, RawPoint};
+    use lidarqa_io::{Geodetic, Hemisphere, TangentFrame, UtmDatum, UtmZone};
     use lidarqa_model::Attitude;
     use lidarqa_tpu::{Pose, Recoverer};
 
@@ -593,9 +593,8 @@ mod tests {
                 longitude_rad: lon,
                 height_m: h,
             })
-            .vector()
         };
-        let frame = LocalFrame::new(ecef(lat, lon, xyz[2]), lat, lon);
+        let frame = TangentFrame::new(ecef(lat, lon, xyz[2]), lat, lon);
         let raw = RawPoint::recover(
             &frame,
             pose,
@@ -606,7 +605,7 @@ mod tests {
         )
         .unwrap();
         let local = Georeferencing::new(new).apply(&raw);
-        let g = e.ecef_to_geodetic(&Ecef::from_vector(frame.to_ecef(&local)));
+        let g = e.ecef_to_geodetic(&frame.ned_to_ecef(&local));
         let p = proj.forward(g.latitude_rad, g.longitude_rad);
         [p.easting_m, p.northing_m, g.height_m]
     }

@@ -43,7 +43,6 @@
 
 mod check;
 mod error;
-mod geo;
 mod output;
 mod ray;
 mod scenario;

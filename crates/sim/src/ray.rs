@@ -1,6 +1,9 @@
 //! A ray through the scene and what it meets: the types the scene's objects and the vegetation
 //! layer share.
 
+use lidarqa_io::NedToGrid;
+use nalgebra::Vector3;
+
 /// What a ray met.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Hit {
@@ -28,6 +31,13 @@ pub struct Curve {
 }
 
 impl Curve {
+    /// The parabola in (x, y, h) followed by the ray `o + ρ d` (NED offsets from `map`'s origin).
+    #[inline]
+    pub(crate) fn along(map: &NedToGrid, o: &Vector3<f64>, d: &Vector3<f64>) -> Curve {
+        let [a, b, c] = map.ray(o, d);
+        Curve { a, b, c }
+    }
+
     /// Position at ρ.
     #[inline]
     pub fn at(&self, r: f64) -> [f64; 3] {

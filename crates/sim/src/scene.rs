@@ -7,8 +7,8 @@
 //!
 //! A ray is handed to the scene as the exact curve it follows in (x, y, h): because the map from
 //! the local NED frame to grid coordinates is smooth, the ray is a parabola
-//! `g(ρ) = A + B ρ + C ρ²` in (x, y, h) (see `geo.rs`), which planes meet at the root of a
-//! quadratic and the terrain at the root found by Newton's method to rounding (the secant
+//! `g(ρ) = A + B ρ + C ρ²` in (x, y, h) (lidarqa-io's `NedToGrid`), which planes meet at the root
+//! of a quadratic and the terrain at the root found by Newton's method to rounding (the secant
 //! method when it does not converge). Consecutive rays of a scan are a [`Sweep`]: each starts its
 //! search from the last ones' ground, and the relief's sines and cosines near the last hit come
 //! from its own by angle addition, which glibc's `sin_cos` per evaluation cost several times.

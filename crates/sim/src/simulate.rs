@@ -7,8 +7,8 @@
 //!    (1 + scale) + white noise (conic: azimuth + noise, travel times + noise);
 //! 3. the point is **georeferenced** from the measured trajectory (true + Gauss–Markov GNSS and
 //!    attitude errors), the NOMINAL mounting and the measured observations with lidarqa-model's
-//!    `footprint_ned`, then NED → ECEF → geodetic → UTM (through the local quadratic map of
-//!    `geo.rs`, accurate to 5·10⁻⁵ m).
+//!    `footprint_ned`, then NED → ECEF → geodetic → UTM (through lidarqa-io's local quadratic
+//!    map `NedToGrid`, accurate to 5·10⁻⁵ m over a kilometre).
 //!
 //! So every injected error shows in the coordinates exactly as it would in real data.
 //!
@@ -21,6 +21,7 @@ use crate::output::{
     InjectedErrors, LineErrorTruth, MountingParameters, Observation, PointTruth, RandomErrors,
     SimPoint, Strip, StripTruth, Survey, SurveyedTarget, TargetTruth, TrajectoryRecord, Truth,
 };
+use crate::ray::Curve;
 use crate::scenario::{Line, ScanPattern, ScanWave, Scenario};
 use crate::scene::{
     ANCHOR_CHAIN, ANCHOR_REACH_RAD, CLASS_BATHYMETRY, CLASS_WATER_SURFACE, REFLECTIVITY_BED,
@@ -654,7 +655,7 @@ impl Kernel<'_> {
                 };
                 let theta = field_of_view_rad * u;
                 let dir = m_true * (self.r_m_true * scanner_vector(1.0, theta));
-                let curve = map.curve(&origin, &dir);
+                let curve = Curve::along(map, &origin, &dir);
                 let hit = sc
                     .scene()
                     .trace_in(&curve, divergence, &mut sweeps[0])
@@ -719,7 +720,7 @@ impl Kernel<'_> {
                 let params = conic.parameters(&att_true, &self.true_mounting, &q);
                 let (l3, _) = conic.beam_directions(&params);
                 let dir = m_true * (self.r_m_true * l3);
-                let curve = map.curve(&origin, &dir);
+                let curve = Curve::along(map, &origin, &dir);
                 let hit = sc
                     .scene()
                     .trace_in(&curve, divergence, &mut sweeps[0])
@@ -767,7 +768,7 @@ impl Kernel<'_> {
                 let grad = jac.row(2) * n[2] + jac.row(0) * n[0] + jac.row(1) * n[1];
                 let down = -grad.transpose().normalize();
                 let l_w = refract(&dir, &down, conic.n_air() / conic.n_water());
-                let water_curve = map.curve(&v_s, &l_w);
+                let water_curve = Curve::along(map, &v_s, &l_w);
                 // A bottom closer than MIN_WATER_RANGE_M below the surface is not separated from
                 // the surface return (as with a real pulse of a few ns): no sounding.
                 let bottom = sc
@@ -849,7 +850,7 @@ impl Kernel<'_> {
                     nominal
                 };
                 let dir = m_true * (self.r_m_true * actual);
-                let curve = map.curve(&origin, &dir);
+                let curve = Curve::along(map, &origin, &dir);
                 // A head fires all round: beams above the horizon, or within 15° of it (ranges
                 // of kilometres), return nothing.
                 if curve.direction(0.0)[2] > -MIN_BEAM_DOWN {

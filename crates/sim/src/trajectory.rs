@@ -14,9 +14,8 @@
 //! Both are sampled at the trajectory rate and linearly interpolated at pulse times (latitude,
 //! longitude, height and unwrapped angles), exactly as a user interpolates an SBET.
 
-use crate::geo::{LocalMap, geodetic_of_local};
 use crate::scenario::{ErrorModel, Line, LineErrorSigma, Motion};
-use lidarqa_io::{Geodetic, UtmZone};
+use lidarqa_io::{Geodetic, NedToGrid, UtmZone};
 use lidarqa_model::{Sigmas, Source, ecef_from_ned};
 use nalgebra::{Matrix3, Vector3};
 use rand::Rng;
@@ -64,7 +63,7 @@ pub(crate) struct StripTrajectory {
     pub truth: Vec<Pose>,
     pub measured: Vec<Pose>,
     pub segments: Vec<Segment>,
-    pub maps: Vec<LocalMap>,
+    pub maps: Vec<NedToGrid>,
 }
 
 /// One line's own trajectory error, SI, drawn once per line: added to the measured trajectory.
@@ -208,14 +207,14 @@ pub(crate) fn build(
             err[i] = phi[i] * err[i] + sig[i] * (1.0 - phi[i] * phi[i]).sqrt() * w;
         }
     }
-    let maps: Vec<LocalMap> = (0..n.div_ceil(SAMPLES_PER_MAP))
-        .map(|m| LocalMap::new(zone, origin_en, &truth[m * SAMPLES_PER_MAP].position))
+    let maps: Vec<NedToGrid> = (0..n.div_ceil(SAMPLES_PER_MAP))
+        .map(|m| NedToGrid::new(zone, origin_en, &truth[m * SAMPLES_PER_MAP].position))
         .collect();
-    let frame = |map: &LocalMap, g: &Geodetic| {
-        let r0t = map.ecef_from_ned.transpose();
+    let frame = |map: &NedToGrid, g: &Geodetic| {
+        let tangent = map.frame();
         Frame {
-            offset: r0t * (ell.geodetic_to_ecef(g).vector() - map.origin_ecef),
-            rotation: r0t * ecef_from_ned(g.latitude_rad, g.longitude_rad),
+            offset: tangent.to_ned(&ell.geodetic_to_ecef(g)).vector(),
+            rotation: tangent.ned_from_ecef() * ecef_from_ned(g.latitude_rad, g.longitude_rad),
         }
     };
     let segments = (0..n - 1)
@@ -242,5 +241,15 @@ pub(crate) fn build(
         measured,
         segments,
         maps,
+    }
+}
+
+/// Geodetic position of a local grid point (x, y from the origin) at ellipsoidal height h.
+fn geodetic_of_local(zone: &UtmZone, origin_en: [f64; 2], x: f64, y: f64, h: f64) -> Geodetic {
+    let (lat, lon) = zone.inverse(origin_en[0] + x, origin_en[1] + y);
+    Geodetic {
+        latitude_rad: lat,
+        longitude_rad: lon,
+        height_m: h,
     }
 }

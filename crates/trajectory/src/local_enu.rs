@@ -3,30 +3,19 @@
 use crate::Epoch;
 use crate::ReturnPoint;
 use crate::attitude::wrap;
-use lidarqa_io::{Crs, Ellipsoid, Geodetic};
-use lidarqa_model::{Ecef, ned_from_ecef};
-use nalgebra::{Matrix3, Vector3};
+use lidarqa_io::{Crs, Ellipsoid, Geodetic, TangentFrame, enu_from_ecef};
+use lidarqa_model::Enu;
+use nalgebra::Vector3;
 
 /// One local east-north-up Cartesian frame, tangent to the ellipsoid at the centre of the
-/// returns: where the line geometry is done (module docs, step 0).
+/// returns: where the line geometry is done (module docs, step 0). lidarqa-io's
+/// [`TangentFrame`], with the conversions from and to the returns' CRS.
 #[derive(Debug, Clone)]
 pub struct LocalEnu {
     crs: Crs,
     unit_m: f64,
     ellipsoid: Ellipsoid,
-    origin_ecef: Ecef,
-    /// ECEF → this frame's east, north, up.
-    enu_from_ecef: Matrix3<f64>,
-}
-
-/// ECEF → east-north-up at (φ, λ): NED's rows reordered, down turned up.
-pub(crate) fn enu_from_ecef(latitude_rad: f64, longitude_rad: f64) -> Matrix3<f64> {
-    let ned = ned_from_ecef(latitude_rad, longitude_rad);
-    Matrix3::from_rows(&[
-        ned.row(1).into_owned(),
-        ned.row(0).into_owned(),
-        -ned.row(2).into_owned(),
-    ])
+    frame: TangentFrame,
 }
 
 impl LocalEnu {
@@ -38,8 +27,7 @@ impl LocalEnu {
         let mean = |k: usize| points.iter().map(|p| p.position_m[k]).sum::<f64>() / n;
         let g = Self::geodetic(&crs, unit_m, [mean(0), mean(1), mean(2)]);
         LocalEnu {
-            origin_ecef: ellipsoid.geodetic_to_ecef(&g),
-            enu_from_ecef: enu_from_ecef(g.latitude_rad, g.longitude_rad),
+            frame: TangentFrame::at(&ellipsoid, &g),
             crs,
             unit_m,
             ellipsoid,
@@ -58,7 +46,10 @@ impl LocalEnu {
     /// A return in this frame (metres).
     pub fn to_local(&self, p: &ReturnPoint) -> ReturnPoint {
         let g = Self::geodetic(&self.crs, self.unit_m, p.position_m);
-        let v = self.enu_from_ecef * (self.ellipsoid.geodetic_to_ecef(&g) - self.origin_ecef);
+        let v = self
+            .frame
+            .to_enu(&self.ellipsoid.geodetic_to_ecef(&g))
+            .vector();
         ReturnPoint {
             position_m: [v.x, v.y, v.z],
             ..*p
@@ -70,8 +61,10 @@ impl LocalEnu {
     /// (velocity in CRS units per second). The σ are in the local east, north, up axes, as
     /// `tpu` reads them, and stay.
     pub fn to_projected(&self, e: &Epoch) -> Epoch {
-        let to_ecef = self.enu_from_ecef.transpose();
-        let ecef = self.origin_ecef + to_ecef * Vector3::from(e.position_m);
+        let to_ecef = self.frame.enu_from_ecef().transpose();
+        let ecef = self
+            .frame
+            .enu_to_ecef(&Enu::from_vector(Vector3::from(e.position_m)));
         let g = self.ellipsoid.ecef_to_geodetic(&ecef);
         let grid = self.crs.forward(g.latitude_rad, g.longitude_rad);
         // This frame's axes → the local east, north, up at the epoch.

@@ -92,17 +92,19 @@ impl Kept {
     /// The point for the adjustment, from what [`Kept::observe`] found.
     pub(super) fn raw_point(
         &self,
-        frame: &LocalFrame,
+        frame: &TangentFrame,
         (pose, recovery): &Observed,
         geometry: ScanGeometry,
     ) -> RawPoint {
-        let ecef = Vector3::from(self.ecef);
+        let ecef = Ecef::from_vector(Vector3::from(self.ecef));
         RawPoint::from_recovery(frame, pose, recovery, &ecef, self.intensity, geometry)
     }
 
     /// The point's local position, as [`Kept::raw_point`] computes it.
-    pub(super) fn local(&self, frame: &LocalFrame) -> Vector3<f64> {
-        frame.to_local(&Vector3::from(self.ecef))
+    pub(super) fn local(&self, frame: &TangentFrame) -> Vector3<f64> {
+        frame
+            .to_ned(&Ecef::from_vector(Vector3::from(self.ecef)))
+            .vector()
     }
 }
 

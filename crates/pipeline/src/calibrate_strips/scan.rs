@@ -91,7 +91,7 @@ impl Piece {
         &mut self,
         kept: &Kept,
         observed: &Observed,
-        frame: &LocalFrame,
+        frame: &TangentFrame,
     ) -> std::io::Result<()> {
         // Only the local position and the time are needed for every point; the whole point
         // only for the extreme ones, built at the end (the latest point changes at every point).
@@ -130,7 +130,7 @@ impl Piece {
 pub(super) fn scan_file(
     path: &Path,
     ctx: &TpuContext,
-    frame: &LocalFrame,
+    frame: &TangentFrame,
     of_point: &[u32],
     progress: &(dyn Fn(CalibrateStep) + Sync),
 ) -> Result<Vec<Piece>> {
@@ -183,7 +183,7 @@ pub(super) fn finish_lines(
     names: &[LineName],
     paths: &[PathBuf],
     ctx: &TpuContext,
-    frame: &LocalFrame,
+    frame: &TangentFrame,
     picks: Option<(&TiePicks, &[[f64; 2]])>,
     want_radius: bool,
 ) -> Result<Vec<StripScan>> {

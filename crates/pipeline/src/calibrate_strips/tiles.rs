@@ -49,7 +49,7 @@ pub(super) fn square(north: f64, east: f64, reach: f64) -> [f64; 4] {
 }
 
 impl Region {
-    pub(super) fn new(rects: Vec<[f64; 4]>, frame: &LocalFrame, zone: &Crs) -> Region {
+    pub(super) fn new(rects: Vec<[f64; 4]>, frame: &TangentFrame, zone: &Crs) -> Region {
         let boxes: Vec<[f64; 4]> = rects
             .iter()
             .map(|r| {
@@ -63,7 +63,7 @@ impl Region {
                     .into_iter()
                     .chain([(1.0, 0.5), (0.0, 1.0), (0.5, 1.0), (1.0, 1.0)])
                 {
-                    let v = Vector3::new(r[0] + fa * (r[2] - r[0]), r[1] + fb * (r[3] - r[1]), 0.0);
+                    let v = Ned::new(r[0] + fa * (r[2] - r[0]), r[1] + fb * (r[3] - r[1]), 0.0);
                     let [x, y, _] = local_to_projected(frame, zone, &v);
                     b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
                 }
@@ -125,7 +125,7 @@ impl Region {
 pub(super) fn cut_strip(
     scan: &StripScan,
     ctx: &TpuContext,
-    frame: &LocalFrame,
+    frame: &TangentFrame,
     region: &Region,
 ) -> Result<Strip> {
     let mut points = Vec::new();
@@ -202,7 +202,7 @@ pub(super) fn cut_strip(
 pub(super) fn cut_all(
     scans: &[StripScan],
     ctx: &TpuContext,
-    frame: &LocalFrame,
+    frame: &TangentFrame,
     region: &Region,
 ) -> Result<Vec<Strip>> {
     let cut: Vec<Result<Strip>> = scans
@@ -219,7 +219,7 @@ pub(super) fn auto_ties_tiled(
     scans: &[StripScan],
     tile_points: u64,
     ctx: &TpuContext,
-    frame: &LocalFrame,
+    frame: &TangentFrame,
     zone: &Crs,
     prior: &lidarqa_model::Mounting,
     opts: &AutoTieOptions,
@@ -309,7 +309,7 @@ pub(super) fn ties_from_scans(
     picks: &TiePicks,
     scans: &[StripScan],
     names: &[LineName],
-    frame: &LocalFrame,
+    frame: &TangentFrame,
     zone: &Crs,
     h0: f64,
 ) -> Result<Vec<Tie>> {
@@ -363,8 +363,8 @@ pub(super) fn ties_from_scans(
         }
         ties.entry(p.tie.clone()).or_default().push(TiePick {
             strip: scans[k].id.clone(),
-            north_m: local.x,
-            east_m: local.y,
+            north_m: local.north_m(),
+            east_m: local.east_m(),
         });
     }
     Ok(order

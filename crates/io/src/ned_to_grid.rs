@@ -1,4 +1,5 @@
-//! Rigorous georeferencing, made fast by a local quadratic map.
+//! The map from a local NED offset to UTM grid offsets and ellipsoidal height, as its
+//! second-order Taylor polynomial about an origin: what the simulator casts its rays through.
 //!
 //! SPEC §3: an NED vector goes to ECEF at the trajectory point, then to geodetic and to the
 //! projected CRS. Doing that chain (an iterated ECEF → geodetic conversion and Krüger's
@@ -8,41 +9,33 @@
 //! `F(v) = (E − E₀, N − N₀, h)` of the point `X₀ + R_ecef←ned · v`
 //!
 //! is replaced by its second-order Taylor polynomial `c + J v + ½ vᵀ H v`, with `J` and `H` from
-//! central differences of the exact chain (lidarqa-io's geodesy). The third derivatives of `F`
+//! central differences of the exact chain ([`exact_ned_to_grid`]). The third derivatives of `F`
 //! are of order 1/R² (earth curvature, the growth of the UTM scale away from the central
-//! meridian), so the truncation error is ~|v|³/R² ≈ 10⁻⁵ m at |v| = 1 km: a hundred times
-//! below the 1 mm the simulator promises (the test `quadratic_map_matches_exact_chain`
-//! checks 5·10⁻⁵ m out to 1.2 km). A ray `v(ρ) = o + ρ d` then follows the exact parabola
-//! `F(o) + ρ (J d + oᵀHd) + ρ² ½ dᵀHd` in (x, y, h).
+//! meridian), so the truncation error is of order |v|³/R²: far below the millimetre the
+//! simulator promises over the kilometre a ray spans (the test
+//! `quadratic_map_matches_exact_chain` checks 5·10⁻⁵ m out to 1.2 km). A ray `v(ρ) = o + ρ d`
+//! then follows the exact parabola `F(o) + ρ (J d + oᵀHd) + ρ² ½ dᵀHd` in (x, y, h).
 
-use crate::ray::Curve;
-use lidarqa_io::{Geodetic, UtmZone};
-use lidarqa_model::{Ecef, ecef_from_ned};
+use crate::geodesy::{Geodetic, UtmZone};
+use crate::tangent::TangentFrame;
+use lidarqa_model::Ecef;
 use nalgebra::{Matrix3, Vector3};
 
-/// Second-order model of the map NED offset → (local easting, local northing, height).
+/// Second-order model of the map NED offset → (local easting, local northing, height), m.
 #[derive(Debug, Clone)]
-pub(crate) struct LocalMap {
+pub struct NedToGrid {
     c: Vector3<f64>,
     j: Matrix3<f64>,
     /// Hessian of each output component (x, y, h).
     h: [Matrix3<f64>; 3],
-    /// ECEF of the map origin, m.
-    pub origin_ecef: Vector3<f64>,
-    /// NED → ECEF rotation at the map origin.
-    pub ecef_from_ned: Matrix3<f64>,
+    /// The NED frame at the map origin.
+    frame: TangentFrame,
 }
 
-/// The exact chain: ECEF point → (E − E₀, N − N₀, h).
-pub(crate) fn exact_local(
-    zone: &UtmZone,
-    origin_en: [f64; 2],
-    ecef: &Vector3<f64>,
-) -> Vector3<f64> {
-    let g = zone
-        .datum()
-        .ellipsoid()
-        .ecef_to_geodetic(&Ecef::from_vector(*ecef));
+/// The exact chain: ECEF point → (E − E₀, N − N₀, h) in `zone`, m, with `origin_en` the grid
+/// (E₀, N₀).
+pub fn exact_ned_to_grid(zone: &UtmZone, origin_en: [f64; 2], ecef: &Ecef) -> Vector3<f64> {
+    let g = zone.datum().ellipsoid().ecef_to_geodetic(ecef);
     let p = zone.forward(g.latitude_rad, g.longitude_rad);
     Vector3::new(
         p.easting_m - origin_en[0],
@@ -51,28 +44,14 @@ pub(crate) fn exact_local(
     )
 }
 
-/// Geodetic position of a local grid point (x, y from the origin) at ellipsoidal height h.
-pub(crate) fn geodetic_of_local(
-    zone: &UtmZone,
-    origin_en: [f64; 2],
-    x: f64,
-    y: f64,
-    h: f64,
-) -> Geodetic {
-    let (lat, lon) = zone.inverse(origin_en[0] + x, origin_en[1] + y);
-    Geodetic {
-        latitude_rad: lat,
-        longitude_rad: lon,
-        height_m: h,
-    }
-}
-
-impl LocalMap {
-    /// Expand the exact chain around `origin`.
-    pub fn new(zone: &UtmZone, origin_en: [f64; 2], origin: &Geodetic) -> LocalMap {
-        let x0 = zone.datum().ellipsoid().geodetic_to_ecef(origin).vector();
-        let r = ecef_from_ned(origin.latitude_rad, origin.longitude_rad);
-        let f = |v: Vector3<f64>| exact_local(zone, origin_en, &(x0 + r * v));
+impl NedToGrid {
+    /// Expands the exact chain around `origin`, whose grid offsets are measured from
+    /// `origin_en` (E₀, N₀).
+    pub fn new(zone: &UtmZone, origin_en: [f64; 2], origin: &Geodetic) -> NedToGrid {
+        let frame = TangentFrame::at(&zone.datum().ellipsoid(), origin);
+        let x0 = frame.origin();
+        let r = frame.ned_from_ecef().transpose();
+        let f = |v: Vector3<f64>| exact_ned_to_grid(zone, origin_en, &(x0 + r * v));
         // 200 m steps: truncation s²F'''/6 ~ 1e-10 m, round-off 1e-9 m / s² ~ 1e-14 per m².
         let s = 200.0;
         let e = [Vector3::x(), Vector3::y(), Vector3::z()];
@@ -97,16 +76,15 @@ impl LocalMap {
                 }
             }
         }
-        LocalMap {
-            c: f0,
-            j,
-            h,
-            origin_ecef: x0,
-            ecef_from_ned: r,
-        }
+        NedToGrid { c: f0, j, h, frame }
     }
 
-    /// (x, y, h) of the point at NED offset `v` from the map origin.
+    /// The NED frame at the map origin, in which the offsets `v` are.
+    pub fn frame(&self) -> &TangentFrame {
+        &self.frame
+    }
+
+    /// (x, y, h) of the point at NED offset `v` from the map origin, m.
     #[inline]
     pub fn eval(&self, v: &Vector3<f64>) -> Vector3<f64> {
         let lin = self.c + self.j * v;
@@ -130,9 +108,10 @@ impl LocalMap {
         j
     }
 
-    /// The parabola in (x, y, h) followed by the ray `o + ρ d` (NED offsets from the map origin).
+    /// The parabola `a + b ρ + c ρ²` in (x, y, h) followed by the ray `o + ρ d` (NED offsets
+    /// from the map origin), as `[a, b, c]`.
     #[inline]
-    pub fn curve(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> Curve {
+    pub fn ray(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> [[f64; 3]; 3] {
         let a = self.eval(o);
         let b = self.j * d;
         let mut bb = [b.x, b.y, b.z];
@@ -142,17 +121,23 @@ impl LocalMap {
             bb[k] += o.dot(&hd);
             cc[k] = 0.5 * d.dot(&hd);
         }
-        Curve {
-            a: [a.x, a.y, a.z],
-            b: bb,
-            c: cc,
-        }
+        [[a.x, a.y, a.z], bb, cc]
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lidarqa_model::Ned;
+
+    fn geodetic_at(zone: &UtmZone, origin_en: [f64; 2], x: f64, y: f64, h: f64) -> Geodetic {
+        let (latitude_rad, longitude_rad) = zone.inverse(origin_en[0] + x, origin_en[1] + y);
+        Geodetic {
+            latitude_rad,
+            longitude_rad,
+            height_m: h,
+        }
+    }
 
     #[test]
     fn quadratic_map_matches_exact_chain() {
@@ -160,10 +145,8 @@ mod tests {
         // scale variation within a zone.
         let zone = UtmZone::from_epsg(32633).unwrap();
         let origin_en = [750_000.0, 6_600_000.0];
-        let g = geodetic_of_local(&zone, origin_en, 30.0, -40.0, 550.0);
-        let map = LocalMap::new(&zone, origin_en, &g);
-        let x0 = zone.datum().ellipsoid().geodetic_to_ecef(&g).vector();
-        let r = ecef_from_ned(g.latitude_rad, g.longitude_rad);
+        let g = geodetic_at(&zone, origin_en, 30.0, -40.0, 550.0);
+        let map = NedToGrid::new(&zone, origin_en, &g);
         let mut worst: f64 = 0.0;
         for &(n, e, d) in &[
             (0.0, 0.0, 0.0),
@@ -173,7 +156,8 @@ mod tests {
             (-50.0, 40.0, 1200.0),
         ] {
             let v = Vector3::new(n, e, d);
-            let exact = exact_local(&zone, origin_en, &(x0 + r * v));
+            let p = map.frame().ned_to_ecef(&Ned::from_vector(v));
+            let exact = exact_ned_to_grid(&zone, origin_en, &p);
             worst = worst.max((map.eval(&v) - exact).amax());
         }
         assert!(
@@ -183,18 +167,36 @@ mod tests {
     }
 
     #[test]
-    fn curve_follows_the_map() {
+    fn ray_follows_the_map() {
         let zone = UtmZone::from_epsg(32650).unwrap();
         let origin_en = [420_000.0, 2_800_000.0];
-        let g = geodetic_of_local(&zone, origin_en, 0.0, 0.0, 300.0);
-        let map = LocalMap::new(&zone, origin_en, &g);
+        let g = geodetic_at(&zone, origin_en, 0.0, 0.0, 300.0);
+        let map = NedToGrid::new(&zone, origin_en, &g);
         let o = Vector3::new(3.0, -2.0, 0.5);
         let d = Vector3::new(0.1, 0.4, 0.9).normalize();
-        let c = map.curve(&o, &d);
+        let [a, b, c] = map.ray(&o, &d);
         for rho in [0.0, 150.0, 420.0] {
-            let p = c.at(rho);
+            let p = Vector3::from(a) + Vector3::from(b) * rho + Vector3::from(c) * (rho * rho);
             let q = map.eval(&(o + d * rho));
-            assert!((Vector3::from(p) - q).amax() < 1e-9);
+            assert!((p - q).amax() < 1e-9);
+        }
+    }
+
+    /// The Jacobian is the polynomial's derivative: central differences over 1 m agree to the
+    /// rounding of values of a kilometre divided by the step.
+    #[test]
+    fn jacobian_is_the_derivative() {
+        let zone = UtmZone::from_epsg(32633).unwrap();
+        let origin_en = [500_000.0, 6_000_000.0];
+        let g = geodetic_at(&zone, origin_en, 0.0, 0.0, 800.0);
+        let map = NedToGrid::new(&zone, origin_en, &g);
+        let v = Vector3::new(300.0, -200.0, 700.0);
+        let jac = map.jacobian(&v);
+        for i in 0..3 {
+            let mut dv = Vector3::zeros();
+            dv[i] = 1.0;
+            let fd = (map.eval(&(v + dv)) - map.eval(&(v - dv))) / 2.0;
+            assert!((fd - jac.column(i)).amax() < 1e-9, "column {i}");
         }
     }
 }
