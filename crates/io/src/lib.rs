@@ -12,6 +12,7 @@
 //!   ([`Crs`]); GPS time bases ([`LasTimeConverter`]);
 //! - geoid models: EGM2008 built in and GTX / GeoTIFF grids ([`GeoidModel`]);
 //! - atomic outputs: a temporary file beside the target, renamed when complete ([`AtomicFile`]);
+//! - the optional [`Progress`] callback of the streaming commands' jobs;
 //! - single-band float GeoTIFF rasters with their GeoKeys ([`GeoRaster`]).
 //!
 //! Every error names the file and, where there is one, the line, record or key at fault.
@@ -38,6 +39,7 @@ mod local_inverse;
 mod pointcloud;
 mod pointpose;
 mod sbet;
+mod stages;
 mod trajtext;
 mod water;
 mod wkt;
@@ -79,6 +81,7 @@ pub use sbet::{
     SmrmsgReader, SmrmsgSigma, SmrmsgWriter, raw as sbet_raw, read_sbet, read_smrmsg,
     write_records_to_path,
 };
+pub use stages::Progress;
 pub use trajtext::{
     HEIGHTS_AS_POINTS, HeadingReference, TextPose, TextSigma, TextTrajectory, TrajectoryFile,
     TrajectoryFormat, TrajectoryPosition, parse_text_trajectory, read_point_pose, read_trajectory,

@@ -13,7 +13,7 @@ use crate::summary::{
 };
 use lidarqa_io::{
     CLASS_WATER_SURFACE, Crs, InverseKind, LasTimeConverter, LasWriteOptions, LocalInverse,
-    RawChunk, RawPoint, Unprojected,
+    Progress, RawChunk, RawPoint, Unprojected,
 };
 use lidarqa_model::{Ecef, Grid, ecef_from_ned_sin_cos};
 use lidarqa_tpu::{
@@ -91,17 +91,11 @@ pub struct TpuTileJob<'a> {
     pub output: &'a Path,
     /// Sensor, trajectory and options.
     pub context: &'a TpuContext,
+    /// Told the points read of each chunk once it is written.
+    pub progress: Progress<'a>,
 }
 
-/// Runs one tile; see [`tpu_tile_with_progress`].
-///
-/// # Errors
-/// As [`tpu_tile_with_progress`].
-pub fn tpu_tile(job: &TpuTileJob<'_>) -> Result<TileReport> {
-    tpu_tile_with_progress(job, &|_| {})
-}
-
-/// Runs one tile, calling `progress(n)` after each chunk of `n` points read is written.
+/// Runs one tile, reporting to `job.progress` the points read of each chunk once it is written.
 ///
 /// Three stages run at once on bounded channels (one chunk in flight each): a reader thread
 /// decodes a chunk's records; the calling thread converts its points to ECEF and seconds of
@@ -130,11 +124,9 @@ pub fn tpu_tile(job: &TpuTileJob<'_>) -> Result<TileReport> {
 /// [`Error::NoGpsTime`], [`Error::UnknownCrs`], [`Error::OutsideTrajectory`],
 /// [`Error::NonFiniteCoordinates`], [`Error::Point`] naming the file and the point; I/O errors
 /// naming the file; `OutputIsInput` from lidarqa-io when `output` is one of the inputs.
-pub fn tpu_tile_with_progress(
-    job: &TpuTileJob<'_>,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<TileReport> {
+pub fn tpu_tile(job: &TpuTileJob<'_>) -> Result<TileReport> {
     let ctx = job.context;
+    let progress = job.progress;
     let input = job.input;
     // las's reader is not `Send`: read the header here, the points in the reader thread.
     let OpenTile {
@@ -243,7 +235,7 @@ pub fn tpu_tile_with_progress(
         move |rx_write| {
             write_chunks(writer, rx_write, |writer, (out, points_read)| {
                 writer.write_raw(&out)?;
-                progress(points_read);
+                progress.report(points_read);
                 // The compute stage may have finished: then the buffer is dropped.
                 let _ = tx_spent_out.send(out);
                 Ok(())

@@ -76,7 +76,6 @@ pub fn simulate_to_dir(
     options: &SimOptions,
     laz: bool,
     inputs: &[&Path],
-    progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(Survey, Vec<PathBuf>)> {
     let names = file_names(scenario.lines().iter().map(|l| l.id), laz);
     let paths = checked_paths(dir, names, inputs)?;
@@ -87,7 +86,7 @@ pub fn simulate_to_dir(
         open: None,
         done: Vec::new(),
     };
-    let survey = simulate_streaming(scenario, options, progress, &mut sink)?;
+    let survey = simulate_streaming(scenario, options, &mut sink)?;
     // From the first rename to the last the directory mixes this run's files and an earlier
     // run's: the marker says so until the last file is in place.
     let marker = mark_incomplete(dir)?;
