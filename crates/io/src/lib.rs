@@ -12,7 +12,8 @@
 //!   ([`Crs`]); GPS time bases ([`LasTimeConverter`]);
 //! - geoid models: EGM2008 built in and GTX / GeoTIFF grids ([`GeoidModel`]);
 //! - atomic outputs: a temporary file beside the target, renamed when complete ([`AtomicFile`]);
-//! - the optional [`Progress`] callback of the streaming commands' jobs;
+//! - the reader → compute → writer stages of the streaming commands, with bounded memory
+//!   ([`run_stages`], [`for_each_chunk`]), and the optional [`Progress`] callback of their jobs;
 //! - single-band float GeoTIFF rasters with their GeoKeys ([`GeoRaster`]).
 //!
 //! Every error names the file and, where there is one, the line, record or key at fault.
@@ -81,7 +82,7 @@ pub use sbet::{
     SmrmsgReader, SmrmsgSigma, SmrmsgWriter, raw as sbet_raw, read_sbet, read_smrmsg,
     write_records_to_path,
 };
-pub use stages::Progress;
+pub use stages::{Fill, Progress, WriteMsg, for_each_chunk, read_chunks, run_stages, write_chunks};
 pub use trajtext::{
     HEIGHTS_AS_POINTS, HeadingReference, TextPose, TextSigma, TextTrajectory, TrajectoryFile,
     TrajectoryFormat, TrajectoryPosition, parse_text_trajectory, read_point_pose, read_trajectory,

@@ -23,7 +23,7 @@
 //! converted to metres on the way in and back on the way out.
 //!
 //! Reading (LAZ decoding), correcting (rayon) and writing (LAZ coding) run as three stages on
-//! bounded channels, so the coding of one chunk overlaps the computation of the next. The
+//! bounded channels (lidarqa-io's [`run_stages`]), so the coding of one chunk overlaps the computation of the next. The
 //! records pass as the file stores them ([`RawChunk`]): only X, Y and Z are rewritten, no
 //! record is decoded into fields and encoded back.
 //!
@@ -45,13 +45,12 @@
 //! line's span is refused, naming it (the calibration was computed from other files).
 
 use crate::context::TpuContext;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, panicked};
 use crate::recovery_check::{RecoveryCheck, RecoveryTally};
-use crate::stages::{read_chunks, run_stages, write_chunks};
 use lidarqa_calib::{LineShift, Mountings, ScanGeometry, displacement};
 use lidarqa_io::{
     CellCache, CoordinateBlock, Crs, GridToEcef, LasTimeConverter, LasWriteOptions, Progress,
-    RawChunk,
+    RawChunk, read_chunks, run_stages, write_chunks,
 };
 use lidarqa_model::{Ecef, Mounting};
 use lidarqa_tpu::{SegmentRotation, Trajectory};
@@ -204,9 +203,8 @@ fn correct_tile_lines(job: &CorrectTileJob<'_>, lines: &[LineMatch]) -> Result<C
     let mut tally = checks.as_ref().map(|c| c.tally(tile.info.point_format));
     let (tx_spent, rx_spent) = sync_channel::<RawChunk>(SPARES);
     let points = run_stages(
-        input,
         // las's reader is not `Send`: it is opened in its thread.
-        move |tx_read| read_chunks(input, CHUNK, &rx_spent, &tx_read),
+        move |tx_read| read_chunks(&[input], CHUNK, &rx_spent, &tx_read),
         move |rx_write| {
             write_chunks(writer, rx_write, |writer, chunk: RawChunk| {
                 writer.write_raw(&chunk)?;
@@ -232,6 +230,7 @@ fn correct_tile_lines(job: &CorrectTileJob<'_>, lines: &[LineMatch]) -> Result<C
                 _ => Ok(()),
             }
         },
+        panicked(input),
     )?;
     let mut warnings: Vec<lidarqa_model::Warning> = carried.into_iter().collect();
     if let Some(t) = &tally {
@@ -252,7 +251,7 @@ const SPARES: usize = 2;
 /// Points per parallel task: a few grid cells' worth, so that a task's cells are built once.
 const BLOCK: usize = 1024;
 
-type WriteMsg = crate::stages::WriteMsg<RawChunk>;
+type WriteMsg = lidarqa_io::WriteMsg<RawChunk>;
 
 /// The compute stage: what a chunk's points need.
 struct Run<'a> {

@@ -71,7 +71,6 @@ pub mod plausibility;
 mod qc;
 mod recovery_check;
 mod retile;
-mod stages;
 mod stored;
 mod summary;
 mod targets_csv;

@@ -1,19 +1,18 @@
 //! One tile: read → recover → propagate → write, streaming in chunks.
 
 use crate::context::{OpenTile, TpuContext};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, panicked};
 use crate::heights::Heights;
 use crate::plausibility::{
     DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, check_distance, crs_name, implausible_trajectory,
     outside_zone, point_implausible,
 };
-use crate::stages::{read_chunks, run_stages, write_chunks};
 use crate::summary::{
     IncidenceTally, SIGMA_NAMES, SkipReason, SoundingResult, TileReport, TpuSummary,
 };
 use lidarqa_io::{
     CLASS_WATER_SURFACE, Crs, InverseKind, LasTimeConverter, LasWriteOptions, LocalInverse,
-    Progress, RawChunk, RawPoint, Unprojected,
+    Progress, RawChunk, RawPoint, Unprojected, read_chunks, run_stages, write_chunks,
 };
 use lidarqa_model::{Ecef, Grid, ecef_from_ned_sin_cos};
 use lidarqa_tpu::{
@@ -97,7 +96,8 @@ pub struct TpuTileJob<'a> {
 
 /// Runs one tile, reporting to `job.progress` the points read of each chunk once it is written.
 ///
-/// Three stages run at once on bounded channels (one chunk in flight each): a reader thread
+/// Three stages run at once on bounded channels (one chunk in flight each; lidarqa-io's
+/// [`run_stages`]): a reader thread
 /// decodes a chunk's records; the calling thread converts its points to ECEF and seconds of
 /// week (UTM inverse → geodetic → ECEF on the CRS's ellipsoid), recovers and propagates every
 /// point (rayon) and appends their σ to the records as read (no record is decoded into fields
@@ -230,8 +230,7 @@ pub fn tpu_tile(job: &TpuTileJob<'_>) -> Result<TileReport> {
         covariance: ctx.options.covariance,
     };
     run_stages(
-        &path,
-        move |tx_read| read_chunks(input, chunk_points, &rx_spent_read, &tx_read),
+        move |tx_read| read_chunks(&[input], chunk_points, &rx_spent_read, &tx_read),
         move |rx_write| {
             write_chunks(writer, rx_write, |writer, (out, points_read)| {
                 writer.write_raw(&out)?;
@@ -253,6 +252,7 @@ pub fn tpu_tile(job: &TpuTileJob<'_>) -> Result<TileReport> {
             }
             Ok(())
         },
+        panicked(&path),
     )?;
     summary.warnings.extend(scan_angle_disagreement(
         input,
@@ -298,7 +298,7 @@ struct SurfaceBuffers {
 }
 
 /// An output chunk (the records with their σ) and the number of points read for it.
-type WriteMsg = crate::stages::WriteMsg<(RawChunk, u64)>;
+type WriteMsg = lidarqa_io::WriteMsg<(RawChunk, u64)>;
 
 /// Puts in `out` the record of each propagated point `first + i` (`slots[i]`) as read with its
 /// σ (and sounding, covariance) appended, skipping the points not propagated.

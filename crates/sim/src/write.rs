@@ -2,6 +2,12 @@
 //! `sbet.out` + `smrmsg.out`, `control.csv`, `truth.json` and the nominal `sensor.toml` the user
 //! of the survey would have. Every file is atomic.
 //!
+//! [`simulate_to_dir`] keeps its own overlap of computing and writing rather than lidarqa-io's
+//! writer stage: [`simulate_streaming`] computes a window of chunks in parallel while the sink
+//! writes the window before (`rayon::join`), and hands the sink borrowed slices of points. A
+//! writer thread would need every chunk copied into a buffer it owns, for an overlap the
+//! simulation already has; and its strips are committed together only once all are written.
+//!
 //! A strip without the truth dimensions is written as records encoded here (point format 6,
 //! [`record`]) rather than through a `LasPoint` and `las::Point` per point: that conversion cost
 //! as much as the strip's geometry. A test holds the records to `LasWriter::write_point`'s byte
