@@ -12,6 +12,8 @@
 //!   ([`Crs`]); GPS time bases ([`LasTimeConverter`]);
 //! - geoid models: EGM2008 built in and GTX / GeoTIFF grids ([`GeoidModel`]);
 //! - atomic outputs: a temporary file beside the target, renamed when complete ([`AtomicFile`]);
+//! - the reader → compute → writer stages of the streaming commands, with bounded memory
+//!   ([`run_stages`], [`for_each_chunk`]), and the optional [`Progress`] callback of their jobs;
 //! - single-band float GeoTIFF rasters with their GeoKeys ([`GeoRaster`]).
 //!
 //! Every error names the file and, where there is one, the line, record or key at fault.
@@ -52,6 +54,7 @@ mod ned_to_grid;
 mod pointcloud;
 mod pointpose;
 mod sbet;
+mod stages;
 mod tangent;
 mod trajtext;
 mod water;
@@ -95,6 +98,7 @@ pub use sbet::{
     SmrmsgReader, SmrmsgSigma, SmrmsgWriter, raw as sbet_raw, read_sbet, read_smrmsg,
     write_records_to_path,
 };
+pub use stages::{Fill, Progress, WriteMsg, for_each_chunk, read_chunks, run_stages, write_chunks};
 pub use tangent::{TangentFrame, enu_from_ecef};
 pub use trajtext::{
     HEIGHTS_AS_POINTS, HeadingReference, TextPose, TextSigma, TextTrajectory, TrajectoryFile,

@@ -42,6 +42,7 @@ fn main() {
         context: &ctx,
         mounting: &mounting,
         other_inputs: &[],
+        progress: Default::default(),
     })
     .unwrap();
     let corr_s = t.elapsed().as_secs_f64();

@@ -58,6 +58,7 @@ fn main() {
         input: &files.input,
         output: &out,
         context: &ctx,
+        progress: Default::default(),
     })
     .unwrap();
     let tpu_s = t.elapsed().as_secs_f64();

@@ -56,7 +56,7 @@ use lidarqa_calib::{
     calibrate_vtpm, select_auto_ties, tie_reach_m,
 };
 use lidarqa_io::{
-    ControlPoints, Crs, Geodetic, InverseKind, LasInfo, LasReader, LocalInverse, PointChunk,
+    ControlPoints, Crs, Geodetic, InverseKind, LasInfo, LocalInverse, PointChunk, Progress,
     TangentFrame, TiePicks,
 };
 use lidarqa_model::{Ecef, Ned, Source, Warning};
@@ -128,6 +128,8 @@ pub struct CalibrateJob<'a> {
     pub tile_points: u64,
     /// How the files' points are split into flight lines ([`crate::read_lines`]).
     pub lines: LineOptions,
+    /// Told the points of the first pass as they are read, then each later step.
+    pub progress: Progress<'a, CalibrateStep>,
 }
 
 /// One strip's names: its line id, point source id, the files holding it and the names a tie
@@ -262,18 +264,7 @@ pub struct LoadedStrip {
     pub strip: Strip,
 }
 
-/// Reads the strips, finds or reads the ties, reads the control and calibrates.
-///
-/// # Errors
-/// The header checks of [`crate::tpu_tile`] naming the file, a point whose time or observation
-/// cannot be used naming the file and the point, strips of different CRS, the CSV readers'
-/// errors, and [`Error::Calibration`] for a failed adjustment, told in the CSV's terms (file,
-/// line, the x, y written there) when it is about a pick or a control point.
-pub fn calibrate_strips(job: &CalibrateJob<'_>) -> Result<StripCalibration> {
-    calibrate_strips_with_progress(job, &|_| {})
-}
-
-/// How far [`calibrate_strips_with_progress`] has come, for a progress bar.
+/// How far [`calibrate_strips`] has come, for a progress bar.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CalibrateStep {
     /// This many more points were read in the first pass over the strips (their sum over a
@@ -285,14 +276,16 @@ pub enum CalibrateStep {
     Adjustment,
 }
 
-/// As [`calibrate_strips`], calling `progress` as it goes (from any thread).
+/// Reads the strips, finds or reads the ties, reads the control and calibrates, telling
+/// `job.progress` how far it has come (from any thread).
 ///
 /// # Errors
-/// As [`calibrate_strips`].
-pub fn calibrate_strips_with_progress(
-    job: &CalibrateJob<'_>,
-    progress: &(dyn Fn(CalibrateStep) + Sync),
-) -> Result<StripCalibration> {
+/// The header checks of [`crate::tpu_tile`] naming the file, a point whose time or observation
+/// cannot be used naming the file and the point, strips of different CRS, the CSV readers'
+/// errors, and [`Error::Calibration`] for a failed adjustment, told in the CSV's terms (file,
+/// line, the x, y written there) when it is about a pick or a control point.
+pub fn calibrate_strips(job: &CalibrateJob<'_>) -> Result<StripCalibration> {
+    let progress = job.progress;
     let ctx = job.context;
     let mut options = job.options;
     options.prior_sigma = ctx.mounting_sigma;
@@ -343,7 +336,7 @@ pub fn calibrate_strips_with_progress(
         picks,
         !job.radius_given,
     )?;
-    progress(CalibrateStep::Ties);
+    progress.report(CalibrateStep::Ties);
     // Strip id → the names a CSV may use for it (id and file stems).
     let loaded_ids: Vec<(String, Vec<String>)> = names
         .iter()
@@ -413,7 +406,7 @@ pub fn calibrate_strips_with_progress(
         squares.push(square(c.position_m.north_m(), c.position_m.east_m(), reach));
     }
     let region = Region::new(squares, &frame, &zone);
-    progress(CalibrateStep::Adjustment);
+    progress.report(CalibrateStep::Adjustment);
     let strips = cut_all(&scans, ctx, &frame, &region)?;
     let mut surface_warning = None;
     let calibration = match job.method {

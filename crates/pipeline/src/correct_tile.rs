@@ -23,7 +23,7 @@
 //! converted to metres on the way in and back on the way out.
 //!
 //! Reading (LAZ decoding), correcting (rayon) and writing (LAZ coding) run as three stages on
-//! bounded channels, so the coding of one chunk overlaps the computation of the next. The
+//! bounded channels (lidarqa-io's [`run_stages`]), so the coding of one chunk overlaps the computation of the next. The
 //! records pass as the file stores them ([`RawChunk`]): only X, Y and Z are rewritten, no
 //! record is decoded into fields and encoded back.
 //!
@@ -45,12 +45,12 @@
 //! line's span is refused, naming it (the calibration was computed from other files).
 
 use crate::context::TpuContext;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, panicked};
 use crate::recovery_check::{RecoveryCheck, RecoveryTally};
-use crate::stages::{read_chunks, run_stages, write_chunks};
 use lidarqa_calib::{LineShift, Mountings, ScanGeometry, displacement};
 use lidarqa_io::{
-    CellCache, CoordinateBlock, Crs, GridToEcef, LasTimeConverter, LasWriteOptions, RawChunk,
+    CellCache, CoordinateBlock, Crs, GridToEcef, LasTimeConverter, LasWriteOptions, Progress,
+    RawChunk, read_chunks, run_stages, write_chunks,
 };
 use lidarqa_model::{Ecef, Mounting};
 use lidarqa_tpu::{SegmentRotation, Trajectory};
@@ -79,6 +79,8 @@ pub struct CorrectTileJob<'a> {
     pub mounting: &'a Mounting,
     /// Further inputs the output must never overwrite (e.g. calibration.json).
     pub other_inputs: &'a [&'a Path],
+    /// Told the points of each chunk once they are corrected.
+    pub progress: Progress<'a>,
 }
 
 /// What [`correct_tile`] did.
@@ -102,8 +104,8 @@ const CHUNK: usize = 200_000;
 /// Corrects one tile, streaming in chunks: each point's range and scan angle are recovered with
 /// the sensor's mounting, georeferenced again with `job.mounting` (Zhang et al. 2018, eq. 2), and
 /// the point is moved by that displacement (module docs); every other point record field is kept
-/// (extra-bytes dimensions and waveform packets are not carried over yet). The
-/// output is atomic. Each point's result depends on that point and the trajectory only, so a
+/// (extra-bytes dimensions and waveform packets are not carried over yet). The output is
+/// atomic; `job.progress` is told the points of each chunk as it is corrected. Each point's result depends on that point and the trajectory only, so a
 /// tile corrected here equals the same points of `lidarqa correct` of the whole strip.
 ///
 /// # Errors
@@ -112,18 +114,7 @@ const CHUNK: usize = 200_000;
 /// time) and [`Error::Point`] (a point at the scanner origin), each naming the file and the first such
 /// point; I/O errors naming the file.
 pub fn correct_tile(job: &CorrectTileJob<'_>) -> Result<CorrectTileReport> {
-    correct_tile_with_progress(job, &|_| {})
-}
-
-/// As [`correct_tile`], calling `progress(n)` after each chunk of `n` points is corrected.
-///
-/// # Errors
-/// As [`correct_tile`].
-pub fn correct_tile_with_progress(
-    job: &CorrectTileJob<'_>,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<CorrectTileReport> {
-    correct_tile_with_lines(job, &[], progress)
+    correct_tile_with_lines(job, &[])
 }
 
 /// A strip adjustment line as a point is matched to it: by its point source id and its time
@@ -145,12 +136,11 @@ pub struct LineMatch {
 pub fn correct_tile_with_lines(
     job: &CorrectTileJob<'_>,
     lines: &[LineMatch],
-    progress: &(dyn Fn(u64) + Sync),
 ) -> Result<CorrectTileReport> {
-    correct_tile_lines(job, lines, progress)
+    correct_tile_lines(job, lines)
 }
 
-/// As [`correct_tile_with_progress`], georeferencing also with the trajectory minus the strip
+/// As [`correct_tile`], georeferencing also with the trajectory minus the strip
 /// adjustment's estimate of this line's error (`line`, from `calibration.json`'s
 /// `strip_adjustment.lines`): the position offset and drift, and the attitude offsets, each
 /// point's displacement grown by `−δp − ω × (P' − P0)` in ECEF (`ω` the attitude error as a
@@ -162,7 +152,6 @@ pub fn correct_tile_with_lines(
 pub fn correct_tile_with_line(
     job: &CorrectTileJob<'_>,
     line: Option<&lidarqa_calib::LineCorrection>,
-    progress: &(dyn Fn(u64) + Sync),
 ) -> Result<CorrectTileReport> {
     let lines: Vec<LineMatch> = line
         .map(|l| LineMatch {
@@ -171,14 +160,10 @@ pub fn correct_tile_with_line(
         })
         .into_iter()
         .collect();
-    correct_tile_lines(job, &lines, progress)
+    correct_tile_lines(job, &lines)
 }
 
-fn correct_tile_lines(
-    job: &CorrectTileJob<'_>,
-    lines: &[LineMatch],
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<CorrectTileReport> {
+fn correct_tile_lines(job: &CorrectTileJob<'_>, lines: &[LineMatch]) -> Result<CorrectTileReport> {
     let input = job.input;
     let ctx = job.context;
     let tile = ctx.open_tile(input)?;
@@ -218,9 +203,8 @@ fn correct_tile_lines(
     let mut tally = checks.as_ref().map(|c| c.tally(tile.info.point_format));
     let (tx_spent, rx_spent) = sync_channel::<RawChunk>(SPARES);
     let points = run_stages(
-        input,
         // las's reader is not `Send`: it is opened in its thread.
-        move |tx_read| read_chunks(input, CHUNK, &rx_spent, &tx_read),
+        move |tx_read| read_chunks(&[input], CHUNK, &rx_spent, &tx_read),
         move |rx_write| {
             write_chunks(writer, rx_write, |writer, chunk: RawChunk| {
                 writer.write_raw(&chunk)?;
@@ -229,7 +213,7 @@ fn correct_tile_lines(
             })
         },
         |rx_read, tx_write| {
-            run.correct_all(rx_read, tx_write, progress, tally.as_mut())?;
+            run.correct_all(rx_read, tx_write, job.progress, tally.as_mut())?;
             // Before the output is committed: points that do not fit the mounting they were
             // made with give wrong raw observations, and so a wrong displacement for every
             // point (`tpu` warns, its σ staying meaningful; `correct` would move the points).
@@ -246,6 +230,7 @@ fn correct_tile_lines(
                 _ => Ok(()),
             }
         },
+        panicked(input),
     )?;
     let mut warnings: Vec<lidarqa_model::Warning> = carried.into_iter().collect();
     if let Some(t) = &tally {
@@ -266,7 +251,7 @@ const SPARES: usize = 2;
 /// Points per parallel task: a few grid cells' worth, so that a task's cells are built once.
 const BLOCK: usize = 1024;
 
-type WriteMsg = crate::stages::WriteMsg<RawChunk>;
+type WriteMsg = lidarqa_io::WriteMsg<RawChunk>;
 
 /// The compute stage: what a chunk's points need.
 struct Run<'a> {
@@ -292,7 +277,7 @@ impl Run<'_> {
         &self,
         rx: &Receiver<Result<RawChunk>>,
         tx: &SyncSender<WriteMsg>,
-        progress: &(dyn Fn(u64) + Sync),
+        progress: Progress<'_>,
         mut tally: Option<&mut RecoveryTally>,
     ) -> Result<()> {
         for msg in rx {
@@ -312,7 +297,7 @@ impl Run<'_> {
             {
                 return Err(e);
             }
-            progress(chunk.len() as u64);
+            progress.report(chunk.len() as u64);
             if tx.send(WriteMsg::Chunk(chunk)).is_err() {
                 // The writer stopped; its own error is reported by the caller.
                 return Ok(());

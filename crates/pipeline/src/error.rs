@@ -1,6 +1,6 @@
 //! The error type of lidarqa-pipeline.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// What can go wrong while running a tile.
 ///
@@ -238,6 +238,15 @@ pub enum Error {
 
 /// [`Error::NonFiniteCoordinates`] for point `index` of `path` when x, y or z (as read) is NaN or
 /// infinite.
+/// How a stage thread's panic is reported for the file `path` (lidarqa-io's stages name the
+/// thread).
+pub(crate) fn panicked(path: &Path) -> impl Fn(&str) -> Error + '_ {
+    move |thread| Error::Worker {
+        path: path.to_path_buf(),
+        message: format!("the {thread} thread panicked"),
+    }
+}
+
 pub(crate) fn check_finite(
     path: &std::path::Path,
     index: u64,

@@ -47,6 +47,7 @@
 //!     input: Path::new("strip.laz"),
 //!     output: Path::new("strip_tpu.laz"),
 //!     context: &ctx,
+//!     progress: Default::default(),
 //! })?;
 //! let (_, survey) = TileReport::merge(&[report]).unwrap();
 //! println!("{} points, median σ_up {:?} m", survey.points_written,
@@ -70,7 +71,6 @@ pub mod plausibility;
 mod qc;
 mod recovery_check;
 mod retile;
-mod stages;
 mod stored;
 mod summary;
 mod targets_csv;
@@ -81,8 +81,8 @@ mod tpu_tiles;
 
 pub use calibrate_strips::{
     CalibrateJob, CalibrateStep, LineName, LoadedStrip, POINTS_PER_TILE, StripCalibration,
-    TieSource, TrajectoryWeighting, VTPM_NEIGHBOURS, calibrate_strips,
-    calibrate_strips_with_progress, frame_for, load_all, local_to_projected, projected_to_local,
+    TieSource, TrajectoryWeighting, VTPM_NEIGHBOURS, calibrate_strips, frame_for, load_all,
+    local_to_projected, projected_to_local,
 };
 pub use calibration_file::{
     check_held_parameters, read_calibrated_mounting, read_line_corrections,
@@ -90,7 +90,7 @@ pub use calibration_file::{
 pub use context::{TpuContext, TpuOptions};
 pub use correct_tile::{
     CorrectTileJob, CorrectTileReport, LineMatch, correct_tile, correct_tile_with_line,
-    correct_tile_with_lines, correct_tile_with_progress,
+    correct_tile_with_lines,
 };
 pub use csd_tpu::{
     CsdHeaderView, CsdMounting, CsdPoint, CsdTpuJob, CsdTpuReport, MountingView, csd_propagator,
@@ -101,6 +101,7 @@ pub use error::{Error, Result};
 pub use evaluate_files::{
     evaluate_nva, evaluate_target_files, ground_points, predicted_from_sensor,
 };
+pub use lidarqa_io::Progress;
 pub use lines::{
     FlightLine, JUMP_FLOOR_M, LineEntry, LineIndex, LineOptions, LinePoint, Lines, SensorAt,
     gap_starts, line_index, read_lines,
@@ -121,5 +122,5 @@ pub use summary::{
 pub use targets_csv::targets_csv;
 pub use targets_files::{control_for_targets, find_targets, points_near_control};
 pub use targets_tile::{TargetsTileJob, TargetsTileReport, extract_targets_tile};
-pub use tile::{TpuTileJob, tpu_tile, tpu_tile_with_progress};
+pub use tile::{TpuTileJob, tpu_tile};
 pub use tpu_tiles::tpu_tiles;

@@ -675,6 +675,7 @@ pub fn run_entry(
         input: &input,
         output: &output,
         context: ctx,
+        progress: Default::default(),
     })?;
     let digest = FileDigest::of_file(&output)?;
     let stored = StoredTileReport {

@@ -42,10 +42,16 @@
 //! is refused (a tile per few points is not a tiling), and at most [`MAX_OPEN_TILES`] tiles are
 //! open at once (more non-empty cells are written in several passes over the strips), so a
 //! 1000 × 1000 grid neither runs out of file handles nor of memory.
+//!
+//! **Stages.** Each pass reads the strips through lidarqa-io's reader stage
+//! ([`lidarqa_io::for_each_chunk`]), so the next chunk is decoded while this one is cut. The
+//! tiles are written from the cutting loop, not through a writer stage: that stage owns one
+//! output and commits it alone, while a pass here appends a few thousand records at a time to
+//! any of up to [`MAX_OPEN_TILES`] tiles, and all of them are committed together by the move.
 
 use crate::digest::FileDigest;
 use crate::error::{Error, Result};
-use lidarqa_io::{LasInfo, LasReader, LasWriteOptions, LasWriter, RawChunk};
+use lidarqa_io::{LasInfo, LasReader, LasWriteOptions, LasWriter, RawChunk, for_each_chunk};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -58,6 +64,8 @@ pub const MAX_TILES: usize = 20_000;
 /// Most tiles open for writing at once (file handles and each writer's buffers); more
 /// non-empty cells are written in several passes over the strips.
 pub const MAX_OPEN_TILES: usize = 256;
+/// Points per chunk read from a strip.
+const READ_POINTS: usize = 200_000;
 /// Points a tile's buffer holds before they go to its writer: with [`MAX_OPEN_TILES`] open,
 /// at most a few tens of MB of records.
 const TILE_BUFFER_POINTS: usize = 4096;
@@ -201,16 +209,17 @@ pub fn retile(
     let name_of = |c: usize, r: usize| format!("tile_{c:0width$}_{r:0width$}.{ext}");
     // Count first: the non-empty cells bound the tiles and the passes.
     let mut counts = vec![0u64; grid.nx * grid.ny];
-    let mut chunk = RawChunk::new();
     let cell_of = |xyz: [f64; 3]| cell(xyz[1], 1) * grid.nx + cell(xyz[0], 0);
-    for path in inputs {
-        let mut reader = LasReader::from_path(path)?;
-        while reader.fill_raw(&mut chunk, 200_000)? > 0 {
-            for p in chunk.points() {
-                counts[cell_of(p.xyz())] += 1;
-            }
+    // Each pass reads the strips through lidarqa-io's reader stage: the next chunk is decoded
+    // while this one is counted or cut.
+    let panicked = crate::error::panicked(&first.path);
+    let count = |chunk: &mut RawChunk| -> Result<()> {
+        for p in chunk.points() {
+            counts[cell_of(p.xyz())] += 1;
         }
-    }
+        Ok(())
+    };
+    for_each_chunk(inputs, READ_POINTS, count, &panicked)?;
     let non_empty: Vec<usize> = (0..counts.len()).filter(|&k| counts[k] > 0).collect();
     if non_empty.len() > MAX_TILES {
         let total: u64 = counts.iter().sum();
@@ -253,25 +262,24 @@ pub fn retile(
             let buffer = w.raw_chunk();
             writers.insert(k, (w, buffer, path));
         }
-        for path in inputs {
-            let mut reader = LasReader::from_path(path)?;
-            while reader.fill_raw(&mut chunk, 200_000)? > 0 {
-                for p in chunk.points() {
-                    let k = cell_of(p.xyz());
-                    if k < lo || k > hi {
-                        continue;
+        let cut = |chunk: &mut RawChunk| -> Result<()> {
+            for p in chunk.points() {
+                let k = cell_of(p.xyz());
+                if k < lo || k > hi {
+                    continue;
+                }
+                if let Some((w, buffer, tile)) = writers.get_mut(&k) {
+                    buffer.push(tile, p, &[], &[])?;
+                    if buffer.len() >= TILE_BUFFER_POINTS {
+                        w.write_raw(buffer)?;
+                        buffer.clear();
                     }
-                    if let Some((w, buffer, tile)) = writers.get_mut(&k) {
-                        buffer.push(tile, p, &[], &[])?;
-                        if buffer.len() >= TILE_BUFFER_POINTS {
-                            w.write_raw(buffer)?;
-                            buffer.clear();
-                        }
-                        total += 1;
-                    }
+                    total += 1;
                 }
             }
-        }
+            Ok(())
+        };
+        for_each_chunk(inputs, READ_POINTS, cut, &panicked)?;
         for &k in batch {
             if let Some((mut w, buffer, _)) = writers.remove(&k) {
                 if !buffer.is_empty() {

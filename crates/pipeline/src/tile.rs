@@ -1,17 +1,16 @@
 //! One tile: read → recover → propagate → write, streaming in chunks.
 
 use crate::context::{OpenTile, TpuContext};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, panicked};
 use crate::heights::Heights;
 use crate::plausibility::{
     DEFAULT_MAX_RANGE_M, DISTANCE_SAMPLES, check_distance, crs_name, implausible_trajectory,
     outside_zone, point_implausible,
 };
-use crate::stages::{read_chunks, run_stages, write_chunks};
 use crate::summary::{IncidenceTally, SIGMA_NAMES, SkipReason, TileReport, TpuSummary};
 use lidarqa_io::{
     CLASS_WATER_SURFACE, Crs, InverseKind, LasTimeConverter, LasWriteOptions, LocalInverse,
-    RawChunk, RawPoint, Unprojected,
+    Progress, RawChunk, RawPoint, Unprojected, read_chunks, run_stages, write_chunks,
 };
 use lidarqa_model::{Ecef, Grid, ecef_from_ned_sin_cos};
 use lidarqa_tpu::{
@@ -90,19 +89,14 @@ pub struct TpuTileJob<'a> {
     pub output: &'a Path,
     /// Sensor, trajectory and options.
     pub context: &'a TpuContext,
+    /// Told the points read of each chunk once it is written.
+    pub progress: Progress<'a>,
 }
 
-/// Runs one tile; see [`tpu_tile_with_progress`].
+/// Runs one tile, reporting to `job.progress` the points read of each chunk once it is written.
 ///
-/// # Errors
-/// As [`tpu_tile_with_progress`].
-pub fn tpu_tile(job: &TpuTileJob<'_>) -> Result<TileReport> {
-    tpu_tile_with_progress(job, &|_| {})
-}
-
-/// Runs one tile, calling `progress(n)` after each chunk of `n` points read is written.
-///
-/// Three stages run at once on bounded channels (one chunk in flight each): a reader thread
+/// Three stages run at once on bounded channels (one chunk in flight each; lidarqa-io's
+/// [`run_stages`]): a reader thread
 /// decodes a chunk's records; the calling thread converts its points to ECEF and seconds of
 /// week (UTM inverse → geodetic → ECEF on the CRS's ellipsoid), recovers and propagates every
 /// point (rayon) and appends their σ to the records as read (no record is decoded into fields
@@ -129,11 +123,9 @@ pub fn tpu_tile(job: &TpuTileJob<'_>) -> Result<TileReport> {
 /// [`Error::NoGpsTime`], [`Error::UnknownCrs`], [`Error::OutsideTrajectory`],
 /// [`Error::NonFiniteCoordinates`], [`Error::Point`] naming the file and the point; I/O errors
 /// naming the file; `OutputIsInput` from lidarqa-io when `output` is one of the inputs.
-pub fn tpu_tile_with_progress(
-    job: &TpuTileJob<'_>,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<TileReport> {
+pub fn tpu_tile(job: &TpuTileJob<'_>) -> Result<TileReport> {
     let ctx = job.context;
+    let progress = job.progress;
     let input = job.input;
     // las's reader is not `Send`: read the header here, the points in the reader thread.
     let OpenTile {
@@ -237,12 +229,11 @@ pub fn tpu_tile_with_progress(
         covariance: ctx.options.covariance,
     };
     run_stages(
-        &path,
-        move |tx_read| read_chunks(input, chunk_points, &rx_spent_read, &tx_read),
+        move |tx_read| read_chunks(&[input], chunk_points, &rx_spent_read, &tx_read),
         move |rx_write| {
             write_chunks(writer, rx_write, |writer, (out, points_read)| {
                 writer.write_raw(&out)?;
-                progress(points_read);
+                progress.report(points_read);
                 // The compute stage may have finished: then the buffer is dropped.
                 let _ = tx_spent_out.send(out);
                 Ok(())
@@ -260,6 +251,7 @@ pub fn tpu_tile_with_progress(
             }
             Ok(())
         },
+        panicked(&path),
     )?;
     summary.warnings.extend(scan_angle_disagreement(
         input,
@@ -305,7 +297,7 @@ struct SurfaceBuffers {
 }
 
 /// An output chunk (the records with their σ) and the number of points read for it.
-type WriteMsg = crate::stages::WriteMsg<(RawChunk, u64)>;
+type WriteMsg = lidarqa_io::WriteMsg<(RawChunk, u64)>;
 
 /// Puts in `out` the record of each propagated point `first + i` (`slots[i]`) as read with its
 /// σ (and sounding, covariance) appended, skipping the points not propagated.

@@ -2,23 +2,21 @@
 
 use crate::error::{Error, Result};
 use crate::summary::TileReport;
-use crate::tile::{TpuTileJob, tpu_tile_with_progress};
+use crate::tile::{TpuTileJob, tpu_tile};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Runs the tiles on up to `available_parallelism` plain threads, each tile's points in
-/// parallel on rayon's pool, and returns their reports in input order. Tiles are not run as
-/// rayon tasks themselves: `tpu_tile` blocks its thread on its reader / writer channels, and a
-/// rayon worker blocked that way could starve the pool its own chunks need. The first failing
+/// parallel on rayon's pool, and returns their reports in input order (each job tells its own
+/// progress). Tiles are not run as rayon tasks themselves: `tpu_tile` blocks its thread on its
+/// reader / writer channels, and a rayon worker blocked that way could starve the pool its own
+/// chunks need. The first failing
 /// tile (in input order) stops the run; tiles already finished are complete files, the failing
 /// one leaves nothing.
 ///
 /// # Errors
 /// The first failing tile's error; an empty `jobs`.
-pub fn tpu_tiles(
-    jobs: &[TpuTileJob<'_>],
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<Vec<TileReport>> {
+pub fn tpu_tiles(jobs: &[TpuTileJob<'_>]) -> Result<Vec<TileReport>> {
     let Some(first) = jobs.first() else {
         return Err(Error::InvalidOption("no tiles".into()));
     };
@@ -38,7 +36,7 @@ pub fn tpu_tiles(
                     if i >= jobs.len() || stop.load(Ordering::SeqCst) {
                         break;
                     }
-                    let r = tpu_tile_with_progress(&jobs[i], progress);
+                    let r = tpu_tile(&jobs[i]);
                     if r.is_err() {
                         stop.store(true, Ordering::SeqCst);
                     }

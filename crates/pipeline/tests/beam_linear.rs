@@ -22,6 +22,7 @@ fn sigmas(s: &Survey, sensor: &Path, smrmsg: bool, out: &Path) -> (Vec<Vec<f64>>
         input: &s.strip,
         output: out,
         context: &ctx,
+        progress: Default::default(),
     })
     .unwrap();
     let mut r = LasReader::from_path(out).unwrap();

@@ -38,6 +38,7 @@ fn correct(ctx: &TpuContext, input: &Path, output: &Path) -> lidarqa_pipeline::R
         context: ctx,
         mounting: &calibrated(),
         other_inputs: &[],
+        progress: Default::default(),
     })
     .map(|r| r.points)
 }

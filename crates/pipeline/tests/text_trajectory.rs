@@ -24,6 +24,7 @@ fn run(s: &Survey, trajectory: &Path, out: &Path, options: TpuOptions) -> PointC
         input: &s.strip,
         output: out,
         context: &ctx,
+        progress: Default::default(),
     })
     .unwrap();
     read_all(out)
@@ -152,6 +153,7 @@ fn a_trajectory_without_roll_warns_and_a_bad_row_names_its_line() {
         input: &s.strip,
         output: &dir.path().join("o.las"),
         context: &ctx,
+        progress: Default::default(),
     })
     .unwrap();
     let view = r.summary.document(Vec::new());

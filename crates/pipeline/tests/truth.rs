@@ -84,6 +84,7 @@ fn per_point_sigma_equals_the_budget_at_the_true_geometry() {
         input: &s.strip,
         output: &out,
         context: &ctx,
+        progress: Default::default(),
     })
     .unwrap();
     assert_eq!(report.summary.points_written, 3000);
@@ -136,6 +137,7 @@ fn smrmsg_sigma_replaces_gnss_and_attitude() {
         input: &s.strip,
         output: &out,
         context: &ctx,
+        progress: Default::default(),
     })
     .unwrap();
     let chunk = read_all(&out);
@@ -194,6 +196,7 @@ fn incidence_term_adds_variance_along_the_beam() {
             input: &s.strip,
             output: &out,
             context: &ctx,
+            progress: Default::default(),
         })
         .unwrap()
         .summary
@@ -229,6 +232,7 @@ fn merged_tiles_equal_the_whole_strip() {
             input,
             output: &dir.path().join(name),
             context: &ctx,
+            progress: Default::default(),
         })
         .unwrap()
     };
@@ -277,6 +281,7 @@ fn small_chunks_give_the_same_output_as_one_chunk() {
             input: &s.strip,
             output: &out,
             context: &ctx,
+            progress: Default::default(),
         })
         .unwrap();
         read_all(&out).extra_column("sigma_up").unwrap()

@@ -61,6 +61,7 @@ fn orthometric_heights_are_refused_without_and_corrected_with_a_geoid_separation
             input,
             output: out,
             context: &ctx,
+            progress: Default::default(),
         })
     };
     let e = run(&ortho, &dir.path().join("a.las"), None).unwrap_err();

@@ -79,6 +79,7 @@ fn tpu_tile(
             input: &input,
             output: &output,
             context: &ctx,
+            progress: Default::default(),
         })
         .map_err(err)?;
         let (_, survey) = TileReport::merge(&[report]).ok_or_else(|| err("no tile"))?;
@@ -117,6 +118,7 @@ fn correct_tile(
             context: &ctx,
             mounting: &mounting,
             other_inputs: &[calibration.as_path()],
+            progress: Default::default(),
         })
         .map_err(err)?;
         Ok(

@@ -54,6 +54,7 @@ mod vegetation;
 mod write;
 
 pub use error::{Error, Result};
+pub use lidarqa_io::Progress;
 pub use output::{
     InjectedErrors, LineErrorTruth, MountingParameters, Neu, Observation, PointTruth, RandomErrors,
     RollPitchHeading, SimPoint, Strip, StripTruth, Survey, SurveyedTarget, TargetTruth,
@@ -70,6 +71,6 @@ pub use scene::{
     Building, CLASS_BATHYMETRY, CLASS_BUILDING, CLASS_GROUND, CLASS_TARGET, CLASS_WATER_SURFACE,
     Markings, Paved, Scene, Sweep, Target, Water, Wave,
 };
-pub use simulate::{PointSink, SimOptions, simulate, simulate_streaming, simulate_with_progress};
+pub use simulate::{PointSink, SimOptions, simulate, simulate_streaming};
 pub use vegetation::{CLASS_HIGH_VEGETATION, REFLECTIVITY_CANOPY, Vegetation, VegetationFile};
 pub use write::{INCOMPLETE_MARKER, simulate_to_dir, survey_file_names, write_survey};

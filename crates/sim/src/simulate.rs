@@ -29,6 +29,7 @@ use crate::scene::{
     small_sin_cos,
 };
 use crate::trajectory::{self, LineError, Pose, StripTrajectory, trajectory_sigmas};
+use lidarqa_io::Progress;
 use lidarqa_model::{
     Attitude, BeamObservation, BeamScanner, ConicObservation, ConicScanner, Georeferencer,
     LinearObservation, LinearScanner, Mounting, SPEED_OF_LIGHT_AIR_M_PER_S, Scanner, Source,
@@ -48,20 +49,23 @@ use std::sync::{Mutex, PoisonError};
 pub const MIN_WATER_RANGE_M: f64 = 0.5;
 
 /// Options of a run that do not change the survey itself.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SimOptions {
+#[derive(Debug, Clone, Copy)]
+pub struct SimOptions<'a> {
     /// Keep the per-point truth ([`Strip::truth`]): ~100 bytes more per point.
     pub keep_truth: bool,
     /// Pulses per chunk (the unit of parallel work and of RNG streams). Changing it changes the
     /// random draws; the thread count never does.
     pub chunk_pulses: usize,
+    /// Told the pulses of each chunk once it is simulated (from worker threads).
+    pub progress: Progress<'a>,
 }
 
-impl Default for SimOptions {
+impl Default for SimOptions<'_> {
     fn default() -> Self {
         SimOptions {
             keep_truth: false,
             chunk_pulses: 1 << 15,
+            progress: Progress::NONE,
         }
     }
 }
@@ -127,20 +131,8 @@ fn draw(rng: &mut ChaCha8Rng, sigma: f64) -> f64 {
 /// assert!(survey.point_count() > 1000);
 /// ```
 pub fn simulate(scenario: &Scenario, options: &SimOptions) -> Result<Survey> {
-    simulate_with_progress(scenario, options, &|_| {})
-}
-
-/// [`simulate`], calling `progress(n)` after every chunk of `n` pulses (from worker threads).
-///
-/// # Errors
-/// As [`simulate`].
-pub fn simulate_with_progress(
-    scenario: &Scenario,
-    options: &SimOptions,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<Survey> {
     let mut collect = Collect::default();
-    let mut survey = simulate_streaming(scenario, options, progress, &mut collect)?;
+    let mut survey = simulate_streaming(scenario, options, &mut collect)?;
     for (strip, (points, truth)) in survey.strips.iter_mut().zip(collect.strips) {
         strip.points = points;
         strip.truth = truth;
@@ -202,7 +194,6 @@ impl PointSink for Collect {
 pub fn simulate_streaming(
     scenario: &Scenario,
     options: &SimOptions,
-    progress: &(dyn Fn(u64) + Sync),
     sink: &mut (dyn PointSink + Send),
 ) -> Result<Survey> {
     let seed = scenario.seed();
@@ -240,16 +231,8 @@ pub fn simulate_streaming(
     let mut counts = Vec::with_capacity(scenario.lines().len());
     let mut strips = Vec::with_capacity(scenario.lines().len());
     for (index, line) in scenario.lines().iter().enumerate() {
-        let (strip, count) = simulate_strip(
-            scenario,
-            options,
-            &true_mounting,
-            index,
-            line,
-            window,
-            progress,
-            sink,
-        )?;
+        let (strip, count) =
+            simulate_strip(scenario, options, &true_mounting, index, line, window, sink)?;
         strips.push(strip);
         counts.push(count);
     }
@@ -400,7 +383,6 @@ fn simulate_strip(
     index: usize,
     line: &Line,
     window: usize,
-    progress: &(dyn Fn(u64) + Sync),
     sink: &mut (dyn PointSink + Send),
 ) -> Result<(Strip, u64)> {
     let sensor = scenario.sensor();
@@ -485,7 +467,7 @@ fn simulate_strip(
                     let state = (&mut sweeps, &mut attitude);
                     kernel.pulse(i, &mut rng, state, &mut points, &mut truth)?;
                 }
-                progress(end - start);
+                options.progress.report(end - start);
                 Ok((points, truth))
             })
             .collect()

@@ -2,6 +2,12 @@
 //! `sbet.out` + `smrmsg.out`, `control.csv`, `truth.json` and the nominal `sensor.toml` the user
 //! of the survey would have. Every file is atomic.
 //!
+//! [`simulate_to_dir`] keeps its own overlap of computing and writing rather than lidarqa-io's
+//! writer stage: [`simulate_streaming`] computes a window of chunks in parallel while the sink
+//! writes the window before (`rayon::join`), and hands the sink borrowed slices of points. A
+//! writer thread would need every chunk copied into a buffer it owns, for an overlap the
+//! simulation already has; and its strips are committed together only once all are written.
+//!
 //! A strip without the truth dimensions is written as records encoded here (point format 6,
 //! [`record`]) rather than through a `LasPoint` and `las::Point` per point: that conversion cost
 //! as much as the strip's geometry. A test holds the records to `LasWriter::write_point`'s byte
@@ -76,7 +82,6 @@ pub fn simulate_to_dir(
     options: &SimOptions,
     laz: bool,
     inputs: &[&Path],
-    progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(Survey, Vec<PathBuf>)> {
     let names = file_names(scenario.lines().iter().map(|l| l.id), laz);
     let paths = checked_paths(dir, names, inputs)?;
@@ -87,7 +92,7 @@ pub fn simulate_to_dir(
         open: None,
         done: Vec::new(),
     };
-    let survey = simulate_streaming(scenario, options, progress, &mut sink)?;
+    let survey = simulate_streaming(scenario, options, &mut sink)?;
     // From the first rename to the last the directory mixes this run's files and an earlier
     // run's: the marker says so until the last file is in place.
     let marker = mark_incomplete(dir)?;

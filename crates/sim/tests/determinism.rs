@@ -13,6 +13,7 @@ fn run(scenario: &Scenario, threads: usize) -> Survey {
     let options = SimOptions {
         keep_truth: true,
         chunk_pulses: 5000,
+        ..SimOptions::default()
     };
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -54,13 +55,14 @@ fn streamed_files_are_those_of_the_survey_in_memory() {
     let options = SimOptions {
         keep_truth: true,
         chunk_pulses: 3000,
+        ..SimOptions::default()
     };
     let memory = tempfile::tempdir().unwrap();
     let streamed = tempfile::tempdir().unwrap();
     let survey = simulate(&scenario, &options).unwrap();
     let written = write_survey(memory.path(), &scenario, &survey, true, &[]).unwrap();
     let (summary, paths) =
-        simulate_to_dir(streamed.path(), &scenario, &options, true, &[], &|_| {}).unwrap();
+        simulate_to_dir(streamed.path(), &scenario, &options, true, &[]).unwrap();
     assert_eq!(summary.point_count(), survey.point_count());
     assert!(summary.strips.iter().all(|s| s.points.is_empty()));
     assert_eq!(written.len(), paths.len());
@@ -97,12 +99,13 @@ fn a_failing_sink_stops_the_run_with_its_error() {
     let options = SimOptions {
         keep_truth: false,
         chunk_pulses: 3000,
+        ..SimOptions::default()
     };
     let mut sink = Failing {
         calls: 0,
         fail_at: 3,
     };
-    let e = simulate_streaming(&scenario, &options, &|_| {}, &mut sink).unwrap_err();
+    let e = simulate_streaming(&scenario, &options, &mut sink).unwrap_err();
     assert!(e.to_string().contains("the sink is full"), "{e}");
     assert_eq!(sink.calls, 3, "no call after the failure");
     // An output that is an input is refused before anything is computed or written.
@@ -110,6 +113,6 @@ fn a_failing_sink_stops_the_run_with_its_error() {
     let input = dir.path().join("strip_001.laz");
     std::fs::write(&input, b"not a strip").unwrap();
     let inputs: [&Path; 1] = [&input];
-    assert!(simulate_to_dir(dir.path(), &scenario, &options, true, &inputs, &|_| {}).is_err());
+    assert!(simulate_to_dir(dir.path(), &scenario, &options, true, &inputs).is_err());
     assert_eq!(std::fs::read(&input).unwrap(), b"not a strip");
 }

@@ -10,8 +10,8 @@ use clap::Args;
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use lidarqa_calib::{CalibrationOptions, MAX_RADIUS_M, MAX_RANSAC_ITERATIONS, Method, StripModel};
 use lidarqa_pipeline::{
-    CalibrateJob, CalibrateStep, LineOptions, POINTS_PER_TILE, TieSource, TrajectoryWeighting,
-    calibrate_strips_with_progress,
+    CalibrateJob, CalibrateStep, LineOptions, POINTS_PER_TILE, Progress, TieSource,
+    TrajectoryWeighting, calibrate_strips,
 };
 use std::path::PathBuf;
 
@@ -282,8 +282,9 @@ pub fn run(args: CalibrateArgs) -> Result<()> {
             max_gap_s: a.line_gap_s,
             ..LineOptions::default()
         },
+        progress: Progress::new(&progress),
     };
-    let run = calibrate_strips_with_progress(&job, &progress);
+    let run = calibrate_strips(&job);
     bar.finish_and_clear();
     let run = run?;
     // Created only now: a refused calibration leaves no directory behind.

@@ -8,7 +8,7 @@ use super::tpu_flags::SurveyFlags;
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use lidarqa_pipeline::{
-    CorrectTileJob, LineMatch, correct_tile_with_lines, read_calibrated_mounting,
+    CorrectTileJob, LineMatch, Progress, correct_tile_with_lines, read_calibrated_mounting,
     read_line_corrections,
 };
 use std::path::{Path, PathBuf};
@@ -107,6 +107,7 @@ fn correct(a: &CorrectArgs) -> Result<()> {
     others.push(&a.calibration);
     let total = crate::progress::points_in(a.strips.iter().map(PathBuf::as_path))?;
     let bar = crate::progress::bar("correct", total, "points");
+    let progress = |n| bar.inc(n);
     for ((path, out), line) in a.strips.iter().zip(&outputs).zip(&per_strip) {
         let job = CorrectTileJob {
             input: path,
@@ -114,8 +115,9 @@ fn correct(a: &CorrectArgs) -> Result<()> {
             context: &ctx,
             mounting: &mounting,
             other_inputs: &others,
+            progress: Progress::new(&progress),
         };
-        let r = correct_tile_with_lines(&job, line, &|n| bar.inc(n))?;
+        let r = correct_tile_with_lines(&job, line)?;
         bar.suspend(|| {
             crate::format::print_warnings(&r.warnings);
             eprintln!(

@@ -5,7 +5,7 @@
 //! `truth.json`, `sensor.toml`; every file atomic).
 
 use anyhow::Context;
-use lidarqa_sim::{Scenario, SimOptions, builtin_toml, simulate_to_dir};
+use lidarqa_sim::{Progress, Scenario, SimOptions, builtin_toml, simulate_to_dir};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -108,8 +108,10 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
 
     let bar = crate::progress::bar("simulating", scenario.pulse_count(), "pulses");
+    let progress = |n| bar.inc(n);
     let options = SimOptions {
         keep_truth: args.truth,
+        progress: Progress::new(&progress),
         ..SimOptions::default()
     };
     // SPEC §7: an output equal to an input (a scenario file kept in the output directory under
@@ -126,7 +128,6 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         &options,
         args.format == CloudFormat::Laz,
         inputs,
-        &|n| bar.inc(n),
     )
     .map_err(|e| match e {
         lidarqa_sim::Error::Io(e) => anyhow::Error::new(e),

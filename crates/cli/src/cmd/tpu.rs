@@ -7,7 +7,7 @@ use super::tpu_table;
 use crate::format::{OutputFormat, print_json, print_text, print_warnings, write_json_file};
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use lidarqa_pipeline::{TileReport, TpuContext, TpuOptions, TpuTileJob, tpu_tiles};
+use lidarqa_pipeline::{Progress, TileReport, TpuContext, TpuOptions, TpuTileJob, tpu_tiles};
 use std::path::{Path, PathBuf};
 
 pub const AFTER_HELP: &str = "\
@@ -194,9 +194,10 @@ pub fn run(args: TpuArgs) -> Result<()> {
             input: &t.input,
             output: &t.output,
             context: &ctx,
+            progress: Progress::new(&progress),
         })
         .collect();
-    let reports = tpu_tiles(&jobs, &progress)?;
+    let reports = tpu_tiles(&jobs)?;
     bar.finish_and_clear();
     let (_, report) = TileReport::merge(&reports).context("no tiles")?;
     print_warnings(&report.warnings);

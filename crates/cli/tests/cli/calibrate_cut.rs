@@ -10,7 +10,7 @@ use binary::{simulate_scenario, small_demo_scenario};
 use lidarqa_calib::{AutoTieOptions, VtpmOptions, auto_ties};
 use lidarqa_pipeline::{
     CalibrateJob, CalibrateStep, TieSource, TpuContext, TpuOptions, VTPM_NEIGHBOURS,
-    calibrate_strips_with_progress, load_all,
+    calibrate_strips, load_all,
 };
 use std::path::PathBuf;
 
@@ -33,21 +33,19 @@ fn cut_strips_give_the_whole_strips_ties_and_calibration() {
     let steps = std::sync::Mutex::new(Vec::new());
     let run = |tile_points: u64| {
         steps.lock().unwrap().clear();
-        calibrate_strips_with_progress(
-            &CalibrateJob {
-                strips: &strips,
-                context: &ctx,
-                ties: TieSource::Automatic,
-                control: Some(&sim.join("control.csv")),
-                method: lidarqa_calib::Method::Vtpm,
-                options: lidarqa_calib::CalibrationOptions::default(),
-                radius_given: false,
-                weighting: None,
-                tile_points,
-                lines: lidarqa_pipeline::LineOptions::default(),
-            },
-            &|step| steps.lock().unwrap().push(step),
-        )
+        calibrate_strips(&CalibrateJob {
+            strips: &strips,
+            context: &ctx,
+            ties: TieSource::Automatic,
+            control: Some(&sim.join("control.csv")),
+            method: lidarqa_calib::Method::Vtpm,
+            options: lidarqa_calib::CalibrationOptions::default(),
+            radius_given: false,
+            weighting: None,
+            tile_points,
+            lines: lidarqa_pipeline::LineOptions::default(),
+            progress: lidarqa_pipeline::Progress::new(&|step| steps.lock().unwrap().push(step)),
+        })
         .unwrap()
     };
     let one = run(u64::MAX);

@@ -52,6 +52,7 @@ fn correct_equals_correct_tile_byte_for_byte() {
         context: &ctx,
         mounting: &mounting,
         other_inputs: &[],
+        progress: Default::default(),
     })
     .unwrap();
     assert_eq!(r.points, 2000);

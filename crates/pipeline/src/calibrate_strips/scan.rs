@@ -132,7 +132,7 @@ pub(super) fn scan_file(
     ctx: &TpuContext,
     frame: &TangentFrame,
     of_point: &[u32],
-    progress: &(dyn Fn(CalibrateStep) + Sync),
+    progress: Progress<'_, CalibrateStep>,
 ) -> Result<Vec<Piece>> {
     let scratch_error = |source| Error::Scratch {
         path: path.to_path_buf(),
@@ -165,12 +165,12 @@ pub(super) fn scan_file(
             .map_err(scratch_error)?;
         read += 1;
         if read % BLOCK_POINTS == 0 {
-            progress(CalibrateStep::Read(BLOCK_POINTS));
+            progress.report(CalibrateStep::Read(BLOCK_POINTS));
         }
         Ok(())
     })?;
     // The last (partial) block's points.
-    progress(CalibrateStep::Read(read % BLOCK_POINTS));
+    progress.report(CalibrateStep::Read(read % BLOCK_POINTS));
     pieces.sort_by_key(|p| p.line);
     Ok(pieces)
 }
