@@ -7,6 +7,11 @@
 //! for a pass that only reads. They are generic over the caller's error type, which converts
 //! from this crate's [`Error`]. [`Progress`] is the optional callback a job carries, so that a
 //! command is one function whether or not a bar is drawn.
+//!
+//! Call the stages from a plain thread, never from a rayon task: the compute stage blocks its
+//! thread on a channel, and the reader's LAZ decoding runs on rayon's workers, so workers
+//! blocked in compute stages can leave no worker to decode for them (pipeline's `tpu_tiles`
+//! runs its tiles on plain threads for this reason).
 
 use crate::{Error, LasReader, LasWriter, PointChunk, RawChunk, Result};
 use std::fmt;

@@ -56,8 +56,8 @@ use lidarqa_calib::{
     calibrate_vtpm, select_auto_ties, tie_reach_m,
 };
 use lidarqa_io::{
-    ControlPoints, Crs, Geodetic, InverseKind, LasInfo, LocalInverse, PointChunk, Progress,
-    TangentFrame, TiePicks,
+    ControlPoints, Crs, Geodetic, InverseKind, LasInfo, LasReader, LocalInverse, PointChunk,
+    Progress, TangentFrame, TiePicks,
 };
 use lidarqa_model::{Ecef, Ned, Source, Warning};
 use lidarqa_products::{CalibrationDocument, CalibrationIterationsDocument, FoundLine, FoundLines};

@@ -14,9 +14,10 @@ Example:
 The grid covers the strips' extent; each tile holds the points of every strip that fall in it,
 with all attributes (GPS time and extra bytes included, as stored), as tile_<column>_<row>.laz
 from the south-west. Empty cells write no file. The input strips are never overwritten, and a
-strip given twice is refused. A non-empty output directory is refused; with --overwrite the tiles of an earlier run
-are replaced, and those the new grid does not write are removed (other files are kept; point
-clouds that are not tiles are refused), so `lidarqa tpu DIR` reads only the new grid.";
+strip given twice is refused. A non-empty output directory is refused; with --overwrite the
+tiles of an earlier run are replaced, and those the new grid does not write are removed (other
+files are kept; point clouds that are not tiles are refused), so `lidarqa tpu DIR` reads only
+the new grid.";
 
 /// Flags of `lidarqa tile`.
 #[derive(Debug, Args)]
