@@ -98,7 +98,10 @@ pub use sbet::{
     SmrmsgReader, SmrmsgSigma, SmrmsgWriter, raw as sbet_raw, read_sbet, read_smrmsg,
     write_records_to_path,
 };
-pub use stages::{Fill, Progress, WriteMsg, for_each_chunk, read_chunks, run_stages, write_chunks};
+pub use stages::{
+    Fill, Progress, WriteMsg, for_each_chunk, on_plain_threads, read_chunks, run_stages,
+    write_chunks,
+};
 pub use tangent::{TangentFrame, enu_from_ecef};
 pub use trajtext::{
     HEIGHTS_AS_POINTS, HeadingReference, TextPose, TextSigma, TextTrajectory, TrajectoryFile,

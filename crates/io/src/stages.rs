@@ -11,12 +11,15 @@
 //! Call the stages from a plain thread, never from a rayon task: the compute stage blocks its
 //! thread on a channel, and the reader's LAZ decoding runs on rayon's workers, so workers
 //! blocked in compute stages can leave no worker to decode for them (pipeline's `tpu_tiles`
-//! runs its tiles on plain threads for this reason).
+//! and calibrate's first passes run their files on plain threads, [`on_plain_threads`], for
+//! this reason).
 
 use crate::{Error, LasReader, LasWriter, PointChunk, RawChunk, Result};
 use std::fmt;
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+use std::sync::{Mutex, PoisonError};
 
 /// An optional callback told how far a run has come (`T`: points or pulses done since the last
 /// call, or a step of a longer run), from any thread. The default tells nobody.
@@ -248,4 +251,66 @@ pub fn for_each_chunk<C: Fill, E: From<Error> + Send>(
             (Ok(()), Ok(())) => Ok(()),
         }
     })
+}
+
+/// Runs `job` on each of `items` on up to `available_parallelism` plain threads, not rayon
+/// tasks, so that each job may run the stages (which block their thread on channels while the
+/// reader's decoding runs on rayon's workers) and still use rayon inside. Items start in input
+/// order; after a job fails no further item starts. Returns every job's result in input order,
+/// or the first error in input order (every item before the failed one has run).
+///
+/// ```
+/// use lidarqa_io::on_plain_threads;
+///
+/// let squares = on_plain_threads(&[1, 2, 3], |_, &n| Ok::<_, String>(n * n));
+/// assert_eq!(squares, Ok(vec![1, 4, 9]));
+/// let first = on_plain_threads(&[1, 2, 3], |i, _| if i >= 1 { Err(i) } else { Ok(()) });
+/// assert_eq!(first, Err(1));
+/// ```
+///
+/// # Errors
+/// The first failing item's error, in input order.
+///
+/// # Panics
+/// When a job panics (the panic is passed on after every thread has ended).
+pub fn on_plain_threads<T: Sync, R: Send, E: Send>(
+    items: &[T],
+    job: impl Fn(usize, &T) -> std::result::Result<R, E> + Sync,
+) -> std::result::Result<Vec<R>, E> {
+    let workers = std::thread::available_parallelism()
+        .map_or(1, usize::from)
+        .min(items.len())
+        .max(1);
+    let next = AtomicUsize::new(0);
+    let stop = AtomicBool::new(false);
+    let slots: Vec<Mutex<Option<std::result::Result<R, E>>>> =
+        items.iter().map(|_| Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::SeqCst);
+                    if i >= items.len() || stop.load(Ordering::SeqCst) {
+                        break;
+                    }
+                    let r = job(i, &items[i]);
+                    if r.is_err() {
+                        stop.store(true, Ordering::SeqCst);
+                    }
+                    *slots[i].lock().unwrap_or_else(PoisonError::into_inner) = Some(r);
+                }
+            });
+        }
+    });
+    let mut out = Vec::with_capacity(items.len());
+    for slot in slots {
+        match slot.into_inner().unwrap_or_else(PoisonError::into_inner) {
+            Some(Ok(r)) => out.push(r),
+            Some(Err(e)) => return Err(e),
+            // Items are taken in input order, so one is skipped only after an earlier failure,
+            // which was returned above.
+            None => unreachable!("an item is skipped only after an earlier one failed"),
+        }
+    }
+    Ok(out)
 }

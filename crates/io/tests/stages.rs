@@ -3,7 +3,7 @@
 
 use lidarqa_io::{
     Error, LasPoint, LasTimeBase, LasWriteOptions, LasWriter, PointChunk, RawChunk, WriteMsg,
-    for_each_chunk, run_stages,
+    for_each_chunk, on_plain_threads, run_stages,
 };
 use std::path::{Path, PathBuf};
 
@@ -199,4 +199,52 @@ fn writer_error_comes_first_and_a_complete_run_commits() {
     };
     assert_eq!(stages(true), Err("disk full".into()));
     assert_eq!(stages(false), Ok(5));
+}
+
+/// More LAZ files than cores, each read through the reader stage by its own job on
+/// `on_plain_threads` (as calibrate's first passes do): every file's points arrive, the results
+/// in input order, while the reader threads decode on rayon's workers. Run as rayon tasks that
+/// block on the stage's channel, the same jobs could leave no worker to decode.
+#[test]
+fn stages_run_on_plain_threads_for_many_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    let files: Vec<PathBuf> = (0..2 * cores + 3)
+        .map(|k| {
+            let path = dir.path().join(format!("f{k}.laz"));
+            write(&path, 500_000.0 + 100.0 * k as f64, 50 + k as u16);
+            path
+        })
+        .collect();
+    let firsts = on_plain_threads(&files, |_, path| {
+        let mut xs = Vec::new();
+        for_each_chunk(
+            &[path],
+            16,
+            |c: &mut PointChunk| -> Result<(), Error> {
+                xs.extend(c.points.iter().map(|p| p.x));
+                Ok(())
+            },
+            |_| panic!("no thread panics"),
+        )?;
+        Ok::<_, Error>((xs.len(), xs[0]))
+    })
+    .unwrap();
+    let expected: Vec<(usize, f64)> = (0..files.len())
+        .map(|k| (50 + k, 500_000.0 + 100.0 * k as f64))
+        .collect();
+    assert_eq!(firsts, expected);
+    // A failing file stops the run and is the error reported, naming the file.
+    let mut with_missing = files.clone();
+    with_missing.insert(2, dir.path().join("missing.laz"));
+    let e = on_plain_threads(&with_missing, |_, path| {
+        for_each_chunk(
+            &[path],
+            16,
+            |_: &mut RawChunk| -> Result<(), Error> { Ok(()) },
+            |_| panic!("no thread panics"),
+        )
+    })
+    .unwrap_err();
+    assert!(e.to_string().contains("missing.laz"), "{e}");
 }

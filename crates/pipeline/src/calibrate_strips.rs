@@ -56,8 +56,8 @@ use lidarqa_calib::{
     calibrate_vtpm, select_auto_ties, tie_reach_m,
 };
 use lidarqa_io::{
-    ControlPoints, Crs, Geodetic, InverseKind, LasInfo, LasReader, LocalInverse, PointChunk,
-    Progress, TangentFrame, TiePicks,
+    ControlPoints, Crs, Geodetic, InverseKind, LasInfo, LocalInverse, PointChunk, Progress,
+    TangentFrame, TiePicks,
 };
 use lidarqa_model::{Ecef, Ned, Source, Warning};
 use lidarqa_products::{CalibrationDocument, CalibrationIterationsDocument, FoundLine, FoundLines};
@@ -77,7 +77,7 @@ mod tiles;
 
 use kept::{Kept, stream_file};
 pub use scan::POINTS_PER_TILE;
-use scan::{BLOCK_POINTS, Piece, REACH_SLACK_M, finish_lines, scan_file};
+use scan::{BLOCK_POINTS, REACH_SLACK_M, finish_lines, scan_file};
 use tiles::{Region, auto_ties_tiled, cut_all, in_csv_terms, square, ties_from_scans};
 
 /// Points a VTPM window should hold in the sparsest strip when no radius is given: enough for a
@@ -319,13 +319,11 @@ pub fn calibrate_strips(job: &CalibrateJob<'_>) -> Result<StripCalibration> {
             })
             .collect()
     });
-    let pieces: Vec<Result<Vec<Piece>>> = job
-        .strips
-        .par_iter()
-        .enumerate()
-        .map(|(f, p)| scan_file(p, ctx, &frame, &index.of_point[f], progress))
-        .collect();
-    let pieces = pieces.into_iter().collect::<Result<Vec<_>>>()?;
+    // Files on plain threads, each read through io's reader stage (a rayon task blocked on the
+    // stage's channel could starve the decoding of rayon's workers).
+    let pieces = lidarqa_io::on_plain_threads(job.strips, |f, p| {
+        scan_file(p, ctx, &frame, &index.of_point[f], progress)
+    })?;
     let picks = tie_picks.as_ref().map(|t| (t, guesses.as_slice()));
     let scans = finish_lines(
         pieces,
@@ -515,32 +513,28 @@ pub fn load_all(
     let (frame, zone) = open_all(paths, ctx)?;
     let index = index_lines(paths, ctx, &LineOptions::default())?;
     let names = LineName::of_index(&index);
-    // The files load in parallel (each point as alone, so the points are the same); the first
-    // failing file in the given order is the one reported.
-    let loaded: Vec<Result<PerLine>> = paths
-        .par_iter()
-        .enumerate()
-        .map(|(f, p)| {
-            let of_point = &index.of_point[f];
-            let mut per_line: PerLine = Vec::new();
-            stream_file(p, ctx, |kept, observed| {
-                let l = line_of(of_point, kept, p)?;
-                let at = match per_line.iter().position(|(k, _)| *k == l) {
-                    Some(i) => i,
-                    None => {
-                        per_line.push((l, Vec::new()));
-                        per_line.len() - 1
-                    }
-                };
-                per_line[at]
-                    .1
-                    .push(kept.raw_point(&frame, observed, ctx.scan_geometry()));
-                Ok(())
-            })?;
-            Ok(per_line)
-        })
-        .collect();
-    let loaded = loaded.into_iter().collect::<Result<Vec<_>>>()?;
+    // The files load in parallel on plain threads, each through io's reader stage (each point
+    // as alone, so the points are the same); the first failing file in the given order is the
+    // one reported.
+    let loaded: Vec<PerLine> = lidarqa_io::on_plain_threads(paths, |f, p| {
+        let of_point = &index.of_point[f];
+        let mut per_line: PerLine = Vec::new();
+        stream_file(p, ctx, |kept, observed| {
+            let l = line_of(of_point, kept, p)?;
+            let at = match per_line.iter().position(|(k, _)| *k == l) {
+                Some(i) => i,
+                None => {
+                    per_line.push((l, Vec::new()));
+                    per_line.len() - 1
+                }
+            };
+            per_line[at]
+                .1
+                .push(kept.raw_point(&frame, observed, ctx.scan_geometry()));
+            Ok(())
+        })?;
+        Ok::<_, Error>(per_line)
+    })?;
     let mut points: Vec<Vec<RawPoint>> = vec![Vec::new(); names.len()];
     for per_line in loaded {
         for (l, mut v) in per_line {

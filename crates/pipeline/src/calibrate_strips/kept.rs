@@ -114,10 +114,8 @@ pub(super) type Observed = (PoseAt, LinearRecovery);
 /// Streams one file's points in file order, each checked (coordinates, time, trajectory,
 /// recovery) and handed to `take` as its [`Kept`] record and its recovered point. A file posed
 /// by its own per-point pose in coarse GPS time takes each point's time from that pose's keys.
-/// The file is read here, not through lidarqa-io's reader stage: the callers run one file per
-/// rayon task, and a rayon worker blocked on a stage's channel while the reader thread's LAZ
-/// decoding waits for rayon's workers would deadlock the pool once there are as many files as
-/// workers.
+/// The file is read through lidarqa-io's reader stage, so call it from a plain thread (the
+/// callers run their files with `on_plain_threads`), never from a rayon task.
 pub(super) fn stream_file(
     path: &Path,
     ctx: &TpuContext,
@@ -127,11 +125,10 @@ pub(super) fn stream_file(
     let projection = &tile.crs;
     let ellipsoid = tile.crs.ellipsoid();
     let recoverer = Recoverer::new(&ctx.recovery_mounting);
-    let mut reader = LasReader::from_path(path)?;
-    let mut chunk = PointChunk::new();
     let mut index = 0u64;
     let mut segment = SegmentRotation::default();
-    while reader.fill(&mut chunk, 200_000)? > 0 {
+    // The next chunk is decoded while this one is checked.
+    let each_chunk = |chunk: &mut PointChunk| -> Result<()> {
         // The exact inverse projection, interpolated over the few cells a chunk covers.
         let inverse = LocalInverse::new(
             projection,
@@ -188,6 +185,7 @@ pub(super) fn stream_file(
             let observed = kept.observe(&tile.trajectory, &mut segment, &recoverer, path)?;
             take(&kept, &observed)?;
         }
-    }
-    Ok(())
+        Ok(())
+    };
+    lidarqa_io::for_each_chunk(&[path], 200_000, each_chunk, crate::error::panicked(path))
 }
