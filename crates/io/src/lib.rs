@@ -13,7 +13,8 @@
 //! - geoid models: EGM2008 built in and GTX / GeoTIFF grids ([`GeoidModel`]);
 //! - atomic outputs: a temporary file beside the target, renamed when complete ([`AtomicFile`]);
 //! - the reader → compute → writer stages of the streaming commands, with bounded memory
-//!   ([`run_stages`], [`for_each_chunk`]), and the optional [`Progress`] callback of their jobs;
+//!   ([`run_stages`], [`for_each_chunk`], several files at once on plain threads with
+//!   [`on_plain_threads`]), and the optional [`Progress`] callback of their jobs;
 //! - single-band float GeoTIFF rasters with their GeoKeys ([`GeoRaster`]).
 //!
 //! Every error names the file and, where there is one, the line, record or key at fault.
