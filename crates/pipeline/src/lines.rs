@@ -203,25 +203,27 @@ fn cuts(sorted: &[Order], options: &LineOptions) -> Vec<(usize, Cut)> {
 }
 
 /// Points of one group or line, each with what orders it.
-type Ordered<T> = Vec<(Order, T)>;
-
 /// The groups of points, by point source id (and file, for id 0 without GPS time).
-type Groups<T> = BTreeMap<GroupKey, Ordered<T>>;
+type Groups<T> = BTreeMap<GroupKey, Vec<T>>;
 
 /// One id's points split into lines: (name, point source id, points), and the id's reason and
 /// warnings.
 struct Split<T> {
-    lines: Vec<(String, u16, Ordered<T>)>,
+    lines: Vec<(String, u16, Vec<T>)>,
     reasons: Vec<String>,
     warnings: Vec<Warning>,
 }
 
-/// Splits each group into its lines (module docs); `file_of` gives a point's file index.
+/// Splits each group into its lines (module docs); `file_of` gives a point's file index,
+/// `sort_key_of` its GPS time and frame (what orders it, cheap) and `order_of` its whole
+/// [`Order`] (with its sensor position, which may cost a trajectory lookup: taken once a point).
 fn split_groups<T>(
     groups: Groups<T>,
     inputs: &[PathBuf],
     options: &LineOptions,
     file_of: impl Fn(&T) -> usize,
+    sort_key_of: impl Fn(&T) -> (f64, f64),
+    order_of: impl Fn(&T) -> Order,
 ) -> Split<T> {
     let mut lines = Vec::new();
     let mut reasons = Vec::new();
@@ -239,7 +241,7 @@ fn split_groups<T>(
             lines.push((format!("0-{stem}"), psid, pts));
             continue;
         }
-        if pts.iter().any(|(p, _)| p.time.is_nan()) {
+        if pts.iter().any(|p| sort_key_of(p).0.is_nan()) {
             reasons.push(format!(
                 "point source id {psid}: one line (no GPS time to split it by)"
             ));
@@ -248,11 +250,10 @@ fn split_groups<T>(
         }
         // Stable: points of one time and frame keep the files' and each file's order.
         pts.sort_by(|a, b| {
-            a.0.time
-                .total_cmp(&b.0.time)
-                .then(a.0.frame.total_cmp(&b.0.frame))
+            let ((ta, fa), (tb, fb)) = (sort_key_of(a), sort_key_of(b));
+            ta.total_cmp(&tb).then(fa.total_cmp(&fb))
         });
-        let order: Vec<Order> = pts.iter().map(|(o, _)| *o).collect();
+        let order: Vec<Order> = pts.iter().map(&order_of).collect();
         let found = cuts(&order, options);
         let n = found.len() + 1;
         let why: Vec<String> = found.iter().map(|(_, c)| c.describe()).collect();
@@ -261,8 +262,7 @@ fn split_groups<T>(
         } else {
             format!("point source id {psid}")
         };
-        let files: std::collections::BTreeSet<usize> =
-            pts.iter().map(|(_, t)| file_of(t)).collect();
+        let files: std::collections::BTreeSet<usize> = pts.iter().map(&file_of).collect();
         let across = if files.len() > 1 {
             format!(" across {} files", files.len())
         } else {
@@ -423,7 +423,7 @@ pub fn read_lines<P: AsRef<Path>>(paths: &[P], options: &LineOptions) -> Result<
     lidarqa_io::check_distinct_inputs(paths)?;
     check_options(options)?;
     let inputs: Vec<PathBuf> = paths.iter().map(|p| p.as_ref().to_path_buf()).collect();
-    let mut groups: Groups<(LinePoint, usize)> = BTreeMap::new();
+    let mut groups: Groups<(Order, (LinePoint, usize))> = BTreeMap::new();
     let mut epsg = None;
     let mut has_ground = false;
     let mut warnings = Vec::new();
@@ -465,7 +465,14 @@ pub fn read_lines<P: AsRef<Path>>(paths: &[P], options: &LineOptions) -> Result<
             }
         }
     }
-    let split = split_groups(groups, &inputs, options, |(_, f)| *f);
+    let split = split_groups(
+        groups,
+        &inputs,
+        options,
+        |(_, (_, f))| *f,
+        |(o, _)| (o.time, o.frame),
+        |(o, _)| *o,
+    );
     warnings.extend(split.warnings);
     let lines = split
         .lines
@@ -540,6 +547,24 @@ impl LineIndex {
     }
 }
 
+/// A point of the line index: what orders it and where it is (16 bytes a point; a file's frame
+/// counters and sensor positions, where it stores them, are kept by file and point beside).
+#[derive(Debug, Clone, Copy)]
+struct Located {
+    time: f64,
+    file: u32,
+    index: u32,
+}
+
+/// The line index numbers files and points in 32 bits.
+fn too_many(path: &Path, what: &str) -> crate::Error {
+    crate::Error::InvalidOption(format!(
+        "{}: more than {} {what} for the flight-line index",
+        path.display(),
+        u32::MAX
+    ))
+}
+
 /// A sensor position for a point: `(file index, GPS time as stored)` → metres in any fixed
 /// Cartesian frame (ECEF), `None` where unknown.
 pub type SensorAt<'a> = &'a (dyn Fn(usize, f64) -> Option<[f64; 3]> + Sync);
@@ -557,9 +582,12 @@ pub fn line_index<P: AsRef<Path>>(
     lidarqa_io::check_distinct_inputs(paths)?;
     check_options(options)?;
     let inputs: Vec<PathBuf> = paths.iter().map(|p| p.as_ref().to_path_buf()).collect();
-    let mut groups: Groups<(u32, u64)> = BTreeMap::new();
+    let mut groups: Groups<Located> = BTreeMap::new();
     let mut warnings = Vec::new();
     let mut counts = Vec::with_capacity(inputs.len());
+    // The frame counters and sensor positions of the files that store them, by file and point.
+    let mut frames: Vec<Option<Vec<f64>>> = Vec::with_capacity(inputs.len());
+    let mut sensors: Vec<Option<Vec<[f64; 3]>>> = Vec::with_capacity(inputs.len());
     let mut chunk = PointChunk::new();
     for (f, path) in inputs.iter().enumerate() {
         let mut r = LasReader::from_path(path)?;
@@ -568,28 +596,65 @@ pub fn line_index<P: AsRef<Path>>(
             warnings.push(no_time_warning(path, r.info().point_format));
         }
         let dims = FileDims::of(&r);
-        let mut index = 0u64;
+        let mut frame_column = dims.frame.map(|_| Vec::new());
+        let mut sensor_column = dims.sensor.then(Vec::new);
+        let file = u32::try_from(f).map_err(|_| too_many(path, "files"))?;
+        let mut index = 0u32;
         while r.fill(&mut chunk, CHUNK_POINTS)? > 0 {
             let (frame, sensor) = dims.columns(&chunk);
-            for (k, p) in chunk.points.iter().enumerate() {
+            if let Some(column) = frame_column.as_mut() {
+                match &frame {
+                    Some(c) => column.extend_from_slice(c),
+                    None => column.extend((0..chunk.points.len()).map(|_| f64::NAN)),
+                }
+            }
+            if let Some(column) = sensor_column.as_mut() {
+                match &sensor {
+                    Some([x, y, z]) => column.extend((0..x.len()).map(|k| [x[k], y[k], z[k]])),
+                    None => column.extend((0..chunk.points.len()).map(|_| [f64::NAN; 3])),
+                }
+            }
+            for p in &chunk.points {
                 let key = (
                     p.point_source_id,
                     (!timed && p.point_source_id == 0).then_some(f),
                 );
                 let time = p.gps_time_s.unwrap_or(f64::NAN);
-                let mut o = order_at(time, &frame, &sensor, k);
-                if sensor.is_none()
-                    && let Some(at) = sensor_at
-                {
-                    o.sensor = at(f, time).unwrap_or([f64::NAN; 3]);
-                }
-                groups.entry(key).or_default().push((o, (f as u32, index)));
-                index += 1;
+                groups
+                    .entry(key)
+                    .or_default()
+                    .push(Located { time, file, index });
+                index = index
+                    .checked_add(1)
+                    .ok_or_else(|| too_many(path, "points"))?;
             }
         }
-        counts.push(index);
+        counts.push(u64::from(index));
+        frames.push(frame_column);
+        sensors.push(sensor_column);
     }
-    let split = split_groups(groups, &inputs, options, |(f, _)| *f as usize);
+    let frame_of = |l: &Located| {
+        frames[l.file as usize]
+            .as_ref()
+            .map_or(f64::NAN, |c| c[l.index as usize])
+    };
+    let order_of = |l: &Located| Order {
+        time: l.time,
+        frame: frame_of(l),
+        sensor: match (&sensors[l.file as usize], sensor_at) {
+            (Some(c), _) => c[l.index as usize],
+            (None, Some(at)) => at(l.file as usize, l.time).unwrap_or([f64::NAN; 3]),
+            (None, None) => [f64::NAN; 3],
+        },
+    };
+    let split = split_groups(
+        groups,
+        &inputs,
+        options,
+        |l| l.file as usize,
+        |l| (l.time, frame_of(l)),
+        order_of,
+    );
     warnings.extend(split.warnings);
     let mut of_point: Vec<Vec<u32>> = counts
         .iter()
@@ -597,11 +662,11 @@ pub fn line_index<P: AsRef<Path>>(
         .collect();
     let mut lines = Vec::with_capacity(split.lines.len());
     for (l, (id, psid, pts)) in split.lines.into_iter().enumerate() {
-        let mut files: Vec<usize> = pts.iter().map(|(_, (f, _))| *f as usize).collect();
+        let mut files: Vec<usize> = pts.iter().map(|p| p.file as usize).collect();
         files.sort_unstable();
         files.dedup();
-        for (_, (f, k)) in &pts {
-            of_point[*f as usize][*k as usize] = l as u32;
+        for p in &pts {
+            of_point[p.file as usize][p.index as usize] = l as u32;
         }
         lines.push(LineEntry {
             id,
