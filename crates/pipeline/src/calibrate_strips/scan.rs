@@ -138,6 +138,12 @@ pub(super) fn scan_file(
         path: path.to_path_buf(),
         source,
     };
+    // Each line's points in this file, so that a piece's columns are allocated once at their
+    // size (growing by doubling would hold up to twice the survey's points at the peak).
+    let mut sizes = vec![0usize; of_point.iter().max().map_or(0, |&l| l as usize + 1)];
+    for &l in of_point {
+        sizes[l as usize] += 1;
+    }
     let mut pieces: Vec<Piece> = Vec::new();
     let mut read = 0u64;
     stream_file(path, ctx, |kept, observed| {
@@ -147,8 +153,8 @@ pub(super) fn scan_file(
             None => {
                 pieces.push(Piece {
                     line: l,
-                    xy: Vec::new(),
-                    down: Vec::new(),
+                    xy: Vec::with_capacity(sizes.get(l).copied().unwrap_or(0)),
+                    down: Vec::with_capacity(sizes.get(l).copied().unwrap_or(0)),
                     ext: [None; 6],
                     blocks: Vec::new(),
                     scratch: BufWriter::with_capacity(
