@@ -114,8 +114,13 @@ impl Fill for PointChunk {
 }
 
 /// Runs `read` and `write` on their own threads and `compute` on the calling one (which may use
-/// rayon), joined by channels holding one item each, so memory is a few chunks whatever the
-/// file size and decoding, computing and encoding overlap. `write` returns `Some(points)` after
+/// rayon), joined by channels, so memory is a few chunks whatever the file size and decoding,
+/// computing and encoding overlap. The reader's channel holds one item; the writer's holds
+/// `write_queue` (at least one): the compute stage may run that many items ahead of the
+/// encoding. A compute stage that hands the writer small items, each encoded on the writer's
+/// thread, and then works a while between them (`tpu`: a chunk's pieces, then the next chunk's
+/// surface judgement) needs about a chunk's worth queued, or it waits on the writer while
+/// the writer has nothing to do during the pauses. `write` returns `Some(points)` after
 /// a commit, `None` when its channel closed without [`WriteMsg::Finish`]. The output is
 /// committed only when `compute` succeeded and the reader thread ended normally, so a reader
 /// that stopped early never leaves a truncated output.
@@ -128,6 +133,7 @@ impl Fill for PointChunk {
 /// # Errors
 /// As above.
 pub fn run_stages<R: Send, W: Send, E: Send>(
+    write_queue: usize,
     read: impl FnOnce(SyncSender<std::result::Result<R, E>>) + Send,
     write: impl FnOnce(Receiver<WriteMsg<W>>) -> std::result::Result<Option<u64>, E> + Send,
     compute: impl FnOnce(
@@ -138,7 +144,7 @@ pub fn run_stages<R: Send, W: Send, E: Send>(
 ) -> std::result::Result<u64, E> {
     std::thread::scope(|scope| {
         let (tx_read, rx_read) = sync_channel(1);
-        let (tx_write, rx_write) = sync_channel::<WriteMsg<W>>(1);
+        let (tx_write, rx_write) = sync_channel::<WriteMsg<W>>(write_queue.max(1));
         let reader_thread = scope.spawn(move || read(tx_read));
         let writer_thread = scope.spawn(move || write(rx_write));
         let main = compute(&rx_read, &tx_write);

@@ -136,6 +136,7 @@ fn compute_error_stops_the_reader() {
 #[test]
 fn a_panicked_reader_commits_nothing() {
     let r = run_stages(
+        1,
         |tx| {
             for i in 0..3u64 {
                 tx.send(Ok(i)).unwrap();
@@ -169,6 +170,7 @@ fn a_panicked_reader_commits_nothing() {
 fn writer_error_comes_first_and_a_complete_run_commits() {
     let stages = |fail: bool| {
         run_stages(
+            1,
             |tx| {
                 for i in 0..5u64 {
                     if tx.send(Ok(i)).is_err() {
@@ -205,6 +207,51 @@ fn writer_error_comes_first_and_a_complete_run_commits() {
 /// `on_plain_threads` (as calibrate's first passes do): every file's points arrive, the results
 /// in input order, while the reader threads decode on rayon's workers. Run as rayon tasks that
 /// block on the stage's channel, the same jobs could leave no worker to decode.
+/// The compute stage may run `write_queue` items ahead of a writer that has not taken any yet
+/// (a writer encoding on its own thread then has work queued while the compute stage pauses),
+/// and no further: the next item waits.
+#[test]
+fn the_compute_stage_runs_write_queue_items_ahead_of_the_writer() {
+    for queue in [1, 4, 12] {
+        let (release, wait) = std::sync::mpsc::channel::<()>();
+        let r = run_stages(
+            queue,
+            |tx| {
+                let _ = tx.send(Ok(()));
+            },
+            move |rx| -> Result<Option<u64>, String> {
+                // Takes nothing until the compute stage has filled the queue.
+                wait.recv().map_err(|e| e.to_string())?;
+                let mut n = 0;
+                for msg in rx {
+                    match msg {
+                        WriteMsg::Chunk(()) => n += 1,
+                        WriteMsg::Finish => return Ok(Some(n)),
+                    }
+                }
+                Ok(None)
+            },
+            |rx, tx| {
+                for msg in rx {
+                    msg?;
+                }
+                for i in 0..queue {
+                    tx.try_send(WriteMsg::Chunk(()))
+                        .map_err(|e| format!("item {i} of a queue of {queue}: {e}"))?;
+                }
+                let full = tx.try_send(WriteMsg::Chunk(())).is_err();
+                release.send(()).map_err(|e| e.to_string())?;
+                if !full {
+                    return Err(format!("a queue of {queue} took one more"));
+                }
+                Ok(())
+            },
+            |thread| format!("{thread} panicked"),
+        );
+        assert_eq!(r, Ok(queue as u64), "queue of {queue}");
+    }
+}
+
 #[test]
 fn stages_run_on_plain_threads_for_many_files() {
     let dir = tempfile::tempdir().unwrap();

@@ -203,6 +203,8 @@ fn correct_tile_lines(job: &CorrectTileJob<'_>, lines: &[LineMatch]) -> Result<C
     let mut tally = checks.as_ref().map(|c| c.tally(tile.info.point_format));
     let (tx_spent, rx_spent) = sync_channel::<RawChunk>(SPARES);
     let points = run_stages(
+        // Whole chunks, each encoded on every core: one waiting is enough.
+        1,
         // las's reader is not `Send`: it is opened in its thread.
         move |tx_read| read_chunks(&[input], CHUNK, &rx_spent, &tx_read),
         move |rx_write| {

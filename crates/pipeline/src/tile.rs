@@ -229,6 +229,9 @@ pub fn tpu_tile(job: &TpuTileJob<'_>) -> Result<TileReport> {
         covariance: ctx.options.covariance,
     };
     run_stages(
+        // A chunk's pieces: the writer encodes each on its own thread, and works through them
+        // while the next chunk's surfaces are judged (see `run_stages`).
+        chunk_points.div_ceil(PIECE) + 1,
         move |tx_read| read_chunks(&[input], chunk_points, &rx_spent_read, &tx_read),
         move |rx_write| {
             write_chunks(writer, rx_write, |writer, (out, points_read)| {
