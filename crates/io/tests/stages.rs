@@ -203,10 +203,6 @@ fn writer_error_comes_first_and_a_complete_run_commits() {
     assert_eq!(stages(false), Ok(5));
 }
 
-/// More LAZ files than cores, each read through the reader stage by its own job on
-/// `on_plain_threads` (as calibrate's first passes do): every file's points arrive, the results
-/// in input order, while the reader threads decode on rayon's workers. Run as rayon tasks that
-/// block on the stage's channel, the same jobs could leave no worker to decode.
 /// The compute stage may run `write_queue` items ahead of a writer that has not taken any yet
 /// (a writer encoding on its own thread then has work queued while the compute stage pauses),
 /// and no further: the next item waits.
@@ -252,6 +248,10 @@ fn the_compute_stage_runs_write_queue_items_ahead_of_the_writer() {
     }
 }
 
+/// More LAZ files than cores, each read through the reader stage by its own job on
+/// `on_plain_threads` (as calibrate's first passes do): every file's points arrive, the results
+/// in input order, while the reader threads decode on rayon's workers. Run as rayon tasks that
+/// block on the stage's channel, the same jobs could leave no worker to decode.
 #[test]
 fn stages_run_on_plain_threads_for_many_files() {
     let dir = tempfile::tempdir().unwrap();
