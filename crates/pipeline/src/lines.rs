@@ -202,7 +202,6 @@ fn cuts(sorted: &[Order], options: &LineOptions) -> Vec<(usize, Cut)> {
     out
 }
 
-/// Points of one group or line, each with what orders it.
 /// The groups of points, by point source id (and file, for id 0 without GPS time).
 type Groups<T> = BTreeMap<GroupKey, Vec<T>>;
 
