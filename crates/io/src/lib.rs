@@ -86,7 +86,9 @@ pub use gpstime::{
     week_to_adjusted_standard,
 };
 pub use grid_to_ecef::{CellCache, GridToEcef, MapAt};
-pub use local_inverse::{CELL_M, InverseKind, Inverted, LocalInverse, Located, TOLERANCE};
+pub use local_inverse::{
+    CELL_M, GridExtent, InverseKind, Inverted, LocalInverse, Located, TOLERANCE,
+};
 pub use ned_to_grid::{NedToGrid, exact_ned_to_grid};
 pub use pointcloud::{
     CLASS_BATHYMETRY, CLASS_WATER_SURFACE, CarriedExtraBytes, CoordinateBlock, ExtraDim, LasInfo,

@@ -126,6 +126,58 @@ struct Cell {
     coefficients: [[f64; OUTPUTS]; NODES * NODES],
 }
 
+/// The number and bounding box of a set of finite grid points (m): what [`LocalInverse`] needs
+/// of them. Counts, minima and maxima do not depend on the order the points come in, so a
+/// caller may gather parts of a set on several threads and [`merge`](Self::merge) them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridExtent {
+    /// Finite points.
+    pub n: usize,
+    /// Least easting and northing.
+    pub lo: [f64; 2],
+    /// Greatest easting and northing.
+    pub hi: [f64; 2],
+}
+
+impl Default for GridExtent {
+    fn default() -> Self {
+        GridExtent {
+            n: 0,
+            lo: [f64::INFINITY; 2],
+            hi: [f64::NEG_INFINITY; 2],
+        }
+    }
+}
+
+impl GridExtent {
+    /// The extent of `xy_m`'s finite points.
+    pub fn of(xy_m: impl IntoIterator<Item = [f64; 2]>) -> GridExtent {
+        let mut e = GridExtent::default();
+        for p in xy_m {
+            e.add(p);
+        }
+        e
+    }
+
+    /// Takes in one point (a non-finite one is left out).
+    pub fn add(&mut self, p: [f64; 2]) {
+        if !(p[0].is_finite() && p[1].is_finite()) {
+            return;
+        }
+        self.n += 1;
+        self.lo = [self.lo[0].min(p[0]), self.lo[1].min(p[1])];
+        self.hi = [self.hi[0].max(p[0]), self.hi[1].max(p[1])];
+    }
+
+    /// The extent of both sets.
+    pub fn merge(mut self, o: GridExtent) -> GridExtent {
+        self.n += o.n;
+        self.lo = [self.lo[0].min(o.lo[0]), self.lo[1].min(o.lo[1])];
+        self.hi = [self.hi[0].max(o.hi[0]), self.hi[1].max(o.hi[1])];
+        self
+    }
+}
+
 impl<'a> LocalInverse<'a> {
     /// Interpolants for the cells holding the finite points of `xy_m` (grid metres), when they
     /// are few (at most one per 1024 points, or 4); otherwise every point takes the exact
@@ -133,8 +185,13 @@ impl<'a> LocalInverse<'a> {
     pub fn new(
         crs: &'a Crs,
         kind: InverseKind,
-        xy_m: impl Iterator<Item = [f64; 2]> + Clone,
+        xy_m: impl IntoIterator<Item = [f64; 2]>,
     ) -> LocalInverse<'a> {
+        LocalInverse::over(crs, kind, GridExtent::of(xy_m))
+    }
+
+    /// [`new`](Self::new) for points whose extent is known.
+    pub fn over(crs: &'a Crs, kind: InverseKind, extent: GridExtent) -> LocalInverse<'a> {
         let mut empty = LocalInverse {
             crs,
             kind,
@@ -142,16 +199,7 @@ impl<'a> LocalInverse<'a> {
             columns: 0,
             cells: Vec::new(),
         };
-        let mut n = 0usize;
-        let mut lo = [f64::INFINITY; 2];
-        let mut hi = [f64::NEG_INFINITY; 2];
-        for p in xy_m.filter(|p| p[0].is_finite() && p[1].is_finite()) {
-            n += 1;
-            for k in 0..2 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
+        let GridExtent { n, lo, hi } = extent;
         if n == 0 {
             return empty;
         }
@@ -439,7 +487,39 @@ mod tests {
         let u = c.unproject(510_000.0, 5_320_000.0);
         assert_eq!(far.unprojected, u);
         // Non-finite points are left out of the cells.
-        let li = LocalInverse::new(&c, InverseKind::Series, [[f64::NAN, 0.0]].into_iter());
+        let li = LocalInverse::new(&c, InverseKind::Series, [[f64::NAN, 0.0]]);
         assert!(li.cells.is_empty());
+    }
+
+    #[test]
+    fn an_extent_gathered_in_parts_is_the_whole_sets() {
+        let c = crs(32632);
+        let mut pts = points(499_000.0, 5_320_000.0, 3000.0, 2000.0, 5000);
+        pts[17] = [f64::NAN, 5_320_000.0];
+        pts[4000] = [499_500.0, f64::INFINITY];
+        let whole = GridExtent::of(pts.iter().copied());
+        assert_eq!(whole.n, 4998);
+        // Parts in any grouping and order merge to the same extent.
+        for cut in [1, 999, 2500, 4999] {
+            let (a, b) = pts.split_at(cut);
+            let parts = GridExtent::of(b.iter().copied()).merge(GridExtent::of(a.iter().copied()));
+            assert_eq!(parts, whole, "cut at {cut}");
+        }
+        assert_eq!(GridExtent::default().merge(whole), whole);
+        // The cells over an extent are those over its points.
+        let by_points = LocalInverse::new(&c, InverseKind::Exact, pts.iter().copied());
+        let by_extent = LocalInverse::over(&c, InverseKind::Exact, whole);
+        assert_eq!(
+            (by_points.first, by_points.columns),
+            (by_extent.first, by_extent.columns)
+        );
+        assert_eq!(by_points.cells.len(), by_extent.cells.len());
+        assert!(!by_extent.cells.is_empty());
+        for p in pts[..100]
+            .iter()
+            .filter(|p| p.iter().all(|v| v.is_finite()))
+        {
+            assert_eq!(by_points.at(p[0], p[1]), by_extent.at(p[0], p[1]));
+        }
     }
 }

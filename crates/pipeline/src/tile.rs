@@ -9,8 +9,8 @@ use crate::plausibility::{
 };
 use crate::summary::{IncidenceTally, SIGMA_NAMES, SkipReason, TileReport, TpuSummary};
 use lidarqa_io::{
-    CLASS_WATER_SURFACE, Crs, InverseKind, LasTimeConverter, LasWriteOptions, LocalInverse,
-    Progress, RawChunk, RawPoint, Unprojected, read_chunks, run_stages, write_chunks,
+    CLASS_WATER_SURFACE, Crs, GridExtent, InverseKind, LasTimeConverter, LasWriteOptions,
+    LocalInverse, Progress, RawChunk, RawPoint, Unprojected, read_chunks, run_stages, write_chunks,
 };
 use lidarqa_model::{Ecef, Grid, ecef_from_ned_sin_cos};
 use lidarqa_tpu::{
@@ -224,9 +224,11 @@ pub fn tpu_tile(job: &TpuTileJob<'_>) -> Result<TileReport> {
         inputs: tx_spent_read,
         outputs: rx_spent_out,
         out_chunk,
-        n_dims,
-        incidence_class: kernel.has_incidence(),
-        covariance: ctx.options.covariance,
+        layout: RecordLayout {
+            n_dims,
+            incidence_class: kernel.has_incidence(),
+            covariance: ctx.options.covariance,
+        },
     };
     run_stages(
         // A chunk's pieces: the writer encodes each on its own thread, and works through them
@@ -281,6 +283,21 @@ struct Recycle {
     outputs: Receiver<RawChunk>,
     /// An empty chunk of the output's layout.
     out_chunk: RawChunk,
+    layout: RecordLayout,
+}
+
+impl Recycle {
+    /// An output chunk to fill: one the writer has written, or a new one.
+    fn output_chunk(&self) -> RawChunk {
+        self.outputs
+            .try_recv()
+            .unwrap_or_else(|_| self.out_chunk.clone())
+    }
+}
+
+/// What the output records carry after the points as read.
+#[derive(Debug, Clone, Copy)]
+struct RecordLayout {
     /// σ (and sounding) values per record, and the incidence class when there is a term.
     n_dims: usize,
     /// Whether the last of them is the incidence class.
@@ -309,7 +326,7 @@ fn output_records(
     chunk: &RawChunk,
     first: usize,
     slots: &[Slot],
-    recycle: &Recycle,
+    layout: RecordLayout,
     out: &mut RawChunk,
 ) -> Result<()> {
     let mut extra = [0f32; 10];
@@ -330,14 +347,14 @@ fn output_records(
                 ),
                 None => (0.0, -1.0),
             };
-            if recycle.incidence_class {
-                extra[recycle.n_dims - 1] = f32::from(*class);
+            if layout.incidence_class {
+                extra[layout.n_dims - 1] = f32::from(*class);
             }
-            let n64 = if recycle.covariance { cov.len() } else { 0 };
+            let n64 = if layout.covariance { cov.len() } else { 0 };
             out.push(
                 path,
                 chunk.point(first + i),
-                &extra[..recycle.n_dims],
+                &extra[..layout.n_dims],
                 &cov[..n64],
             )?;
         }
@@ -436,8 +453,9 @@ impl Run<'_> {
         let lookahead = conic || self.kernel.has_incidence();
         let mut current = recv()?.map(|c| prepare(c, &mut spare_pts));
         let mut water_points = 0u64;
-        // One vector of slots serves every chunk, as do the incidence term's buffers.
-        let mut slots = Vec::new();
+        // Two vectors of slots serve every chunk (see the pieces below), as do the incidence
+        // term's buffers.
+        let (mut slots, mut spare_slots) = (Vec::new(), Vec::new());
         let mut surface_bufs = SurfaceBuffers::default();
         while let Some(cur) = current {
             let next = if lookahead { recv()? } else { None };
@@ -452,10 +470,13 @@ impl Run<'_> {
                 .map(|_| valid_ecef(&head_pts).take(margin).collect())
                 .unwrap_or_default();
             // Soundings look for their surface in the chunk and the same margins.
-            let in_water = cur
-                .chunk
-                .points()
-                .filter(|p| self.ctx.options.water_classes.contains(p.classification()))
+            let in_water = (0..cur.chunk.len())
+                .into_par_iter()
+                .with_min_len(BLOCK)
+                .filter(|&i| {
+                    let class = cur.chunk.point(i).classification();
+                    self.ctx.options.water_classes.contains(class)
+                })
                 .count();
             water_points += in_water as u64;
             let water = (conic && in_water > 0).then(|| {
@@ -477,32 +498,47 @@ impl Run<'_> {
             self.check_chunk(&cur, summary)?;
             self.surfaces(&cur, &tail, &head, &mut surface_bufs);
             let surfaces = &surface_bufs.surfaces;
-            // The chunk goes to the writer in pieces: it encodes one while the next is computed,
-            // and the slots and output records of a piece are reused for the next.
+            // The chunk goes to the writer in pieces: it encodes one while the next is computed.
+            // Piece k is computed while piece k − 1 is flushed (its records assembled and sent,
+            // its statistics summarized, in piece order as before): the flush's serial steps
+            // run on a worker beside the piece's blocks, not on this thread while the workers
+            // wait. Two vectors of slots take turns, and the output records of a piece are
+            // reused for a later one.
             let n = cur.pts.len();
+            let n_sources = summary.share_sums.len();
+            let layout = spent.layout;
             let mut blocks = Vec::new();
+            // The piece computed into `slots` and not yet flushed: its first point and its
+            // blocks' statistics.
+            let mut pending: Option<(usize, Vec<Partial>)> = None;
             for first in (0..n).step_by(PIECE) {
                 let piece = first..(first + PIECE).min(n);
-                slots = self.compute_piece(
-                    &cur,
-                    piece.clone(),
-                    surfaces,
-                    water.as_ref(),
-                    slots,
-                    (&mut blocks, summary.share_sums.len()),
-                )?;
-                let mut out = spent
-                    .outputs
-                    .try_recv()
-                    .unwrap_or_else(|_| spent.out_chunk.clone());
-                output_records(self.path, &cur.chunk, first, &slots, spent, &mut out)?;
-                let sent = tx.send(WriteMsg::Chunk((out, piece.len() as u64)));
-                // The piece's statistics are added while the writer encodes its records.
-                self.summarize_points(&cur, first, &slots, summary);
-                if sent.is_err() {
+                let out = pending.as_ref().map(|_| (spent.output_chunk(), layout));
+                let buffer = std::mem::take(&mut spare_slots);
+                let (next, flushed) = rayon::join(
+                    || self.compute_piece(&cur, piece, surfaces, water.as_ref(), buffer, n_sources),
+                    || match (&pending, out) {
+                        (Some((f, parts)), Some(out)) => {
+                            self.flush_piece(&cur, (*f, &slots, parts), out, tx, summary)
+                        }
+                        _ => Ok(true),
+                    },
+                );
+                if !flushed? {
                     // The writer stopped; its error is reported by the caller.
                     return Ok(());
                 }
+                blocks.extend(pending.take().into_iter().flat_map(|(_, parts)| parts));
+                let (next, parts) = next?;
+                spare_slots = std::mem::replace(&mut slots, next);
+                pending = Some((first, parts));
+            }
+            if let Some((f, parts)) = pending {
+                let out = (spent.output_chunk(), layout);
+                if !self.flush_piece(&cur, (f, &slots, &parts), out, tx, summary)? {
+                    return Ok(());
+                }
+                blocks.extend(parts);
             }
             summary.points_read += n as u64;
             self.summarize_blocks(blocks, summary);
@@ -585,13 +621,18 @@ impl Run<'_> {
             );
             candidates.clear();
             candidates.extend(tail.iter().map(rel));
-            candidates.extend(
-                targets
-                    .iter()
-                    .zip(&cur.pts)
-                    .filter(|(_, p)| !matches!(p.state, PrepState::NonFinite))
-                    .map(|(t, _)| *t),
-            );
+            if cur.usable == cur.pts.len() {
+                // Every point is usable (the usual case): all are finite, no walk of the states.
+                candidates.extend_from_slice(targets);
+            } else {
+                candidates.extend(
+                    targets
+                        .iter()
+                        .zip(&cur.pts)
+                        .filter(|(_, p)| !matches!(p.state, PrepState::NonFinite))
+                        .map(|(t, _)| *t),
+                );
+            }
             candidates.extend(head.iter().map(rel));
             judge_surfaces_into(
                 candidates,
@@ -602,9 +643,28 @@ impl Run<'_> {
         }
     }
 
+    /// Puts the records of the computed points `first..` (`slots`, their blocks' statistics
+    /// `parts`) in `out`, hands them to the writer and adds the points to the summary; false
+    /// when the writer has stopped.
+    fn flush_piece(
+        &self,
+        cur: &Prepared,
+        (first, slots, parts): (usize, &[Slot], &[Partial]),
+        (mut out, layout): (RawChunk, RecordLayout),
+        tx: &SyncSender<WriteMsg>,
+        summary: &mut TpuSummary,
+    ) -> Result<bool> {
+        output_records(self.path, &cur.chunk, first, slots, layout, &mut out)?;
+        let sent = tx.send(WriteMsg::Chunk((out, slots.len() as u64)));
+        // The piece's statistics are added while the writer encodes its records.
+        self.summarize_points(cur, first, slots, summary);
+        self.summarize_values(parts, summary);
+        Ok(sent.is_ok())
+    }
+
     /// Computes the points `piece` of the chunk (its start a multiple of [`BLOCK`]) into
-    /// `slots` (slot `k` is point `piece.start + k`), appending each block's statistics (of
-    /// `n_sources` shares) to `blocks`; the first failure in file order is the error.
+    /// `slots` (slot `k` is point `piece.start + k`), with each block's statistics (of
+    /// `n_sources` shares); the first failure in file order is the error.
     fn compute_piece(
         &self,
         cur: &Prepared,
@@ -612,12 +672,18 @@ impl Run<'_> {
         surfaces: &[Option<Surface>],
         water: Option<&WaterSurfaceIndex>,
         mut slots: Vec<Slot>,
-        (blocks, n_sources): (&mut Vec<Partial>, usize),
-    ) -> Result<Vec<Slot>> {
+        n_sources: usize,
+    ) -> Result<(Vec<Slot>, Vec<Partial>)> {
         let first = piece.start;
-        slots.clear();
-        // Filled in parallel: the pages of a new vector fault on both cores.
-        slots.par_extend(piece.into_par_iter().map(|_| Slot::default()));
+        // Every slot is written below: the previous piece's slots are overwritten, not reset
+        // first (new slots are filled in parallel: the pages of a new vector fault on both
+        // cores).
+        slots.truncate(piece.len());
+        slots.par_extend(
+            (slots.len()..piece.len())
+                .into_par_iter()
+                .map(|_| Slot::default()),
+        );
         let partials = slots
             .par_chunks_mut(BLOCK)
             .enumerate()
@@ -638,15 +704,14 @@ impl Run<'_> {
                 acc
             })
             .collect::<Vec<Partial>>();
-        let failed = partials.iter().any(|p| p.failed);
-        blocks.extend(partials);
         // The first failure in file order, so the message is deterministic.
-        if failed && let Some(i) = slots.iter().position(|s| matches!(s, Slot::Failed(_))) {
-            if let Slot::Failed(e) = std::mem::take(&mut slots[i]) {
-                return Err(*e);
-            }
+        if partials.iter().any(|p| p.failed)
+            && let Some(i) = slots.iter().position(|s| matches!(s, Slot::Failed(_)))
+            && let Slot::Failed(e) = std::mem::take(&mut slots[i])
+        {
+            return Err(*e);
         }
-        Ok(slots)
+        Ok((slots, partials))
     }
 
     /// The file's NormalX/Y/Z (grid easting, northing, up, as PDAL's `filters.normal` computes

@@ -211,6 +211,25 @@ fn corrupted_points_are_counted_in_a_warning_or_skipped() {
     assert!(m.contains("they were skipped"), "{m}");
 }
 
+/// A point whose GPS time is not a number: refused in one line with the time converter's
+/// message and the point, or skipped with --skip-invalid and counted.
+#[test]
+fn a_point_whose_gps_time_is_not_a_number_is_refused_or_skipped() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut sv = common::survey(dir.path(), 2000, "laz", None);
+    sv.truth[900].las.gps_time_s = Some(f64::NAN);
+    common::write_las(&sv.strip, &sv.truth, &common::las_options(true, 6));
+    let out = tpu(&sv, &sv.sbet, &sv.sensor, &[]);
+    refused(
+        &out,
+        &sv.dir,
+        &["GPS time NaN is not finite", "(point 900;"],
+    );
+    let (v, err) = ok(&tpu(&sv, &sv.sbet, &sv.sensor, &["--skip-invalid"]));
+    assert_eq!(v["skipped"]["bad_gps_time"], 1, "{err}");
+    assert_eq!(v["points_written"], 1999);
+}
+
 /// A sensor file with boresight yaw 5° on data flown with 0.05°: a warning in words with the
 /// boresight that fits (yaw 0.05°, pitch −0.03°) and the file's 5°.
 #[test]

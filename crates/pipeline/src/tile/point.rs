@@ -39,12 +39,12 @@ impl Run<'_> {
                     },
                 );
             }
-            PrepState::BadTime(m) => {
+            PrepState::BadTime(why) => {
                 return invalid(
                     SkipReason::BadTime,
                     Error::BadTime {
                         index,
-                        message: m.clone(),
+                        message: why.message(self.prep, lp),
                     },
                 );
             }

@@ -23,11 +23,45 @@ pub(super) struct Prepare {
     pub(super) convergence: bool,
 }
 
-#[derive(Debug, Clone)]
+/// `Copy` (no message held): a chunk's vector of [`Prep`] is refilled without a walk to drop
+/// them.
+#[derive(Debug, Clone, Copy)]
 pub(super) enum PrepState {
     Ok,
     NonFinite,
-    BadTime(String),
+    BadTime(BadTime),
+}
+
+/// Why a point has no usable time (or height).
+#[derive(Debug, Clone, Copy)]
+pub(super) enum BadTime {
+    /// The geoid grid has no value at the point.
+    NoGeoid,
+    /// The per-point pose has fewer records than the file has points.
+    BeyondPose,
+    /// The point has no GPS time.
+    NoGpsTime,
+    /// The GPS time does not convert to seconds of the week ([`BadTime::message`] converts it
+    /// again for the converter's own message).
+    Conversion,
+}
+
+impl BadTime {
+    /// What is wrong, for the point `p`.
+    pub(super) fn message(self, prepare: &Prepare, p: RawPoint<'_>) -> String {
+        match self {
+            BadTime::NoGeoid => "no geoid value at the point (outside the grid)".into(),
+            BadTime::BeyondPose => "beyond the per-point pose".into(),
+            BadTime::NoGpsTime => "point without GPS time".into(),
+            BadTime::Conversion => match p
+                .gps_time()
+                .map(|t| prepare.converter.to_seconds_of_week(t))
+            {
+                Some(Err(e)) => e.to_string(),
+                _ => "GPS time not converted".into(),
+            },
+        }
+    }
 }
 
 pub(super) struct Prep {
@@ -115,7 +149,7 @@ impl Prepare {
             }
         };
         if !offset_m.is_finite() {
-            out.state = PrepState::BadTime("no geoid value at the point (outside the grid)".into());
+            out.state = PrepState::BadTime(BadTime::NoGeoid);
             return out;
         }
         out.ecef = self
@@ -125,14 +159,14 @@ impl Prepare {
         if let Some(keys) = &self.point_keys {
             match keys.get(index as usize) {
                 Some(t) => out.time_sow_s = *t,
-                None => out.state = PrepState::BadTime("beyond the per-point pose".into()),
+                None => out.state = PrepState::BadTime(BadTime::BeyondPose),
             }
             return out;
         }
         match p.gps_time().map(|t| self.converter.to_seconds_of_week(t)) {
             Some(Ok(t)) => out.time_sow_s = t,
-            Some(Err(e)) => out.state = PrepState::BadTime(e.to_string()),
-            None => out.state = PrepState::BadTime("point without GPS time".into()),
+            Some(Err(_)) => out.state = PrepState::BadTime(BadTime::Conversion),
+            None => out.state = PrepState::BadTime(BadTime::NoGpsTime),
         }
         out
     }
@@ -158,14 +192,17 @@ impl Prepare {
     pub(super) fn convert(&self, chunk: &RawChunk, n: usize, pts: &mut Vec<Prep>) -> usize {
         let unit_m = self.unit_m;
         let n = n.min(chunk.len());
-        let inverse = LocalInverse::new(
-            &self.crs,
-            self.inverse,
-            chunk.points().take(n).map(|p| {
-                let [x, y, _] = p.xyz();
-                [x * unit_m, y * unit_m]
-            }),
-        );
+        // The points' extent in parallel (the same whatever the order).
+        let extent = (0..n)
+            .into_par_iter()
+            .with_min_len(BLOCK)
+            .fold(GridExtent::default, |mut e, i| {
+                let [x, y, _] = chunk.point(i).xyz();
+                e.add([x * unit_m, y * unit_m]);
+                e
+            })
+            .reduce(GridExtent::default, GridExtent::merge);
+        let inverse = LocalInverse::over(&self.crs, self.inverse, extent);
         // Counted as they are made: no walk of the chunk for it later.
         let unusable = AtomicUsize::new(0);
         (0..n)

@@ -51,13 +51,24 @@ impl Run<'_> {
         );
     }
 
+    /// Adds the scan-angle and recovery-residual values of a piece's blocks (in file order) to
+    /// the summary.
+    pub(super) fn summarize_values(&self, blocks: &[Partial], summary: &mut TpuSummary) {
+        for d in blocks.iter().flat_map(|b| &b.scan) {
+            summary.scan_angle.add(*d);
+        }
+        for q in blocks.iter().flat_map(|b| &b.residual) {
+            summary.recovery_residual.add(*q);
+        }
+    }
+
     /// Adds a chunk's block statistics (in block order) to the summary.
     pub(super) fn summarize_blocks(&self, blocks: Vec<Partial>, summary: &mut TpuSummary) {
         let n_sources = summary.share_sums.len();
         // Summed sequentially in block order: a parallel `reduce` would add the shares in an
         // order that depends on work stealing, and the summary would differ in the last bits
         // from run to run (and between the CLI and a job array). The blocks' scan-angle and
-        // residual values are added in file order below, straight from each block's vector.
+        // residual values were added piece by piece ([`Run::summarize_values`]).
         let partial = blocks.iter().fold(
             Partial {
                 shares: vec![0.0; n_sources],
@@ -83,16 +94,6 @@ impl Run<'_> {
         }
         summary.with_normal += partial.with_normal;
         summary.incidence.merge(&partial.incidence);
-        for b in &blocks {
-            for d in &b.scan {
-                summary.scan_angle.add(*d);
-            }
-        }
-        for b in &blocks {
-            for q in &b.residual {
-                summary.recovery_residual.add(*q);
-            }
-        }
         summary.plausibility.outside_zone += partial.outside_zone;
         summary.plausibility.outside_sigma_span += partial.outside_sigma_span;
         summary.plausibility.mounting.merge(&partial.mounting);
