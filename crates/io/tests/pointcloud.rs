@@ -63,7 +63,8 @@ fn points(format: u8) -> Vec<(LasPoint, Vec<f32>)> {
                 } else {
                     -15.0 + f32::from(i)
                 },
-                point_source_id: 7,
+                // Both bytes vary.
+                point_source_id: 7 + 257 * i,
                 user_data: i as u8,
                 scan_direction_positive: i % 2 == 0,
                 edge_of_flight_line: i == 24,
@@ -541,6 +542,7 @@ fn raw_points_read_as_decoded_and_pushed_with_appended_values_as_the_decoded_pat
                 assert_eq!(p.gps_time(), want.gps_time_s);
                 assert_eq!(p.classification(), want.classification);
                 assert_eq!(p.scan_angle_deg(), want.scan_angle_deg);
+                assert_eq!(p.point_source_id(), want.point_source_id);
                 // Every other point, with values of its own.
                 if (first + k) % 2 == 0 {
                     let (e, e64) = ([k as f32, 0.5], [1e-9 * (first + k) as f64]);

@@ -32,7 +32,7 @@
 //! which streams the files and keeps only the points its ties need).
 
 use crate::error::Result;
-use lidarqa_io::{LasReader, PointChunk};
+use lidarqa_io::{LasReader, PointChunk, RawChunk};
 use lidarqa_model::Warning;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -357,11 +357,15 @@ impl FileDims {
         }
     }
 
-    /// The frame and sensor columns of a chunk (NaN where absent).
-    fn columns(&self, chunk: &PointChunk) -> (Option<Vec<f64>>, Option<[Vec<f64>; 3]>) {
-        let frame = self.frame.and_then(|n| chunk.extra_column(n));
+    /// The frame and sensor columns of a chunk (NaN where absent), from the chunk's
+    /// `column` of a dimension by name.
+    fn columns(
+        &self,
+        column: impl Fn(&str) -> Option<Vec<f64>>,
+    ) -> (Option<Vec<f64>>, Option<[Vec<f64>; 3]>) {
+        let frame = self.frame.and_then(&column);
         let sensor = if self.sensor {
-            match SENSOR_DIMS.map(|n| chunk.extra_column(n)) {
+            match SENSOR_DIMS.map(&column) {
                 [Some(x), Some(y), Some(z)] => Some([x, y, z]),
                 _ => None,
             }
@@ -441,7 +445,7 @@ pub fn read_lines<P: AsRef<Path>>(paths: &[P], options: &LineOptions) -> Result<
             let sigma = chunk.extra_column("sigma_up");
             let sigma_h = chunk.extra_column("sigma_horizontal");
             let depth = chunk.extra_column("depth");
-            let (frame, sensor) = dims.columns(&chunk);
+            let (frame, sensor) = dims.columns(|n| chunk.extra_column(n));
             let at = |c: &Option<Vec<f64>>, k: usize| c.as_ref().map_or(f32::NAN, |s| s[k] as f32);
             for (k, p) in chunk.points.iter().enumerate() {
                 has_ground |= p.classification == 2;
@@ -587,7 +591,9 @@ pub fn line_index<P: AsRef<Path>>(
     // The frame counters and sensor positions of the files that store them, by file and point.
     let mut frames: Vec<Option<Vec<f64>>> = Vec::with_capacity(inputs.len());
     let mut sensors: Vec<Option<Vec<[f64; 3]>>> = Vec::with_capacity(inputs.len());
-    let mut chunk = PointChunk::new();
+    // The records as stored: the index needs only each point's source id, time and the frame
+    // and sensor columns, not every field decoded.
+    let mut chunk = RawChunk::new();
     for (f, path) in inputs.iter().enumerate() {
         let mut r = LasReader::from_path(path)?;
         let timed = r.info().has_gps_time;
@@ -599,26 +605,24 @@ pub fn line_index<P: AsRef<Path>>(
         let mut sensor_column = dims.sensor.then(Vec::new);
         let file = u32::try_from(f).map_err(|_| too_many(path, "files"))?;
         let mut index = 0u32;
-        while r.fill(&mut chunk, CHUNK_POINTS)? > 0 {
-            let (frame, sensor) = dims.columns(&chunk);
+        while r.fill_raw(&mut chunk, CHUNK_POINTS)? > 0 {
+            let (frame, sensor) = dims.columns(|n| chunk.extra_column(n));
             if let Some(column) = frame_column.as_mut() {
                 match &frame {
                     Some(c) => column.extend_from_slice(c),
-                    None => column.extend((0..chunk.points.len()).map(|_| f64::NAN)),
+                    None => column.extend((0..chunk.len()).map(|_| f64::NAN)),
                 }
             }
             if let Some(column) = sensor_column.as_mut() {
                 match &sensor {
                     Some([x, y, z]) => column.extend((0..x.len()).map(|k| [x[k], y[k], z[k]])),
-                    None => column.extend((0..chunk.points.len()).map(|_| [f64::NAN; 3])),
+                    None => column.extend((0..chunk.len()).map(|_| [f64::NAN; 3])),
                 }
             }
-            for p in &chunk.points {
-                let key = (
-                    p.point_source_id,
-                    (!timed && p.point_source_id == 0).then_some(f),
-                );
-                let time = p.gps_time_s.unwrap_or(f64::NAN);
+            for p in chunk.points() {
+                let psid = p.point_source_id();
+                let key = (psid, (!timed && psid == 0).then_some(f));
+                let time = p.gps_time().unwrap_or(f64::NAN);
                 groups
                     .entry(key)
                     .or_default()

@@ -61,6 +61,13 @@ impl<'a> RawPoint<'a> {
         }
     }
 
+    /// The point source id (bytes 18–19 in formats 0–5, 20–21 in 6–10).
+    #[inline]
+    pub fn point_source_id(&self) -> u16 {
+        let at = point_source_id_at(self.chunk.data.format());
+        u16::from_le_bytes([self.record[at], self.record[at + 1]])
+    }
+
     /// Scan angle, degrees: formats 0–5 store whole degrees (i8 at byte 16), 6–10 steps of
     /// 0.006° (i16 at byte 18); the same f32 as `las` gives.
     #[inline]
@@ -268,11 +275,7 @@ impl RawChunk {
         let points = points.max(1);
         let transforms = *self.data.transforms();
         let (gps_time_at, first_index) = (self.gps_time_at, self.first_index);
-        let point_source_id_at = if self.data.format().is_extended {
-            20
-        } else {
-            18
-        };
+        let point_source_id_at = point_source_id_at(self.data.format());
         let record_len = self.data.record_len();
         let len = self.data.len();
         self.data
@@ -397,6 +400,11 @@ fn step_of(t: &las::Transform, n: f64) -> Option<i32> {
     } else {
         None
     }
+}
+
+/// Byte offset of the point source id in a record of `format` (18 in formats 0–5, 20 in 6–10).
+fn point_source_id_at(format: &las::point::Format) -> usize {
+    if format.is_extended { 20 } else { 18 }
 }
 
 /// X, Y, Z of a record (scale and offset applied).
