@@ -513,15 +513,17 @@ impl Run<'_> {
             let mut pending: Option<(usize, Vec<Partial>)> = None;
             for first in (0..n).step_by(PIECE) {
                 let piece = first..(first + PIECE).min(n);
-                let out = pending.as_ref().map(|_| (spent.output_chunk(), layout));
+                let flush = pending
+                    .as_ref()
+                    .map(|(f, parts)| ((*f, &slots[..], &parts[..]), spent.output_chunk()));
                 let buffer = std::mem::take(&mut spare_slots);
                 let (next, flushed) = rayon::join(
                     || self.compute_piece(&cur, piece, surfaces, water.as_ref(), buffer, n_sources),
-                    || match (&pending, out) {
-                        (Some((f, parts)), Some(out)) => {
-                            self.flush_piece(&cur, (*f, &slots, parts), out, tx, summary)
+                    || match flush {
+                        Some((done, out)) => {
+                            self.flush_piece(&cur, done, (out, layout), tx, summary)
                         }
-                        _ => Ok(true),
+                        None => Ok(true),
                     },
                 );
                 if !flushed? {
